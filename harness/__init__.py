@@ -1,0 +1,1 @@
+"""Co-simulation master (FMPy) and controllers (rule-based, MPC)."""

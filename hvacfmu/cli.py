@@ -1,0 +1,236 @@
+"""Command line: ``hvacfmu <command> ...``.
+
+The CLI only parses arguments and calls one library function per command
+(imports are lazy so ``hvacfmu --help`` is instant). Each command lives in its
+own ``_cmd_<name>`` function below.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import warnings
+
+
+def _building_arg(p, required=True):
+    p.add_argument("--building", "-b", required=required, help="building file (TOML)")
+
+
+def _data_args(p):
+    p.add_argument("data", help="measurements file (CSV or Parquet)")
+    _building_arg(p)
+    p.add_argument("--step", type=float, default=900.0, help="model step [s] (default 900)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the train/test week split (default 0)")
+    p.add_argument(
+        "--interpolate-gaps",
+        type=float,
+        default=None,
+        metavar="MINUTES",
+        help="linearly interpolate gaps up to this length (default: keep every gap)",
+    )
+
+
+def _load_dataset(args):
+    from .data import prepare
+
+    return prepare(
+        args.data,
+        args.building,
+        step=args.step,
+        seed=args.seed,
+        interpolate_limit=args.interpolate_gaps,
+    )
+
+
+# --------------------------------------------------------------------------- check
+def _cmd_check(args):
+    from .data import check
+
+    report = check(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
+    print(report)
+    return 0 if report.ok else 1
+
+
+# --------------------------------------------------------------------------- generate
+def _cmd_generate(args):
+    from .emulator import generate, parse_effect
+
+    effects = [parse_effect(e) for e in (args.effect or [])]
+    paths = generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
+    print(paths)
+    return 0
+
+
+# --------------------------------------------------------------------------- fit
+def _cmd_fit(args):
+    from .fitting import fit
+
+    dataset = _load_dataset(args)
+    model = fit(dataset, args.model, progress=not args.quiet)
+    path = model.save(args.output)
+    print(f"saved {args.model} model to {path}")
+    summary = getattr(model, "summary", None)
+    if callable(summary):
+        print(summary())
+    return 0
+
+
+# --------------------------------------------------------------------------- evaluate
+def _cmd_evaluate(args):
+    from .evaluation import evaluate
+    from .models import load_model
+
+    dataset = _load_dataset(args)
+    models = [load_model(m) for m in args.model]
+    result = evaluate(models if len(models) > 1 else models[0], dataset, horizon=args.horizon)
+    print(result.format_table())
+    if args.json:
+        result.save_json(args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        files = result.plot(args.plots, dataset=dataset)
+        print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+# --------------------------------------------------------------------------- export
+def _cmd_export(args):
+    from .fmu import export_fmu
+
+    path = export_fmu(args.model, args.output)
+    print(f"wrote {path}")
+    return 0
+
+
+# --------------------------------------------------------------------------- cosim
+def _cmd_cosim(args):
+    from harness.cosim import main_cosim
+
+    return main_cosim(args)
+
+
+# --------------------------------------------------------------------------- diagnose
+def _cmd_diagnose(args):
+    from .diagnosis import diagnose
+
+    dataset = _load_dataset(args)
+    report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
+    print(report.format())
+    if args.json:
+        report.save_json(args.json)
+        print(f"wrote {args.json}")
+    if args.output:
+        report.model.save(args.output)
+        print(f"saved extended model to {args.output}")
+    return 0
+
+
+# --------------------------------------------------------------------------- demo
+def _cmd_demo(args):
+    from .demo import run_demo
+
+    result = run_demo(args.out, weeks=args.weeks, seed=args.seed)
+    print(result)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="hvacfmu",
+        description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("check", help="load and validate a dataset; print coverage, gaps, seasons, split")
+    _data_args(p)
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
+    p.add_argument("outdir")
+    p.add_argument("--weeks", type=int, default=51)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--effect",
+        action="append",
+        metavar="NAME[:key=value,...]",
+        help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
+    )
+    p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.set_defaults(func=_cmd_generate)
+
+    p = sub.add_parser("fit", help="identify a model from data")
+    _data_args(p)
+    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
+    p.set_defaults(func=_cmd_fit)
+
+    p = sub.add_parser("evaluate", help="24-hour open-loop RMS on held-out weeks (the paper's Table I)")
+    _data_args(p)
+    p.add_argument("--model", "-m", action="append", required=True, help="model file (repeatable)")
+    p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
+    p.add_argument("--json", help="write the result as JSON")
+    p.add_argument("--plots", help="folder for figures (7-day open-loop trajectories)")
+    p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
+    p.add_argument("model", help="model file (JSON)")
+    p.add_argument("--output", "-o", required=True, help="FMU to write")
+    p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
+    try:
+        from harness.cosim import add_cosim_arguments
+    except ImportError:  # harness not available: keep the CLI usable
+        add_cosim_arguments = None
+    if add_cosim_arguments is not None:
+        add_cosim_arguments(p)
+    p.set_defaults(func=_cmd_cosim)
+
+    p = sub.add_parser("diagnose", help="find what the model gets wrong, name the cause, extend the model")
+    _data_args(p)
+    p.add_argument("--model", "-m", help="base model file (default: fit the six-zone Model A)")
+    p.add_argument("--json", help="write the report as JSON")
+    p.add_argument("--plots", help="folder for diagnostic figures")
+    p.add_argument("--output", "-o", help="write the extended model (JSON)")
+    p.set_defaults(func=_cmd_diagnose)
+
+    p = sub.add_parser("demo", help="the paper end to end on the built-in emulated building, with a report")
+    p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
+    p.add_argument("--weeks", type=int, default=51)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_cmd_demo)
+    return parser
+
+
+def _version():
+    from . import __version__
+
+    return __version__
+
+
+def main(argv=None) -> int:
+    from .errors import HvacfmuError
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    warnings.simplefilter("default")
+    try:
+        return int(args.func(args) or 0)
+    except HvacfmuError as exc:
+        print(f"hvacfmu {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,55 @@
+"""Zone models: the common interface, Model A (linear), Model B (physics), extensions.
+
+Use :func:`load_model` to read any saved model; it dispatches on the file's
+``kind`` and never executes code from the file.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+from ..errors import ModelError
+from .base import FORMAT_VERSION, ZoneModel
+
+#: kind -> "module:Class", imported lazily. Modules add their kinds here.
+MODEL_KINDS = {
+    "lumped": "hvacfmu.models.linear:LinearZoneModel",
+    "zones": "hvacfmu.models.linear:LinearZoneModel",
+    "physics": "hvacfmu.models.physics:PhysicsModel",
+    "extended": "hvacfmu.models.extended:ExtendedModel",
+}
+
+
+def model_class(kind: str):
+    """The class implementing model ``kind``."""
+    if kind not in MODEL_KINDS:
+        raise ModelError(f"unknown model kind {kind!r}; known kinds: {sorted(MODEL_KINDS)}")
+    module, name = MODEL_KINDS[kind].split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def model_from_dict(d: dict) -> ZoneModel:
+    """Rebuild a model from its JSON mapping (validated)."""
+    if not isinstance(d, dict) or "kind" not in d:
+        raise ModelError("model file has no 'kind'; is this an hvacfmu model?")
+    return model_class(d["kind"]).from_dict(d)
+
+
+def load_model(path) -> ZoneModel:
+    """Read a saved model (JSON). Raises :class:`ModelError` on any problem."""
+    path = Path(path)
+    if not path.exists():
+        raise ModelError(f"model file {path} does not exist")
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelError(f"model file {path} is not valid JSON: {exc}") from None
+    try:
+        return model_from_dict(d)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc}") from None
+
+
+__all__ = ["FORMAT_VERSION", "MODEL_KINDS", "ZoneModel", "load_model", "model_class", "model_from_dict"]

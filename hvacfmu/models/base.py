@@ -1,0 +1,174 @@
+"""The interface every zone model implements, and JSON (de)serialisation helpers.
+
+Every model kind (lumped and six-zone Model A, physics Model B, extended models
+from the diagnosis) is a :class:`ZoneModel`. Evaluation, FMU export, the
+harness and MPC only use this interface, so a new kind plugs in without change.
+
+Conventions
+-----------
+- Argument order is always ``(x, u, v, q)``: state, controlled inputs
+  (airflows [kg/s]), disturbances (``T_out``, ``T_supply`` [°C], facade
+  irradiance ``I_<o>`` [W/m2]), internal-gain term ``q`` (model specific).
+- All array methods accept a leading batch dimension.
+- ``frame`` is the prepared measurement table (:func:`hvacfmu.data.prepare`):
+  a DataFrame on the model step with a tz-aware local DatetimeIndex.
+"""
+
+from __future__ import annotations
+
+import abc
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..errors import ModelError
+from ..timeutil import n_time_of_week, time_of_week
+
+FORMAT_VERSION = 1
+
+
+class ZoneModel(abc.ABC):
+    """Abstract zone model: discrete-time, one step = ``self.step`` seconds."""
+
+    # Subclasses provide these attributes:
+    kind: str  #: model kind ("lumped", "zones", "physics", "extended")
+    step: float  #: model step [s]
+    outputs: tuple  #: output names (zone names, or ("floor",) for the lumped model)
+    inputs: tuple  #: names of the controlled inputs u
+    disturbances: tuple  #: frame column names of v, in order
+    gains: dict  #: season -> (n_time_of_week, n_q) internal-gain profile
+
+    # ----- dimensions ----------------------------------------------------
+    @property
+    @abc.abstractmethod
+    def n_states(self) -> int: ...
+
+    @property
+    def n_outputs(self) -> int:
+        return len(self.outputs)
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.inputs)
+
+    @property
+    def n_disturbances(self) -> int:
+        return len(self.disturbances)
+
+    @property
+    def seasons(self) -> tuple:
+        return tuple(self.gains)
+
+    # ----- data -> signals ---------------------------------------------
+    @abc.abstractmethod
+    def measured_outputs(self, frame: pd.DataFrame) -> np.ndarray:
+        """Measured outputs (n, n_outputs) [°C] from a prepared frame."""
+
+    @abc.abstractmethod
+    def signals(self, frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+        """Controlled inputs u (n, n_inputs) and disturbances v (n, n_disturbances)."""
+
+    def gains_at(self, index: pd.DatetimeIndex, season: str) -> np.ndarray:
+        """Internal-gain term q (n, n_q) at the timestamps of ``index`` for ``season``."""
+        if season not in self.gains:
+            raise ModelError(f"model has no internal-gain profile for season {season!r}; has {list(self.gains)}")
+        prof = np.asarray(self.gains[season])
+        return prof[time_of_week(index, self.step) % prof.shape[0]]
+
+    def initial_state(self, frame: pd.DataFrame, k0: int) -> np.ndarray:
+        """State at row ``k0`` of ``frame``; may use rows before it (e.g. a Kalman filter).
+
+        The default takes the measured outputs as the state (valid when the
+        state is the zone temperatures).
+        """
+        return self.measured_outputs(frame.iloc[k0 : k0 + 1])[0]
+
+    # ----- dynamics ------------------------------------------------------
+    @abc.abstractmethod
+    def step_state(self, x, u, v, q) -> np.ndarray:
+        """x(k+1) from x(k), u(k), v(k), q(k); batched over leading dimensions."""
+
+    @abc.abstractmethod
+    def output(self, x) -> np.ndarray:
+        """y = C x; batched."""
+
+    def simulate(self, x0, u, v, q) -> tuple[np.ndarray, np.ndarray]:
+        """Open-loop simulation over n steps.
+
+        Parameters
+        ----------
+        x0 : array (..., n_states)
+        u : array (..., n, n_inputs) [kg/s]
+        v : array (..., n, n_disturbances)
+        q : array (..., n, n_q)
+
+        Returns
+        -------
+        X : array (..., n+1, n_states)
+        Y : array (..., n+1, n_outputs) [°C]
+        """
+        x = np.asarray(x0, dtype=float)
+        u, v, q = (np.asarray(a, dtype=float) for a in (u, v, q))
+        n = u.shape[-2]
+        X = np.empty(x.shape[:-1] + (n + 1, x.shape[-1]))
+        X[..., 0, :] = x
+        for k in range(n):
+            x = self.step_state(x, u[..., k, :], v[..., k, :], q[..., k, :])
+            X[..., k + 1, :] = x
+        return X, self.output(X)
+
+    # ----- persistence ---------------------------------------------------
+    @abc.abstractmethod
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready mapping; must contain ``kind`` and ``format_version``."""
+
+    @classmethod
+    @abc.abstractmethod
+    def from_dict(cls, d: dict[str, Any]) -> "ZoneModel": ...
+
+    def save(self, path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False), encoding="utf-8")
+        return path
+
+
+# ----------------------------------------------------------------------------
+# helpers for subclasses
+# ----------------------------------------------------------------------------
+def check_shape(M, shape, name) -> np.ndarray:
+    """Return M as a float array, raising ModelError naming ``name`` if its shape is wrong."""
+    M = np.asarray(M, dtype=float)
+    if M.shape != tuple(shape):
+        raise ModelError(f"{name} has shape {M.shape}, expected {tuple(shape)}")
+    if not np.all(np.isfinite(M)):
+        raise ModelError(f"{name} contains NaN or infinite values")
+    return M
+
+
+def gains_to_json(gains: dict) -> dict:
+    return {s: np.asarray(g, dtype=float).tolist() for s, g in gains.items()}
+
+
+def gains_from_json(d: dict, n_q: int, step: float) -> dict:
+    n = n_time_of_week(step)
+    return {s: check_shape(g, (n, n_q), f"gains[{s!r}]") for s, g in d.items()}
+
+
+def require_keys(d: dict, keys, what: str):
+    missing = [k for k in keys if k not in d]
+    if missing:
+        raise ModelError(f"{what}: missing keys {missing}")
+
+
+def check_version(d: dict, what: str = "model file"):
+    v = d.get("format_version")
+    if not isinstance(v, int):
+        raise ModelError(f"{what}: no integer 'format_version'")
+    if v > FORMAT_VERSION:
+        raise ModelError(
+            f"{what}: format_version {v} is newer than this hvacfmu understands ({FORMAT_VERSION}); upgrade hvacfmu"
+        )
