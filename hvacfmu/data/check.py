@@ -1,0 +1,225 @@
+"""``hvacfmu check``: validate a dataset and summarise what a user needs before fitting."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import BuildingError, DataError
+from .dataset import Dataset, _prepare
+from .loading import LoadReport, _load, as_building
+from .resample import MIN_COVERAGE
+
+#: Excitation periods listed by date in the report (the rest are counted).
+N_PERIODS_LISTED = 12
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    d, rest = divmod(seconds, 86400)
+    h, rest = divmod(rest, 3600)
+    m = rest // 60
+    if d:
+        return f"{d} d {h} h"
+    if h:
+        return f"{h} h {m:02d} min"
+    if m:
+        return f"{m} min"
+    return f"{seconds} s"
+
+
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` index pairs of the runs of True in a boolean array (stop exclusive)."""
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        return []
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+
+@dataclasses.dataclass
+class ColumnGaps:
+    """Coverage of one column on the model step."""
+
+    column: str
+    coverage: float  # fraction of steps with a value
+    n_gaps: int
+    longest: float  # [s]
+    longest_start: pd.Timestamp | None
+
+
+@dataclasses.dataclass
+class CheckReport:
+    """Result of :func:`check`.
+
+    Attributes
+    ----------
+    ok : bool
+        True if the data can be used for fitting.
+    problems : list of str
+        Everything that makes the data unusable (empty if ``ok``).
+    warnings : list of str
+    path : str
+    dataset : Dataset or None
+        The prepared dataset when loading succeeded.
+    load_report : LoadReport or None
+    gaps : list of ColumnGaps
+    excitation_periods : list of (Timestamp, Timestamp)
+        Start and end (exclusive) of each run of excitation steps.
+    """
+
+    ok: bool
+    problems: list
+    warnings: list
+    path: str
+    dataset: Dataset | None = None
+    load_report: LoadReport | None = None
+    gaps: list = dataclasses.field(default_factory=list)
+    excitation_periods: list = dataclasses.field(default_factory=list)
+
+    def __str__(self) -> str:
+        return self.format()
+
+    def format(self) -> str:
+        """The human-readable report printed by ``hvacfmu check``."""
+        lines = [f"Measurements: {self.path}"]
+        ds, lr = self.dataset, self.load_report
+        if ds is not None:
+            b = ds.building
+            lines.append(
+                f"Building: {b.name} ({len(b.zones)} zones, {len(b.vavs)} VAV boxes, time zone {b.timezone})"
+            )
+        if lr is not None and lr.start is not None:
+            span = (lr.end - lr.start).total_seconds()
+            lines.append(f"Span: {lr.start.isoformat()} .. {lr.end.isoformat()} ({span / 86400:.1f} days, {lr.rows} rows)")
+            native = f"{lr.native_step:g} s (median spacing)" if lr.native_step else "unknown"
+            lines.append(f"Native resolution: {native}; times {'with UTC offsets' if lr.has_offsets else 'naive local'}")
+            coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
+            if coarse:
+                lines.append("  coarser columns: " + ", ".join(f"{c} {s:g} s" for c, s in coarse.items()))
+        if ds is not None:
+            lines.append(f"Model step: {ds.step:g} s -> {len(ds.frame)} steps")
+            if ds.has_solar:
+                given = lr is not None and all(f"I_{o}" in lr.columns for o in "NESW")
+                how = "given" if given else "computed from ghi with pvlib (Erbs, isotropic sky, albedo 0.2)"
+                lines.append(f"Solar: facade irradiance I_N, I_E, I_S, I_W {how}")
+            else:
+                lines.append("Solar: none (no ghi and no facade columns)")
+            lines.append("Coverage on the model step (steps with a value, gaps, longest gap):")
+            width = max([len(g.column) for g in self.gaps] + [6])
+            for g in self.gaps:
+                longest = ""
+                if g.n_gaps:
+                    longest = f", longest {_duration(g.longest)} from {g.longest_start.isoformat()}"
+                lines.append(f"  {g.column:<{width}} {100 * g.coverage:6.2f} %  {g.n_gaps:4d} gap(s){longest}")
+            lines.append(f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else ""))
+            for season in ds.building.season_names:
+                weeks = [w for w in ds.weeks if w.season == season]
+                if not weeks:
+                    continue
+                test = [w for w in weeks if not w.train]
+                test_txt = ", ".join(f"#{w.number} ({w.start.date()})" for w in test) or "none"
+                lines.append(
+                    f"  {season:<8} {len(weeks):3d} weeks: {len(weeks) - len(test)} train, {len(test)} test: {test_txt}"
+                )
+            total = sum((e - s).total_seconds() for s, e in self.excitation_periods)
+            lines.append(f"Excitation periods: {len(self.excitation_periods)} ({_duration(total)} in total)")
+            for s, e in self.excitation_periods[:N_PERIODS_LISTED]:
+                lines.append(f"  {s:%Y-%m-%d %a %H:%M} .. {e:%H:%M} ({_duration((e - s).total_seconds())})")
+            if len(self.excitation_periods) > N_PERIODS_LISTED:
+                lines.append(f"  ... and {len(self.excitation_periods) - N_PERIODS_LISTED} more")
+        if self.warnings:
+            lines.append(f"Warnings ({len(self.warnings)}):")
+            lines += [f"  - {w}" for w in self.warnings]
+        if self.problems:
+            n = len(self.problems)
+            lines.append(f"NOT USABLE: {n} problem{'s' if n != 1 else ''}:")
+            lines += [f"  - {p}" for p in self.problems]
+        else:
+            lines.append("OK: the data can be used for fitting")
+        return "\n".join(lines)
+
+
+def check(
+    path,
+    building,
+    step: float = 900.0,
+    seed: int = 0,
+    train_fraction: float = 0.9,
+    interpolate_limit: float | None = None,
+    min_coverage: float = MIN_COVERAGE,
+) -> CheckReport:
+    """Load and validate a dataset; never raises for bad data or a bad building file.
+
+    Parameters are those of :func:`hvacfmu.data.prepare`.
+
+    Returns
+    -------
+    CheckReport
+        ``ok`` is False, with every problem listed, when the building file or
+        the data cannot be used: any load problem (see
+        :func:`load_measurements`), no complete week, or a required column
+        without a single value on the model step.
+    """
+    path = Path(path)
+    try:
+        building = as_building(building)
+    except BuildingError as exc:
+        return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
+    frame, report, problems = _load(path, building)
+    if problems:
+        return CheckReport(ok=False, problems=problems, warnings=list(report.warnings), path=str(path), load_report=report)
+    try:
+        dataset = _prepare(
+            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report)
+        )
+    except (DataError, ValueError) as exc:
+        return CheckReport(ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), load_report=report)
+    problems = []
+    required = [c for c, req in building.expected_columns().items() if req]
+    gaps = []
+    step_s = dataset.step
+    for col in dataset.frame.columns:
+        missing = ~np.isfinite(dataset.frame[col].to_numpy())
+        r = runs(missing)
+        longest_run = max(r, key=lambda ab: ab[1] - ab[0]) if r else None
+        gaps.append(
+            ColumnGaps(
+                column=col,
+                coverage=float(1.0 - missing.mean()) if len(missing) else 0.0,
+                n_gaps=len(r),
+                longest=(longest_run[1] - longest_run[0]) * step_s if longest_run else 0.0,
+                longest_start=dataset.frame.index[longest_run[0]] if longest_run else None,
+            )
+        )
+        if col in required and len(missing) and missing.all():
+            problems.append(
+                f"{path.name}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
+                f"(at least {100 * min_coverage:g} % of the step)"
+            )
+    if not dataset.weeks:
+        span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
+        problems.append(
+            f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
+            "fitting needs at least one"
+        )
+    exc = dataset.frame["excitation"].to_numpy() == 1
+    periods = [
+        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
+    ]
+    notes = [w for w in dataset.warnings]
+    if not periods:
+        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    return CheckReport(
+        ok=not problems,
+        problems=problems,
+        warnings=notes,
+        path=str(path),
+        dataset=dataset,
+        load_report=report,
+        gaps=gaps,
+        excitation_periods=periods,
+    )

@@ -1,0 +1,344 @@
+"""Weeks, seasons, the train/test split and the :class:`Dataset` that models are fitted on."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..building import ORIENTATIONS, Building
+from ..errors import HvacfmuWarning
+from .loading import LoadReport, as_building, load_measurements
+from .resample import MIN_COVERAGE, interpolate_gaps, resample
+from .solar import facade_irradiance
+
+#: Canonical solar columns of a prepared dataset.
+FACADE_COLUMNS = tuple(f"I_{o}" for o in ORIENTATIONS)
+
+
+@dataclasses.dataclass(frozen=True)
+class Week:
+    """One 7-day block of data.
+
+    Attributes
+    ----------
+    number : int
+        Position in :attr:`Dataset.weeks` (0 for the first block).
+    start : pandas.Timestamp
+        Local midnight starting the block (inclusive).
+    end : pandas.Timestamp
+        Local midnight seven days later (exclusive).
+    season : str
+        Season of the block's midpoint.
+    train : bool
+        True for a training week, False for a held-out test week.
+    """
+
+    number: int
+    start: pd.Timestamp
+    end: pd.Timestamp
+    season: str
+    train: bool
+
+
+def make_weeks(index: pd.DatetimeIndex, end, building: Building, seed: int = 0, train_fraction: float = 0.9):
+    """Cut data into weeks, assign seasons and split into training and test weeks.
+
+    Weeks are consecutive 7-day blocks of local calendar days starting at the
+    first local midnight at or after ``index[0]``; a trailing block that ends
+    after ``end`` is dropped. Each week belongs to the season of its midpoint.
+    Per season, ``round((1 - train_fraction) * n)`` weeks, at least one if the
+    season has two weeks or more, are drawn as test weeks with a generator
+    seeded by ``(seed, season number)``, so a season's split does not depend on
+    the others.
+
+    Parameters
+    ----------
+    index : DatetimeIndex
+        tz-aware times of the data (only the first matters).
+    end : pandas.Timestamp
+        End of the data (exclusive), e.g. last bin start + step.
+    building : Building
+    seed : int
+    train_fraction : float
+        Fraction of training weeks per season, in (0, 1].
+
+    Returns
+    -------
+    weeks : tuple of Week
+    notes : list of str
+        Warnings (e.g. a season with a single week gets no test week).
+    """
+    if not 0 < train_fraction <= 1:
+        raise ValueError(f"train_fraction must be in (0, 1], got {train_fraction}")
+    if len(index) == 0:
+        return (), ["no data: no weeks"]
+    tz = index.tz
+    first = index[0]
+    day0 = first.tz_localize(None).normalize()
+    if pd.Timestamp(day0).tz_localize(tz, nonexistent="shift_forward", ambiguous=False) < first:
+        day0 = day0 + pd.Timedelta(days=1)
+    blocks = []
+    k = 0
+    while True:
+        days = pd.DatetimeIndex([day0 + pd.Timedelta(days=7 * k), day0 + pd.Timedelta(days=7 * (k + 1))])
+        s, e = days.tz_localize(tz, nonexistent="shift_forward", ambiguous=False)
+        if e > end:
+            break
+        blocks.append((s, e))
+        k += 1
+    seasons = [building.season_of(s + (e - s) / 2) for s, e in blocks]
+    train = [True] * len(blocks)
+    notes = []
+    for i, name in enumerate(building.season_names):
+        members = [j for j, sn in enumerate(seasons) if sn == name]
+        n = len(members)
+        if n == 0:
+            continue
+        if n == 1:
+            notes.append(f"season {name} has only one week ({blocks[members[0]][0].date()}): no test week for it")
+            continue
+        n_test = max(1, int(np.floor((1.0 - train_fraction) * n + 0.5)))
+        n_test = min(n_test, n - 1)
+        rng = np.random.default_rng([int(seed), i])
+        for j in rng.choice(n, size=n_test, replace=False):
+            train[members[int(j)]] = False
+    weeks = tuple(Week(j, s, e, seasons[j], train[j]) for j, (s, e) in enumerate(blocks))
+    return weeks, notes
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Dataset:
+    """Measured data on the model step, ready for fitting and evaluation.
+
+    Attributes
+    ----------
+    frame : DataFrame
+        Index: tz-aware local bin starts named ``time`` (regular, ``step``
+        apart). Columns: ``T_<zone>`` [°C], ``m_<vav>`` [kg/s], ``T_supply``
+        [°C], ``T_out`` [°C], optional ``ghi`` [W/m²], ``I_N I_E I_S I_W``
+        [W/m²] when ``has_solar``, ``excitation`` (0/1 float). NaN where data
+        are missing.
+    building : Building
+    step : float [s]
+    source : str or None
+        Path of the measurements file.
+    sha256 : str or None
+        Hash of the measurements file.
+    weeks : tuple of Week
+    warnings : list of str
+    has_solar : bool
+        True if facade irradiance is available (given or computed from ``ghi``).
+    coverage : DataFrame or None
+        Fraction of expected raw samples per bin and column.
+    load_report : LoadReport or None
+    """
+
+    frame: pd.DataFrame
+    building: Building
+    step: float = 900.0
+    source: str | None = None
+    sha256: str | None = None
+    weeks: tuple = ()
+    warnings: list = dataclasses.field(default_factory=list)
+    has_solar: bool = False
+    coverage: pd.DataFrame | None = None
+    load_report: LoadReport | None = None
+
+    # --- weeks ---------------------------------------------------------
+    def week_frame(self, week: Week) -> pd.DataFrame:
+        """Rows of :attr:`frame` in ``[week.start, week.end)``."""
+        idx = self.frame.index
+        return self.frame.iloc[idx.searchsorted(week.start, side="left") : idx.searchsorted(week.end, side="left")]
+
+    def train_weeks(self, season: str | None = None) -> tuple:
+        """Training weeks, optionally of one season."""
+        return tuple(w for w in self.weeks if w.train and (season is None or w.season == season))
+
+    def test_weeks(self, season: str | None = None) -> tuple:
+        """Held-out test weeks, optionally of one season."""
+        return tuple(w for w in self.weeks if not w.train and (season is None or w.season == season))
+
+    @property
+    def seasons(self) -> tuple:
+        """Season names that have at least one week, in the building's order."""
+        have = {w.season for w in self.weeks}
+        return tuple(s for s in self.building.season_names if s in have)
+
+    @functools.cached_property
+    def season_of_row(self) -> np.ndarray:
+        """Season name of each row of :attr:`frame` (by its local calendar day)."""
+        idx = self.frame.index
+        key = idx.month.to_numpy() * 100 + idx.day.to_numpy()
+        uniq, inverse = np.unique(key, return_inverse=True)
+        names = np.array(
+            [self.building.season_of(pd.Timestamp(2001 if k != 229 else 2000, k // 100, k % 100)) for k in uniq],
+            dtype=object,
+        )
+        return names[inverse] if len(uniq) else np.array([], dtype=object)
+
+    @functools.cached_property
+    def week_of_row(self) -> np.ndarray:
+        """Week number of each row of :attr:`frame`, -1 outside every week."""
+        out = np.full(len(self.frame), -1, dtype=np.int64)
+        idx = self.frame.index
+        for w in self.weeks:
+            out[idx.searchsorted(w.start) : idx.searchsorted(w.end)] = w.number
+        return out
+
+    # --- construction --------------------------------------------------
+    @classmethod
+    def from_frame(
+        cls,
+        frame: pd.DataFrame,
+        building,
+        step: float = 900.0,
+        seed: int = 0,
+        train_fraction: float = 0.9,
+        source=None,
+        sha256=None,
+        warnings_=None,
+        coverage=None,
+        load_report=None,
+    ) -> "Dataset":
+        """A dataset from a frame already on the model step (weeks, split and facade irradiance added).
+
+        ``frame`` must have a regular tz-aware index ``step`` apart and
+        canonical SI columns; facade irradiance is computed from ``ghi`` at the
+        step midpoints for facades without a column.
+        """
+        building = as_building(building)
+        notes = list(warnings_ or [])
+        frame = frame.copy()
+        frame.index.name = "time"
+        given = [c for c in FACADE_COLUMNS if c in frame.columns]
+        has_solar = len(given) == 4
+        if "ghi" in frame.columns and len(given) < 4:
+            mid = frame.index + pd.Timedelta(seconds=step / 2)
+            computed = facade_irradiance(mid, frame["ghi"].to_numpy(), building.latitude, building.longitude)
+            for c in FACADE_COLUMNS:
+                if c not in frame.columns:
+                    frame[c] = computed[c].to_numpy()
+            has_solar = True
+        elif not has_solar:
+            notes.append("no 'ghi' and no facade irradiance columns: the dataset has no solar data")
+            frame = frame.drop(columns=given)
+        if "excitation" not in frame.columns:
+            notes.append("no 'excitation' column: no forced-response experiments are flagged (all 0)")
+            frame["excitation"] = 0.0
+        order = [f"T_{z}" for z in building.zone_names] + [f"m_{v}" for v in building.vav_names]
+        order += ["T_supply", "T_out", "ghi"] + (list(FACADE_COLUMNS) if has_solar else []) + ["excitation"]
+        frame = frame[[c for c in order if c in frame.columns]].astype(float)
+        end = frame.index[-1] + pd.Timedelta(seconds=step) if len(frame) else None
+        weeks, week_notes = make_weeks(frame.index, end, building, seed=seed, train_fraction=train_fraction)
+        notes += week_notes
+        if not weeks:
+            notes.append("the data hold no complete week (7 days from a local midnight): nothing to fit on")
+        return cls(
+            frame=frame,
+            building=building,
+            step=float(step),
+            source=None if source is None else str(source),
+            sha256=sha256,
+            weeks=weeks,
+            warnings=notes,
+            has_solar=has_solar,
+            coverage=coverage,
+            load_report=load_report,
+        )
+
+
+def file_sha256(path) -> str:
+    """SHA-256 hex digest of a file."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def prepare(
+    path,
+    building,
+    step: float = 900.0,
+    seed: int = 0,
+    train_fraction: float = 0.9,
+    interpolate_limit: float | None = None,
+    min_coverage: float = MIN_COVERAGE,
+) -> Dataset:
+    """Load, validate, resample and split a measurements file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Measurements (CSV or Parquet), see :func:`load_measurements`.
+    building : Building or path
+    step : float [s]
+        Model step (default 900 s); must divide one hour.
+    seed : int
+        Seed of the train/test week split.
+    train_fraction : float
+        Fraction of training weeks per season (default 0.9).
+    interpolate_limit : float or None [min]
+        Linearly interpolate gaps up to this length before averaging
+        (default None: keep every gap).
+    min_coverage : float
+        Minimum fraction of raw samples for a step to get a value.
+
+    Returns
+    -------
+    Dataset
+
+    Raises
+    ------
+    DataError
+        If the file cannot be used (every problem listed).
+
+    Warns
+    -----
+    HvacfmuWarning
+        For each entry of :attr:`Dataset.warnings`.
+    """
+    dataset = _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage)
+    for w in dataset.warnings:
+        warnings.warn(w, HvacfmuWarning, stacklevel=2)
+    return dataset
+
+
+def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None):
+    building = as_building(building)
+    if loaded is None:
+        raw, report = load_measurements(path, building)
+    else:
+        raw, report = loaded
+    notes = list(report.warnings)
+    column_steps = dict(report.column_steps)
+    if interpolate_limit is not None:
+        raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
+    frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
+    coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
+    if coarse:
+        notes.append(
+            f"column(s) {', '.join(coarse)} sampled more coarsely than the {step:g} s step: "
+            "interpolated linearly to the step midpoints"
+        )
+    return Dataset.from_frame(
+        frame,
+        building,
+        step=step,
+        seed=seed,
+        train_fraction=train_fraction,
+        source=str(Path(path)),
+        sha256=file_sha256(path),
+        warnings_=notes,
+        coverage=coverage,
+        load_report=report,
+    )
+
+
+__all__ = ["Dataset", "Week", "make_weeks", "prepare", "file_sha256"]

@@ -1,0 +1,507 @@
+"""Reading and validating a measurements file (CSV or Parquet).
+
+:func:`load_measurements` returns the data at their native resolution with a
+tz-aware local index and canonical SI columns, or raises
+:class:`~hvacfmu.errors.DataError` listing every problem found in the file.
+Rows in messages are counted from 1 for the first data row (line 2 of a CSV
+file with its header on line 1).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..building import ORIENTATIONS, Building, load_building
+from ..errors import DataError, problems_message
+from .units import kind_of, normalize_unit, to_si
+
+#: Plausible range of any air temperature [°C].
+TEMPERATURE_RANGE = (-50.0, 80.0)
+#: Negative airflow down to this value is sensor noise and is set to 0 [kg/s].
+AIRFLOW_NOISE = 0.005
+#: Negative irradiance down to this value is sensor noise and is set to 0 [W/m2].
+IRRADIANCE_NOISE = 10.0
+#: No irradiance at ground level exceeds this [W/m2].
+IRRADIANCE_MAX = 1500.0
+#: Number of example rows quoted per problem.
+N_EXAMPLES = 3
+
+_OFFSET_PATTERN = r"(?:[Zz]|[+-]\d{2}:?\d{2})\s*$"
+
+
+@dataclasses.dataclass
+class LoadReport:
+    """What :func:`load_measurements` found in a file.
+
+    Attributes
+    ----------
+    path : str
+    rows : int
+        Data rows in the file.
+    start, end : pandas.Timestamp or None
+        First and last timestamp (local time).
+    native_step : float or None [s]
+        Median spacing of the timestamps.
+    column_steps : dict
+        Canonical column -> median spacing of its non-missing samples [s].
+    columns : dict
+        Canonical column -> column name in the file (present columns only).
+    units : dict
+        Canonical column -> unit of the file (canonical spelling).
+    unknown_columns : tuple of str
+        File columns that map to no canonical quantity (ignored).
+    has_offsets : bool
+        True if the times carry UTC offsets (no daylight-saving ambiguity).
+    warnings : list of str
+        Usable but noteworthy findings (unknown columns, clipped sensor noise ...).
+    """
+
+    path: str
+    rows: int = 0
+    start: pd.Timestamp | None = None
+    end: pd.Timestamp | None = None
+    native_step: float | None = None
+    column_steps: dict = dataclasses.field(default_factory=dict)
+    columns: dict = dataclasses.field(default_factory=dict)
+    units: dict = dataclasses.field(default_factory=dict)
+    unknown_columns: tuple = ()
+    has_offsets: bool = False
+    warnings: list = dataclasses.field(default_factory=list)
+
+
+def as_building(building) -> Building:
+    """A :class:`Building`, loading it if ``building`` is a path."""
+    if isinstance(building, Building):
+        return building
+    return load_building(building)
+
+
+def _fmt_time(t) -> str:
+    return pd.Timestamp(t).isoformat()
+
+
+class _Where:
+    """Formats row positions (with their local times when known) for messages."""
+
+    def __init__(self, local_times):
+        self.local_times = local_times  # DatetimeIndex (may contain NaT) or None
+
+    def rows(self, positions, values=None, limit=N_EXAMPLES) -> str:
+        positions = np.asarray(positions)
+        parts = []
+        for p in positions[:limit]:
+            s = f"row {int(p) + 1}"
+            if self.local_times is not None and not pd.isna(self.local_times[p]):
+                s += f" ({_fmt_time(self.local_times[p])})"
+            if values is not None:
+                v = values[p]
+                s = f"{_fmt_value(v)} at {s}"
+            parts.append(s)
+        text = ", ".join(parts)
+        if len(positions) > limit:
+            text += f" and {len(positions) - limit} more"
+        return text
+
+
+def _fmt_value(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        return f"{float(v):.6g}"
+    return repr(v)
+
+
+def _read(path: Path, problems: list) -> pd.DataFrame | None:
+    suffix = "".join(path.suffixes[-2:]).lower() if path.suffix.lower() == ".gz" else path.suffix.lower()
+    if not path.exists():
+        problems.append(f"{path}: file does not exist")
+        return None
+    try:
+        if suffix in (".parquet", ".pq"):
+            frame = pd.read_parquet(path)
+            if isinstance(frame.index, pd.DatetimeIndex) or frame.index.name is not None:
+                frame = frame.reset_index()
+            return frame
+        if suffix in (".csv", ".csv.gz", ".txt"):
+            return pd.read_csv(path, dtype={"time": str}, low_memory=False)
+    except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
+        problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
+        return None
+    problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
+    return None
+
+
+def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list):
+    """UTC nanoseconds (int64, NaT as the minimum int) and a validity mask."""
+    n = len(col)
+    values = col
+    if isinstance(values.dtype, pd.DatetimeTZDtype):
+        utc = pd.DatetimeIndex(values).tz_convert("UTC").as_unit("ns")
+        ok = ~utc.isna()
+        if not ok.all():
+            problems.append(f"{label}: column {name!r}: {int((~ok).sum())} empty times at {_Where(None).rows(np.flatnonzero(~ok))}")
+        return utc.asi8, ok, True
+    if pd.api.types.is_datetime64_dtype(values.dtype):
+        naive = pd.DatetimeIndex(values).as_unit("ns")
+        return _localize(naive, np.zeros(n, bool), tz, name, label, problems) + (False,)
+    if pd.api.types.is_numeric_dtype(values.dtype) or pd.api.types.is_bool_dtype(values.dtype):
+        problems.append(
+            f"{label}: column {name!r} holds numbers ({values.dtype}); times must be ISO 8601 text "
+            "(e.g. 2024-09-02T00:00:00-07:00) or timestamps"
+        )
+        return np.zeros(n, np.int64), np.zeros(n, bool), False
+    text = values.astype("str").where(values.notna())
+    empty = text.isna().to_numpy()
+    stripped = text.str.strip()
+    has_offset = stripped.str.contains(_OFFSET_PATTERN, regex=True, na=False).to_numpy()
+    if has_offset.any() and (~has_offset & ~empty).any():
+        bad = np.flatnonzero(~has_offset & ~empty)
+        problems.append(
+            f"{label}: column {name!r} mixes times with and without UTC offset; "
+            f"{len(bad)} without offset at {_Where(None).rows(bad, values=text.to_numpy())}"
+        )
+    utc = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+    ok = np.zeros(n, dtype=bool)
+    unparsed = np.zeros(n, dtype=bool)
+    if has_offset.any():
+        sel = has_offset
+        parsed = pd.to_datetime(stripped[sel], format="ISO8601", utc=True, errors="coerce")
+        idx = pd.DatetimeIndex(parsed).as_unit("ns")
+        good = ~idx.isna()
+        where = np.flatnonzero(sel)
+        utc[where[good]] = idx.asi8[good]
+        ok[where[good]] = True
+        unparsed[where[~good]] = True
+    naive_sel = ~has_offset & ~empty
+    if naive_sel.any():
+        parsed = pd.to_datetime(stripped[naive_sel], format="ISO8601", errors="coerce")
+        idx = pd.DatetimeIndex(parsed).as_unit("ns")
+        where = np.flatnonzero(naive_sel)
+        bad = idx.isna()
+        unparsed[where[bad]] = True
+        sub_utc, sub_ok = _localize(idx, bad, tz, name, label, problems, rows=where)
+        utc[where[sub_ok]] = sub_utc[sub_ok]
+        ok[where[sub_ok]] = True
+    if unparsed.any():
+        bad = np.flatnonzero(unparsed)
+        problems.append(
+            f"{label}: column {name!r}: {len(bad)} values are not ISO 8601 times, e.g. "
+            f"{_Where(None).rows(bad, values=text.to_numpy())}"
+        )
+    if empty.any():
+        bad = np.flatnonzero(empty)
+        problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
+    return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows=None):
+    """Naive local times -> UTC ns; ambiguous or nonexistent times are problems."""
+    n = len(naive)
+    rows = np.arange(n) if rows is None else rows
+    amb = np.asarray(naive.tz_localize(tz, ambiguous="NaT", nonexistent="shift_forward").isna()) & ~unparsed
+    localized = naive.tz_localize(tz, ambiguous=np.ones(n, dtype=bool), nonexistent="NaT")
+    nonexistent = np.asarray(localized.isna()) & ~unparsed
+    if amb.any():
+        problems.append(
+            f"{label}: column {name!r}: {int(amb.sum())} naive local times are ambiguous (repeated when "
+            f"daylight saving time ends in {tz}): {_naive_rows(naive, rows, amb)}; "
+            "write times with their UTC offset (e.g. 2024-11-03T01:30:00-07:00)"
+        )
+    if nonexistent.any():
+        problems.append(
+            f"{label}: column {name!r}: {int(nonexistent.sum())} naive local times do not exist (skipped when "
+            f"daylight saving time starts in {tz}): {_naive_rows(naive, rows, nonexistent)}; "
+            "write times with their UTC offset"
+        )
+    ok = ~(amb | nonexistent | unparsed)
+    utc = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+    utc[ok] = localized.tz_convert("UTC").as_unit("ns").asi8[ok]
+    return utc, ok
+
+
+def _naive_rows(naive, rows, mask, limit=N_EXAMPLES) -> str:
+    """'2024-11-03 01:00:00 at row 5, ...' for the masked naive times."""
+    pos = np.flatnonzero(mask)
+    text = ", ".join(f"{naive[i]} at row {int(rows[i]) + 1}" for i in pos[:limit])
+    if len(pos) > limit:
+        text += f" and {len(pos) - limit} more"
+    return text
+
+
+def _numeric(series: pd.Series):
+    """Float array of a column and the positions of non-numeric entries."""
+    dtype = series.dtype
+    if pd.api.types.is_bool_dtype(dtype):
+        return series.astype(float).to_numpy(), np.zeros(0, dtype=np.int64)
+    if pd.api.types.is_numeric_dtype(dtype):
+        return series.to_numpy(dtype=float, na_value=np.nan), np.zeros(0, dtype=np.int64)
+    as_num = pd.to_numeric(series, errors="coerce")
+    values = as_num.to_numpy(dtype=float, na_value=np.nan)
+    present = series.notna().to_numpy()
+    if series.dtype == object or pd.api.types.is_string_dtype(dtype):
+        text = series.astype("str").str.strip().str.lower()
+        blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan"]).to_numpy()
+        present &= ~blank
+    bad = np.flatnonzero(present & np.isnan(values))
+    return values, bad
+
+
+def _median_step(t_ns: np.ndarray) -> float | None:
+    if len(t_ns) < 2:
+        return None
+    d = np.diff(t_ns)
+    d = d[d > 0]
+    if not len(d):
+        return None
+    return float(np.median(d)) / 1e9
+
+
+def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
+    """Read, validate and convert a measurements file.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV (``.csv``, ``.csv.gz``) or Parquet (``.parquet``) file with one row
+        per timestamp. The ``time`` column holds ISO 8601 times with UTC offset
+        (naive times are local times of ``building.timezone``) or, in Parquet,
+        timestamps.
+    building : Building or path
+        Gives the expected columns, the column mapping
+        (:meth:`Building.column_for`) and the units (:meth:`Building.unit_for`).
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Native resolution; index: tz-aware ``DatetimeIndex`` in the building's
+        time zone named ``time``; columns: canonical names in SI units
+        (``T_*`` [°C], ``m_*`` [kg/s], ``ghi``/``I_*`` [W/m²], ``excitation``
+        0/1) present in the file; NaN where values are missing.
+    report : LoadReport
+
+    Raises
+    ------
+    DataError
+        Listing every problem found: missing columns, non-numeric values,
+        unparseable, duplicate or non-increasing times, daylight-saving
+        ambiguities, physically impossible values and implausible units.
+    """
+    building = as_building(building)
+    frame, report, problems = _load(Path(path), building)
+    if problems:
+        raise DataError(problems_message(f"Cannot use measurements {path}", problems))
+    return frame, report
+
+
+def _load(path: Path, building: Building):
+    """Worker of :func:`load_measurements`: (frame or None, report, problems)."""
+    problems: list[str] = []
+    report = LoadReport(path=str(path))
+    raw = _read(path, problems)
+    if raw is None:
+        return None, report, problems
+    label = path.name
+    report.rows = n = len(raw)
+    if n == 0:
+        problems.append(f"{label}: no data rows")
+    tz = building.timezone
+
+    # --- columns ------------------------------------------------------
+    time_name = building.column_for("time")
+    expected = building.expected_columns()
+    file_cols = [str(c) for c in raw.columns]
+    raw.columns = file_cols
+    present = {}
+    for canonical, required in expected.items():
+        name = building.column_for(canonical)
+        if name in raw.columns:
+            present[canonical] = name
+        elif required:
+            mapped = f" (mapped from {canonical})" if name != canonical else ""
+            problems.append(f"{label}: missing required column {name!r}{mapped}")
+    used = set(present.values()) | {time_name}
+    unknown = tuple(c for c in file_cols if c not in used and not c.startswith("Unnamed: "))
+    report.unknown_columns = unknown
+    report.columns = dict(present)
+    if unknown:
+        report.warnings.append(
+            f"{label}: {len(unknown)} unknown column(s) ignored: {', '.join(repr(c) for c in unknown[:10])}"
+            + (" ..." if len(unknown) > 10 else "")
+        )
+    facades = [o for o in ORIENTATIONS if f"I_{o}" in present]
+    if facades and len(facades) < 4 and "ghi" not in present:
+        missing = [o for o in ORIENTATIONS if o not in facades]
+        problems.append(
+            f"{label}: facade irradiance given for {', '.join(facades)} but not for {', '.join(missing)}, "
+            "and no 'ghi' column to compute them from"
+        )
+
+    # --- time -----------------------------------------------------------
+    if time_name not in raw.columns:
+        mapped = " (mapped from time)" if time_name != "time" else ""
+        problems.append(f"{label}: missing time column {time_name!r}{mapped}")
+        utc = None
+        local = None
+    else:
+        utc, ok, has_offsets = _parse_times(raw[time_name], tz, time_name, label, problems)
+        report.has_offsets = has_offsets
+        local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
+        local = local.tz_localize("UTC").tz_convert(tz)
+        valid_pos = np.flatnonzero(ok)
+        tv = utc[valid_pos]
+        if len(tv) > 1:
+            d = np.diff(tv)
+            where = _Where(local)
+            dup = valid_pos[1:][d == 0]
+            if len(dup):
+                problems.append(f"{label}: column {time_name!r}: {len(dup)} duplicate timestamps at {where.rows(dup)}")
+            back = np.flatnonzero(d < 0)
+            if len(back):
+                parts = ", ".join(
+                    f"row {valid_pos[i + 1] + 1} ({_fmt_time(local[valid_pos[i + 1]])}) after row {valid_pos[i] + 1} "
+                    f"({_fmt_time(local[valid_pos[i]])})"
+                    for i in back[:N_EXAMPLES]
+                )
+                more = f" and {len(back) - N_EXAMPLES} more" if len(back) > N_EXAMPLES else ""
+                problems.append(
+                    f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
+                    "rows must be sorted by time"
+                )
+        if len(tv):
+            report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
+            report.native_step = _median_step(tv)
+    where = _Where(local)
+
+    # --- values -----------------------------------------------------------
+    out = {}
+    m_max = {f"m_{v.name}": v.m_max for v in building.vavs}
+    for canonical, name in present.items():
+        desc = f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
+        kind = kind_of(canonical)
+        try:
+            unit = normalize_unit(building.unit_for(canonical), kind)
+        except ValueError as exc:
+            problems.append(f"{label}: {desc}: {exc} (declared in the building's [units])")
+            continue
+        report.units[canonical] = unit
+        values, bad = _numeric(raw[name])
+        if len(bad):
+            problems.append(
+                f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {where.rows(bad, values=raw[name].to_numpy())}"
+            )
+        finite = values[np.isfinite(values)]
+        if not len(finite):
+            if expected.get(canonical, False) and n:
+                problems.append(f"{label}: {desc}: no values at all (every row is empty)")
+            out[canonical] = values
+            continue
+        si = to_si(values, unit)
+        if kind == "temperature":
+            si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
+        elif kind == "airflow":
+            si = _check_airflow(canonical, desc, label, unit, finite, si, m_max.get(canonical), where, problems, report)
+        elif kind == "irradiance":
+            si = _check_irradiance(desc, label, si, where, problems, report)
+        else:
+            flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
+            if len(flag_bad):
+                problems.append(
+                    f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
+                )
+        out[canonical] = si
+        if utc is not None:
+            sel = np.isfinite(si) & ok
+            report.column_steps[canonical] = _median_step(utc[sel]) or report.native_step
+
+    if problems or utc is None:
+        return None, report, problems
+    order = [c for c in expected if c in out]
+    index = pd.DatetimeIndex(utc.view("M8[ns]")).tz_localize("UTC").tz_convert(tz)
+    index.name = "time"
+    frame = pd.DataFrame({c: out[c] for c in order}, index=index)
+    return frame, report, problems
+
+
+def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, where, problems):
+    med = float(np.median(finite))
+    indoor = canonical != "T_out"
+    guess = None
+    if unit == "degC" and med > 200:
+        guess = "K"
+    elif unit == "degC" and med > 45:
+        guess = "degF"
+    elif unit == "degF" and med > 200:
+        guess = "K"
+    elif unit == "degF" and indoor and med < 40:
+        guess = "degC"
+    elif unit == "K" and med < 150:
+        guess = "degC or degF"
+    if guess is not None:
+        problems.append(
+            f"{label}: {desc}: declared {unit} but the median is {med:.4g}, which cannot be an air temperature in "
+            f"{unit}; the data look like {guess}: declare the unit in the building's [units] table"
+        )
+        return si
+    lo, hi = TEMPERATURE_RANGE
+    bad = np.flatnonzero((si < lo) | (si > hi))
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} value(s) outside {lo:g}..{hi:g} °C (after conversion from {unit}), "
+            f"e.g. {where.rows(bad, values=si)}"
+        )
+    return si
+
+
+def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, problems, report):
+    valid = si[np.isfinite(si)]
+    med = float(np.median(valid))
+    if m_max is not None and m_max > 0 and med > 5 * m_max:
+        hint = "cfm or L/s" if unit in ("kg/s", "m3/s") else "a smaller unit"
+        problems.append(
+            f"{label}: {desc}: median airflow {med:.4g} kg/s (declared {unit}) is far above the box's "
+            f"m_max = {m_max:g} kg/s; the unit cannot be right, the data look like {hint}: "
+            "declare the unit in the building's [units] table"
+        )
+        return si
+    if m_max is not None and m_max > 0:
+        p99 = float(np.percentile(valid, 99))
+        if 0 < p99 < m_max / 100:
+            report.warnings.append(
+                f"{label}: {desc}: airflow stays below {p99:.3g} kg/s, under 1 % of m_max = {m_max:g} kg/s "
+                f"(declared {unit}); check the unit"
+            )
+    neg = si < 0
+    bad = np.flatnonzero(si < -AIRFLOW_NOISE)
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} negative airflow value(s) (below -{AIRFLOW_NOISE:g} kg/s), "
+            f"e.g. {where.rows(bad, values=si)}"
+        )
+    elif neg.any():
+        report.warnings.append(
+            f"{label}: {desc}: {int(neg.sum())} slightly negative airflow value(s) (sensor noise) set to 0"
+        )
+        si = np.where(neg, 0.0, si)
+    return si
+
+
+def _check_irradiance(desc, label, si, where, problems, report):
+    bad = np.flatnonzero(si < -IRRADIANCE_NOISE)
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} negative irradiance value(s) (below -{IRRADIANCE_NOISE:g} W/m²), "
+            f"e.g. {where.rows(bad, values=si)}"
+        )
+    high = np.flatnonzero(si > IRRADIANCE_MAX)
+    if len(high):
+        problems.append(
+            f"{label}: {desc}: {len(high)} value(s) above {IRRADIANCE_MAX:g} W/m², more than any irradiance at "
+            f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}"
+        )
+    neg = si < 0
+    if neg.any() and not len(bad):
+        si = np.where(neg, 0.0, si)
+        report.warnings.append(f"{label}: {desc}: {int(neg.sum())} slightly negative value(s) (sensor noise) set to 0")
+    return si

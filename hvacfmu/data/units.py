@@ -1,0 +1,128 @@
+"""Units of measured data and their conversion to SI.
+
+Canonical quantities and their SI units:
+
+=================  ==========================  =======
+canonical column   quantity                    SI unit
+=================  ==========================  =======
+``T_*``            air temperature             °C
+``m_*``            air mass flow of a box      kg/s
+``ghi``, ``I_*``   irradiance                  W/m²
+``excitation``     experiment flag             – (0/1)
+=================  ==========================  =======
+
+Volumetric airflows (m³/s, L/s, cfm) become mass flows with the standard air
+density :data:`AIR_DENSITY` = 1.2 kg/m³ (dry air at about 20 °C and sea-level
+pressure), the convention of HVAC airflow measurements.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Standard air density used to turn volumetric into mass airflow [kg/m3].
+AIR_DENSITY = 1.2
+
+#: One cubic foot per minute in cubic metres per second [m3/s].
+CFM_IN_M3_PER_S = 0.3048**3 / 60.0
+
+#: Physical kind of a canonical column -> (SI unit, accepted units).
+KINDS = {
+    "temperature": ("degC", ("degC", "degF", "K")),
+    "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm")),
+    "irradiance": ("W/m2", ("W/m2",)),
+    "flag": ("1", ("1",)),
+}
+
+_ALIASES = {
+    "degc": "degC", "c": "degC", "celsius": "degC", "°c": "degC", "deg_c": "degC",
+    "degf": "degF", "f": "degF", "fahrenheit": "degF", "°f": "degF", "deg_f": "degF",
+    "k": "K", "kelvin": "K",
+    "kg/s": "kg/s", "kgs-1": "kg/s", "kg s-1": "kg/s",
+    "m3/s": "m3/s", "m^3/s": "m3/s", "m³/s": "m3/s",
+    "l/s": "L/s", "lps": "L/s",
+    "cfm": "cfm", "ft3/min": "cfm", "ft^3/min": "cfm", "ft³/min": "cfm",
+    "w/m2": "W/m2", "w/m^2": "W/m2", "w/m²": "W/m2", "wm-2": "W/m2",
+    "1": "1", "-": "1", "": "1", "none": "1", "bool": "1",
+}
+
+
+def kind_of(canonical: str) -> str:
+    """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``) of a canonical column."""
+    if canonical.startswith("T_"):
+        return "temperature"
+    if canonical.startswith("m_"):
+        return "airflow"
+    if canonical == "ghi" or canonical.startswith("I_"):
+        return "irradiance"
+    if canonical == "excitation":
+        return "flag"
+    raise KeyError(f"no physical kind known for column {canonical!r}")
+
+
+def normalize_unit(unit: str | None, kind: str) -> str:
+    """Canonical spelling of ``unit`` for a quantity of ``kind``.
+
+    ``None`` means the SI unit. Raises ``ValueError`` for a unit that does not
+    measure ``kind`` (the message lists the accepted units).
+    """
+    si, accepted = KINDS[kind]
+    if unit is None:
+        return si
+    name = _ALIASES.get(str(unit).strip().lower().replace(" ", ""), None)
+    if name is None:
+        name = _ALIASES.get(str(unit).strip().lower(), str(unit))
+    if name not in accepted:
+        raise ValueError(f"unit {unit!r} is not a {kind} unit; use one of {', '.join(accepted)}")
+    return name
+
+
+def to_si(values, unit: str):
+    """Convert ``values`` from ``unit`` to SI (°C, kg/s, W/m²).
+
+    Parameters
+    ----------
+    values : array-like
+        Values in ``unit``.
+    unit : str
+        One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``,
+        ``W/m2``, ``1`` (canonical spellings, see :func:`normalize_unit`).
+
+    Returns
+    -------
+    numpy.ndarray of float
+        Temperatures in [°C], airflows in [kg/s] (volumetric flows times
+        :data:`AIR_DENSITY`), irradiance in [W/m²].
+    """
+    x = np.asarray(values, dtype=float)
+    if unit in ("degC", "kg/s", "W/m2", "1"):
+        return x.copy()
+    if unit == "degF":
+        return (x - 32.0) * (5.0 / 9.0)
+    if unit == "K":
+        return x - 273.15
+    if unit == "m3/s":
+        return x * AIR_DENSITY
+    if unit == "L/s":
+        return x * (1e-3 * AIR_DENSITY)
+    if unit == "cfm":
+        return x * (CFM_IN_M3_PER_S * AIR_DENSITY)
+    raise ValueError(f"unknown unit {unit!r}")
+
+
+def from_si(values, unit: str):
+    """Inverse of :func:`to_si`: convert SI ``values`` (°C, kg/s, W/m²) to ``unit``."""
+    x = np.asarray(values, dtype=float)
+    if unit in ("degC", "kg/s", "W/m2", "1"):
+        return x.copy()
+    if unit == "degF":
+        return x * (9.0 / 5.0) + 32.0
+    if unit == "K":
+        return x + 273.15
+    if unit == "m3/s":
+        return x / AIR_DENSITY
+    if unit == "L/s":
+        return x / (1e-3 * AIR_DENSITY)
+    if unit == "cfm":
+        return x / (CFM_IN_M3_PER_S * AIR_DENSITY)
+    raise ValueError(f"unknown unit {unit!r}")
