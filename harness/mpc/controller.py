@@ -1,0 +1,437 @@
+"""Receding-horizon MPC controller and a pure-Python closed loop.
+
+:class:`MPCController` solves the energy-efficient problem of
+:mod:`harness.mpc.problem` at every step from the current state:
+
+- Model A (linear): the condensed sensitivity ``G`` and the solver's KKT
+  structure are built once; a step only updates the right-hand side.
+- Model B (bilinear): sequential convex programming. The state in the
+  bilinear terms is frozen at the previous plan shifted by one step and
+  re-simulated from the current estimate; each iteration is an exact QP (or
+  SOCP) in the airflows with a time-varying input matrix; the new plan is
+  simulated with the bilinear model and the loop stops when no planned
+  airflow moves by more than ``settings.tol`` [kg/s] or after
+  ``settings.max_iter`` iterations. Unmeasured states (walls) come from a
+  Kalman filter on the measured zone temperatures.
+
+A failed solve never stops a run: the controller applies the previous plan's
+next move, counts the failure and keeps the failed problem for replay.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacfmu.errors import ModelError
+
+from .predict import KalmanFilter, make_predictor
+from .problem import CondensedProblem, MPCSettings, save_problem
+
+
+@dataclasses.dataclass
+class Plan:
+    """One step's plan.
+
+    Attributes
+    ----------
+    found : bool
+    status : str
+    U : array (N, nu) [kg/s] planned airflows
+    eps : array (nu,) [kg/s] input-limit slack
+    X : array (N+1, nx) state trajectory of the model under U (bilinear: exact simulation)
+    Y : array (N+1, ny) [°C] outputs along X
+    obj : float   Σ u² + ρ||eps|| (+ comfort penalty)
+    iterations : int
+    converged : bool
+    solve_time : float [s]  solver calls only
+    step_time : float [s]   whole step (estimation, condensing, solving)
+    """
+
+    found: bool
+    status: str
+    U: np.ndarray
+    eps: np.ndarray
+    X: np.ndarray
+    Y: np.ndarray
+    obj: float
+    iterations: int
+    converged: bool
+    solve_time: float
+    step_time: float = 0.0
+
+
+def _block_starts(lengths):
+    return np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(int)
+
+
+def _blocked(U, lengths):
+    """Project moves onto the blocking (mean over each block), repeated per step."""
+    out = np.empty_like(U)
+    for s, n in zip(_block_starts(lengths), lengths):
+        out[s : s + n] = U[s : s + n].mean(axis=0)
+    return out
+
+
+class MPCController:
+    """Energy-efficient MPC (paper eq. ee_controller) for Model A or Model B.
+
+    Parameters
+    ----------
+    model : LinearZoneModel, PhysicsModel or any object with ``discrete_matrices()``
+    u_min, u_max : array (n_inputs,) [kg/s]
+        Input limits in the model's input space (see :func:`input_limits`).
+    settings : MPCSettings
+    kalman_q_std, kalman_r_std : float [K]
+        Process (per step) and measurement noise of the Kalman filter (bilinear models).
+    failure_dir : path or None
+        Where failed problems are saved as ``failure_<step>.npz``; ``None``
+        keeps them in :attr:`failed_problems`.
+    """
+
+    name = "mpc"
+
+    def __init__(self, model, u_min, u_max, settings: MPCSettings | None = None, *,
+                 kalman_q_std=0.05, kalman_r_std=0.05, failure_dir=None):
+        self.model = model
+        self.settings = settings or MPCSettings()
+        self.pred = make_predictor(model)
+        self.u_min = np.asarray(u_min, dtype=float).ravel()
+        self.u_max = np.asarray(u_max, dtype=float).ravel()
+        if self.u_min.size != self.pred.nu or self.u_max.size != self.pred.nu:
+            raise ModelError(f"input limits have {self.u_min.size}/{self.u_max.size} entries, "
+                             f"model has {self.pred.nu} inputs")
+        self.lengths = np.asarray(self.settings.block_lengths)
+        self.N = int(self.lengths.sum())
+        self.bilinear = not self.pred.linear
+        self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.bilinear else None
+        self.failure_dir = Path(failure_dir) if failure_dir is not None else None
+        self._problem = None
+        self.reset()
+
+    # ----- state ---------------------------------------------------------
+    def reset(self, x0=None):
+        """Forget plans, estimates and statistics; optionally set the state estimate."""
+        self.k = 0
+        self.plans = []
+        self.failed_problems = []
+        self.n_failures = 0
+        self._plan = None
+        self._last = None  # (u, v, q) applied at the previous step
+        if self.kf is not None:
+            self.kf.x = None if x0 is None else np.asarray(x0, dtype=float)
+        self._x0 = None if x0 is None else np.asarray(x0, dtype=float)
+
+    def estimate(self, y, v, q) -> np.ndarray:
+        """State estimate from the measured outputs y (ny,) [°C]."""
+        y = np.asarray(y, dtype=float)
+        if self.kf is None:  # Model A: the state is the measured output
+            return y.copy()
+        if self.kf.x is None:
+            self.kf.initialise(y, v, q, self.u_min)
+        elif self._last is not None:
+            self.kf.predict(*self._last)
+            self.kf.correct(y)
+        else:
+            self.kf.correct(y)
+        return self.kf.x.copy()
+
+    # ----- one step --------------------------------------------------------
+    def step(self, y, V, Qg) -> np.ndarray:
+        """Airflows to apply now.
+
+        Parameters
+        ----------
+        y : array (ny,) [°C] measured outputs (zone temperatures)
+        V : array (>= N, nv) disturbance preview from now on
+        Qg : array (>= N, nq) internal-gain preview from now on
+
+        Returns
+        -------
+        u : array (nu,) [kg/s]
+        """
+        t0 = time.perf_counter()
+        V = self._preview(V, "V")
+        Qg = self._preview(Qg, "Qg")
+        x0 = self.estimate(y, V[0], Qg[0])
+        plan = self.plan(x0, V, Qg)
+        if plan.found:
+            u = plan.U[0].copy()
+            self._plan = plan
+        else:
+            self.n_failures += 1
+            u = self._fallback_move()
+            shifted = self._shifted_plan()
+            self._plan = dataclasses.replace(plan, U=shifted) if shifted is not None else None
+        plan.step_time = time.perf_counter() - t0
+        self.plans.append(plan)
+        self._last = (u, V[0], Qg[0])
+        self.k += 1
+        return u
+
+    __call__ = step
+
+    def _preview(self, A, name):
+        A = np.atleast_2d(np.asarray(A, dtype=float))
+        if A.shape[0] < self.N:
+            if A.shape[0] == 0:
+                raise ModelError(f"{name} preview is empty")
+            A = np.vstack([A, np.repeat(A[-1:], self.N - A.shape[0], axis=0)])
+        if not np.all(np.isfinite(A[: self.N])):
+            raise ModelError(f"{name} preview contains NaN or infinite values")
+        return A[: self.N]
+
+    def _shifted_plan(self):
+        if self._plan is None:
+            return None
+        U = self._plan.U
+        return np.vstack([U[1:], U[-1:]])
+
+    def _fallback_move(self):
+        shifted = self._shifted_plan()
+        if shifted is not None:
+            return shifted[0].copy()
+        return np.clip(np.zeros(self.pred.nu), self.u_min, self.u_max)
+
+    # ----- planning ---------------------------------------------------------
+    def plan(self, x0, V, Qg) -> Plan:
+        """Solve the MPC problem from state x0 (nx,) with previews V (N, nv), Qg (N, nq)."""
+        s = self.settings
+        if not self.bilinear:
+            y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
+            if self._problem is None:
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+            sol = self._problem.solve(y0)
+            if not sol.found:
+                self._keep_failure(y0, x0, V, Qg)
+                return self._failed_plan(sol, 1)
+            X = self.pred.simulate(x0, sol.U, V, Qg)
+            return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, 1, True, sol.solve_time)
+        # bilinear: sequential convex programming
+        shifted = self._shifted_plan()
+        Ubar = _blocked(shifted, self.lengths) if shifted is not None else np.tile(self.u_min, (self.N, 1))
+        Xbar = self.pred.simulate(x0, Ubar, V, Qg)
+        solve_time, best, converged, it = 0.0, None, False, 0
+        for it in range(1, s.max_iter + 1):
+            y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
+            if self._problem is None:
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+            else:
+                self._problem.update_G(G)
+            sol = self._problem.solve(y0)
+            solve_time += sol.solve_time
+            if not sol.found:
+                self._keep_failure(y0, x0, V, Qg)
+                break
+            X = self.pred.simulate(x0, sol.U, V, Qg)
+            delta = float(np.max(np.abs(sol.U - Ubar)))
+            best = (sol, X)
+            Ubar, Xbar = sol.U, X
+            if delta < s.tol:
+                converged = True
+                break
+        if best is None:
+            return self._failed_plan(sol, it, solve_time)
+        sol, X = best
+        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time)
+
+    def _failed_plan(self, sol, it, solve_time=None):
+        nan = np.full((self.N + 1, self.pred.nx), np.nan)
+        return Plan(False, sol.status, np.full((self.N, self.pred.nu), np.nan), sol.eps, nan,
+                    nan @ self.pred.C.T, float("nan"), it, False,
+                    sol.solve_time if solve_time is None else solve_time)
+
+    def _keep_failure(self, y0, x0, V, Qg):
+        arrays = self._problem.snapshot(y0, step=self.k, x0=x0, V=V, Qg=Qg)
+        if self.failure_dir is not None:
+            self.failed_problems.append(save_problem(self.failure_dir / f"failure_{self.k:05d}.npz", arrays))
+        else:
+            self.failed_problems.append(arrays)
+
+    # ----- statistics ---------------------------------------------------------
+    def stats(self) -> dict:
+        """Solve-time and iteration statistics over the steps so far."""
+        st = np.array([p.step_time for p in self.plans]) if self.plans else np.zeros(1)
+        it = np.array([p.iterations for p in self.plans]) if self.plans else np.zeros(1)
+        return {
+            "steps": len(self.plans),
+            "failures": self.n_failures,
+            "not_converged": int(sum(1 for p in self.plans if p.found and not p.converged)),
+            "step_time_median": float(np.median(st)),
+            "step_time_max": float(np.max(st)),
+            "iterations_mean": float(np.mean(it)),
+        }
+
+
+def input_limits(model, building=None):
+    """Input limits (u_min, u_max) [kg/s] of a model from its building's VAV boxes.
+
+    Model A sums the limits of the boxes behind each input (``input_map``);
+    models whose inputs are ``m_<vav>`` take the box limits directly. A model
+    carrying ``m_min``/``m_max`` arrays (the synthetic RC network) needs no building.
+    """
+    if building is None:
+        if hasattr(model, "m_min") and hasattr(model, "m_max"):
+            return np.asarray(model.m_min, dtype=float), np.asarray(model.m_max, dtype=float)
+        raise ModelError("input limits need the building (VAV m_min/m_max)")
+    boxes = {v.name: v for v in building.vavs}
+    if hasattr(model, "input_map") and hasattr(model, "vavs"):
+        missing = [b for b in model.vavs if b not in boxes]
+        if missing:
+            raise ModelError(f"model VAV boxes {missing} are not in building {building.name!r}")
+        lo = np.array([boxes[b].m_min for b in model.vavs])
+        hi = np.array([boxes[b].m_max for b in model.vavs])
+        return model.input_map @ lo, model.input_map @ hi
+    names = [n[2:] if n.startswith("m_") else n for n in model.inputs]
+    missing = [n for n in names if n not in boxes]
+    if missing:
+        raise ModelError(f"model inputs {missing} are not VAV boxes of building {building.name!r}")
+    return np.array([boxes[n].m_min for n in names]), np.array([boxes[n].m_max for n in names])
+
+
+# --------------------------------------------------------------------------
+# pure-Python closed loop
+# --------------------------------------------------------------------------
+@dataclasses.dataclass
+class ClosedLoopResult:
+    """A closed-loop run.
+
+    Attributes
+    ----------
+    u : array (n, nu) [kg/s] applied airflows
+    y : array (n+1, ny) [°C] measured outputs (row 0 is the initial measurement)
+    x : array (n+1, nx) plant states
+    step_time : array (n,) [s] controller time per step
+    iterations : array (n,) convex iterations per step
+    fallback : array (n,) bool, step used the previous plan
+    u_min, u_max : arrays (nu,) [kg/s]
+    T_min, T_max : float [°C]
+    rho : float
+    step : float [s]
+    """
+
+    u: np.ndarray
+    y: np.ndarray
+    x: np.ndarray
+    step_time: np.ndarray
+    iterations: np.ndarray
+    fallback: np.ndarray
+    u_min: np.ndarray
+    u_max: np.ndarray
+    T_min: float
+    T_max: float
+    rho: float
+    step: float
+    inputs: tuple = ()
+    outputs: tuple = ()
+
+    @property
+    def input_excess(self) -> np.ndarray:
+        """Applied violation of the input limits (n, nu) [kg/s]."""
+        return np.maximum(0.0, np.maximum(self.u - self.u_max, self.u_min - self.u))
+
+    @property
+    def energy(self) -> float:
+        """Energy proxy Σ_k ||u(k)||² [(kg/s)²]."""
+        return float(np.sum(self.u**2))
+
+    @property
+    def airflow(self) -> float:
+        """Total supplied air Σ_k Σ_i u_i(k) · step [kg]."""
+        return float(np.sum(self.u) * self.step)
+
+    @property
+    def cost(self) -> float:
+        """Paper's cost of the applied moves: Σ_k (||u(k)||² + ρ ||ε(k)||₂)."""
+        return self.energy + self.rho * float(np.sum(np.linalg.norm(self.input_excess, axis=1)))
+
+    @property
+    def violation_Kh(self) -> float:
+        """Comfort violation Σ_k Σ_zones max(0, y - T_max, T_min - y) · step / 3600 [K·h]."""
+        y = self.y[1:]
+        v = np.maximum(0.0, np.maximum(y - self.T_max, self.T_min - y))
+        return float(v.sum() * self.step / 3600.0)
+
+    def summary(self) -> dict:
+        return {
+            "steps": int(self.u.shape[0]),
+            "cost": self.cost,
+            "energy_sum_u2": self.energy,
+            "airflow_kg": self.airflow,
+            "comfort_violation_Kh": self.violation_Kh,
+            "input_excess_max": float(self.input_excess.max(initial=0.0)),
+            "step_time_median_s": float(np.median(self.step_time)),
+            "step_time_max_s": float(np.max(self.step_time)),
+            "step_time_total_s": float(np.sum(self.step_time)),
+            "iterations_mean": float(np.mean(self.iterations)),
+            "failures": int(np.sum(self.fallback)),
+        }
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per step: applied airflows, outputs after the step, controller time."""
+        cols = {}
+        ins = self.inputs or tuple(f"u{i}" for i in range(self.u.shape[1]))
+        outs = self.outputs or tuple(f"y{i}" for i in range(self.y.shape[1]))
+        for i, n in enumerate(ins):
+            cols[n] = self.u[:, i]
+        for j, n in enumerate(outs):
+            cols[f"T_{n}"] = self.y[1:, j]
+        cols["step_time"] = self.step_time
+        cols["iterations"] = self.iterations
+        cols["fallback"] = self.fallback
+        return pd.DataFrame(cols, index=pd.RangeIndex(self.u.shape[0], name="k"))
+
+
+def closed_loop(controller: MPCController, plant, x0, V, Qg, n_steps, *, noise_std=0.0, seed=0) -> ClosedLoopResult:
+    """Run ``controller`` against ``plant`` (a model used as its own plant) for ``n_steps``.
+
+    Parameters
+    ----------
+    controller : MPCController
+    plant : object with ``step_state(x, u, v, q)`` and ``output(x)`` (any zone model)
+    x0 : array (nx_plant,) initial plant state
+    V : array (n_steps + N, nv) disturbances (the controller sees them as a perfect preview)
+    Qg : array (n_steps + N, nq) internal gains
+    n_steps : int
+    noise_std : float [K] measurement noise added to the outputs the controller sees
+    seed : int
+
+    Returns
+    -------
+    ClosedLoopResult
+    """
+    rng = np.random.default_rng(seed)
+    V, Qg = np.asarray(V, dtype=float), np.asarray(Qg, dtype=float)
+    if V.shape[0] < n_steps or Qg.shape[0] < n_steps:
+        raise ModelError(f"need disturbances for {n_steps} steps, got {V.shape[0]} and {Qg.shape[0]}")
+    nu = controller.pred.nu
+    x = np.asarray(x0, dtype=float)
+    X = np.empty((n_steps + 1, x.size))
+    Y = np.empty((n_steps + 1, np.size(plant.output(x))))
+    U = np.empty((n_steps, nu))
+    X[0], Y[0] = x, plant.output(x)
+    fallback = np.zeros(n_steps, dtype=bool)
+    for k in range(n_steps):
+        y_meas = Y[k] + (rng.normal(0.0, noise_std, Y.shape[1]) if noise_std > 0 else 0.0)
+        before = controller.n_failures
+        U[k] = controller.step(y_meas, V[k : k + controller.N], Qg[k : k + controller.N])
+        fallback[k] = controller.n_failures > before
+        x = plant.step_state(x, U[k], V[k], Qg[k])
+        X[k + 1], Y[k + 1] = x, plant.output(x)
+    plans = controller.plans[-n_steps:]
+    s = controller.settings
+    return ClosedLoopResult(
+        u=U, y=Y, x=X,
+        step_time=np.array([p.step_time for p in plans]),
+        iterations=np.array([p.iterations for p in plans]),
+        fallback=fallback,
+        u_min=controller.u_min, u_max=controller.u_max,
+        T_min=float(np.min(s.T_min)), T_max=float(np.max(s.T_max)), rho=s.rho,
+        step=float(getattr(plant, "step", 900.0)),
+        inputs=tuple(getattr(controller.model, "inputs", ())),
+        outputs=tuple(getattr(controller.model, "outputs", ())),
+    )

@@ -1,0 +1,333 @@
+"""Predictions affine in the airflows, condensed over the horizon, and the state estimator.
+
+Model A (linear) and Model B (bilinear in the VAV airflows) are both written as
+
+    x(k+1) = A x(k) + w(k) + P β_k u(k)
+
+with ``w(k)`` the disturbance and internal-gain terms, ``P`` (nx, r) a fixed
+basis of the columns the airflows can reach and ``β_k`` (r, nu) the reduced
+input matrix at step k. For Model A, ``P = I`` and ``β_k = B``. For Model B,
+``β_k = Σ_i e_iᵀ ⊗ Pᵀ(B_xu,i x̄(k) + B_vu,i v(k))`` with the state frozen at a
+reference trajectory ``x̄``. Airflows only act on the zone air nodes, so ``r``
+is the number of zones (or the rank of the stacked bilinear matrices), not the
+number of states: condensing costs ``O(N² ny r nu)`` whatever the wall
+discretisation, and the Markov parameters ``C A^j P`` are computed once.
+
+With the full linearisation (``"newton"``) the state matrix becomes
+``A + P Θ_k`` with ``Θ_k = Σ_i ū_i(k) Pᵀ B_xu,i`` (rank r), and the condensed
+sensitivity is ``G = H (I - L)⁻¹ diag(β)`` with ``L[k, m] = Θ_k A^(k-1-m) P``
+strictly lower block triangular — still only (N r)-sized algebra.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+from scipy import sparse
+
+from hvacfmu.errors import ModelError
+
+
+def _dense(M) -> np.ndarray:
+    return M.toarray() if sparse.issparse(M) else np.asarray(M, dtype=float)
+
+
+class AffinePredictor:
+    """Common condensing machinery; subclasses define the model.
+
+    Attributes
+    ----------
+    A : array (nx, nx)
+    C : array (ny, nx)
+    basis : array (nx, r)
+        Orthonormal (or coordinate) basis ``P`` of the airflow-reachable subspace.
+    """
+
+    A: np.ndarray
+    C: np.ndarray
+    basis: np.ndarray
+    nu: int
+    linear: bool = False
+
+    def __init__(self):
+        self._markov = {}
+
+    @property
+    def nx(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def ny(self) -> int:
+        return self.C.shape[0]
+
+    @property
+    def r(self) -> int:
+        return self.basis.shape[1]
+
+    # --- to be provided -----------------------------------------------------
+    def drift(self, V, Qg) -> np.ndarray:
+        """w(k) (N, nx): disturbance and gain terms, for v (N, nv), q (N, nq)."""
+        raise NotImplementedError
+
+    def beta(self, Xbar, V) -> np.ndarray:
+        """Reduced input matrices β_k (N, r, nu) at reference states ``Xbar`` (N, nx)."""
+        raise NotImplementedError
+
+    def step(self, x, u, v, q) -> np.ndarray:
+        raise NotImplementedError
+
+    # --- simulation ---------------------------------------------------------
+    def simulate(self, x0, U, V, Qg) -> np.ndarray:
+        """Exact model trajectory X (N+1, nx) for moves U (N, nu)."""
+        N = U.shape[0]
+        X = np.empty((N + 1, self.nx))
+        X[0] = x0
+        for k in range(N):
+            X[k + 1] = self.step(X[k], U[k], V[k], Qg[k])
+        return X
+
+    def free_trajectory(self, x0, W) -> np.ndarray:
+        """Trajectory of ``x+ = A x + w`` (N+1, nx) for drift W (N, nx)."""
+        N = W.shape[0]
+        X = np.empty((N + 1, self.nx))
+        X[0] = x0
+        for k in range(N):
+            X[k + 1] = self.A @ X[k] + W[k]
+        return X
+
+    # --- condensing -----------------------------------------------------------
+    def markov(self, N):
+        """``Q_j = A^j P`` (N, nx, r) and the block-Toeplitz ``H`` (N ny, N r), cached per N."""
+        if N not in self._markov:
+            Q = np.empty((N, self.nx, self.r))
+            Q[0] = self.basis
+            for j in range(1, N):
+                Q[j] = self.A @ Q[j - 1]
+            Hj = np.einsum("yn,jnr->jyr", self.C, Q)
+            H = np.zeros((N, self.ny, N, self.r))
+            for i in range(N):
+                H[i, :, : i + 1, :] = np.moveaxis(Hj[i::-1], 0, 1)
+            self._markov[N] = (Q, H.reshape(N * self.ny, N * self.r))
+        return self._markov[N]
+
+    def sensitivity(self, beta, lengths, theta=None) -> np.ndarray:
+        """Condensed output sensitivity to the blocked moves, G (N ny, n_blocks nu).
+
+        Parameters
+        ----------
+        beta : array (N, r, nu)
+        lengths : sequence of int, move-blocking lengths
+        theta : array (N, r, nx) or None
+            State-matrix perturbations ``A + P Θ_k`` (full linearisation).
+        """
+        N, r, nu = beta.shape
+        nb = len(lengths)
+        Q, H = self.markov(N)
+        blk = np.repeat(np.arange(nb), lengths)
+        Bm = np.zeros((N, r, nb, nu))
+        Bm[np.arange(N), :, blk, :] = beta
+        Bm = Bm.reshape(N * r, nb * nu)
+        if theta is not None:
+            L = np.zeros((N, r, N, r))
+            for k in range(1, N):
+                # L[k, m] = Θ_k Q_{k-1-m}, m = 0..k-1
+                L[k, :, :k, :] = np.moveaxis(np.einsum("an,jnb->jab", theta[k], Q[k - 1 :: -1][:k]), 0, 1)
+            Lm = np.eye(N * r) - L.reshape(N * r, N * r)
+            Bm = scipy.linalg.solve_triangular(Lm, Bm, lower=True, unit_diagonal=True)
+        return H @ Bm
+
+    def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):
+        """Prediction ``Y ≈ y0 + G U_b`` over the horizon.
+
+        Parameters
+        ----------
+        x0 : array (nx,) current state estimate
+        V, Qg : arrays (N, nv), (N, nq): disturbance and internal-gain previews
+        lengths : move-blocking lengths
+        Xbar : array (N+1, nx) or None
+            Reference trajectory for the bilinear terms (row 0 is replaced by x0).
+        Ubar : array (N, nu) or None
+            Reference moves (``"newton"`` only).
+        mode : {"frozen", "newton"}
+
+        Returns
+        -------
+        y0 : array (N ny,) [°C]
+        G : array (N ny, n_blocks nu)
+        """
+        N = V.shape[0]
+        W = self.drift(V, Qg)
+        if self.linear or mode == "frozen":
+            Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
+            beta = self.beta(Xr, V)
+            G = self.sensitivity(beta, lengths)
+            Xf = self.free_trajectory(x0, W)
+            return (Xf[1:] @ self.C.T).ravel(), G
+        if Ubar is None:
+            raise ModelError("the full linearisation needs reference moves Ubar")
+        X = self.simulate(x0, Ubar, V, Qg)
+        beta = self.beta(X[:N], V)
+        G = self.sensitivity(beta, lengths, theta=self.theta(Ubar))
+        blk = np.cumsum(np.concatenate([[0], lengths]))[:-1]
+        Ub = Ubar[blk].ravel()  # Ubar is blocked (constant within blocks)
+        return (X[1:] @ self.C.T).ravel() - G @ Ub, G
+
+
+class LinearPredictor(AffinePredictor):
+    """Model A: ``x+ = A x + B u + C_v v + q``, y = x. Built from a ``LinearZoneModel``."""
+
+    linear = True
+
+    def __init__(self, model):
+        super().__init__()
+        self.A = np.asarray(model.A, dtype=float)
+        self.B = np.asarray(model.B, dtype=float)
+        self.Cv = np.asarray(model.C, dtype=float)
+        self.C = np.eye(self.A.shape[0])
+        self.basis = np.eye(self.A.shape[0])
+        self.nu = self.B.shape[1]
+        self._G = {}
+
+    def drift(self, V, Qg):
+        return V @ self.Cv.T + Qg
+
+    def beta(self, Xbar, V):
+        return np.broadcast_to(self.B, (V.shape[0],) + self.B.shape)
+
+    def step(self, x, u, v, q):
+        return self.A @ x + self.B @ u + self.Cv @ v + q
+
+    def sensitivity(self, beta, lengths, theta=None):
+        key = (beta.shape[0], tuple(lengths))
+        if key not in self._G:  # constant: built once per horizon and blocking
+            self._G[key] = super().sensitivity(np.ascontiguousarray(beta), lengths)
+        return self._G[key]
+
+
+class BilinearPredictor(AffinePredictor):
+    """Model B: ``x+ = A x + Bv v + Bq q + Σ_i u_i (Bxu_i x + Bvu_i v)``, y = C x.
+
+    Parameters
+    ----------
+    mats : BilinearMatrices-like with fields ``A, Bv, Bq, Bxu, Bvu, C``
+        (``Bxu``/``Bvu`` lists of n_vav matrices, dense or scipy.sparse).
+    rank_tol : float
+        Relative singular-value threshold for the airflow-reachable basis.
+    """
+
+    def __init__(self, mats, rank_tol=1e-12):
+        super().__init__()
+        self.A = _dense(mats.A)
+        self.Bv = _dense(mats.Bv)
+        self.Bq = _dense(mats.Bq)
+        self.C = _dense(mats.C)
+        Bxu = [sparse.csr_matrix(M) for M in mats.Bxu]
+        Bvu = [sparse.csr_matrix(M) for M in mats.Bvu]
+        nx, nv = self.A.shape[0], self.Bv.shape[1]
+        problems = []
+        if len(Bxu) != len(Bvu):
+            problems.append(f"{len(Bxu)} Bxu matrices but {len(Bvu)} Bvu matrices")
+        for name, Ms, shape in (("Bxu", Bxu, (nx, nx)), ("Bvu", Bvu, (nx, nv))):
+            problems += [f"{name}[{i}] has shape {M.shape}, expected {shape}" for i, M in enumerate(Ms) if M.shape != shape]
+        if self.C.shape[1] != nx or self.Bq.shape[0] != nx or self.Bv.shape[0] != nx:
+            problems.append(f"C {self.C.shape}, Bv {self.Bv.shape}, Bq {self.Bq.shape} do not match nx = {nx}")
+        if problems:
+            raise ModelError("bilinear matrices: " + "; ".join(problems))
+        self.nu = len(Bxu)
+        self.basis = self._reachable_basis(Bxu, Bvu, nx, rank_tol)
+        Pt = self.basis.T
+        self.PtBxu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bxu])  # (nu, r, nx)
+        self.PtBvu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bvu])  # (nu, r, nv)
+        # the projection must reproduce the bilinear terms exactly
+        scale = max(max((abs(M).max() if M.nnz else 0.0) for M in Bxu + Bvu), 1e-300)
+        err = max(
+            np.abs(_dense(M) - self.basis @ (Pt @ _dense(M))).max() if M.nnz else 0.0 for M in Bxu + Bvu
+        )
+        if err > 1e-9 * scale:
+            raise ModelError(f"airflow-reachable basis reproduces the bilinear terms only to {err:.2e}")
+
+    @staticmethod
+    def _reachable_basis(Bxu, Bvu, nx, rank_tol):
+        rows = np.unique(np.concatenate([M.nonzero()[0] for M in Bxu + Bvu] + [np.array([], int)]))
+        if rows.size <= max(nx // 4, 1):  # coordinate basis on the nodes the airflows touch
+            P = np.zeros((nx, rows.size))
+            P[rows, np.arange(rows.size)] = 1.0
+            return P
+        gram = np.zeros((nx, nx))  # range of [Bxu_1 ... Bvu_n] = range of Σ M Mᵀ
+        for M in Bxu + Bvu:
+            gram += _dense(M @ M.T)
+        w, V = np.linalg.eigh(gram)
+        keep = w > (rank_tol**2) * max(w.max(), 1e-300)
+        return V[:, keep]
+
+    def drift(self, V, Qg):
+        return V @ self.Bv.T + Qg @ self.Bq.T
+
+    def beta(self, Xbar, V):
+        return np.einsum("irn,kn->kri", self.PtBxu, Xbar) + np.einsum("irv,kv->kri", self.PtBvu, V)
+
+    def theta(self, Ubar):
+        return np.einsum("ki,irn->krn", Ubar, self.PtBxu)
+
+    def step(self, x, u, v, q):
+        bu = np.einsum("irn,n->ri", self.PtBxu, x) + np.einsum("irv,v->ri", self.PtBvu, v)
+        return self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
+
+    def state_matrix(self, u) -> np.ndarray:
+        """``A + Σ_i u_i Bxu_i`` at airflows u (nu,) [kg/s]."""
+        return self.A + self.basis @ np.einsum("i,irn->rn", u, self.PtBxu)
+
+
+class KalmanFilter:
+    """Steady-state Kalman filter on the measured zone temperatures.
+
+    The gain is designed for the model linearised at nominal airflows
+    (``A + Σ u_nom,i Bxu_i``); prediction uses the exact bilinear model with
+    the applied airflows, so the estimate tracks the bilinear plant.
+
+    Parameters
+    ----------
+    predictor : AffinePredictor
+    u_nom : array (nu,) [kg/s]
+    q_std : float [K per step]  process noise standard deviation per state
+    r_std : float [K]           measurement noise standard deviation
+    """
+
+    def __init__(self, predictor, u_nom, q_std=0.05, r_std=0.05):
+        self.pred = predictor
+        Au = predictor.state_matrix(np.asarray(u_nom, dtype=float)) if hasattr(predictor, "state_matrix") else predictor.A
+        C = predictor.C
+        Qn = q_std**2 * np.eye(predictor.nx)
+        Rn = r_std**2 * np.eye(predictor.ny)
+        Pp = scipy.linalg.solve_discrete_are(Au.T, C.T, Qn, Rn)
+        S = C @ Pp @ C.T + Rn
+        self.gain = np.linalg.solve(S, C @ Pp).T  # (nx, ny), a-posteriori gain
+        self.x = None
+
+    def initialise(self, y, v, q, u):
+        """Steady state of the model at (u, v, q), corrected to match the measurement y [°C]."""
+        Au = self.pred.state_matrix(u) if hasattr(self.pred, "state_matrix") else self.pred.A
+        c = self.pred.step(np.zeros(self.pred.nx), u, v, q)  # affine part at x = 0
+        xs = np.linalg.solve(np.eye(self.pred.nx) - Au, c)
+        C = self.pred.C
+        self.x = xs + np.linalg.pinv(C) @ (np.asarray(y, dtype=float) - C @ xs)
+        return self.x
+
+    def correct(self, y):
+        """Measurement update with y (ny,) [°C]; returns the a-posteriori estimate."""
+        self.x = self.x + self.gain @ (np.asarray(y, dtype=float) - self.pred.C @ self.x)
+        return self.x
+
+    def predict(self, u, v, q):
+        """Time update with the applied airflows u [kg/s] and disturbances."""
+        self.x = self.pred.step(self.x, u, v, q)
+        return self.x
+
+
+def make_predictor(model):
+    """Predictor for a zone model: bilinear if it exposes ``discrete_matrices()``, else linear."""
+    if hasattr(model, "discrete_matrices"):
+        return BilinearPredictor(model.discrete_matrices())
+    if all(hasattr(model, a) for a in ("A", "B", "C")):
+        return LinearPredictor(model)
+    raise ModelError(f"no MPC predictor for model kind {getattr(model, 'kind', type(model).__name__)!r}")

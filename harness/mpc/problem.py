@@ -1,0 +1,428 @@
+"""The energy-efficient MPC problem of Zhou, Hu & Tomlin in condensed form.
+
+For a prediction that is affine in the airflows over the horizon,
+
+    Y = y0 + G U,        Y = [y(1); ...; y(N)],   U = [u(0); ...; u(N-1)],
+
+the problem (eq. ``ee_controller`` of the paper) is
+
+    min_{U, eps}  Σ_k ||u(k)||² + ρ ||eps||_2
+    s.t.          u_min - eps <= u(k) <= u_max + eps      k = 0..N-1
+                  T_min <= y(k) <= T_max                  k = 1..N
+
+with ``eps`` one slack per input (it carries no time index in the paper).
+Two formulations are assembled from the same rows:
+
+``"socp"``
+    the problem as written: ``ρ t`` with ``(t, eps)`` in a second-order cone,
+    solved with clarabel's own API (problem data are updated in place between
+    steps when only the right-hand side changes).
+``"qp"``
+    the exact-penalty QP ``ρ ||eps||_1`` (``eps >= 0``), solved through
+    qpsolvers with the clarabel backend.
+
+Both have the same minimiser when the input limits are not violated: if the
+SOCP optimum has ``eps = 0``, the hard-limit problem's input-limit multipliers
+``μ`` (summed over the horizon, one per input) satisfy ``||μ||_2 <= ρ``, hence
+``||μ||_∞ <= ρ``, which is the exactness condition of the ℓ1 penalty; the
+cost is strictly convex in ``U``, so the controls coincide.
+
+With ``comfort_penalty`` set, the band becomes ``T_min - s <= y <= T_max + s``,
+``s >= 0``, with the exact ℓ1 penalty ``comfort_penalty · Σ s``: the solution
+equals the hard-band one whenever that is feasible and its band multipliers
+are below the penalty, and a step never fails for an unreachable band. The
+initial state is never softened (it is data, not a variable).
+
+Move blocking holds ``u`` constant over blocks of steps (``blocks`` lengths
+summing to N); the cost then weights each block value by its length.
+
+References
+----------
+D. Zhou, Q. Hu, C. J. Tomlin, "Model comparison of a data-driven and a
+physical model for simulating HVAC systems", section V.B, eq. (ee_controller).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import sparse
+
+from hvacfmu.errors import SolverError, problems_message
+
+FORMULATIONS = ("socp", "qp")
+LINEARISATIONS = ("frozen", "newton")
+
+
+@dataclasses.dataclass(frozen=True)
+class MPCSettings:
+    """Settings of the energy-efficient MPC.
+
+    Parameters
+    ----------
+    horizon : int
+        Prediction horizon N [steps]. The paper uses 3 (15-minute steps).
+    T_min, T_max : float [°C]
+        Comfort band on every output (zone temperature) at steps 1..N.
+    rho : float
+        Penalty on the input-limit slack ``eps`` [1/(kg/s)] (paper: 100).
+    formulation : {"socp", "qp"}
+        ``"socp"``: ``ρ ||eps||_2`` as a second-order cone (clarabel API);
+        ``"qp"``: exact penalty ``ρ ||eps||_1`` through qpsolvers + clarabel.
+    comfort_penalty : float or None
+        ℓ1 penalty on band violation [1/K per output and step]; ``None`` keeps
+        the band hard (a step may then be infeasible and fall back).
+    blocks : tuple of int or None
+        Move-blocking lengths summing to ``horizon``; ``None`` = every move free.
+        ``"auto"`` picks :func:`default_blocks`.
+    linearisation : {"frozen", "newton"}
+        Bilinear models only. ``"frozen"``: the state in the bilinear terms is
+        frozen at the previous predicted trajectory, an exact QP in ``u`` with
+        a time-varying input matrix. ``"newton"``: full first-order
+        linearisation around the previous iterate (its fixed points are KKT
+        points of the bilinear problem).
+    max_iter : int
+        Sequential convex iterations per step (bilinear models).
+    tol : float [kg/s]
+        Stop iterating when the largest change of a planned airflow is below it.
+    solver_tol : float
+        clarabel feasibility and gap tolerances.
+    u_floor : float or None [kg/s]
+        Hard lower bound on every planned airflow (an airflow cannot be
+        negative, whatever the slack allows); ``None`` keeps only the paper's
+        soft limits.
+    """
+
+    horizon: int = 3
+    T_min: float = 20.0
+    T_max: float = 22.0
+    rho: float = 100.0
+    formulation: str = "socp"
+    comfort_penalty: float | None = 1.0e4
+    blocks: tuple | str | None = None
+    linearisation: str = "frozen"
+    max_iter: int = 3
+    tol: float = 1.0e-4
+    solver_tol: float = 1.0e-8
+    u_floor: float | None = 0.0
+
+    def __post_init__(self):
+        problems = []
+        if not (isinstance(self.horizon, (int, np.integer)) and self.horizon >= 1):
+            problems.append(f"horizon must be an integer >= 1, got {self.horizon!r}")
+        if not self.T_min < self.T_max:
+            problems.append(f"need T_min < T_max, got [{self.T_min}, {self.T_max}] °C")
+        if not self.rho > 0:
+            problems.append(f"rho must be > 0, got {self.rho}")
+        if self.formulation not in FORMULATIONS:
+            problems.append(f"formulation must be one of {FORMULATIONS}, got {self.formulation!r}")
+        if self.linearisation not in LINEARISATIONS:
+            problems.append(f"linearisation must be one of {LINEARISATIONS}, got {self.linearisation!r}")
+        if self.comfort_penalty is not None and not self.comfort_penalty > 0:
+            problems.append(f"comfort_penalty must be > 0 or None, got {self.comfort_penalty}")
+        if not (isinstance(self.max_iter, (int, np.integer)) and self.max_iter >= 1):
+            problems.append(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
+        if not self.tol > 0 or not self.solver_tol > 0:
+            problems.append(f"tol and solver_tol must be > 0, got {self.tol}, {self.solver_tol}")
+        if self.u_floor is not None and not np.isfinite(self.u_floor):
+            problems.append(f"u_floor must be finite or None, got {self.u_floor}")
+        if self.blocks is not None and self.blocks != "auto" and not problems:
+            b = tuple(int(x) for x in self.blocks)
+            if any(x < 1 for x in b) or sum(b) != self.horizon:
+                problems.append(f"blocks {b} must be positive and sum to the horizon {self.horizon}")
+        if problems:
+            raise SolverError(problems_message("invalid MPC settings", problems))
+
+    @property
+    def block_lengths(self) -> tuple:
+        """Move-blocking lengths actually used (all ones without blocking)."""
+        if self.blocks is None:
+            return (1,) * self.horizon
+        if self.blocks == "auto":
+            return default_blocks(self.horizon)
+        return tuple(int(x) for x in self.blocks)
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["blocks"] = list(self.block_lengths)
+        return d
+
+
+def default_blocks(horizon: int, first_free: int = 2) -> tuple:
+    """Move blocks 1, 1, 2, 4, 8, ... (doubling) covering ``horizon`` steps.
+
+    The first ``first_free`` moves are free; later blocks double in length and
+    the last one takes the remainder. ``default_blocks(96)`` gives
+    ``(1, 1, 2, 4, 8, 16, 32, 32)``: 8 blocks instead of 96 moves.
+    """
+    out = [1] * min(max(int(first_free), 1), horizon)
+    total = len(out)
+    while total < horizon:
+        take = min(2 * out[-1], horizon - total)
+        out.append(take)
+        total += take
+    return tuple(out)
+
+
+def blocking_index(block_lengths) -> np.ndarray:
+    """Block number of every step of the horizon."""
+    return np.repeat(np.arange(len(block_lengths)), block_lengths)
+
+
+@dataclasses.dataclass
+class QPSolution:
+    """Outcome of one condensed solve (qpsolvers ``Solution`` in spirit)."""
+
+    found: bool
+    status: str
+    U: np.ndarray  #: (N, nu) planned airflows [kg/s] (block values repeated)
+    eps: np.ndarray  #: (nu,) input-limit slack [kg/s]
+    s: np.ndarray  #: (N, ny) comfort slack [K] (zeros for a hard band)
+    obj: float  #: Σ u² + ρ||eps|| (+ comfort penalty)
+    solve_time: float  #: wall time of the solver call [s]
+    z: np.ndarray | None = None  #: raw solver variables
+
+
+class CondensedProblem:
+    """The MPC problem for ``Y = y0 + G U`` assembled once, solved many times.
+
+    Parameters
+    ----------
+    G : array (N*ny, n_blocks*nu)
+        Output sensitivity to the blocked moves.
+    u_min, u_max : array (nu,) [kg/s]
+        Input limits (softened by ``eps``).
+    ny : int
+        Number of outputs.
+    settings : MPCSettings
+
+    Notes
+    -----
+    Variables ``z = [U_b (n_blocks*nu), eps (nu), t (socp only), s (N*ny, soft band only)]``;
+    constraints ``A z + slack = b`` with ``slack`` in the nonnegative cone
+    (and the second-order cone ``(t, eps)`` for ``"socp"``). Only ``b``
+    depends on ``y0``; :meth:`solve` updates it in place when ``G`` is unchanged.
+    """
+
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings):
+        self.settings = settings
+        self.lengths = np.asarray(settings.block_lengths)
+        self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
+        self.u_min = np.asarray(u_min, dtype=float).ravel()
+        self.u_max = np.asarray(u_max, dtype=float).ravel()
+        self.nu, self.ny = self.u_min.size, int(ny)
+        problems = []
+        if self.u_max.shape != self.u_min.shape:
+            problems.append(f"u_min has {self.u_min.size} entries, u_max {self.u_max.size}")
+        elif np.any(self.u_min > self.u_max):
+            problems.append(f"u_min > u_max for inputs {np.flatnonzero(self.u_min > self.u_max).tolist()}")
+        G = np.asarray(G, dtype=float)
+        if G.shape != (self.N * self.ny, self.nb * self.nu):
+            problems.append(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
+        if problems:
+            raise SolverError(problems_message("invalid MPC problem", problems))
+        self.soft = settings.comfort_penalty is not None
+        self.socp = settings.formulation == "socp"
+        nU, nu = self.nb * self.nu, self.nu
+        self.i_eps = nU
+        self.i_t = nU + nu
+        self.i_s = self.i_t + (1 if self.socp else 0)
+        self.nz = self.i_s + (self.N * self.ny if self.soft else 0)
+        # objective
+        pdiag = np.zeros(self.nz)
+        pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu)
+        self.P = sparse.diags(pdiag, format="csc")
+        self.q = np.zeros(self.nz)
+        if self.socp:
+            self.q[self.i_t] = settings.rho
+        else:
+            self.q[self.i_eps : self.i_eps + nu] = settings.rho
+        if self.soft:
+            self.q[self.i_s :] = settings.comfort_penalty
+        band = np.broadcast_to(np.asarray(settings.T_min, dtype=float), (self.N, self.ny))
+        self.T_min = np.array(band).ravel()
+        self.T_max = np.array(np.broadcast_to(np.asarray(settings.T_max, dtype=float), (self.N, self.ny))).ravel()
+        self._solver = None
+        self._set_G(G)
+
+    # ----- assembly ------------------------------------------------------
+    def _set_G(self, G):
+        nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
+        I_U = sparse.identity(nU, format="csc")
+        E = sparse.csc_matrix(np.tile(np.eye(nu), (self.nb, 1)))  # eps_i for every block
+        Z = lambda r, c: sparse.csc_matrix((r, c))  # noqa: E731
+        nt = 1 if self.socp else 0
+        ns = nY if self.soft else 0
+        Gs = sparse.csc_matrix(G)
+        rows = [
+            [I_U, -E, Z(nU, nt), Z(nU, ns)],
+            [-I_U, -E, Z(nU, nt), Z(nU, ns)],
+            [Z(nu, nU), -sparse.identity(nu), Z(nu, nt), Z(nu, ns)],
+            [Gs, Z(nY, nu), Z(nY, nt), -sparse.identity(nY) if ns else Z(nY, 0)],
+            [-Gs, Z(nY, nu), Z(nY, nt), -sparse.identity(nY) if ns else Z(nY, 0)],
+        ]
+        if ns:
+            rows.append([Z(ns, nU), Z(ns, nu), Z(ns, nt), -sparse.identity(ns)])
+        nf = nU if self.settings.u_floor is not None else 0
+        if nf:
+            rows.append([-I_U, Z(nU, nu), Z(nU, nt), Z(nU, ns)])
+        self.n_nonneg = 2 * nU + nu + 2 * nY + ns + nf
+        if self.socp:
+            rows.append([Z(1 + nu, nU), -sparse.vstack([Z(1, nu), sparse.identity(nu)]),
+                         -sparse.vstack([sparse.identity(1), Z(nu, 1)]), Z(1 + nu, ns)])
+        self.A = sparse.bmat(rows, format="csc")
+        self.A.sort_indices()
+        self.G = G
+
+    def update_G(self, G):
+        """Replace the output sensitivity (bilinear models: a new linearisation)."""
+        G = np.asarray(G, dtype=float)
+        self._set_G(G)
+        self._solver = None
+
+    def rhs(self, y0) -> np.ndarray:
+        """Constraint right-hand side ``b`` for the free response ``y0`` (N*ny,) [°C]."""
+        y0 = np.asarray(y0, dtype=float).ravel()
+        b = np.concatenate([
+            np.tile(self.u_max, self.nb),
+            -np.tile(self.u_min, self.nb),
+            np.zeros(self.nu),
+            self.T_max - y0,
+            y0 - self.T_min,
+            np.zeros(self.N * self.ny if self.soft else 0),
+            np.full(self.nb * self.nu if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
+            np.zeros(1 + self.nu if self.socp else 0),
+        ])
+        return b
+
+    def cones(self):
+        import clarabel
+
+        c = [clarabel.NonnegativeConeT(self.n_nonneg)]
+        if self.socp:
+            c.append(clarabel.SecondOrderConeT(1 + self.nu))
+        return c
+
+    def _clarabel_settings(self):
+        import clarabel
+
+        s = clarabel.DefaultSettings()
+        s.verbose = False
+        s.presolve_enable = False  # keep rows fixed so b can be updated in place
+        s.direct_solve_method = "qdldl"
+        s.tol_feas = s.tol_gap_abs = s.tol_gap_rel = self.settings.solver_tol
+        return s
+
+    # ----- solving -------------------------------------------------------
+    def solve(self, y0) -> QPSolution:
+        """Solve for the free response ``y0`` (N*ny,) [°C]; never raises on solver failure."""
+        b = self.rhs(y0)
+        if self.socp:
+            return self._solve_clarabel(b)
+        return self._solve_qpsolvers(b)
+
+    def _solve_clarabel(self, b) -> QPSolution:
+        import clarabel
+
+        t0 = time.perf_counter()
+        try:
+            if self._solver is None:
+                self._solver = clarabel.DefaultSolver(self.P, self.q, self.A, b, self.cones(),
+                                                      self._clarabel_settings())
+            else:
+                self._solver.update(b=b)
+            res = self._solver.solve()
+            status = str(res.status)
+            z = np.asarray(res.x, dtype=float)
+        except BaseException as exc:  # noqa: BLE001 - a failed step must not stop the week
+            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+                raise
+            self._solver = None
+            status, z = f"exception: {exc}", np.full(self.nz, np.nan)
+        dt = time.perf_counter() - t0
+        found = status in ("Solved", "AlmostSolved") and bool(np.all(np.isfinite(z)))
+        return self._solution(found, status, z, dt)
+
+    def _solve_qpsolvers(self, b) -> QPSolution:
+        import qpsolvers
+
+        t0 = time.perf_counter()
+        st = self.settings.solver_tol
+        try:
+            prob = qpsolvers.Problem(self.P, self.q, self.A, b)
+            sol = qpsolvers.solve_problem(prob, solver="clarabel", verbose=False, tol_feas=st,
+                                          tol_gap_abs=st, tol_gap_rel=st, direct_solve_method="qdldl")
+            found = bool(sol.found) and sol.x is not None and bool(np.all(np.isfinite(sol.x)))
+            z = np.asarray(sol.x, dtype=float) if sol.x is not None else np.full(self.nz, np.nan)
+            status = "Solved" if found else str(getattr(sol.extras, "get", lambda *_: "failed")("status", "failed"))
+        except BaseException as exc:  # noqa: BLE001 - a failed step must not stop the week
+            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+                raise
+            found, status, z = False, f"exception: {exc}", np.full(self.nz, np.nan)
+        return self._solution(found, status, z, time.perf_counter() - t0)
+
+    def _solution(self, found, status, z, dt) -> QPSolution:
+        nU, nu = self.nb * self.nu, self.nu
+        Ub = z[:nU].reshape(self.nb, nu)
+        U = np.repeat(Ub, self.lengths, axis=0)
+        eps = z[self.i_eps : self.i_eps + nu]
+        s = z[self.i_s :].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
+        obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) if found else float("nan")
+        if found and self.socp:  # report ρ||eps||_2 itself, not the cone variable t
+            obj += self.settings.rho * (float(np.linalg.norm(eps)) - float(z[self.i_t]))
+        return QPSolution(found, status, U, eps, s, obj, dt, z)
+
+    # ----- replay --------------------------------------------------------
+    def snapshot(self, y0, **context) -> dict:
+        """Arrays that reproduce this problem exactly (for :func:`save_problem`)."""
+        A = self.A.tocsc()
+        out = {
+            "P_data": self.P.data, "P_indices": self.P.indices, "P_indptr": self.P.indptr,
+            "P_shape": np.array(self.P.shape), "q": self.q,
+            "A_data": A.data, "A_indices": A.indices, "A_indptr": A.indptr, "A_shape": np.array(A.shape),
+            "b": self.rhs(y0), "n_nonneg": np.array(self.n_nonneg),
+            "n_soc": np.array(1 + self.nu if self.socp else 0),
+            "settings_json": np.array(json.dumps(self.settings.to_dict())),
+        }
+        for k, v in context.items():
+            out[f"ctx_{k}"] = np.asarray(v)
+        return out
+
+
+def save_problem(path, arrays: dict) -> Path:
+    """Save a problem snapshot as ``.npz`` (no pickled objects; load with ``allow_pickle=False``)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+def replay_problem(path, **clarabel_settings):
+    """Re-solve a saved problem with clarabel.
+
+    Parameters
+    ----------
+    path : path of an ``.npz`` written by :func:`save_problem`
+    **clarabel_settings : attributes set on ``clarabel.DefaultSettings``
+
+    Returns
+    -------
+    clarabel solution object (``.x``, ``.status``, ``.obj_val``)
+    """
+    import clarabel
+
+    d = np.load(path, allow_pickle=False)
+    P = sparse.csc_matrix((d["P_data"], d["P_indices"], d["P_indptr"]), shape=tuple(d["P_shape"]))
+    A = sparse.csc_matrix((d["A_data"], d["A_indices"], d["A_indptr"]), shape=tuple(d["A_shape"]))
+    cones = [clarabel.NonnegativeConeT(int(d["n_nonneg"]))]
+    if int(d["n_soc"]):
+        cones.append(clarabel.SecondOrderConeT(int(d["n_soc"])))
+    s = clarabel.DefaultSettings()
+    s.verbose = False
+    for k, v in clarabel_settings.items():
+        setattr(s, k, v)
+    return clarabel.DefaultSolver(P, d["q"], A, d["b"], cones, s).solve()
