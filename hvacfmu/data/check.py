@@ -75,6 +75,7 @@ class CheckReport:
     problems: list
     warnings: list
     path: str
+    building: str | None = None
     dataset: Dataset | None = None
     load_report: LoadReport | None = None
     gaps: list = dataclasses.field(default_factory=list)
@@ -87,11 +88,8 @@ class CheckReport:
         """The human-readable report printed by ``hvacfmu check``."""
         lines = [f"Measurements: {self.path}"]
         ds, lr = self.dataset, self.load_report
-        if ds is not None:
-            b = ds.building
-            lines.append(
-                f"Building: {b.name} ({len(b.zones)} zones, {len(b.vavs)} VAV boxes, time zone {b.timezone})"
-            )
+        if self.building:
+            lines.append(f"Building: {self.building}")
         if lr is not None and lr.start is not None:
             span = (lr.end - lr.start).total_seconds()
             lines.append(f"Span: {lr.start.isoformat()} .. {lr.end.isoformat()} ({span / 86400:.1f} days, {lr.rows} rows)")
@@ -169,15 +167,20 @@ def check(
         building = as_building(building)
     except BuildingError as exc:
         return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
+    about = f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"
     frame, report, problems = _load(path, building)
     if problems:
-        return CheckReport(ok=False, problems=problems, warnings=list(report.warnings), path=str(path), load_report=report)
+        return CheckReport(
+            ok=False, problems=problems, warnings=list(report.warnings), path=str(path), building=about, load_report=report
+        )
     try:
         dataset = _prepare(
             path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report)
         )
     except (DataError, ValueError) as exc:
-        return CheckReport(ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), load_report=report)
+        return CheckReport(
+            ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), building=about, load_report=report
+        )
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
     gaps = []
@@ -218,6 +221,7 @@ def check(
         problems=problems,
         warnings=notes,
         path=str(path),
+        building=about,
         dataset=dataset,
         load_report=report,
         gaps=gaps,

@@ -103,7 +103,7 @@ def make_weeks(index: pd.DatetimeIndex, end, building: Building, seed: int = 0, 
         if n == 1:
             notes.append(f"season {name} has only one week ({blocks[members[0]][0].date()}): no test week for it")
             continue
-        n_test = max(1, int(np.floor((1.0 - train_fraction) * n + 0.5)))
+        n_test = max(1, int(np.floor((1.0 - train_fraction) * n + 0.5 + 1e-9)))
         n_test = min(n_test, n - 1)
         rng = np.random.default_rng([int(seed), i])
         for j in rng.choice(n, size=n_test, replace=False):

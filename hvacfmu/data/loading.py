@@ -205,7 +205,8 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
     nonexistent = np.asarray(localized.isna()) & ~unparsed
     if amb.any():
         problems.append(
-            f"{label}: column {name!r}: {int(amb.sum())} naive local times are ambiguous (repeated when "
+            f"{label}: column {name!r}: {int(amb.sum())} naive local times ({len(np.unique(naive.asi8[amb]))} distinct) "
+            f"are ambiguous (repeated when "
             f"daylight saving time ends in {tz}): {_naive_rows(naive, rows, amb)}; "
             "write times with their UTC offset (e.g. 2024-11-03T01:30:00-07:00)"
         )
@@ -239,7 +240,7 @@ def _numeric(series: pd.Series):
         return series.to_numpy(dtype=float, na_value=np.nan), np.zeros(0, dtype=np.int64)
     as_num = pd.to_numeric(series, errors="coerce")
     values = as_num.to_numpy(dtype=float, na_value=np.nan)
-    present = series.notna().to_numpy()
+    present = series.notna().to_numpy().copy()
     if series.dtype == object or pd.api.types.is_string_dtype(dtype):
         text = series.astype("str").str.strip().str.lower()
         blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan"]).to_numpy()

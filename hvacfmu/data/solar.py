@@ -60,7 +60,7 @@ def facade_irradiance(times, ghi, latitude: float, longitude: float, albedo: flo
     apparent = sun["apparent_zenith"].to_numpy()
     azimuth = sun["azimuth"].to_numpy()
     ghi_pos = np.clip(np.nan_to_num(ghi, nan=0.0), 0.0, None)
-    parts = pvlib.irradiance.erbs(ghi_pos, zenith, times.dayofyear.to_numpy())
+    parts = pvlib.irradiance.erbs(ghi_pos, zenith, times.day_of_year.to_numpy())
     dni = np.nan_to_num(np.asarray(parts["dni"], dtype=float), nan=0.0)
     dhi = np.nan_to_num(np.asarray(parts["dhi"], dtype=float), nan=0.0)
     out = {}

@@ -1,0 +1,613 @@
+"""Tests of hvacfmu.data: loading, validation, units, resampling, solar, weeks, check CLI."""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from hvacfmu.building import building_from_dict
+from hvacfmu.data import (
+    AIR_DENSITY,
+    Dataset,
+    Week,
+    check,
+    facade_irradiance,
+    from_si,
+    interpolate_gaps,
+    load_measurements,
+    make_weeks,
+    prepare,
+    resample,
+    to_si,
+)
+from hvacfmu.errors import DataError, HvacfmuWarning
+
+TZ = "America/Los_Angeles"
+
+
+# --------------------------------------------------------------------------- helpers
+def make_measurements(building, start="2024-09-02 00:00", periods=1440, freq="1min", seed=0, ghi=True):
+    """Plausible SI measurements for ``building`` with a tz-aware index named ``time``."""
+    rng = np.random.default_rng(seed)
+    index = pd.date_range(pd.Timestamp(start, tz=building.timezone), periods=periods, freq=freq, name="time")
+    hours = (index.hour + index.minute / 60).to_numpy()
+    cols = {}
+    for i, z in enumerate(building.zone_names):
+        cols[f"T_{z}"] = 21.0 + i + 0.5 * np.sin(2 * np.pi * hours / 24) + rng.normal(0, 0.05, periods)
+    for j, v in enumerate(building.vav_names):
+        cols[f"m_{v}"] = 0.1 + 0.05 * j + 0.02 * rng.random(periods)
+    cols["T_supply"] = 14.0 + rng.normal(0, 0.1, periods)
+    cols["T_out"] = 15.0 + 5 * np.sin(2 * np.pi * (hours - 9) / 24)
+    if ghi:
+        cols["ghi"] = np.clip(800 * np.sin(np.pi * (hours - 6) / 12), 0, None)
+    cols["excitation"] = np.zeros(periods)
+    return pd.DataFrame(cols, index=index)
+
+
+def write(frame, path, time_style="offset"):
+    """Write a frame with its index as the ``time`` column.
+
+    time_style: 'offset' (ISO 8601 with offset), 'naive' (local wall clock),
+    'timestamp' (Parquet tz-aware timestamps).
+    """
+    out = frame.copy()
+    if time_style == "offset":
+        times = [t.isoformat() for t in out.index]
+    elif time_style == "naive":
+        times = [t.tz_localize(None).isoformat() for t in out.index]
+    elif time_style == "timestamp":
+        times = out.index
+    else:
+        raise ValueError(time_style)
+    out.index = pd.RangeIndex(len(out))
+    out.insert(0, "time", times)
+    if str(path).endswith(".parquet"):
+        out.to_parquet(path, index=False)
+    else:
+        out.to_csv(path, index=False)
+    return path
+
+
+@pytest.fixture
+def good_frame(small_building):
+    return make_measurements(small_building, periods=2 * 1440)
+
+
+# --------------------------------------------------------------------------- loading good data
+@pytest.mark.parametrize(
+    "suffix, time_style",
+    [(".csv", "offset"), (".csv", "naive"), (".parquet", "offset"), (".parquet", "timestamp"), (".parquet", "naive")],
+)
+def test_load_good_data(tmp_path, small_building, good_frame, suffix, time_style):
+    path = write(good_frame, tmp_path / f"m{suffix}", time_style)
+    frame, report = load_measurements(path, small_building)
+    assert frame.index.name == "time"
+    assert str(frame.index.tz) == TZ
+    assert frame.index.equals(good_frame.index)
+    assert list(frame.columns) == list(good_frame.columns)
+    assert_allclose(frame.to_numpy(), good_frame.to_numpy(), rtol=0, atol=1e-9)
+    assert report.rows == len(good_frame)
+    assert report.native_step == 60.0
+    assert report.has_offsets == (time_style != "naive")
+    assert report.unknown_columns == ()
+
+
+def test_load_accepts_building_path_and_warns_unknown_column(tmp_path, small_building, good_frame):
+    good_frame = good_frame.assign(comment_col=1.0)
+    path = write(good_frame, tmp_path / "m.csv")
+    frame, report = load_measurements(path, small_building.save(tmp_path / "b.toml"))
+    assert "comment_col" not in frame.columns
+    assert report.unknown_columns == ("comment_col",)
+    assert any("unknown column" in w and "comment_col" in w for w in report.warnings)
+
+
+def test_offsets_across_dst_end_are_accepted(tmp_path, small_building):
+    # 2024-11-03: clocks go back 02:00 PDT -> 01:00 PST; the day has 25 hours
+    frame = make_measurements(small_building, start="2024-11-02 00:00", periods=3 * 1440 + 60)
+    assert frame.index.is_monotonic_increasing
+    path = write(frame, tmp_path / "m.csv", "offset")
+    loaded, report = load_measurements(path, small_building)
+    assert loaded.index.is_unique and loaded.index.is_monotonic_increasing
+    assert report.has_offsets
+    ds = _quiet_prepare(path, small_building)
+    day = ds.frame.loc["2024-11-03"]
+    assert len(day) == 100  # 25 h of 15-minute steps
+
+
+def test_naive_times_across_dst_are_reported(tmp_path, small_building):
+    fall = make_measurements(small_building, start="2024-11-03 00:00", periods=4 * 60)
+    path = write(fall, tmp_path / "fall.csv", "naive")
+    with pytest.raises(DataError, match=r"120 naive local times \(60 distinct\) are ambiguous.*2024-11-03 01:00:00 at row 61"):
+        load_measurements(path, small_building)
+    # a naive logger writing every wall-clock minute from 00:00: 02:00..02:59 do not exist locally
+    spring = make_measurements(small_building, start="2024-03-09 00:00", periods=4 * 60).reset_index(drop=True)
+    spring.insert(0, "time", [t.isoformat() for t in pd.date_range("2024-03-10 00:00", periods=4 * 60, freq="1min")])
+    spring.to_csv(tmp_path / "spring.csv", index=False)
+    with pytest.raises(DataError, match=r"60 naive local times do not exist.*2024-03-10 02:00:00 at row 121"):
+        load_measurements(tmp_path / "spring.csv", small_building)
+
+
+# --------------------------------------------------------------------------- bad input
+def _set(frame, column, row, value):
+    frame = frame.astype({column: object}) if isinstance(value, str) else frame
+    frame.iloc[row, frame.columns.get_loc(column)] = value
+    return frame
+
+
+def _dup_time(frame):
+    idx = frame.index.to_list()
+    idx[10] = idx[9]
+    frame.index = pd.DatetimeIndex(idx, name="time")
+    return frame
+
+
+def _swap_times(frame):
+    idx = frame.index.to_list()
+    idx[20], idx[21] = idx[21], idx[20]
+    frame.index = pd.DatetimeIndex(idx, name="time")
+    return frame
+
+
+def _bad_time_text(frame):
+    out = frame.copy()
+    out.index = pd.Index([t.isoformat() for t in frame.index], name="time")
+    out.index = out.index.where(np.arange(len(out)) != 4, "yesterday noon")
+    return out
+
+
+def _mixed_offsets(frame):
+    out = frame.copy()
+    text = [t.isoformat() for t in frame.index]
+    text[7] = frame.index[7].tz_localize(None).isoformat()
+    out.index = pd.Index(text, name="time")
+    return out
+
+
+def _units(**units):
+    def mutate(frame, bdict):
+        bdict["units"] = units
+        return frame, bdict
+
+    return mutate
+
+
+def _frame_only(f):
+    return lambda frame, bdict: (f(frame), bdict)
+
+
+BAD_INPUTS = [
+    ("missing column", _frame_only(lambda f: f.drop(columns=["T_out"])), r"missing required column 'T_out'"),
+    (
+        "missing mapped column",
+        lambda f, b: (f, {**b, "columns": {"T_A": "Room A"}}),
+        r"missing required column 'Room A' \(mapped from T_A\)",
+    ),
+    (
+        "non-numeric",
+        _frame_only(lambda f: _set(f, "T_A", 5, "abc")),
+        r"column 'T_A': 1 non-numeric value\(s\), e\.g\. 'abc' at row 6 \(2024-09-02T00:05:00-07:00\)",
+    ),
+    ("duplicate time", _frame_only(_dup_time), r"column 'time': 1 duplicate timestamps at row 11"),
+    ("time backwards", _frame_only(_swap_times), r"times go backwards at 1 place\(s\): row 22 .* after row 21"),
+    ("unparseable time", _frame_only(_bad_time_text), r"1 values are not ISO 8601 times, e\.g\. 'yesterday noon' at row 5"),
+    ("mixed offsets", _frame_only(_mixed_offsets), r"mixes times with and without UTC offset; 1 without offset at .*row 8"),
+    ("negative airflow", _frame_only(lambda f: _set(f, "m_V2", 30, -0.4)), r"column 'm_V2': 1 negative airflow .* -0\.4 at row 31"),
+    ("hot room", _frame_only(lambda f: _set(f, "T_B", 40, 95.0)), r"column 'T_B': 1 value\(s\) outside -50\.\.80 °C .* 95 at row 41"),
+    (
+        "degF declared as degC",
+        _frame_only(lambda f: f.assign(T_A=f["T_A"] * 1.8 + 32)),
+        r"column 'T_A': declared degC but the median is 7\d\.\d+.*look like degF",
+    ),
+    (
+        "kelvin declared as degC",
+        _frame_only(lambda f: f.assign(T_out=f["T_out"] + 273.15)),
+        r"column 'T_out': declared degC .* look like K",
+    ),
+    (
+        "cfm declared as kg/s",
+        _frame_only(lambda f: f.assign(m_V3=f["m_V3"] / 1.2 / 0.000471947)),
+        r"column 'm_V3': median airflow \d+(\.\d+)? kg/s \(declared kg/s\) is far above the box's m_max = 0\.4 kg/s.*cfm",
+    ),
+    ("negative irradiance", _frame_only(lambda f: _set(f, "ghi", 3, -50.0)), r"column 'ghi': 1 negative irradiance .* -50 at row 4"),
+    ("excessive irradiance", _frame_only(lambda f: _set(f, "ghi", 700, 5000.0)), r"column 'ghi': 1 value\(s\) above 1500 W/m²"),
+    ("excitation not 0/1", _frame_only(lambda f: _set(f, "excitation", 2, 2.0)), r"column 'excitation': 1 value\(s\) other than 0 or 1"),
+    ("unknown unit", _units(**{"T_*": "furlongs"}), r"column 'T_A'.*unit 'furlongs' is not a temperature unit"),
+    ("empty column", _frame_only(lambda f: f.assign(T_supply=np.nan)), r"column 'T_supply': no values at all"),
+    (
+        "partial facades without ghi",
+        _frame_only(lambda f: f.drop(columns=["ghi"]).assign(I_S=100.0)),
+        r"facade irradiance given for S but not for N, E, W, and no 'ghi' column",
+    ),
+]
+
+
+@pytest.mark.parametrize("name, mutate, message", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
+def test_bad_input_is_rejected_with_message(tmp_path, small_building_dict, name, mutate, message):
+    building = building_from_dict(small_building_dict)
+    frame = make_measurements(building, periods=720)
+    frame, bdict = mutate(frame.copy(), copy.deepcopy(small_building_dict))
+    building = building_from_dict(bdict)
+    if isinstance(frame.index, pd.DatetimeIndex):
+        path = write(frame, tmp_path / "bad.csv")
+    else:  # index already holds time text
+        out = frame.reset_index()
+        out.to_csv(tmp_path / "bad.csv", index=False)
+        path = tmp_path / "bad.csv"
+    with pytest.raises(DataError, match=message) as info:
+        load_measurements(path, building)
+    assert "bad.csv" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "filename, message",
+    [("nothere.csv", r"nothere\.csv: file does not exist"), ("m.xlsx", r"unknown file type '\.xlsx'")],
+)
+def test_bad_files(tmp_path, small_building, filename, message):
+    if filename.endswith(".xlsx"):
+        (tmp_path / filename).write_bytes(b"PK")
+    with pytest.raises(DataError, match=message):
+        load_measurements(tmp_path / filename, small_building)
+
+
+def test_all_problems_reported_at_once(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=720)
+    frame = _set(frame, "T_A", 5, "abc")
+    frame = _set(frame, "m_V1", 7, -3.0)
+    frame = _set(frame, "T_B", 100, 200.0)
+    frame = _dup_time(frame).drop(columns=["T_out"])
+    path = write(frame, tmp_path / "bad.csv")
+    with pytest.raises(DataError) as info:
+        load_measurements(path, small_building)
+    msg = str(info.value)
+    assert "(5 problems)" in msg
+    for part in ("missing required column 'T_out'", "duplicate timestamps", "'abc'", "negative airflow", "outside -50..80"):
+        assert part in msg
+
+
+def test_small_negative_noise_is_clipped_with_warning(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=720)
+    frame = _set(frame, "ghi", 0, -2.0)
+    frame = _set(frame, "m_V1", 1, -0.001)
+    loaded, report = load_measurements(write(frame, tmp_path / "m.csv"), small_building)
+    assert loaded["ghi"].iloc[0] == 0.0 and loaded["m_V1"].iloc[1] == 0.0
+    assert sum("sensor noise" in w for w in report.warnings) == 2
+
+
+# --------------------------------------------------------------------------- units
+@pytest.mark.parametrize(
+    "unit, si, value",
+    [
+        ("degF", 0.0, 32.0),
+        ("degF", 100.0, 212.0),
+        ("degF", -40.0, -40.0),
+        ("K", 0.0, 273.15),
+        ("K", 21.0, 294.15),
+        ("m3/s", 1.2, 1.0),
+        ("L/s", 1.2, 1000.0),
+        ("cfm", 0.3048**3 / 60 * AIR_DENSITY, 1.0),
+        ("cfm", 1.2, 2118.880),
+        ("kg/s", 0.3, 0.3),
+        ("degC", 21.5, 21.5),
+        ("W/m2", 500.0, 500.0),
+    ],
+)
+def test_unit_conversion_known_points(unit, si, value):
+    assert_allclose(to_si([value], unit), [si], rtol=1e-6, atol=1e-12)
+    assert_allclose(from_si([si], unit), [value], rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("unit", ["degC", "degF", "K", "kg/s", "m3/s", "L/s", "cfm", "W/m2"])
+def test_unit_round_trip(unit, rng):
+    x = rng.normal(10.0, 5.0, 100)
+    assert_allclose(to_si(from_si(x, unit), unit), x, rtol=0, atol=1e-12)
+
+
+def test_load_converts_declared_units_and_mapped_names(tmp_path, small_building_dict):
+    building = building_from_dict(small_building_dict)
+    si = make_measurements(building, periods=720)
+    bdict = copy.deepcopy(small_building_dict)
+    bdict["columns"] = {"T_A": "RM-A ZN-T", "m_V1": "VAV1 FLOW", "time": "Timestamp"}
+    bdict["units"] = {"T_*": "degF", "T_out": "K", "m_*": "cfm", "m_V2": "L/s", "m_V3": "m3/s"}
+    mapped = building_from_dict(bdict)
+    raw = si.copy()
+    for c in raw.columns:
+        unit = mapped.unit_for(c)
+        if unit:
+            raw[c] = from_si(raw[c], unit)
+    raw = raw.rename(columns={"T_A": "RM-A ZN-T", "m_V1": "VAV1 FLOW"})
+    raw.index.name = "Timestamp"
+    out = raw.reset_index()
+    out["Timestamp"] = [t.isoformat() for t in raw.index]
+    out.to_csv(tmp_path / "bms.csv", index=False)
+    frame, report = load_measurements(tmp_path / "bms.csv", mapped)
+    assert report.units["T_A"] == "degF" and report.units["T_out"] == "K" and report.units["m_V2"] == "L/s"
+    assert report.columns["T_A"] == "RM-A ZN-T"
+    assert list(frame.columns) == list(si.columns)
+    assert_allclose(frame.to_numpy(), si.to_numpy(), rtol=0, atol=1e-9)
+
+
+# --------------------------------------------------------------------------- resampling
+def _series(values, start="2024-09-02 00:00", freq="1min", name="T_A"):
+    index = pd.date_range(pd.Timestamp(start, tz=TZ), periods=len(values), freq=freq, name="time")
+    return pd.DataFrame({name: np.asarray(values, dtype=float)}, index=index)
+
+
+def test_resample_exact_averages_and_left_closed_labels():
+    frame = _series(np.arange(30))
+    out, cov = resample(frame, 900)
+    assert list(out.index) == [pd.Timestamp("2024-09-02 00:00", tz=TZ), pd.Timestamp("2024-09-02 00:15", tz=TZ)]
+    assert_allclose(out["T_A"], [7.0, 22.0], rtol=0, atol=1e-12)  # mean of 0..14, 15..29
+    assert_allclose(cov["T_A"], [1.0, 1.0], rtol=0, atol=1e-12)
+    assert str(out.index.tz) == TZ and out.index.name == "time"
+
+
+def test_resample_aligns_bins_to_local_clock():
+    frame = _series(np.arange(20), start="2024-09-02 00:07")
+    out, cov = resample(frame, 900)
+    assert out.index[0] == pd.Timestamp("2024-09-02 00:00", tz=TZ)
+    # 00:07..00:14 are 8 samples of 15 (53 %) -> kept; 00:15..00:26 are 12 samples
+    assert_allclose(out["T_A"], [3.5, 13.5], rtol=0, atol=1e-12)
+    assert_allclose(cov["T_A"], [8 / 15, 12 / 15], rtol=0, atol=1e-12)
+
+
+def test_resample_coverage_rule():
+    v = np.arange(45, dtype=float)
+    v[0:8] = np.nan  # bin 0: 7 of 15 samples -> NaN
+    v[15:22] = np.nan  # bin 1: 8 of 15 samples -> mean of the 8
+    out, _ = resample(_series(v), 900)
+    assert np.isnan(out["T_A"].iloc[0])
+    assert_allclose(out["T_A"].iloc[1], np.mean(np.arange(22, 30)), rtol=0, atol=1e-12)
+    assert_allclose(out["T_A"].iloc[2], 37.0, rtol=0, atol=1e-12)
+    out_strict, _ = resample(_series(v), 900, min_coverage=0.6)
+    assert np.isnan(out_strict["T_A"].iloc[1])
+
+
+def test_resample_excitation_any_sample():
+    e = np.zeros(60)
+    e[14] = 1.0  # last minute of bin 0
+    e[30:45] = np.nan  # bin 2 missing entirely
+    out, _ = resample(_series(e, name="excitation"), 900)
+    assert out["excitation"].iloc[0] == 1.0
+    assert out["excitation"].iloc[1] == 0.0
+    assert np.isnan(out["excitation"].iloc[2])
+    assert out["excitation"].iloc[3] == 0.0
+
+
+def test_gaps_preserved_without_interpolation_and_filled_with_limit():
+    v = np.linspace(20.0, 22.0, 240)
+    gapped = v.copy()
+    gapped[20:28] = np.nan  # 8-minute gap inside bin 1 (coverage 7/15 -> NaN)
+    gapped[120:180] = np.nan  # 1-hour gap: bins 8..11
+    frame = _series(gapped)
+    out, _ = resample(frame, 900)
+    assert np.isnan(out["T_A"].iloc[1])
+    assert np.isnan(out["T_A"].iloc[8:12]).all()
+    filled = interpolate_gaps(frame, limit=10)
+    assert_allclose(filled["T_A"].iloc[20:28], v[20:28], rtol=0, atol=1e-9)  # linear data -> exact
+    assert np.isnan(filled["T_A"].iloc[120:180]).all()  # 60 min > 10 min limit: kept
+    out2, _ = resample(filled, 900)
+    assert_allclose(out2["T_A"].iloc[1], v[15:30].mean(), rtol=0, atol=1e-9)
+    assert np.isnan(out2["T_A"].iloc[8:12]).all()
+    filled_long = interpolate_gaps(frame, limit=60)
+    assert np.isfinite(filled_long["T_A"]).all()
+    assert np.isnan(interpolate_gaps(frame, limit=59)["T_A"].iloc[150])
+
+
+def test_interpolation_fills_missing_timestamps():
+    frame = _series(np.arange(60, dtype=float))
+    frame = frame.drop(frame.index[10:15])  # 5 rows missing from the file
+    filled = interpolate_gaps(frame, limit=5)
+    assert len(filled) == 60
+    assert_allclose(filled["T_A"], np.arange(60), rtol=0, atol=1e-9)
+    assert len(interpolate_gaps(frame, limit=4).dropna()) == 55
+
+
+def test_resample_coarse_column_interpolated_to_midpoints():
+    index = pd.date_range(pd.Timestamp("2024-09-02 00:00", tz=TZ), periods=181, freq="1min", name="time")
+    ghi = np.full(181, np.nan)
+    ghi[::60] = [0.0, 100.0, 200.0, 300.0]  # hourly readings at 00:00, 01:00, 02:00, 03:00
+    frame = pd.DataFrame({"T_A": 20.0, "ghi": ghi}, index=index)
+    out, _ = resample(frame, 900)
+    # midpoint of the 00:15 bin is 00:22:30 -> 37.5 W/m2
+    assert_allclose(out["ghi"].iloc[:4], [12.5, 37.5, 62.5, 87.5], rtol=0, atol=1e-9)
+    assert_allclose(out["T_A"].iloc[:12], 20.0, rtol=0, atol=1e-12)
+    assert np.isnan(out["T_A"].iloc[12])  # the 03:00 bin holds a single 1-minute sample
+
+
+def test_resample_rejects_step_not_dividing_an_hour():
+    with pytest.raises(ValueError, match="dividing one hour"):
+        resample(_series(np.arange(10)), 7 * 60)
+
+
+# --------------------------------------------------------------------------- weeks and seasons
+def _weeks(start, days, seed=0, train_fraction=0.9, building=None, step=900):
+    index = pd.date_range(pd.Timestamp(start, tz=TZ), periods=int(days * 86400 / step), freq=f"{step}s")
+    return make_weeks(index, index[-1] + pd.Timedelta(seconds=step), building, seed=seed, train_fraction=train_fraction)
+
+
+def test_week_blocks_start_at_first_local_midnight(small_building):
+    weeks, _ = _weeks("2024-08-28 10:00", 22, building=small_building)
+    # first midnight after 08-28 10:00 is 08-29; 21.6 days left -> 3 full weeks... only 2 fit before 09-19 10:00
+    assert [w.start for w in weeks] == [
+        pd.Timestamp("2024-08-29", tz=TZ),
+        pd.Timestamp("2024-09-05", tz=TZ),
+        pd.Timestamp("2024-09-12", tz=TZ),
+    ]
+    assert all(w.end - w.start == pd.Timedelta(days=7) for w in weeks)
+    assert [w.number for w in weeks] == [0, 1, 2]
+    # season of the midpoint: 08-29 + 3.5 d = 09-01 12:00 -> fall
+    assert [w.season for w in weeks] == ["fall", "fall", "fall"]
+    weeks2, _ = _weeks("2024-08-28 10:00", 21.5, building=small_building)
+    assert len(weeks2) == 2  # trailing partial block dropped
+
+
+def test_week_midpoint_season_and_dst_week(small_building):
+    weeks, _ = _weeks("2024-08-24 00:00", 14, building=small_building)
+    assert [w.season for w in weeks] == ["summer", "fall"]  # midpoints 08-27 12:00 and 09-03 12:00
+    weeks, _ = _weeks("2024-10-28 00:00", 14, building=small_building)
+    assert weeks[0].end - weeks[0].start == pd.Timedelta(days=7, hours=1)  # contains the end of DST
+    assert weeks[0].end == pd.Timestamp("2024-11-04", tz=TZ)
+
+
+def test_week_split_per_season(small_building):
+    weeks, notes = _weeks("2024-09-02 00:00", 51 * 7, building=small_building)
+    assert len(weeks) == 51
+    for season in small_building.season_names:
+        members = [w for w in weeks if w.season == season]
+        n_test = sum(not w.train for w in members)
+        assert n_test == max(1, round(0.1 * len(members) + 1e-9)) if len(members) >= 2 else n_test == 0
+    assert 0.05 <= sum(not w.train for w in weeks) / len(weeks) <= 0.15
+    again, _ = _weeks("2024-09-02 00:00", 51 * 7, building=small_building)
+    assert [w.train for w in again] == [w.train for w in weeks]  # deterministic
+    splits = {tuple(w.train for w in _weeks("2024-09-02", 51 * 7, seed=s, building=small_building)[0]) for s in range(5)}
+    assert len(splits) > 1  # the seed matters
+
+
+def test_season_with_one_week_gets_no_test_week(small_building):
+    # 2024-12-16 (Mon) .. : winter 12-16..01-25: the 2-week span gives 2 winter weeks, 1 test
+    weeks, notes = _weeks("2024-12-16", 14, building=small_building)
+    assert [w.season for w in weeks] == ["winter", "winter"]
+    assert sum(not w.train for w in weeks) == 1
+    weeks, notes = _weeks("2024-12-16", 7, building=small_building)
+    assert len(weeks) == 1 and weeks[0].train
+    assert any("only one week" in n for n in notes)
+
+
+# --------------------------------------------------------------------------- facade irradiance
+def test_facade_irradiance_sanity(small_building):
+    import pvlib
+
+    loc = pvlib.location.Location(small_building.latitude, small_building.longitude, tz=TZ)
+    times = pd.DatetimeIndex(
+        [
+            pd.Timestamp("2024-12-21 12:00", tz=TZ),  # winter noon
+            pd.Timestamp("2024-12-21 23:00", tz=TZ),  # night
+            pd.Timestamp("2024-06-21 09:00", tz=TZ),  # summer morning
+            pd.Timestamp("2024-06-21 16:00", tz=TZ),  # summer afternoon
+        ]
+    )
+    ghi = loc.get_clearsky(times)["ghi"].to_numpy()
+    irr = facade_irradiance(times, ghi, small_building.latitude, small_building.longitude)
+    noon, night, morning, afternoon = (irr.iloc[i] for i in range(4))
+    assert noon["I_S"] > 2 * noon["I_N"] and noon["I_S"] > 300.0
+    assert_allclose(night.to_numpy(), 0.0, rtol=0, atol=1e-9)
+    assert morning["I_E"] > 2 * morning["I_W"]
+    assert afternoon["I_W"] > 2 * afternoon["I_E"]
+    assert (irr.to_numpy() >= 0).all()
+    nan = facade_irradiance(times[:1], [np.nan], small_building.latitude, small_building.longitude)
+    assert nan.isna().all(axis=None)
+
+
+# --------------------------------------------------------------------------- prepare
+def _quiet_prepare(*args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(*args, **kwargs)
+
+
+def test_prepare_dataset(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-12-09 00:00", periods=3 * 7 * 1440)
+    frame.iloc[3000:3300, 0] = np.nan  # 5-hour gap in T_A
+    frame.loc["2024-12-14 10:00":"2024-12-14 11:59", "excitation"] = 1.0
+    path = write(frame, tmp_path / "m.parquet", "timestamp")
+    with pytest.warns(HvacfmuWarning, match="no excitation|only one week|season"):
+        ds = prepare(path, small_building.save(tmp_path / "b.toml"), seed=3)
+    assert isinstance(ds, Dataset)
+    assert ds.step == 900.0 and ds.has_solar
+    assert ds.sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
+    assert ds.source == str(path)
+    cols = ["T_A", "T_B", "m_V1", "m_V2", "m_V3", "T_supply", "T_out", "ghi", "I_N", "I_E", "I_S", "I_W", "excitation"]
+    assert list(ds.frame.columns) == cols
+    assert len(ds.frame) == 3 * 7 * 96
+    assert ds.frame.index.name == "time" and str(ds.frame.index.tz) == TZ
+    assert (np.diff(ds.frame.index.asi8) == 900 * 10**9).all()
+    assert_allclose(ds.frame["T_B"].iloc[:4], frame["T_B"].iloc[:60].to_numpy().reshape(4, 15).mean(axis=1), rtol=0, atol=1e-12)
+    assert np.isnan(ds.frame["T_A"].iloc[200:220]).all()  # rows 3000..3300 of 1-min data = steps 200..219
+    assert ds.frame["excitation"].sum() == 8
+    # weeks: 12-09 (fall, midpoint 12-12), 12-16 and 12-23 (winter)
+    assert [w.season for w in ds.weeks] == ["fall", "winter", "winter"]
+    assert len(ds.train_weeks()) + len(ds.test_weeks()) == 3
+    assert len(ds.test_weeks("winter")) == 1 and ds.test_weeks("fall") == ()
+    for w in ds.weeks:
+        assert len(ds.week_frame(w)) == 672
+        assert isinstance(w, Week)
+    assert list(np.unique(ds.season_of_row)) == ["fall", "winter"]
+    assert ds.season_of_row[0] == "fall" and ds.season_of_row[96 * 7] == "winter"
+
+
+def test_prepare_without_solar(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=1440, ghi=False)
+    ds = _quiet_prepare(write(frame, tmp_path / "m.csv"), small_building)
+    assert not ds.has_solar
+    assert not any(c.startswith("I_") or c == "ghi" for c in ds.frame.columns)
+    assert any("no solar" in w for w in ds.warnings)
+
+
+def test_prepare_interpolate_limit(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=1440)
+    frame.iloc[20:28, frame.columns.get_loc("T_A")] = np.nan
+    path = write(frame, tmp_path / "m.csv")
+    kept = _quiet_prepare(path, small_building).frame
+    filled = _quiet_prepare(path, small_building, interpolate_limit=10).frame
+    assert np.isnan(kept["T_A"].iloc[1])
+    assert np.isfinite(filled["T_A"].iloc[1])
+
+
+# --------------------------------------------------------------------------- check
+def test_check_report_contents(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-09-02", periods=15 * 1440)
+    frame.iloc[3000:3300, 1] = np.nan
+    frame.loc["2024-09-07 10:00":"2024-09-07 13:59", "excitation"] = 1.0
+    frame.loc["2024-09-14 10:00":"2024-09-14 10:29", "excitation"] = 1.0
+    report = check(write(frame, tmp_path / "m.csv"), small_building)
+    assert report.ok and report.problems == []
+    text = str(report)
+    assert "Span: 2024-09-02T00:00:00-07:00 .. 2024-09-16T23:59:00-07:00" in text
+    assert "Native resolution: 60 s" in text
+    assert "T_B" in text and "1 gap(s), longest 5 h 00 min from 2024-09-04T02:00:00-07:00" in text
+    assert "fall       2 weeks: 1 train, 1 test" in text
+    assert "Excitation periods: 2 (4 h 30 min in total)" in text
+    assert "2024-09-07 Sat 10:00 .. 14:00" in text
+    assert text.rstrip().endswith("OK: the data can be used for fitting")
+
+
+def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=3 * 1440)  # 3 days: no full week
+    report = check(write(frame, tmp_path / "short.csv"), small_building)
+    assert not report.ok and any("no complete week" in p for p in report.problems)
+    bad = _set(frame, "T_A", 3, "oops").drop(columns=["T_supply"])
+    report = check(write(bad, tmp_path / "bad.csv"), small_building)
+    assert not report.ok and len(report.problems) == 2
+    assert "NOT USABLE: 2 problems" in str(report)
+
+
+def _cli(*args, cwd):
+    return subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=120
+    )
+
+
+def test_check_cli(tmp_path, small_building):
+    building = small_building.save(tmp_path / "b.toml")
+    frame = make_measurements(small_building, periods=8 * 1440)
+    good = write(frame, tmp_path / "good.csv")
+    res = _cli(good, "--building", building, cwd=tmp_path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "OK: the data can be used for fitting" in res.stdout and "Weeks: 1" in res.stdout
+    bad = _set(_set(frame, "T_A", 5, "abc"), "m_V1", 9, -1.0).drop(columns=["T_out"])
+    res = _cli(write(bad, tmp_path / "bad.csv"), "--building", building, cwd=tmp_path)
+    assert res.returncode == 1
+    assert "NOT USABLE: 3 problems" in res.stdout
+    for part in ("missing required column 'T_out'", "'abc' at row 6", "negative airflow"):
+        assert part in res.stdout
+    assert "Traceback" not in res.stderr
+    res = _cli(good, "--building", tmp_path / "missing.toml", cwd=tmp_path)
+    assert res.returncode == 1 and "does not exist" in res.stdout
