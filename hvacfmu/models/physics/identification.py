@@ -1,0 +1,515 @@
+"""Identification of Model B (section IV.B of Zhou, Hu & Tomlin).
+
+Step 1 (weekend training data, ``f_IG^v = 0``): the five physical parameters
+``U_win, gamma_IW, gamma_EW, gamma_floor, gamma_ceil`` and the constant gains
+``f_IG^c`` (one per zone) minimise the summed squared simulation error of the
+zone temperatures over weekend-day segments of every season (eq. physics_opt).
+Each segment starts from a Kalman-filter estimate of the full state (walls are
+not measured) obtained over the preceding warm-up window. Positivity: the
+physical parameters are optimised in logarithms, ``f_IG^c >= 0`` by
+non-negative least squares. Because the simulated output is affine in
+``f_IG^c`` (for given parameters), ``f_IG^c`` is eliminated by variable
+projection: every residual evaluation simulates the segments once per zone
+plus once, as one batch, and solves a small NNLS problem; ``least_squares``
+then works on the five log-parameters only.
+
+Step 2: ``f_IG,m,w^v(k)`` by ordinary least squares from
+``(C B_IG) f = y(k+1) - y~(k+1)`` with ``y~`` the one-step prediction from the
+filtered state (eq. ig(k-1)) for every training week, averaged per season and
+time of week (eq. fixed_ig).
+
+Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
+Jacobian at the optimum, with the residual variance inflated by
+``(1 + rho) / (1 - rho)`` for the lag-1 autocorrelation ``rho`` of the
+residuals (simulation errors are strongly autocorrelated; without it the
+standard errors are far too small). A parameter is flagged as not
+identifiable when its relative standard deviation exceeds 100 %, when it
+loads on a near-singular direction of the scaled Jacobian, or when it ends at
+a bound.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+
+import numpy as np
+import pandas as pd
+import scipy.optimize as so
+
+from ...errors import FitError
+from ...timeutil import n_time_of_week, time_of_week
+from .geometry import PARAM_NAMES, parse_physics
+from .model import PhysicsModel, fill_signals, kalman_gain
+
+log = logging.getLogger(__name__)
+
+
+class _Segments:
+    """Weekend-day segments with their warm-up windows, as arrays.
+
+    y (B, nw+ns+1, nz), u (B, nw+ns, n_vav), v (B, nw+ns, nv), q0 (B, nw+ns, nq)
+    (zero gains, ground temperature column if any); rows ``nw+1 ..`` are fitted.
+    """
+
+    def __init__(self, y, u, v, q0, nw, seasons, starts):
+        self.y, self.u, self.v, self.q0 = y, u, v, q0
+        self.nw = nw
+        self.seasons = seasons
+        self.starts = starts
+        self.mask = np.isfinite(y[:, nw + 1:])
+
+    @property
+    def n(self):
+        return self.y.shape[0]
+
+
+def _row_of(index: pd.DatetimeIndex, ts, step) -> int | None:
+    """Row of timestamp ``ts`` in a regular ``index`` (None if absent)."""
+    i = int(index.searchsorted(ts))
+    if i < len(index) and index[i] == ts:
+        return i
+    return None
+
+
+def _regular(index, r0, n, step) -> bool:
+    return r0 >= 0 and r0 + n < len(index) and (index[r0 + n] - index[r0]).total_seconds() == n * step
+
+
+def _weekend_segments(dataset, model, nw, ns, max_segments):
+    frame = dataset.frame
+    index = frame.index
+    step = dataset.step
+    y_all = model.measured_outputs(frame)
+    u_all, v_all = model.signals(frame)
+    nz = len(model.outputs)
+    starts, seasons = [], []
+    for week in dataset.weeks:
+        if not week.train:
+            continue
+        for day in range(7):
+            t0 = pd.Timestamp(week.start) + pd.DateOffset(days=day)  # calendar days (DST-safe)
+            if t0.dayofweek < 5:
+                continue
+            r = _row_of(index, t0, step)
+            if r is None or not _regular(index, r - nw, nw + ns, step):
+                continue
+            seg = slice(r, r + ns)
+            if np.isnan(u_all[seg]).any() or np.isnan(v_all[seg]).any():
+                continue
+            if np.isfinite(y_all[r + 1: r + ns + 1]).mean() < 0.5 or np.isnan(y_all[r]).all():
+                continue
+            starts.append(r)
+            seasons.append(week.season)
+    if not starts:
+        raise FitError(
+            "no usable weekend segment in the training weeks (need complete airflows and disturbances over "
+            f"{ns} steps after a {nw}-step warm-up on Saturdays/Sundays)"
+        )
+    starts = np.asarray(starts)
+    seasons = np.asarray(seasons)
+    if max_segments and len(starts) > max_segments:
+        keep = np.unique(np.round(np.linspace(0, len(starts) - 1, int(max_segments))).astype(int))
+        starts, seasons = starts[keep], seasons[keep]
+    rows = starts[:, None] + np.arange(-nw, ns + 1)[None, :]
+    y = y_all[rows]
+    u = u_all[rows[:, :-1]]
+    v = v_all[rows[:, :-1]]
+    for b in range(len(starts)):
+        u[b] = fill_signals(u[b], 0.0)
+        v[b] = fill_signals(v[b], np.nanmean(y[b]))
+    q0 = np.zeros(u.shape[:2] + (len(model.q_names),))
+    if len(model.q_names) > nz:
+        q0[..., nz] = model._spec.ground_temperature
+    return _Segments(y, u, v, q0, nw, seasons, starts)
+
+
+def _simulate_segments(template, theta, step, segs, K):
+    """Outputs of every segment for zero gains and for 1 W in each zone.
+
+    Returns ``Y0`` (B, ns, nz) and ``S`` (nz, B, ns, nz) [K/W] such that the
+    simulated outputs for constant gains ``f`` are ``Y0 + sum_j f_j S[j]``.
+    """
+    net = template.build(np.exp(theta))
+    disc = net.discretize(step)
+    nz = template.n_zones
+    nw = segs.nw
+    with np.errstate(all="ignore"):
+        ymean = np.nanmean(segs.y[:, : nw + 1], axis=1)
+    ymean = np.where(np.isnan(ymean), np.nanmean(ymean), ymean)
+    T_out = segs.v[:, :nw, 0].mean(axis=1) if nw else segs.v[:, 0, 0]
+    x0 = net.wall_steady_state(ymean, T_out, segs.q0[:, 0])
+    y0 = segs.y[:, 0]
+    x0[:, :nz] = np.where(np.isnan(y0), ymean, y0)
+    z0 = x0 @ disc.W.T
+    # copies: 0 = no zone gains, j = 1 W in zone j-1
+    ncopy = nz + 1
+    qc = np.zeros((ncopy, 1, 1, segs.q0.shape[-1]))
+    qc[np.arange(1, ncopy), 0, 0, np.arange(nz)] = 1.0
+    q = segs.q0[None] + qc
+    m = segs.u @ disc.zone_vav.T
+    Kz = disc.W @ K
+    Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1)
+    Yf = Y[:, :, nw + 1:]
+    return Yf[0], Yf[1:] - Yf[0][None]
+
+
+def _solve_gains(Y0, S, segs):
+    """NNLS estimate of the constant gains f (nz,) [W] and the residuals."""
+    mask = segs.mask
+    target = (segs.y[:, segs.nw + 1:] - Y0)[mask]
+    A = S[:, mask].T
+    Qm, R = np.linalg.qr(A)
+    f, _ = so.nnls(R, Qm.T @ target)
+    return f, A @ f - target
+
+
+def _lag1(res_blocks):
+    """Pooled lag-1 autocorrelation of residual series (B, n, nz) with NaN gaps."""
+    r = res_blocks
+    a, b = r[:, 1:], r[:, :-1]
+    ok = np.isfinite(a) & np.isfinite(b)
+    den = np.sum(np.where(np.isfinite(r), r, 0.0) ** 2)
+    if den == 0:
+        return 0.0
+    return float(np.clip(np.sum(np.where(ok, a * b, 0.0)) / den, 0.0, 0.99))
+
+
+def fit_physics(
+    dataset,
+    *,
+    progress: bool = True,
+    solar: bool = False,
+    max_layer_thickness: float | None = None,
+    furniture_capacity: float | None = None,
+    internal_mass: float | None = None,
+    segment_hours: float = 24.0,
+    warmup_hours: float = 24.0,
+    max_segments: int | None = 48,
+    kalman: dict | None = None,
+    kalman_rounds: int = 1,
+    bound_factor: float = 30.0,
+    max_nfev: int = 60,
+    initial: dict | None = None,
+) -> PhysicsModel:
+    """Identify Model B on ``dataset``'s training weeks (two steps, see the module docstring).
+
+    Parameters
+    ----------
+    dataset : hvacfmu.data.Dataset
+        Its building must carry the physics tables.
+    progress : bool
+        Show a progress bar over residual evaluations.
+    solar : bool
+        Model solar gains through the windows (needs facade irradiance in the data).
+    max_layer_thickness : float [m], optional
+        Node splitting of massive layers (default: building file, else 0.025 m).
+    furniture_capacity, internal_mass : float [J/(K m2)], optional
+        Override the building file's values.
+    segment_hours, warmup_hours : float [h]
+        Length of each simulated weekend segment and of the Kalman warm-up before it.
+    max_segments : int or None
+        Use at most this many weekend segments (evenly spread over the
+        training weeks, so every season keeps its share); None: all.
+    kalman : dict, optional
+        Filter settings ``q_air``, ``q_mass``, ``r`` [K], ``warmup_steps``.
+    kalman_rounds : int
+        Times the optimisation is repeated with the filter gain recomputed
+        at the current estimate (1: gain of the nominal model only).
+    bound_factor : float
+        Physical parameters are kept within nominal / factor .. nominal * factor.
+    max_nfev : int
+        Maximum residual evaluations per round of ``least_squares``.
+    initial : dict, optional
+        Initial parameter values (default: the building file's ``[physics].nominal``).
+
+    Returns
+    -------
+    PhysicsModel
+        With ``meta["estimates"]`` (value, std, relative std, flags per
+        parameter) and ``meta["unidentifiable"]``.
+
+    References
+    ----------
+    D. Zhou, Q. Hu, C. J. Tomlin, "Model comparison of a data-driven and a
+    physical model for simulating HVAC systems", eqs. (physics_opt),
+    (ig(k-1)), (fixed_ig).
+    """
+    t_start = time.perf_counter()
+    step = float(dataset.step)
+    building = dataset.building
+    if solar and not getattr(dataset, "has_solar", False):
+        raise FitError("solar=True needs facade irradiance (I_N..I_W) in the data; this dataset has none")
+    options = {k: v for k, v in (("max_layer_thickness", max_layer_thickness),
+                                  ("furniture_capacity", furniture_capacity),
+                                  ("internal_mass", internal_mass)) if v is not None}
+    frame = dataset.frame
+    train_rows = np.zeros(len(frame), dtype=bool)
+    for w in dataset.weeks:
+        if w.train:
+            train_rows |= (frame.index >= w.start) & (frame.index < w.end)
+    if not train_rows.any():
+        raise FitError("the dataset has no training weeks")
+    zones = building.zone_names
+    m_zone = frame[[f"m_{v}" for v in building.vav_names]].to_numpy(float)[train_rows] @ building.zone_vav_matrix().T
+    airflow = np.nan_to_num(np.nanmean(m_zone, axis=0), nan=0.0)
+    kal = dict(kalman or {})
+    kal.setdefault("airflow", airflow.tolist())
+    if "warmup_steps" not in kal:
+        kal["warmup_steps"] = int(round(warmup_hours * 3600 / step))
+    options["kalman"] = kal
+    zero_gains = {}
+
+    spec = parse_physics(building, **{k: v for k, v in options.items() if k != "kalman"})
+    nominal = dict(spec.nominal)
+    start = dict(nominal)
+    if initial:
+        start.update(initial)
+    nz = len(zones)
+    nq = nz + (1 if spec.has_ground else 0)
+    n_tow = n_time_of_week(step)
+    seasons_present = list(dict.fromkeys(w.season for w in dataset.weeks))
+    for s in seasons_present:
+        zero_gains[s] = np.zeros((n_tow, nq))
+        if spec.has_ground:
+            zero_gains[s][:, nz] = spec.ground_temperature
+    model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options)
+    template = model._template
+    if solar:
+        missing = [c for c in model.disturbances if c not in frame.columns]
+        if missing:
+            raise FitError(f"solar=True but the data lack {missing}")
+
+    nw = int(model.options["kalman"]["warmup_steps"])
+    ns = int(round(segment_hours * 3600 / step))
+    segs = _weekend_segments(dataset, model, nw, ns, max_segments)
+    log.info("Model B step 1: %d weekend segments of %d steps, %d states", segs.n, ns, model.n_states)
+
+    theta0 = np.log(template.params_vector(start))
+    lo = np.log(template.params_vector(nominal) / bound_factor)
+    hi = np.log(template.params_vector(nominal) * bound_factor)
+    theta0 = np.clip(theta0, lo + 1e-9, hi - 1e-9)
+    try:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(desc="Model B step 1", unit="eval", disable=not progress, leave=False)
+    except ImportError:  # pragma: no cover
+        bar = None
+    state = {"K": model.kalman_gain, "nfev": 0}
+
+    def residuals(theta):
+        Y0, S = _simulate_segments(template, theta, step, segs, state["K"])
+        _, r = _solve_gains(Y0, S, segs)
+        state["nfev"] += 1
+        if bar is not None:
+            bar.update(1)
+        return r
+
+    theta = theta0
+    results = []
+    for rnd in range(max(1, int(kalman_rounds))):
+        if rnd > 0:
+            net = template.build(np.exp(theta))
+            k = model.options["kalman"]
+            state["K"] = kalman_gain(net.discretize(step), k["airflow"], k["q_air"], k["q_mass"], k["r"])
+        res = so.least_squares(residuals, theta, bounds=(lo, hi), method="trf", x_scale=1.0,
+                               diff_step=1e-5, max_nfev=max_nfev, xtol=1e-6, ftol=1e-8)
+        theta = res.x
+        results.append(res)
+    if bar is not None:
+        bar.close()
+    res = results[-1]
+    Y0, S = _simulate_segments(template, theta, step, segs, state["K"])
+    f_c, r = _solve_gains(Y0, S, segs)
+    params = dict(zip(PARAM_NAMES, map(float, np.exp(theta))))
+
+    # --- uncertainty ------------------------------------------------------------
+    estimates, unident, jac_info = _uncertainty(template, theta, f_c, step, segs, state["K"], lo, hi, zones,
+                                                Y0, S)
+    rms = float(np.sqrt(np.mean(r**2)))
+
+    # --- step 2: seasonal time-of-week gains --------------------------------------
+    fitted = PhysicsModel(building, params, zero_gains, step=step, solar=solar, options=model.options,
+                          f_ig_const=f_c)
+    fitted.kalman_gain  # noqa: B018 - the final model's own filter gain (as from_dict would compute it)
+    gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
+    meta = {
+        "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
+        "fit_seconds": round(time.perf_counter() - t_start, 2),
+        "data": {"source": str(getattr(dataset, "source", "")), "sha256": getattr(dataset, "sha256", None)},
+        "method": "Zhou, Hu & Tomlin sec. IV.B: weekend simulation-error fit (variable projection for f_IG^c, "
+                  "log-parameters), Kalman-filter initial states; f_IG^v by one-step OLS averaged per season",
+        "nominal": nominal,
+        "initial": start,
+        "estimates": estimates,
+        "unidentifiable": unident,
+        "jacobian": jac_info,
+        "fit_rms": rms,
+        "n_segments": int(segs.n),
+        "segment_steps": ns,
+        "warmup_steps": nw,
+        "segments_per_season": {s: int(np.sum(segs.seasons == s)) for s in np.unique(segs.seasons)},
+        "optimizer": {"status": int(res.status), "message": str(res.message), "nfev": int(state["nfev"]),
+                      "rounds": len(results), "cost": float(res.cost)},
+        "gains": gain_info,
+        "n_states": model.n_states,
+    }
+    final = PhysicsModel(building, params, gains, step=step, solar=solar, options=fitted.options,
+                         f_ig_const=f_c, meta=meta)
+    final._cache["K"] = fitted._cache["K"]
+    meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
+    log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
+    return final
+
+
+def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, Y0, S):
+    """Standard deviations and identifiability flags of all parameters at the optimum."""
+    mask = segs.mask
+    target = segs.y[:, segs.nw + 1:]
+    r0 = (Y0 + np.tensordot(f_c, S, axes=1) - target)
+    r = r0[mask]
+    cols = []
+    h = 1e-4
+    for p in range(len(theta)):
+        th = theta.copy()
+        th[p] += h
+        Y0p, Sp = _simulate_segments(template, th, step, segs, K)
+        rp = (Y0p + np.tensordot(f_c, Sp, axes=1) - target)[mask]
+        cols.append((rp - r) / h)
+    J = np.column_stack(cols + [S[:, mask].T])
+    names = list(PARAM_NAMES) + [f"f_ig_const_{z}" for z in zones]
+    n, p = J.shape
+    rho = _lag1(np.where(mask, r0, np.nan))
+    s2 = float(r @ r) / max(n - p, 1) * (1 + rho) / (1 - rho)
+    cov = s2 * np.linalg.pinv(J.T @ J)
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    values = np.r_[np.exp(theta), f_c]
+    colnorm = np.linalg.norm(J, axis=0)
+    colnorm[colnorm == 0] = 1.0
+    Jn = J / colnorm
+    _, sv, Vt = np.linalg.svd(Jn, full_matrices=False)
+    weak = sv < 1e-3 * sv[0]
+    estimates, unident = {}, []
+    for i, name in enumerate(names):
+        flags = []
+        if i < len(theta):
+            rel = float(np.expm1(std[i])) if std[i] < 50 else math.inf
+            at_bound = theta[i] <= lo[i] + 1e-6 or theta[i] >= hi[i] - 1e-6
+            e = {"value": float(values[i]), "rel_std": rel, "std": float(values[i] * rel) if math.isfinite(rel) else None}
+        else:
+            rel = float(std[i] / abs(values[i])) if values[i] > 0 else math.inf
+            at_bound = values[i] <= 0.0
+            e = {"value": float(values[i]), "std": float(std[i]), "rel_std": rel if math.isfinite(rel) else None}
+        if colnorm[i] == 1.0 and not np.any(J[:, i]):
+            flags.append("no influence on the fitted outputs")
+        if rel > 1.0:
+            flags.append("relative std > 100 %")
+        if at_bound:
+            flags.append("at bound")
+        if np.any(weak & (np.abs(Vt[:, i]) > 0.3)):
+            flags.append("near-singular direction")
+        e["flags"] = flags
+        estimates[name] = e
+        if flags:
+            unident.append(name)
+    corr = cov / np.outer(np.maximum(std, 1e-300), np.maximum(std, 1e-300))
+    info = {
+        "names": names,
+        "scaled_singular_values": (sv / sv[0]).tolist(),
+        "residual_lag1_autocorrelation": rho,
+        "correlation": np.round(corr, 4).tolist(),
+        "note": "std from s^2 (J^T J)^-1 with s^2 inflated by (1+rho)/(1-rho); physical parameters in logs",
+    }
+    return estimates, unident, info
+
+
+def _seasonal_gains(dataset, model, f_c, nw):
+    """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks."""
+    frame = dataset.frame
+    index = frame.index
+    step = float(dataset.step)
+    n_tow = n_time_of_week(step)
+    disc = model.discrete
+    nz = len(model.outputs)
+    y_all = model.measured_outputs(frame)
+    u_all, v_all = model.signals(frame)
+    q_all = np.zeros((len(frame), len(model.q_names)))
+    q_all[:, :nz] = f_c
+    if len(model.q_names) > nz:
+        q_all[:, nz] = model._spec.ground_temperature
+    CB = disc.Vz @ disc.Pq[:, :nz]  # C B_IG (nz, nz) [K/W]
+    CB_inv = np.linalg.inv(CB)
+    K = model.kalman_gain
+    per_season: dict[str, list] = {}
+    for week in dataset.weeks:
+        if not week.train:
+            continue
+        r0 = _row_of(index, pd.Timestamp(week.start), step)
+        if r0 is None:
+            continue
+        w = min(nw, r0)
+        n = min(n_tow + 1, len(frame) - r0)  # rows of the week plus the first row after it
+        rows = np.arange(r0 - w, r0 + n)
+        if len(rows) < 2:
+            continue
+        y = y_all[rows]
+        u = fill_signals(u_all[rows[:-1]], 0.0)
+        with np.errstate(all="ignore"):
+            v = fill_signals(v_all[rows[:-1]], np.nanmean(y))
+        q = q_all[rows[:-1]]
+        with np.errstate(all="ignore"):
+            ymean = np.nanmean(y[: w + 1], axis=0)
+        ymean = np.where(np.isnan(ymean), np.nanmean(y), ymean)
+        x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
+        x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
+        m = u @ disc.zone_vav.T
+        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=disc.W @ K, n_correct=len(rows), record_pred=True)
+        innov = y[w + 1:] - Yp[w + 1:]  # rows r0+1 .. : innovation of y(k+1) -> f(k)
+        # bad inputs give meaningless innovations
+        bad = np.isnan(u_all[rows[w:-1]]).any(axis=1) | np.isnan(v_all[rows[w:-1]]).any(axis=1)
+        fv = innov @ CB_inv.T
+        fv[bad] = np.nan
+        slots = time_of_week(index[rows[w:-1]], step)
+        prof = np.full((n_tow, nz), np.nan)
+        prof[slots] = fv
+        per_season.setdefault(week.season, []).append(prof)
+    gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}}
+    season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
+    for s, profs in per_season.items():
+        with np.errstate(all="ignore"), np.testing.suppress_warnings() as sup:
+            sup.filter(RuntimeWarning)
+            mean = np.nanmean(np.stack(profs), axis=0)
+        filled = int(np.isnan(mean).any(axis=1).sum())
+        mean = _fill_circular(mean)
+        info["weeks_per_season"][s] = len(profs)
+        info["filled_slots"][s] = filled
+        gains[s] = mean
+    if not gains:
+        raise FitError("step 2: no training week could be filtered to estimate internal gains")
+    for s in season_names:
+        if s not in gains:
+            gains[s] = np.mean([g for g in gains.values()], axis=0)
+            info.setdefault("borrowed", []).append(s)
+    out = {}
+    for s, fv in gains.items():
+        g = np.zeros((n_tow, len(model.q_names)))
+        g[:, :nz] = f_c[None, :] + fv
+        if len(model.q_names) > nz:
+            g[:, nz] = model._spec.ground_temperature
+        out[s] = g
+    return out, info
+
+
+def _fill_circular(prof):
+    """Fill NaN slots of a (n_tow, nz) profile by circular linear interpolation (0 if a zone has no data)."""
+    out = prof.copy()
+    n = prof.shape[0]
+    x = np.arange(n)
+    for j in range(prof.shape[1]):
+        ok = np.isfinite(prof[:, j])
+        if not ok.any():
+            out[:, j] = 0.0
+        elif not ok.all():
+            out[~ok, j] = np.interp(x[~ok], x[ok], prof[ok, j], period=n)
+    return out

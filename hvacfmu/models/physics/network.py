@@ -1,0 +1,507 @@
+"""The resistance-capacitance network of Model B: assembly from geometry and discretisation.
+
+Assembly follows the BRCM toolbox (Sturzenegger et al.): one temperature node
+per zone air volume (air plus furniture), per optional internal-mass node and
+per massive construction layer (a thick layer is split into several nodes of at
+most ``max_layer_thickness``). Between consecutive nodes of an element the
+resistance is the sum of the half-layer conduction resistances, the massless
+layers' R-values and, at an element's surfaces, the film resistance
+``1 / (gamma * area)``. Windows are resistances ``1 / (U * area)`` between the
+zone air node and ambient, without state.
+
+Continuous-time model (per second), with nodal capacities ``c`` [J/K] and
+conductance matrix ``L`` [W/K]::
+
+    c * dx/dt = -L x + g_amb T_out + g_gnd T_ground + E f_IG + S I
+                + sum_i m_i c_p (T_supply - x_zone(i))
+
+so ``A = -diag(1/c) L`` and the VAV box terms are bilinear:
+``Bxu_i = -c_p/c_z e_z e_z^T`` and ``Bvu_i = c_p/c_z e_z e_{T_supply}^T``.
+
+Discretisation (step ``h``): exact for the linear part, ``A_d = expm(A h)``, and
+zero-order hold for *every* input including the bilinear products ``m_i x`` and
+``m_i v``, which are treated as inputs held over the step and passed through the
+same integral ``Gamma = int_0^h expm(A s) ds`` (BRCM's choice). Hence
+``Bxu_d,i = Gamma Bxu_i``: a matrix with a single non-zero column (the zone's
+air node). This is exact for a constant airflow of zero and first-order
+accurate in ``m h / c`` otherwise; it keeps the discrete model bilinear with
+the structure MPC needs.
+
+``A`` is similar to a symmetric matrix (``diag(c)^{1/2} A diag(c)^{-1/2}``),
+so the exponential and its integral are computed from one symmetric
+eigendecomposition; the same modal form simulates long horizons and many
+segments at once in O(n_states * (n_zones + n_inputs)) per step.
+
+References
+----------
+D. Sturzenegger, D. Gyalistras, V. Semeraro, M. Morari, R. S. Smith, "BRCM
+Matlab Toolbox: Model generation for model predictive building control",
+American Control Conference, 2014.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ...building import ORIENTATIONS
+from ...errors import ModelError
+from .geometry import CP_AIR, FILM_PARAMS, PARAM_NAMES, RHO_AIR, PhysicsSpec
+
+_AMBIENT, _GROUND = -1, -2
+
+
+@dataclasses.dataclass(frozen=True)
+class BilinearMatrices:
+    """Matrices of the bilinear model ``x+ = A x + Bv v + Bq q + sum_i u_i (Bxu[i] x + Bvu[i] v)``, ``y = C x``.
+
+    In continuous time (:meth:`RCNetwork.continuous_matrices`) the same fields
+    give ``dx/dt`` [K/s] and are all ``scipy.sparse`` matrices.
+
+    Attributes
+    ----------
+    A : (nx, nx)
+    Bv : (nx, nv)
+    Bq : (nx, nq)
+    Bxu : list of n_vav sparse (nx, nx)
+    Bvu : list of n_vav (nx, nv)
+    C : (ny, nx)
+    """
+
+    A: object
+    Bv: object
+    Bq: object
+    Bxu: list
+    Bvu: list
+    C: object
+
+
+class NetworkTemplate:
+    """The parameter-independent structure of an RC network; :meth:`build` fills in the parameters.
+
+    Every edge resistance has the form ``r0 + sum_p rc[p] / param_p`` (films of
+    identified kinds) and every window conductance ``gw * U_win``, so
+    re-assembling for new parameters is a few vectorised operations.
+
+    Parameters
+    ----------
+    spec : PhysicsSpec
+    solar : bool
+        Model solar gains through windows (disturbances ``I_N..I_W`` [W/m2]).
+    """
+
+    def __init__(self, spec: PhysicsSpec, solar: bool = False):
+        self.spec = spec
+        self.solar = bool(solar)
+        zones = spec.zones
+        zidx = {z: i for i, z in enumerate(zones)}
+        nz = len(zones)
+        names = [f"air:{z}" for z in zones]
+        cap = [RHO_AIR * CP_AIR * spec.zone_volume[z] + spec.furniture_capacity * spec.zone_area[z] for z in zones]
+        pidx = {p: i for i, p in enumerate(PARAM_NAMES)}
+        ea, eb, r0, rc = [], [], [], []
+
+        def edge(a, b, r_fixed, coef):
+            if a == b or (a < 0 and b < 0):
+                return
+            if a < 0:
+                a, b = b, a
+            ea.append(a)
+            eb.append(b)
+            r0.append(r_fixed)
+            rc.append(coef)
+
+        if spec.internal_mass > 0:
+            for z in zones:
+                i = len(names)
+                names.append(f"mass:{z}")
+                cap.append(spec.internal_mass * spec.zone_area[z])
+                coef = np.zeros(len(PARAM_NAMES))
+                coef[pidx["gamma_interior_wall"]] = 1.0 / spec.zone_area[z]
+                edge(zidx[z], i, 0.0, coef)
+
+        def side_node(s):
+            if s in zidx:
+                return zidx[s]
+            return {"ambient": _AMBIENT, "ground": _GROUND}.get(s)  # None: adiabatic
+
+        for el in spec.elements:
+            A = el.area
+            con = el.construction
+            nodes = [side_node(el.side1)]
+            # resistance accumulated since the previous node: fixed part, per-parameter coefficients
+            acc_r, acc_c = 0.0, np.zeros(len(PARAM_NAMES))
+
+            def film(kind):
+                nonlocal acc_r
+                if kind in FILM_PARAMS:
+                    acc_c[pidx[FILM_PARAMS[kind]]] += 1.0 / A
+                elif kind == "ambient":
+                    acc_r += 1.0 / (spec.ambient_film * A)
+
+            film(con.films[0])
+            for li, layer in enumerate(con.layers):
+                mat = layer.material
+                if mat.massless:
+                    acc_r += mat.r_value / A
+                    continue
+                n_sub = max(1, math.ceil(layer.thickness / spec.max_layer_thickness - 1e-9))
+                d = layer.thickness / n_sub
+                r_half = d / (2.0 * mat.conductivity * A)
+                for j in range(n_sub):
+                    acc_r += r_half
+                    i = len(names)
+                    names.append(f"{el.name}[{li}.{j}]" if n_sub > 1 else f"{el.name}[{li}]")
+                    cap.append(mat.density * mat.specific_heat * d * A)
+                    if nodes[-1] is not None:
+                        edge(nodes[-1], i, acc_r, acc_c.copy())
+                    nodes.append(i)
+                    acc_r, acc_c = r_half, np.zeros(len(PARAM_NAMES))
+            film(con.films[1])
+            end = side_node(el.side2)
+            if nodes[-1] is not None and end is not None:
+                edge(nodes[-1], end, acc_r, acc_c.copy())
+
+        self.node_names = tuple(names)
+        self.n_zones = nz
+        self.capacity = np.asarray(cap, dtype=float)
+        nx = len(names)
+        self.edge_a = np.asarray(ea, dtype=np.int64)
+        self.edge_b = np.asarray(eb, dtype=np.int64)
+        self.edge_r0 = np.asarray(r0, dtype=float)
+        self.edge_rc = np.asarray(rc, dtype=float).reshape(-1, len(PARAM_NAMES))
+        self.window_zone = np.asarray([zidx[w.zone] for w in spec.windows], dtype=np.int64)
+        u_nom = spec.nominal["U_win"]
+        self.window_g = np.asarray([w.u_value * w.area / u_nom for w in spec.windows], dtype=float)
+        # solar: SHGC * area [m2] into the zone air node per facade orientation
+        self.solar_gain = np.zeros((nx, len(ORIENTATIONS)))
+        for w in spec.windows:
+            self.solar_gain[zidx[w.zone], ORIENTATIONS.index(w.orientation)] += w.shgc * w.area
+        self.vav_zone = np.asarray([zidx[z] for z in spec.vav_zone], dtype=np.int64)
+        self.has_ground = spec.has_ground
+        self.disturbances = ("T_out", "T_supply") + (tuple(f"I_{o}" for o in ORIENTATIONS) if self.solar else ())
+        self.q_names = tuple(f"f_ig_{z}" for z in zones) + (("T_ground",) if self.has_ground else ())
+        # sparsity pattern of L: internal edges give 4 entries, boundary edges 1
+        internal = self.edge_b >= 0
+        a, b = self.edge_a, self.edge_b
+        self._rows = np.concatenate([a, b[internal], a[internal], b[internal], self.window_zone])
+        self._cols = np.concatenate([a, b[internal], b[internal], a[internal], self.window_zone])
+        self._internal = internal
+        self.n_states = nx
+        # zone-by-VAV summation matrix
+        self.zone_vav = np.zeros((nz, len(self.vav_zone)))
+        self.zone_vav[self.vav_zone, np.arange(len(self.vav_zone))] = 1.0
+
+    def params_vector(self, params) -> np.ndarray:
+        """The five parameters as an array in :data:`PARAM_NAMES` order (dict or sequence accepted)."""
+        if isinstance(params, dict):
+            missing = [p for p in PARAM_NAMES if p not in params]
+            extra = [p for p in params if p not in PARAM_NAMES]
+            if missing or extra:
+                raise ModelError(f"parameters: missing {missing}, unknown {extra}; need {list(PARAM_NAMES)}")
+            vec = np.array([params[p] for p in PARAM_NAMES], dtype=float)
+        else:
+            vec = np.asarray(params, dtype=float).reshape(-1)
+            if vec.shape != (len(PARAM_NAMES),):
+                raise ModelError(f"parameters: need {len(PARAM_NAMES)} values {list(PARAM_NAMES)}, got {vec.shape}")
+        bad = [f"{n}={x!r}" for n, x in zip(PARAM_NAMES, vec) if not (np.isfinite(x) and x > 0)]
+        if bad:
+            raise ModelError(f"parameters must be finite and > 0: {', '.join(bad)}")
+        return vec
+
+    def build(self, params) -> "RCNetwork":
+        """The network for parameter values ``params`` (dict or sequence in :data:`PARAM_NAMES` order)."""
+        p = self.params_vector(params)
+        R = self.edge_r0 + self.edge_rc @ (1.0 / p)
+        G = 1.0 / R
+        Gw = self.window_g * p[0]
+        nx = self.n_states
+        internal = self._internal
+        data = np.concatenate([G, G[internal], -G[internal], -G[internal], Gw])
+        L = sp.csr_matrix((data, (self._rows, self._cols)), shape=(nx, nx))
+        g_amb = np.bincount(self.edge_a[self.edge_b == _AMBIENT], G[self.edge_b == _AMBIENT], minlength=nx)
+        g_amb += np.bincount(self.window_zone, Gw, minlength=nx)
+        g_gnd = np.bincount(self.edge_a[self.edge_b == _GROUND], G[self.edge_b == _GROUND], minlength=nx)
+        return RCNetwork(self, p, L, g_amb, g_gnd)
+
+
+class RCNetwork:
+    """An assembled RC network for given parameters (continuous time).
+
+    Attributes
+    ----------
+    template : NetworkTemplate
+    params : array (5,)
+        Parameter values in :data:`PARAM_NAMES` order.
+    L : sparse (nx, nx) [W/K]
+        Conductance matrix, including conductances to ambient and ground on its diagonal.
+    g_amb, g_gnd : array (nx,) [W/K]
+        Conductance of each node to ambient and to the ground.
+    """
+
+    def __init__(self, template: NetworkTemplate, params, L, g_amb, g_gnd):
+        self.template = template
+        self.params = np.asarray(params, dtype=float)
+        self.L = L
+        self.g_amb = g_amb
+        self.g_gnd = g_gnd
+
+    # --- names and sizes -------------------------------------------------
+    @property
+    def n_states(self) -> int:
+        return self.template.n_states
+
+    @property
+    def n_zones(self) -> int:
+        return self.template.n_zones
+
+    @property
+    def capacity(self) -> np.ndarray:
+        """Nodal heat capacities [J/K]."""
+        return self.template.capacity
+
+    @property
+    def node_names(self) -> tuple:
+        return self.template.node_names
+
+    @property
+    def param_dict(self) -> dict:
+        return dict(zip(PARAM_NAMES, map(float, self.params)))
+
+    # --- continuous-time matrices ------------------------------------------
+    def input_matrices(self):
+        """Dense continuous input matrices ``(Bv, Bq, Bh)`` [K/s per unit]; ``Bh`` maps zone heat [W]."""
+        t = self.template
+        c = t.capacity
+        nx, nz = self.n_states, self.n_zones
+        Bv = np.zeros((nx, len(t.disturbances)))
+        Bv[:, 0] = self.g_amb / c
+        if t.solar:
+            Bv[:, 2:] = t.solar_gain / c[:, None]
+        Bq = np.zeros((nx, len(t.q_names)))
+        Bq[np.arange(nz), np.arange(nz)] = 1.0 / c[:nz]
+        if t.has_ground:
+            Bq[:, nz] = self.g_gnd / c
+        Bh = np.zeros((nx, nz))
+        Bh[np.arange(nz), np.arange(nz)] = 1.0 / c[:nz]
+        return Bv, Bq, Bh
+
+    def continuous_matrices(self) -> BilinearMatrices:
+        """Continuous-time matrices (per second), all ``scipy.sparse`` (CSR)."""
+        t = self.template
+        c = t.capacity
+        nx, nz = self.n_states, self.n_zones
+        A = sp.csr_matrix(-sp.diags(1.0 / c) @ self.L)
+        Bv, Bq, _ = self.input_matrices()
+        nv = len(t.disturbances)
+        Bxu, Bvu = [], []
+        for z in t.vav_zone:
+            Bxu.append(sp.csr_matrix(([-CP_AIR / c[z]], ([z], [z])), shape=(nx, nx)))
+            Bvu.append(sp.csr_matrix(([CP_AIR / c[z]], ([z], [1])), shape=(nx, nv)))
+        C = sp.csr_matrix((np.ones(nz), (np.arange(nz), np.arange(nz))), shape=(nz, nx))
+        return BilinearMatrices(A, sp.csr_matrix(Bv), sp.csr_matrix(Bq), Bxu, Bvu, C)
+
+    # --- modal form and discretisation ----------------------------------------
+    @cached_property
+    def modal(self):
+        """``(lam, V, W)`` with ``A = V diag(lam) W`` and ``W = V^{-1}`` (real, from a symmetric eigenproblem)."""
+        s = np.sqrt(self.template.capacity)
+        S = -(self.L.toarray() / s[:, None]) / s[None, :]
+        S = 0.5 * (S + S.T)
+        lam, Q = np.linalg.eigh(S)
+        V = Q / s[:, None]
+        W = Q.T * s[None, :]
+        return lam, V, W
+
+    def discretize(self, step: float) -> "DiscreteBilinear":
+        """The discrete-time model for a step ``step`` [s] (see the module docstring)."""
+        if not step > 0:
+            raise ModelError(f"step must be > 0 s, got {step}")
+        return DiscreteBilinear(self, float(step))
+
+    def wall_steady_state(self, y, T_out, q=None):
+        """Steady-state temperatures of the non-air nodes with zone air at ``y``.
+
+        Parameters
+        ----------
+        y : array (..., n_zones) [°C]
+        T_out : array (...) [°C]
+        q : array (..., nq), optional
+            Only its ground column matters (non-air nodes receive no zone gains).
+
+        Returns
+        -------
+        x : array (..., n_states) [°C]
+        """
+        t = self.template
+        nz = self.n_zones
+        y = np.asarray(y, dtype=float)
+        T_out = np.asarray(T_out, dtype=float)
+        batch = np.broadcast_shapes(y.shape[:-1], T_out.shape)
+        y = np.broadcast_to(y, batch + (nz,)).reshape(-1, nz)
+        To = np.broadcast_to(T_out, batch).reshape(-1)
+        rhs = self.g_amb[nz:][:, None] * To[None, :] - self._L_wa @ y.T
+        if t.has_ground:
+            Tg = t.spec.ground_temperature if q is None else np.broadcast_to(
+                np.asarray(q, dtype=float)[..., nz], batch).reshape(-1)
+            rhs = rhs + self.g_gnd[nz:][:, None] * np.broadcast_to(Tg, To.shape)[None, :]
+        xw = self._L_ww_lu.solve(rhs) if rhs.shape[0] else rhs
+        x = np.concatenate([y, xw.T], axis=1)
+        return x.reshape(batch + (self.n_states,))
+
+    @cached_property
+    def _L_wa(self):
+        nz = self.n_zones
+        return self.L[nz:, :nz].tocsr()
+
+    @cached_property
+    def _L_ww_lu(self):
+        nz = self.n_zones
+        Lww = self.L[nz:, nz:].tocsc()
+        if Lww.shape[0] == 0:
+            return None
+        return spla.splu(Lww)
+
+
+class DiscreteBilinear:
+    """The discretised bilinear model, in physical and modal coordinates.
+
+    ``x+ = Ad x + Bv v + Bq q + Gd h`` with the zone heat of the VAV boxes
+    ``h_z = c_p * m_z * (T_supply - x_z)`` [W] (``m_z`` the summed airflow of
+    zone z's boxes [kg/s]), which equals ``sum_i u_i (Bxu_i x + Bvu_i v)``.
+
+    Modal coordinates ``z = W x``: ``z+ = ed * z + Pv v + Pq q + Ph h``,
+    ``x_zone = Vz z``.
+    """
+
+    def __init__(self, network: RCNetwork, step: float):
+        self.network = network
+        self.step = step
+        lam, V, W = network.modal
+        lh = lam * step
+        self.ed = np.exp(lh)
+        small = np.abs(lh) < 1e-12
+        self.gd = np.where(small, step, np.expm1(lh) / np.where(small, 1.0, lam))
+        self.V, self.W = V, W
+        nz = network.n_zones
+        Bv, Bq, Bh = network.input_matrices()
+        WB = W @ np.concatenate([Bv, Bq, Bh], axis=1)
+        P = self.gd[:, None] * WB
+        nv, nq = Bv.shape[1], Bq.shape[1]
+        self.Pv, self.Pq, self.Ph = P[:, :nv], P[:, nv:nv + nq], P[:, nv + nq:]
+        self.Vz = V[:nz]
+        self.zone_vav = network.template.zone_vav
+
+    @property
+    def n_states(self) -> int:
+        return self.network.n_states
+
+    @cached_property
+    def Ad(self) -> np.ndarray:
+        return (self.V * self.ed) @ self.W
+
+    @cached_property
+    def Gamma(self) -> np.ndarray:
+        """``int_0^h expm(A s) ds`` [s]."""
+        return (self.V * self.gd) @ self.W
+
+    @cached_property
+    def physical_inputs(self):
+        """``(Bv_d, Bq_d, Gd)``: discrete input matrices in physical coordinates."""
+        return self.V @ self.Pv, self.V @ self.Pq, self.V @ self.Ph
+
+    def matrices(self) -> BilinearMatrices:
+        """The discrete :class:`BilinearMatrices` (A, Bv, Bq dense; Bxu, Bvu sparse, one non-zero column each)."""
+        Bv, Bq, Gd = self.physical_inputs
+        t = self.network.template
+        nx, nz, nv = self.n_states, self.network.n_zones, Bv.shape[1]
+        Bxu, Bvu = [], []
+        for z in t.vav_zone:
+            col = Gd[:, z] * CP_AIR
+            nzr = np.flatnonzero(col)
+            Bxu.append(sp.csc_matrix((-col[nzr], (nzr, np.full(nzr.size, z))), shape=(nx, nx)))
+            Bvu.append(sp.csc_matrix((col[nzr], (nzr, np.ones(nzr.size, dtype=np.int64))), shape=(nx, nv)))
+        C = np.zeros((nz, nx))
+        C[np.arange(nz), np.arange(nz)] = 1.0
+        return BilinearMatrices(self.Ad.copy(), Bv.copy(), Bq.copy(), Bxu, Bvu, C)
+
+    # --- stepping -------------------------------------------------------------
+    def zone_heat(self, x_zone, u, v):
+        """VAV heat into each zone ``c_p m_z (T_supply - x_z)`` [W]; batched."""
+        m = np.asarray(u, dtype=float) @ self.zone_vav.T
+        return CP_AIR * m * (np.asarray(v, dtype=float)[..., 1:2] - x_zone)
+
+    def step_state(self, x, u, v, q):
+        """One step in physical coordinates; batched over leading dimensions."""
+        x = np.asarray(x, dtype=float)
+        nz = self.network.n_zones
+        Bv, Bq, Gd = self.physical_inputs
+        h = self.zone_heat(x[..., :nz], u, v)
+        return x @ self.Ad.T + np.asarray(v, float) @ Bv.T + np.asarray(q, float) @ Bq.T + h @ Gd.T
+
+    def run(self, z0, m, v, q, y=None, Kz=None, n_correct=0, record_states=False, record_pred=False):
+        """Simulate (and optionally filter) in modal coordinates, batched.
+
+        Parameters
+        ----------
+        z0 : array (..., nx)
+            Initial modal state.
+        m : array (..., n, n_zones) [kg/s]
+            Summed airflow per zone.
+        v : array (..., n, nv)
+        q : array (..., n, nq)
+        y : array (..., n+1, n_zones) [°C], optional
+            Measurements for the corrections (NaN: no correction for that zone).
+        Kz : array (nx, n_zones), optional
+            Modal Kalman gain ``W K``.
+        n_correct : int
+            Corrections are applied at rows ``0 .. n_correct-1``.
+        record_states : bool
+            Also return the modal states (..., n+1, nx).
+        record_pred : bool
+            Also return the outputs before correction (one-step predictions).
+
+        Returns
+        -------
+        Y : array (..., n+1, n_zones)
+            Outputs after correction (filtered) where corrected, else predicted.
+        Z : array or None
+        Ypred : array or None
+        z : array (..., nx)
+            The final modal state (after the correction at row n, if any).
+        """
+        z = np.array(z0, dtype=float)
+        n = m.shape[-2]
+        batch = np.broadcast_shapes(z.shape[:-1], m.shape[:-2], v.shape[:-2], q.shape[:-2],
+                                    () if y is None else y.shape[:-2])
+        z = np.broadcast_to(z, batch + z.shape[-1:]).copy()
+        nz = self.Vz.shape[0]
+        Y = np.empty(batch + (n + 1, nz))
+        Z = np.empty(batch + (n + 1, z.shape[-1])) if record_states else None
+        Yp = np.empty(batch + (n + 1, nz)) if record_pred else None
+        VzT, PvT, PqT, PhT = self.Vz.T, self.Pv.T, self.Pq.T, self.Ph.T
+        ed = self.ed
+        KzT = None if Kz is None else Kz.T
+        for k in range(n + 1):
+            xz = z @ VzT
+            if record_pred:
+                Yp[..., k, :] = xz
+            if k < n_correct and KzT is not None:
+                innov = y[..., k, :] - xz
+                innov = np.where(np.isnan(innov), 0.0, innov)
+                z = z + innov @ KzT
+                xz = z @ VzT
+            Y[..., k, :] = xz
+            if record_states:
+                Z[..., k, :] = z
+            if k == n:
+                break
+            vk = v[..., k, :]
+            h = CP_AIR * m[..., k, :] * (vk[..., 1:2] - xz)
+            z = ed * z + vk @ PvT + q[..., k, :] @ PqT + h @ PhT
+        return Y, Z, Yp, z
