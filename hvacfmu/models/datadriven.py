@@ -53,7 +53,7 @@ from ..timeutil import n_time_of_week, time_of_week
 log = logging.getLogger(__name__)
 
 #: Default bandwidth grid: half-widths of the tricube window [h].
-DEFAULT_BANDWIDTHS_H = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
+DEFAULT_BANDWIDTHS_H = (2.0, 3.0, 4.0, 6.0, 8.0, 12.0)
 
 #: Strict bounds 0 < a < 1 are imposed as eps <= a <= 1 - eps.
 A_EPS = 1e-4
@@ -546,7 +546,7 @@ DEFAULTS: dict[str, Any] = {
     "bandwidths": DEFAULT_BANDWIDTHS_H,
     "bandwidth": None,
     "cv_folds": 5,
-    "cv_block": 4,
+    "cv_block": 8,
     "common_bandwidth": True,
     "seed": 0,
     "prior_sd_a": 0.05,

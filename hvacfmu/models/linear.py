@@ -119,6 +119,33 @@ class LinearZoneModel(ZoneModel):
     def output(self, x):
         return np.asarray(x)
 
+    def summary(self) -> str:
+        """Readable coefficients, stability, internal-gain levels and fit provenance."""
+        ny = len(self.outputs)
+        w = max(8, *(len(s) for s in self.outputs))
+        fmt = lambda v: f"{v: .4g}".rjust(11)  # noqa: E731
+        lines = [f"Model A ({self.kind}), step {self.step:g} s, {ny} state(s)"]
+        lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
+        lines.append("A:" + "".ljust(w - 2) + "".join(o.rjust(11) for o in self.outputs))
+        lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.A)]
+        lines.append("B [K/step per kg/s]: " + " ".join(f"{o}={v:.4g}" for o, v in zip(self.inputs, np.diag(self.B))))
+        lines.append("C:" + "".ljust(w - 2) + "".join(d.rjust(11) for d in self.disturbances))
+        lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.C)]
+        rho = float(np.max(np.abs(np.linalg.eigvals(self.A))))
+        lines.append(f"spectral radius of A: {rho:.4f} ({'stable' if rho < 1 else 'UNSTABLE'})")
+        for s, g in self.gains.items():
+            g = np.asarray(g)
+            lines.append(f"q_IG {s}: mean {g.mean():.3f}, min {g.min():.3f}, max {g.max():.3f} K/step")
+        bw = (self.meta.get("smoothing") or {}).get("bandwidth_h")
+        if bw:
+            lines.append("LOESS bandwidths [h]: " + ", ".join(f"{k}={v:g}" for k, v in bw.items()))
+        for k in ("data_sha256", "fit_time", "fit_seconds"):
+            if k in self.meta:
+                lines.append(f"{k}: {self.meta[k]}")
+        for msg in self.meta.get("warnings", []) or []:
+            lines.append(f"warning: {msg}")
+        return "\n".join(lines)
+
     # --- persistence ---------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         return {
