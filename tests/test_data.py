@@ -611,3 +611,34 @@ def test_check_cli(tmp_path, small_building):
     assert "Traceback" not in res.stderr
     res = _cli(good, "--building", tmp_path / "missing.toml", cwd=tmp_path)
     assert res.returncode == 1 and "does not exist" in res.stdout
+
+
+def test_season_of_row_follows_week_season(small_building):
+    index = pd.date_range(pd.Timestamp("2024-12-11 12:00", tz=TZ), periods=12 * 96, freq="15min", name="time")
+    frame = pd.DataFrame({"T_A": 21.0}, index=index)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = Dataset.from_frame(frame, small_building)
+    (week,) = ds.weeks  # 12-12 .. 12-19, midpoint 12-15 12:00 -> fall
+    assert week.season == "fall" and week.start == pd.Timestamp("2024-12-12", tz=TZ)
+    rows = ds.season_of_row
+    assert rows[index.get_loc(pd.Timestamp("2024-12-18 10:00", tz=TZ))] == "fall"  # calendar: winter, week: fall
+    assert rows[index.get_loc(pd.Timestamp("2024-12-20 10:00", tz=TZ))] == "winter"  # outside every week
+    assert (ds.week_of_row[index < week.start] == -1).all()
+    assert (ds.week_of_row[(index >= week.start) & (index < week.end)] == 0).all()
+
+
+def test_from_frame_rejects_irregular_frame(small_building):
+    index = pd.date_range(pd.Timestamp("2024-09-02", tz=TZ), periods=10, freq="15min", name="time")
+    frame = pd.DataFrame({"T_A": 21.0}, index=index.delete(4))
+    with pytest.raises(DataError, match=r"regular with the model step 900 s; 1 spacing\(s\) differ, first after 2024-09-02T00:45"):
+        Dataset.from_frame(frame, small_building)
+    with pytest.raises(DataError, match="tz-aware"):
+        Dataset.from_frame(frame.tz_localize(None), small_building)
+
+
+def test_empty_optional_column_is_ignored_with_warning(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=720).assign(ghi=np.nan)
+    loaded, report = load_measurements(write(frame, tmp_path / "m.csv"), small_building)
+    assert "ghi" not in loaded.columns
+    assert any("optional column 'ghi' has no values" in w for w in report.warnings)

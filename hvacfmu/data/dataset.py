@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..building import ORIENTATIONS, Building
-from ..errors import HvacfmuWarning
+from ..errors import DataError, HvacfmuWarning
 from .loading import LoadReport, as_building, load_measurements
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
 from .solar import facade_irradiance
@@ -172,15 +172,25 @@ class Dataset:
 
     @functools.cached_property
     def season_of_row(self) -> np.ndarray:
-        """Season name of each row of :attr:`frame` (by its local calendar day)."""
+        """Season name of each row of :attr:`frame`.
+
+        Rows inside a week get the week's season (as the paper assigns whole
+        weeks to seasons); rows outside every week get the season of their
+        local calendar day.
+        """
         idx = self.frame.index
+        if not len(idx):
+            return np.array([], dtype=object)
         key = idx.month.to_numpy() * 100 + idx.day.to_numpy()
         uniq, inverse = np.unique(key, return_inverse=True)
         names = np.array(
             [self.building.season_of(pd.Timestamp(2001 if k != 229 else 2000, k // 100, k % 100)) for k in uniq],
             dtype=object,
         )
-        return names[inverse] if len(uniq) else np.array([], dtype=object)
+        out = names[inverse]
+        for w in self.weeks:
+            out[idx.searchsorted(w.start) : idx.searchsorted(w.end)] = w.season
+        return out
 
     @functools.cached_property
     def week_of_row(self) -> np.ndarray:
@@ -214,6 +224,7 @@ class Dataset:
         """
         building = as_building(building)
         notes = list(warnings_ or [])
+        _check_step_frame(frame, step)
         frame = frame.copy()
         frame.index.name = "time"
         given = [c for c in FACADE_COLUMNS if c in frame.columns]
@@ -251,6 +262,22 @@ class Dataset:
             coverage=coverage,
             load_report=load_report,
         )
+
+
+def _check_step_frame(frame: pd.DataFrame, step: float) -> None:
+    """Raise DataError unless ``frame`` has a tz-aware index regularly ``step`` seconds apart."""
+    idx = frame.index
+    if not isinstance(idx, pd.DatetimeIndex) or idx.tz is None:
+        raise DataError("a dataset frame needs a tz-aware DatetimeIndex (local time of the building)")
+    if len(idx) > 1:
+        d = np.diff(idx.as_unit("ns").asi8)
+        bad = np.flatnonzero(d != int(round(step * 1e9)))
+        if len(bad):
+            raise DataError(
+                f"a dataset frame must be regular with the model step {step:g} s; {len(bad)} spacing(s) differ, "
+                f"first after {idx[bad[0]].isoformat()} ({d[bad[0]] / 1e9:g} s); resample it first "
+                "(hvacfmu.data.resample)"
+            )
 
 
 def file_sha256(path) -> str:

@@ -145,7 +145,10 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         return utc.asi8, ok, True
     if pd.api.types.is_datetime64_dtype(values.dtype):
         naive = pd.DatetimeIndex(values).as_unit("ns")
-        return _localize(naive, np.zeros(n, bool), tz, name, label, problems) + (False,)
+        empty = np.asarray(naive.isna())
+        if empty.any():
+            problems.append(f"{label}: column {name!r}: {int(empty.sum())} empty times at {_Where(None).rows(np.flatnonzero(empty))}")
+        return _localize(naive, empty, tz, name, label, problems) + (False,)
     if pd.api.types.is_numeric_dtype(values.dtype) or pd.api.types.is_bool_dtype(values.dtype):
         problems.append(
             f"{label}: column {name!r} holds numbers ({values.dtype}); times must be ISO 8601 text "
@@ -396,7 +399,10 @@ def _load(path: Path, building: Building):
         if not len(finite):
             if expected.get(canonical, False) and n:
                 problems.append(f"{label}: {desc}: no values at all (every row is empty)")
-            out[canonical] = values
+            elif n:
+                report.warnings.append(f"{label}: optional {desc} has no values at all: ignored")
+                del report.units[canonical]
+                report.columns.pop(canonical, None)
             continue
         si = to_si(values, unit)
         if kind == "temperature":
