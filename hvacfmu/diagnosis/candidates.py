@@ -1,0 +1,339 @@
+"""The catalogue of physical causes: candidate extension terms and their evidence from the data.
+
+Each candidate is an extension term of :mod:`hvacfmu.models.extended` at a named
+location, with *evidence* computed from the current model's one-step residuals
+before any refit: the correlation of the residual with the candidate's regressor
+(both with the season × time-of-week means removed, as the internal-gain profile
+does), conditional means of the residual in the regime the cause acts in, and
+cause-specific quantities (cross-correlation lags for a delay, the best time
+constant of a slow mass, the days that depart from the gain profile). The
+confirmation (likelihood-ratio / BIC test, held-out gain) is in
+:mod:`hvacfmu.diagnosis.selection`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..models.extended import (
+    ActuationDelay,
+    InternalGainSchedule,
+    Reheat,
+    SolarGain,
+    SupplyAirBilinear,
+    ThermalMass,
+    ZoneCoupling,
+    dst_active,
+    reheat_feature,
+)
+from .design import MAX_DELAY, Signals, Within, effective_inputs, term_features
+
+#: Thermal-mass filter constants tried [1/step] (time constants 50 h ... 2.5 h at 15 min).
+ALPHAS = (0.005, 0.01, 0.02, 0.05, 0.1)
+#: Outdoor-temperature thresholds tried for reheat [°C].
+REHEAT_THRESHOLDS = (6.0, 8.0, 10.0, 12.0, 14.0, 16.0)
+#: Minimum rows in a regime for a reheat candidate to be testable.
+MIN_REGIME_ROWS = 50
+
+
+@dataclasses.dataclass
+class Candidate:
+    """One candidate cause at one location.
+
+    Attributes
+    ----------
+    cause : str
+        Cause id (``solar_gain``, ``supply_air_bilinear``, ``zone_coupling``,
+        ``thermal_mass``, ``internal_gain_schedule``, ``actuation_delay``, ``reheat``).
+    location : dict
+        Zones, facade, pair, delay ... (JSON-ready).
+    variants : list of Term
+        Terms to try (e.g. several time constants); the best one is kept.
+    hyper : int
+        Number of searched hyper-parameters charged in the information criterion.
+    status : str
+        ``"found"``, ``"not significant"``, ``"no held-out gain"``, ``"untestable"``, ``"not tested"``.
+    reason : str
+    evidence : dict
+        Numbers from the data (correlations, conditional means, lags ...).
+    test : dict
+        Likelihood-ratio test: ``lr``, ``lr_adjusted``, ``dof``, ``delta_bic``, ``n``, ``p_value``.
+    term : Term or None
+        The fitted term (best variant).
+    heldout : dict or None
+        Held-out RMS before/after per affected zone and ``gain_percent``.
+    """
+
+    cause: str
+    location: dict
+    variants: list = dataclasses.field(default_factory=list)
+    hyper: int = 0
+    status: str = "not tested"
+    reason: str = ""
+    evidence: dict = dataclasses.field(default_factory=dict)
+    test: dict = dataclasses.field(default_factory=dict)
+    term: object = None
+    heldout: dict | None = None
+
+    @property
+    def key(self) -> str:
+        loc = ",".join(f"{k}={v}" for k, v in sorted(self.location.items()) if k not in ("dates",))
+        return f"{self.cause}({loc})"
+
+    def to_dict(self) -> dict:
+        return {
+            "cause": self.cause,
+            "location": self.location,
+            "status": self.status,
+            "reason": self.reason,
+            "evidence": self.evidence,
+            "test": self.test,
+            "parameters": None if self.term is None else _params(self.term),
+            "heldout": self.heldout,
+        }
+
+
+def _params(term) -> dict:
+    out = {}
+    std = term.std or {}
+    for k, v in term.coefficients().items():
+        if isinstance(v, dict):
+            out[k] = {z: {"value": float(c), "std": float(std.get(k, {}).get(z, 0.0))} for z, c in v.items()}
+        elif k in std:
+            out[k] = {"value": float(v), "std": float(std[k])}
+        else:
+            out[k] = {"value": float(v), "std": None}
+    return out
+
+
+# ----------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------
+def _corr(a, b) -> float:
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < 10:
+        return float("nan")
+    a, b = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
+    d = np.sqrt((a @ a) * (b @ b))
+    return float(a @ b / d) if d > 0 else float("nan")
+
+
+def _cond_mean(r, mask) -> dict:
+    mask = np.asarray(mask, bool)
+    n = int(mask.sum())
+    return {"mean": float(np.mean(r[mask])) if n else None, "n": n}
+
+
+# ----------------------------------------------------------------------------
+# candidate generation with evidence
+# ----------------------------------------------------------------------------
+def generate(sig: Signals, terms, W: Within, resid: np.ndarray, options: dict) -> list:
+    """All candidates not yet in ``terms``, each with its evidence.
+
+    Parameters
+    ----------
+    sig : Signals
+    terms : list of Term
+        The current extension terms.
+    W : Within
+        Within transform over the training rows.
+    resid : array (n_train_rows, nz) [K]
+        Current one-step within residuals on ``W.rows``.
+    options : dict
+        Diagnosis options (see :func:`hvacfmu.diagnosis.diagnose`).
+    """
+    rows = W.rows
+    zones = sig.zones
+    U_eff = effective_inputs(sig, terms)
+    have = {(t.cause, tuple(t.zones()) if not isinstance(t, SolarGain) else (t.zone, t.facade)) for t in terms}
+    have_causes_zone = {(t.cause, z) for t in terms for z in t.zones()}
+    out = []
+
+    def wfeat(col):
+        return W(np.asarray(col, float))
+
+    # --- solar_gain -------------------------------------------------------------------
+    for zi, z in enumerate(zones):
+        for o in sig.facades[zi]:
+            loc = {"zone": z, "facade": o}
+            if not sig.has_solar:
+                out.append(Candidate("solar_gain", loc, status="untestable",
+                                     reason="no solar data (ghi or facade irradiance) in the dataset"))
+                continue
+            if ("solar_gain", (z, o)) in have:
+                continue
+            I = sig.V[f"I_{o}"]
+            r = resid[:, zi]
+            Ir = I[rows]
+            day = Ir > 20.0
+            hi = day & (Ir >= np.quantile(Ir[day], 0.75)) if day.any() else day
+            lo = day & (Ir <= np.quantile(Ir[day], 0.25)) if day.any() else day
+            ev = {"corr": _corr(r, wfeat(I)),
+                  "resid_sunny": _cond_mean(r, hi), "resid_cloudy": _cond_mean(r, lo)}
+            out.append(Candidate("solar_gain", loc, [SolarGain(zone=z, facade=o)], 0, evidence=ev))
+    # --- supply_air_bilinear ----------------------------------------------------------
+    for zi, z in enumerate(zones):
+        if ("supply_air_bilinear", z) in have_causes_zone:
+            continue
+        t = SupplyAirBilinear(zone=z)
+        f = term_features(sig, t, U_eff)[0][2]
+        r = resid[:, zi]
+        u = U_eff[rows, zi]
+        umin = sig.u_min[zi]
+        ev = {"corr": _corr(r, wfeat(f)),
+              "resid_airflow_min": _cond_mean(r, u <= umin * 1.05 + 1e-6),
+              "resid_airflow_high": _cond_mean(r, u >= np.nanquantile(u, 0.9))}
+        out.append(Candidate("supply_air_bilinear", {"zone": z}, [t], 0, evidence=ev))
+    # --- zone_coupling (pairs not coupled in the base structure) --------------------
+    for a in range(len(zones)):
+        for b in range(a + 1, len(zones)):
+            if b in sig.neighbours[a] or a in sig.neighbours[b]:
+                continue
+            if ("zone_coupling", (zones[a], zones[b])) in have:
+                continue
+            d = sig.Y[:, b] - sig.Y[:, a]
+            dw = wfeat(d)
+            ev = {"corr_a": _corr(resid[:, a], dw), "corr_b": _corr(resid[:, b], -dw)}
+            out.append(Candidate("zone_coupling", {"zones": [zones[a], zones[b]]},
+                                 [ZoneCoupling(zone_a=zones[a], zone_b=zones[b])], 0, evidence=ev))
+    # --- thermal_mass ---------------------------------------------------------------
+    for zi, z in enumerate(zones):
+        if ("thermal_mass", z) in have_causes_zone:
+            continue
+        cors = {}
+        for al in ALPHAS:
+            f = term_features(sig, ThermalMass(zone=z, alpha=al), U_eff)[0][2]
+            cors[f"{al:g}"] = _corr(resid[:, zi], wfeat(f))
+        ev = {"corr_by_alpha": cors}
+        out.append(Candidate("thermal_mass", {"zone": z}, [ThermalMass(zone=z, alpha=al) for al in ALPHAS], 1,
+                             evidence=ev))
+    # --- actuation_delay --------------------------------------------------------------
+    for zi, z in enumerate(zones):
+        if ("actuation_delay", z) in have_causes_zone:
+            continue
+        u = sig.U[:, zi]
+        xc = {}
+        for lag in range(0, MAX_DELAY + 3):
+            ul = np.full(len(u), np.nan)
+            ul[lag:] = u[: len(u) - lag] if lag else u
+            xc[str(lag)] = _corr(resid[:, zi], wfeat(np.nan_to_num(ul, nan=np.nanmean(u))))
+        ev = {"xcorr_resid_airflow_by_lag": xc}
+        out.append(Candidate("actuation_delay", {"zone": z},
+                             [ActuationDelay(zone=z, delay=d) for d in range(1, MAX_DELAY + 1)], 0, evidence=ev))
+    # --- reheat ---------------------------------------------------------------------------
+    T_out = sig.V["T_out"]
+    for zi, z in enumerate(zones):
+        if ("reheat", z) in have_causes_zone:
+            continue
+        umin = float(sig.u_min[zi] * 1.05 + 1e-6)
+        u = U_eff[:, zi]
+        variants = []
+        regime = {}
+        for th in REHEAT_THRESHOLDS:
+            f = reheat_feature(u[rows], T_out[rows], umin, th)
+            n = int((f > 0).sum())
+            regime[f"{th:g}"] = {**_cond_mean(resid[:, zi], f > 0), "corr": _corr(resid[:, zi], wfeat(
+                reheat_feature(u, T_out, umin, th)))}
+            if n >= MIN_REGIME_ROWS:
+                variants.append(Reheat(zone=z, u_min=umin, T_threshold=th))
+        ev = {"u_min": umin, "resid_in_regime_by_threshold": regime}
+        if not variants:
+            out.append(Candidate("reheat", {"zone": z}, status="untestable", evidence=ev,
+                                 reason=f"fewer than {MIN_REGIME_ROWS} training rows at minimum airflow in cold "
+                                        f"weather (T_out < {max(REHEAT_THRESHOLDS):g} °C)"))
+        else:
+            out.append(Candidate("reheat", {"zone": z}, variants, 1, evidence=ev))
+    # --- internal_gain_schedule ----------------------------------------------------------
+    if not any(isinstance(t, InternalGainSchedule) and t.variant == "holiday" for t in terms):
+        out.append(_holiday_candidate(sig, terms, options))
+    if not any(isinstance(t, InternalGainSchedule) and t.variant == "dst_shift" for t in terms):
+        out.append(_dst_candidate(sig, W))
+    return out
+
+
+def day_departures(sig: Signals, resid_all: np.ndarray, ref_weekday: int = 6) -> list:
+    """Per weekday date: the scale ``gamma`` of the departure of the residual toward ``ref_weekday``'s profile.
+
+    For each weekday (Monday–Friday) with data, the one-step residuals of all zones over
+    the day are regressed on ``q_ref − q_day`` (the reference day's gain profile minus
+    the day's own, from the season's profile): ``gamma ≈ 1`` means the day's gains
+    looked like the reference day (a holiday), ``gamma ≈ 0`` an ordinary day.
+
+    Returns
+    -------
+    list of dict with ``date``, ``gamma``, ``t``, ``n``.
+    """
+    idx = sig.index
+    per_day = sig.n_tow // 7
+    tow = np.zeros(len(idx), dtype=int)
+    from ..timeutil import time_of_week
+
+    tow = time_of_week(idx, sig.step) % sig.n_tow
+    dates = np.array(idx.date)
+    wd = idx.day_of_week.to_numpy()
+    out = []
+    ok_rows = np.isfinite(resid_all).all(axis=1) & (sig.week >= 0)
+    h_all = np.zeros_like(resid_all)
+    for s in sig.seasons:
+        m = sig.season == s
+        prof = sig.base_profiles[s]
+        h_all[m] = prof[ref_weekday * per_day + tow[m] % per_day] - prof[tow[m]]
+    for d in np.unique(dates[ok_rows & (wd < 5)]):
+        m = ok_rows & (dates == d)
+        if m.sum() < per_day // 2:
+            continue
+        h = h_all[m].ravel()
+        r = resid_all[m].ravel()
+        hh = h @ h
+        if hh <= 0:
+            continue
+        g = (h @ r) / hh
+        e = r - g * h
+        s2 = (e @ e) / max(len(r) - 1, 1)
+        out.append({"date": d.isoformat(), "gamma": float(g), "t": float(g / np.sqrt(s2 / hh)), "n": int(m.sum())})
+    return out
+
+
+def _holiday_candidate(sig: Signals, terms, options) -> Candidate:
+    resid_all = options.get("_resid_all")
+    if resid_all is None or sig.n_tow % 7:
+        return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="untestable",
+                         reason="no one-step residuals")
+    deps = day_departures(sig, resid_all)
+    g_min, t_min = options["holiday_gamma"], options["holiday_t"]
+    picked = [d for d in deps if d["gamma"] >= g_min and d["t"] >= t_min]
+    gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
+    ev = {"weekdays_checked": len(deps),
+          "gamma_median": float(np.median(gam)) if len(gam) else None,
+          "gamma_iqr": float(np.subtract(*np.percentile(gam, [75, 25]))) if len(gam) else None,
+          "days": sorted(picked, key=lambda d: -d["gamma"])[:20],
+          "rule": f"weekday with gamma >= {g_min:g} and t >= {t_min:g}"}
+    if len(deps) < 10:
+        return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="untestable", evidence=ev,
+                         reason=f"only {len(deps)} weekdays with data")
+    if not picked:
+        return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="not significant", evidence=ev,
+                         reason="no weekday departs from the seasonal profile toward a weekend day")
+    dates = tuple(sorted(d["date"] for d in picked))
+    term = InternalGainSchedule(variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
+                                dates=dates, ref_weekday=6)
+    return Candidate("internal_gain_schedule", {"variant": "holiday", "dates": list(dates)}, [term],
+                     len(dates), evidence=ev)
+
+
+def _dst_candidate(sig: Signals, W: Within) -> Candidate:
+    on = dst_active(sig.index)
+    onw = W(on.astype(float))
+    loc = {"variant": "dst_shift"}
+    if np.var(onw) < 1e-3:
+        return Candidate("internal_gain_schedule", loc, status="untestable",
+                         reason="daylight-saving time does not change within any season's training weeks")
+    steps = int(round(3600 / sig.step))
+    variants = [InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
+                                     shift=s) for s in (steps, -steps)]
+    ev = {"dst_fraction_of_training_rows": float(on[W.rows].mean())}
+    return Candidate("internal_gain_schedule", loc, variants, 1, evidence=ev)

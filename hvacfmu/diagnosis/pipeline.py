@@ -1,0 +1,193 @@
+"""``diagnose(dataset, model)``: residuals, candidate causes, forward selection, held-out gain, report."""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError, HvacfmuWarning
+from ..models.extended import ExtendedModel
+from . import residuals as R
+from .design import make_signals
+from .report import DiagnosisReport
+from .selection import DEFAULT_OPTIONS, forward_select, one_step_residuals
+
+
+def diagnose(dataset, model=None, plots=None, progress=True, **options) -> DiagnosisReport:
+    """Find what a model gets wrong, name the physical cause, extend the model and measure the gain.
+
+    Parameters
+    ----------
+    dataset : hvacfmu.data.Dataset
+    model : ZoneModel, path or None
+        Base model: a Model A (``zones`` or ``lumped``) or an ``extended`` model (its
+        terms are kept and more may be added). Default: fit the six-zone Model A on
+        the dataset's training weeks.
+    plots : path or None
+        Folder for the diagnostic figures.
+    progress : bool
+        Print progress lines to stderr.
+    **options
+        Overrides of :data:`hvacfmu.diagnosis.selection.DEFAULT_OPTIONS`:
+        ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
+        ``max_terms`` (8), ``max_tries`` (4), ``holiday_gamma`` (0.6), ``holiday_t``
+        (6.0), ``horizon`` (96 steps).
+
+    Returns
+    -------
+    DiagnosisReport
+    """
+    t0 = time.perf_counter()
+    unknown = set(options) - set(DEFAULT_OPTIONS)
+    if unknown:
+        raise TypeError(f"unknown diagnosis options {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
+    opts = {**DEFAULT_OPTIONS, **options}
+
+    def say(msg):
+        if progress:
+            print(f"[diagnose {time.perf_counter() - t0:5.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    notes = []
+    if not dataset.weeks:
+        raise DataError("the dataset holds no complete week: nothing to diagnose")
+    if model is None:
+        from ..fitting import fit
+
+        say("fitting the six-zone Model A on the training weeks")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = fit(dataset, "zones", progress=False)
+        notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
+    elif isinstance(model, (str, Path)):
+        from ..models import load_model
+
+        model = load_model(model)
+    base_model = model
+    initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
+    sig = make_signals(dataset, model)
+    n_train = int(sig.rows("train").size)
+    say(f"{n_train} one-step training rows, {sig.nz} outputs, solar data: {sig.has_solar}")
+    if not sig.has_solar:
+        notes.append("no solar data: solar_gain candidates are untestable (not absent)")
+
+    # --- residuals of the base model -------------------------------------------------
+    ctx = R.make_context(sig)
+    r1_base = one_step_residuals(sig, base_model)
+    starts, seasons = R.day_starts(sig.index, sig.week, sig.season)
+    rol_base = R.open_loop_residuals(base_model, dataset.frame, starts, seasons, opts["horizon"])
+    train_rows = sig.valid & sig.train
+    white_before = {z: R.whiteness(np.where(train_rows, r1_base[:, j], np.nan), sig.step)
+                    for j, z in enumerate(sig.zones)}
+    errors = {
+        "one_step": R.breakdown(r1_base, ctx, sig.zones, sig.week >= 0),
+        "open_loop": R.breakdown(rol_base, ctx, sig.zones, sig.week >= 0),
+    }
+    errors["largest_open_loop_errors"] = R.largest_errors(errors["open_loop"], sig.zones)
+
+    # --- forward selection ---------------------------------------------------------------
+    say("scoring candidate causes and selecting extensions")
+    sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
+    findings = sel.findings
+    if findings or initial_terms:
+        final = sel.fit.model
+    else:
+        final = ExtendedModel(base=sig.base, terms=())
+    final = ExtendedModel(base=final.base, terms=final.terms, meta={
+        "name": "extended",
+        "diagnosis": {"causes": [c.cause for c in findings],
+                      "base_kind": base_model.kind},
+        "provenance": {"data_sha256": getattr(dataset, "sha256", None), "data": getattr(dataset, "source", None),
+                       "options": {k: v for k, v in opts.items()}},
+    })
+
+    # --- residuals of the final model ------------------------------------------------------
+    r1_final = one_step_residuals(sig, final)
+    rol_final = R.open_loop_residuals(final, dataset.frame, starts, seasons, opts["horizon"])
+    white_after = {z: R.whiteness(np.where(train_rows, r1_final[:, j], np.nan), sig.step)
+                   for j, z in enumerate(sig.zones)}
+    errors["open_loop_after"] = {"zone": R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)["zone"],
+                                 "hour": R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)["hour"]}
+    unexplained = []
+    for z, w in white_after.items():
+        if w.get("white") is False:
+            unexplained.append({"zone": z, "period_h": w["peak_period_h"], "peak_share": w["peak_share"],
+                                "cpgram_departure": w["cpgram_departure"], "cpgram_bound": w["cpgram_bound"],
+                                "ljung_box_p": w["ljung_box"]["p_value"], "acf_lag1": w["acf_lag1"]})
+
+    # --- held-out comparison (the evaluation protocol) ---------------------------------------
+    heldout = _heldout_table(base_model, final, dataset, opts["horizon"], notes)
+
+    verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
+    fdicts = []
+    for c in findings:
+        d = c.to_dict()
+        d["parameters"] = _params_of(final, c.term)
+        fdicts.append(d)
+    cdicts = [c.to_dict() for c in sel.candidates]
+    data = {
+        "source": getattr(dataset, "source", None),
+        "sha256": getattr(dataset, "sha256", None),
+        "step": float(dataset.step),
+        "start": sig.index[0].isoformat() if len(sig.index) else None,
+        "end": sig.index[-1].isoformat() if len(sig.index) else None,
+        "n_weeks": len(dataset.weeks),
+        "n_train_weeks": sum(1 for w in dataset.weeks if w.train),
+        "n_test_weeks": sum(1 for w in dataset.weeks if not w.train),
+        "seasons": list(sig.seasons),
+        "has_solar": bool(sig.has_solar),
+        "n_train_rows": n_train,
+    }
+    report = DiagnosisReport(
+        verdict=verdict, findings=fdicts, candidates=cdicts, unexplained=unexplained,
+        whiteness={"before": white_before, "after": white_after}, errors=errors, heldout=heldout,
+        model=final, base_model=base_model, data=data,
+        options={k: v for k, v in opts.items()}, rounds=sel.rounds, notes=notes,
+        series={"zones": sig.zones, "index": sig.index, "train": train_rows,
+                "one_step_before": r1_base, "one_step_after": r1_final,
+                "open_loop_before": rol_base, "open_loop_after": rol_final, "step": sig.step},
+    )
+    if plots:
+        say(f"writing figures to {plots}")
+        report.plot(plots)
+    say(f"done: {report.summary()}")
+    return report
+
+
+def _params_of(model: ExtendedModel, term) -> dict:
+    """Parameters with uncertainty of the term in the final model matching ``term``'s cause and location."""
+    from .candidates import _params
+
+    for t in model.terms:
+        if t.cause == term.cause and t.location() == term.location():
+            return _params(t)
+    return _params(term)
+
+
+def _heldout_table(base_model, final, dataset, horizon, notes) -> dict:
+    from ..evaluation import evaluate
+
+    if not dataset.test_weeks():
+        notes.append("no held-out test week: held-out RMS not available")
+        return {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = evaluate([base_model, final], dataset, horizon=horizon, names=["base", "extended"])
+    tb = res.table("base")
+    te = res.table("extended")
+    zones = [z for z in final.outputs]
+    out = {"zones": zones, "base": {}, "extended": {}, "gain_percent": {}, "n_windows": res.score("base").n_windows()}
+    for s in tb.index:
+        out["base"][s] = {z: float(tb.loc[s, z]) for z in zones}
+        out["extended"][s] = {z: float(te.loc[s, z]) for z in zones}
+    if "all" in tb.index:
+        for z in zones:
+            b, a = tb.loc["all", z], te.loc["all", z]
+            out["gain_percent"][z] = float(100 * (b - a) / b) if b > 0 else None
+        out["mean_base"] = float(tb.loc["all", "mean"])
+        out["mean_extended"] = float(te.loc["all", "mean"])
+        out["gain_percent_mean"] = float(100 * (out["mean_base"] - out["mean_extended"]) / out["mean_base"])
+    return out

@@ -1,0 +1,274 @@
+"""The diagnosis report: text (``format``), JSON (``to_dict``/``save_json``) and figures (``plot``).
+
+JSON schema ``hvacfmu.diagnosis/1`` (stable; documented in the README section
+"Diagnosis"). Keys are only ever added within a schema version.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA = "hvacfmu.diagnosis/1"
+
+
+def _clean(x):
+    """JSON-ready copy: numpy scalars to Python, NaN/inf to None, tuples to lists."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.floating, float)):
+        x = float(x)
+        return x if math.isfinite(x) else None
+    if isinstance(x, np.bool_):
+        return bool(x)
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    return x
+
+
+@dataclasses.dataclass
+class DiagnosisReport:
+    """Outcome of :func:`hvacfmu.diagnosis.diagnose`.
+
+    Attributes
+    ----------
+    verdict : str
+        ``"found"`` (at least one cause confirmed), ``"nothing missing"`` (no cause and
+        white residuals) or ``"unexplained"`` (no catalogue cause, but structure left).
+    findings : list of dict
+        Confirmed causes in the order they were added (see :meth:`to_dict`).
+    candidates : list of dict
+        Every other candidate with its status (``not significant``, ``no held-out gain``,
+        ``untestable`` ...), evidence and test.
+    unexplained : list of dict
+        Zones whose final residuals are not white: ``zone``, ``period_h`` of the dominant
+        periodogram peak, ``peak_share``, ``cpgram_departure``, ``ljung_box_p``.
+    whiteness : dict
+        ``before`` / ``after``: zone -> whiteness tests of the one-step residuals.
+    errors : dict
+        Breakdowns of the base model's residuals (``one_step``, ``open_loop``) and of the
+        extended model's (``open_loop_after``).
+    heldout : dict
+        Held-out 24-hour RMS [K] per zone of the base and the extended model, per season
+        and overall, and the gain [%] per zone.
+    model : ExtendedModel
+        The extended model (the base unchanged when nothing was found).
+    base_model : ZoneModel
+    data : dict
+    options : dict
+    rounds : list of dict
+    series : dict
+        Residual arrays for the figures (not serialised).
+    """
+
+    verdict: str
+    findings: list
+    candidates: list
+    unexplained: list
+    whiteness: dict
+    errors: dict
+    heldout: dict
+    model: object
+    base_model: object
+    data: dict
+    options: dict
+    rounds: list
+    notes: list = dataclasses.field(default_factory=list)
+    series: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict:
+        """JSON-ready mapping following schema ``hvacfmu.diagnosis/1``."""
+        return _clean({
+            "schema": SCHEMA,
+            "verdict": self.verdict,
+            "summary": self.summary(),
+            "data": self.data,
+            "base_model": {"kind": self.base_model.kind, "outputs": list(self.base_model.outputs)},
+            "options": self.options,
+            "findings": self.findings,
+            "candidates": self.candidates,
+            "untestable": [{"cause": c["cause"], "location": c["location"], "reason": c["reason"]}
+                           for c in self.candidates if c["status"] == "untestable"],
+            "unexplained": self.unexplained,
+            "whiteness": self.whiteness,
+            "errors": self.errors,
+            "heldout": self.heldout,
+            "rounds": self.rounds,
+            "notes": self.notes,
+            "model": {"kind": "extended", "terms": [t.to_dict() for t in self.model.terms]},
+        })
+
+    def save_json(self, path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False), encoding="utf-8")
+        return path
+
+    # ------------------------------------------------------------------ text
+    @property
+    def causes(self) -> list:
+        """Cause ids of the findings, in order."""
+        return [f["cause"] for f in self.findings]
+
+    def summary(self) -> str:
+        if self.findings:
+            parts = [f"{f['cause']} ({_loc(f['location'])})" for f in self.findings]
+            s = "found: " + "; ".join(parts)
+        elif self.unexplained:
+            s = "no catalogue cause explains the remaining errors"
+        else:
+            s = "nothing missing: no catalogue cause is significant and the residuals are white"
+        if self.unexplained:
+            s += "; unexplained structure in " + ", ".join(
+                f"{u['zone']} (period {u['period_h']:.1f} h)" for u in self.unexplained)
+        return s
+
+    def format(self) -> str:
+        """Human-readable report."""
+        L = [f"Diagnosis of the {self.base_model.kind} model on {self.data.get('source') or 'the dataset'}",
+             f"  {self.data.get('n_train_weeks')} training / {self.data.get('n_test_weeks')} held-out weeks, "
+             f"solar data: {'yes' if self.data.get('has_solar') else 'no'}",
+             "", f"Verdict: {self.verdict} — {self.summary()}", ""]
+        ho = self.heldout
+        if ho.get("zones"):
+            L.append("Held-out 24-hour RMS [K] per zone (base -> extended, gain):")
+            for z in ho["zones"]:
+                b, a, g = ho["base"]["all"].get(z), ho["extended"]["all"].get(z), ho["gain_percent"].get(z)
+                if b is None or a is None:
+                    continue
+                L.append(f"  {z:>6}: {b:.3f} -> {a:.3f}  ({g:+.1f} %)")
+            L.append(f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  "
+                     f"({ho['gain_percent_mean']:+.1f} %)")
+            L.append("")
+        if self.findings:
+            L.append("Findings (in order of selection):")
+            for i, f in enumerate(self.findings, 1):
+                t = f["test"]
+                L.append(f" {i}. {f['cause']} at {_loc(f['location'])}")
+                L.append(f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+                         f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}")
+                ev = _short_evidence(f)
+                if ev:
+                    L.append(f"    evidence: {ev}")
+                if f.get("parameters"):
+                    L.append(f"    parameters: {_fmt_params(f['parameters'])}")
+                h = f.get("heldout") or {}
+                if h.get("zones"):
+                    zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
+                    L.append(f"    held-out RMS [K]: {zz}; gain {h['gain_percent']:.1f} %")
+            L.append("")
+        rej = [c for c in self.candidates if c["status"] == "no held-out gain"]
+        if rej:
+            L.append("Significant on training data but no held-out gain (not added):")
+            for c in rej:
+                L.append(f"  - {c['cause']} at {_loc(c['location'])}: {c['reason']}")
+            L.append("")
+        unt = [c for c in self.candidates if c["status"] == "untestable"]
+        if unt:
+            L.append("Untestable (not absent):")
+            seen = set()
+            for c in unt:
+                key = (c["cause"], c["reason"])
+                zs = [_loc(d["location"]) for d in unt if (d["cause"], d["reason"]) == key]
+                if key in seen:
+                    continue
+                seen.add(key)
+                L.append(f"  - {c['cause']} ({'; '.join(zs)}): {c['reason']}")
+            L.append("")
+        if self.unexplained:
+            L.append("Unexplained (residuals not white, no catalogue cause):")
+            for u in self.unexplained:
+                L.append(f"  - zone {u['zone']}: dominant period {u['period_h']:.1f} h "
+                         f"({100 * u['peak_share']:.1f} % of residual variance), cumulated periodogram departs "
+                         f"{u['cpgram_departure']:.2f} (1 % bound {u['cpgram_bound']:.2f})")
+            L.append("")
+        big = self.errors.get("largest_open_loop_errors", [])
+        if big:
+            L.append("Where the base model errs most (24-hour open-loop, mean error [K] = measured - predicted):")
+            for c in big:
+                L.append(f"  - {c['zone']} at {c['by']}={c['label']}: {c['mean']:+.3f} (rms {c['rms']:.3f}, n {c['n']})")
+            L.append("")
+        L.append("Residual whiteness (one-step, training weeks): zone: lag-1 ACF, Ljung-Box p, "
+                 "periodogram departure before -> after")
+        for z in self.model.outputs:
+            b, a = self.whiteness["before"].get(z, {}), self.whiteness["after"].get(z, {})
+            if "acf_lag1" not in b:
+                continue
+            L.append(f"  {z:>6}: {b['acf_lag1']:+.2f}, {b['ljung_box']['p_value']:.2g}, {b['cpgram_departure']:.3f}"
+                     f" -> {a.get('acf_lag1', float('nan')):+.2f}, "
+                     f"{a.get('ljung_box', {}).get('p_value', float('nan')):.2g}, "
+                     f"{a.get('cpgram_departure', float('nan')):.3f}")
+        o = self.options
+        L.append("")
+        L.append(f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, and held-out gain "
+                 f">= {o['min_gain_percent']:g} % and >= {o['min_gain_abs']:g} K in the affected zones.")
+        for n in self.notes:
+            L.append(f"note: {n}")
+        return "\n".join(L)
+
+    def __str__(self):
+        return self.format()
+
+    # ------------------------------------------------------------------ figures
+    def plot(self, folder) -> list:
+        """Write the diagnostic figures (PNG) into ``folder``; returns the paths."""
+        from . import plots
+
+        return plots.plot_all(self, folder)
+
+
+def _loc(loc: dict) -> str:
+    parts = []
+    for k, v in loc.items():
+        if k == "dates":
+            v = f"{len(v)} days" if len(v) > 3 else ",".join(v)
+        elif isinstance(v, list):
+            v = "+".join(str(x) for x in v)
+        parts.append(f"{k}={v}")
+    return ", ".join(parts)
+
+
+def _fmt_params(p: dict) -> str:
+    out = []
+    for k, v in p.items():
+        if isinstance(v, dict) and "value" in v:
+            s = f"{k}={v['value']:.4g}" + (f"±{v['std']:.2g}" if v.get("std") is not None else "")
+            out.append(s)
+        elif isinstance(v, dict):
+            out.append(f"{k}=" + ", ".join(f"{z}:{w['value']:.3g}±{w['std']:.2g}" for z, w in v.items()
+                                           if abs(w["value"]) > 0))
+    return "; ".join(out)
+
+
+def _short_evidence(f: dict) -> str:
+    ev = f.get("evidence", {})
+    c = f["cause"]
+    if c == "solar_gain":
+        s, cl = ev.get("resid_sunny", {}), ev.get("resid_cloudy", {})
+        return (f"corr(residual, I) {ev.get('corr', float('nan')):+.2f}; mean one-step residual sunny "
+                f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K")
+    if c == "supply_air_bilinear":
+        return f"corr(residual, u·(T_supply−T)) {ev.get('corr', float('nan')):+.2f}"
+    if c == "zone_coupling":
+        return f"corr(residual, ΔT of the pair) {ev.get('corr_a', float('nan')):+.2f} / {ev.get('corr_b', float('nan')):+.2f}"
+    if c == "thermal_mass":
+        return f"time constant {ev.get('time_constant_h', float('nan')):.1f} h (alpha {ev.get('alpha', float('nan')):g})"
+    if c == "actuation_delay":
+        xc = ev.get("xcorr_resid_airflow_by_lag", {})
+        return "corr(residual, airflow lagged): " + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
+    if c == "reheat":
+        return f"T_out threshold {ev.get('T_threshold', float('nan')):g} °C at minimum airflow {ev.get('u_min', 0):.3f} kg/s"
+    if c == "internal_gain_schedule":
+        if "days" in ev:
+            return f"{len(f['location'].get('dates', []))} weekdays with weekend-like gains ({ev.get('rule')})"
+        return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
+    return ""
