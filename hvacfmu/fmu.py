@@ -1,0 +1,205 @@
+"""Export identified models (and the emulated plant) as FMI 2.0 co-simulation FMUs.
+
+The FMUs are built with pythonfmu from the slave scripts in the repository's
+``fmus/`` folder (one uniquely named script and class per model kind; the
+logic is in :mod:`hvacfmu.fmu_slave`). The model file travels in the FMU's
+``resources/``; at run time the FMU needs only the host's Python environment
+with hvacfmu installed (pythonfmu FMUs run in the importer's interpreter).
+
+Examples
+--------
+>>> export_fmu("model.json", "fmus/build/Zones.fmu")          # doctest: +SKIP
+>>> export_plant_fmu("truth.json", "fmus/build/Plant.fmu")    # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import sys
+import tempfile
+import time
+import zipfile
+from pathlib import Path
+
+from .errors import FMUError, ModelError, problems_message
+
+logger = logging.getLogger(__name__)
+
+#: model kind -> slave script (and class) name in ``fmus/``
+SLAVES = {
+    "lumped": "HvacfmuLumped",
+    "zones": "HvacfmuZones",
+    "physics": "HvacfmuPhysics",
+    "extended": "HvacfmuExtended",
+}
+#: slave for model kinds without a dedicated script
+GENERIC_SLAVE = "HvacfmuModel"
+#: slave of the emulated plant
+PLANT_SLAVE = "HvacfmuPlant"
+
+#: FMI capability flags passed to the pythonfmu builder
+BUILD_OPTIONS = {
+    "canGetAndSetFMUstate": True,
+    "canSerializeFMUstate": True,
+    "canHandleVariableCommunicationStepSize": False,
+}
+
+
+def slave_dir() -> Path:
+    """Folder holding the slave scripts: ``$HVACFMU_SLAVE_DIR`` or the repository's ``fmus/``.
+
+    Raises
+    ------
+    FMUError
+        If the folder cannot be found (hvacfmu installed without its source tree).
+    """
+    env = os.environ.get("HVACFMU_SLAVE_DIR")
+    candidates = [Path(env)] if env else []
+    candidates.append(Path(__file__).resolve().parents[1] / "fmus")
+    for c in candidates:
+        if (c / f"{GENERIC_SLAVE}.py").is_file():
+            return c
+    raise FMUError(
+        "cannot find the FMU slave scripts (fmus/HvacfmuModel.py ...); looked in "
+        + ", ".join(str(c) for c in candidates)
+        + ". Install hvacfmu from a clone of its repository (pip install -e .) or set HVACFMU_SLAVE_DIR"
+    )
+
+
+def slave_script(kind: str) -> Path:
+    """The slave script used for model ``kind``."""
+    d = slave_dir()
+    name = SLAVES.get(kind, GENERIC_SLAVE)
+    path = d / f"{name}.py"
+    if not path.is_file():
+        raise FMUError(f"slave script {path} for model kind {kind!r} is missing")
+    return path
+
+
+def export_fmu(model_path, out_path) -> Path:
+    """Export a saved zone model as an FMI 2.0 co-simulation FMU.
+
+    Parameters
+    ----------
+    model_path : path
+        Model file (JSON) of any kind :func:`hvacfmu.models.load_model` reads.
+    out_path : path
+        FMU to write (``.fmu``); parent folders are created.
+
+    Returns
+    -------
+    Path
+        The FMU, checked with ``fmpy.validate_fmu`` (no problems).
+
+    Raises
+    ------
+    ModelError
+        The model file cannot be read.
+    FMUError
+        Building or validating the FMU failed.
+
+    Notes
+    -----
+    Variables: inputs ``m_<vav>`` [kg/s] per VAV box and the model's
+    disturbances (``T_out``, ``T_supply`` [°C], ``I_N`` ... ``I_W`` [W/m²]);
+    outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start`` [°C],
+    ``season`` (Integer, mapping in its description) and
+    ``start_time_of_week`` [s]. Communication steps must be whole multiples of
+    the model step. See :mod:`hvacfmu.fmu_slave`.
+    """
+    from .models import load_model
+
+    from .fmu_slave import INTERFACE_FILE, zone_model_layout
+
+    model_path = Path(model_path)
+    model = load_model(model_path)  # validates the file before anything is built
+    try:
+        layout, _ = zone_model_layout(model)
+    except ValueError as exc:
+        raise FMUError(f"cannot export {model_path}: {exc}") from None
+    with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
+        res = Path(tmp) / "model.json"
+        shutil.copyfile(model_path, res)
+        interface = Path(tmp) / INTERFACE_FILE
+        interface.write_text(json.dumps(layout, indent=1), encoding="utf-8")
+        path = _build(slave_script(model.kind), out_path, [res, interface])
+    logger.info("exported %s model %s to %s", model.kind, model_path, path)
+    return path
+
+
+def export_plant_fmu(truth_path, out_path) -> Path:
+    """Export the emulated building (``truth.json`` of :func:`hvacfmu.emulator.generate`) as a plant FMU.
+
+    The plant FMU has inputs ``m_<vav>`` [kg/s] for every box, ``T_out``,
+    ``T_supply`` [°C], facade irradiance ``I_N`` ... ``I_W`` [W/m²]; outputs
+    ``T_<zone>`` [°C]; parameters ``T_<zone>_start`` [°C].
+
+    Parameters
+    ----------
+    truth_path : path
+        The emulator's ``truth.json``.
+    out_path : path
+        FMU to write.
+    """
+    truth_path = Path(truth_path)
+    try:
+        truth = json.loads(truth_path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelError(f"cannot read plant truth file {truth_path}: {exc}") from None
+    from .emulator import Plant
+
+    Plant.from_truth(truth)  # fails here, not inside the FMU, when the file is unusable
+    with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
+        res = Path(tmp) / "truth.json"
+        shutil.copyfile(truth_path, res)
+        script = slave_dir() / f"{PLANT_SLAVE}.py"
+        path = _build(script, out_path, [res])
+    logger.info("exported plant %s to %s", truth_path, path)
+    return path
+
+
+def _build(script: Path, out_path, resources) -> Path:
+    """Run the pythonfmu builder in this process, then validate the FMU."""
+    from pythonfmu.builder import FmuBuilder
+
+    out_path = Path(out_path)
+    if out_path.suffix != ".fmu":
+        raise FMUError(f"output file {out_path} must end in .fmu")
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    module = script.stem
+    saved_path = list(sys.path)
+    had_module = module in sys.modules
+    t0 = time.perf_counter()
+    try:
+        path = FmuBuilder.build_FMU(script, dest=out_path, project_files=[Path(r) for r in resources], **BUILD_OPTIONS)
+    except ModelError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - pythonfmu raises plain exceptions
+        raise FMUError(f"building the FMU from {script.name} failed: {type(exc).__name__}: {exc}") from exc
+    finally:
+        sys.path[:] = saved_path
+        if not had_module:
+            sys.modules.pop(module, None)  # later loads import the FMU's own copy
+    logger.debug("pythonfmu built %s in %.2f s", path, time.perf_counter() - t0)
+    problems = validate(path)
+    if problems:
+        raise FMUError(problems_message(f"the FMU {path} is not valid", problems))
+    return Path(path)
+
+
+def validate(path) -> list[str]:
+    """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine)."""
+    from fmpy.validation import validate_fmu
+
+    problems = list(validate_fmu(str(path)))
+    with zipfile.ZipFile(path) as z:
+        names = set(z.namelist())
+    if not any(n.startswith("resources/") and n.endswith((".json",)) for n in names):
+        problems.append("no model file (JSON) in the FMU's resources")
+    return problems
+
+
+__all__ = ["export_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]

@@ -1,0 +1,767 @@
+"""Run-time side of the hvacfmu FMUs: generic pythonfmu slaves.
+
+The FMU binary built by pythonfmu calls into the host's Python interpreter and
+imports the slave script named in ``resources/slavemodule.txt`` (one of
+``fmus/Hvacfmu*.py``). Those scripts are one-line subclasses of the classes
+here, so every FMU runs the same code and only its ``resources`` differ:
+
+- :class:`ZoneModelSlave` runs any saved :class:`~hvacfmu.models.ZoneModel`
+  (``resources/model.json``) through the model interface only
+  (``step_state``/``output``/``gains``), so new model kinds work unchanged;
+- :class:`PlantSlave` runs the emulated building
+  (:class:`hvacfmu.emulator.Plant`, ``resources/truth.json``).
+
+This is the only module (with :mod:`hvacfmu.fmu`) that speaks FMI, hence the
+camelCase in the model description. Behaviour an importer can rely on:
+
+- **Step sizes.** A communication step must be a whole multiple ``k >= 1`` of
+  the model step (``DefaultExperiment/@stepSize``, 900 s by default); the state
+  is advanced ``k`` model steps with the inputs held (zero-order hold). Any
+  other step, or a step that does not start at the slave's current time, is
+  refused: ``fmi2DoStep`` returns ``fmi2Discard`` with a logged message and
+  the state is unchanged. The FMU declares
+  ``canHandleVariableCommunicationStepSize="false"``. (The plant slave
+  accepts any positive step: the emulator integrates exactly.)
+- **Bad values.** NaN or out-of-range inputs (bounds in the model description)
+  and steps before initialisation are refused the same way (``fmi2Discard`` +
+  error log). A Python exception inside a step is logged with its traceback and
+  also returns ``fmi2Discard``; the instance stays usable.
+- **Never raise.** pythonfmu 0.7.0 turns a Python exception in *any* callback
+  into ``fmi2Fatal`` and then leaves the slave module half-freed in
+  ``sys.modules``: the next instance of the same FMU in that process fails or
+  crashes the host (measured, segmentation fault). So no callback here raises.
+  A model file that cannot be read (corrupt, newer format version, replaced)
+  is reported in the log at ``fmi2Instantiate`` and ``fmi2ExitInitializationMode``
+  and every ``fmi2DoStep`` returns ``fmi2Discard`` with the reason; the
+  variables still exist because their layout is read from
+  ``resources/interface.json`` (written at export). Getting or setting a
+  variable of the wrong type or an unknown value reference is logged as an
+  error and makes the next ``fmi2DoStep`` return ``fmi2Discard``.
+- **State.** ``fmi2GetFMUstate``/``fmi2SetFMUstate`` and their serialisation
+  save and restore the full internal state vector, the clock, the inputs and
+  the parameters exactly (JSON of Python floats round-trips bit for bit).
+- **Time of week.** The internal-gain profile (a time-of-week table per season)
+  is indexed at FMU time ``t`` by slot
+  ``floor((start_time_of_week + t) / step) mod n_slots``; ``start_time_of_week``
+  [s since Monday 00:00 local time] is the time of week at FMU time 0. The FMU
+  clock has no daylight-saving shifts.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import operator
+import traceback
+from pathlib import Path
+from xml.etree.ElementTree import Element, SubElement
+
+import numpy as np
+from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Initial, Fmi2Status
+
+#: version of the slave's variable layout; stored in the FMU description
+SLAVE_API_VERSION = 1
+
+#: unit name -> SI base-unit exponents and offset for ``<UnitDefinitions>``
+UNITS = {
+    "degC": ({"K": "1"}, "273.15"),
+    "K": ({"K": "1"}, None),
+    "kg/s": ({"kg": "1", "s": "-1"}, None),
+    "W/m2": ({"kg": "1", "s": "-3"}, None),
+    "s": ({"s": "1"}, None),
+}
+
+#: physical bounds checked on every input before a step (min, max)
+BOUNDS = {
+    "degC": (-60.0, 80.0),
+    "kg/s": (0.0, 50.0),
+    "W/m2": (0.0, 2000.0),
+}
+
+_FACADES = {"N": "north", "E": "east", "S": "south", "W": "west"}
+
+#: relative tolerance on "the step is a whole multiple of the model step"
+_STEP_RTOL = 1e-9
+
+
+def source() -> str:
+    """Source text of this module; the slave scripts in ``fmus/`` execute it in their own namespace."""
+    return Path(__file__).read_text(encoding="utf-8")
+
+
+def tuple_getter(indices):
+    """A fast function ``values -> tuple(values[i] for i in indices)``."""
+    indices = list(indices)
+    if not indices:
+        return lambda values: ()
+    get = operator.itemgetter(*indices)
+    if len(indices) == 1:
+        return lambda values: (get(values),)
+    return get
+
+
+def sanitize_name(name: str) -> str:
+    """An FMI variable name without ``.``, ``[`` or ``]`` (any non-word character becomes ``_``)."""
+    out = "".join(c if (c.isalnum() or c == "_") else "_" for c in str(name))
+    return out if out and not out[0].isdigit() else "_" + out
+
+
+def signal_unit(name: str) -> str | None:
+    """Unit of a frame column / signal name (README nomenclature)."""
+    if name.startswith("T_"):
+        return "degC"
+    if name.startswith("m_"):
+        return "kg/s"
+    if name.startswith("I_") or name == "ghi":
+        return "W/m2"
+    return None
+
+
+def signal_description(name: str) -> str:
+    """A description a Modelica or EnergyPlus user can map by eye."""
+    if name == "T_out":
+        return "Outdoor air dry-bulb temperature [degC] (EnergyPlus: Site Outdoor Air Drybulb Temperature)"
+    if name == "T_supply":
+        return "Supply (discharge) air temperature of the VAV boxes [degC]"
+    if name == "ghi":
+        return "Global horizontal irradiance [W/m2]"
+    if name.startswith("I_") and name[2:] in _FACADES:
+        return (
+            f"Total solar irradiance on a vertical {_FACADES[name[2:]]}-facing facade [W/m2] "
+            "(EnergyPlus: Surface Outside Face Incident Solar Radiation Rate per Area)"
+        )
+    if name.startswith("m_"):
+        return f"Air mass flow rate of {name[2:]} [kg/s]"
+    return name
+
+
+INTERFACE_FILE = "interface.json"
+
+
+def _normalise(obj):
+    """JSON round trip (tuples -> lists, numpy scalars -> floats) for comparing layouts."""
+    return json.loads(json.dumps(obj, default=float))
+
+
+class HvacfmuSlaveBase(Fmi2Slave):
+    """Machinery shared by the hvacfmu slaves: value storage, checks, logging, XML, state.
+
+    Subclasses implement :meth:`_setup` (read resources, return the variable
+    layout), :meth:`_initialize`, :meth:`_advance` and the internal-state hooks.
+    No method called by the FMU binary raises (see the module docstring).
+    """
+
+    author = "hvacfmu"
+    license = "BSD-3-Clause"
+
+    log_categories = {
+        "logStatusWarning": "Log messages with fmi2Warning status.",
+        "logStatusDiscard": "Log messages with fmi2Discard status.",
+        "logStatusError": "Log messages with fmi2Error status.",
+        "logStatusFatal": "Log messages with fmi2Fatal status.",
+        "logAll": "Log all messages.",
+    }
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._values: list = []  # value by value reference
+        self._spec: list = []  # variable layout entries by value reference
+        self._kind: list = []  # by vr: 0 = Real input/output, 1 = Real fixed parameter, 2 = Integer parameter
+        self._lo_list: list = []  # bounds by vr (infinite when none)
+        self._hi_list: list = []
+        self._fixed_vrs: list = []
+        self._input_vrs: list = []
+        self._output_vrs: list = []
+        self._bad: dict = {}  # vr -> value of inputs outside their bounds (or NaN)
+        self._pending: str | None = None  # error from a get/set, reported by the next step
+        self._initialized = False
+        self._broken: str | None = None  # the FMU cannot run (unreadable resources)
+        self._failed: str | None = None  # initialisation failed
+        self._t = 0.0
+        self._t_start = 0.0
+        try:
+            layout = self._setup()
+        except Exception:  # noqa: BLE001 - never raise into pythonfmu
+            layout = None
+            self._broken = "the FMU could not be set up:\n" + traceback.format_exc()
+        if layout:
+            for entry in layout:
+                self._declare(entry)
+        if self._broken:
+            self.log(self._broken, Fmi2Status.error)
+
+    # ------------------------------------------------------------ declaring
+    def _declare(self, entry):
+        """Register one variable from a layout entry; returns its value reference."""
+        vr = len(self._values)
+        name, vtype, causality = entry["name"], entry["type"], entry["causality"]
+        lo, hi = entry.get("min"), entry.get("max")
+        self._values.append(entry["start"])
+        self._spec.append(entry)
+        self._kind.append(2 if vtype != "Real" else (1 if causality == "parameter" else 0))
+        self._lo_list.append(-math.inf if lo is None or causality != "input" else lo)
+        self._hi_list.append(math.inf if hi is None or causality != "input" else hi)
+        kw = dict(description=entry.get("description") or None, getter=lambda vr=vr: self._values[vr])
+        if causality == "input":
+            var = Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous, **kw)
+            self._input_vrs.append(vr)
+        elif causality == "output":
+            var = Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.discrete,
+                       initial=Fmi2Initial.calculated, **kw)
+            self._output_vrs.append(vr)
+        else:
+            cls = Real if vtype == "Real" else Integer
+            var = cls(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                      initial=Fmi2Initial.exact, **kw)
+            self._fixed_vrs.append(vr)
+        var.setter = lambda value, vr=vr: self._values.__setitem__(vr, value)
+        self.register_variable(var, nested=False)
+        return vr
+
+    def vrs_with_role(self, role) -> list:
+        """Value references of the layout entries with ``role``."""
+        return [vr for vr, e in enumerate(self._spec) if e.get("role") == role]
+
+    # ------------------------------------------------------------ values (fast paths, never raise)
+    def _bad_access(self, what, vrs):
+        msg = f"{what}: invalid value reference(s) or type in {list(vrs)!r}; ignored"
+        self._pending = msg
+        self.log(msg, Fmi2Status.error)
+
+    def get_real(self, vrs):
+        values, kind = self._values, self._kind
+        try:
+            out = []
+            for vr in vrs:
+                if kind[vr] == 2:
+                    raise TypeError
+                out.append(float(values[vr]))
+            return out
+        except Exception:  # noqa: BLE001
+            self._bad_access("fmi2GetReal", vrs)
+            return [math.nan] * len(vrs)
+
+    def get_integer(self, vrs):
+        try:
+            out = []
+            for vr in vrs:
+                if self._kind[vr] != 2:
+                    raise TypeError
+                out.append(int(self._values[vr]))
+            return out
+        except Exception:  # noqa: BLE001
+            self._bad_access("fmi2GetInteger", vrs)
+            return [0] * len(vrs)
+
+    def get_boolean(self, vrs):
+        self._bad_access("fmi2GetBoolean (no Boolean variables)", vrs)
+        return [False] * len(vrs)
+
+    def get_string(self, vrs):
+        self._bad_access("fmi2GetString (no String variables)", vrs)
+        return [""] * len(vrs)
+
+    def set_real(self, vrs, values):
+        store, lo, hi, kind, bad = self._values, self._lo_list, self._hi_list, self._kind, self._bad
+        try:
+            for vr, value in zip(vrs, values):
+                k = kind[vr]
+                if k != 0:
+                    if k == 2:
+                        raise TypeError
+                    if self._initialized:
+                        self._reject_fixed(vr, value)
+                        continue
+                store[vr] = value
+                # NaN fails both comparisons
+                if not (lo[vr] <= value <= hi[vr]):
+                    bad[vr] = value
+                elif bad:
+                    bad.pop(vr, None)
+        except Exception:  # noqa: BLE001
+            self._bad_access("fmi2SetReal", vrs)
+
+    def set_integer(self, vrs, values):
+        try:
+            for vr, value in zip(vrs, values):
+                if self._kind[vr] != 2:
+                    raise TypeError
+                if self._initialized:
+                    self._reject_fixed(vr, value)
+                    continue
+                self._values[vr] = int(value)
+        except Exception:  # noqa: BLE001
+            self._bad_access("fmi2SetInteger", vrs)
+
+    def set_boolean(self, vrs, values):
+        self._bad_access("fmi2SetBoolean (no Boolean variables)", vrs)
+
+    def set_string(self, vrs, values):
+        self._bad_access("fmi2SetString (no String variables)", vrs)
+
+    def _reject_fixed(self, vr, value):
+        self.log(
+            f"{self._spec[vr]['name']} is a fixed parameter; setting it to {value!r} after initialisation "
+            "is not allowed and was ignored (set it before fmi2ExitInitializationMode)",
+            Fmi2Status.error,
+        )
+
+    # ------------------------------------------------------------ lifecycle
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        try:
+            self._t_start = float(start_time)
+            self._t = float(start_time)
+        except Exception:  # noqa: BLE001
+            self._pending = f"fmi2SetupExperiment: invalid start time {start_time!r}"
+
+    def exit_initialization_mode(self):
+        if self._broken:
+            self.log(self._broken, Fmi2Status.error)
+            return
+        try:
+            problems = self._initialize()
+        except Exception:  # noqa: BLE001 - never raise into pythonfmu
+            problems = ["initialisation raised an exception:\n" + traceback.format_exc()]
+        if problems:
+            self._failed = "initialisation failed: " + "; ".join(problems)
+            self.log(self._failed, Fmi2Status.error)
+            self._initialized = False
+        else:
+            self._initialized = True
+            self._failed = None
+
+    def do_step(self, current_time, step_size):
+        try:
+            if self._broken:
+                return self._refuse(self._broken)
+            if self._pending:
+                msg, self._pending = self._pending, None
+                return self._refuse(f"step refused after an earlier error: {msg}")
+            if not self._initialized:
+                return self._refuse(self._failed or (
+                    "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
+                    "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"))
+            if self._bad:
+                names = ", ".join(
+                    f"{self._spec[vr]['name']}={value!r} (allowed [{self._lo_list[vr]}, {self._hi_list[vr]}] "
+                    f"{self._spec[vr].get('unit') or ''})"
+                    for vr, value in sorted(self._bad.items())
+                )
+                return self._refuse(f"at t={current_time} s: invalid input value(s): {names}; step not taken")
+            if abs(current_time - self._t) > 1e-9 * max(1.0, abs(self._t)):
+                return self._refuse(
+                    f"fmi2DoStep at t={current_time!r} s but the FMU is at t={self._t!r} s; "
+                    "steps must be contiguous (restore a saved FMU state to go back in time)"
+                )
+            return self._advance(current_time, step_size)
+        except Exception:  # noqa: BLE001 - reported to the importer, instance stays usable
+            self.log(f"exception in fmi2DoStep at t={current_time} s:\n{traceback.format_exc()}", Fmi2Status.error)
+            return False
+
+    def _refuse(self, message):
+        self.log(message, Fmi2Status.error)
+        return False
+
+    # ------------------------------------------------------------ state
+    def _get_fmu_state(self):
+        try:
+            return {
+                "values": list(self._values),
+                "bad": [[vr, v] for vr, v in self._bad.items()],
+                "t": self._t,
+                "t_start": self._t_start,
+                "initialized": self._initialized,
+                "failed": self._failed,
+                "internal": self._get_internal_state(),
+            }
+        except Exception:  # noqa: BLE001
+            self._pending = "fmi2GetFMUstate failed:\n" + traceback.format_exc()
+            self.log(self._pending, Fmi2Status.error)
+            return {}
+
+    def _set_fmu_state(self, state):
+        try:
+            if not state:
+                raise ValueError("empty FMU state (its fmi2GetFMUstate had failed)")
+            values = list(state["values"])
+            if len(values) != len(self._values):
+                raise ValueError(f"FMU state has {len(values)} variables, this FMU {len(self._values)}")
+            self._set_internal_state(state["internal"])
+            self._values[:] = values
+            self._bad = {int(vr): v for vr, v in state["bad"]}
+            self._t = float(state["t"])
+            self._t_start = float(state["t_start"])
+            self._initialized = bool(state["initialized"])
+            self._failed = state["failed"]
+        except Exception:  # noqa: BLE001
+            self._pending = "fmi2SetFMUstate failed, state unchanged:\n" + traceback.format_exc()
+            self.log(self._pending, Fmi2Status.error)
+
+    @staticmethod
+    def _fmu_state_to_bytes(state) -> bytes:
+        try:
+            return json.dumps(state).encode("utf-8")  # NaN inputs are written as NaN and read back
+        except Exception:  # noqa: BLE001
+            return b"{}"
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes):
+        try:
+            return json.loads(bytes(state).decode("utf-8"))
+        except Exception:  # noqa: BLE001 - _set_fmu_state reports the empty state
+            return {}
+
+    # ------------------------------------------------------------ model description
+    def to_xml(self, model_options=dict()):  # noqa: B006 - pythonfmu's signature
+        """The model description, completed for ``fmpy validate`` (units, bounds, model structure)."""
+        root = super().to_xml(model_options)
+        root.set("variableNamingConvention", "flat")
+        try:
+            from hvacfmu import __version__
+
+            root.set("version", f"hvacfmu {__version__}")
+        except ImportError:  # pragma: no cover
+            pass
+        cs = root.find("CoSimulation")
+        cs.set("canHandleVariableCommunicationStepSize", "true" if self.VARIABLE_STEP else "false")
+        # <UnitDefinitions> goes right after <CoSimulation>
+        used = [u for u in UNITS if any(s.get("unit") == u for s in self._spec)]
+        if used:
+            units = Element("UnitDefinitions")
+            for u in used:
+                exps, offset = UNITS[u]
+                unit = SubElement(units, "Unit", name=u)
+                base = SubElement(unit, "BaseUnit", **exps)
+                if offset is not None:
+                    base.set("offset", offset)
+            root.insert(list(root).index(cs) + 1, units)
+        for sv, spec in zip(root.find("ModelVariables"), self._spec):
+            typ = sv[0]
+            if spec.get("unit") and spec["type"] == "Real":
+                typ.set("unit", spec["unit"])
+            for key in ("min", "max"):
+                if spec.get(key) is not None:
+                    typ.set(key, repr(float(spec[key])) if spec["type"] == "Real" else str(int(spec[key])))
+        # complete model structure: outputs have no direct feedthrough from inputs;
+        # at initialisation they depend on the start-value parameters
+        structure = root.find("ModelStructure")
+        for child in list(structure):
+            structure.remove(child)
+        start_deps = " ".join(str(vr + 1) for vr in self.vrs_with_role("y0"))
+        outs = SubElement(structure, "Outputs")
+        for vr in self._output_vrs:
+            SubElement(outs, "Unknown", index=str(vr + 1), dependencies="")
+        init = SubElement(structure, "InitialUnknowns")
+        for vr in self._output_vrs:
+            SubElement(init, "Unknown", index=str(vr + 1), dependencies=start_deps)
+        return root
+
+    # ------------------------------------------------------------ to implement
+    #: whether any positive communication step is handled exactly
+    VARIABLE_STEP = False
+
+    def _setup(self) -> list:
+        """Read the resources; return the variable layout (list of entries). May raise."""
+        raise NotImplementedError
+
+    def _initialize(self) -> list:
+        """Set the initial state from the parameters; return a list of problems."""
+        raise NotImplementedError
+
+    def _advance(self, current_time, step_size) -> bool:
+        raise NotImplementedError
+
+    def _get_internal_state(self):
+        raise NotImplementedError
+
+    def _set_internal_state(self, state):
+        raise NotImplementedError
+
+
+def _entry(role, name, vtype, causality, start, unit=None, description="", bounds=(None, None)):
+    return {"role": role, "name": name, "type": vtype, "causality": causality, "start": start,
+            "unit": unit, "description": description, "min": bounds[0], "max": bounds[1]}
+
+
+def read_layout(resources, model_layout, resource_name):
+    """The FMU's variable layout: ``interface.json`` when present, checked against the model's.
+
+    Returns ``(layout, problem)``; ``problem`` is None when the model matches.
+    """
+    path = Path(resources or ".") / INTERFACE_FILE
+    stored = None
+    if path.is_file():
+        try:
+            stored = json.loads(path.read_text(encoding="utf-8"))
+        except Exception as exc:  # noqa: BLE001
+            return (model_layout, f"{path} is unreadable: {exc}")
+    if model_layout is None:
+        return (stored, None)
+    if stored is not None and _normalise(stored) != _normalise(model_layout):
+        return (stored, f"resources/{resource_name} does not match the FMU's variables ({INTERFACE_FILE}); "
+                        "was the file replaced? Export the FMU again")
+    return (model_layout, None)
+
+
+# =============================================================================
+# zone models
+# =============================================================================
+def input_matrix(model) -> tuple[np.ndarray | None, tuple]:
+    """The linear map from VAV-box airflows to the model's controlled inputs.
+
+    Probes ``model.signals`` with unit airflows, so it works for every model
+    kind that sums (or passes through) box airflows.
+
+    Returns
+    -------
+    M : array (n_inputs, n_vavs) or None
+        ``u = M @ m_vav``; None when the model has no per-box airflows.
+    vavs : tuple of str
+        Box names (empty when M is None).
+    """
+    import pandas as pd
+
+    vavs = tuple(getattr(model, "vavs", ()) or ())
+    if not vavs:
+        return None, ()
+    n = len(vavs)
+    idx = pd.date_range("2025-09-01", periods=n + 2, freq=f"{int(model.step)}s", tz="UTC")
+    rng = np.random.default_rng(0)
+    m = np.vstack([np.zeros(n), np.eye(n), rng.uniform(0.0, 1.0, n)])
+    cols = {f"m_{b}": m[:, j] for j, b in enumerate(vavs)}
+    for d in model.disturbances:
+        cols[d] = np.full(n + 2, 1.0)
+    for z in model.outputs:
+        cols.setdefault(f"T_{z}", np.full(n + 2, 21.0))
+    for z in getattr(model, "measured_zones", ()) or ():
+        cols.setdefault(f"T_{z}", np.full(n + 2, 21.0))
+    try:
+        u, _ = model.signals(pd.DataFrame(cols, index=idx))
+    except KeyError:
+        return None, ()
+    u = np.asarray(u, dtype=float)
+    if u.shape != (n + 2, model.n_inputs) or np.any(u[0] != 0.0):
+        return None, ()
+    M = (u[1 : n + 1] - u[0]).T
+    if not np.allclose(M @ m[-1], u[-1], rtol=1e-12, atol=1e-12):
+        return None, ()
+    return M, vavs
+
+
+def output_matrix(model) -> np.ndarray:
+    """C (n_outputs, n_states) of the linear output map ``y = output(x)``."""
+    nx = model.n_states
+    C = np.asarray(model.output(np.eye(nx)), dtype=float).T
+    x = np.random.default_rng(1).uniform(15, 25, nx)
+    if C.shape != (model.n_outputs, nx) or not np.allclose(C @ x, model.output(x), rtol=1e-12, atol=1e-10):
+        raise ValueError("the model's output map is not linear; the FMU needs y = C x")
+    return C
+
+
+def state_from_outputs(model, y0) -> np.ndarray:
+    """Initial state with outputs ``y0`` [°C]; unobserved states (walls, masses) start at mean(y0).
+
+    For models whose state is the zone temperatures this is ``x0 = y0``.
+    """
+    y0 = np.asarray(y0, dtype=float)
+    C = output_matrix(model)
+    nx = C.shape[1]
+    if C.shape[0] == nx and np.array_equal(C, np.eye(nx)):
+        return y0.copy()
+    x_ref = np.full(nx, float(np.mean(y0)))
+    x0 = x_ref + np.linalg.pinv(C) @ (y0 - C @ x_ref)
+    return x0
+
+
+def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
+    """Variable layout of the FMU of a zone model, and the box-to-input matrix.
+
+    Returns
+    -------
+    layout : dict
+        JSON-ready: ``variables`` (in value-reference order) and model facts.
+    M : array (n_inputs, n_vavs) or None
+        ``u = M @ m_vav`` (see :func:`input_matrix`).
+    """
+    M, vavs = input_matrix(model)
+    step = float(model.step)
+    seasons = [str(s) for s in model.gains]
+    var = []
+    if M is not None:
+        for b in vavs:
+            var.append(_entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
+                              f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"]))
+    else:
+        for name in model.inputs:
+            var.append(_entry("m", sanitize_name(name), "Real", "input", 0.0, "kg/s",
+                              signal_description(name), BOUNDS["kg/s"]))
+    defaults = {"T_out": 15.0, "T_supply": 14.0}
+    for name in model.disturbances:
+        unit = signal_unit(name)
+        var.append(_entry("v", sanitize_name(name), "Real", "input", defaults.get(name, 0.0), unit,
+                          signal_description(name), BOUNDS.get(unit, (None, None))))
+    label = "the floor (area-weighted mean)" if model.kind == "lumped" else "zone"
+    for z in model.outputs:
+        var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
+                          f"Air temperature of {label} {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
+    for z in model.outputs:
+        var.append(_entry("y0", sanitize_name(f"T_{z}_start"), "Real", "parameter", 21.0, "degC",
+                          f"Initial air temperature of {z} [degC]", BOUNDS["degC"]))
+    mapping = ", ".join(f"{i + 1} = {s}" for i, s in enumerate(seasons))
+    var.append(_entry("season", "season", "Integer", "parameter", 1, None,
+                      f"Season of the internal-gain profile: {mapping}", (1, len(seasons))))
+    var.append(_entry("tow", "start_time_of_week", "Real", "parameter", 0.0, "s",
+                      "Local time of week at FMU time 0 [s since Monday 00:00]; places the internal-gain "
+                      "profile: slot = floor((start_time_of_week + time)/step) mod slots", (0.0, 7 * 86400.0)))
+    names = [v["name"] for v in var]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"FMU variable names clash after sanitising: {dup}")
+    layout = {
+        "slave_api": SLAVE_API_VERSION,
+        "kind": model.kind,
+        "step": step,
+        "seasons": seasons,
+        "n_states": int(model.n_states),
+        "description": (
+            f"hvacfmu {model.kind} zone model: {model.n_outputs} zone temperature(s), {model.n_states} states, "
+            f"model step {step:g} s (communication steps must be whole multiples of it). "
+            "Runs in the host's Python, which needs the hvacfmu package."
+        ),
+        "variables": var,
+    }
+    return layout, M
+
+
+class ZoneModelSlave(HvacfmuSlaveBase):
+    """FMU slave for any saved ZoneModel (``resources/model.json``).
+
+    Variables (value references in this order):
+
+    - inputs ``m_<vav>`` [kg/s] per VAV box (summed to the model's inputs with
+      its input map), or the model's own inputs when it has no box map;
+    - inputs for the model's disturbances (``T_out``, ``T_supply`` [°C],
+      ``I_N`` ... ``I_W`` [W/m²] when used);
+    - outputs ``T_<zone>`` [°C] (``T_floor`` for the lumped model);
+    - parameters ``T_<zone>_start`` [°C], ``season`` (Integer, mapping in its
+      description), ``start_time_of_week`` [s].
+    """
+
+    MODEL_FILE = "model.json"
+
+    def _setup(self):
+        self.model = None
+        problem = None
+        try:
+            from hvacfmu.models import load_model  # host environment
+
+            model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
+            layout, M = zone_model_layout(model)
+        except Exception as exc:  # noqa: BLE001 - reported, never raised
+            model, layout, M = None, None, None
+            from hvacfmu.errors import HvacfmuError
+
+            detail = str(exc) if isinstance(exc, HvacfmuError) else traceback.format_exc()
+            problem = f"cannot use the FMU's model file resources/{self.MODEL_FILE}: {detail}"
+        layout, mismatch = read_layout(self.resources, layout, self.MODEL_FILE)
+        problem = problem or mismatch
+        if problem:
+            self._broken = problem
+        if layout is None:
+            return []
+        self.description = layout["description"]
+        self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=7 * 86400.0, step_size=layout["step"])
+        self.seasons = tuple(layout["seasons"])
+        self._step = float(layout["step"])
+        if model is not None and not problem:
+            self.model = model
+            self._M = M
+            self._MT = None if M is None else np.ascontiguousarray(M.T)
+        self._x = None
+        self._k = 0  # model steps taken since the start time
+        self._slot0 = 0
+        self._profile = None
+        self._n_slots = None
+        return layout["variables"]
+
+    def _initialize(self):
+        v = self._values
+        self._y_vrs = self.vrs_with_role("y")
+        self._y0_vrs = self.vrs_with_role("y0")
+        m_vrs, v_vrs = self.vrs_with_role("m"), self.vrs_with_role("v")
+        self._nm = len(m_vrs)
+        self._get_inputs = tuple_getter(m_vrs + v_vrs)
+        (season_vr,) = self.vrs_with_role("season")
+        (tow_vr,) = self.vrs_with_role("tow")
+        problems = []
+        y0 = [v[vr] for vr in self._y0_vrs]
+        lo, hi = BOUNDS["degC"]
+        for vr, val in zip(self._y0_vrs, y0):
+            if not (lo <= val <= hi):
+                problems.append(f"{self._spec[vr]['name']}={val!r} degC is outside [{lo}, {hi}]")
+        season = v[season_vr]
+        if not (isinstance(season, int) and 1 <= season <= len(self.seasons)):
+            problems.append(
+                f"season={season!r} is not one of " + ", ".join(f"{i + 1} ({s})" for i, s in enumerate(self.seasons)))
+        tow = v[tow_vr]
+        if not (0.0 <= tow <= 7 * 86400.0):
+            problems.append(f"start_time_of_week={tow!r} s is outside [0, 604800]")
+        if problems:
+            return problems
+        self._season = season
+        self._profile = np.asarray(self.model.gains[self.seasons[season - 1]], dtype=float)
+        self._n_slots = self._profile.shape[0]
+        # slot of model step k: floor((tow + t_start)/step) + k  (mod n_slots)
+        self._slot0 = int(math.floor((tow + self._t_start) / self._step + 1e-9))
+        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float))
+        self._k = 0
+        self._t = self._t_start
+        self._write_outputs(np.asarray(self.model.output(self._x), dtype=float).tolist())
+        return []
+
+    def _write_outputs(self, y):
+        values = self._values
+        for vr, val in zip(self._y_vrs, y):
+            values[vr] = val
+
+    def _advance(self, current_time, step_size):
+        k = step_size / self._step
+        n = int(round(k))
+        if n < 1 or abs(k - n) > _STEP_RTOL * max(1.0, k):
+            return self._refuse(
+                f"communication step {step_size!r} s at t={current_time} s is not a whole multiple of the "
+                f"model step {self._step:g} s; step refused (use a step of k*{self._step:g} s, k >= 1)"
+            )
+        w = np.array(self._get_inputs(self._values), dtype=float)
+        nm = self._nm
+        u = w[:nm] @ self._MT if self._MT is not None else w[:nm]
+        vdist = w[nm:]
+        x, model, prof, ns = self._x, self.model, self._profile, self._n_slots
+        slot = self._slot0 + self._k
+        for j in range(n):
+            x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
+        y = np.asarray(model.output(x), dtype=float).tolist()
+        if not all(map(math.isfinite, y)):
+            return self._refuse(
+                f"the zone temperatures became non-finite in the step from t={current_time} s; step refused")
+        self._x = x
+        self._k += n
+        self._t = self._t_start + self._k * self._step
+        self._write_outputs(y)
+        return True
+
+    def _get_internal_state(self):
+        return {"x": None if self._x is None else self._x.tolist(), "k": self._k, "slot0": self._slot0,
+                "season": getattr(self, "_season", None)}
+
+    def _set_internal_state(self, state):
+        x = None if state["x"] is None else np.array(state["x"], dtype=float)
+        season = state["season"]
+        if season is not None:
+            self._profile = np.asarray(self.model.gains[self.seasons[season - 1]], dtype=float)
+            self._n_slots = self._profile.shape[0]
+            self._season = season
+        self._x = x
+        self._k = int(state["k"])
+        self._slot0 = int(state["slot0"])
