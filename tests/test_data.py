@@ -642,3 +642,28 @@ def test_empty_optional_column_is_ignored_with_warning(tmp_path, small_building)
     loaded, report = load_measurements(write(frame, tmp_path / "m.csv"), small_building)
     assert "ghi" not in loaded.columns
     assert any("optional column 'ghi' has no values" in w for w in report.warnings)
+
+
+def test_bms_style_csv_semicolons_bom_and_padded_header(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=120)
+    out = frame.reset_index(drop=True)
+    out.insert(0, "time", [t.isoformat() for t in frame.index])
+    out.columns = [f" {c} " for c in out.columns]
+    text = out.to_csv(index=False, sep=";")
+    (tmp_path / "bms.csv").write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    loaded, _ = load_measurements(tmp_path / "bms.csv", small_building)
+    assert_allclose(loaded.to_numpy(), frame.to_numpy(), rtol=0, atol=1e-9)
+
+
+def test_parquet_with_unnamed_datetime_index(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=120)
+    frame.index.name = None
+    frame.to_parquet(tmp_path / "m.parquet")
+    loaded, _ = load_measurements(tmp_path / "m.parquet", small_building)
+    assert loaded.index.equals(frame.index.rename("time"))
+
+
+def test_missing_columns_hint_lists_unmapped_columns(tmp_path, small_building):
+    frame = make_measurements(small_building, periods=120).rename(columns={"T_A": "RM-A ZN-T"})
+    with pytest.raises(DataError, match=r"(?s)missing required column 'T_A'.*hint: .*'RM-A ZN-T'.*\[columns\]"):
+        load_measurements(write(frame, tmp_path / "m.csv"), small_building)

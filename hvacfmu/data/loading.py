@@ -113,7 +113,7 @@ def _fmt_value(v) -> str:
     return repr(v)
 
 
-def _read(path: Path, problems: list) -> pd.DataFrame | None:
+def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame | None:
     suffix = "".join(path.suffixes[-2:]).lower() if path.suffix.lower() == ".gz" else path.suffix.lower()
     if not path.exists():
         problems.append(f"{path}: file does not exist")
@@ -121,16 +121,32 @@ def _read(path: Path, problems: list) -> pd.DataFrame | None:
     try:
         if suffix in (".parquet", ".pq"):
             frame = pd.read_parquet(path)
-            if isinstance(frame.index, pd.DatetimeIndex) or frame.index.name is not None:
+            if isinstance(frame.index, pd.DatetimeIndex) and frame.index.name is None:
+                frame.index.name = time_name
+            if frame.index.name is not None:
                 frame = frame.reset_index()
             return frame
         if suffix in (".csv", ".csv.gz", ".txt"):
-            return pd.read_csv(path, dtype={"time": str}, low_memory=False)
+            return pd.read_csv(
+                path, sep=_sniff_separator(path), dtype={time_name: str}, low_memory=False, encoding="utf-8-sig"
+            )
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
         problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
+
+
+def _sniff_separator(path: Path) -> str:
+    """',' unless the header line is clearly separated by ';' or tabs (common in BMS exports)."""
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rt", encoding="utf-8-sig", errors="replace") as f:
+        header = f.readline()
+    counts = {sep: header.count(sep) for sep in (",", ";", "\t")}
+    best = max(counts, key=counts.get)
+    return best if counts[best] > 0 else ","
 
 
 def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list):
@@ -303,7 +319,8 @@ def _load(path: Path, building: Building):
     """Worker of :func:`load_measurements`: (frame or None, report, problems)."""
     problems: list[str] = []
     report = LoadReport(path=str(path))
-    raw = _read(path, problems)
+    time_name = building.column_for("time")
+    raw = _read(path, problems, time_name)
     if raw is None:
         return None, report, problems
     label = path.name
@@ -313,9 +330,8 @@ def _load(path: Path, building: Building):
     tz = building.timezone
 
     # --- columns ------------------------------------------------------
-    time_name = building.column_for("time")
     expected = building.expected_columns()
-    file_cols = [str(c) for c in raw.columns]
+    file_cols = [str(c).strip() for c in raw.columns]
     raw.columns = file_cols
     present = {}
     for canonical, required in expected.items():
@@ -329,6 +345,13 @@ def _load(path: Path, building: Building):
     unknown = tuple(c for c in file_cols if c not in used and not c.startswith("Unnamed: "))
     report.unknown_columns = unknown
     report.columns = dict(present)
+    n_missing = sum(1 for c, req in expected.items() if req and c not in present)
+    if n_missing and unknown:
+        problems.append(
+            f"{label}: hint: the file has {len(unknown)} column(s) that map to nothing: "
+            f"{', '.join(repr(c) for c in unknown[:8])}{' ...' if len(unknown) > 8 else ''}; "
+            "map them to canonical names in the building's [columns] table (e.g. T_NW = \"RM4-NW ZN-T\")"
+        )
     if unknown:
         report.warnings.append(
             f"{label}: {len(unknown)} unknown column(s) ignored: {', '.join(repr(c) for c in unknown[:10])}"
