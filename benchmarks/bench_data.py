@@ -81,10 +81,10 @@ def main():
         frame = synthetic_frame(building, args.weeks)
         paths = [Path(tmp) / "measurements.parquet"]
         frame.to_parquet(paths[0], index=False)
+        print(f"generated {len(frame)} rows x {frame.shape[1]} columns (Parquet) in {time.perf_counter() - t0:.1f} s")
         if args.csv:
             paths.append(Path(tmp) / "measurements.csv")
             frame.to_csv(paths[1], index=False)
-        print(f"generated {len(frame)} rows x {frame.shape[1]} columns in {time.perf_counter() - t0:.1f} s")
         for path in paths:
             times = []
             for _ in range(args.repeat):
