@@ -436,13 +436,15 @@ def bayes_cls(Z, y, *, lb=None, ub=None, G=None, h=None, prior_mean=None, prior_
         rows_G += list(np.atleast_2d(Gs))
         rows_h += list(np.atleast_1d(hs))
     kw = {}
-    if rows_G:
+    if not rows_G:  # unconstrained: the normal equations
+        phi = np.linalg.lstsq(0.5 * (P + P.T), -q, rcond=None)[0]
+    else:
         kw.update(G=scipy.sparse.csc_matrix(np.array(rows_G)), h=np.array(rows_h, dtype=float))
-    try:
-        phi = qpsolvers.solve_qp(scipy.sparse.csc_matrix(0.5 * (P + P.T)), q, solver="clarabel", **kw)
-    except Exception as exc:  # noqa: BLE001 - any solver failure is reported as found=False
-        log.warning("bayes_cls: clarabel failed: %s", exc)
-        phi = None
+        try:
+            phi = qpsolvers.solve_qp(scipy.sparse.csc_matrix(0.5 * (P + P.T)), q, solver="clarabel", **kw)
+        except Exception as exc:  # noqa: BLE001 - any solver failure is reported as found=False
+            log.warning("bayes_cls: clarabel failed: %s", exc)
+            phi = None
     if phi is None or not np.all(np.isfinite(phi)):
         return BayesClsResult(None, None, sigma2, False, n, float("nan"), problem)
     theta = phi * s
@@ -790,7 +792,8 @@ def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
     if rows.size < int(opts["min_rows"]):
         raise FitError(
             f"only {rows.size} usable 15-minute transitions in the training weeks (need >= {opts['min_rows']}); "
-            "too little data (or too many gaps) to identify the model"
+            "too little data (or too many gaps) to identify the model (the floor temperature needs "
+            "every zone's temperature at the same time)"
         )
     nv = len(prep.v_names)
     Z = D[rows]
@@ -1027,7 +1030,6 @@ def fit_zones(dataset, **options):
     X = np.column_stack([prep.T, U, prep.V, x_floor, prep.m.sum(axis=1)])
     hat, sinfo = _smooth_series(prep, names, X, opts)
     cache = {"names": names, "hat": hat, "info": sinfo}
-    lump = _lumped_stage(prep, opts, smooth_cache=cache)
     D = X - hat
     nv = len(prep.v_names)
     vols = np.array([z.volume for z in b.zones], float)
@@ -1036,6 +1038,22 @@ def fit_zones(dataset, **options):
     for p, q in b.adjacency_pairs():
         adj[p].add(q)
         adj[q].add(p)
+    layout, problems = [], []
+    for i, z in enumerate(zn):
+        nbrs = [j for j, other in enumerate(zn) if other in adj[z]]
+        vcols = [0, 1] + [2 + k for k, vn in enumerate(prep.v_names[2:]) if vn[2:] in b.zones[i].orientations]
+        xcols = [i] + nbrs
+        Zi_full = np.column_stack([D[:, xcols], D[:, nz + i], D[:, 2 * nz + np.array(vcols, int)]])
+        rows = _regression_rows(prep, Zi_full, next_ok=np.isfinite(D[:, i]))
+        if rows.size < int(opts["min_rows"]):
+            problems.append(
+                f"zone {z}: only {rows.size} usable transitions in the training weeks (need >= {opts['min_rows']}); "
+                "too little data (or too many gaps) to identify its dynamics"
+            )
+        layout.append((xcols, vcols, Zi_full, rows))
+    if problems:
+        raise FitError(problems_message("Cannot fit the zone model", problems))
+    lump = _lumped_stage(prep, opts, smooth_cache=cache)
     A = np.zeros((nz, nz))
     B = np.zeros((nz, nz))
     C = np.zeros((nz, nv))
@@ -1045,16 +1063,7 @@ def fit_zones(dataset, **options):
     mu_off = float(opts["mu_a_offdiag"])
     rows_all = []
     for i, z in enumerate(zn):
-        nbrs = [j for j, other in enumerate(zn) if other in adj[z]]
-        vcols = [0, 1] + [2 + k for k, vn in enumerate(prep.v_names[2:]) if vn[2:] in b.zones[i].orientations]
-        xcols = [i] + nbrs
-        Zi_full = np.column_stack([D[:, xcols], D[:, nz + i], D[:, 2 * nz + np.array(vcols, int)]])
-        rows = _regression_rows(prep, Zi_full, next_ok=np.isfinite(D[:, i]))
-        if rows.size < int(opts["min_rows"]):
-            raise FitError(
-                f"zone {z}: only {rows.size} usable transitions in the training weeks (need >= {opts['min_rows']}); "
-                "too little data (or too many gaps) to identify the model"
-            )
+        xcols, vcols, Zi_full, rows = layout[i]
         rows_all.append(rows)
         Zi, yi = Zi_full[rows], D[rows + 1, i]
         p = Zi.shape[1]
