@@ -212,10 +212,12 @@ class BilinearPredictor(AffinePredictor):
     mats : BilinearMatrices-like with fields ``A, Bv, Bq, Bxu, Bvu, C``
         (``Bxu``/``Bvu`` lists of n_vav matrices, dense or scipy.sparse).
     rank_tol : float
-        Relative singular-value threshold for the airflow-reachable basis.
+        Relative eigenvalue threshold on the Gram matrix ``Σ M Mᵀ`` of the
+        bilinear terms for the airflow-reachable basis (the projection is then
+        checked to reproduce every term to 1e-9 relative).
     """
 
-    def __init__(self, mats, rank_tol=1e-12):
+    def __init__(self, mats, rank_tol=1e-13):
         super().__init__()
         self.A = _dense(mats.A)
         self.Bv = _dense(mats.Bv)
@@ -257,7 +259,7 @@ class BilinearPredictor(AffinePredictor):
         for M in Bxu + Bvu:
             gram += _dense(M @ M.T)
         w, V = np.linalg.eigh(gram)
-        keep = w > (rank_tol**2) * max(w.max(), 1e-300)
+        keep = w > rank_tol * max(w.max(), 1e-300)
         return V[:, keep]
 
     def drift(self, V, Qg):
