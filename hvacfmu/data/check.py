@@ -31,6 +31,12 @@ def _duration(seconds: float) -> str:
     return f"{seconds} s"
 
 
+def _names(names, limit=8) -> str:
+    if len(names) <= limit:
+        return ", ".join(names)
+    return f"{', '.join(names[:limit])} and {len(names) - limit} more"
+
+
 def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """``(start, stop)`` index pairs of the runs of True in a boolean array (stop exclusive)."""
     mask = np.asarray(mask, dtype=bool)
@@ -94,6 +100,9 @@ class CheckReport:
             span = (lr.end - lr.start).total_seconds()
             lines.append(f"Span: {lr.start.isoformat()} .. {lr.end.isoformat()} ({span / 86400:.1f} days, {lr.rows} rows)")
             native = f"{lr.native_step:g} s (median spacing)" if lr.native_step else "unknown"
+            if lr.native_step:
+                expected = span / lr.native_step + 1
+                native += f", {100 * min(lr.rows / expected, 1.0):.2f} % of the rows expected at that spacing"
             lines.append(f"Native resolution: {native}; times {'with UTC offsets' if lr.has_offsets else 'naive local'}")
             coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
             if coarse:
@@ -107,12 +116,14 @@ class CheckReport:
             else:
                 lines.append("Solar: none (no ghi and no facade columns)")
             lines.append("Coverage on the model step (steps with a value, gaps, longest gap):")
-            width = max([len(g.column) for g in self.gaps] + [6])
-            for g in self.gaps:
+            groups: dict = {}
+            for g in self.gaps:  # columns with identical coverage share one line
+                groups.setdefault((round(g.coverage, 6), g.n_gaps, g.longest, g.longest_start), []).append(g.column)
+            for (coverage, n_gaps, longest_s, longest_start), names in groups.items():
                 longest = ""
-                if g.n_gaps:
-                    longest = f", longest {_duration(g.longest)} from {g.longest_start.isoformat()}"
-                lines.append(f"  {g.column:<{width}} {100 * g.coverage:6.2f} %  {g.n_gaps:4d} gap(s){longest}")
+                if n_gaps:
+                    longest = f", longest {_duration(longest_s)} from {longest_start.isoformat()}"
+                lines.append(f"  {100 * coverage:6.2f} %  {n_gaps:4d} gap(s){longest}: {_names(names)}")
             lines.append(f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else ""))
             for season in ds.building.season_names:
                 weeks = [w for w in ds.weeks if w.season == season]
