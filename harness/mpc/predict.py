@@ -133,7 +133,7 @@ class AffinePredictor:
                 # L[k, m] = Θ_k Q_{k-1-m}, m = 0..k-1
                 L[k, :, :k, :] = np.moveaxis(np.einsum("an,jnb->jab", theta[k], Q[k - 1 :: -1][:k]), 0, 1)
             Lm = np.eye(N * r) - L.reshape(N * r, N * r)
-            Bm = scipy.linalg.solve_triangular(Lm, Bm, lower=True, unit_diagonal=True)
+            Bm = np.linalg.solve(Lm, Bm)  # (scipy's solve_triangular is ~100x slower at this size)
         return H @ Bm
 
     def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):

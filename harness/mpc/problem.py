@@ -247,42 +247,72 @@ class CondensedProblem:
         self.T_min = np.array(band).ravel()
         self.T_max = np.array(np.broadcast_to(np.asarray(settings.T_max, dtype=float), (self.N, self.ny))).ravel()
         self._solver = None
+        self._A_changed = False
         self._set_G(G)
 
     # ----- assembly ------------------------------------------------------
     def _set_G(self, G):
+        """Assemble ``A`` once; the entries of the dense ``G`` blocks keep fixed slots in ``A.data``."""
         nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
-        I_U = sparse.identity(nU, format="csc")
-        E = sparse.csc_matrix(np.tile(np.eye(nu), (self.nb, 1)))  # eps_i for every block
-        Z = lambda r, c: sparse.csc_matrix((r, c))  # noqa: E731
         nt = 1 if self.socp else 0
         ns = nY if self.soft else 0
-        Gs = sparse.csc_matrix(G)
-        rows = [
-            [I_U, -E, Z(nU, nt), Z(nU, ns)],
-            [-I_U, -E, Z(nU, nt), Z(nU, ns)],
-            [Z(nu, nU), -sparse.identity(nu), Z(nu, nt), Z(nu, ns)],
-            [Gs, Z(nY, nu), Z(nY, nt), -sparse.identity(nY) if ns else Z(nY, 0)],
-            [-Gs, Z(nY, nu), Z(nY, nt), -sparse.identity(nY) if ns else Z(nY, 0)],
-        ]
-        if ns:
-            rows.append([Z(ns, nU), Z(ns, nu), Z(ns, nt), -sparse.identity(ns)])
         nf = nU if self.settings.u_floor is not None else 0
+        rows, cols, vals = [], [], []
+        r0 = 0
+
+        def put(r, c, v):
+            rows.append(np.asarray(r) + r0)
+            cols.append(np.asarray(c))
+            vals.append(np.broadcast_to(np.asarray(v, dtype=float), np.shape(r)))
+
+        iU = np.arange(nU)
+        eps_of = self.i_eps + np.tile(np.arange(nu), self.nb)
+        put(iU, iU, 1.0)                      # U - eps <= u_max
+        put(iU, eps_of, -1.0)
+        r0 += nU
+        put(iU, iU, -1.0)                     # -U - eps <= -u_min
+        put(iU, eps_of, -1.0)
+        r0 += nU
+        put(np.arange(nu), self.i_eps + np.arange(nu), -1.0)  # -eps <= 0
+        r0 += nu
+        gr, gc = np.divmod(np.arange(nY * nU), nU)
+        self._g_slots = []
+        for sign in (1.0, -1.0):              # ±(G U) - s <= ±(T_max/min - y0)
+            self._g_slots.append((sum(len(v) for v in vals), sign))
+            put(gr, gc, sign * G.ravel())
+            if ns:
+                put(np.arange(nY), self.i_s + np.arange(nY), -1.0)
+            r0 += nY
+        if ns:
+            put(np.arange(ns), self.i_s + np.arange(ns), -1.0)  # -s <= 0
+            r0 += ns
         if nf:
-            rows.append([-I_U, Z(nU, nu), Z(nU, nt), Z(nU, ns)])
-        self.n_nonneg = 2 * nU + nu + 2 * nY + ns + nf
-        if self.socp:
-            rows.append([Z(1 + nu, nU), -sparse.vstack([Z(1, nu), sparse.identity(nu)]),
-                         -sparse.vstack([sparse.identity(1), Z(nu, 1)]), Z(1 + nu, ns)])
-        self.A = sparse.bmat(rows, format="csc")
-        self.A.sort_indices()
+            put(iU, iU, -1.0)                 # -U <= -u_floor
+            r0 += nf
+        self.n_nonneg = r0
+        if self.socp:                         # (t, eps) in the second-order cone
+            put(np.array([0]), np.array([self.i_t]), -1.0)
+            put(1 + np.arange(nu), self.i_eps + np.arange(nu), -1.0)
+            r0 += 1 + nu
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self._coo_data = np.concatenate(vals).astype(float)
+        tag = sparse.csc_matrix((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(r0, self.nz))
+        tag.sort_indices()
+        self._perm = tag.data.astype(np.int64) - 1  # A.data = coo_data[perm]
+        self.A = sparse.csc_matrix((self._coo_data[self._perm], tag.indices, tag.indptr), shape=tag.shape)
         self.G = G
 
     def update_G(self, G):
-        """Replace the output sensitivity (bilinear models: a new linearisation)."""
+        """Replace the output sensitivity in place (bilinear models: a new linearisation)."""
         G = np.asarray(G, dtype=float)
-        self._set_G(G)
-        self._solver = None
+        if G.shape != self.G.shape:
+            raise SolverError(f"G has shape {G.shape}, expected {self.G.shape}")
+        n = G.size
+        for start, sign in self._g_slots:
+            self._coo_data[start : start + n] = sign * G.ravel()
+        self.A.data[:] = self._coo_data[self._perm]
+        self.G = G
+        self._A_changed = True
 
     def rhs(self, y0) -> np.ndarray:
         """Constraint right-hand side ``b`` for the free response ``y0`` (N*ny,) [°C]."""
@@ -333,8 +363,11 @@ class CondensedProblem:
             if self._solver is None:
                 self._solver = clarabel.DefaultSolver(self.P, self.q, self.A, b, self.cones(),
                                                       self._clarabel_settings())
+            elif self._A_changed:
+                self._solver.update(A=self.A.data.copy(), b=b)
             else:
                 self._solver.update(b=b)
+            self._A_changed = False
             res = self._solver.solve()
             status = str(res.status)
             z = np.asarray(res.x, dtype=float)
