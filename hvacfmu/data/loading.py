@@ -433,7 +433,7 @@ def _load(path: Path, building: Building):
         elif kind == "airflow":
             si = _check_airflow(canonical, desc, label, unit, finite, si, m_max.get(canonical), where, problems, report)
         elif kind == "irradiance":
-            si = _check_irradiance(desc, label, si, where, problems, report)
+            si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
         else:
             flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
             if len(flag_bad):
@@ -517,7 +517,14 @@ def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, probl
     return si
 
 
-def _check_irradiance(desc, label, si, where, problems, report):
+def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None):
+    peak = float(np.nanmax(si))
+    if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and 0 < peak < 5:
+        problems.append(
+            f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}); "
+            "irradiance this low cannot be right, the data look like kW/m²: declare the unit in the building's [units]"
+        )
+        return si
     bad = np.flatnonzero(si < -IRRADIANCE_NOISE)
     if len(bad):
         problems.append(

@@ -30,7 +30,7 @@ CFM_IN_M3_PER_S = 0.3048**3 / 60.0
 KINDS = {
     "temperature": ("degC", ("degC", "degF", "K")),
     "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm")),
-    "irradiance": ("W/m2", ("W/m2",)),
+    "irradiance": ("W/m2", ("W/m2", "kW/m2")),
     "flag": ("1", ("1",)),
 }
 
@@ -43,6 +43,7 @@ _ALIASES = {
     "l/s": "L/s", "lps": "L/s",
     "cfm": "cfm", "ft3/min": "cfm", "ft^3/min": "cfm", "ft³/min": "cfm",
     "w/m2": "W/m2", "w/m^2": "W/m2", "w/m²": "W/m2", "wm-2": "W/m2",
+    "kw/m2": "kW/m2", "kw/m^2": "kW/m2", "kw/m²": "kW/m2",
     "1": "1", "-": "1", "": "1", "none": "1", "bool": "1",
 }
 
@@ -86,7 +87,7 @@ def to_si(values, unit: str):
         Values in ``unit``.
     unit : str
         One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``,
-        ``W/m2``, ``1`` (canonical spellings, see :func:`normalize_unit`).
+        ``W/m2``, ``kW/m2``, ``1`` (canonical spellings, see :func:`normalize_unit`).
 
     Returns
     -------
@@ -107,6 +108,8 @@ def to_si(values, unit: str):
         return x * (1e-3 * AIR_DENSITY)
     if unit == "cfm":
         return x * (CFM_IN_M3_PER_S * AIR_DENSITY)
+    if unit == "kW/m2":
+        return x * 1000.0
     raise ValueError(f"unknown unit {unit!r}")
 
 
@@ -125,4 +128,6 @@ def from_si(values, unit: str):
         return x / (1e-3 * AIR_DENSITY)
     if unit == "cfm":
         return x / (CFM_IN_M3_PER_S * AIR_DENSITY)
+    if unit == "kW/m2":
+        return x / 1000.0
     raise ValueError(f"unknown unit {unit!r}")
