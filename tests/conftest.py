@@ -41,3 +41,18 @@ def small_building():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def default_dataset():
+    """The emulator's default 51-week dataset, prepared (generated once into $HVACFMU_CACHE)."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.errors import HvacfmuWarning
+
+    paths = cached_dataset()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(paths.measurements, paths.building)
