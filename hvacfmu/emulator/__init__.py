@@ -1,0 +1,41 @@
+"""The building emulator: an SDH-like office floor that produces realistic "measured" data.
+
+Public API (see DEVELOPING.md):
+
+- :func:`generate` writes ``measurements.parquet`` (or ``.csv``), ``building.toml``
+  and ``truth.json``; :func:`cached_dataset` caches it in ``$HVACFMU_CACHE``;
+- :func:`parse_effect` parses ``--effect NAME[:key=value,...]``;
+- :func:`sdh_building` is the default floor with nominal physics tables;
+- :class:`Plant` is the same building, steppable from outside.
+
+The emulator is deliberately richer than the models identified from its data
+(multi-node walls, slabs facing the floors above and below, furniture mass,
+windows with solar gains, infiltration, local VAV controllers with reheat,
+supply-air reset, occupancy with calendar and randomness), so identification
+is never checked against its own model class.
+"""
+
+from .building import sdh_building, sdh_building_dict, true_building_dict  # noqa: F401
+from .effects import EFFECT_DEFAULTS, EFFECT_NAMES, EmulatorError, effect_label, parse_effect  # noqa: F401
+from .generate import EMULATOR_VERSION, GeneratedPaths, cache_key, cached_dataset, generate, make_truth  # noqa: F401
+from .plant import Plant  # noqa: F401
+from .simulate import simulate  # noqa: F401
+
+__all__ = [
+    "EFFECT_DEFAULTS",
+    "EFFECT_NAMES",
+    "EMULATOR_VERSION",
+    "EmulatorError",
+    "GeneratedPaths",
+    "Plant",
+    "cache_key",
+    "cached_dataset",
+    "effect_label",
+    "generate",
+    "make_truth",
+    "parse_effect",
+    "sdh_building",
+    "sdh_building_dict",
+    "simulate",
+    "true_building_dict",
+]

@@ -1,0 +1,328 @@
+"""The SDH-like 4th floor: floor plan, VAV boxes and construction tables.
+
+The floor is a 64 m x 40 m rectangle (2,560 m2) split into six zones named as
+in the paper (Zhou, Hu, Tomlin, Fig. 1): four perimeter zones with windows,
+a long south zone and an interior core ``C`` without facade::
+
+      y=40 +----------------+----------------+
+           |       NW       |       NE       |   north facade
+      y=28 +------+---------+---------+------+
+           |      |                   |      |
+           |  W   |         C         |  E   |
+      y=10 |      +-------------------+      |
+           |      |         S         |      |
+       y=0 +------+-------------------+------+
+          x=0    12                  52     64
+
+Two tables of construction data exist: the *true* one used by the emulator
+and the *nominal* one written to ``building.toml`` (handbook values, as a real
+user would have them; deliberately somewhat off the truth).
+"""
+
+from __future__ import annotations
+
+import copy
+
+from ..building import Building, building_from_dict
+
+#: Location of Sutardja Dai Hall, UC Berkeley.
+LATITUDE = 37.8750
+LONGITUDE = -122.2587
+TIMEZONE = "America/Los_Angeles"
+ALTITUDE = 60.0  # [m]
+
+FLOOR_TO_FLOOR = 3.9  # [m] slab to slab
+CEILING_HEIGHT = 2.9  # [m] room height below the suspended ceiling
+WINDOW_TO_WALL = 0.45  # window fraction of the facade area [-]
+
+#: Zone rectangles (x0, x1, y0, y1) [m].
+ZONE_RECTS = {
+    "NW": (0.0, 32.0, 28.0, 40.0),
+    "W": (0.0, 12.0, 0.0, 28.0),
+    "S": (12.0, 52.0, 0.0, 10.0),
+    "E": (52.0, 64.0, 0.0, 28.0),
+    "NE": (32.0, 64.0, 28.0, 40.0),
+    "C": (12.0, 52.0, 10.0, 28.0),
+}
+ZONE_ORDER = ("NW", "W", "S", "E", "NE", "C")
+FLOOR_EXTENT = (0.0, 64.0, 0.0, 40.0)
+
+#: VAV boxes per zone and their airflow limits [kg/s] (m_min is ~25 % of m_max).
+VAV_LAYOUT = {
+    "NW": (3, 0.13, 0.55),
+    "W": (3, 0.12, 0.50),
+    "S": (4, 0.13, 0.55),
+    "E": (3, 0.12, 0.50),
+    "NE": (3, 0.13, 0.55),
+    "C": (5, 0.12, 0.50),
+}
+
+
+def _facades_of(rect):
+    """Exterior facade lengths [m] of a zone rectangle by orientation."""
+    x0, x1, y0, y1 = rect
+    X0, X1, Y0, Y1 = FLOOR_EXTENT
+    out = {}
+    if y1 == Y1:
+        out["N"] = x1 - x0
+    if x1 == X1:
+        out["E"] = y1 - y0
+    if y0 == Y0:
+        out["S"] = x1 - x0
+    if x0 == X0:
+        out["W"] = y1 - y0
+    return out
+
+
+def _shared_length(a, b):
+    """Length [m] of the common boundary of two rectangles (0 if they only touch at a corner)."""
+    ax0, ax1, ay0, ay1 = a
+    bx0, bx1, by0, by1 = b
+    if ax1 == bx0 or bx1 == ax0:  # vertical common line
+        return max(0.0, min(ay1, by1) - max(ay0, by0))
+    if ay1 == by0 or by1 == ay0:  # horizontal common line
+        return max(0.0, min(ax1, bx1) - max(ax0, bx0))
+    return 0.0
+
+
+def floor_plan():
+    """Geometry of the floor.
+
+    Returns
+    -------
+    dict
+        ``zones``: name -> dict(area [m2], volume [m3], facades {orientation: length [m]}),
+        ``shared``: {(a, b): shared wall length [m]} for adjacent zone pairs.
+    """
+    zones = {}
+    for name in ZONE_ORDER:
+        x0, x1, y0, y1 = ZONE_RECTS[name]
+        area = (x1 - x0) * (y1 - y0)
+        zones[name] = {"area": area, "volume": area * CEILING_HEIGHT, "facades": _facades_of(ZONE_RECTS[name])}
+    shared = {}
+    for i, a in enumerate(ZONE_ORDER):
+        for b in ZONE_ORDER[i + 1:]:
+            length = _shared_length(ZONE_RECTS[a], ZONE_RECTS[b])
+            if length > 0:
+                shared[(a, b)] = length
+    return {"zones": zones, "shared": shared}
+
+
+# --------------------------------------------------------------------------- materials
+#: Nominal (handbook) material data, as written to building.toml.
+NOMINAL_MATERIALS = {
+    "concrete": {"conductivity": 1.40, "density": 2300.0, "specific_heat": 880.0},
+    "insulation": {"conductivity": 0.040, "density": 30.0, "specific_heat": 1400.0},
+    "gypsum": {"conductivity": 0.25, "density": 800.0, "specific_heat": 1090.0},
+    "carpet": {"r_value": 0.10},
+    "stud_cavity": {"r_value": 0.17},
+    "ceiling_plenum": {"r_value": 0.30},
+}
+#: The emulator's true material data.
+TRUE_MATERIALS = {
+    "concrete": {"conductivity": 1.70, "density": 2400.0, "specific_heat": 900.0},
+    "insulation": {"conductivity": 0.046, "density": 35.0, "specific_heat": 1400.0},
+    "gypsum": {"conductivity": 0.28, "density": 850.0, "specific_heat": 1050.0},
+    "carpet": {"r_value": 0.12},
+    "stud_cavity": {"r_value": 0.16},
+    "ceiling_plenum": {"r_value": 0.25},
+}
+
+CONSTRUCTIONS = {
+    # layers listed from side 1 to side 2
+    "exterior_wall": {
+        "layers": [("concrete", 0.15), ("insulation", 0.08), ("gypsum", 0.016)],
+        "films": ["ambient", "exterior_wall"],
+    },
+    "interior_wall": {
+        "layers": [("gypsum", 0.016), ("stud_cavity", 0.0), ("gypsum", 0.016)],
+        "films": ["interior_wall", "interior_wall"],
+    },
+    # floor slab of the zone: side 1 = zone (carpet on top), side 2 = floor below
+    "floor_slab": {
+        "layers": [("carpet", 0.0), ("concrete", 0.20), ("ceiling_plenum", 0.0)],
+        "films": ["floor", "none"],
+    },
+    # ceiling of the zone: side 1 = zone (suspended ceiling), side 2 = floor above
+    "ceiling_slab": {
+        "layers": [("ceiling_plenum", 0.0), ("concrete", 0.20), ("carpet", 0.0)],
+        "films": ["ceiling", "none"],
+    },
+}
+
+#: The paper's five physical parameters: nominal (handbook) and true values.
+NOMINAL_PARAMETERS = {
+    "U_win": 2.6,  # [W/(m2 K)]
+    "gamma_interior_wall": 3.0,  # [W/(m2 K)]
+    "gamma_exterior_wall": 3.0,
+    "gamma_floor": 3.0,
+    "gamma_ceiling": 3.0,
+}
+TRUE_PARAMETERS = {
+    "U_win": 2.25,
+    "gamma_interior_wall": 3.6,
+    "gamma_exterior_wall": 3.3,
+    "gamma_floor": 2.3,
+    "gamma_ceiling": 4.2,
+}
+NOMINAL_SHGC = 0.40
+TRUE_SHGC = 0.32  # effective, with interior blinds
+NOMINAL_INTERNAL_MASS = 10000.0  # [J/(K m2)] per floor area
+TRUE_INTERNAL_MASS = 16000.0
+AMBIENT_FILM = 25.0  # [W/(m2 K)]
+
+
+def _physics_tables(nominal: bool) -> dict:
+    plan = floor_plan()
+    materials = NOMINAL_MATERIALS if nominal else TRUE_MATERIALS
+    params = NOMINAL_PARAMETERS if nominal else TRUE_PARAMETERS
+    shgc = NOMINAL_SHGC if nominal else TRUE_SHGC
+    mats = []
+    for name, props in materials.items():
+        mats.append({"name": name, **props})
+    cons = []
+    for name, c in CONSTRUCTIONS.items():
+        cons.append(
+            {
+                "name": name,
+                "layers": [{"material": m, "thickness": t} for m, t in c["layers"]],
+                "films": list(c["films"]),
+            }
+        )
+    windows, elements = [], []
+    for zname in ZONE_ORDER:
+        z = plan["zones"][zname]
+        for orient, length in z["facades"].items():
+            facade_area = length * FLOOR_TO_FLOOR
+            win = round(WINDOW_TO_WALL * facade_area, 2)
+            windows.append(
+                {
+                    "name": f"{zname}_{orient}_window",
+                    "zone": zname,
+                    "orientation": orient,
+                    "area": win,
+                    "u_value": params["U_win"],
+                    "shgc": shgc,
+                }
+            )
+            elements.append(
+                {
+                    "name": f"{zname}_{orient}_wall",
+                    "construction": "exterior_wall",
+                    "area": round(facade_area - win, 2),
+                    "side1": "ambient",
+                    "side2": zname,
+                    "orientation": orient,
+                }
+            )
+        elements.append(
+            {"name": f"{zname}_floor", "construction": "floor_slab", "area": z["area"], "side1": zname, "side2": "adiabatic"}
+        )
+        elements.append(
+            {"name": f"{zname}_ceiling", "construction": "ceiling_slab", "area": z["area"], "side1": zname, "side2": "adiabatic"}
+        )
+    for (a, b), length in plan["shared"].items():
+        elements.append(
+            {
+                "name": f"{a}_{b}_wall",
+                "construction": "interior_wall",
+                "area": round(length * CEILING_HEIGHT, 2),
+                "side1": a,
+                "side2": b,
+            }
+        )
+    physics = {
+        "ambient_film": AMBIENT_FILM,
+        "ground_temperature": 15.0,
+        "internal_mass": NOMINAL_INTERNAL_MASS if nominal else TRUE_INTERNAL_MASS,
+        "nominal": dict(params),
+    }
+    return {"materials": mats, "constructions": cons, "windows": windows, "elements": elements, "physics": physics}
+
+
+def sdh_building_dict(nominal: bool = True) -> dict:
+    """The default floor as a building-file mapping (see :func:`sdh_building`)."""
+    plan = floor_plan()
+    zones = []
+    adjacent = {n: [] for n in ZONE_ORDER}
+    for a, b in plan["shared"]:
+        adjacent[a].append(b)
+        adjacent[b].append(a)
+    tables = _physics_tables(nominal)
+    win_area = {(w["zone"], w["orientation"]): w["area"] for w in tables["windows"]}
+    for name in ZONE_ORDER:
+        z = plan["zones"][name]
+        facades = []
+        for orient in ("N", "E", "S", "W"):
+            if orient in z["facades"]:
+                total = z["facades"][orient] * FLOOR_TO_FLOOR
+                facades.append(
+                    {
+                        "orientation": orient,
+                        "window_area": win_area[(name, orient)],
+                        "wall_area": round(total - win_area[(name, orient)], 2),
+                    }
+                )
+        zones.append(
+            {
+                "name": name,
+                "area": z["area"],
+                "volume": round(z["volume"], 2),
+                "adjacent": [n for n in ZONE_ORDER if n in adjacent[name]],
+                "facades": facades,
+            }
+        )
+    vavs = []
+    for name in ZONE_ORDER:
+        n, m_min, m_max = VAV_LAYOUT[name]
+        for i in range(1, n + 1):
+            vavs.append({"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max})
+    d = {
+        "name": "SDH-like floor 4 (emulated)",
+        "latitude": LATITUDE,
+        "longitude": LONGITUDE,
+        "timezone": TIMEZONE,
+        "zones": zones,
+        "vavs": vavs,
+    }
+    d.update(copy.deepcopy(tables))
+    return d
+
+
+def sdh_building(nominal: bool = True) -> Building:
+    """The emulated SDH-like 4th floor as a :class:`~hvacfmu.building.Building`.
+
+    Parameters
+    ----------
+    nominal : bool
+        True (default): physics tables with nominal handbook values, as written
+        to ``building.toml`` and as a user would have them. False: the same
+        tables with the emulator's true values. The emulator's truth is richer
+        than this schema (floors and ceilings face the floors below and above
+        instead of being adiabatic, solar absorbed by opaque walls,
+        infiltration); ``truth.json`` records that structure.
+
+    Returns
+    -------
+    Building
+        Six zones NW, W, S, E, NE, C (2,560 m2), 21 VAV boxes, Berkeley location.
+    """
+    return building_from_dict(sdh_building_dict(nominal))
+
+
+def true_building_dict() -> dict:
+    """The emulator's true building: true tables, and slabs facing the floors above and below.
+
+    Floor and ceiling slabs are not adiabatic in the truth: their far side faces
+    the air of the floor below / above (side ``"adjacent_floor"``, film
+    ``"adjacent_floor"``), whose temperature is a boundary input.
+    """
+    d = sdh_building_dict(nominal=False)
+    d["name"] = "SDH-like floor 4 (emulator truth)"
+    for c in d["constructions"]:
+        if c["name"] in ("floor_slab", "ceiling_slab"):
+            c["films"] = [c["films"][0], "adjacent_floor"]
+    for el in d["elements"]:
+        if el["construction"] in ("floor_slab", "ceiling_slab"):
+            el["side2"] = "adjacent_floor"
+    return d

@@ -1,0 +1,144 @@
+"""Local VAV box controllers, supply-air temperature reset and excitation experiments.
+
+Each VAV box runs a single-maximum reheat sequence on its room temperature
+(the zone temperature plus a per-box offset, rooms of a zone are not
+identical):
+
+- a cooling PI loop raises the airflow from ``m_min`` to ``m_max`` when the
+  room is above the cooling setpoint;
+- a heating PI loop keeps the airflow at ``m_min`` and raises the discharge
+  temperature with the reheat coil (up to ``reheat_rise`` above the supply air)
+  when the room is below the heating setpoint;
+- between the two setpoints (dead band) the box sits at ``m_min`` without reheat.
+
+Occupied setpoints apply on weekdays 06:00-20:00 local time, unoccupied
+(set-back) setpoints otherwise. Integrators are clamped to [0, 1] (anti-windup).
+The controllers run every ``control_interval`` [s] (default 300 s, a typical
+BMS trim rate); the thermal model below runs at 60 s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .weather import _ar1
+
+DEFAULT_CONTROLLERS = {
+    "control_interval": 300.0,  # [s]
+    "occupied_hours": [6.0, 20.0],  # local time, weekdays
+    "heating_setpoint": {"occupied": 21.0, "unoccupied": 19.5},  # [°C]
+    "cooling_setpoint": {"occupied": 23.0, "unoccupied": 25.0},  # [°C]
+    "box_offset_std": 0.25,  # [K] room vs zone temperature, per box
+    "kp": 0.6,  # [1/K] loop output per kelvin
+    "integral_time": 900.0,  # [s]
+    "reheat_rise": 17.0,  # [K] maximum discharge temperature rise of the reheat coil
+    "supply_reset": {"T_out": [12.0, 20.0], "T_supply": [16.0, 13.0], "filter_hours": 2.0, "noise_std": 0.2},
+    "excitation": {"probability": 0.4, "start_hour": 8.0, "end_hour": 16.0, "segment_minutes": [45, 120]},
+}
+
+
+def occupied_mode(index: pd.DatetimeIndex, params=None) -> np.ndarray:
+    """Occupied mode of the BMS schedule (weekdays, local wall clock) for each timestamp."""
+    p = params or DEFAULT_CONTROLLERS
+    h0, h1 = p["occupied_hours"]
+    hour = np.asarray(index.hour) + np.asarray(index.minute) / 60.0
+    return (np.asarray(index.dayofweek) < 5) & (hour >= h0) & (hour < h1)
+
+
+def supply_air_temperature(T_out, rng, params=None, dt=60.0):
+    """Supply-air temperature [°C] of the air handler from its outdoor-air reset schedule.
+
+    The set point is linear in the (low-pass filtered) outdoor temperature, from
+    16 °C at 12 °C outdoor to 13 °C at 20 °C outdoor (clamped), plus a slow
+    AR(1) control error.
+    """
+    import scipy.signal
+
+    p = (params or DEFAULT_CONTROLLERS)["supply_reset"]
+    a = float(np.exp(-dt / (p["filter_hours"] * 3600.0)))
+    filt, _ = scipy.signal.lfilter([1 - a], [1.0, -a], T_out, zi=[a * T_out[0]])
+    setpoint = np.interp(filt, p["T_out"], p["T_supply"])
+    return setpoint + _ar1(rng, len(T_out), 30.0, p["noise_std"])
+
+
+def excitation_schedule(index: pd.DatetimeIndex, rng, n_zones, params=None):
+    """Forced-response experiments on some Saturdays.
+
+    Returns
+    -------
+    list of dict
+        ``start``, ``end`` (minute indices, end exclusive) and ``levels``
+        (n_zones,) airflow fractions in [0, 1] between ``m_min`` and ``m_max``,
+        one dict per segment.
+    """
+    p = (params or DEFAULT_CONTROLLERS)["excitation"]
+    local = index.tz_localize(None)
+    day = (local.as_unit("s").asi8 // 86400)
+    dow = np.asarray(local.dayofweek)
+    hour = np.asarray(local.hour) + np.asarray(local.minute) / 60.0
+    saturdays = np.unique(day[dow == 5])
+    chosen = saturdays[rng.random(len(saturdays)) < p["probability"]]
+    if len(chosen) == 0 and len(saturdays) > 0:
+        chosen = saturdays[[rng.integers(len(saturdays))]]
+    segments = []
+    lo, hi = p["segment_minutes"]
+    for d in chosen:
+        idx = np.flatnonzero((day == d) & (hour >= p["start_hour"]) & (hour < p["end_hour"]))
+        if len(idx) == 0:
+            continue
+        k, end = int(idx[0]), int(idx[-1]) + 1
+        while k < end:
+            length = int(rng.integers(lo, hi + 1))
+            levels = rng.choice([0.0, 0.5, 1.0], size=n_zones, p=[0.4, 0.2, 0.4])
+            segments.append({"start": k, "end": min(k + length, end), "levels": levels})
+            k += length
+    return segments
+
+
+class VavControllers:
+    """Vectorised PI controllers of all VAV boxes (see the module docstring).
+
+    Parameters
+    ----------
+    m_min, m_max : array (n_vav,) [kg/s]
+    box_zone : array of int (n_vav,)
+        Zone index of each box.
+    offsets : array (n_vav,) [K]
+        Room-minus-zone temperature of each box.
+    params : dict
+    """
+
+    def __init__(self, m_min, m_max, box_zone, offsets, params=None):
+        p = params or DEFAULT_CONTROLLERS
+        self.m_min = np.asarray(m_min, dtype=float)
+        self.m_span = np.asarray(m_max, dtype=float) - self.m_min
+        self.box_zone = np.asarray(box_zone, dtype=int)
+        self.offsets = np.asarray(offsets, dtype=float)
+        self.kp = float(p["kp"])
+        self.ki_dt = self.kp * float(p["control_interval"]) / float(p["integral_time"])
+        self.sp = {
+            True: (float(p["heating_setpoint"]["occupied"]), float(p["cooling_setpoint"]["occupied"])),
+            False: (float(p["heating_setpoint"]["unoccupied"]), float(p["cooling_setpoint"]["unoccupied"])),
+        }
+        self.rh_max = self.m_min * 1005.0 * float(p["reheat_rise"])  # [W] per box at m_min
+        n = len(self.m_min)
+        self.Ic = np.zeros(n)
+        self.Ih = np.zeros(n)
+
+    def step(self, T_zone, occupied: bool):
+        """One control interval: zone temperatures [°C] -> (airflow [kg/s], reheat power [W]) per box."""
+        sph, spc = self.sp[bool(occupied)]
+        Tb = T_zone[self.box_zone] + self.offsets
+        ec = Tb - spc
+        eh = sph - Tb
+        mn, mx = np.minimum, np.maximum
+        self.Ic = mn(mx(self.Ic + self.ki_dt * ec, 0.0), 1.0)
+        self.Ih = mn(mx(self.Ih + self.ki_dt * eh, 0.0), 1.0)
+        yc = mn(mx(self.kp * ec + self.Ic, 0.0), 1.0)
+        yh = mn(mx(self.kp * eh + self.Ih, 0.0), 1.0)
+        return self.m_min + yc * self.m_span, yh * self.rh_max
+
+    def reset(self):
+        self.Ic[:] = 0.0
+        self.Ih[:] = 0.0

@@ -1,0 +1,348 @@
+"""Dataset generation: truth, closed-loop simulation, sensor noise, gaps, files; and the cache."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .building import ALTITUDE, TIMEZONE, TRUE_PARAMETERS, sdh_building, true_building_dict
+from .effects import EmulatorError, parse_effect, resolve_effects
+from .occupancy import DEFAULT_OCCUPANCY
+from .plant import DT, stream
+from .simulate import controller_defaults, simulate
+from .thermal import DEFAULT_EXTRAS
+
+#: Version of the emulator's physics and data; part of the cache key.
+EMULATOR_VERSION = "1.0"
+DEFAULT_START = "2025-09-01T00:00:00"
+
+NOISE = {
+    "T_zone": {"std": 0.03, "quantum": 0.05},  # [°C]
+    "m_vav": {"std": 0.004, "relative_std": 0.02, "quantum": 0.001},  # [kg/s], [-]
+    "T_supply": {"std": 0.05, "quantum": 0.05},
+    "T_out": {"std": 0.10, "quantum": 0.1},
+    "ghi": {"std": 2.0, "relative_std": 0.03, "quantum": 1.0},  # [W/m2]
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class GeneratedPaths:
+    """Files written by :func:`generate`."""
+
+    measurements: Path
+    building: Path
+    truth: Path
+
+    @property
+    def outdir(self) -> Path:
+        return self.measurements.parent
+
+    def __str__(self) -> str:
+        return "\n".join(
+            [
+                f"measurements: {self.measurements}",
+                f"building:     {self.building}",
+                f"truth:        {self.truth}",
+            ]
+        )
+
+
+def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_START) -> dict:
+    """The truth mapping of a dataset before simulation (structure, parameters, resolved effects)."""
+    problems = []
+    if not isinstance(weeks, (int, np.integer)) or weeks < 1:
+        problems.append(f"weeks must be a positive integer, got {weeks!r}")
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        problems.append(f"seed must be a non-negative integer, got {seed!r}")
+    if problems:
+        from ..errors import problems_message
+
+        raise EmulatorError(problems_message("Invalid emulator arguments", problems))
+    bld = true_building_dict()
+    controllers = controller_defaults(int(seed), len(bld["vavs"]))
+    resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
+    return {
+        "version": EMULATOR_VERSION,
+        "seed": int(seed),
+        "weeks": int(weeks),
+        "start": start,
+        "timezone": TIMEZONE,
+        "step": DT,
+        "zones": [z["name"] for z in bld["zones"]],
+        "vavs": [v["name"] for v in bld["vavs"]],
+        "baseline": {
+            "building": bld,
+            "altitude": ALTITUDE,
+            "parameters": dict(TRUE_PARAMETERS),
+            "extras": dict(DEFAULT_EXTRAS),
+            "occupancy": json.loads(json.dumps(DEFAULT_OCCUPANCY)),
+            "controllers": controllers,
+            "noise": NOISE,
+        },
+        "effects": resolved,
+    }
+
+
+def _structure(truth: dict, core) -> dict:
+    """Human- and machine-readable summary of the true structure (for diagnosis checks)."""
+    base = truth["baseline"]
+    bld = base["building"]
+    ex = base["extras"]
+    windows = [
+        {
+            "zone": w["zone"],
+            "facade": w["orientation"],
+            "area": w["area"],
+            "u_value": base["parameters"]["U_win"],
+            "shgc": w["shgc"],
+            "solar_fraction_air": ex["solar_fraction_air"],
+            "solar_fraction_floor": ex["solar_fraction_floor"],
+            "solar_fraction_furniture": ex["solar_fraction_furniture"],
+        }
+        for w in bld["windows"]
+    ]
+    solar = {}
+    for w in bld["windows"]:
+        solar.setdefault(w["zone"], []).append(w["orientation"])
+    kinds = {"exterior_wall": 0, "interior_wall": 0, "floor_slab": 0, "ceiling_slab": 0}
+    el_cons = {e["name"]: e["construction"] for e in bld["elements"]}
+    for name in core.node_names:
+        if ":" in name:
+            kinds[el_cons[name.split(":")[0]]] += 1
+    return {
+        "n_states": int(core.n_thermal),
+        "node_counts": {
+            "air": len(truth["zones"]),
+            "furniture": len(truth["zones"]),
+            "exterior_wall": kinds["exterior_wall"],
+            "interior_wall": kinds["interior_wall"],
+            "floor_slab": kinds["floor_slab"],
+            "ceiling_slab": kinds["ceiling_slab"],
+        },
+        "walls": "multi-node walls: every massive layer split into nodes at most "
+        f"{ex['max_node_thickness']} m thick; exterior walls absorb solar on their outer surface "
+        f"(absorptance {ex['wall_solar_absorptance']})",
+        "slabs": "concrete floor and ceiling slabs of every zone; their far side faces the floors "
+        "below/above at temperature T_fl (not adiabatic)",
+        "thermal_mass": {"walls": True, "slabs": True, "furniture_J_per_K_m2": bld["physics"]["internal_mass"]},
+        "windows": windows,
+        "solar_gain": solar,
+        "supply_air": {
+            "form": "bilinear",
+            "equation": "Q_z = sum_i m_i c_p (T_supply - T_z) + P_reheat,i",
+            "c_p": 1005.0,
+        },
+        "infiltration": {
+            "ach": ex["infiltration_ach"],
+            "zones": [z["name"] for z in bld["zones"] if z.get("facades")],
+        },
+        "reheat": {
+            "baseline": "every box: in heating mode (room below heating setpoint) airflow stays at m_min "
+            "and the coil raises the discharge temperature by up to reheat_rise",
+            "reheat_rise": base["controllers"]["reheat_rise"],
+        },
+        "internal_gains": "area x (base + peak x occupancy): seasonal level (semesters, winter break, "
+        "summer), weekday/weekend, random arrival/departure and day factors, meetings in C; local "
+        "wall clock, no holidays",
+        "adjacent_floors": "T_fl = mean + workday rise x occupancy + AR(1) noise",
+    }
+
+
+def _quantise(x, q):
+    return np.round(x / q) * q
+
+
+def _iso_times(index: pd.DatetimeIndex) -> np.ndarray:
+    """ISO 8601 local times with UTC offset, e.g. ``2025-09-01T00:00:00-07:00`` (vectorised)."""
+    local = index.tz_localize(None).as_unit("s").asi8
+    utc = index.as_unit("s").asi8
+    text = np.datetime_as_string(local.astype("datetime64[s]")).astype("S19")
+    off = (local - utc) // 60
+    uniq, inv = np.unique(off, return_inverse=True)
+    labels = np.array([f"{'-' if o < 0 else '+'}{abs(o) // 60:02d}:{abs(o) % 60:02d}" for o in uniq], dtype="S6")
+    out = np.empty((len(index), 25), dtype="S1")
+    out[:, :19] = text.view("S1").reshape(-1, 19)
+    out[:, 19:] = labels[inv].view("S1").reshape(-1, 6)
+    return out.view("S25").ravel().astype("U25")
+
+
+def _gaps(n, weeks, rng, columns):
+    """Row gaps (logger outages) and NaN gaps (one sensor) as lists of (start, end[, column])."""
+    row_gaps, nan_gaps = [], []
+    for _ in range(max(1, int(round(weeks / 12)))):
+        length = int(rng.integers(60, 361))
+        s = int(rng.integers(1440, max(1441, n - length)))
+        row_gaps.append((s, min(n, s + length)))
+    for _ in range(max(1, int(round(weeks / 8)))):
+        length = int(rng.integers(120, 721))
+        s = int(rng.integers(1440, max(1441, n - length)))
+        col = columns[int(rng.integers(len(columns)))]
+        nan_gaps.append((s, min(n, s + length), col))
+    return row_gaps, nan_gaps
+
+
+def _json_clean(obj):
+    if isinstance(obj, dict):
+        return {str(k): _json_clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _json_clean(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        if not np.isfinite(v):
+            raise ValueError("non-finite number in truth.json")
+        return v
+    return obj
+
+
+def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "parquet") -> GeneratedPaths:
+    """Write an emulated SDH-like dataset.
+
+    Parameters
+    ----------
+    outdir : path
+        Folder to write (created if needed).
+    weeks : int
+        Length [weeks] of one-minute data from 2025-09-01 00:00 local time.
+    seed : int
+        Every random element (weather, occupancy, controllers, experiments,
+        noise, gaps, unspecified effect parameters) derives from it.
+    effects : sequence of str or dict
+        Effects to inject (see :mod:`hvacfmu.emulator.effects`), e.g.
+        ``["solar_gain:zone=S", {"name": "zone_coupling"}]``.
+    fmt : {"parquet", "csv"}
+
+    Returns
+    -------
+    GeneratedPaths
+        ``measurements.parquet`` (or ``.csv``), ``building.toml`` (nominal
+        physics tables), ``truth.json``.
+    """
+    if fmt not in ("parquet", "csv"):
+        raise EmulatorError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
+    truth = make_truth(weeks, seed, effects)
+    sim = simulate(truth)
+    index = sim["index"]
+    n = len(index)
+    zones, vavs = truth["zones"], truth["vavs"]
+    rng = stream(seed, "noise")
+    cols = {}
+    cols["time"] = _iso_times(index)
+    nz = NOISE["T_zone"]
+    Tn = sim["T_zone"] + rng.normal(0.0, nz["std"], sim["T_zone"].shape)
+    for i, z in enumerate(zones):
+        cols[f"T_{z}"] = _quantise(Tn[:, i], nz["quantum"])
+    nm = NOISE["m_vav"]
+    m = sim["m_vav"]
+    mn = m * (1.0 + rng.normal(0.0, nm["relative_std"], m.shape)) + rng.normal(0.0, nm["std"], m.shape)
+    mn = np.clip(_quantise(mn, nm["quantum"]), 0.0, None)
+    for j, v in enumerate(vavs):
+        cols[f"m_{v}"] = mn[:, j]
+    ns = NOISE["T_supply"]
+    cols["T_supply"] = _quantise(sim["T_supply"] + rng.normal(0.0, ns["std"], n), ns["quantum"])
+    no = NOISE["T_out"]
+    cols["T_out"] = _quantise(sim["T_out"] + rng.normal(0.0, no["std"], n), no["quantum"])
+    ng = NOISE["ghi"]
+    ghi = sim["ghi"] * (1.0 + rng.normal(0.0, ng["relative_std"], n)) + rng.normal(0.0, ng["std"], n)
+    cols["ghi"] = np.clip(_quantise(np.where(sim["ghi"] > 0, ghi, 0.0), ng["quantum"]), 0.0, None)
+    cols["excitation"] = sim["excitation"].astype(np.int8)
+    frame = pd.DataFrame(cols)
+
+    gap_cols = [f"T_{z}" for z in zones] + [f"m_{v}" for v in vavs] + ["T_out", "ghi", "T_supply"]
+    row_gaps, nan_gaps = _gaps(n, weeks, stream(seed, "gaps"), gap_cols)
+    for s, e, col in nan_gaps:
+        frame.loc[s: e - 1, col] = np.nan
+    keep = np.ones(n, dtype=bool)
+    for s, e in row_gaps:
+        keep[s:e] = False
+    frame = frame[keep].reset_index(drop=True)
+
+    iso = cols["time"]
+    base = truth["baseline"]
+    base["structure"] = _structure(truth, sim["core"])
+    base["excitation"] = [
+        {"start": str(iso[s["start"]]), "end": str(iso[min(s["end"], n - 1)]), "levels": dict(zip(zones, s["levels"]))}
+        for s in sim["segments"]
+    ]
+    base["gaps"] = [{"kind": "rows missing", "start": str(iso[s]), "end": str(iso[e - 1])} for s, e in row_gaps] + [
+        {"kind": "NaN", "column": c, "start": str(iso[s]), "end": str(iso[e - 1])} for s, e, c in nan_gaps
+    ]
+    w = sim["weather"]
+    base["weather"] = {
+        "model": "synthetic Berkeley: monthly normals, AR(1) daily anomaly, clear-sky (pvlib Ineichen) x cloud "
+        "transmittance; facades by Erbs + Perez",
+        "T_out_mean": float(np.mean(w["T_out"])),
+        "T_out_min": float(np.min(w["T_out"])),
+        "T_out_max": float(np.max(w["T_out"])),
+        "clear_day_fraction": float(np.mean(w["day_clearness"] > 0.9)),
+    }
+    base["summary"] = {
+        "T_zone_mean": dict(zip(zones, np.mean(sim["T_zone"], axis=0))),
+        "T_zone_p01": dict(zip(zones, np.percentile(sim["T_zone"], 1, axis=0))),
+        "T_zone_p99": dict(zip(zones, np.percentile(sim["T_zone"], 99, axis=0))),
+        "reheat_energy_kWh": float(sim["reheat"].sum() * DT / 3.6e6),
+        "internal_gain_mean_W": dict(zip(zones, np.mean(sim["Q_ig"], axis=0))),
+    }
+
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    if fmt == "parquet":
+        mpath = outdir / "measurements.parquet"
+        frame.to_parquet(mpath, index=False)
+    else:
+        mpath = outdir / "measurements.csv"
+        frame.to_csv(mpath, index=False, float_format="%.6g")
+    bpath = sdh_building(nominal=True).save(outdir / "building.toml")
+    tpath = outdir / "truth.json"
+    tpath.write_text(json.dumps(_json_clean(truth), indent=1, allow_nan=False), encoding="utf-8")
+    return GeneratedPaths(mpath, bpath, tpath)
+
+
+def _cache_root() -> Path:
+    return Path(os.environ.get("HVACFMU_CACHE", "~/.cache/hvacfmu")).expanduser()
+
+
+def cache_key(weeks: int, seed: int, effects=()) -> str:
+    """Folder name of a cached dataset: arguments and emulator version."""
+    parsed = [parse_effect(e) for e in effects]
+    blob = json.dumps(parsed, sort_keys=True)
+    h = hashlib.sha256(blob.encode()).hexdigest()[:12] if parsed else "none"
+    return f"emulator-v{EMULATOR_VERSION}-w{int(weeks)}-s{int(seed)}-{h}"
+
+
+def cached_dataset(weeks: int = 51, seed: int = 0, effects=()) -> GeneratedPaths:
+    """Generate a dataset once into ``$HVACFMU_CACHE`` (default ``~/.cache/hvacfmu``) and reuse it.
+
+    Safe under concurrency (e.g. pytest-xdist workers): each caller that finds
+    no cached copy generates into a private temporary folder and renames it into
+    place atomically; a caller that loses the race discards its copy.
+    """
+    root = _cache_root()
+    final = root / cache_key(weeks, seed, effects)
+    paths = GeneratedPaths(final / "measurements.parquet", final / "building.toml", final / "truth.json")
+    if all(p.exists() for p in (paths.measurements, paths.building, paths.truth)):
+        return paths
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}-", dir=root))
+    try:
+        generate(tmp, weeks=weeks, seed=seed, effects=effects, fmt="parquet")
+        try:
+            os.rename(tmp, final)
+        except OSError:
+            if not final.exists():
+                raise
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return paths
