@@ -120,6 +120,16 @@ def test_offsets_across_dst_end_are_accepted(tmp_path, small_building):
     ds = _quiet_prepare(path, small_building)
     day = ds.frame.loc["2024-11-03"]
     assert len(day) == 100  # 25 h of 15-minute steps
+    assert (day.index.minute % 15 == 0).all()  # still on the local quarter hours
+
+
+def test_offsets_across_dst_start_are_accepted(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-03-09 00:00", periods=3 * 1440)
+    ds = _quiet_prepare(write(frame, tmp_path / "m.csv", "offset"), small_building)
+    day = ds.frame.loc["2024-03-10"]
+    assert len(day) == 92  # 23 h
+    assert day.index[8] == pd.Timestamp("2024-03-10 03:00", tz=TZ)  # 02:00..02:59 do not exist
+    assert np.isfinite(day.to_numpy()).all()
 
 
 def test_naive_times_across_dst_are_reported(tmp_path, small_building):
@@ -562,9 +572,10 @@ def test_prepare_interpolate_limit(tmp_path, small_building):
     frame.iloc[20:28, frame.columns.get_loc("T_A")] = np.nan
     path = write(frame, tmp_path / "m.csv")
     kept = _quiet_prepare(path, small_building).frame
-    filled = _quiet_prepare(path, small_building, interpolate_limit=10).frame
+    ds = _quiet_prepare(path, small_building, interpolate_limit=10)
     assert np.isnan(kept["T_A"].iloc[1])
-    assert np.isfinite(filled["T_A"].iloc[1])
+    assert np.isfinite(ds.frame["T_A"].iloc[1])
+    assert "interpolated 8 missing value(s) linearly in gaps of at most 10 min" in ds.warnings
 
 
 # --------------------------------------------------------------------------- check

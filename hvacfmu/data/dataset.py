@@ -346,7 +346,10 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
     notes = list(report.warnings)
     column_steps = dict(report.column_steps)
     if interpolate_limit is not None:
+        before = int(np.isfinite(raw.to_numpy()).sum())
         raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
+        filled = int(np.isfinite(raw.to_numpy()).sum()) - before
+        notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
     frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
     coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
     if coarse:
