@@ -150,13 +150,20 @@ def export_plant_fmu(truth_path, out_path) -> Path:
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"cannot read plant truth file {truth_path}: {exc}") from None
     from .emulator import Plant
+    from .fmu_slave import INTERFACE_FILE, plant_layout
 
-    Plant.from_truth(truth)  # fails here, not inside the FMU, when the file is unusable
+    try:
+        plant = Plant.from_truth(truth)  # fails here, not inside the FMU, when the file is unusable
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"plant truth file {truth_path} is unusable: {type(exc).__name__}: {exc}") from None
+    layout = plant_layout(plant, truth)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
         res = Path(tmp) / "truth.json"
         shutil.copyfile(truth_path, res)
+        interface = Path(tmp) / INTERFACE_FILE
+        interface.write_text(json.dumps(layout, indent=1), encoding="utf-8")
         script = slave_dir() / f"{PLANT_SLAVE}.py"
-        path = _build(script, out_path, [res])
+        path = _build(script, out_path, [res, interface])
     logger.info("exported plant %s to %s", truth_path, path)
     return path
 

@@ -765,3 +765,130 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._x = x
         self._k = int(state["k"])
         self._slot0 = int(state["slot0"])
+
+
+# =============================================================================
+# the emulated plant
+# =============================================================================
+FACADE_INPUTS = ("I_N", "I_E", "I_S", "I_W")
+
+
+def plant_layout(plant, truth: dict) -> dict:
+    """Variable layout of the plant FMU (:class:`hvacfmu.emulator.Plant`)."""
+    var = []
+    for b in plant.vavs:
+        var.append(_entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
+                          f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"]))
+    for name, start in (("T_out", 15.0), ("T_supply", 14.0)) + tuple((i, 0.0) for i in FACADE_INPUTS):
+        unit = signal_unit(name)
+        var.append(_entry("v", name, "Real", "input", start, unit, signal_description(name), BOUNDS[unit]))
+    for z in plant.zones:
+        var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
+                          f"Air temperature of zone {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
+    for z in plant.zones:
+        var.append(_entry("y0", sanitize_name(f"T_{z}_start"), "Real", "parameter", 21.0, "degC",
+                          f"Initial air temperature of zone {z} (all its nodes) [degC]", BOUNDS["degC"]))
+    start = truth.get("start", "?")
+    return {
+        "slave_api": SLAVE_API_VERSION,
+        "kind": "plant",
+        "step": PLANT_STEP,
+        "start": start,
+        "timezone": truth.get("timezone"),
+        "span": float(plant.horizon),
+        "description": (
+            f"hvacfmu emulated building (plant): {len(plant.zones)} zones, {len(plant.vavs)} VAV boxes. "
+            f"FMU time is seconds since the emulated dataset's start {start} ({truth.get('timezone')}); "
+            f"defined for {plant.horizon:g} s. Communication steps must be multiples of {PLANT_STEP:g} s. "
+            "Runs in the host's Python, which needs the hvacfmu package."
+        ),
+        "variables": var,
+    }
+
+
+#: internal step of the emulated plant [s]; communication steps must be multiples of it
+PLANT_STEP = 60.0
+
+
+class PlantSlave(HvacfmuSlaveBase):
+    """FMU slave of the emulated building (``resources/truth.json``).
+
+    Inputs ``m_<vav>`` [kg/s] for every box, ``T_out``, ``T_supply`` [°C],
+    ``I_N`` ... ``I_W`` [W/m²]; outputs ``T_<zone>`` [°C]; parameters
+    ``T_<zone>_start`` [°C]. FMU time is seconds since the dataset start.
+    """
+
+    TRUTH_FILE = "truth.json"
+
+    def _setup(self):
+        self.plant = None
+        problem = None
+        try:
+            from hvacfmu.emulator import Plant  # host environment
+
+            truth = json.loads((Path(self.resources or ".") / self.TRUTH_FILE).read_text(encoding="utf-8"))
+            plant = Plant.from_truth(truth)
+            layout = plant_layout(plant, truth)
+        except Exception as exc:  # noqa: BLE001 - reported, never raised
+            plant, layout = None, None
+            problem = f"cannot use the FMU's plant file resources/{self.TRUTH_FILE}: {type(exc).__name__}: {exc}"
+        layout, mismatch = read_layout(self.resources, layout, self.TRUTH_FILE)
+        problem = problem or mismatch
+        if problem:
+            self._broken = problem
+        if layout is None:
+            return []
+        self.description = layout["description"]
+        self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=7 * 86400.0, step_size=900.0)
+        if plant is not None and not problem:
+            self.plant = plant
+        self._x = None
+        return layout["variables"]
+
+    def _initialize(self):
+        v = self._values
+        self._y_vrs = self.vrs_with_role("y")
+        m_vrs, v_vrs = self.vrs_with_role("m"), self.vrs_with_role("v")
+        self._get_m = tuple_getter(m_vrs)
+        self._get_v = tuple_getter(v_vrs)
+        y0 = [v[vr] for vr in self.vrs_with_role("y0")]
+        lo, hi = BOUNDS["degC"]
+        problems = [f"{self._spec[vr]['name']}={val!r} degC is outside [{lo}, {hi}]"
+                    for vr, val in zip(self.vrs_with_role("y0"), y0) if not (lo <= val <= hi)]
+        k0 = self._t_start / PLANT_STEP
+        if abs(k0 - round(k0)) > 1e-9 * max(1.0, k0) or self._t_start < 0:
+            problems.append(f"start time {self._t_start} s must be a non-negative multiple of {PLANT_STEP:g} s")
+        if problems:
+            return problems
+        self._x = self.plant.initial_state(np.asarray(y0, dtype=float))
+        self._t = self._t_start
+        for vr, val in zip(self._y_vrs, self.plant.zone_temperatures(self._x).tolist()):
+            v[vr] = val
+        return []
+
+    def _advance(self, current_time, step_size):
+        n = step_size / PLANT_STEP
+        if n < 1 - 1e-9 or abs(n - round(n)) > _STEP_RTOL * max(1.0, n):
+            return self._refuse(
+                f"communication step {step_size!r} s at t={current_time} s is not a whole multiple of the "
+                f"plant step {PLANT_STEP:g} s; step refused")
+        if current_time + step_size > self.plant.horizon + 1e-6:
+            return self._refuse(
+                f"the step to t={current_time + step_size} s goes beyond the emulated span "
+                f"({self.plant.horizon:g} s from the dataset start); step refused")
+        values = self._values
+        w = self._get_v(values)
+        x, T = self.plant.advance(self._x, round(current_time / PLANT_STEP) * PLANT_STEP,
+                                  round(n) * PLANT_STEP, np.array(self._get_m(values), dtype=float),
+                                  w[0], w[1], np.array(w[2:6], dtype=float))
+        self._x = x
+        self._t = current_time + step_size
+        for vr, val in zip(self._y_vrs, T.tolist()):
+            values[vr] = val
+        return True
+
+    def _get_internal_state(self):
+        return {"x": None if self._x is None else self._x.tolist()}
+
+    def _set_internal_state(self, state):
+        self._x = None if state["x"] is None else np.array(state["x"], dtype=float)

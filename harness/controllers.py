@@ -1,0 +1,188 @@
+"""Controllers for the co-simulation harness, and the protocol every controller follows.
+
+Controller protocol
+-------------------
+A controller is any object with::
+
+    name : str
+    reset(context: ControlContext) -> None
+    __call__(k: int, t: pandas.Timestamp, y: ndarray, v: Mapping[str, float]) -> ndarray
+    stats() -> dict            # optional: numbers reported in the result (e.g. solver failures)
+
+- :meth:`reset` is called once before the first step with a
+  :class:`ControlContext`: the run's prepared data (``context.frame``, one row
+  per communication step, disturbances gap-filled; a controller may read
+  future rows as a perfect forecast), the building (box limits
+  ``m_min``/``m_max``), the order of the commands (``context.vavs``) and of
+  the measurements (``context.outputs`` with their zones), the comfort band,
+  the season and the model step.
+- ``__call__(k, t, y, v)`` is called at the start of step ``k`` (row ``k`` of
+  ``context.frame``, local time ``t``) with the FMU's outputs ``y``
+  [°C] (order ``context.outputs``) at that time and that row's disturbances
+  ``v`` (``T_out``, ``T_supply`` [°C], ``I_N`` ... [W/m²]). It returns the
+  airflow of every VAV box [kg/s] in the order of ``context.vavs``; the
+  harness holds it for the step. Returning NaN or raising stops the run
+  (the harness reports it).
+
+The MPC controllers of :mod:`harness.mpc` plug in through
+``harness.mpc.cosim_controller(model, building, **options)`` (see
+:func:`harness.cosim.make_controller`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Mapping, Protocol, runtime_checkable
+
+import numpy as np
+import pandas as pd
+
+from hvacfmu.errors import HvacfmuError
+
+
+@dataclasses.dataclass(frozen=True)
+class ControlContext:
+    """What a controller learns before the first step.
+
+    Attributes
+    ----------
+    frame : DataFrame
+        Prepared data over the run (``n_steps`` rows, tz-aware local index):
+        ``T_<zone>`` (measured, may be NaN), ``m_<vav>`` (measured), ``T_out``,
+        ``T_supply`` [°C], facade irradiance [W/m²] (gap-filled).
+    building : hvacfmu.building.Building
+    vavs : tuple of str
+        Box names; the order of the commands.
+    outputs : tuple of str
+        FMU output names (``T_<zone>`` or ``T_floor``); the order of ``y``.
+    output_zones : tuple of tuple of str
+        Zones each output stands for (all zones for ``T_floor``).
+    step : float [s]
+    band : (float, float) [°C]
+        Comfort band (T_min, T_max).
+    season : str or None
+        Season of the run (selects a model's gains profile).
+    model : ZoneModel or None
+        The model given to the harness (e.g. the MPC's own model), if any.
+    """
+
+    frame: pd.DataFrame
+    building: object
+    vavs: tuple
+    outputs: tuple
+    output_zones: tuple
+    step: float
+    band: tuple = (20.0, 22.0)
+    season: str | None = None
+    model: object = None
+
+    @property
+    def n_steps(self) -> int:
+        return len(self.frame)
+
+    def box_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """``m_min``, ``m_max`` [kg/s] of the boxes in :attr:`vavs` order."""
+        by_name = {b.name: b for b in self.building.vavs}
+        return (np.array([by_name[v].m_min for v in self.vavs], dtype=float),
+                np.array([by_name[v].m_max for v in self.vavs], dtype=float))
+
+    def box_output(self) -> np.ndarray:
+        """Index into ``y`` of the output measuring each box's zone."""
+        by_name = {b.name: b for b in self.building.vavs}
+        out = []
+        for v in self.vavs:
+            zone = by_name[v].zone
+            hits = [i for i, zs in enumerate(self.output_zones) if zone in zs]
+            if not hits:
+                raise HvacfmuError(f"no FMU output measures zone {zone!r} of box {v!r}; outputs: {self.outputs}")
+            out.append(hits[0])
+        return np.array(out, dtype=int)
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """The controller protocol (see the module docstring)."""
+
+    name: str
+
+    def reset(self, context: ControlContext) -> None: ...
+
+    def __call__(self, k: int, t: pd.Timestamp, y: np.ndarray, v: Mapping[str, float]) -> np.ndarray: ...
+
+
+class ReplayController:
+    """Replays the measured airflows of the data (the building's own controller).
+
+    Gaps in a box's measured airflow are filled with its last value (the
+    box's ``m_min`` before the first one); :meth:`stats` counts them.
+    """
+
+    name = "replay"
+
+    def reset(self, context: ControlContext) -> None:
+        cols = [f"m_{v}" for v in context.vavs]
+        missing = [c for c in cols if c not in context.frame]
+        if missing:
+            raise HvacfmuError(f"replay needs measured airflow columns, missing: {missing}")
+        m = context.frame[cols]
+        self.n_filled = int(m.isna().to_numpy().sum())
+        m_min, _ = context.box_limits()
+        self._m = m.ffill().fillna(pd.Series(m_min, index=cols)).to_numpy(dtype=float)
+
+    def __call__(self, k, t, y, v):
+        return self._m[k]
+
+    def stats(self) -> dict:
+        return {"filled_airflows": self.n_filled}
+
+
+class RuleController:
+    """A PI controller per zone driving the zone's boxes between ``m_min`` and ``m_max``.
+
+    The airflow fraction of each box is ``f = clip(Kp e + I, 0, 1)``,
+    ``m = m_min + f (m_max - m_min)``, with ``e = T_zone - T_set`` when the
+    supply air is colder than the zone (cooling) and ``e = T_set - T_zone``
+    when it is warmer (heating); the integral ``I`` (time constant ``Ti``)
+    is frozen while the output saturates (anti-windup).
+
+    Parameters
+    ----------
+    setpoint : float [°C], optional
+        Default: the middle of the comfort band.
+    kp : float [1/K]
+        Proportional gain on the airflow fraction.
+    ti : float [s]
+        Integral time.
+    """
+
+    name = "rule"
+
+    def __init__(self, setpoint=None, kp=0.5, ti=3600.0):
+        self.setpoint = setpoint
+        self.kp = float(kp)
+        self.ti = float(ti)
+
+    def reset(self, context: ControlContext) -> None:
+        self.m_min, self.m_max = context.box_limits()
+        self.out_of_box = context.box_output()
+        self.dt = float(context.step)
+        self.T_set = float(np.mean(context.band)) if self.setpoint is None else float(self.setpoint)
+        self.integral = np.zeros(len(context.vavs))
+
+    def __call__(self, k, t, y, v):
+        T = np.asarray(y, dtype=float)[self.out_of_box]
+        sign = np.where(float(v["T_supply"]) <= T, 1.0, -1.0)
+        e = sign * (T - self.T_set)
+        f_unsat = self.kp * e + self.integral
+        f = np.clip(f_unsat, 0.0, 1.0)
+        # integrate only when not pushing further into saturation
+        grow = self.kp * e * self.dt / self.ti
+        free = (f_unsat > 0.0) & (f_unsat < 1.0) | ((f_unsat <= 0.0) & (grow > 0)) | ((f_unsat >= 1.0) & (grow < 0))
+        self.integral = np.where(free, np.clip(self.integral + grow, -1.0, 2.0), self.integral)
+        return self.m_min + f * (self.m_max - self.m_min)
+
+    def stats(self) -> dict:
+        return {"setpoint": self.T_set, "kp": self.kp, "ti": self.ti}
+
+
+__all__ = ["ControlContext", "Controller", "ReplayController", "RuleController"]

@@ -1,0 +1,715 @@
+"""Co-simulation master: an FMU (ours or foreign) with a controller in the loop, on FMPy's low-level API.
+
+One run: load the FMU with :class:`fmpy.fmi2.FMU2Slave`, feed the measured
+disturbances of a prepared dataset row by row (one row per communication step,
+zero-order hold), ask the controller for the VAV airflows at each step, step
+the FMU and record everything. The result is a table plus summary figures:
+energy proxy Σ m² and total airflow, comfort violation in K·h outside the band,
+compute time per step. A run that does not cover the requested span (the FMU
+refused a step, the controller failed) raises :class:`~hvacfmu.errors.FMUError`
+with the partial result attached, unless ``allow_partial=True``.
+
+Command line::
+
+    hvacfmu cosim --fmu fmus/build/Zones.fmu --data measurements.parquet --building building.toml \\
+        --controller rule --week 2 --out results.csv
+
+Our FMUs are mapped by name (inputs ``m_<vav>``, ``T_out``, ``T_supply``,
+``I_N`` ...; outputs ``T_<zone>`` or ``T_floor``; parameters
+``T_<zone>_start``, ``season``, ``start_time_of_week``). A foreign FMU needs a
+mapping file (JSON)::
+
+    {"inputs": {"fmu variable": "data column", ...},      # m_<vav>, T_out, T_supply, I_N ...
+     "outputs": {"fmu variable": "zone name", ...},
+     "start_values": {"fmu variable": value, ...},          # optional
+     "time_origin": "2025-09-01T00:00:00-07:00"}            # optional, FMU time 0 [default: run start]
+
+Inputs or outputs declared in kelvin (``unit="K"``) are converted from/to °C.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import json
+import logging
+import math
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from hvacfmu.errors import DataError, FMUError, HvacfmuError, problems_message
+from hvacfmu.timeutil import seconds_of_week
+
+from .controllers import ControlContext, ReplayController, RuleController
+
+logger = logging.getLogger(__name__)
+
+#: FMI 2.0 status names
+STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
+CONTROLLERS = ("replay", "rule", "mpc")
+DEFAULT_BAND = (20.0, 22.0)
+
+
+# =============================================================================
+# result
+# =============================================================================
+@dataclasses.dataclass
+class CosimResult:
+    """Outcome of :func:`run_cosim`.
+
+    Attributes
+    ----------
+    table : DataFrame
+        One row per communication point (``n_steps + 1`` rows when complete),
+        tz-aware local index ``time``: FMU outputs ``T_<zone>`` [°C] at that
+        time, the commands ``m_<vav>`` [kg/s] and disturbances held over the
+        following step (NaN on the last row), measured ``T_<zone>_measured``
+        [°C] when the data have them, ``controller_time`` and ``fmu_time`` [s].
+    summary : dict
+        Figures of the run (see :meth:`format_summary`).
+    log : list of (status, category, message)
+        Messages the FMU logged.
+    """
+
+    table: pd.DataFrame
+    summary: dict
+    log: list = dataclasses.field(default_factory=list)
+
+    @property
+    def covered(self) -> bool:
+        """True when every requested step was taken."""
+        return bool(self.summary["covered"])
+
+    def to_pandas(self) -> pd.DataFrame:
+        return self.table
+
+    def save(self, path) -> Path:
+        """Write the table (``.csv`` or ``.parquet``) and the summary beside it (``.json``)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.suffix.lower() == ".parquet":
+            self.table.to_parquet(path)
+        elif path.suffix.lower() == ".csv":
+            self.table.to_csv(path)
+        else:
+            raise HvacfmuError(f"results file {path} must end in .csv or .parquet")
+        summary = dict(self.summary, fmu_log=[list(m) for m in self.log])
+        path.with_suffix(".json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
+        return path
+
+    def format_summary(self) -> str:
+        s = self.summary
+        lines = [
+            f"co-simulation of {s['fmu']} with controller {s['controller']!r}",
+            f"  span            {s['start']} .. {s['end']} ({s['steps_requested']} steps of {s['step']:g} s)",
+            f"  completed       {s['steps_completed']} / {s['steps_requested']} steps"
+            + ("" if s["covered"] else "   <-- STOPPED EARLY: " + (s.get("stopped_because") or "?")),
+            f"  energy proxy    {s['energy_proxy']:.4f} (kg/s)^2 summed over steps and boxes",
+            f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
+            f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC",
+            f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
+            f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
+        ]
+        if s.get("filled_inputs"):
+            lines.append(f"  gap-filled      {s['filled_inputs']} input values (time interpolation)")
+        if s.get("controller_stats"):
+            lines.append(f"  controller      {s['controller_stats']}")
+        return "\n".join(lines)
+
+
+# =============================================================================
+# FMU handling
+# =============================================================================
+@dataclasses.dataclass
+class _Var:
+    name: str
+    vr: int
+    causality: str
+    type: str
+    unit: str | None
+    start: object
+
+
+def _fmu_variables(md) -> dict:
+    out = {}
+    for v in md.modelVariables:
+        unit = v.unit if getattr(v, "unit", None) else (v.declaredType.unit if getattr(v, "declaredType", None) else None)
+        out[v.name] = _Var(v.name, v.valueReference, v.causality, v.type, unit, v.start)
+    return out
+
+
+def _read_interface(unzipdir) -> dict | None:
+    p = Path(unzipdir) / "resources" / "interface.json"
+    if not p.is_file():
+        return None
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
+
+
+def _callbacks(sink: list):
+    """fmi2CallbackFunctions whose logger appends (status, category, message) to ``sink``."""
+    from fmpy import calloc, free
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
+
+    def log_message(component, instance_name, status, category, message):
+        text = message.decode("utf-8", errors="replace") if message else ""
+        cat = category.decode("utf-8", errors="replace") if category else ""
+        sink.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), cat, text))
+        logger.log(logging.ERROR if status >= 3 else logging.WARNING if status >= 1 else logging.DEBUG,
+                   "FMU [%s] %s", STATUS[status] if 0 <= status < len(STATUS) else status, text)
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(log_message)
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    try:
+        from fmpy.logging import addLoggerProxy
+
+        addLoggerProxy(ctypes.byref(cb))  # formats the variadic messages
+    except Exception:  # pragma: no cover - older FMPy
+        pass
+    return cb, log_message
+
+
+class FMUInstance:
+    """An instantiated co-simulation FMU with message capture (context manager).
+
+    Parameters
+    ----------
+    path : path
+        The FMU.
+    instance_name : str
+    """
+
+    def __init__(self, path, instance_name="hvacfmu"):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FMUError(f"FMU {self.path} does not exist")
+        try:
+            self.md = read_model_description(str(self.path))
+        except Exception as exc:  # noqa: BLE001 - FMPy raises plain exceptions
+            raise FMUError(f"cannot read {self.path}: {exc}") from None
+        if self.md.coSimulation is None:
+            raise FMUError(f"{self.path} is not a co-simulation FMU")
+        self.vars = _fmu_variables(self.md)
+        self.unzipdir = extract(str(self.path))
+        self.interface = _read_interface(self.unzipdir)
+        self.log: list = []
+        self._cb, self._cb_fn = _callbacks(self.log)
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance_name)
+        try:
+            self.fmu.instantiate(callbacks=self._cb, loggingOn=True)
+        except Exception as exc:  # noqa: BLE001
+            shutil.rmtree(self.unzipdir, ignore_errors=True)
+            raise FMUError(f"cannot instantiate {self.path}: {exc}; FMU log: {self.errors()}") from None
+        self._alive = True
+
+    def errors(self) -> list:
+        """Messages logged with status warning or worse."""
+        return [m for s, _, m in self.log if s not in ("ok",)]
+
+    def close(self):
+        if self._alive:
+            self._alive = False
+            try:
+                self.fmu.terminate()
+            except Exception:  # noqa: BLE001 - terminating a failed instance may fail again
+                pass
+            try:
+                self.fmu.freeInstance()
+            finally:
+                shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+# =============================================================================
+# the run
+# =============================================================================
+def _select_span(dataset, week=None, start=None, stop=None):
+    frame = dataset.frame
+    if week is not None:
+        weeks = {w.number: w for w in dataset.weeks}
+        if week not in weeks:
+            raise DataError(f"week {week} is not in the data; weeks: {sorted(weeks)}")
+        w = weeks[week]
+        return dataset.week_frame(w), w.season
+    if start is None and stop is None:
+        tests = dataset.test_weeks() or dataset.weeks
+        if tests:
+            w = tests[0]
+            return dataset.week_frame(w), w.season
+        return frame, None
+    idx = frame.index
+    i0 = 0 if start is None else idx.searchsorted(pd.Timestamp(start).tz_convert(idx.tz) if pd.Timestamp(start).tzinfo
+                                                  else pd.Timestamp(start).tz_localize(idx.tz))
+    i1 = len(idx) if stop is None else idx.searchsorted(pd.Timestamp(stop).tz_convert(idx.tz) if pd.Timestamp(stop).tzinfo
+                                                        else pd.Timestamp(stop).tz_localize(idx.tz))
+    return frame.iloc[i0:i1], None
+
+
+def _default_mapping(inst: FMUInstance, frame, building):
+    """Inputs by name (box airflows, disturbances) and outputs T_<zone>/T_floor for our FMUs."""
+    boxes = {f"m_{v}": v for v in building.vav_names}
+    inputs, controls, outputs, problems = {}, {}, {}, []
+    for name, var in inst.vars.items():
+        if var.causality == "input":
+            if name in boxes:
+                controls[name] = boxes[name]
+            elif name in frame.columns:
+                inputs[name] = name
+            else:
+                problems.append(f"FMU input {name!r} is neither a box airflow m_<vav> nor a data column")
+        elif var.causality == "output":
+            if name == "T_floor":
+                outputs[name] = tuple(building.zone_names)
+            elif name.startswith("T_") and name[2:] in building.zone_names:
+                outputs[name] = (name[2:],)
+            else:
+                problems.append(f"FMU output {name!r} is not T_<zone> of a zone of the building")
+    return inputs, controls, outputs, problems
+
+
+def _mapping_from_file(inst: FMUInstance, mapping: dict, frame, building):
+    boxes = set(building.vav_names)
+    inputs, controls, outputs, problems = {}, {}, {}, []
+    for fmu_name, col in (mapping.get("inputs") or {}).items():
+        if fmu_name not in inst.vars or inst.vars[fmu_name].causality != "input":
+            problems.append(f"mapping: {fmu_name!r} is not an input of the FMU")
+        elif col.startswith("m_") and col[2:] in boxes:
+            controls[fmu_name] = col[2:]
+        elif col in frame.columns:
+            inputs[fmu_name] = col
+        else:
+            problems.append(f"mapping: input {fmu_name!r} -> {col!r} is neither m_<vav> nor a data column")
+    for fmu_name, zone in (mapping.get("outputs") or {}).items():
+        zones = tuple(zone) if isinstance(zone, (list, tuple)) else (zone,)
+        if fmu_name not in inst.vars or inst.vars[fmu_name].causality != "output":
+            problems.append(f"mapping: {fmu_name!r} is not an output of the FMU")
+        elif not set(zones) <= set(building.zone_names):
+            problems.append(f"mapping: output {fmu_name!r} -> {zone!r} names no zone of the building")
+        else:
+            outputs[fmu_name] = zones
+    return inputs, controls, outputs, problems
+
+
+def _fill(series: pd.Series) -> tuple[pd.Series, int]:
+    n = int(series.isna().sum())
+    if n == 0:
+        return series, 0
+    if n == len(series):
+        raise DataError(f"column {series.name!r} has no data in the co-simulation span")
+    return series.interpolate(method="time", limit_direction="both"), n
+
+
+def _measured_start(name, zones, frame, building, model, outputs):
+    """Measured value of an output at the first row (gaps filled from the nearest rows)."""
+    if model is not None and tuple(model.outputs) and name in {f"T_{z}" for z in model.outputs}:
+        cols = [f"T_{z}" for z in getattr(model, "measured_zones", ())]
+        if cols and all(c in frame for c in cols):
+            T = frame[cols].apply(lambda s: _fill(s)[0]).iloc[:1]
+            y = model.measured_outputs(T)[0]
+            return float(y[[f"T_{z}" for z in model.outputs].index(name)])
+    cols = [f"T_{z}" for z in zones]
+    missing = [c for c in cols if c not in frame]
+    if missing:
+        raise DataError(f"no measured {missing} for the start value of {name}")
+    T = np.array([_fill(frame[c])[0].iloc[0] for c in cols])
+    if len(zones) == 1:
+        return float(T[0])
+    w = building.area_weights()
+    sel = [building.zone_names.index(z) for z in zones]
+    return float(T @ (w[sel] / w[sel].sum()))
+
+
+def run_cosim(
+    fmu_path,
+    dataset,
+    controller,
+    *,
+    week=None,
+    start=None,
+    stop=None,
+    model=None,
+    mapping=None,
+    band=DEFAULT_BAND,
+    season=None,
+    start_values=None,
+    allow_partial=False,
+    progress=False,
+) -> CosimResult:
+    """Co-simulate an FMU with a controller in the loop over a span of measured data.
+
+    Parameters
+    ----------
+    fmu_path : path
+        Co-simulation FMU (ours: mapped by name; foreign: give ``mapping``).
+    dataset : hvacfmu.data.Dataset
+        Prepared data; one row per communication step (``dataset.step`` [s]).
+    controller : Controller
+        See :mod:`harness.controllers`.
+    week : int, optional
+        Week number of the dataset to run. Default: the first held-out week
+        (or the span ``start``..``stop`` when given).
+    start, stop : timestamp-like, optional
+        Span ``[start, stop)`` instead of a week.
+    model : ZoneModel, optional
+        Passed to the controller (e.g. the MPC's model); also used to map
+        measured zone temperatures to its outputs (lumped model).
+    mapping : dict, optional
+        Input/output mapping of a foreign FMU (see the module docstring).
+    band : (float, float) [°C]
+        Comfort band for the violation figure and the controllers.
+    season : str, optional
+        Season of the gains profile (default: the week's season).
+    start_values : dict, optional
+        Extra FMU start values by variable name (override the defaults).
+    allow_partial : bool
+        Return a partial result instead of raising when the run stops early.
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    CosimResult
+
+    Raises
+    ------
+    FMUError
+        The FMU cannot be loaded, initialised, or stopped before the end of the
+        span (the partial result is ``exc.result``).
+    DataError
+        The data cannot feed the FMU (missing columns, empty span).
+    """
+    frame, week_season = _select_span(dataset, week, start, stop)
+    if len(frame) == 0:
+        raise DataError("the co-simulation span holds no data")
+    building = dataset.building
+    step = float(dataset.step)
+    season = season or week_season or dataset.season_of_row[dataset.frame.index.get_loc(frame.index[0])]
+    t_start = frame.index[0]
+    n = len(frame)
+
+    with FMUInstance(fmu_path) as inst:
+        kind = (inst.interface or {}).get("kind")
+        if mapping is None:
+            inputs, controls, outputs, problems = _default_mapping(inst, frame, building)
+        else:
+            inputs, controls, outputs, problems = _mapping_from_file(inst, mapping, frame, building)
+        if not outputs:
+            problems.append("no FMU output is mapped to a zone temperature")
+        if problems:
+            raise FMUError(problems_message(f"cannot connect {inst.path.name} to the data and building", problems))
+        vavs = tuple(controls.values())
+        out_names = tuple(outputs)
+        # --- disturbances, gap-filled
+        filled = {}
+        V = {}
+        for fmu_name, col in inputs.items():
+            s, k = _fill(frame[col])
+            V[fmu_name] = s.to_numpy(dtype=float)
+            if k:
+                filled[col] = k
+        cframe = frame.copy()
+        for fmu_name, col in inputs.items():
+            cframe[col] = V[fmu_name]
+        # --- time axis
+        origin = t_start
+        if kind == "plant" and inst.interface.get("start"):
+            origin = pd.Timestamp(inst.interface["start"])
+            origin = origin.tz_localize(inst.interface.get("timezone")) if origin.tzinfo is None else origin
+        if mapping is not None and mapping.get("time_origin"):
+            origin = pd.Timestamp(mapping["time_origin"])
+        t0 = (t_start - origin).total_seconds()
+        # --- start values
+        sv = {}
+        if inst.interface is not None:
+            for e in inst.interface["variables"]:
+                if e.get("role") == "y0":
+                    out = e["name"][: -len("_start")]
+                    if out in outputs:
+                        sv[e["name"]] = _measured_start(out, outputs[out], frame, building, model, outputs)
+                elif e.get("role") == "season":
+                    seasons = inst.interface["seasons"]
+                    if season not in seasons:
+                        raise FMUError(f"the FMU has no internal-gain profile for season {season!r}; it has {seasons}")
+                    sv["season"] = seasons.index(season) + 1
+                elif e.get("role") == "tow":
+                    sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_start]))[0]) - t0
+        if mapping is not None:
+            sv.update(mapping.get("start_values") or {})
+        sv.update(start_values or {})
+        unknown = [k for k in sv if k not in inst.vars]
+        if unknown:
+            raise FMUError(f"start values for unknown FMU variables: {unknown}")
+        if "start_time_of_week" in sv:
+            sv["start_time_of_week"] %= 7 * 86400.0
+
+        context = ControlContext(
+            frame=cframe, building=building, vavs=vavs, outputs=out_names,
+            output_zones=tuple(outputs[o] for o in out_names), step=step, band=tuple(band), season=season,
+            model=model,
+        )
+        controller.reset(context)
+
+        fmu = inst.fmu
+        K = 273.15
+
+        def offset(name):
+            return K if inst.vars[name].unit == "K" else 0.0
+
+        in_names = list(controls) + list(inputs)
+        in_vr = (ctypes.c_uint32 * len(in_names))(*[inst.vars[k].vr for k in in_names])
+        in_val = (ctypes.c_double * len(in_names))()
+        in_np = np.frombuffer(in_val, dtype=float)
+        in_off = np.array([offset(k) if k in inputs and inputs[k].startswith("T_") else 0.0 for k in in_names])
+        out_vr = (ctypes.c_uint32 * len(out_names))(*[inst.vars[k].vr for k in out_names])
+        out_val = (ctypes.c_double * len(out_names))()
+        out_np = np.frombuffer(out_val, dtype=float)
+        out_off = np.array([offset(k) for k in out_names])
+        Vmat = np.column_stack([V[k] for k in inputs]) if inputs else np.zeros((n, 0))
+        nc = len(controls)
+
+        try:
+            fmu.setupExperiment(startTime=t0)
+            fmu.enterInitializationMode()
+            for name, value in sv.items():
+                var = inst.vars[name]
+                if var.type == "Integer":
+                    fmu.setInteger([var.vr], [int(value)])
+                else:
+                    fmu.setReal([var.vr], [float(value)])
+            in_np[nc:] = Vmat[0] + in_off[nc:] if len(inputs) else in_np[nc:]
+            fmu.exitInitializationMode()
+            fmu.fmi2GetReal(fmu.component, out_vr, len(out_names), out_val)
+        except Exception as exc:  # noqa: BLE001
+            raise FMUError(f"initialising {inst.path.name} failed: {exc}; FMU log: {inst.errors()}") from None
+        if inst.errors():
+            raise FMUError(problems_message(f"{inst.path.name} reported errors at initialisation", inst.errors()))
+
+        Y = np.full((n + 1, len(out_names)), np.nan)
+        M = np.full((n + 1, nc), np.nan)
+        t_ctrl = np.full(n, np.nan)
+        t_fmu = np.full(n, np.nan)
+        Y[0] = out_np - out_off
+        stopped = None
+        v_names = list(inputs.values())
+        iterator = range(n)
+        if progress:
+            from tqdm import tqdm
+
+            iterator = tqdm(iterator, desc="cosim", unit="step")
+        completed = 0
+        for k in iterator:
+            t = t0 + k * step
+            v_row = dict(zip(v_names, Vmat[k]))
+            c0 = time.perf_counter()
+            try:
+                m = np.asarray(controller(k, frame.index[k], Y[k].copy(), v_row), dtype=float)
+            except Exception as exc:  # noqa: BLE001 - the run stops, the result says why
+                stopped = f"controller raised {type(exc).__name__}: {exc}"
+                break
+            c1 = time.perf_counter()
+            if m.shape != (nc,) or not np.all(np.isfinite(m)):
+                stopped = f"controller returned {m!r} at step {k} (need {nc} finite airflows)"
+                break
+            M[k] = m
+            in_np[:nc] = m
+            in_np[nc:] = Vmat[k] + in_off[nc:]
+            try:
+                fmu.fmi2SetReal(fmu.component, in_vr, len(in_names), in_val)
+                fmu.fmi2DoStep(fmu.component, t, step, 1)
+                fmu.fmi2GetReal(fmu.component, out_vr, len(out_names), out_val)
+            except Exception as exc:  # noqa: BLE001 - FMICallException
+                errs = inst.errors()
+                stopped = f"{exc}" + (f"; FMU log: {errs[-1]}" if errs else "")
+                break
+            c2 = time.perf_counter()
+            Y[k + 1] = out_np - out_off
+            t_ctrl[k], t_fmu[k] = c1 - c0, c2 - c1
+            completed = k + 1
+
+    index = frame.index.append(pd.DatetimeIndex([frame.index[-1] + pd.Timedelta(seconds=step)]))
+    index.name = "time"
+    table = pd.DataFrame(Y, index=index, columns=list(out_names))
+    for j, b in enumerate(vavs):
+        table[f"m_{b}"] = M[:, j]
+    for fmu_name, col in inputs.items():
+        table[col] = np.append(V[fmu_name], np.nan)
+    for o in out_names:
+        zones = outputs[o]
+        if len(zones) == 1 and f"T_{zones[0]}" in frame:
+            table[f"{o}_measured"] = np.append(frame[f"T_{zones[0]}"].to_numpy(dtype=float), np.nan)
+    table["controller_time"] = np.append(t_ctrl, np.nan)
+    table["fmu_time"] = np.append(t_fmu, np.nan)
+    if completed < n:
+        table = table.iloc[: completed + 1]
+
+    Mc = M[:completed]
+    Yc = Y[1 : completed + 1]
+    lo, hi = band
+    viol = np.clip(lo - Yc, 0, None) + np.clip(Yc - hi, 0, None)
+    st = (t_ctrl + t_fmu)[:completed]
+    stats = getattr(controller, "stats", None)
+    summary = {
+        "fmu": str(Path(fmu_path).name),
+        "controller": getattr(controller, "name", type(controller).__name__),
+        "start": str(frame.index[0]),
+        "end": str(index[-1]),
+        "step": step,
+        "season": season,
+        "steps_requested": n,
+        "steps_completed": completed,
+        "covered": completed == n,
+        "stopped_because": stopped,
+        "energy_proxy": float(np.sum(Mc ** 2)),
+        "total_airflow_kg": float(np.sum(Mc) * step),
+        "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if completed else math.nan,
+        "comfort_violation_Kh": float(np.sum(viol) * step / 3600.0),
+        "band": [float(lo), float(hi)],
+        "step_time_median": float(np.median(st)) if completed else math.nan,
+        "step_time_max": float(np.max(st)) if completed else math.nan,
+        "controller_time_median": float(np.median(t_ctrl[:completed])) if completed else math.nan,
+        "fmu_time_median": float(np.median(t_fmu[:completed])) if completed else math.nan,
+        "filled_inputs": filled,
+        "controller_stats": stats() if callable(stats) else {},
+        "start_values": sv,
+    }
+    result = CosimResult(table=table, summary=summary, log=list(inst.log))
+    if not result.covered:
+        msg = (f"co-simulation stopped early: {completed} of {n} steps "
+               f"({frame.index[0]} .. {index[-1]} requested, reached {table.index[-1]}): {stopped}")
+        logger.error(msg)
+        if not allow_partial:
+            err = FMUError(msg)
+            err.result = result
+            raise err
+    return result
+
+
+# =============================================================================
+# controllers by name
+# =============================================================================
+def _parse_options(items) -> dict:
+    out = {}
+    for item in items or ():
+        if "=" not in item:
+            raise HvacfmuError(f"controller option {item!r} must be KEY=VALUE")
+        key, value = item.split("=", 1)
+        for conv in (int, float):
+            try:
+                value = conv(value)
+                break
+            except ValueError:
+                continue
+        out[key.strip()] = value
+    return out
+
+
+def make_controller(name, model=None, building=None, options=None):
+    """A controller by name: ``replay``, ``rule`` or ``mpc``.
+
+    ``mpc`` is the dispatch point to :mod:`harness.mpc` (issue #6): it calls
+    ``harness.mpc.cosim_controller(model, building, **options)``, which must
+    return an object following the controller protocol of
+    :mod:`harness.controllers`.
+    """
+    options = dict(options or {})
+    if name == "replay":
+        return ReplayController(**options)
+    if name == "rule":
+        return RuleController(**options)
+    if name == "mpc":
+        if model is None:
+            raise HvacfmuError("--controller mpc needs the controller's model: --model model.json")
+        try:
+            from harness.mpc import cosim_controller
+        except ImportError as exc:
+            raise HvacfmuError(f"the MPC controller is not available (harness.mpc.cosim_controller): {exc}") from None
+        return cosim_controller(model, building, **options)
+    raise HvacfmuError(f"unknown controller {name!r}; choose one of {CONTROLLERS}")
+
+
+# =============================================================================
+# command line
+# =============================================================================
+def add_cosim_arguments(parser):
+    """Arguments of ``hvacfmu cosim``."""
+    parser.add_argument("--fmu", "--plant", dest="fmu", required=True,
+                        help="co-simulation FMU to run (a model FMU or the plant FMU)")
+    parser.add_argument("--data", "-d", required=True, help="measurements file (CSV or Parquet)")
+    parser.add_argument("--building", "-b", required=True, help="building file (TOML)")
+    parser.add_argument("--controller", "-c", choices=CONTROLLERS, default="replay",
+                        help="replay measured airflows, rule-based PI, or MPC (default replay)")
+    parser.add_argument("--model", "-m", help="model file (JSON): the MPC's model; maps measured outputs")
+    parser.add_argument("--week", type=int, help="week number to run (default: the first held-out week)")
+    parser.add_argument("--start", help="start of the span instead of --week (local time)")
+    parser.add_argument("--stop", help="end of the span (exclusive)")
+    parser.add_argument("--out", "-o", help="results table (.csv or .parquet); summary beside it (.json)")
+    parser.add_argument("--mapping", help="JSON mapping of a foreign FMU's variables (see harness.cosim)")
+    parser.add_argument("--band", type=float, nargs=2, default=DEFAULT_BAND, metavar=("T_MIN", "T_MAX"),
+                        help="comfort band [degC] (default 20 22)")
+    parser.add_argument("--season", help="season of the gains profile (default: the week's)")
+    parser.add_argument("--horizon", type=int, help="MPC horizon in steps (passed to harness.mpc)")
+    parser.add_argument("--option", action="append", metavar="KEY=VALUE",
+                        help="controller option (repeatable), e.g. kp=0.8 for rule, rho=100 for mpc")
+    parser.add_argument("--step", type=float, default=900.0, help="model/communication step [s] (default 900)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the train/test week split (default 0)")
+    parser.add_argument("--interpolate-gaps", type=float, default=None, metavar="MINUTES",
+                        help="interpolate data gaps up to this length when preparing the data")
+    parser.add_argument("--allow-partial", action="store_true",
+                        help="exit 0 even if the FMU stopped early (the error is still printed)")
+
+
+def main_cosim(args) -> int:
+    """Run ``hvacfmu cosim``; returns the exit code (1 if the run stopped early)."""
+    from hvacfmu.data import prepare
+    from hvacfmu.models import load_model
+
+    dataset = prepare(args.data, args.building, step=args.step, seed=args.seed,
+                      interpolate_limit=args.interpolate_gaps)
+    model = load_model(args.model) if args.model else None
+    options = _parse_options(args.option)
+    if args.horizon is not None:
+        options["horizon"] = args.horizon
+    controller = make_controller(args.controller, model, dataset.building, options)
+    mapping = None
+    if args.mapping:
+        try:
+            mapping = json.loads(Path(args.mapping).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise HvacfmuError(f"cannot read mapping file {args.mapping}: {exc}") from None
+    result = run_cosim(args.fmu, dataset, controller, week=args.week, start=args.start, stop=args.stop,
+                       model=model, mapping=mapping, band=tuple(args.band), season=args.season,
+                       allow_partial=True, progress=not getattr(args, "quiet", True))
+    print(result.format_summary())
+    if args.out:
+        print(f"wrote {result.save(args.out)}")
+    if not result.covered:
+        print(f"hvacfmu cosim: error: the FMU stopped early: {result.summary['stopped_because']}",
+              file=sys.stderr)
+        return 0 if args.allow_partial else 1
+    return 0
+
+
+__all__ = ["CosimResult", "FMUInstance", "add_cosim_arguments", "main_cosim", "make_controller", "run_cosim"]
