@@ -685,3 +685,21 @@ def test_missing_columns_hint_lists_unmapped_columns(tmp_path, small_building):
     frame = make_measurements(small_building, periods=120).rename(columns={"T_A": "RM-A ZN-T"})
     with pytest.raises(DataError, match=r"(?s)missing required column 'T_A'.*hint: .*'RM-A ZN-T'.*\[columns\]"):
         load_measurements(write(frame, tmp_path / "m.csv"), small_building)
+
+
+def test_hand_made_bms_export():
+    """tests/data/bms_export.csv: mapped names, degF and cfm, naive times, an unknown column, a gap."""
+    from pathlib import Path
+
+    here = Path(__file__).parent / "data"
+    frame, report = load_measurements(here / "bms_export.csv", here / "bms_building.toml")
+    assert list(frame.columns) == ["T_A", "T_B", "m_V1", "m_V2", "T_supply", "T_out", "ghi"]
+    assert frame.index[0] == pd.Timestamp("2024-01-15 08:00", tz=TZ) and len(frame) == 5
+    assert_allclose(frame["T_A"].iloc[[0, 4]], [20.0, 20.4], rtol=0, atol=1e-9)  # 68.0, 68.72 degF
+    assert_allclose(frame["T_B"].iloc[:2], [22.0, 22.0], rtol=0, atol=1e-9)
+    assert np.isnan(frame["T_B"].iloc[2]) and np.isnan(frame["ghi"].iloc[3])
+    assert_allclose(frame["m_V1"].iloc[0], 500 * 0.3048**3 / 60 * 1.2, rtol=1e-12, atol=0)  # 0.2832 kg/s
+    assert_allclose(frame["T_supply"].iloc[0], 13.0, rtol=0, atol=1e-9)
+    assert_allclose(frame["T_out"].iloc[0], 5.0, rtol=0, atol=1e-9)
+    assert report.unknown_columns == ("Trend Flags",)
+    assert report.native_step == 60.0 and not report.has_offsets
