@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 from ...building import ORIENTATIONS, Building
-from ...errors import BuildingError, problems_message
+from ...errors import BuildingError, HvacfmuWarning, problems_message
 
 #: The five physical parameters of the paper, in order (names used in ``[physics].nominal``).
 PARAM_NAMES = ("U_win", "gamma_interior_wall", "gamma_exterior_wall", "gamma_floor", "gamma_ceiling")
@@ -40,9 +41,9 @@ BOUNDARIES = ("ambient", "ground", "adiabatic")
 RHO_AIR = 1.2
 CP_AIR = 1005.0
 #: Default heat capacity of furniture lumped into the air node [J/(K m2) of floor area].
-DEFAULT_FURNITURE_CAPACITY = 5000.0
+DEFAULT_FURNITURE_CAPACITY = 3000.0
 #: Default maximum thickness of one node of a massive layer [m].
-DEFAULT_MAX_LAYER_THICKNESS = 0.025
+DEFAULT_MAX_LAYER_THICKNESS = 0.02
 
 _MATERIAL_KEYS = {"name", "conductivity", "density", "specific_heat", "r_value"}
 _CONSTRUCTION_KEYS = {"name", "layers", "films"}
@@ -183,13 +184,19 @@ def _unknown_keys(row, allowed, where, problems):
         problems.append(f"{where}: unknown key(s) {extra} (known: {sorted(allowed)})")
 
 
-def _names(rows, kind, problems):
+def _names(rows, kind, problems, warn_duplicates=False):
     names = [str(r.get("name", "")) for r in rows]
     for i, n in enumerate(names):
         if not n:
             problems.append(f"{kind}[{i}]: missing 'name'")
-    for n in sorted({n for n in names if n and names.count(n) > 1}):
-        problems.append(f"{kind} name {n!r} is used more than once")
+    dups = sorted({n for n in names if n and names.count(n) > 1})
+    if dups and warn_duplicates:
+        # elements and windows are never referenced by name: keep them all, but say so
+        warnings.warn(f"{kind} names used more than once: {dups} (all are kept; check for duplicated entries)",
+                      HvacfmuWarning, stacklevel=3)
+    else:
+        for n in dups:
+            problems.append(f"{kind} name {n!r} is used more than once")
 
 
 def physics_problems(building: Building) -> list[str]:
@@ -334,7 +341,7 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
 
     # --- windows --------------------------------------------------------------
     win_rows = _table(phys, "windows", problems)
-    _names(win_rows, "windows", problems)
+    _names(win_rows, "windows", problems, warn_duplicates=True)
     windows = []
     for i, r in enumerate(win_rows):
         name = str(r.get("name", f"#{i}"))
@@ -355,7 +362,7 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
 
     # --- elements --------------------------------------------------------------
     el_rows = _table(phys, "elements", problems)
-    _names(el_rows, "elements", problems)
+    _names(el_rows, "elements", problems, warn_duplicates=True)
     elements = []
     touched = set()
     sides_ok = zone_set | set(BOUNDARIES)

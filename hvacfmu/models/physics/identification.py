@@ -42,6 +42,7 @@ from ...errors import FitError
 from ...timeutil import n_time_of_week, time_of_week
 from .geometry import PARAM_NAMES, parse_physics
 from .model import PhysicsModel, fill_signals, kalman_gain
+from .network import single_threaded
 
 log = logging.getLogger(__name__)
 
@@ -125,11 +126,13 @@ def _weekend_segments(dataset, model, nw, ns, max_segments):
     return _Segments(y, u, v, q0, nw, seasons, starts)
 
 
-def _simulate_segments(template, theta, step, segs, K):
-    """Outputs of every segment for zero gains and for 1 W in each zone.
+def _simulate_segments(template, theta, step, segs, K, free_modes=0):
+    """Outputs of every segment for zero gains, for 1 W in each zone and for unit slow modes.
 
-    Returns ``Y0`` (B, ns, nz) and ``S`` (nz, B, ns, nz) [K/W] such that the
-    simulated outputs for constant gains ``f`` are ``Y0 + sum_j f_j S[j]``.
+    Returns ``Y0`` (B, ns, nz), ``S`` (nz, B, ns, nz) [K/W] and ``Phi``
+    (k, B, ns, nz) [K/K] such that the simulated outputs for constant gains
+    ``f`` and initial-state corrections ``delta`` (B, k) along the ``k``
+    slowest modes are ``Y0 + sum_j f_j S[j] + sum_i delta[:, i] Phi[i]``.
     """
     net = template.build(np.exp(theta))
     disc = net.discretize(step)
@@ -152,17 +155,67 @@ def _simulate_segments(template, theta, step, segs, K):
     Kz = disc.W @ K
     Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1)
     Yf = Y[:, :, nw + 1:]
-    return Yf[0], Yf[1:] - Yf[0][None]
+    Phi = None
+    if free_modes:
+        # free response of the (airflow-dependent) homogeneous system to each slow mode, from the segment start
+        lam = net.modal[0]
+        slow = np.argsort(-lam)[: int(free_modes)]
+        scale = 1.0 / np.abs(disc.V[:, slow]).max(axis=0)  # 1 K peak temperature per mode
+        zf = np.zeros((len(slow), 1, disc.n_states))
+        zf[np.arange(len(slow)), 0, slow] = scale
+        ms = m[None, :, nw:]
+        vs = np.zeros((1, 1) + segs.v.shape[1:])[:, :, nw:]
+        qs = np.zeros((1, 1, ms.shape[2], segs.q0.shape[-1]))
+        Yh, *_ = disc.run(zf, ms, vs, qs)
+        Phi = Yh[:, :, 1:]
+    return Yf[0], Yf[1:] - Yf[0][None], Phi
 
 
-def _solve_gains(Y0, S, segs):
-    """NNLS estimate of the constant gains f (nz,) [W] and the residuals."""
-    mask = segs.mask
-    target = (segs.y[:, segs.nw + 1:] - Y0)[mask]
-    A = S[:, mask].T
-    Qm, R = np.linalg.qr(A)
-    f, _ = so.nnls(R, Qm.T @ target)
-    return f, A @ f - target
+class _LinearPart:
+    """Linear parameters of step 1 for fixed physical parameters.
+
+    Constant gains ``f >= 0`` shared by all segments (NNLS) and, per segment,
+    free amplitudes of the slowest modes of the initial state (eliminated by
+    projection, i.e. a deterministic smoother of the initial state's slow
+    part on the segment's own data).
+    """
+
+    def __init__(self, Y0, S, Phi, segs):
+        self.segs = segs
+        mask = segs.mask
+        target = segs.y[:, segs.nw + 1:] - Y0
+        self.bases = []
+        t_parts, a_parts = [], []
+        for b in range(segs.n):
+            mb = mask[b]
+            t = target[b][mb]
+            A = S[:, b][:, mb].T
+            if Phi is not None and t.size > Phi.shape[0]:
+                Q, _ = np.linalg.qr(Phi[:, b][:, mb].T)
+                t = t - Q @ (Q.T @ t)
+                A = A - Q @ (Q.T @ A)
+                self.bases.append(Q)
+            else:
+                self.bases.append(None)
+            t_parts.append(t)
+            a_parts.append(A)
+        self.t = np.concatenate(t_parts)
+        self.A = np.concatenate(a_parts)
+        self.n_free = 0 if Phi is None else Phi.shape[0] * segs.n
+
+    def solve(self):
+        """``f`` (nz,) [W] and the projected residual vector."""
+        Qm, R = np.linalg.qr(self.A)
+        f, _ = so.nnls(R, Qm.T @ self.t)
+        return f, self.residual(f)
+
+    def residual(self, f):
+        return self.A @ f - self.t
+
+
+def _solve_gains(Y0, S, Phi, segs):
+    """NNLS estimate of the constant gains f (nz,) [W] and the (projected) residuals."""
+    return _LinearPart(Y0, S, Phi, segs).solve()
 
 
 def _lag1(res_blocks):
@@ -192,6 +245,7 @@ def fit_physics(
     bound_factor: float = 30.0,
     max_nfev: int = 60,
     initial: dict | None = None,
+    free_modes: int = 3,
 ) -> PhysicsModel:
     """Identify Model B on ``dataset``'s training weeks (two steps, see the module docstring).
 
@@ -223,6 +277,11 @@ def fit_physics(
         Maximum residual evaluations per round of ``least_squares``.
     initial : dict, optional
         Initial parameter values (default: the building file's ``[physics].nominal``).
+    free_modes : int
+        Number of slowest modes of each segment's initial state estimated from
+        the segment itself on top of the Kalman filter's estimate (0: filter only).
+        The slow wall modes are barely observable over a warm-up of a day; left
+        to the filter, their errors bias the parameters.
 
     Returns
     -------
@@ -236,6 +295,17 @@ def fit_physics(
     physical model for simulating HVAC systems", eqs. (physics_opt),
     (ig(k-1)), (fixed_ig).
     """
+    with single_threaded():
+        return _fit_physics(dataset, progress=progress, solar=solar, max_layer_thickness=max_layer_thickness,
+                            furniture_capacity=furniture_capacity, internal_mass=internal_mass,
+                            segment_hours=segment_hours, warmup_hours=warmup_hours, max_segments=max_segments,
+                            kalman=kalman, kalman_rounds=kalman_rounds, bound_factor=bound_factor,
+                            max_nfev=max_nfev, initial=initial, free_modes=free_modes)
+
+
+def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_capacity, internal_mass,
+                 segment_hours, warmup_hours, max_segments, kalman, kalman_rounds, bound_factor, max_nfev,
+                 initial, free_modes):
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
@@ -299,8 +369,8 @@ def fit_physics(
     state = {"K": model.kalman_gain, "nfev": 0}
 
     def residuals(theta):
-        Y0, S = _simulate_segments(template, theta, step, segs, state["K"])
-        _, r = _solve_gains(Y0, S, segs)
+        Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
+        _, r = _solve_gains(Y0, S, Phi, segs)
         state["nfev"] += 1
         if bar is not None:
             bar.update(1)
@@ -320,13 +390,13 @@ def fit_physics(
     if bar is not None:
         bar.close()
     res = results[-1]
-    Y0, S = _simulate_segments(template, theta, step, segs, state["K"])
-    f_c, r = _solve_gains(Y0, S, segs)
+    Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
+    f_c, r = _solve_gains(Y0, S, Phi, segs)
     params = dict(zip(PARAM_NAMES, map(float, np.exp(theta))))
 
     # --- uncertainty ------------------------------------------------------------
     estimates, unident, jac_info = _uncertainty(template, theta, f_c, step, segs, state["K"], lo, hi, zones,
-                                                Y0, S)
+                                                free_modes)
     rms = float(np.sqrt(np.mean(r**2)))
 
     # --- step 2: seasonal time-of-week gains --------------------------------------
@@ -363,25 +433,24 @@ def fit_physics(
     return final
 
 
-def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, Y0, S):
+def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes):
     """Standard deviations and identifiability flags of all parameters at the optimum."""
-    mask = segs.mask
-    target = segs.y[:, segs.nw + 1:]
-    r0 = (Y0 + np.tensordot(f_c, S, axes=1) - target)
-    r = r0[mask]
+    lin = _LinearPart(*_simulate_segments(template, theta, step, segs, K, free_modes), segs)
+    r = lin.residual(f_c)
     cols = []
     h = 1e-4
     for p in range(len(theta)):
         th = theta.copy()
         th[p] += h
-        Y0p, Sp = _simulate_segments(template, th, step, segs, K)
-        rp = (Y0p + np.tensordot(f_c, Sp, axes=1) - target)[mask]
-        cols.append((rp - r) / h)
-    J = np.column_stack(cols + [S[:, mask].T])
+        linp = _LinearPart(*_simulate_segments(template, th, step, segs, K, free_modes), segs)
+        cols.append((linp.residual(f_c) - r) / h)
+    J = np.column_stack(cols + [lin.A])
+    r0 = np.full(segs.mask.shape, np.nan)
+    r0[segs.mask] = r
     names = list(PARAM_NAMES) + [f"f_ig_const_{z}" for z in zones]
     n, p = J.shape
-    rho = _lag1(np.where(mask, r0, np.nan))
-    s2 = float(r @ r) / max(n - p, 1) * (1 + rho) / (1 - rho)
+    rho = _lag1(r0)
+    s2 = float(r @ r) / max(n - p - lin.n_free, 1) * (1 + rho) / (1 - rho)
     cov = s2 * np.linalg.pinv(J.T @ J)
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     values = np.r_[np.exp(theta), f_c]

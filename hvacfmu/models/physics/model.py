@@ -38,11 +38,11 @@ from ..base import (
     require_keys,
 )
 from .geometry import PARAM_NAMES, parse_physics
-from .network import BilinearMatrices, NetworkTemplate
+from .network import BilinearMatrices, NetworkTemplate, single_threaded
 
 #: Default Kalman filter settings: process noise per step on air and on other
 #: nodes [K], measurement noise [K], warm-up length [steps].
-DEFAULT_KALMAN = {"q_air": 0.1, "q_mass": 0.005, "r": 0.05, "warmup_steps": 96}
+DEFAULT_KALMAN = {"q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 96}
 
 
 def building_hash(building_dict: dict) -> str:
@@ -83,7 +83,8 @@ def kalman_gain(disc, airflow, q_air, q_mass, r) -> np.ndarray:
     C[np.arange(nz), np.arange(nz)] = 1.0
     Q = np.diag(np.r_[np.full(nz, q_air**2), np.full(nx - nz, q_mass**2)])
     R = np.eye(nz) * r**2
-    P = sl.solve_discrete_are(A.T, C.T, Q, R)
+    with single_threaded():
+        P = sl.solve_discrete_are(A.T, C.T, Q, R)
     S = P[:nz, :nz] + R
     return np.linalg.solve(S, P[:nz, :]).T
 
@@ -276,7 +277,8 @@ class PhysicsModel(ZoneModel):
         u, v, q = (np.asarray(a, dtype=float) for a in (u, v, q))
         m = u @ d.zone_vav.T
         _, Z, _, _ = d.run(x0 @ d.W.T, m, v, q, record_states=True)
-        X = Z @ d.V.T
+        with single_threaded():
+            X = Z @ d.V.T
         return X, self.output(X)
 
     # --- state estimation -------------------------------------------------------------

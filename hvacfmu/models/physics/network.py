@@ -54,6 +54,28 @@ from ...errors import ModelError
 from .geometry import CP_AIR, FILM_PARAMS, PARAM_NAMES, RHO_AIR, PhysicsSpec
 
 _AMBIENT, _GROUND = -1, -2
+_CONTROLLER = []
+
+
+def single_threaded():
+    """Context manager limiting BLAS to one thread.
+
+    The dense kernels here are small (a few hundred states); with several BLAS
+    threads on a busy 2-core machine they run slower and with erratic timing
+    (measured: a 181-state eigendecomposition took 2 ms to 0.6 s).
+    """
+    if not _CONTROLLER:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _CONTROLLER.append(ThreadpoolController())
+        except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+            _CONTROLLER.append(None)
+    if _CONTROLLER[0] is None:  # pragma: no cover
+        import contextlib
+
+        return contextlib.nullcontext()
+    return _CONTROLLER[0].limit(limits=1, user_api="blas")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,8 +152,14 @@ class NetworkTemplate:
                 return zidx[s]
             return {"ambient": _AMBIENT, "ground": _GROUND}.get(s)  # None: adiabatic
 
+        counts = {}
+        for el in spec.elements:
+            counts[el.name] = counts.get(el.name, 0) + 1
+        seen = {}
         for el in spec.elements:
             A = el.area
+            seen[el.name] = seen.get(el.name, 0) + 1
+            label = el.name if counts[el.name] == 1 else f"{el.name}#{seen[el.name]}"
             con = el.construction
             nodes = [side_node(el.side1)]
             # resistance accumulated since the previous node: fixed part, per-parameter coefficients
@@ -156,7 +184,7 @@ class NetworkTemplate:
                 for j in range(n_sub):
                     acc_r += r_half
                     i = len(names)
-                    names.append(f"{el.name}[{li}.{j}]" if n_sub > 1 else f"{el.name}[{li}]")
+                    names.append(f"{label}[{li}.{j}]" if n_sub > 1 else f"{label}[{li}]")
                     cap.append(mat.density * mat.specific_heat * d * A)
                     if nodes[-1] is not None:
                         edge(nodes[-1], i, acc_r, acc_c.copy())
@@ -313,7 +341,8 @@ class RCNetwork:
         s = np.sqrt(self.template.capacity)
         S = -(self.L.toarray() / s[:, None]) / s[None, :]
         S = 0.5 * (S + S.T)
-        lam, Q = np.linalg.eigh(S)
+        with single_threaded():
+            lam, Q = np.linalg.eigh(S)
         V = Q / s[:, None]
         W = Q.T * s[None, :]
         return lam, V, W
@@ -457,8 +486,9 @@ class DiscreteBilinear:
         q : array (..., n, nq)
         y : array (..., n+1, n_zones) [°C], optional
             Measurements for the corrections (NaN: no correction for that zone).
-        Kz : array (nx, n_zones), optional
-            Modal Kalman gain ``W K``.
+        Kz : array (nx, n_zones) or (n_gains, nx, n_zones), optional
+            Modal Kalman gain ``W K``; a sequence gives the gain of each row
+            (the last one for later rows).
         n_correct : int
             Corrections are applied at rows ``0 .. n_correct-1``.
         record_states : bool
@@ -475,6 +505,10 @@ class DiscreteBilinear:
         z : array (..., nx)
             The final modal state (after the correction at row n, if any).
         """
+        with single_threaded():
+            return self._run(z0, m, v, q, y, Kz, n_correct, record_states, record_pred)
+
+    def _run(self, z0, m, v, q, y, Kz, n_correct, record_states, record_pred):
         z = np.array(z0, dtype=float)
         n = m.shape[-2]
         batch = np.broadcast_shapes(z.shape[:-1], m.shape[:-2], v.shape[:-2], q.shape[:-2],
@@ -486,7 +520,7 @@ class DiscreteBilinear:
         Yp = np.empty(batch + (n + 1, nz)) if record_pred else None
         VzT, PvT, PqT, PhT = self.Vz.T, self.Pv.T, self.Pq.T, self.Ph.T
         ed = self.ed
-        KzT = None if Kz is None else Kz.T
+        KzT = None if Kz is None else np.swapaxes(Kz, -1, -2)
         for k in range(n + 1):
             xz = z @ VzT
             if record_pred:
@@ -494,7 +528,7 @@ class DiscreteBilinear:
             if k < n_correct and KzT is not None:
                 innov = y[..., k, :] - xz
                 innov = np.where(np.isnan(innov), 0.0, innov)
-                z = z + innov @ KzT
+                z = z + innov @ (KzT if KzT.ndim == 2 else KzT[min(k, len(KzT) - 1)])
                 xz = z @ VzT
             Y[..., k, :] = xz
             if record_states:
