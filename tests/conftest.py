@@ -56,3 +56,19 @@ def default_dataset():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         return prepare(paths.measurements, paths.building)
+
+
+@pytest.fixture(scope="session")
+def default_paths():
+    """Files of the emulator's default dataset (51 weeks, seed 0), generated once into $HVACFMU_CACHE."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(weeks=51, seed=0)
+
+
+@pytest.fixture(scope="session")
+def short_paths():
+    """Files of a short emulator dataset (8 weeks, seed 0), generated once into $HVACFMU_CACHE."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(weeks=8, seed=0)
