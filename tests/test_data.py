@@ -583,6 +583,7 @@ def test_prepare_interpolate_limit(tmp_path, small_building):
 def test_check_report_contents(tmp_path, small_building):
     frame = make_measurements(small_building, start="2024-09-02", periods=15 * 1440)
     frame.iloc[3000:3300, 1] = np.nan
+    frame.iloc[7 * 1440 : 10 * 1440, 0] = np.nan  # 3 of 7 days of week #1 without T_A
     frame.loc["2024-09-07 10:00":"2024-09-07 13:59", "excitation"] = 1.0
     frame.loc["2024-09-14 10:00":"2024-09-14 10:29", "excitation"] = 1.0
     report = check(write(frame, tmp_path / "m.csv"), small_building)
@@ -592,6 +593,7 @@ def test_check_report_contents(tmp_path, small_building):
     assert "Native resolution: 60 s" in text
     assert "T_B" in text and "1 gap(s), longest 5 h 00 min from 2024-09-04T02:00:00-07:00" in text
     assert "fall       2 weeks: 1 train, 1 test" in text
+    assert "week #1 (2024-09-09, fall, test): only 57 % of its steps have every zone temperature" in text
     assert "Excitation periods: 2 (4 h 30 min in total)" in text
     assert "2024-09-07 Sat 10:00 .. 14:00" in text
     assert text.rstrip().endswith("OK: the data can be used for fitting")

@@ -13,6 +13,8 @@ from .dataset import Dataset, _prepare
 from .loading import LoadReport, _load, as_building
 from .resample import MIN_COVERAGE
 
+#: Weeks with fewer steps than this holding every zone temperature are flagged.
+WEEK_COVERAGE_WARNING = 0.8
 #: Excitation periods listed by date in the report (the rest are counted).
 N_PERIODS_LISTED = 12
 
@@ -225,6 +227,16 @@ def check(
         (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
     ]
     notes = [w for w in dataset.warnings]
+    zone_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in dataset.frame.columns]
+    all_zones = np.isfinite(dataset.frame[zone_cols].to_numpy()).all(axis=1)
+    for w in dataset.weeks:
+        a, b = dataset.frame.index.searchsorted(w.start), dataset.frame.index.searchsorted(w.end)
+        share = float(all_zones[a:b].mean()) if b > a else 0.0
+        if share < WEEK_COVERAGE_WARNING:
+            notes.append(
+                f"week #{w.number} ({w.start.date()}, {w.season}, {'train' if w.train else 'test'}): only "
+                f"{100 * share:.0f} % of its steps have every zone temperature"
+            )
     if not periods:
         notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
     return CheckReport(
