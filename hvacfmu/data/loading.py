@@ -346,11 +346,11 @@ def _load(path: Path, building: Building):
     report.unknown_columns = unknown
     report.columns = dict(present)
     n_missing = sum(1 for c, req in expected.items() if req and c not in present)
-    if n_missing and unknown:
-        problems.append(
-            f"{label}: hint: the file has {len(unknown)} column(s) that map to nothing: "
+    if n_missing and unknown:  # a hint, appended to the last missing-column problem
+        problems[-1] += (
+            f" (the file has {len(unknown)} column(s) that map to nothing: "
             f"{', '.join(repr(c) for c in unknown[:8])}{' ...' if len(unknown) > 8 else ''}; "
-            "map them to canonical names in the building's [columns] table (e.g. T_NW = \"RM4-NW ZN-T\")"
+            "map them to canonical names in the building's [columns] table, e.g. T_NW = \"RM4-NW ZN-T\")"
         )
     if unknown:
         report.warnings.append(
