@@ -1,0 +1,494 @@
+"""FMU export: validation, exactness against the Python models, state, step sizes, bad input, FMPy CLI.
+
+FMUs are built once per session (pythonfmu build, about 0.3 s each; the plant
+FMU a few seconds) into a temporary folder.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from hvacfmu.errors import FMUError, HvacfmuWarning, ModelError
+from hvacfmu.fmu import export_fmu, export_plant_fmu, validate
+from hvacfmu.fmu_slave import state_from_outputs
+from hvacfmu.models.linear import LinearZoneModel
+
+DIST = ("T_out", "T_supply", "I_N", "I_E", "I_S", "I_W")
+EXACT = 1e-9  # [K] FMU vs Python model
+
+
+# ----------------------------------------------------------------------------- models
+def zones_model(building, seed=0):
+    """A stable six-zone Model A for ``building`` (hand-written, not fitted)."""
+    rng = np.random.default_rng(seed)
+    nz = len(building.zone_names)
+    A = 0.9 * np.eye(nz) + rng.uniform(0, 0.012, (nz, nz))
+    B = -np.diag(rng.uniform(0.5, 1.0, nz))
+    C = np.column_stack([rng.uniform(0.02, 0.04, nz), rng.uniform(0.02, 0.04, nz), rng.uniform(0, 2e-4, (nz, 4))])
+    # steady state ~21 degC at typical inputs: put the balance into the gains
+    return LinearZoneModel(
+        kind="zones", step=900.0, outputs=building.zone_names, measured_zones=building.zone_names,
+        output_weights=np.eye(nz), vavs=building.vav_names, input_map=building.zone_vav_matrix(),
+        disturbances=DIST, A=A, B=B, C=C,
+        gains={s: rng.uniform(0.6, 1.2, (672, nz)) for s in building.season_names},
+        meta={"note": "hand-written for tests"},
+    )
+
+
+def lumped_model(building, seed=1):
+    rng = np.random.default_rng(seed)
+    return LinearZoneModel(
+        kind="lumped", step=900.0, outputs=("floor",), measured_zones=building.zone_names,
+        output_weights=building.area_weights()[None, :], vavs=building.vav_names,
+        input_map=np.ones((1, len(building.vav_names))), disturbances=DIST[:2],
+        A=[[0.94]], B=[[-0.12]], C=[[0.02, 0.02]],
+        gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names},
+    )
+
+
+def physics_model(building, seed=2):
+    from hvacfmu.models.physics import PhysicsModel
+
+    rng = np.random.default_rng(seed)
+    params = dict(building.physics["physics"]["nominal"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        nz = len(building.zone_names)
+        return PhysicsModel(building=building, params=params, solar=True,
+                            gains={s: rng.uniform(500.0, 3000.0, (672, nz)) for s in building.season_names})
+
+
+# ----------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="session")
+def fmu_data(short_paths):
+    from hvacfmu.data import prepare
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(short_paths.measurements, short_paths.building)
+
+
+@pytest.fixture(scope="session")
+def sdh_building():
+    from hvacfmu.emulator import sdh_building as make
+
+    return make(nominal=True)
+
+
+@pytest.fixture(scope="session")
+def built(tmp_path_factory, fmu_data, sdh_building):
+    """kind -> (model, model path, FMU path), each FMU built once."""
+    d = tmp_path_factory.mktemp("fmus")
+    models = {"lumped": lumped_model(fmu_data.building), "zones": zones_model(fmu_data.building),
+              "physics": physics_model(sdh_building)}
+    out = {}
+    for kind, model in models.items():
+        mp = model.save(d / f"{kind}.json")
+        out[kind] = (model, mp, export_fmu(mp, d / f"{kind}.fmu"))
+    return out
+
+
+@pytest.fixture(scope="session")
+def plant_fmu(tmp_path_factory, short_paths):
+    return export_plant_fmu(short_paths.truth, tmp_path_factory.mktemp("plant") / "Plant.fmu")
+
+
+def week_inputs(dataset, model, week):
+    """Measured-like inputs of a test week, gap-filled: (index, m_vav (n, nb), v (n, nv), y0)."""
+    f = dataset.week_frame(week).interpolate(method="time", limit_direction="both")
+    m = f[[f"m_{b}" for b in dataset.building.vav_names]].to_numpy(dtype=float)
+    v = f[list(model.disturbances)].to_numpy(dtype=float)
+    y0 = model.measured_outputs(f.iloc[:1])[0]
+    return f.index, m, v, y0
+
+
+class Slave:
+    """A pythonfmu FMU through FMPy's FMU2Slave with logging captured."""
+
+    def __init__(self, path, name="test"):
+        from harness.cosim import FMUInstance
+
+        self.inst = FMUInstance(path, instance_name=name)
+        self.fmu = self.inst.fmu
+        self.vr = {n: v.vr for n, v in self.inst.vars.items()}
+        self.log = self.inst.log
+
+    def init(self, start_values=None, t0=0.0):
+        self.fmu.setupExperiment(startTime=t0)
+        self.fmu.enterInitializationMode()
+        for k, val in (start_values or {}).items():
+            if isinstance(val, int) and not isinstance(val, bool):
+                self.fmu.setInteger([self.vr[k]], [val])
+            else:
+                self.fmu.setReal([self.vr[k]], [float(val)])
+        self.fmu.exitInitializationMode()
+
+    def close(self):
+        self.inst.close()
+
+
+def run_fmu(slave, names_in, U, names_out, t0=0.0, step=900.0, k0=0):
+    vin = [slave.vr[n] for n in names_in]
+    vout = [slave.vr[n] for n in names_out]
+    Y = [slave.fmu.getReal(vout)]
+    for k in range(len(U)):
+        slave.fmu.setReal(vin, list(U[k]))
+        slave.fmu.doStep(t0 + (k0 + k) * step, step)
+        Y.append(slave.fmu.getReal(vout))
+    return np.array(Y)
+
+
+def fmu_setup(model, building, dataset, week):
+    idx, m, v, y0 = week_inputs(dataset, model, week)
+    names_in = ([f"m_{b}" for b in building.vav_names]) + list(model.disturbances)
+    names_out = [f"T_{z}" for z in model.outputs]
+    sv = {f"T_{z}_start": float(y) for z, y in zip(model.outputs, y0)}
+    sv["season"] = list(model.gains).index(week.season) + 1
+    from hvacfmu.timeutil import seconds_of_week
+
+    sv["start_time_of_week"] = float(seconds_of_week(idx[:1])[0])
+    return idx, np.hstack([m, v]), m, v, y0, names_in, names_out, sv
+
+
+def reference(model, idx, m, v, y0, season):
+    u, _ = model.signals(pd.DataFrame(
+        {**{f"m_{b}": m[:, j] for j, b in enumerate(model.vavs if hasattr(model, "vavs") else model.building.vav_names)},
+         **{d: v[:, j] for j, d in enumerate(model.disturbances)}}, index=idx))
+    q = model.gains_at(idx, season)
+    _, Y = model.simulate(state_from_outputs(model, y0), u, v, q)
+    return Y
+
+
+# ----------------------------------------------------------------------------- tests
+@pytest.mark.parametrize("kind", ["lumped", "zones", "physics"])
+def test_validate_and_description(built, kind):
+    from fmpy import read_model_description
+
+    model, _, path = built[kind]
+    assert validate(path) == []
+    md = read_model_description(str(path))
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+    assert md.coSimulation.canHandleVariableCommunicationStepSize is False
+    assert md.coSimulation.modelIdentifier == {"lumped": "HvacfmuLumped", "zones": "HvacfmuZones",
+                                                "physics": "HvacfmuPhysics"}[kind]
+    names = {v.name: v for v in md.modelVariables}
+    assert not [n for n in names if any(c in n for c in ".[]")]
+    for v in md.modelVariables:
+        assert v.variability is not None and v.causality is not None
+        assert v.description
+    for z in model.outputs:
+        assert names[f"T_{z}"].causality == "output" and names[f"T_{z}"].unit == "degC"
+        assert names[f"T_{z}_start"].causality == "parameter"
+    for b in model.building.vav_names if kind == "physics" else model.vavs:
+        assert names[f"m_{b}"].unit == "kg/s" and names[f"m_{b}"].causality == "input"
+    for d in model.disturbances:
+        assert names[d].unit == ("degC" if d.startswith("T_") else "W/m2")
+    assert names["season"].type == "Integer" and "1 = fall" in names["season"].description
+    assert names["start_time_of_week"].unit == "s"
+    assert {u.name for u in md.unitDefinitions} >= {"degC", "kg/s", "s"}
+    with zipfile.ZipFile(path) as z:
+        assert json.loads(z.read("resources/model.json")) == json.loads(Path(built[kind][1]).read_text())
+
+
+@pytest.mark.parametrize("kind", ["lumped", "zones", "physics"])
+def test_week_matches_python_model(built, fmu_data, kind):
+    """672 steps with measured inputs through FMPy equal the Python model to 1e-9 K."""
+    model, _, path = built[kind]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    s = Slave(path)
+    try:
+        s.init(sv)
+        Y = run_fmu(s, names_in, U, names_out)
+    finally:
+        s.close()
+    Yref = reference(model, idx, m, v, y0, week.season)
+    assert len(Y) == 673
+    assert_allclose(Y, Yref, rtol=0, atol=EXACT)
+    assert np.ptp(Yref) > 0.5  # the trajectory moves: the comparison is not trivial
+
+
+@pytest.mark.parametrize("kind", ["zones", "physics"])
+def test_state_save_restore_mid_week(built, fmu_data, kind):
+    """Serialised state restored mid-week (also into a fresh instance) reproduces the run exactly."""
+    model, _, path = built[kind]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    k_mid = 300
+    s = Slave(path, "a")
+    try:
+        s.init(sv)
+        Y1 = run_fmu(s, names_in, U[:k_mid], names_out)
+        state = s.fmu.getFMUstate()
+        blob = s.fmu.serializeFMUstate(state)
+        Y2 = run_fmu(s, names_in, U[k_mid:], names_out, k0=k_mid)
+        s.fmu.setFMUstate(state)
+        Y2b = run_fmu(s, names_in, U[k_mid:], names_out, k0=k_mid)
+        s.fmu.freeFMUstate(state)
+    finally:
+        s.close()
+    fresh = Slave(path, "b")
+    try:
+        fresh.init(sv)
+        fresh.fmu.setFMUstate(fresh.fmu.deSerializeFMUstate(blob))
+        Y2c = run_fmu(fresh, names_in, U[k_mid:], names_out, k0=k_mid)
+    finally:
+        fresh.close()
+    assert_allclose(Y2b, Y2, rtol=0, atol=0)
+    assert_allclose(Y2c, Y2, rtol=0, atol=0)
+    Yref = reference(model, idx, m, v, y0, week.season)
+    assert_allclose(np.vstack([Y1, Y2[1:]]), Yref, rtol=0, atol=EXACT)
+
+
+def test_multiple_steps_exact_and_other_steps_refused(built, fmu_data):
+    model, _, path = built["zones"]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    held = np.repeat(U[:1], 4, axis=0)  # the same inputs for 4 steps
+    a, b = Slave(path, "a"), Slave(path, "b")
+    try:
+        a.init(sv)
+        b.init(sv)
+        Ya = run_fmu(a, names_in, held, names_out)
+        b.fmu.setReal([b.vr[n] for n in names_in], list(U[0]))
+        b.fmu.doStep(0.0, 3600.0)  # one communication step of 4 model steps
+        assert_allclose(b.fmu.getReal([b.vr[n] for n in names_out]), Ya[-1], rtol=0, atol=0)
+        before = b.fmu.getReal([b.vr[n] for n in names_out])
+        for h in (450.0, 1000.0, 0.0):
+            with pytest.raises(Exception, match="discard"):
+                b.fmu.doStep(3600.0, h)
+        assert any("not a whole multiple of the model step 900 s" in msg for _, _, msg in b.log)
+        assert b.fmu.getReal([b.vr[n] for n in names_out]) == before  # refused steps change nothing
+        with pytest.raises(Exception, match="discard"):
+            b.fmu.doStep(7200.0, 900.0)  # not contiguous
+        assert any("steps must be contiguous" in msg for _, _, msg in b.log)
+        b.fmu.doStep(3600.0, 900.0)  # still usable
+    finally:
+        a.close()
+        b.close()
+
+
+@pytest.mark.parametrize(
+    "setup, message",
+    [
+        ("before_init", "before initialisation"),
+        ("nan", r"invalid input value\(s\): m_VAV_NW_1=nan"),
+        ("range", r"T_out=150.0 \(allowed \[-60.0, 80.0\] degC\)"),
+        ("negative", r"m_VAV_C_1=-0.1"),
+        ("season", r"season=9 is not one of 1 \(fall\)"),
+        ("wrong_type", "fmi2SetInteger: invalid value reference"),
+        ("bad_state", "fmi2SetFMUstate failed"),
+    ],
+)
+def test_bad_input_gives_discard_and_log(built, setup, message):
+    """Each bad input: a non-OK status with a clear log message, and the host keeps running."""
+    _, _, path = built["zones"]
+    s = Slave(path)
+    vr = s.vr
+    try:
+        if setup == "before_init":
+            pass
+        elif setup == "season":
+            s.init({"season": 9})
+        else:
+            s.init()
+        if setup == "nan":
+            s.fmu.setReal([vr["m_VAV_NW_1"]], [float("nan")])
+        elif setup == "range":
+            s.fmu.setReal([vr["T_out"]], [150.0])
+        elif setup == "negative":
+            s.fmu.setReal([vr["m_VAV_C_1"]], [-0.1])
+        elif setup == "wrong_type":
+            s.fmu.setInteger([vr["T_out"]], [3])
+        elif setup == "bad_state":
+            s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(b"not json"))
+        with pytest.raises(Exception, match="discard"):
+            s.fmu.doStep(0.0, 900.0)
+        text = "\n".join(msg for _, _, msg in s.log)
+        assert re.search(message, text), text
+        assert any(status == "error" for status, _, _ in s.log)
+    finally:
+        s.close()
+    # the process is healthy: a new instance of the same FMU runs
+    t = Slave(path, "after")
+    try:
+        t.init()
+        t.fmu.doStep(0.0, 900.0)
+    finally:
+        t.close()
+
+
+def _rewrite(path, out, name, content):
+    with zipfile.ZipFile(path) as zin, zipfile.ZipFile(out, "w") as zout:
+        for item in zin.infolist():
+            data = content if item.filename == name else zin.read(item.filename)
+            zout.writestr(item, data)
+    return out
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda d: "{not json", "is not valid JSON"),
+        (lambda d: json.dumps(dict(d, format_version=99)), "newer than this hvacfmu understands"),
+        (lambda d: json.dumps(dict(d, outputs=list(reversed(d["outputs"])))), "does not match the FMU's variables"),
+    ],
+)
+def test_broken_model_file_in_fmu(built, tmp_path, edit, message):
+    """A corrupt, too new or replaced model file: logged at instantiation, every step refused, host fine."""
+    _, mp, path = built["zones"]
+    d = json.loads(Path(mp).read_text())
+    bad = _rewrite(path, tmp_path / "bad.fmu", "resources/model.json", edit(d))
+    s = Slave(bad)
+    try:
+        s.init()
+        with pytest.raises(Exception, match="discard"):
+            s.fmu.doStep(0.0, 900.0)
+        text = "\n".join(msg for _, _, msg in s.log)
+        assert message in text, text
+    finally:
+        s.close()
+
+
+def test_exception_in_slave_is_logged_with_traceback(built, tmp_path):
+    """A Python exception inside doStep becomes a logged traceback and fmi2Discard; the instance lives on."""
+    from hvacfmu.fmu import _build
+    from hvacfmu.fmu_slave import INTERFACE_FILE, zone_model_layout
+
+    model, mp, _ = built["zones"]
+    script = tmp_path / "HvacfmuTestRaises.py"
+    script.write_text(
+        "import hvacfmu.fmu_slave as _impl\n"
+        "exec(compile(_impl.source(), _impl.__file__, 'exec'))\n\n\n"
+        "class HvacfmuTestRaises(ZoneModelSlave):  # noqa: F821\n"
+        "    def _advance(self, current_time, step_size):\n"
+        "        if current_time >= 1800.0:\n"
+        "            raise ZeroDivisionError('injected failure')\n"
+        "        return ZoneModelSlave._advance(self, current_time, step_size)  # noqa: F821\n"
+    )
+    res = tmp_path / "res"
+    res.mkdir()
+    (res / "model.json").write_text(Path(mp).read_text())
+    (res / INTERFACE_FILE).write_text(json.dumps(zone_model_layout(model)[0]))
+    path = _build(script, tmp_path / "Raises.fmu", [res / "model.json", res / INTERFACE_FILE])
+    s = Slave(path)
+    try:
+        s.init()
+        s.fmu.doStep(0.0, 900.0)
+        s.fmu.doStep(900.0, 900.0)
+        with pytest.raises(Exception, match="discard"):
+            s.fmu.doStep(1800.0, 900.0)
+        text = "\n".join(msg for _, _, msg in s.log)
+        assert "Traceback (most recent call last)" in text and "ZeroDivisionError: injected failure" in text
+        s.fmu.getFMUstate()  # still answers
+    finally:
+        s.close()
+
+
+def test_two_fmus_of_one_kind_in_one_process(built, fmu_data, tmp_path):
+    """Same slave class, different models, loaded together: each runs its own model."""
+    model_a, _, path_a = built["zones"]
+    model_b = zones_model(fmu_data.building, seed=7)
+    path_b = export_fmu(model_b.save(tmp_path / "b.json"), tmp_path / "b.fmu")
+    week = fmu_data.test_weeks()[0]
+    lumped, _, path_l = built["lumped"]
+    slaves, results = [], {}
+    try:
+        for name, model, path in (("a", model_a, path_a), ("b", model_b, path_b), ("l", lumped, path_l)):
+            idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+            s = Slave(path, name)
+            slaves.append(s)
+            s.init(sv)
+            results[name] = (run_fmu(s, names_in, U[:96], names_out), reference(model, idx[:96], m[:96], v[:96], y0,
+                                                                                  week.season))
+    finally:
+        for s in slaves:
+            s.close()
+    for name, (Y, Yref) in results.items():
+        assert_allclose(Y, Yref, rtol=0, atol=EXACT, err_msg=name)
+    assert np.abs(results["a"][0] - results["b"][0]).max() > 0.1
+
+
+def test_plant_fmu_matches_plant(plant_fmu, short_paths, fmu_data):
+    from hvacfmu.emulator import Plant
+
+    assert validate(plant_fmu) == []
+    truth = json.loads(Path(short_paths.truth).read_text())
+    plant = Plant.from_truth(truth)
+    week = fmu_data.weeks[1]
+    f = fmu_data.week_frame(week).interpolate(method="time", limit_direction="both").iloc[:96]
+    m = f[[f"m_{b}" for b in plant.vavs]].to_numpy(dtype=float)
+    w = f[["T_out", "T_supply", "I_N", "I_E", "I_S", "I_W"]].to_numpy(dtype=float)
+    y0 = f[[f"T_{z}" for z in plant.zones]].iloc[0].to_numpy(dtype=float)
+    t0 = (f.index[0] - pd.Timestamp(truth["start"]).tz_localize(truth["timezone"])).total_seconds()
+    x = plant.initial_state(y0)
+    Yref = [plant.zone_temperatures(x)]
+    for k in range(len(f)):
+        x, T = plant.advance(x, t0 + 900.0 * k, 900.0, m[k], w[k, 0], w[k, 1], w[k, 2:])
+        Yref.append(T)
+    s = Slave(plant_fmu)
+    try:
+        s.init({f"T_{z}_start": float(y) for z, y in zip(plant.zones, y0)}, t0=t0)
+        Y = run_fmu(s, [f"m_{b}" for b in plant.vavs] + ["T_out", "T_supply", "I_N", "I_E", "I_S", "I_W"],
+                    np.hstack([m, w]), [f"T_{z}" for z in plant.zones], t0=t0)
+        with pytest.raises(Exception, match="discard"):
+            s.fmu.doStep(t0 + 96 * 900.0, 30.0)  # not a multiple of the plant's 60 s
+    finally:
+        s.close()
+    assert_allclose(Y, np.array(Yref), rtol=0, atol=EXACT)
+
+
+def test_fmpy_command_line(built, fmu_data, tmp_path):
+    """`fmpy info` and `fmpy simulate --input-file ... --output-interval 900` as a user would run them."""
+    model, _, path = built["zones"]
+    info = subprocess.run(["fmpy", "info", str(path)], capture_output=True, text=True, timeout=120)
+    assert info.returncode == 0, info.stderr
+    assert "T_NW" in info.stdout and "m_VAV_NW_1" in info.stdout and "degC" in info.stdout
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    n = 96
+    inp = pd.DataFrame(U[:n], columns=names_in)
+    inp.insert(0, "time", np.arange(n) * 900.0)
+    inp.to_csv(tmp_path / "in.csv", index=False)
+    cmd = ["fmpy", "simulate", str(path), "--input-file", str(tmp_path / "in.csv"), "--output-interval", "900",
+           "--stop-time", str((n - 1) * 900.0), "--output-file", str(tmp_path / "out.csv"),
+           "--output-variables", *names_out, "--start-values"]
+    for k, val in sv.items():
+        cmd += [k, str(val)]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr + run.stdout
+    out = pd.read_csv(tmp_path / "out.csv")
+    assert_allclose(out["time"], np.arange(n) * 900.0, rtol=0, atol=1e-6)
+    Yref = reference(model, idx[:n], m[:n], v[:n], y0, week.season)
+    assert_allclose(out[names_out].to_numpy(), Yref[:n], rtol=0, atol=1e-9)
+
+
+def test_export_command_line_and_errors(built, tmp_path):
+    _, mp, _ = built["lumped"]
+    ok = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "L.fmu")],
+                        capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    assert validate(tmp_path / "L.fmu") == []
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    run = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(bad), "-o", str(tmp_path / "B.fmu")],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2 and "not valid JSON" in run.stderr
+    with pytest.raises(ModelError, match="newer than this hvacfmu"):
+        d = json.loads(Path(mp).read_text())
+        d["format_version"] = 99
+        (tmp_path / "new.json").write_text(json.dumps(d))
+        export_fmu(tmp_path / "new.json", tmp_path / "N.fmu")
+    with pytest.raises(FMUError, match="must end in .fmu"):
+        export_fmu(mp, tmp_path / "x.zip")
