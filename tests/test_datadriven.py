@@ -485,3 +485,31 @@ def test_unknown_option_and_unknown_adjacency(zone_dataset):
     d["zones"][0]["adjacent"].append("Atrium")
     with pytest.raises(BuildingError, match="adjacent zone 'Atrium' is not a zone"):
         building_from_dict(d)
+
+
+def test_thin_season_warns(tmp_path, six_building, zone_truth):
+    """A season whose training data cover under half the week's slots: warning, interpolated profile."""
+    frame = simulate_frame(zone_truth, six_building, weeks=4, start="2025-12-01", seed=8)
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict())
+    winter_train = [w for w in ds.train_weeks("winter")]
+    assert len(winter_train) == 1
+    w = winter_train[0]
+    sel = (frame.index >= w.start + pd.Timedelta(days=2)) & (frame.index < w.end)
+    frame.loc[sel, "T_NW"] = np.nan  # winter training data: two days only
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict(), "thin")
+    with pytest.warns(HvacfmuWarning, match=r"season winter: usable training data cover only \d+ %"):
+        m = fit_zones(ds)
+    assert np.all(np.isfinite(m.gains["winter"]))
+    assert m.meta["gain_coverage"]["winter"] < 0.5
+
+
+def test_common_bandwidth_is_the_better_choice(lumped_dataset, lumped_truth, lumped_fit):
+    """Per-series bandwidths break the de-smoothed identity and bias b; one common bandwidth does not."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        per_series = fit_lumped(lumped_dataset, common_bandwidth=False)
+    bw = per_series.meta["smoothing"]["bandwidth_h"]
+    assert len(set(bw.values())) > 1
+    assert len(set(lumped_fit.meta["smoothing"]["bandwidth_h"].values())) == 1
+    b_true = lumped_truth.B[0, 0]
+    assert abs(lumped_fit.B[0, 0] - b_true) < 0.5 * abs(per_series.B[0, 0] - b_true)

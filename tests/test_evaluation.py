@@ -220,10 +220,16 @@ def test_cli_fit_and_evaluate(data, tmp_path):
     r = run("-q", "fit", src, "--building", str(bpath), "--model", "zones", "-o", str(model))
     assert r.returncode == 0, r.stderr
     assert "spectral radius" in r.stdout
-    out = tmp_path / "r.json"
-    r = run("evaluate", src, "--building", str(bpath), "--model", str(model), "--json", str(out))
+    lumped = tmp_path / "l.json"
+    r = run("-q", "fit", src, "--building", str(bpath), "--model", "lumped", "-o", str(lumped))
     assert r.returncode == 0, r.stderr
-    assert "time-of-week mean" in r.stdout and out.exists()
+    out = tmp_path / "r.json"
+    r = run("evaluate", src, "--building", str(bpath), "--model", str(model), "--model", str(lumped),
+            "--json", str(out), "--plots", str(tmp_path / "plots"))
+    assert r.returncode == 0, r.stderr
+    assert "time-of-week mean" in r.stdout and "== lumped" in r.stdout and "== zones" in r.stdout
+    assert [m["kind"] for m in json.loads(out.read_text())["models"]] == ["zones", "lumped"]
+    assert len(list((tmp_path / "plots").glob("*.png"))) == 3
     r = run("evaluate", src, "--building", str(bpath), "--model", str(tmp_path / "missing.json"))
     assert r.returncode == 2 and "does not exist" in r.stderr
 
