@@ -492,3 +492,42 @@ def test_export_command_line_and_errors(built, tmp_path):
         export_fmu(tmp_path / "new.json", tmp_path / "N.fmu")
     with pytest.raises(FMUError, match="must end in .fmu"):
         export_fmu(mp, tmp_path / "x.zip")
+
+
+def test_crosstool_libcosimpy_matches_fmpy(built, fmu_data):
+    """The same FMU in an independent importer (libcosimpy: OSP libcosim on the FMI Library) gives the same week."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimManipulator import CosimManipulator
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.ERROR)
+    model, _, path = built["zones"]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    s = Slave(path)
+    try:
+        s.init(sv)
+        Y_fmpy = run_fmu(s, names_in, U, names_out)
+        vr = dict(s.vr)
+    finally:
+        s.close()
+    ex = CosimExecution.from_step_size(step_size=int(900e9))  # [ns]
+    i = ex.add_local_slave(CosimLocalSlave(fmu_path=str(path), instance_name="zones"))
+    man = CosimManipulator.create_override()
+    ex.add_manipulator(man)
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(obs)
+    for k, val in sv.items():
+        if isinstance(val, int):
+            ex.integer_initial_value(i, vr[k], val)
+        else:
+            ex.real_initial_value(i, vr[k], float(val))
+    vin, vout = [vr[n] for n in names_in], [vr[n] for n in names_out]
+    Y = []
+    for k in range(len(U)):
+        man.slave_real_values(i, vin, list(U[k]))
+        assert ex.step(1), f"libcosim step {k} failed"
+        Y.append(obs.last_real_values(i, vout))
+    assert_allclose(np.array(Y), Y_fmpy[1:], rtol=0, atol=EXACT)
