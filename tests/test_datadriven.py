@@ -44,7 +44,7 @@ VOL6 = {"NW": 900.0, "W": 700.0, "S": 1100.0, "E": 800.0, "NE": 600.0, "C": 1500
 
 def six_zone_building_dict():
     zones = [
-        {"name": z, "area": VOL6[z] / 3.0, "volume": VOL6[z], "adjacent": ADJ6[z],
+        {"name": z, "area": VOL6[z] / 3.0, "volume": VOL6[z], "adjacent": list(ADJ6[z]),
          "facades": [{"orientation": o, "window_area": 30.0, "wall_area": 40.0} for o in FAC6[z]]}
         for z in ZONES6
     ]
