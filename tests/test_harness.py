@@ -1,0 +1,180 @@
+"""Co-simulation harness: exactness through run_cosim, summary figures, early stops, controllers, CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+from test_fmu import EXACT, zones_model
+
+from harness.controllers import ControlContext, Controller, ReplayController, RuleController
+from harness.cosim import CosimResult, make_controller, run_cosim
+from hvacfmu.errors import FMUError, HvacfmuError, HvacfmuWarning
+from hvacfmu.fmu import export_fmu, export_plant_fmu
+from hvacfmu.fmu_slave import state_from_outputs
+
+
+@pytest.fixture(scope="module")
+def data(short_paths):
+    from hvacfmu.data import prepare
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(short_paths.measurements, short_paths.building)
+
+
+@pytest.fixture(scope="module")
+def zones(tmp_path_factory, data):
+    d = tmp_path_factory.mktemp("harness")
+    model = zones_model(data.building)
+    mp = model.save(d / "zones.json")
+    return model, mp, export_fmu(mp, d / "Zones.fmu")
+
+
+class Scripted:
+    """Replays measured airflows but returns ``bad`` at step ``at``."""
+
+    name = "scripted"
+
+    def __init__(self, at, bad):
+        self.at, self.bad = at, bad
+
+    def reset(self, context):
+        self.inner = ReplayController()
+        self.inner.reset(context)
+
+    def __call__(self, k, t, y, v):
+        m = np.array(self.inner(k, t, y, v), dtype=float)
+        if k == self.at:
+            m[-1] = self.bad
+        return m
+
+
+def test_replay_run_equals_python_model(zones, data):
+    model, _, path = zones
+    week = data.test_weeks()[0]
+    r = run_cosim(path, data, ReplayController(), week=week.number, model=model)
+    assert isinstance(r, CosimResult) and r.covered
+    tab = r.table
+    assert len(tab) == 673 and tab.index[0] == week.start and tab.index[-1] == week.end
+    rows = tab.iloc[:-1]
+    u, v = model.signals(rows)
+    q = model.gains_at(rows.index, week.season)
+    y0 = tab[[f"T_{z}" for z in model.outputs]].iloc[0].to_numpy()
+    measured = data.week_frame(week)[[f"T_{z}" for z in model.outputs]].interpolate(limit_direction="both")
+    assert_allclose(y0, measured.iloc[0].to_numpy(), rtol=0, atol=1e-12)  # started from measurement
+    _, Y = model.simulate(state_from_outputs(model, y0), u, v, q)
+    assert_allclose(tab[[f"T_{z}" for z in model.outputs]].to_numpy(), Y, rtol=0, atol=EXACT)
+    # the replayed airflows are the measured ones where measured
+    meas = data.week_frame(week)[[f"m_{b}" for b in data.building.vav_names]].to_numpy()
+    ok = np.isfinite(meas)
+    assert_allclose(rows[[f"m_{b}" for b in data.building.vav_names]].to_numpy()[ok], meas[ok], rtol=0, atol=0)
+
+
+def test_summary_figures(zones, data, tmp_path):
+    model, _, path = zones
+    r = run_cosim(path, data, RuleController(), week=1, model=model, band=(20.5, 21.5))
+    tab, s = r.table, r.summary
+    M = tab[[f"m_{b}" for b in data.building.vav_names]].iloc[:-1].to_numpy()
+    T = tab[[f"T_{z}" for z in model.outputs]].iloc[1:].to_numpy()
+    assert_allclose(s["energy_proxy"], np.sum(M ** 2), rtol=1e-12, atol=0)
+    assert_allclose(s["total_airflow_kg"], np.sum(M) * 900.0, rtol=1e-12, atol=0)
+    viol = np.where(T < 20.5, 20.5 - T, 0) + np.where(T > 21.5, T - 21.5, 0)
+    assert_allclose(s["comfort_violation_Kh"], viol.sum() * 0.25, rtol=1e-12, atol=0)
+    assert s["steps_completed"] == s["steps_requested"] == 672
+    assert 0 < s["step_time_median"] <= s["step_time_max"]
+    out = r.save(tmp_path / "res.parquet")
+    back = pd.read_parquet(out)
+    assert_allclose(back.to_numpy(), tab.to_numpy(), rtol=0, atol=0)
+    assert json.loads(out.with_suffix(".json").read_text())["covered"] is True
+    assert "comfort" in r.format_summary()
+
+
+@pytest.mark.parametrize("bad, message", [(-0.2, "invalid input value"), (float("nan"), "need 21 finite airflows")])
+def test_early_stop_is_an_error_with_partial_result(zones, data, bad, message):
+    model, _, path = zones
+    with pytest.raises(FMUError, match="stopped early: 10 of 672 steps") as info:
+        run_cosim(path, data, Scripted(10, bad), week=1, model=model)
+    res = info.value.result
+    assert res.summary["steps_completed"] == 10 and not res.covered
+    assert message in res.summary["stopped_because"]
+    assert len(res.table) == 11
+    partial = run_cosim(path, data, Scripted(10, bad), week=1, model=model, allow_partial=True)
+    assert not partial.covered
+
+
+def test_rule_controller_pi_logic(data):
+    frame = data.week_frame(data.weeks[0])
+    b = data.building
+    ctx = ControlContext(frame=frame, building=b, vavs=b.vav_names, outputs=tuple(f"T_{z}" for z in b.zone_names),
+                         output_zones=tuple((z,) for z in b.zone_names), step=900.0)
+    c = RuleController(kp=0.5, ti=3600.0)
+    c.reset(ctx)
+    m_min, m_max = ctx.box_limits()
+    hot, cold = np.full(len(b.zone_names), 25.0), np.full(len(b.zone_names), 17.0)
+    assert_allclose(c(0, frame.index[0], hot, {"T_supply": 13.0}), m_max, rtol=0, atol=1e-12)  # saturated cooling
+    c.reset(ctx)
+    assert_allclose(c(0, frame.index[0], cold, {"T_supply": 13.0}), m_min, rtol=0, atol=1e-12)  # no cooling needed
+    c.reset(ctx)
+    warm_supply = c(0, frame.index[0], cold, {"T_supply": 30.0})  # heating: cold zone gets warm air
+    assert np.all(warm_supply > m_min)
+    c.reset(ctx)
+    y = np.full(len(b.zone_names), 21.5)
+    first = c(0, frame.index[0], y, {"T_supply": 13.0})
+    later = [c(k, frame.index[k], y, {"T_supply": 13.0}) for k in range(1, 4)][-1]
+    assert np.all(later > first)  # the integral acts
+    assert isinstance(c, Controller) and isinstance(ReplayController(), Controller)
+
+
+def test_rule_controller_on_plant_fmu(tmp_path, short_paths, data):
+    """The plant FMU with the PI controller: runs a day, airflows within limits, zones held near the band."""
+    plant = export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu")
+    week = data.weeks[1]
+    r = run_cosim(plant, data, RuleController(), start=week.start, stop=week.start + pd.Timedelta(days=1))
+    assert r.covered and len(r.table) == 97
+    M = r.table[[f"m_{b}" for b in data.building.vav_names]].iloc[:-1].to_numpy()
+    m_min = np.array([v.m_min for v in data.building.vavs])
+    m_max = np.array([v.m_max for v in data.building.vavs])
+    assert np.all(M >= m_min - 1e-12) and np.all(M <= m_max + 1e-12)
+    T = r.table[[f"T_{z}" for z in data.building.zone_names]].to_numpy()
+    assert np.all((T > 15.0) & (T < 28.0))
+
+
+def test_make_controller_errors():
+    assert make_controller("replay").name == "replay"
+    assert make_controller("rule", options={"kp": 0.8}).kp == 0.8
+    with pytest.raises(HvacfmuError, match="needs the controller's model"):
+        make_controller("mpc")
+    with pytest.raises(HvacfmuError, match="unknown controller"):
+        make_controller("pid")
+
+
+def test_foreign_mapping(zones, data, tmp_path):
+    """A mapping file connects an FMU by explicit names; unmapped or wrong names are listed."""
+    model, _, path = zones
+    mapping = {"inputs": {f"m_{b}": f"m_{b}" for b in data.building.vav_names}
+               | {d: d for d in model.disturbances},
+               "outputs": {f"T_{z}": z for z in model.outputs}}
+    r = run_cosim(path, data, ReplayController(), week=1, mapping=mapping)
+    assert r.covered
+    with pytest.raises(FMUError, match="is not an output of the FMU"):
+        run_cosim(path, data, ReplayController(), week=1, mapping={"inputs": {}, "outputs": {"T_nowhere": "NW"}})
+
+
+def test_cosim_command_line(zones, short_paths, tmp_path):
+    _, mp, path = zones
+    out = tmp_path / "res.csv"
+    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "cosim", "--fmu", str(path), "--data", str(short_paths.measurements),
+           "--building", str(short_paths.building), "--controller", "rule", "--model", str(mp), "--week", "2",
+           "--out", str(out)]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "672 / 672 steps" in run.stdout and "comfort" in run.stdout
+    tab = pd.read_csv(out)
+    assert len(tab) == 673 and json.loads(out.with_suffix(".json").read_text())["controller"] == "rule"
