@@ -43,7 +43,7 @@ def occupied_mode(index: pd.DatetimeIndex, params=None) -> np.ndarray:
     p = params or DEFAULT_CONTROLLERS
     h0, h1 = p["occupied_hours"]
     hour = np.asarray(index.hour) + np.asarray(index.minute) / 60.0
-    return (np.asarray(index.dayofweek) < 5) & (hour >= h0) & (hour < h1)
+    return (np.asarray(index.day_of_week) < 5) & (hour >= h0) & (hour < h1)
 
 
 def supply_air_temperature(T_out, rng, params=None, dt=60.0):
@@ -75,7 +75,7 @@ def excitation_schedule(index: pd.DatetimeIndex, rng, n_zones, params=None):
     p = (params or DEFAULT_CONTROLLERS)["excitation"]
     local = index.tz_localize(None)
     day = (local.as_unit("s").asi8 // 86400)
-    dow = np.asarray(local.dayofweek)
+    dow = np.asarray(local.day_of_week)
     hour = np.asarray(local.hour) + np.asarray(local.minute) / 60.0
     saturdays = np.unique(day[dow == 5])
     chosen = saturdays[rng.random(len(saturdays)) < p["probability"]]

@@ -13,7 +13,7 @@ effect                       parameters (default)
                              blinds never closed), or ``scale`` (total gain = scale x baseline)
 ``zone_coupling``            ``zones`` = ``A+B``, two zones *not* declared adjacent (random
                              pair), ``ua`` [W/K] undeclared conductance, e.g. an open door or
-                             a shared return duct (300)
+                             a shared return duct (400)
 ``actuation_delay``          ``zone`` (random), ``minutes`` delay between the logged airflow
                              of the zone's boxes and the air actually delivered (30; a
                              multiple of the 5-minute control interval)
@@ -26,8 +26,8 @@ effect                       parameters (default)
                              (3000) whenever all the zone's boxes are at minimum airflow and
                              ``below`` [°C] outdoor temperature is not reached (13)
 ``thermal_mass``             ``zone`` (random), ``capacitance`` [J/K] of an extra slow mass,
-                             e.g. a storage room full of paper or a concrete core wall (8e7),
-                             coupled to the zone air by ``ua`` [W/K] (400)
+                             e.g. a storage room full of paper or a concrete core wall (2e8),
+                             coupled to the zone air by ``ua`` [W/K] (1000); time constant ~2.3 days
 ============================ ==================================================================
 """
 
@@ -43,11 +43,11 @@ EFFECT_NAMES = ("solar_gain", "zone_coupling", "actuation_delay", "internal_gain
 
 EFFECT_DEFAULTS = {
     "solar_gain": {"shgc": 0.2},
-    "zone_coupling": {"ua": 300.0},
+    "zone_coupling": {"ua": 400.0},
     "actuation_delay": {"minutes": 30.0},
     "internal_gain_schedule": {"kind": "holiday", "factor": 0.2},
     "reheat": {"power": 3000.0, "below": 13.0},
-    "thermal_mass": {"capacitance": 8.0e7, "ua": 400.0},
+    "thermal_mass": {"capacitance": 2.0e8, "ua": 1000.0},
 }
 EFFECT_KEYS = {
     "solar_gain": {"zone", "facade", "shgc", "scale"},

@@ -117,7 +117,7 @@ def internal_gains(index: pd.DatetimeIndex, zones, areas, rng: np.random.Generat
     fl_noise = scipy.signal.lfilter([1.0], [1.0, -np.exp(-1 / 360.0)], fl_noise_e)
 
     dates = pd.to_datetime((base_day + np.arange(n_days)) * 86400, unit="s")
-    dow = np.asarray(dates.dayofweek)
+    dow = np.asarray(dates.day_of_week)
     level = np.array([p["season_level"][_season_of_day(m, d)] for m, d in zip(dates.month, dates.day)])
     weekday = dow < 5
     level = np.where(dow == 5, p["weekend_level"]["Sat"], np.where(dow == 6, p["weekend_level"]["Sun"], level))

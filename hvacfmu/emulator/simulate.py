@@ -35,7 +35,8 @@ def simulate(truth: dict) -> dict:
     dict
         ``index`` (DatetimeIndex), ``T_zone`` (n, nz) [°C], ``m_vav`` (n, nb)
         logged airflow [kg/s], ``m_applied`` (n, nb) airflow delivered [kg/s],
-        ``reheat`` (n, nb) reheat power delivered [W], ``T_supply`` (n,),
+        ``reheat`` (n, nb) reheat power delivered [W], ``reheat_command`` (n, nb)
+        reheat power commanded [W], ``T_supply`` (n,),
         ``T_out`` (n,) [°C], ``ghi`` (n,), ``I`` (n, 4) [W/m2], ``Q_ig`` (n, nz) [W],
         ``T_fl`` (n,) [°C], ``excitation`` (n,) bool, ``segments`` (excitation
         segments), ``x0`` initial state in :class:`Plant` layout, ``weather`` (dict).
@@ -82,6 +83,7 @@ def simulate(truth: dict) -> dict:
 
     m_log = np.empty((n_blocks, nb))
     m_app_log = np.empty((n_blocks, nb))
+    p_log = np.empty((n_blocks, nb))
     p_app_log = np.empty((n_blocks, nb))
     Y = np.empty((n, nz))
     Ad, BQ, Bw = core.Ad, core.BQ, core.Bw
@@ -131,6 +133,7 @@ def simulate(truth: dict) -> dict:
             x = X[per].copy()
             if record:
                 m_log[b] = m
+                p_log[b] = p
                 m_app_log[b] = m_a
                 p_app_log[b] = p_a
                 Y[k0: k0 + per] = X[:per, :nz]
@@ -154,6 +157,7 @@ def simulate(truth: dict) -> dict:
         "m_vav": np.repeat(m_log, per, axis=0),
         "m_applied": np.repeat(m_app_log, per, axis=0),
         "reheat": np.repeat(p_app_log, per, axis=0),
+        "reheat_command": np.repeat(p_log, per, axis=0),
         "T_supply": T_supply,
         "T_out": weather["T_out"],
         "ghi": weather["ghi"],

@@ -12,6 +12,8 @@ pvlib: Erbs decomposition and Perez transposition on vertical N/E/S/W surfaces.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import scipy.signal
@@ -71,6 +73,13 @@ def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitud
         ``I_N``, ``I_E``, ``I_S``, ``I_W`` [W/m2] and per-day arrays
         ``day_clearness`` [-], ``day_mean`` [°C].
     """
+    with warnings.catch_warnings():  # pandas deprecations raised inside pvlib
+        warnings.simplefilter("ignore", DeprecationWarning)
+        warnings.simplefilter("ignore", FutureWarning)
+        return _synthetic_weather(index, rng, latitude, longitude, altitude)
+
+
+def _synthetic_weather(index, rng, latitude, longitude, altitude):
     import pvlib
 
     n = len(index)
@@ -81,7 +90,7 @@ def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitud
     dfl = std_days - day0
     n_days = int(np.ceil(dfl[-1])) + 2
     first_day = pd.Timestamp(int(day0) * 86400, unit="s")
-    doy_days = ((first_day.dayofyear - 1) + np.arange(n_days)) % 365 + 0.5
+    doy_days = ((first_day.day_of_year - 1) + np.arange(n_days)) % 365 + 0.5
 
     clim_mean = _monthly_interp(doy_days, MONTHLY_MEAN)
     clim_range = _monthly_interp(doy_days, MONTHLY_RANGE)
@@ -113,7 +122,7 @@ def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitud
     dni_extra = pvlib.irradiance.get_extra_radiation(index).to_numpy()
     am_rel = pvlib.atmosphere.get_relative_airmass(app_zen)
     am_abs = pvlib.atmosphere.get_absolute_airmass(am_rel, pvlib.atmosphere.alt2pres(altitude))
-    doy_min = np.asarray(index.dayofyear, dtype=float)
+    doy_min = np.asarray(index.day_of_year, dtype=float)
     linke = _monthly_interp(doy_min, MONTHLY_LINKE)
     with np.errstate(divide="ignore", invalid="ignore"):  # night-time: sun below the horizon
         cs = pvlib.clearsky.ineichen(app_zen, am_abs, linke, altitude=altitude, dni_extra=dni_extra)

@@ -1,0 +1,507 @@
+"""Tests of the building emulator (hvacfmu.emulator): structure, physics, effects, files, CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from hvacfmu.building import load_building
+from hvacfmu.emulator import (
+    EFFECT_NAMES,
+    EmulatorError,
+    Plant,
+    cached_dataset,
+    effect_label,
+    generate,
+    make_truth,
+    parse_effect,
+    sdh_building,
+    simulate,
+)
+from hvacfmu.emulator.thermal import build_network
+
+WEEKS = 3  # short simulations (plus one week of spin-up)
+
+
+# --------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def base_sim():
+    return simulate(make_truth(WEEKS, 0))
+
+
+@pytest.fixture(scope="module")
+def effect_sims():
+    specs = {
+        "solar_gain": "solar_gain:zone=S,facade=S",
+        "zone_coupling": "zone_coupling:zones=NW+S",
+        "actuation_delay": "actuation_delay:zone=E,minutes=30",
+        "holiday": "internal_gain_schedule:kind=holiday,weeks=1",
+        "dst": "internal_gain_schedule:kind=dst",
+        "reheat": "reheat:zone=NW",
+        "thermal_mass": "thermal_mass:zone=NW",
+    }
+    return {k: simulate(make_truth(WEEKS, 0, [v])) for k, v in specs.items()}
+
+
+@pytest.fixture(scope="module")
+def small_files(tmp_path_factory):
+    out = tmp_path_factory.mktemp("gen")
+    return generate(out / "a", weeks=2, seed=5, effects=["solar_gain:zone=W"])
+
+
+def _zi(name):
+    return ("NW", "W", "S", "E", "NE", "C").index(name)
+
+
+# --------------------------------------------------------------------------- building
+def test_sdh_building_structure():
+    b = sdh_building()
+    assert b.zone_names == ("NW", "W", "S", "E", "NE", "C")
+    assert len(b.vavs) == 21
+    assert all(v.name.startswith(f"VAV_{v.zone}_") for v in b.vavs)
+    assert_allclose(sum(z.area for z in b.zones), 2560.0, rtol=0, atol=1e-9)
+    assert b.zone("C").facades == ()
+    for z in b.zones:
+        if z.name != "C":
+            assert z.facades and all(f.window_area > 0 for f in z.facades)
+        assert "C" in z.adjacent or z.name == "C"
+    assert ("NW", "S") not in b.adjacency_pairs()
+    elements = b.physics["elements"]
+    for z in b.zone_names:
+        kinds = {e["construction"] for e in elements if z in (e["side1"], e["side2"])}
+        assert {"floor_slab", "ceiling_slab", "interior_wall"} <= kinds, z
+    assert b.latitude == 37.875 and b.timezone == "America/Los_Angeles"
+
+
+def test_nominal_tables_differ_from_truth():
+    nom = sdh_building(nominal=True).physics
+    true = sdh_building(nominal=False).physics
+    assert nom["physics"]["nominal"] != true["physics"]["nominal"]
+    conc = {m["name"]: m for m in nom["materials"]}["concrete"]
+    conc_true = {m["name"]: m for m in true["materials"]}["concrete"]
+    assert conc["conductivity"] != conc_true["conductivity"]
+
+
+# --------------------------------------------------------------------------- physics
+def test_network_reciprocity_and_relaxation():
+    """Conductances are reciprocal; a closed building with all gains off relaxes to the boundary temperature."""
+    truth = make_truth(1, 0)
+    base = truth["baseline"]
+    net = build_network(base["building"], base["parameters"], base["extras"])
+    CA = net.capacities[:, None] * net.A
+    assert_allclose(CA, CA.T, rtol=0, atol=1e-9 * np.abs(CA).max())
+    # row sums: equal temperatures everywhere give no flows
+    k_t = [net.input_index("T_out"), net.input_index("T_fl")]
+    assert_allclose(net.A.sum(axis=1) + net.B[:, k_t].sum(axis=1), 0.0, rtol=0, atol=1e-12)
+    Ad, Bd = net.discretize(3600.0)
+    w = np.zeros(len(net.inputs))
+    w[k_t] = 15.0
+    x = np.full(net.n_states, 22.0)
+    previous = x.copy()
+    for _ in range(24 * 120):
+        x = Ad @ x + Bd @ w
+        assert np.all(x <= previous + 1e-9)  # passive network: monotone cooling
+        previous = x
+    assert_allclose(x, 15.0, rtol=0, atol=0.01)  # [K]
+
+
+def test_zone_without_airflow_drifts_towards_surroundings():
+    """An isolated warm zone (no airflow, no gains) loses heat to its colder neighbours."""
+    truth = make_truth(1, 0)
+    base = truth["baseline"]
+    net = build_network(base["building"], base["parameters"], base["extras"])
+    Ad, Bd = net.discretize(60.0)
+    w = np.zeros(len(net.inputs))
+    w[[net.input_index("T_out"), net.input_index("T_fl")]] = 20.0
+    x = np.full(net.n_states, 20.0)
+    x[_zi("C")] = 26.0
+    T_c = [x[_zi("C")]]
+    for _ in range(600):
+        x = Ad @ x + Bd @ w
+        T_c.append(x[_zi("C")])
+    assert np.all(np.diff(T_c) < 0)
+    assert 20.0 < T_c[-1] < 23.0
+    assert np.all(x >= 20.0 - 1e-9) and np.all(x <= 26.0 + 1e-9)
+
+
+def test_plant_reproduces_simulation(base_sim):
+    """Plant.advance with the simulation's inputs reproduces the closed-loop trajectory."""
+    truth = make_truth(WEEKS, 0)
+    plant = Plant.from_truth(truth)
+    sim = base_sim
+    x = sim["x0"]
+    k0 = 0
+    T = [plant.zone_temperatures(x)]
+    for k in range(k0, k0 + 1440):
+        x, Tz = plant.advance(
+            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+            reheat=sim["reheat_command"][k],
+        )
+        T.append(Tz)
+    assert_allclose(np.array(T)[:1440], sim["T_zone"][:1440], rtol=0, atol=1e-9)  # [K]
+
+
+def test_plant_with_delay_and_effects_reproduces_simulation():
+    effects = ["actuation_delay:zone=S,minutes=15", "reheat:zone=W,below=18", "zone_coupling:zones=W+E", "thermal_mass:zone=C"]
+    truth = make_truth(1, 2, effects)
+    sim = simulate(truth)
+    plant = Plant.from_truth(truth)
+    x = sim["x0"]
+    assert x.shape == (plant.n_states,)
+    T = []
+    for k in range(2000):
+        T.append(plant.zone_temperatures(x))
+        x, _ = plant.advance(
+            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+            reheat=sim["reheat_command"][k],
+        )
+    assert_allclose(np.array(T), sim["T_zone"][:2000], rtol=0, atol=1e-9)  # [K]
+
+
+def test_plant_step_splitting_and_state_roundtrip():
+    truth = make_truth(1, 0, ["actuation_delay:zone=NW,minutes=10"])
+    plant = Plant.from_truth(truth)
+    x0 = plant.initial_state([21.0, 21.5, 22.0, 22.5, 21.0, 22.0])
+    m = np.linspace(0.15, 0.5, 21)
+    args = (m, 12.0, 14.0, [50.0, 300.0, 200.0, 100.0])
+    x1, T1 = plant.advance(x0, 3600.0, 900.0, *args)
+    xa, _ = plant.advance(x0, 3600.0, 480.0, *args)
+    saved = json.loads(json.dumps(xa.tolist()))  # serialisable state
+    xb, T2 = plant.advance(np.array(saved), 4080.0, 420.0, *args)
+    assert_allclose(xb, x1, rtol=0, atol=1e-12)
+    assert_allclose(T2, T1, rtol=0, atol=1e-12)
+    # airflow cools a zone that is warmer than the supply air
+    xc, T3 = plant.advance(x0, 3600.0, 900.0, m * 0 + 0.6, 12.0, 14.0, [0, 0, 0, 0])
+    xd, T4 = plant.advance(x0, 3600.0, 900.0, m * 0 + 0.1, 12.0, 14.0, [0, 0, 0, 0])
+    assert np.all(T3 < T4)
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda p, x: p.advance(x, 30.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]), "multiple of 60"),
+        (lambda p, x: p.advance(x, 0.0, 900.0, np.full(20, 0.2), 10, 14, [0, 0, 0, 0]), "m_vav must have 21"),
+        (lambda p, x: p.advance(x, 0.0, 900.0, np.full(21, -0.2), 10, 14, [0, 0, 0, 0]), ">= 0 kg/s"),
+        (lambda p, x: p.advance(x, 0.0, 900.0, np.full(21, 0.2), np.nan, 14, [0, 0, 0, 0]), "finite"),
+        (lambda p, x: p.advance(x, 0.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0]), "irradiance"),
+        (lambda p, x: p.advance(x[:-1], 0.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]), "state must have"),
+        (lambda p, x: p.advance(x, 7 * 86400.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]), "beyond the emulated span"),
+        (lambda p, x: p.initial_state([20.0] * 5), "T_zones must have 6"),
+    ],
+)
+def test_plant_bad_input(call, match):
+    plant = _plant_1week()
+    x = plant.initial_state([21.0] * 6)
+    with pytest.raises(EmulatorError, match=match):
+        call(plant, x)
+
+
+_PLANT = {}
+
+
+def _plant_1week():
+    if "p" not in _PLANT:
+        _PLANT["p"] = Plant.from_truth(make_truth(1, 0))
+    return _PLANT["p"]
+
+
+# --------------------------------------------------------------------------- realism
+def test_baseline_is_plausible(base_sim):
+    T = base_sim["T_zone"]
+    assert 18.0 < T.min() and T.max() < 27.0
+    # regular operation (no excitation): zone temperatures mostly in 19-25 °C
+    regular = ~base_sim["excitation"]
+    assert np.mean((T[regular] > 19.0) & (T[regular] < 25.0)) > 0.97
+    # daily swings exist but are moderate
+    days = T[: (len(T) // 1440) * 1440].reshape(-1, 1440, 6)
+    swing = days.max(axis=1) - days.min(axis=1)
+    assert 0.3 < np.median(swing) < 4.0
+    m = base_sim["m_vav"]
+    core = base_sim["core"]
+    assert np.all(m >= core.m_min - 1e-12) and np.all(m <= core.m_max + 1e-12)
+    assert 8.0 < base_sim["T_out"].mean() < 25.0
+    assert np.all((base_sim["T_supply"] > 11.5) & (base_sim["T_supply"] < 17.5))
+    assert base_sim["reheat"].sum() > 0  # the baseline controllers reheat at minimum airflow
+    at_min = np.isclose(base_sim["m_applied"], core.m_min[None, :])
+    assert np.all(base_sim["reheat"][~at_min] == 0.0)
+    assert base_sim["ghi"].max() > 500.0 and base_sim["ghi"].min() >= 0.0
+
+
+def test_occupancy_differs_by_season_and_weekday():
+    truth = make_truth(20, 0)
+    plant = Plant.from_truth(truth)
+    Q = plant.core.Q_ig.sum(axis=1)
+    index = pd.date_range(pd.Timestamp(truth["start"], tz=truth["timezone"]), periods=len(Q), freq="min")
+    s = pd.Series(Q, index=index)
+    noon = s[(index.hour >= 11) & (index.hour < 15)]
+    weekday = noon[noon.index.day_of_week < 5]
+    weekend = noon[noon.index.day_of_week >= 5]
+    assert weekday.mean() > 1.5 * weekend.mean()
+    fall = weekday[(weekday.index.month == 10)]
+    winter = weekday[(weekday.index.month == 12) & (weekday.index.day > 20) | (weekday.index.month == 1) & (weekday.index.day < 10)]
+    assert fall.mean() > 1.2 * winter.mean()
+    daily = weekday.resample("D").mean().dropna()
+    assert daily[daily.index.month == 10].std() > 0.02 * daily.mean()  # day-to-day randomness
+
+
+# --------------------------------------------------------------------------- effects
+def test_effect_solar_gain(base_sim, effect_sims):
+    s = effect_sims["solar_gain"]
+    sunny = base_sim["I"][:, 2] > 200.0  # I_S
+    d = s["T_zone"] - base_sim["T_zone"]
+    heat_removed = (s["m_vav"] - base_sim["m_vav"])[:, base_sim["core"].box_zone == _zi("S")].sum(axis=1)
+    assert d[sunny, _zi("S")].mean() > 0.2  # [K]
+    assert heat_removed[sunny].mean() > 0.05  # [kg/s] more cooling air
+    others = [i for i in range(6) if i != _zi("S")]
+    assert np.abs(d[sunny][:, others]).mean() < 0.1 * d[sunny, _zi("S")].mean()
+    assert abs(d[~sunny & (base_sim["ghi"] == 0), _zi("S")].mean()) < d[sunny, _zi("S")].mean()
+
+
+def test_effect_zone_coupling(base_sim, effect_sims):
+    s = effect_sims["zone_coupling"]
+    a, b = _zi("NW"), _zi("S")
+    gap_base = np.abs(base_sim["T_zone"][:, a] - base_sim["T_zone"][:, b]).mean()
+    gap_eff = np.abs(s["T_zone"][:, a] - s["T_zone"][:, b]).mean()
+    assert gap_eff < gap_base - 0.04  # [K] pulled together
+    others = [_zi(z) for z in ("W", "E", "NE", "C")]
+    assert np.abs(s["T_zone"][:, others] - base_sim["T_zone"][:, others]).max() < 0.05
+
+
+def _lag_of_response(sim, zone):
+    """Lag [min] maximising the correlation of zone airflow changes with the later cooling of the zone."""
+    core = sim["core"]
+    m = sim["m_vav"][:, core.box_zone == _zi(zone)].sum(axis=1)
+    T = sim["T_zone"][:, _zi(zone)]
+    dm = np.diff(m)
+    dT = np.diff(T)
+    lags = np.arange(0, 90)
+    corr = [np.corrcoef(dm[: len(dm) - k], -dT[k:])[0, 1] for k in lags]
+    return lags[int(np.argmax(corr))]
+
+
+def test_effect_actuation_delay(base_sim, effect_sims):
+    lag0 = _lag_of_response(base_sim, "E")
+    lag1 = _lag_of_response(effect_sims["actuation_delay"], "E")
+    assert 25 <= lag1 - lag0 <= 35  # [min] the 30-minute delay
+    others = [i for i in range(6) if i != _zi("E")]
+    d = np.abs(effect_sims["actuation_delay"]["T_zone"][:, others] - base_sim["T_zone"][:, others])
+    assert d.max() < 0.05  # [K] other zones unaffected
+
+
+def test_effect_internal_gain_schedule_holiday(base_sim, effect_sims):
+    s = effect_sims["holiday"]
+    week = 7 * 1440
+    assert_allclose(s["T_zone"][:week], base_sim["T_zone"][:week], rtol=0, atol=0)  # before the holiday
+    q_base = base_sim["Q_ig"][week: 2 * week].sum(axis=1)
+    q_hol = s["Q_ig"][week: 2 * week].sum(axis=1)
+    assert q_hol.mean() < 0.75 * q_base.mean()
+    assert (s["T_zone"][week: 2 * week] - base_sim["T_zone"][week: 2 * week]).mean() < -0.2  # [K]
+
+
+def test_effect_internal_gain_schedule_dst(base_sim, effect_sims):
+    s = effect_sims["dst"]
+    q0 = base_sim["Q_ig"].sum(axis=1)
+    q1 = s["Q_ig"].sum(axis=1)
+    q0, q1 = q0 - q0.mean(), q1 - q1.mean()
+    lags = np.arange(0, 121)
+    corr = [np.dot(q0[: len(q0) - k], q1[k:]) for k in lags]
+    assert 55 <= lags[int(np.argmax(corr))] <= 65  # [min] one hour late on the local clock (September: DST)
+    assert np.abs(s["T_zone"] - base_sim["T_zone"]).max() > 0.3
+
+
+def test_effect_reheat(base_sim, effect_sims):
+    s = effect_sims["reheat"]
+    cold = base_sim["T_out"] < 13.0
+    assert cold.mean() > 0.02
+    d = s["T_zone"] - base_sim["T_zone"]
+    assert d[cold, _zi("NW")].mean() > 0.3  # [K]
+    assert d[base_sim["T_out"] > 16.0, _zi("NW")].mean() < 0.5 * d[cold, _zi("NW")].mean()
+
+
+def test_effect_thermal_mass(base_sim, effect_sims):
+    s = effect_sims["thermal_mass"]
+    i = _zi("NW")
+    assert s["T_zone"][:, i].std() < 0.9 * base_sim["T_zone"][:, i].std()  # damped swings
+    others = [k for k in range(6) if k != i]
+    assert np.abs(s["T_zone"][:, others] - base_sim["T_zone"][:, others]).mean() < 0.02
+
+
+def test_effects_random_zone_is_seeded_and_recorded():
+    a = make_truth(2, 11, ["solar_gain", "zone_coupling", "actuation_delay", "reheat", "thermal_mass"])
+    b = make_truth(2, 11, ["solar_gain", "zone_coupling", "actuation_delay", "reheat", "thermal_mass"])
+    assert a["effects"] == b["effects"]
+    choices = set()
+    for seed in range(8):
+        t = make_truth(2, seed, ["solar_gain", "zone_coupling"])
+        sg, zc = t["effects"]
+        choices.add(sg["zone"])
+        assert sg["facade"] in sdh_building().zone(sg["zone"]).orientations
+        assert tuple(sorted(zc["zones"])) not in {tuple(sorted(p)) for p in sdh_building().adjacency_pairs()}
+    assert len(choices) > 1
+    for e in a["effects"]:
+        assert parse_effect(effect_label(e))["name"] == e["name"]
+
+
+@pytest.mark.parametrize(
+    "spec, expected",
+    [
+        ("solar_gain", {"name": "solar_gain"}),
+        ("solar_gain:zone=S,facade=S,shgc=0.3", {"name": "solar_gain", "zone": "S", "facade": "S", "shgc": 0.3}),
+        ("zone_coupling:zones=NW+S,ua=250", {"name": "zone_coupling", "zones": ["NW", "S"], "ua": 250.0}),
+        ("internal_gain_schedule:kind=holiday,weeks=3+9", {"name": "internal_gain_schedule", "kind": "holiday", "weeks": [3, 9]}),
+        ("actuation_delay:zone=E,minutes=45", {"name": "actuation_delay", "zone": "E", "minutes": 45.0}),
+    ],
+)
+def test_parse_effect(spec, expected):
+    assert parse_effect(spec) == expected
+
+
+@pytest.mark.parametrize(
+    "effects, match",
+    [
+        (["sunshine"], "unknown effect 'sunshine'"),
+        (["solar_gain:colour=red"], "unknown parameter 'colour'"),
+        (["solar_gain:zone"], "is not key=value"),
+        (["solar_gain:zone=C"], "zone 'C' is not one of"),
+        (["solar_gain:zone=NW,facade=S"], "has no 'S' facade"),
+        (["zone_coupling:zones=NW+C"], "declared adjacent"),
+        (["zone_coupling:zones=NW"], "two different zones"),
+        (["actuation_delay:minutes=7"], "multiple of 5"),
+        (["internal_gain_schedule:kind=easter"], "kind must be"),
+        (["internal_gain_schedule:weeks=60"], "weeks must be week numbers"),
+        (["reheat:power=-5"], "power must be > 0"),
+        (["thermal_mass:ua=0"], "ua must be > 0"),
+        (["actuation_delay:zone=E", "actuation_delay:zone=E"], "given twice"),
+    ],
+)
+def test_bad_effects(effects, match):
+    with pytest.raises(EmulatorError, match=match):
+        make_truth(4, 0, effects)
+
+
+def test_bad_effects_are_all_listed():
+    with pytest.raises(EmulatorError) as info:
+        make_truth(4, 0, ["reheat:power=-5", "thermal_mass:ua=0"])
+    assert "2 problems" in str(info.value)
+
+
+# --------------------------------------------------------------------------- files
+def test_generate_files(small_files):
+    frame = pd.read_parquet(small_files.measurements)
+    b = load_building(small_files.building)
+    expected = ["time"] + [f"T_{z}" for z in b.zone_names] + [f"m_{v}" for v in b.vav_names]
+    expected += ["T_supply", "T_out", "ghi", "excitation"]
+    assert list(frame.columns) == expected
+    assert frame["time"].iloc[0] == "2025-09-01T00:00:00-07:00"
+    times = pd.to_datetime(frame["time"], utc=True)
+    assert times.is_monotonic_increasing and times.is_unique
+    steps = times.diff().dropna().dt.total_seconds()
+    assert steps.min() == 60.0
+    assert steps.max() >= 3600.0  # rows missing for hours
+    assert frame.isna().any(axis=None)  # NaN gaps
+    assert set(frame["excitation"].unique()) <= {0, 1}
+    local = times.dt.tz_convert("America/Los_Angeles")
+    exc = local[frame["excitation"] == 1]
+    assert len(exc) > 0 and set(exc.dt.day_of_week) == {5}  # Saturdays only
+    # quantised sensors
+    assert_allclose(frame["T_NW"].dropna() / 0.05, np.round(frame["T_NW"].dropna() / 0.05), rtol=0, atol=1e-6)
+    truth = json.loads(small_files.truth.read_text())
+    assert truth["effects"][0]["name"] == "solar_gain" and truth["effects"][0]["zone"] == "W"
+    assert truth["zones"] == list(b.zone_names)
+    base = truth["baseline"]
+    for key in ("building", "parameters", "structure", "occupancy", "controllers", "excitation", "gaps"):
+        assert key in base
+    assert base["structure"]["supply_air"]["form"] == "bilinear"
+    assert base["structure"]["solar_gain"]["S"] == ["S"]
+    def no_constants(name):
+        raise AssertionError(f"truth.json contains {name}")
+
+    json.loads(small_files.truth.read_text(), parse_constant=no_constants)  # strict JSON: no NaN/Infinity
+    assert "measurements:" in str(small_files)
+
+
+def test_generate_is_deterministic(tmp_path, small_files):
+    again = generate(tmp_path / "b", weeks=2, seed=5, effects=["solar_gain:zone=W"])
+    pd.testing.assert_frame_equal(pd.read_parquet(again.measurements), pd.read_parquet(small_files.measurements))
+    assert again.truth.read_text() == small_files.truth.read_text()
+    assert again.building.read_bytes() == small_files.building.read_bytes()
+    other = generate(tmp_path / "c", weeks=2, seed=6, effects=["solar_gain:zone=W"])
+    a = pd.read_parquet(other.measurements)
+    b = pd.read_parquet(small_files.measurements)
+    assert not np.allclose(a["T_out"].to_numpy()[:1000], b["T_out"].to_numpy()[:1000])
+
+
+def test_generate_csv_and_bad_format(tmp_path):
+    paths = generate(tmp_path, weeks=1, seed=1, fmt="csv")
+    frame = pd.read_csv(paths.measurements)
+    assert frame["time"].iloc[0].endswith("-07:00")
+    with pytest.raises(EmulatorError, match="fmt must be"):
+        generate(tmp_path, weeks=1, fmt="xlsx")
+    with pytest.raises(EmulatorError, match="weeks must be a positive integer"):
+        generate(tmp_path, weeks=0)
+
+
+def test_generated_data_load_with_prepare(small_files):
+    data = pytest.importorskip("hvacfmu.data")
+    ds = data.prepare(small_files.measurements, small_files.building)
+    assert ds.step == 900
+    assert set(f"T_{z}" for z in ("NW", "W", "S", "E", "NE", "C")) <= set(ds.frame.columns)
+    assert ds.has_solar
+    assert len(ds.weeks) == 2
+    assert ds.frame["excitation"].max() == 1.0
+
+
+def test_cached_dataset_concurrent(tmp_path, monkeypatch):
+    monkeypatch.setenv("HVACFMU_CACHE", str(tmp_path))
+    results, errors = [], []
+
+    def work():
+        try:
+            results.append(cached_dataset(weeks=1, seed=3, effects=["reheat:zone=NW"]))
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert results[0] == results[1]
+    assert results[0].measurements.exists() and results[0].truth.exists()
+    mtime = results[0].measurements.stat().st_mtime_ns
+    again = cached_dataset(weeks=1, seed=3, effects=["reheat:zone=NW"])
+    assert again == results[0] and again.measurements.stat().st_mtime_ns == mtime
+    assert [p.name for p in tmp_path.iterdir()] == [results[0].outdir.name]  # no temporary leftovers
+    other = cached_dataset(weeks=1, seed=3)
+    assert other.outdir != results[0].outdir
+
+
+# --------------------------------------------------------------------------- CLI
+def test_cli_generate(tmp_path):
+    out = tmp_path / "cli"
+    proc = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--weeks", "1", "--seed", "2",
+         "--effect", "zone_coupling:zones=W+E,ua=300", "--format", "csv"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "measurements:" in proc.stdout
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["effects"] == [{"name": "zone_coupling", "ua": 300.0, "zones": ["W", "E"]}]
+    assert (out / "measurements.csv").exists()
+    load_building(out / "building.toml")
+    bad = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "generate", str(tmp_path / "bad"), "--weeks", "1", "--effect", "nonsense"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert bad.returncode == 2
+    assert "unknown effect 'nonsense'" in bad.stderr
+    assert set(EFFECT_NAMES) <= set(bad.stderr.replace(",", " ").split())
