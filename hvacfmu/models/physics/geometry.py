@@ -12,6 +12,10 @@ Schema extensions (optional keys, backwards compatible), all in ``[physics]``:
   each zone's air node (default :data:`DEFAULT_FURNITURE_CAPACITY`).
 - ``max_layer_thickness`` [m]: massive layers thicker than this are split into
   several nodes (default :data:`DEFAULT_MAX_LAYER_THICKNESS`).
+- ``solar_air_fraction`` [-]: share of the solar gain transmitted by windows
+  that heats the zone air directly; the rest is absorbed at the zone's floor
+  surfaces (default 0: all absorbed at the floor, as transmitted beam
+  radiation mostly is).
 """
 
 from __future__ import annotations
@@ -51,7 +55,7 @@ _LAYER_KEYS = {"material", "thickness"}
 _WINDOW_KEYS = {"name", "zone", "orientation", "area", "u_value", "shgc"}
 _ELEMENT_KEYS = {"name", "construction", "area", "side1", "side2", "orientation"}
 _PHYSICS_KEYS = {"ambient_film", "ground_temperature", "internal_mass", "nominal", "furniture_capacity",
-                 "max_layer_thickness"}
+                 "max_layer_thickness", "solar_air_fraction"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -145,6 +149,7 @@ class PhysicsSpec:
     furniture_capacity: float
     max_layer_thickness: float
     nominal: dict
+    solar_air_fraction: float = 0.0
 
     @property
     def has_ground(self) -> bool:
@@ -216,7 +221,8 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
     building : Building
     **overrides
         ``furniture_capacity`` [J/(K m2)], ``max_layer_thickness`` [m],
-        ``internal_mass`` [J/(K m2)]: replace the ``[physics]`` values.
+        ``internal_mass`` [J/(K m2)], ``solar_air_fraction`` [-]: replace the
+        ``[physics]`` values.
 
     Raises
     ------
@@ -259,6 +265,12 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
     if max_thick is None:
         max_thick = p.get("max_layer_thickness", DEFAULT_MAX_LAYER_THICKNESS)
     max_thick = _num(max_thick, "max_layer_thickness [m]", problems, positive=True)
+    saf = overrides.get("solar_air_fraction")
+    if saf is None:
+        saf = p.get("solar_air_fraction", 0.0)
+    saf = _num(saf, "[physics].solar_air_fraction [-]", problems, nonneg=True)
+    if saf > 1:
+        problems.append(f"[physics].solar_air_fraction must lie in [0, 1], got {saf:g}")
     nominal_raw = p.get("nominal", {})
     nominal = {}
     if not isinstance(nominal_raw, dict):
@@ -414,4 +426,5 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         furniture_capacity=furniture,
         max_layer_thickness=max_thick,
         nominal=nominal,
+        solar_air_fraction=saf,
     )

@@ -145,7 +145,8 @@ class PhysicsModel(ZoneModel):
             raise ModelError(f"step must be > 0 s, got {self.step}")
         set_("step", float(self.step))
         opts = dict(self.options)
-        unknown = sorted(set(opts) - {"max_layer_thickness", "furniture_capacity", "internal_mass", "kalman"})
+        unknown = sorted(set(opts) - {"max_layer_thickness", "furniture_capacity", "internal_mass",
+                                       "solar_air_fraction", "kalman"})
         if unknown:
             raise ModelError(f"unknown physics model option(s) {unknown}")
         try:
@@ -169,6 +170,7 @@ class PhysicsModel(ZoneModel):
         opts.setdefault("max_layer_thickness", spec.max_layer_thickness)
         opts.setdefault("furniture_capacity", spec.furniture_capacity)
         opts.setdefault("internal_mass", spec.internal_mass)
+        opts.setdefault("solar_air_fraction", spec.solar_air_fraction)
         set_("options", opts)
         nq = len(template.q_names)
         n_tow = n_time_of_week(self.step)

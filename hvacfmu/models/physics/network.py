@@ -152,6 +152,7 @@ class NetworkTemplate:
                 return zidx[s]
             return {"ambient": _AMBIENT, "ground": _GROUND}.get(s)  # None: adiabatic
 
+        floor_surfaces = []  # (zone, first massive node, fixed resistance to it, film coefficients, area)
         counts = {}
         for el in spec.elements:
             counts[el.name] = counts.get(el.name, 0) + 1
@@ -188,12 +189,16 @@ class NetworkTemplate:
                     cap.append(mat.density * mat.specific_heat * d * A)
                     if nodes[-1] is not None:
                         edge(nodes[-1], i, acc_r, acc_c.copy())
+                        if len(nodes) == 1 and nodes[0] >= 0 and con.films[0] == "floor":
+                            floor_surfaces.append((nodes[0], i, acc_r, acc_c.copy(), A))
                     nodes.append(i)
                     acc_r, acc_c = r_half, np.zeros(len(PARAM_NAMES))
             film(con.films[1])
             end = side_node(el.side2)
             if nodes[-1] is not None and end is not None:
                 edge(nodes[-1], end, acc_r, acc_c.copy())
+                if len(nodes) > 1 and end >= 0 and con.films[1] == "floor":
+                    floor_surfaces.append((end, nodes[-1], acc_r, acc_c.copy(), A))
 
         self.node_names = tuple(names)
         self.n_zones = nz
@@ -206,10 +211,20 @@ class NetworkTemplate:
         self.window_zone = np.asarray([zidx[w.zone] for w in spec.windows], dtype=np.int64)
         u_nom = spec.nominal["U_win"]
         self.window_g = np.asarray([w.u_value * w.area / u_nom for w in spec.windows], dtype=float)
-        # solar: SHGC * area [m2] into the zone air node per facade orientation
-        self.solar_gain = np.zeros((nx, len(ORIENTATIONS)))
+        # solar: SHGC * area [m2] per zone and facade orientation; a fraction goes to the air node,
+        # the rest is absorbed at the zone's floor surfaces (area-weighted), see RCNetwork.solar_matrix
+        self.solar_window = np.zeros((nz, len(ORIENTATIONS)))
         for w in spec.windows:
-            self.solar_gain[zidx[w.zone], ORIENTATIONS.index(w.orientation)] += w.shgc * w.area
+            self.solar_window[zidx[w.zone], ORIENTATIONS.index(w.orientation)] += w.shgc * w.area
+        self.solar_air_fraction = spec.solar_air_fraction
+        fz = np.array([f[0] for f in floor_surfaces], dtype=np.int64)
+        self.floor_zone = fz
+        self.floor_node = np.array([f[1] for f in floor_surfaces], dtype=np.int64)
+        self.floor_r0 = np.array([f[2] for f in floor_surfaces], dtype=float)
+        self.floor_rc = np.array([f[3] for f in floor_surfaces], dtype=float).reshape(-1, len(PARAM_NAMES))
+        area = np.array([f[4] for f in floor_surfaces], dtype=float)
+        zone_floor_area = np.bincount(fz, area, minlength=nz)
+        self.floor_share = area / zone_floor_area[fz] if len(fz) else area
         self.vav_zone = np.asarray([zidx[z] for z in spec.vav_zone], dtype=np.int64)
         self.has_ground = spec.has_ground
         self.disturbances = ("T_out", "T_supply") + (tuple(f"I_{o}" for o in ORIENTATIONS) if self.solar else ())
@@ -255,7 +270,32 @@ class NetworkTemplate:
         g_amb = np.bincount(self.edge_a[self.edge_b == _AMBIENT], G[self.edge_b == _AMBIENT], minlength=nx)
         g_amb += np.bincount(self.window_zone, Gw, minlength=nx)
         g_gnd = np.bincount(self.edge_a[self.edge_b == _GROUND], G[self.edge_b == _GROUND], minlength=nx)
-        return RCNetwork(self, p, L, g_amb, g_gnd)
+        return RCNetwork(self, p, L, g_amb, g_gnd, self._solar_matrix(p) if self.solar else None)
+
+    def _solar_matrix(self, p):
+        """Heat [W] into each node per facade irradiance [W/m2], (nx, 4).
+
+        Transmitted solar ``SHGC * area * I`` goes to the zone air node for a
+        fraction ``solar_air_fraction`` and is otherwise absorbed at the zone's
+        floor surfaces (area-weighted; all to air if the zone has no floor
+        element). A surface is massless: absorbed heat splits between the air
+        (film ``1/(gamma_floor A)``) and the slab's first node (fixed
+        resistance ``r0``) in inverse proportion to the two resistances.
+        """
+        nx, nz = self.n_states, self.n_zones
+        out = np.zeros((nx, len(ORIENTATIONS)))
+        total = self.solar_window  # (nz, 4)
+        has_floor = np.bincount(self.floor_zone, minlength=nz) > 0
+        a = np.where(has_floor, self.solar_air_fraction, 1.0)
+        out[:nz] += a[:, None] * total
+        if len(self.floor_zone):
+            Rf = self.floor_rc @ (1.0 / p)
+            to_air = self.floor_r0 / (Rf + self.floor_r0)
+            share = (1.0 - a[self.floor_zone]) * self.floor_share
+            heat = share[:, None] * total[self.floor_zone]  # (n_surfaces, 4)
+            np.add.at(out, self.floor_zone, to_air[:, None] * heat)
+            np.add.at(out, self.floor_node, (1.0 - to_air)[:, None] * heat)
+        return out
 
 
 class RCNetwork:
@@ -272,8 +312,9 @@ class RCNetwork:
         Conductance of each node to ambient and to the ground.
     """
 
-    def __init__(self, template: NetworkTemplate, params, L, g_amb, g_gnd):
+    def __init__(self, template: NetworkTemplate, params, L, g_amb, g_gnd, solar=None):
         self.template = template
+        self.solar = solar
         self.params = np.asarray(params, dtype=float)
         self.L = L
         self.g_amb = g_amb
@@ -310,7 +351,7 @@ class RCNetwork:
         Bv = np.zeros((nx, len(t.disturbances)))
         Bv[:, 0] = self.g_amb / c
         if t.solar:
-            Bv[:, 2:] = t.solar_gain / c[:, None]
+            Bv[:, 2:] = self.solar / c[:, None]
         Bq = np.zeros((nx, len(t.q_names)))
         Bq[np.arange(nz), np.arange(nz)] = 1.0 / c[:nz]
         if t.has_ground:
