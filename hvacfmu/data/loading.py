@@ -174,7 +174,7 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
     text = values.astype("str").where(values.notna())
     empty = text.isna().to_numpy()
     stripped = text.str.strip()
-    has_offset = stripped.str.contains(_OFFSET_PATTERN, regex=True, na=False).to_numpy()
+    has_offset = _has_offset(stripped)
     if has_offset.any() and (~has_offset & ~empty).any():
         bad = np.flatnonzero(~has_offset & ~empty)
         problems.append(
@@ -213,6 +213,18 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         bad = np.flatnonzero(empty)
         problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
     return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _has_offset(text: pd.Series) -> np.ndarray:
+    """True where an ISO 8601 time string ends with a UTC offset or Z (vectorised with pyarrow)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    try:
+        arr = pa.array(text.to_numpy(dtype=object, na_value=None), type=pa.string())
+        return np.asarray(pc.fill_null(pc.match_substring_regex(arr, _OFFSET_PATTERN), False))
+    except (pa.ArrowException, TypeError):  # pragma: no cover - exotic content: slow path
+        return text.str.contains(_OFFSET_PATTERN, regex=True, na=False).to_numpy()
 
 
 def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows=None):
@@ -268,10 +280,13 @@ def _numeric(series: pd.Series):
     return values, bad
 
 
-def _median_step(t_ns: np.ndarray) -> float | None:
+def _median_step(t_ns: np.ndarray, max_samples: int = 20_000) -> float | None:
+    """Median spacing [s] of increasing times [ns]; estimated on an even subsample of long series."""
     if len(t_ns) < 2:
         return None
     d = np.diff(t_ns)
+    if len(d) > max_samples:
+        d = d[:: len(d) // max_samples]
     d = d[d > 0]
     if not len(d):
         return None
@@ -450,12 +465,25 @@ def _load(path: Path, building: Building):
     order = [c for c in expected if c in out]
     index = pd.DatetimeIndex(utc.view("M8[ns]")).tz_localize("UTC").tz_convert(tz)
     index.name = "time"
-    frame = pd.DataFrame({c: out[c] for c in order}, index=index)
+    frame = _frame_from_columns(out, order, index)
     return frame, report, problems
 
 
+def _frame_from_columns(columns: dict, order: list, index) -> pd.DataFrame:
+    """DataFrame from equal-length float arrays without a transposing copy (pandas keeps (k, n) blocks)."""
+    if not order:
+        return pd.DataFrame(index=index)
+    block = np.stack([np.asarray(columns[c], dtype=float) for c in order])  # (k, n), C order
+    return pd.DataFrame(block.T, index=index, columns=order, copy=False)
+
+
+def _sample(x: np.ndarray, n: int = 50_000) -> np.ndarray:
+    """An even subsample of at most about ``n`` values (for medians and percentiles of long series)."""
+    return x[:: max(1, len(x) // n)]
+
+
 def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, where, problems):
-    med = float(np.median(finite))
+    med = float(np.median(_sample(finite)))
     indoor = canonical != "T_out"
     guess = None
     if unit == "degC" and med > 200:
@@ -485,7 +513,7 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
 
 
 def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, problems, report):
-    valid = si[np.isfinite(si)]
+    valid = _sample(si[np.isfinite(si)])
     med = float(np.median(valid))
     if m_max is not None and m_max > 0 and med > 5 * m_max:
         hint = "cfm or L/s" if unit in ("kg/s", "m3/s") else "a smaller unit"

@@ -196,7 +196,12 @@ def resample(
             with np.errstate(invalid="ignore", divide="ignore"):
                 out = np.where(enough & (count > 0), total / np.maximum(count, 1.0), np.nan)
         values[col], coverage[col] = out, cov
-    return pd.DataFrame(values, index=grid), pd.DataFrame(coverage, index=grid)
+    cols = list(frame.columns)
+    # (k, n) blocks passed transposed: pandas stores them as they are, without a copy
+    return (
+        pd.DataFrame(np.stack([values[c] for c in cols]).T, index=grid, columns=cols, copy=False),
+        pd.DataFrame(np.stack([coverage[c] for c in cols]).T, index=grid, columns=cols, copy=False),
+    )
 
 
 def _interpolate_coarse(t, v, t_mid, native, hold):
