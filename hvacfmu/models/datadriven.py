@@ -181,14 +181,12 @@ def loess_smooth(t, y, bandwidth):
     return out.reshape(y.shape)
 
 
-def _smooth_columns(Y, M, h, conv_y=None, conv_m=None):
+def _smooth_columns(Y, M, h):
     """Smooth columns of Y (NaN where ~M) with half-width h [steps]."""
     d, w = _kernels(h)
     center = np.array([np.mean(Y[M[:, j], j]) if M[:, j].any() else 0.0 for j in range(Y.shape[1])])
-    if conv_y is None:
-        conv_y = _Convolver(np.where(M, Y - center, 0.0), d.size // 2)
-    if conv_m is None:
-        conv_m = _Convolver(M.astype(float), d.size // 2)
+    conv_y = _Convolver(np.where(M, Y - center, 0.0), d.size // 2)
+    conv_m = _Convolver(M.astype(float), d.size // 2)
     c0, c1 = _local_linear_weights(conv_m(w), conv_m(-d * w), conv_m(d * d * w))
     return c0 * conv_y(w) + c1 * conv_y(-d * w) + center
 
@@ -643,6 +641,7 @@ class _Prepared:
         if not train.any():
             raise FitError("the dataset has no training weeks; need at least one full week of data")
         self.warnings: list[str] = []  # fit warnings (the dataset keeps its own)
+        self.min_cov = float(opts["min_season_coverage"])
 
     def warn(self, msg):
         self.warnings.append(msg)
@@ -919,7 +918,6 @@ def fit_lumped(dataset, **options):
     t0 = time.perf_counter()
     opts = _options(options)
     prep = _Prepared(dataset, opts)
-    prep.min_cov = float(opts["min_season_coverage"])
     b = prep.building
     problems = prep.check_constant(b.zone_names, prep.T, "zone temperature")
     if problems:
@@ -1022,7 +1020,6 @@ def fit_zones(dataset, **options):
     t0 = time.perf_counter()
     opts = _options(options)
     prep = _Prepared(dataset, opts)
-    prep.min_cov = float(opts["min_season_coverage"])
     b = prep.building
     zn = b.zone_names
     nz = len(zn)
