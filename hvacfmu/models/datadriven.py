@@ -13,6 +13,19 @@ de-smoothed series of all seasons jointly (eq. (data_opt)); ``q_IG`` per
 season is the time-of-week average of ``x^(k+1) - (A x^(k) + B u^(k) + C v^(k))``
 over that season's training weeks (eq. (qig_estimation)).
 
+Choices beyond the paper
+------------------------
+- One common LOESS bandwidth for all series of a fit (pooled k-fold CV; the
+  per-series CV curves are kept). The subtraction step is exact only when x, u
+  and v are smoothed alike; per-series bandwidths bias b (see ``fit_lumped``).
+  ``common_bandwidth=False`` restores per-series bandwidths.
+- Cross-validation holds out 2-h blocks: with single points held out, CV on an
+  autocorrelated temperature always picks the smallest window, which leaves
+  mostly measurement noise in the de-smoothed series and attenuates a [3]_.
+- The prior of b (eq. (excitation_equation)) is fitted with a constant term.
+- The data term is weighted by the residual variance of the fit without
+  priors, so prior standard deviations are in the coefficients' own units.
+
 Layers
 ------
 1. Pure functions on numpy arrays: :func:`loess_smooth`, :func:`cv_bandwidth`,
