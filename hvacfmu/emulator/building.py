@@ -207,7 +207,7 @@ def _physics_tables(nominal: bool) -> dict:
             )
             elements.append(
                 {
-                    "name": f"{zname}_{orient}_wall",
+                    "name": f"{zname}_exterior_{orient}",
                     "construction": "exterior_wall",
                     "area": round(facade_area - win, 2),
                     "side1": "ambient",
@@ -224,7 +224,7 @@ def _physics_tables(nominal: bool) -> dict:
     for (a, b), length in plan["shared"].items():
         elements.append(
             {
-                "name": f"{a}_{b}_wall",
+                "name": f"{a}_{b}_partition",
                 "construction": "interior_wall",
                 "area": round(length * CEILING_HEIGHT, 2),
                 "side1": a,

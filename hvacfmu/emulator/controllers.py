@@ -27,7 +27,7 @@ from .weather import _ar1
 DEFAULT_CONTROLLERS = {
     "control_interval": 300.0,  # [s]
     "occupied_hours": [6.0, 20.0],  # local time, weekdays
-    "heating_setpoint": {"occupied": 21.0, "unoccupied": 19.5},  # [°C]
+    "heating_setpoint": {"occupied": 21.0, "unoccupied": 20.0},  # [°C]
     "cooling_setpoint": {"occupied": 23.0, "unoccupied": 25.0},  # [°C]
     "box_offset_std": 0.25,  # [K] room vs zone temperature, per box
     "kp": 0.6,  # [1/K] loop output per kelvin

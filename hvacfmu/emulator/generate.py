@@ -21,7 +21,7 @@ from .simulate import controller_defaults, simulate
 from .thermal import DEFAULT_EXTRAS
 
 #: Version of the emulator's physics and data; part of the cache key.
-EMULATOR_VERSION = "1.0"
+EMULATOR_VERSION = "1.1"
 DEFAULT_START = "2025-09-01T00:00:00"
 
 NOISE = {

@@ -104,7 +104,7 @@ def _synthetic_weather(index, rng, latitude, longitude, altitude):
     clear_val = 0.93 + 0.07 * rng.random(n_days)
     cloud_val = rng.beta(2.0, 3.0, n_days) * 0.8 + 0.1
     clearness = np.where(cloudy, cloud_val, clear_val)
-    anomaly = _ar1(rng, n_days, 2.5, 1.8)
+    anomaly = _ar1(rng, n_days, 2.5, 1.5)
     day_mean = clim_mean + anomaly - 1.2 * (1.0 - clearness)
     day_range = clim_range * (0.45 + 0.55 * clearness)
 
