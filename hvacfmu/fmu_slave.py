@@ -188,6 +188,12 @@ class HvacfmuSlaveBase(Fmi2Slave):
         if layout:
             for entry in layout:
                 self._declare(entry)
+        # contiguous blocks of inputs and outputs: fast paths for the usual "set all, get all" calls
+        self._in_block = self._input_vrs if _contiguous(self._input_vrs) else None
+        self._out_block = self._output_vrs if _contiguous(self._output_vrs) else None
+        self._in_lo = np.array([self._lo_list[vr] for vr in self._input_vrs], dtype=float)
+        self._in_hi = np.array([self._hi_list[vr] for vr in self._input_vrs], dtype=float)
+        self._unchecked = False  # inputs set by the fast path, bounds not checked yet
         if self._broken:
             self.log(self._broken, Fmi2Status.error)
 
@@ -230,6 +236,9 @@ class HvacfmuSlaveBase(Fmi2Slave):
         self.log(msg, Fmi2Status.error)
 
     def get_real(self, vrs):
+        if vrs == self._out_block:
+            a = vrs[0]
+            return self._values[a : a + len(vrs)]
         values, kind = self._values, self._kind
         try:
             out = []
@@ -263,6 +272,12 @@ class HvacfmuSlaveBase(Fmi2Slave):
         return [""] * len(vrs)
 
     def set_real(self, vrs, values):
+        if vrs == self._in_block and len(values) == len(vrs):
+            a = vrs[0]
+            self._values[a : a + len(vrs)] = values
+            self._bad.clear()
+            self._unchecked = True  # checked (vectorised) by the next step
+            return
         store, lo, hi, kind, bad = self._values, self._lo_list, self._hi_list, self._kind, self._bad
         try:
             for vr, value in zip(vrs, values):
@@ -342,6 +357,8 @@ class HvacfmuSlaveBase(Fmi2Slave):
                 return self._refuse(self._failed or (
                     "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
                     "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"))
+            if self._unchecked:
+                self._check_inputs()
             if self._bad:
                 names = ", ".join(
                     f"{self._spec[vr]['name']}={value!r} (allowed [{self._lo_list[vr]}, {self._hi_list[vr]}] "
@@ -358,6 +375,17 @@ class HvacfmuSlaveBase(Fmi2Slave):
         except Exception:  # noqa: BLE001 - reported to the importer, instance stays usable
             self.log(f"exception in fmi2DoStep at t={current_time} s:\n{traceback.format_exc()}", Fmi2Status.error)
             return False
+
+    def _check_inputs(self):
+        """Bounds (and NaN) check of the inputs set by the fast path."""
+        self._unchecked = False
+        vrs = self._input_vrs
+        a = vrs[0]
+        w = np.array(self._values[a : a + len(vrs)], dtype=float)
+        ok = (w >= self._in_lo) & (w <= self._in_hi)
+        if not ok.all():
+            for j in np.flatnonzero(~ok):
+                self._bad[vrs[j]] = float(w[j])
 
     def _refuse(self, message):
         self.log(message, Fmi2Status.error)
@@ -390,6 +418,7 @@ class HvacfmuSlaveBase(Fmi2Slave):
             self._set_internal_state(state["internal"])
             self._values[:] = values
             self._bad = {int(vr): v for vr, v in state["bad"]}
+            self._unchecked = bool(self._input_vrs)  # check the restored inputs at the next step
             self._t = float(state["t"])
             self._t_start = float(state["t_start"])
             self._initialized = bool(state["initialized"])
@@ -477,6 +506,10 @@ class HvacfmuSlaveBase(Fmi2Slave):
 
     def _set_internal_state(self, state):
         raise NotImplementedError
+
+
+def _contiguous(vrs) -> bool:
+    return bool(vrs) and list(vrs) == list(range(vrs[0], vrs[0] + len(vrs)))
 
 
 def _entry(role, name, vtype, causality, start, unit=None, description="", bounds=(None, None)):
@@ -688,10 +721,16 @@ class ZoneModelSlave(HvacfmuSlaveBase):
     def _initialize(self):
         v = self._values
         self._y_vrs = self.vrs_with_role("y")
+        self._y_start = self._y_vrs[0] if _contiguous(self._y_vrs) else None
         self._y0_vrs = self.vrs_with_role("y0")
         m_vrs, v_vrs = self.vrs_with_role("m"), self.vrs_with_role("v")
         self._nm = len(m_vrs)
-        self._get_inputs = tuple_getter(m_vrs + v_vrs)
+        in_vrs = m_vrs + v_vrs
+        if _contiguous(in_vrs):
+            a, b = in_vrs[0], in_vrs[0] + len(in_vrs)
+            self._get_inputs = lambda values: values[a:b]
+        else:
+            self._get_inputs = tuple_getter(in_vrs)
         (season_vr,) = self.vrs_with_role("season")
         (tow_vr,) = self.vrs_with_role("tow")
         problems = []
@@ -721,6 +760,10 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         return []
 
     def _write_outputs(self, y):
+        a = self._y_start
+        if a is not None:
+            self._values[a : a + len(y)] = y
+            return
         values = self._values
         for vr, val in zip(self._y_vrs, y):
             values[vr] = val
@@ -742,7 +785,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         for j in range(n):
             x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
         y = np.asarray(model.output(x), dtype=float).tolist()
-        if not all(map(math.isfinite, y)):
+        if not math.isfinite(sum(y)):
             return self._refuse(
                 f"the zone temperatures became non-finite in the step from t={current_time} s; step refused")
         self._x = x

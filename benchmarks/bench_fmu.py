@@ -1,0 +1,190 @@
+"""Benchmark: a year of 15-minute steps through FMPy for each model FMU vs the plain Python model.
+
+Prints medians over repeats (seconds for the year, microseconds per step) and
+the ratio FMU / Python. Target: at most 5x for the six-zone model.
+
+- ``python``: ``model.simulate`` over the year (what evaluation uses);
+- ``python loop``: ``model.step_state`` called once per step (what the FMU calls);
+- ``FMPy FMU2Slave``: ``setReal`` / ``doStep`` / ``getReal`` per step, as a user writes it;
+- ``FMPy raw``: the same FMI calls on preallocated ctypes arrays (as :mod:`harness.cosim` does).
+
+Usage: ``python3 benchmarks/bench_fmu.py [--repeats 5] [--kinds lumped zones physics]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import statistics
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from hvacfmu.emulator import sdh_building
+from hvacfmu.errors import HvacfmuWarning
+from hvacfmu.fmu import export_fmu
+from hvacfmu.fmu_slave import state_from_outputs
+from hvacfmu.models.linear import LinearZoneModel
+
+N_YEAR = 365 * 96
+DIST = ("T_out", "T_supply", "I_N", "I_E", "I_S", "I_W")
+
+
+def make_models(building):
+    rng = np.random.default_rng(0)
+    nz = len(building.zone_names)
+    zones = LinearZoneModel(
+        kind="zones", step=900.0, outputs=building.zone_names, measured_zones=building.zone_names,
+        output_weights=np.eye(nz), vavs=building.vav_names, input_map=building.zone_vav_matrix(),
+        disturbances=DIST, A=0.9 * np.eye(nz) + rng.uniform(0, 0.012, (nz, nz)), B=-np.diag(rng.uniform(0.5, 1, nz)),
+        C=np.column_stack([rng.uniform(0.02, 0.04, (nz, 2)), rng.uniform(0, 2e-4, (nz, 4))]),
+        gains={s: rng.uniform(0.6, 1.2, (672, nz)) for s in building.season_names})
+    lumped = LinearZoneModel(
+        kind="lumped", step=900.0, outputs=("floor",), measured_zones=building.zone_names,
+        output_weights=building.area_weights()[None, :], vavs=building.vav_names,
+        input_map=np.ones((1, len(building.vav_names))), disturbances=DIST[:2], A=[[0.94]], B=[[-0.12]],
+        C=[[0.02, 0.02]], gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names})
+    from hvacfmu.models.physics import PhysicsModel
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        physics = PhysicsModel(building=building, params=dict(building.physics["physics"]["nominal"]), solar=True,
+                               gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names})
+    return {"lumped": lumped, "zones": zones, "physics": physics}
+
+
+def year_inputs(building, model, n, seed=1):
+    rng = np.random.default_rng(seed)
+    m = rng.uniform(0.05, 0.6, (n, len(building.vav_names)))
+    v = np.column_stack([rng.uniform(5, 30, n), rng.uniform(12, 16, n), rng.uniform(0, 400, (n, 4))])
+    return m, v[:, : len(model.disturbances)]
+
+
+def run_python(model, x0, u, v, q):
+    t = time.perf_counter()
+    model.simulate(x0, u, v, q)
+    return time.perf_counter() - t
+
+
+def run_python_loop(model, x0, u, v, q):
+    t = time.perf_counter()
+    x = x0
+    step = model.step_state
+    for k in range(len(u)):
+        x = step(x, u[k], v[k], q[k])
+    return time.perf_counter() - t
+
+
+def open_fmu(path, model, y0, instance):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(path))
+    d = extract(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName=instance)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setReal([vr[f"T_{z}_start"] for z in model.outputs], list(y0))
+    fmu.exitInitializationMode()
+    return fmu, vr
+
+
+def run_fmu(path, model, building, m, v, y0, raw):
+    fmu, vr = open_fmu(path, model, y0, "bench")
+    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
+    names_out = [f"T_{z}" for z in model.outputs]
+    vin, vout = [vr[n] for n in names_in], [vr[n] for n in names_out]
+    W = np.hstack([m, v])
+    n = len(W)
+    try:
+        if raw:
+            a_vin = (ctypes.c_uint32 * len(vin))(*vin)
+            a_val = (ctypes.c_double * len(vin))()
+            buf = np.frombuffer(a_val, dtype=float)
+            a_vout = (ctypes.c_uint32 * len(vout))(*vout)
+            a_out = (ctypes.c_double * len(vout))()
+            Y = np.empty((n, len(vout)))
+            out = np.frombuffer(a_out, dtype=float)
+            set_real, do_step, get_real, comp = fmu.fmi2SetReal, fmu.fmi2DoStep, fmu.fmi2GetReal, fmu.component
+            nin, nout = len(vin), len(vout)
+            t = time.perf_counter()
+            for k in range(n):
+                buf[:] = W[k]
+                set_real(comp, a_vin, nin, a_val)
+                do_step(comp, k * 900.0, 900.0, 1)
+                get_real(comp, a_vout, nout, a_out)
+                Y[k] = out
+            dt = time.perf_counter() - t
+        else:
+            rows = W.tolist()
+            Y = []
+            t = time.perf_counter()
+            for k in range(n):
+                fmu.setReal(vin, rows[k])
+                fmu.doStep(k * 900.0, 900.0)
+                Y.append(fmu.getReal(vout))
+            dt = time.perf_counter() - t
+            Y = np.array(Y)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+    return dt, Y
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics"])
+    ap.add_argument("--steps", type=int, default=N_YEAR, help="steps per run (default a year: 35040)")
+    args = ap.parse_args()
+    building = sdh_building(nominal=True)
+    models = make_models(building)
+    n = args.steps
+    import pandas as pd
+
+    index = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")  # Monday; no DST, like the FMU clock
+    print(f"{n} steps of 900 s, medians of {args.repeats} runs\n")
+    print(f"{'model':8s} {'python [s]':>11s} {'loop [s]':>9s} {'FMU2Slave [s]':>14s} {'raw [s]':>8s} "
+          f"{'us/step py':>11s} {'us/step FMU':>12s} {'ratio':>6s} {'ratio raw':>10s} {'max |dT| [K]':>13s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for kind in args.kinds:
+            model = models[kind]
+            mp = model.save(Path(tmp) / f"{kind}.json")
+            t0 = time.perf_counter()
+            path = export_fmu(mp, Path(tmp) / f"{kind}.fmu")
+            build_time = time.perf_counter() - t0
+            m, v = year_inputs(building, model, n)
+            import pandas as pd
+
+            frame = pd.DataFrame({f"m_{b}": m[:, j] for j, b in enumerate(building.vav_names)}, index=index)
+            for j, d in enumerate(model.disturbances):
+                frame[d] = v[:, j]
+            u, _ = model.signals(frame)
+            season = list(model.gains)[0]
+            q = model.gains_at(index, season)
+            y0 = np.full(model.n_outputs, 21.0)
+            x0 = state_from_outputs(model, y0)
+            py = [run_python(model, x0, u, v, q) for _ in range(args.repeats)]
+            loop = [run_python_loop(model, x0, u, v, q) for _ in range(args.repeats)]
+            fm, raw = [], []
+            for _ in range(args.repeats):
+                dt, Y = run_fmu(path, model, building, m, v, y0, raw=False)
+                fm.append(dt)
+                dt, Yr = run_fmu(path, model, building, m, v, y0, raw=True)
+                raw.append(dt)
+            # accuracy check over the same year (gains slot from Monday 00:00 = index start)
+            _, Yref = model.simulate(x0, u, v, q)
+            err = float(np.max(np.abs(Yr - Yref[1:])))
+            p, lp, f, r = (statistics.median(a) for a in (py, loop, fm, raw))
+            print(f"{kind:8s} {p:11.3f} {lp:9.3f} {f:14.3f} {r:8.3f} {1e6 * p / n:11.2f} {1e6 * f / n:12.2f} "
+                  f"{f / p:6.2f} {r / p:10.2f} {err:13.2e}   (build {build_time:.2f} s)")
+
+
+if __name__ == "__main__":
+    main()
