@@ -82,9 +82,12 @@ def main():
         paths = [Path(tmp) / "measurements.parquet"]
         frame.to_parquet(paths[0], index=False)
         print(f"generated {len(frame)} rows x {frame.shape[1]} columns (Parquet) in {time.perf_counter() - t0:.1f} s")
+        # the emulator's layout: ISO 8601 text with offsets in the time column
+        paths.append(Path(tmp) / "measurements_isotext.parquet")
+        frame.assign(time=pd.DatetimeIndex(frame["time"]).strftime("%Y-%m-%dT%H:%M:%S%z")).to_parquet(paths[1], index=False)
         if args.csv:
             paths.append(Path(tmp) / "measurements.csv")
-            frame.to_csv(paths[1], index=False)
+            frame.to_csv(paths[-1], index=False)
         for path in paths:
             times = []
             for _ in range(args.repeat):
@@ -94,7 +97,7 @@ def main():
                     ds = prepare(path, building)
                 times.append(time.perf_counter() - t0)
             print(
-                f"prepare({path.suffix[1:]}, {args.weeks} weeks, {len(frame)} rows -> {len(ds.frame)} steps, "
+                f"prepare({path.name}, {args.weeks} weeks, {len(frame)} rows -> {len(ds.frame)} steps, "
                 f"{len(ds.weeks)} weeks): median {statistics.median(times):.2f} s over {args.repeat} runs"
             )
 
