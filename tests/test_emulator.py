@@ -505,3 +505,14 @@ def test_cli_generate(tmp_path):
     assert bad.returncode == 2
     assert "unknown effect 'nonsense'" in bad.stderr
     assert set(EFFECT_NAMES) <= set(bad.stderr.replace(",", " ").split())
+
+
+def test_plant_from_truth_file(small_files):
+    """truth.json (after a JSON round trip) carries everything the plant needs."""
+    truth = json.loads(small_files.truth.read_text())
+    plant = Plant.from_truth(truth)
+    ref = Plant.from_truth(make_truth(2, 5, ["solar_gain:zone=W"]))
+    assert_allclose(plant.core.Ad, ref.core.Ad, rtol=0, atol=0)
+    assert_allclose(plant.core.Q_ig, ref.core.Q_ig, rtol=0, atol=0)
+    assert plant.zones == ("NW", "W", "S", "E", "NE", "C") and len(plant.vavs) == 21
+    assert plant.horizon == 2 * 7 * 86400.0
