@@ -357,6 +357,7 @@ def test_effects_random_zone_is_seeded_and_recorded():
         ("zone_coupling:zones=NW+S,ua=250", {"name": "zone_coupling", "zones": ["NW", "S"], "ua": 250.0}),
         ("internal_gain_schedule:kind=holiday,weeks=3+9", {"name": "internal_gain_schedule", "kind": "holiday", "weeks": [3, 9]}),
         ("actuation_delay:zone=E,minutes=45", {"name": "actuation_delay", "zone": "E", "minutes": 45.0}),
+        ({"name": "zone_coupling", "zones": "W+E"}, {"name": "zone_coupling", "zones": ["W", "E"]}),
     ],
 )
 def test_parse_effect(spec, expected):
@@ -420,6 +421,9 @@ def test_generate_files(small_files):
         assert key in base
     assert base["structure"]["supply_air"]["form"] == "bilinear"
     assert base["structure"]["solar_gain"]["S"] == ["S"]
+    causes = base["structure"]["causes"]
+    assert causes["zone_coupling"] == [] and causes["actuation_delay"] == [] and causes["internal_gain_schedule"] == []
+    assert {"zone": "S", "facade": "S"} in causes["solar_gain"]
     def no_constants(name):
         raise AssertionError(f"truth.json contains {name}")
 

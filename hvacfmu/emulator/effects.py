@@ -90,6 +90,9 @@ def parse_effect(spec) -> dict:
     """
     if isinstance(spec, dict):
         d = dict(spec)
+        for key in ("zones", "weeks"):
+            if isinstance(d.get(key), str):
+                d[key] = _value(key, d[key])
     else:
         text = str(spec).strip()
         name, _, rest = text.partition(":")

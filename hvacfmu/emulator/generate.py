@@ -21,7 +21,7 @@ from .simulate import controller_defaults, simulate
 from .thermal import DEFAULT_EXTRAS
 
 #: Version of the emulator's physics and data; part of the cache key.
-EMULATOR_VERSION = "1.1"
+EMULATOR_VERSION = "1.2"
 DEFAULT_START = "2025-09-01T00:00:00"
 
 NOISE = {
@@ -153,6 +153,16 @@ def _structure(truth: dict, core) -> dict:
         "summer), weekday/weekend, random arrival/departure and day factors, meetings in C; local "
         "wall clock, no holidays",
         "adjacent_floors": "T_fl = mean + workday rise x occupancy + AR(1) noise",
+        # diagnosis cause ids present in the baseline (before any injected effect), by location
+        "causes": {
+            "solar_gain": [{"zone": w["zone"], "facade": w["orientation"]} for w in bld["windows"]],
+            "supply_air_bilinear": [{"zone": z} for z in truth["zones"]],
+            "thermal_mass": [{"zone": z, "source": "floor/ceiling slabs, walls, furniture"} for z in truth["zones"]],
+            "reheat": [{"zone": z, "source": "baseline VAV controllers in heating mode"} for z in truth["zones"]],
+            "zone_coupling": [],
+            "actuation_delay": [],
+            "internal_gain_schedule": [],
+        },
     }
 
 
