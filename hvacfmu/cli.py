@@ -96,9 +96,9 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_fmu
+    from .fmu import export_file
 
-    path = export_fmu(args.model, args.output)
+    path = export_file(args.model, args.output)
     print(f"wrote {path}")
     return 0
 
@@ -177,7 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
-    p.add_argument("model", help="model file (JSON)")
+    p.add_argument("model", help="model file (JSON), or an emulator truth.json for the plant FMU")
     p.add_argument("--output", "-o", required=True, help="FMU to write")
     p.set_defaults(func=_cmd_export)
 

@@ -168,6 +168,21 @@ def export_plant_fmu(truth_path, out_path) -> Path:
     return path
 
 
+def export_file(path, out_path) -> Path:
+    """Export a model file or an emulator ``truth.json`` (recognised by its content) as an FMU.
+
+    This is what ``hvacfmu export FILE -o OUT.fmu`` runs.
+    """
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        d = None  # load_model reports it
+    if isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d:
+        return export_plant_fmu(path, out_path)
+    return export_fmu(path, out_path)
+
+
 def _build(script: Path, out_path, resources) -> Path:
     """Run the pythonfmu builder in this process, then validate the FMU."""
     from pythonfmu.builder import FmuBuilder
@@ -209,4 +224,4 @@ def validate(path) -> list[str]:
     return problems
 
 
-__all__ = ["export_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
+__all__ = ["export_file", "export_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
