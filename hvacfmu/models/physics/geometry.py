@@ -393,7 +393,7 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
             if s not in sides_ok:
                 problems.append(f"{where}: {key} {s!r} is neither a zone ({list(zones)}) nor one of {list(BOUNDARIES)}")
             sides.append(s)
-        if not any(s in zone_set for s in sides):
+        if all(s in sides_ok for s in sides) and not any(s in zone_set for s in sides):
             problems.append(f"{where}: touches no zone (side1={sides[0]!r}, side2={sides[1]!r})")
         touched.update(s for s in sides if s in zone_set)
         orient = r.get("orientation")

@@ -14,9 +14,11 @@ plus once, as one batch, and solves a small NNLS problem; ``least_squares``
 then works on the five log-parameters only.
 
 Step 2: ``f_IG,m,w^v(k)`` by ordinary least squares from
-``(C B_IG) f = y(k+1) - y~(k+1)`` with ``y~`` the one-step prediction from the
-filtered state (eq. ig(k-1)) for every training week, averaged per season and
-time of week (eq. fixed_ig).
+``(C B_IG) f = y(k+1) - y~(k+1)`` with ``y~`` the one-step prediction
+(eq. ig(k-1)) for every training week, averaged per season and time of week
+(eq. fixed_ig). The state ``x(k)`` carried from step to step is the prediction
+plus the estimated gains' effect, ``x~(k) + B_IG f(k-1)``, which puts the zone
+air at the measured temperatures and lets the walls follow physically.
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -33,6 +35,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -91,7 +94,7 @@ def _weekend_segments(dataset, model, nw, ns, max_segments):
             continue
         for day in range(7):
             t0 = pd.Timestamp(week.start) + pd.DateOffset(days=day)  # calendar days (DST-safe)
-            if t0.dayofweek < 5:
+            if t0.day_of_week < 5:
                 continue
             r = _row_of(index, t0, step)
             if r is None or not _regular(index, r - nw, nw + ns, step):
@@ -152,7 +155,10 @@ def _simulate_segments(template, theta, step, segs, K, free_modes=0):
     qc[np.arange(1, ncopy), 0, 0, np.arange(nz)] = 1.0
     q = segs.q0[None] + qc
     m = segs.u @ disc.zone_vav.T
-    Kz = disc.W @ K
+    if isinstance(K, str) and K == "gain_injection":
+        Kz = disc.Pq[:, :nz] @ np.linalg.inv(disc.Vz @ disc.Pq[:, :nz])
+    else:
+        Kz = disc.W @ K
     Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1)
     Yf = Y[:, :, nw + 1:]
     Phi = None
@@ -270,7 +276,9 @@ def fit_physics(
         Use at most this many weekend segments (evenly spread over the
         training weeks, so every season keeps its share); None: all.
     kalman : dict, optional
-        Filter settings ``q_air``, ``q_mass``, ``r`` [K], ``warmup_steps``.
+        State-estimator settings (see :attr:`PhysicsModel.kalman_gain`):
+        ``observer`` ("gain_injection" or "kalman"), ``q_air``, ``q_mass``,
+        ``r`` [K], ``warmup_steps`` (default from ``warmup_hours``).
     kalman_rounds : int
         Times the optimisation is repeated with the filter gain recomputed
         at the current estimate (1: gain of the nominal model only).
@@ -372,7 +380,8 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         bar = tqdm(desc="Model B step 1", unit="eval", disable=not progress, leave=False)
     except ImportError:  # pragma: no cover
         bar = None
-    state = {"K": model.kalman_gain, "nfev": 0}
+    observer = model.options["kalman"]["observer"]
+    state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
 
     def residuals(theta):
         Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
@@ -385,7 +394,7 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
     theta = theta0
     results = []
     for rnd in range(max(1, int(kalman_rounds))):
-        if rnd > 0:
+        if rnd > 0 and observer == "kalman":
             net = template.build(np.exp(theta))
             k = model.options["kalman"]
             state["K"] = kalman_gain(net.discretize(step), k["airflow"], k["q_air"], k["q_mass"], k["r"])
@@ -471,11 +480,13 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
         if i < len(theta):
             rel = float(np.expm1(std[i])) if std[i] < 50 else math.inf
             at_bound = theta[i] <= lo[i] + 1e-6 or theta[i] >= hi[i] - 1e-6
-            e = {"value": float(values[i]), "rel_std": rel, "std": float(values[i] * rel) if math.isfinite(rel) else None}
+            e = {"value": float(values[i]), "rel_std": rel if math.isfinite(rel) else None,
+                 "std": float(values[i] * rel) if math.isfinite(rel) else None}
         else:
             rel = float(std[i] / abs(values[i])) if values[i] > 0 else math.inf
             at_bound = values[i] <= 0.0
-            e = {"value": float(values[i]), "std": float(std[i]), "rel_std": rel if math.isfinite(rel) else None}
+            e = {"value": float(values[i]), "std": float(std[i]) if np.isfinite(std[i]) else None,
+                 "rel_std": rel if math.isfinite(rel) else None}
         if colnorm[i] == 1.0 and not np.any(J[:, i]):
             flags.append("no influence on the fitted outputs")
         if rel > 1.0:
@@ -488,7 +499,8 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
         estimates[name] = e
         if flags:
             unident.append(name)
-    corr = cov / np.outer(np.maximum(std, 1e-300), np.maximum(std, 1e-300))
+    with np.errstate(all="ignore"):
+        corr = np.nan_to_num(cov / np.outer(std, std), nan=0.0, posinf=0.0, neginf=0.0)
     info = {
         "names": names,
         "scaled_singular_values": (sv / sv[0]).tolist(),
@@ -515,7 +527,10 @@ def _seasonal_gains(dataset, model, f_c, nw):
         q_all[:, nz] = model._spec.ground_temperature
     CB = disc.Vz @ disc.Pq[:, :nz]  # C B_IG (nz, nz) [K/W]
     CB_inv = np.linalg.inv(CB)
-    K = model.kalman_gain
+    # "gain injection": every step the zone gains that make the one-step prediction hit the measured
+    # temperatures are added (x(k) = x~(k) + B_IG f(k-1), the paper's eq. ig(k-1)); walls follow physically.
+    # (A Kalman correction here would let the walls soak up part of persistent gains.)
+    Kz = disc.Pq[:, :nz] @ CB_inv
     per_season: dict[str, list] = {}
     for week in dataset.weeks:
         if not week.train:
@@ -539,7 +554,7 @@ def _seasonal_gains(dataset, model, f_c, nw):
         x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
         x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
         m = u @ disc.zone_vav.T
-        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=disc.W @ K, n_correct=len(rows), record_pred=True)
+        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=len(rows), record_pred=True)
         innov = y[w + 1:] - Yp[w + 1:]  # rows r0+1 .. : innovation of y(k+1) -> f(k)
         # bad inputs give meaningless innovations
         bad = np.isnan(u_all[rows[w:-1]]).any(axis=1) | np.isnan(v_all[rows[w:-1]]).any(axis=1)
@@ -552,8 +567,8 @@ def _seasonal_gains(dataset, model, f_c, nw):
     gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}}
     season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
     for s, profs in per_season.items():
-        with np.errstate(all="ignore"), np.testing.suppress_warnings() as sup:
-            sup.filter(RuntimeWarning)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slots: filled below
             mean = np.nanmean(np.stack(profs), axis=0)
         filled = int(np.isnan(mean).any(axis=1).sum())
         mean = _fill_circular(mean)

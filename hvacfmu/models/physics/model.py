@@ -42,7 +42,8 @@ from .network import BilinearMatrices, NetworkTemplate, single_threaded
 
 #: Default Kalman filter settings: process noise per step on air and on other
 #: nodes [K], measurement noise [K], warm-up length [steps].
-DEFAULT_KALMAN = {"q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 96}
+DEFAULT_KALMAN = {"observer": "gain_injection", "q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 96}
+OBSERVERS = ("gain_injection", "kalman")
 
 
 def building_hash(building_dict: dict) -> str:
@@ -87,6 +88,18 @@ def kalman_gain(disc, airflow, q_air, q_mass, r) -> np.ndarray:
         P = sl.solve_discrete_are(A.T, C.T, Q, R)
     S = P[:nz, :nz] + R
     return np.linalg.solve(S, P[:nz, :]).T
+
+
+def gain_injection(disc) -> np.ndarray:
+    """Observer gain ``B_IG (C B_IG)^{-1}`` (physical coordinates, (n_states, n_zones)).
+
+    The Kalman gain in the limit of process noise entering only through the
+    zones' internal gains and vanishing sensor noise: the correction at each
+    step is the heat input that makes the zone air match the measurement.
+    """
+    nz = disc.Vz.shape[0]
+    Bq = disc.physical_inputs[1][:, :nz]
+    return Bq @ np.linalg.inv(Bq[:nz])
 
 
 def fill_signals(a, default):
@@ -162,6 +175,8 @@ class PhysicsModel(ZoneModel):
         unknown = sorted(set(kal) - set(DEFAULT_KALMAN) - {"airflow"})
         if unknown:
             raise ModelError(f"unknown Kalman option(s) {unknown}")
+        if kal["observer"] not in OBSERVERS:
+            raise ModelError(f"options.kalman.observer must be one of {OBSERVERS}, got {kal['observer']!r}")
         if "airflow" not in kal:
             kal["airflow"] = [float(sum(0.5 * (v.m_min + v.m_max) for v in self.building.vavs_of(z)))
                               for z in spec.zones]
@@ -286,10 +301,24 @@ class PhysicsModel(ZoneModel):
     # --- state estimation -------------------------------------------------------------
     @property
     def kalman_gain(self) -> np.ndarray:
-        """Steady-state Kalman gain (n_states, n_zones), computed on first use."""
+        """Filter gain (n_states, n_zones) of the state estimator, computed on first use.
+
+        ``observer = "gain_injection"`` (default): the limit of the Kalman
+        filter whose process noise is the unknown internal gain of each zone
+        (the paper's own disturbance) and whose sensor noise is negligible,
+        ``K = B_IG (C B_IG)^{-1}``: every measured zone temperature is
+        explained by a heat input to that zone's air, and walls follow
+        physically. ``observer = "kalman"``: steady-state Kalman gain of the
+        model linearised at ``airflow``, with white process noise ``q_air``,
+        ``q_mass`` [K per step] and sensor noise ``r`` [K] (a DARE; the walls
+        adapt faster but also absorb part of persistent unmodelled gains).
+        """
         if "K" not in self._cache:
             k = self.options["kalman"]
-            self._cache["K"] = kalman_gain(self._disc, k["airflow"], k["q_air"], k["q_mass"], k["r"])
+            if k["observer"] == "kalman":
+                self._cache["K"] = kalman_gain(self._disc, k["airflow"], k["q_air"], k["q_mass"], k["r"])
+            else:
+                self._cache["K"] = gain_injection(self._disc)
         return self._cache["K"]
 
     def initial_state(self, frame: pd.DataFrame, k0: int) -> np.ndarray:
@@ -310,11 +339,14 @@ class PhysicsModel(ZoneModel):
             raise ModelError(f"initial_state: rows {k0s[(k0s < 0) | (k0s >= n)].tolist()} outside the frame (0..{n - 1})")
         nw = int(self.options["kalman"]["warmup_steps"])
         w = int(min(nw, k0s.min()))  # common warm-up length of the batch
-        y = self.measured_outputs(frame)
-        u, v = self.signals(frame)
-        q = self.gains_for_rows(frame.index)
         rows = k0s[:, None] + np.arange(-w, 1)[None, :]
-        return self._filter_windows(y[rows], u[rows[:, :-1]], v[rows[:, :-1]], q[rows[:, :-1]])
+        need = np.unique(rows)
+        sub = frame.iloc[need]
+        pos = np.searchsorted(need, rows)
+        y = self.measured_outputs(sub)
+        u, v = self.signals(sub)
+        q = self.gains_for_rows(sub.index)
+        return self._filter_windows(y[pos], u[pos[:, :-1]], v[pos[:, :-1]], q[pos[:, :-1]])
 
     def _filter_windows(self, y, u, v, q, disc=None, K=None):
         """Filtered state at the last row of each window; y (B, w+1, nz), u/v/q (B, w, .)."""

@@ -252,7 +252,7 @@ class NetworkTemplate:
             vec = np.asarray(params, dtype=float).reshape(-1)
             if vec.shape != (len(PARAM_NAMES),):
                 raise ModelError(f"parameters: need {len(PARAM_NAMES)} values {list(PARAM_NAMES)}, got {vec.shape}")
-        bad = [f"{n}={x!r}" for n, x in zip(PARAM_NAMES, vec) if not (np.isfinite(x) and x > 0)]
+        bad = [f"{n}={float(x)!r}" for n, x in zip(PARAM_NAMES, vec) if not (np.isfinite(x) and x > 0)]
         if bad:
             raise ModelError(f"parameters must be finite and > 0: {', '.join(bad)}")
         return vec
