@@ -33,9 +33,6 @@ DEFAULT_OCCUPANCY = {
     "adjacent_floor": {"mean": 21.8, "workday_rise": 0.7, "noise_std": 0.25},  # [°C]
 }
 
-DEFAULT_SEASONS = (("fall", "09-01", "12-15"), ("winter", "12-16", "01-25"), ("spring", "01-26", "05-15"))
-
-
 def _season_of_day(month, day):
     md = (month, day)
     if (9, 1) <= md <= (12, 15):
@@ -133,7 +130,7 @@ def internal_gains(index: pd.DatetimeIndex, zones, areas, rng: np.random.Generat
         prof = np.where(weekday[d], _profile(hour, arrive[d], depart[d]), _profile(hour, arrive_we[d], depart_we[d]))
         return d, hour, lev[d] * f_day[d] * prof
 
-    d_wall, hour_wall, occ_base = occupancy_of(wall_days, level_base)
+    _, _, occ_base = occupancy_of(wall_days, level_base)
     if dst_shift:
         days = _clock(index, True)
     else:
