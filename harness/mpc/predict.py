@@ -236,28 +236,28 @@ class BilinearPredictor(AffinePredictor):
         if problems:
             raise ModelError("bilinear matrices: " + "; ".join(problems))
         self.nu = len(Bxu)
-        self.basis = self._reachable_basis(Bxu, Bvu, nx, rank_tol)
-        Pt = self.basis.T
+        S = sparse.hstack(Bxu + Bvu, format="csr")  # every column the airflows can add
+        if S.nnz > 0.2 * S.shape[0] * S.shape[1]:
+            S = S.toarray()
+        self.basis = self._reachable_basis(S, nx, rank_tol)
         self.PtBxu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bxu])  # (nu, r, nx)
         self.PtBvu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bvu])  # (nu, r, nv)
         # the projection must reproduce the bilinear terms exactly
-        scale = max(max((abs(M).max() if M.nnz else 0.0) for M in Bxu + Bvu), 1e-300)
-        err = max(
-            np.abs(_dense(M) - self.basis @ (Pt @ _dense(M))).max() if M.nnz else 0.0 for M in Bxu + Bvu
-        )
+        Sd = S.toarray() if sparse.issparse(S) else S
+        scale = max(float(np.abs(Sd).max(initial=0.0)), 1e-300)
+        err = float(np.abs(Sd - self.basis @ (self.basis.T @ Sd)).max(initial=0.0))
         if err > 1e-9 * scale:
             raise ModelError(f"airflow-reachable basis reproduces the bilinear terms only to {err:.2e}")
 
     @staticmethod
-    def _reachable_basis(Bxu, Bvu, nx, rank_tol):
-        rows = np.unique(np.concatenate([M.nonzero()[0] for M in Bxu + Bvu] + [np.array([], int)]))
+    def _reachable_basis(S, nx, rank_tol):
+        rows = np.flatnonzero(np.abs(S).sum(axis=1))
         if rows.size <= max(nx // 4, 1):  # coordinate basis on the nodes the airflows touch
             P = np.zeros((nx, rows.size))
             P[rows, np.arange(rows.size)] = 1.0
             return P
-        gram = np.zeros((nx, nx))  # range of [Bxu_1 ... Bvu_n] = range of Σ M Mᵀ
-        for M in Bxu + Bvu:
-            gram += _dense(M @ M.T)
+        gram = S @ S.T  # range of [Bxu_1 ... Bvu_n] = range of S Sᵀ
+        gram = gram.toarray() if sparse.issparse(gram) else np.asarray(gram)
         w, V = np.linalg.eigh(gram)
         keep = w > rank_tol * max(w.max(), 1e-300)
         return V[:, keep]
@@ -278,6 +278,37 @@ class BilinearPredictor(AffinePredictor):
     def state_matrix(self, u) -> np.ndarray:
         """``A + Σ_i u_i Bxu_i`` at airflows u (nu,) [kg/s]."""
         return self.A + self.basis @ np.einsum("i,irn->rn", u, self.PtBxu)
+
+
+def dare_doubling(A, B, Q, R, tol=1e-12, max_iter=100):
+    """Stabilising solution X of ``X = Aᵀ X A - Aᵀ X B (R + Bᵀ X B)⁻¹ Bᵀ X A + Q``.
+
+    Structured doubling algorithm: quadratic convergence, O(n³) per iteration,
+    far faster than the QZ-based :func:`scipy.linalg.solve_discrete_are` for
+    the ~300-state RC networks (slow wall modes need ~20 doublings).
+
+    References
+    ----------
+    E. K.-W. Chu, H.-Y. Fan, W.-W. Lin, "A structure-preserving doubling
+    algorithm for continuous-time algebraic Riccati equations", and its
+    discrete-time form (SDA), Linear Algebra Appl. 396 (2005).
+    """
+    n = A.shape[0]
+    Ak = np.asarray(A, dtype=float).copy()
+    Gk = B @ np.linalg.solve(R, B.T)
+    Hk = np.asarray(Q, dtype=float).copy()
+    I = np.eye(n)
+    for _ in range(max_iter):
+        W = I + Gk @ Hk
+        AW = np.linalg.solve(W.T, Ak.T).T  # Ak W⁻¹
+        G_new = Gk + AW @ Gk @ Ak.T
+        H_new = Hk + Ak.T @ Hk @ np.linalg.solve(W, Ak)
+        Ak = AW @ Ak
+        done = np.abs(H_new - Hk).max() <= tol * max(np.abs(H_new).max(), 1.0)
+        Gk, Hk = 0.5 * (G_new + G_new.T), 0.5 * (H_new + H_new.T)
+        if done:
+            return Hk
+    raise ModelError(f"Riccati doubling did not converge in {max_iter} iterations")
 
 
 class KalmanFilter:
@@ -301,7 +332,7 @@ class KalmanFilter:
         C = predictor.C
         Qn = q_std**2 * np.eye(predictor.nx)
         Rn = r_std**2 * np.eye(predictor.ny)
-        Pp = scipy.linalg.solve_discrete_are(Au.T, C.T, Qn, Rn)
+        Pp = dare_doubling(Au.T, C.T, Qn, Rn)
         S = C @ Pp @ C.T + Rn
         self.gain = np.linalg.solve(S, C @ Pp).T  # (nx, ny), a-posteriori gain
         self.x = None

@@ -182,57 +182,49 @@ class QPSolution:
     U: np.ndarray  #: (N, nu) planned airflows [kg/s] (block values repeated)
     eps: np.ndarray  #: (nu,) input-limit slack [kg/s]
     s: np.ndarray  #: (N, ny) comfort slack [K] (zeros for a hard band)
+    Y: np.ndarray  #: (N, ny) [°C] outputs predicted by the problem's (linearised) model
     obj: float  #: Σ u² + ρ||eps|| (+ comfort penalty)
     solve_time: float  #: wall time of the solver call [s]
     z: np.ndarray | None = None  #: raw solver variables
 
 
-class CondensedProblem:
-    """The MPC problem for ``Y = y0 + G U`` assembled once, solved many times.
+class _MPCProblem:
+    """The MPC problem with the prediction as equality rows; subclasses define those rows.
 
-    Parameters
-    ----------
-    G : array (N*ny, n_blocks*nu)
-        Output sensitivity to the blocked moves.
-    u_min, u_max : array (nu,) [kg/s]
-        Input limits (softened by ``eps``).
-    ny : int
-        Number of outputs.
-    settings : MPCSettings
-
-    Notes
-    -----
-    Variables ``z = [U_b (n_blocks*nu), eps (nu), t (socp only), s (N*ny, soft band only)]``;
-    constraints ``A z + slack = b`` with ``slack`` in the nonnegative cone
-    (and the second-order cone ``(t, eps)`` for ``"socp"``). Only ``b``
-    depends on ``y0``; :meth:`solve` updates it in place when ``G`` is unchanged.
+    Variables ``z = [U_b (n_blocks*nu), eps (nu), t (socp only), s (N*ny, soft band only),
+    y (N*ny), extra]``; constraints ``A z + slack = b`` with ``slack`` in the
+    zero cone (prediction rows), the nonnegative cone (limits, band) and, for
+    ``"socp"``, the second-order cone ``(t, eps)``. Only the prediction rows'
+    right-hand side depends on the current state; matrix blocks that change
+    between solves (a new linearisation) keep fixed slots in ``A.data``, so
+    clarabel's data are updated in place and its symbolic factorisation reused.
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings):
+    n_extra = 0
+
+    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=()):
         self.settings = settings
         self.lengths = np.asarray(settings.block_lengths)
         self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
         self.u_min = np.asarray(u_min, dtype=float).ravel()
         self.u_max = np.asarray(u_max, dtype=float).ravel()
         self.nu, self.ny = self.u_min.size, int(ny)
-        problems = []
+        problems = list(problems)
         if self.u_max.shape != self.u_min.shape:
             problems.append(f"u_min has {self.u_min.size} entries, u_max {self.u_max.size}")
         elif np.any(self.u_min > self.u_max):
             problems.append(f"u_min > u_max for inputs {np.flatnonzero(self.u_min > self.u_max).tolist()}")
-        G = np.asarray(G, dtype=float)
-        if G.shape != (self.N * self.ny, self.nb * self.nu):
-            problems.append(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         if problems:
             raise SolverError(problems_message("invalid MPC problem", problems))
         self.soft = settings.comfort_penalty is not None
         self.socp = settings.formulation == "socp"
-        nU, nu = self.nb * self.nu, self.nu
+        nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
         self.i_eps = nU
         self.i_t = nU + nu
         self.i_s = self.i_t + (1 if self.socp else 0)
-        self.nz = self.i_s + (self.N * self.ny if self.soft else 0)
-        # objective
+        self.i_y = self.i_s + (nY if self.soft else 0)
+        self.i_x = self.i_y + nY
+        self.nz = self.i_x + self.n_extra
         pdiag = np.zeros(self.nz)
         pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu)
         self.P = sparse.diags(pdiag, format="csc")
@@ -242,97 +234,101 @@ class CondensedProblem:
         else:
             self.q[self.i_eps : self.i_eps + nu] = settings.rho
         if self.soft:
-            self.q[self.i_s :] = settings.comfort_penalty
-        band = np.broadcast_to(np.asarray(settings.T_min, dtype=float), (self.N, self.ny))
-        self.T_min = np.array(band).ravel()
+            self.q[self.i_s : self.i_y] = settings.comfort_penalty
+        self.T_min = np.array(np.broadcast_to(np.asarray(settings.T_min, dtype=float), (self.N, self.ny))).ravel()
         self.T_max = np.array(np.broadcast_to(np.asarray(settings.T_max, dtype=float), (self.N, self.ny))).ravel()
         self._solver = None
         self._A_changed = False
-        self._set_G(G)
 
     # ----- assembly ------------------------------------------------------
-    def _set_G(self, G):
-        """Assemble ``A`` once; the entries of the dense ``G`` blocks keep fixed slots in ``A.data``."""
+    def _prediction_rows(self, put, slot):
+        """Add the zero-cone prediction rows; return their count. ``slot(name)`` marks the next ``put`` as updatable."""
+        raise NotImplementedError
+
+    def _prediction_rhs(self, y0) -> np.ndarray:
+        raise NotImplementedError
+
+    def _assemble(self):
         nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
-        nt = 1 if self.socp else 0
-        ns = nY if self.soft else 0
-        nf = nU if self.settings.u_floor is not None else 0
         rows, cols, vals = [], [], []
-        r0 = 0
+        self._slots = {}
+        state = {"r0": 0, "n": 0}
 
         def put(r, c, v):
-            rows.append(np.asarray(r) + r0)
-            cols.append(np.asarray(c))
-            vals.append(np.broadcast_to(np.asarray(v, dtype=float), np.shape(r)))
+            r, c = np.asarray(r), np.asarray(c)
+            rows.append(r + state["r0"])
+            cols.append(c)
+            vals.append(np.broadcast_to(np.asarray(v, dtype=float), r.shape).ravel())
+            state["n"] += r.size
 
+        def slot(name):
+            self._slots.setdefault(name, []).append(state["n"])
+
+        n_eq = self._prediction_rows(put, slot)
+        state["r0"] = n_eq
+        self.n_eq = n_eq
         iU = np.arange(nU)
         eps_of = self.i_eps + np.tile(np.arange(nu), self.nb)
-        put(iU, iU, 1.0)                      # U - eps <= u_max
+        iY = np.arange(nY)
+        put(iU, iU, 1.0)                                  # U - eps <= u_max
         put(iU, eps_of, -1.0)
-        r0 += nU
-        put(iU, iU, -1.0)                     # -U - eps <= -u_min
+        state["r0"] += nU
+        put(iU, iU, -1.0)                                 # -U - eps <= -u_min
         put(iU, eps_of, -1.0)
-        r0 += nU
+        state["r0"] += nU
         put(np.arange(nu), self.i_eps + np.arange(nu), -1.0)  # -eps <= 0
-        r0 += nu
-        gr, gc = np.divmod(np.arange(nY * nU), nU)
-        self._g_slots = []
-        for sign in (1.0, -1.0):              # ±(G U) - s <= ±(T_max/min - y0)
-            self._g_slots.append((sum(len(v) for v in vals), sign))
-            put(gr, gc, sign * G.ravel())
-            if ns:
-                put(np.arange(nY), self.i_s + np.arange(nY), -1.0)
-            r0 += nY
-        if ns:
-            put(np.arange(ns), self.i_s + np.arange(ns), -1.0)  # -s <= 0
-            r0 += ns
-        if nf:
-            put(iU, iU, -1.0)                 # -U <= -u_floor
-            r0 += nf
-        self.n_nonneg = r0
-        if self.socp:                         # (t, eps) in the second-order cone
+        state["r0"] += nu
+        for sign in (1.0, -1.0):                          # ±y - s <= ±T_max/min
+            put(iY, self.i_y + iY, sign)
+            if self.soft:
+                put(iY, self.i_s + iY, -1.0)
+            state["r0"] += nY
+        if self.soft:
+            put(iY, self.i_s + iY, -1.0)                  # -s <= 0
+            state["r0"] += nY
+        if self.settings.u_floor is not None:
+            put(iU, iU, -1.0)                             # -U <= -u_floor
+            state["r0"] += nU
+        self.n_nonneg = state["r0"] - n_eq
+        if self.socp:                                     # (t, eps) in the second-order cone
             put(np.array([0]), np.array([self.i_t]), -1.0)
             put(1 + np.arange(nu), self.i_eps + np.arange(nu), -1.0)
-            r0 += 1 + nu
+            state["r0"] += 1 + nu
         rows, cols = np.concatenate(rows), np.concatenate(cols)
         self._coo_data = np.concatenate(vals).astype(float)
-        tag = sparse.csc_matrix((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(r0, self.nz))
+        tag = sparse.csc_matrix((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(state["r0"], self.nz))
         tag.sort_indices()
+        if tag.nnz != rows.size:
+            raise SolverError("internal error: duplicate entries in the MPC constraint matrix")
         self._perm = tag.data.astype(np.int64) - 1  # A.data = coo_data[perm]
         self.A = sparse.csc_matrix((self._coo_data[self._perm], tag.indices, tag.indptr), shape=tag.shape)
-        self.G = G
+        self._b_const = np.concatenate([
+            np.tile(self.u_max, self.nb),
+            -np.tile(self.u_min, self.nb),
+            np.zeros(nu),
+            self.T_max,
+            -self.T_min,
+            np.zeros(nY if self.soft else 0),
+            np.full(nU if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
+            np.zeros(1 + nu if self.socp else 0),
+        ])
 
-    def update_G(self, G):
-        """Replace the output sensitivity in place (bilinear models: a new linearisation)."""
-        G = np.asarray(G, dtype=float)
-        if G.shape != self.G.shape:
-            raise SolverError(f"G has shape {G.shape}, expected {self.G.shape}")
-        n = G.size
-        for start, sign in self._g_slots:
-            self._coo_data[start : start + n] = sign * G.ravel()
+    def _update_slots(self, **blocks):
+        for name, values in blocks.items():
+            v = np.asarray(values, dtype=float).ravel()
+            for start in self._slots[name]:
+                self._coo_data[start : start + v.size] = v
         self.A.data[:] = self._coo_data[self._perm]
-        self.G = G
         self._A_changed = True
 
     def rhs(self, y0) -> np.ndarray:
         """Constraint right-hand side ``b`` for the free response ``y0`` (N*ny,) [°C]."""
-        y0 = np.asarray(y0, dtype=float).ravel()
-        b = np.concatenate([
-            np.tile(self.u_max, self.nb),
-            -np.tile(self.u_min, self.nb),
-            np.zeros(self.nu),
-            self.T_max - y0,
-            y0 - self.T_min,
-            np.zeros(self.N * self.ny if self.soft else 0),
-            np.full(self.nb * self.nu if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
-            np.zeros(1 + self.nu if self.socp else 0),
-        ])
-        return b
+        return np.concatenate([self._prediction_rhs(np.asarray(y0, dtype=float).ravel()), self._b_const])
 
     def cones(self):
         import clarabel
 
-        c = [clarabel.NonnegativeConeT(self.n_nonneg)]
+        c = [clarabel.ZeroConeT(self.n_eq), clarabel.NonnegativeConeT(self.n_nonneg)]
         if self.socp:
             c.append(clarabel.SecondOrderConeT(1 + self.nu))
         return c
@@ -386,7 +382,8 @@ class CondensedProblem:
         t0 = time.perf_counter()
         st = self.settings.solver_tol
         try:
-            prob = qpsolvers.Problem(self.P, self.q, self.A, b)
+            ne = self.n_eq
+            prob = qpsolvers.Problem(self.P, self.q, self.A[ne:], b[ne:], self.A[:ne], b[:ne])
             sol = qpsolvers.solve_problem(prob, solver="clarabel", verbose=False, tol_feas=st,
                                           tol_gap_abs=st, tol_gap_rel=st, direct_solve_method="qdldl")
             found = bool(sol.found) and sol.x is not None and bool(np.all(np.isfinite(sol.x)))
@@ -403,11 +400,12 @@ class CondensedProblem:
         Ub = z[:nU].reshape(self.nb, nu)
         U = np.repeat(Ub, self.lengths, axis=0)
         eps = z[self.i_eps : self.i_eps + nu]
-        s = z[self.i_s :].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
+        s = z[self.i_s : self.i_y].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
         obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) if found else float("nan")
         if found and self.socp:  # report ρ||eps||_2 itself, not the cone variable t
             obj += self.settings.rho * (float(np.linalg.norm(eps)) - float(z[self.i_t]))
-        return QPSolution(found, status, U, eps, s, obj, dt, z)
+        Y = z[self.i_y : self.i_x].reshape(self.N, self.ny)
+        return QPSolution(found, status, U, eps, s, Y, obj, dt, z)
 
     # ----- replay --------------------------------------------------------
     def snapshot(self, y0, **context) -> dict:
@@ -417,13 +415,142 @@ class CondensedProblem:
             "P_data": self.P.data, "P_indices": self.P.indices, "P_indptr": self.P.indptr,
             "P_shape": np.array(self.P.shape), "q": self.q,
             "A_data": A.data, "A_indices": A.indices, "A_indptr": A.indptr, "A_shape": np.array(A.shape),
-            "b": self.rhs(y0), "n_nonneg": np.array(self.n_nonneg),
+            "b": self.rhs(y0), "n_zero": np.array(self.n_eq), "n_nonneg": np.array(self.n_nonneg),
             "n_soc": np.array(1 + self.nu if self.socp else 0),
             "settings_json": np.array(json.dumps(self.settings.to_dict())),
         }
         for k, v in context.items():
             out[f"ctx_{k}"] = np.asarray(v)
         return out
+
+
+class CondensedProblem(_MPCProblem):
+    """The MPC problem for the condensed prediction ``Y = y0 + G U_b``.
+
+    Parameters
+    ----------
+    G : array (N*ny, n_blocks*nu)
+        Output sensitivity to the blocked moves [K/(kg/s)].
+    u_min, u_max : array (nu,) [kg/s]
+        Input limits (softened by ``eps``).
+    ny : int
+        Number of outputs.
+    settings : MPCSettings
+
+    Notes
+    -----
+    ``G`` appears once, in the equality rows ``y - G U = y0``; the band acts on
+    the sparse variables ``y``. (Writing the band as ``±G U <= ...`` doubles the
+    dense block and was 4x slower with clarabel at N = 96.)
+    """
+
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings):
+        G = np.asarray(G, dtype=float)
+        super().__init__(u_min, u_max, ny, settings)
+        if G.shape != (self.N * self.ny, self.nb * self.nu):
+            raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
+        self.G = G
+        self._assemble()
+
+    def _prediction_rows(self, put, slot):
+        nY, nU = self.N * self.ny, self.nb * self.nu
+        put(np.arange(nY), self.i_y + np.arange(nY), 1.0)
+        gr, gc = np.divmod(np.arange(nY * nU), nU)
+        slot("G")
+        put(gr, gc, -self.G.ravel())
+        return nY
+
+    def _prediction_rhs(self, y0):
+        return y0
+
+    def update_G(self, G):
+        """Replace the output sensitivity in place (bilinear models: a new linearisation)."""
+        G = np.asarray(G, dtype=float)
+        if G.shape != self.G.shape:
+            raise SolverError(f"G has shape {G.shape}, expected {self.G.shape}")
+        self._update_slots(G=-G)
+        self.G = G
+
+
+class ReducedProblem(_MPCProblem):
+    """The MPC problem with the forced response from a reduced-order state-space model.
+
+    ``Y = y0 + (forced response)`` with, for k = 0..N-1,
+
+        ξ(k+1) = A_k ξ(k) + B_k u_b(k),   ξ(0) = 0
+        y(k+1) = y0(k+1) + C_r ξ(k+1) + D_k u_b(k)
+
+    where ``u_b(k)`` is the move of step k's block. The rows are sparse and
+    banded in time, so the cost grows linearly with the horizon instead of the
+    dense (N ny) x (n_blocks nu) block of the condensed form.
+
+    Parameters
+    ----------
+    Ak : array (N, nr, nr);  Bk : array (N, nr, nu);  Cr : array (ny, nr);  Dk : array (N, ny, nu)
+    u_min, u_max, settings : as :class:`CondensedProblem`
+    """
+
+    def __init__(self, Ak, Bk, Cr, Dk, u_min, u_max, settings: MPCSettings):
+        Cr = np.asarray(Cr, dtype=float)
+        self.nr = Cr.shape[1]
+        self.n_extra = settings.horizon * self.nr
+        super().__init__(u_min, u_max, Cr.shape[0], settings)
+        self.Cr = Cr
+        self._blocks = {"Ak": np.asarray(Ak, float), "Bk": np.asarray(Bk, float), "Dk": np.asarray(Dk, float)}
+        self._check_blocks(**self._blocks)
+        self._assemble()
+
+    def _check_blocks(self, **blocks):
+        want = {"Ak": (self.N, self.nr, self.nr), "Bk": (self.N, self.nr, self.nu), "Dk": (self.N, self.ny, self.nu)}
+        bad = [f"{k} has shape {np.shape(v)}, expected {want[k]}" for k, v in blocks.items() if np.shape(v) != want[k]]
+        if bad:
+            raise SolverError(problems_message("invalid reduced prediction", bad))
+
+    def _prediction_rows(self, put, slot):
+        N, nr, ny, nu = self.N, self.nr, self.ny, self.nu
+        blk = np.repeat(np.arange(self.nb), self.lengths)
+        r = 0
+        ii, jj = np.divmod(np.arange(nr * nr), nr)
+        bi, bj = np.divmod(np.arange(nr * nu), nu)
+        di, dj = np.divmod(np.arange(ny * nu), nu)
+        ci, cj = np.divmod(np.arange(ny * nr), nr)
+        for k in range(N):
+            xk1 = self.i_x + k * nr  # ξ(k+1)
+            put(r + np.arange(nr), xk1 + np.arange(nr), 1.0)
+            if k > 0:
+                slot("Ak")
+                put(r + ii, self.i_x + (k - 1) * nr + jj, -self._blocks["Ak"][k])
+            slot("Bk")
+            put(r + bi, blk[k] * nu + bj, -self._blocks["Bk"][k])
+            r += nr
+            put(r + np.arange(ny), self.i_y + k * ny + np.arange(ny), 1.0)
+            put(r + ci, xk1 + cj, -self.Cr)
+            slot("Dk")
+            put(r + di, blk[k] * nu + dj, -self._blocks["Dk"][k])
+            r += ny
+        return r
+
+    def _prediction_rhs(self, y0):
+        out = np.zeros((self.N, self.nr + self.ny))
+        out[:, self.nr :] = y0.reshape(self.N, self.ny)
+        return out.ravel()
+
+    def update_blocks(self, Ak=None, Bk=None, Dk=None):
+        """Replace the time-varying blocks in place (a new linearisation)."""
+        new = {k: np.asarray(v, float) for k, v in (("Ak", Ak), ("Bk", Bk), ("Dk", Dk)) if v is not None}
+        self._check_blocks(**new)
+        self._blocks.update(new)
+        upd = {}
+        if "Ak" in new:  # one slot per step k >= 1, in step order
+            for k, start in zip(range(1, self.N), self._slots["Ak"]):
+                v = -new["Ak"][k].ravel()
+                self._coo_data[start : start + v.size] = v
+        for name in ("Bk", "Dk"):
+            if name in new:
+                for k, start in enumerate(self._slots[name]):
+                    v = -new[name][k].ravel()
+                    self._coo_data[start : start + v.size] = v
+        self._update_slots(**upd)
 
 
 def save_problem(path, arrays: dict) -> Path:
@@ -451,7 +578,7 @@ def replay_problem(path, **clarabel_settings):
     d = np.load(path, allow_pickle=False)
     P = sparse.csc_matrix((d["P_data"], d["P_indices"], d["P_indptr"]), shape=tuple(d["P_shape"]))
     A = sparse.csc_matrix((d["A_data"], d["A_indices"], d["A_indptr"]), shape=tuple(d["A_shape"]))
-    cones = [clarabel.NonnegativeConeT(int(d["n_nonneg"]))]
+    cones = [clarabel.ZeroConeT(int(d["n_zero"])), clarabel.NonnegativeConeT(int(d["n_nonneg"]))]
     if int(d["n_soc"]):
         cones.append(clarabel.SecondOrderConeT(int(d["n_soc"])))
     s = clarabel.DefaultSettings()

@@ -204,6 +204,20 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
     )
 
 
+def steady_state_at(model: RCNetworkModel, v, q, target=21.0) -> np.ndarray:
+    """Equilibrium state (nx,) whose mean zone temperature is ``target`` [°C].
+
+    All boxes run at the same fraction of their range, found by bisection;
+    the fraction is clipped to [0, 1], so the target may not be met.
+    """
+    lo, hi = 0.0, 1.0
+    for _ in range(60):
+        a = 0.5 * (lo + hi)
+        x = model.steady_state(model.m_min + a * (model.m_max - model.m_min), v, q)
+        lo, hi = (a, hi) if model.output(x).mean() > target else (lo, a)
+    return x
+
+
 def synthetic_week(model: RCNetworkModel, n_steps=672, seed=0, T_out_mean=16.0, T_supply=13.0):
     """Disturbances and internal gains for a week of office operation.
 
