@@ -120,6 +120,7 @@ def export_fmu(model_path, out_path) -> Path:
         layout, _ = zone_model_layout(model)
     except ValueError as exc:
         raise FMUError(f"cannot export {model_path}: {exc}") from None
+    _warn_calendar_gains(model, model_path)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
         res = Path(tmp) / "model.json"
         shutil.copyfile(model_path, res)
@@ -128,6 +129,31 @@ def export_fmu(model_path, out_path) -> Path:
         path = _build(slave_script(model.kind), out_path, [res, interface])
     logger.info("exported %s model %s to %s", model.kind, model_path, path)
     return path
+
+
+def _warn_calendar_gains(model, model_path):
+    """Warn when the model's gains depend on the calendar (holidays ...), which the FMU clock cannot follow."""
+    import warnings
+
+    import numpy as np
+    import pandas as pd
+
+    from .errors import HvacfmuWarning
+    from .models.base import ZoneModel
+    from .timeutil import time_of_week
+
+    if type(model).gains_at is ZoneModel.gains_at:
+        return
+    index = pd.date_range("2025-01-06", "2026-01-05", freq=f"{int(model.step)}s", tz="UTC", inclusive="left")
+    for season, prof in model.gains.items():
+        prof = np.asarray(prof)
+        plain = prof[time_of_week(index, model.step) % prof.shape[0]]
+        if not np.array_equal(np.asarray(model.gains_at(index, season)), plain):
+            warnings.warn(
+                f"{model_path}: the {model.kind} model's internal gains depend on the calendar (e.g. holidays); "
+                "the FMU uses the seasonal time-of-week profile and will differ from the Python model on those days",
+                HvacfmuWarning, stacklevel=3)
+            return
 
 
 def export_plant_fmu(truth_path, out_path) -> Path:

@@ -540,11 +540,24 @@ def read_layout(resources, model_layout, resource_name):
 # =============================================================================
 # zone models
 # =============================================================================
+def box_names(model) -> tuple:
+    """VAV box names of a model: ``model.vavs``, ``model.base.vavs`` or ``model.building.vav_names``."""
+    for get in (lambda m: m.vavs, lambda m: m.base.vavs, lambda m: m.building.vav_names):
+        try:
+            names = tuple(get(model) or ())
+        except AttributeError:
+            continue
+        if names:
+            return names
+    return ()
+
+
 def input_matrix(model) -> tuple[np.ndarray | None, tuple]:
     """The linear map from VAV-box airflows to the model's controlled inputs.
 
     Probes ``model.signals`` with unit airflows, so it works for every model
-    kind that sums (or passes through) box airflows.
+    kind that sums (or passes through) box airflows. Box names come from
+    :func:`box_names`.
 
     Returns
     -------
@@ -555,7 +568,7 @@ def input_matrix(model) -> tuple[np.ndarray | None, tuple]:
     """
     import pandas as pd
 
-    vavs = tuple(getattr(model, "vavs", ()) or ())
+    vavs = box_names(model)
     if not vavs:
         return None, ()
     n = len(vavs)

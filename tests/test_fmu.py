@@ -21,7 +21,7 @@ from numpy.testing import assert_allclose
 
 from hvacfmu.errors import FMUError, HvacfmuWarning, ModelError
 from hvacfmu.fmu import export_fmu, export_plant_fmu, validate
-from hvacfmu.fmu_slave import state_from_outputs
+from hvacfmu.fmu_slave import box_names, state_from_outputs
 from hvacfmu.models.linear import LinearZoneModel
 
 DIST = ("T_out", "T_supply", "I_N", "I_E", "I_S", "I_W")
@@ -55,6 +55,19 @@ def lumped_model(building, seed=1):
         A=[[0.94]], B=[[-0.12]], C=[[0.02, 0.02]],
         gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names},
     )
+
+
+def extended_model(building, seed=3):
+    """Model A plus extension terms with hidden states, a bilinear term and solar gain."""
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain, SupplyAirBilinear, ThermalMass
+
+    base = zones_model(building, seed=seed)
+    return ExtendedModel(base=base, terms=(
+        SolarGain(zone="S", facade="S", coef=4e-4),
+        SupplyAirBilinear(zone="NW", coef=0.02),
+        ThermalMass(zone="C", alpha=0.02, beta=0.05),
+        ActuationDelay(zone="E", delay=2),
+    ))
 
 
 def physics_model(building, seed=2):
@@ -91,7 +104,7 @@ def built(tmp_path_factory, fmu_data, sdh_building):
     """kind -> (model, model path, FMU path), each FMU built once."""
     d = tmp_path_factory.mktemp("fmus")
     models = {"lumped": lumped_model(fmu_data.building), "zones": zones_model(fmu_data.building),
-              "physics": physics_model(sdh_building)}
+              "physics": physics_model(sdh_building), "extended": extended_model(fmu_data.building)}
     out = {}
     for kind, model in models.items():
         mp = model.save(d / f"{kind}.json")
@@ -163,7 +176,7 @@ def fmu_setup(model, building, dataset, week):
 
 def reference(model, idx, m, v, y0, season):
     u, _ = model.signals(pd.DataFrame(
-        {**{f"m_{b}": m[:, j] for j, b in enumerate(model.vavs if hasattr(model, "vavs") else model.building.vav_names)},
+        {**{f"m_{b}": m[:, j] for j, b in enumerate(box_names(model))},
          **{d: v[:, j] for j, d in enumerate(model.disturbances)}}, index=idx))
     q = model.gains_at(idx, season)
     _, Y = model.simulate(state_from_outputs(model, y0), u, v, q)
@@ -171,7 +184,7 @@ def reference(model, idx, m, v, y0, season):
 
 
 # ----------------------------------------------------------------------------- tests
-@pytest.mark.parametrize("kind", ["lumped", "zones", "physics"])
+@pytest.mark.parametrize("kind", ["lumped", "zones", "physics", "extended"])
 def test_validate_and_description(built, kind):
     from fmpy import read_model_description
 
@@ -181,7 +194,7 @@ def test_validate_and_description(built, kind):
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
     assert md.coSimulation.canHandleVariableCommunicationStepSize is False
     assert md.coSimulation.modelIdentifier == {"lumped": "HvacfmuLumped", "zones": "HvacfmuZones",
-                                                "physics": "HvacfmuPhysics"}[kind]
+                                                "physics": "HvacfmuPhysics", "extended": "HvacfmuExtended"}[kind]
     names = {v.name: v for v in md.modelVariables}
     assert not [n for n in names if any(c in n for c in ".[]")]
     for v in md.modelVariables:
@@ -190,7 +203,7 @@ def test_validate_and_description(built, kind):
     for z in model.outputs:
         assert names[f"T_{z}"].causality == "output" and names[f"T_{z}"].unit == "degC"
         assert names[f"T_{z}_start"].causality == "parameter"
-    for b in model.building.vav_names if kind == "physics" else model.vavs:
+    for b in box_names(model):
         assert names[f"m_{b}"].unit == "kg/s" and names[f"m_{b}"].causality == "input"
     for d in model.disturbances:
         assert names[d].unit == ("degC" if d.startswith("T_") else "W/m2")
@@ -201,7 +214,7 @@ def test_validate_and_description(built, kind):
         assert json.loads(z.read("resources/model.json")) == json.loads(Path(built[kind][1]).read_text())
 
 
-@pytest.mark.parametrize("kind", ["lumped", "zones", "physics"])
+@pytest.mark.parametrize("kind", ["lumped", "zones", "physics", "extended"])
 def test_week_matches_python_model(built, fmu_data, kind):
     """672 steps with measured inputs through FMPy equal the Python model to 1e-9 K."""
     model, _, path = built[kind]
@@ -219,7 +232,7 @@ def test_week_matches_python_model(built, fmu_data, kind):
     assert np.ptp(Yref) > 0.5  # the trajectory moves: the comparison is not trivial
 
 
-@pytest.mark.parametrize("kind", ["zones", "physics"])
+@pytest.mark.parametrize("kind", ["zones", "physics", "extended"])
 def test_state_save_restore_mid_week(built, fmu_data, kind):
     """Serialised state restored mid-week (also into a fresh instance) reproduces the run exactly."""
     model, _, path = built[kind]
