@@ -349,6 +349,9 @@ def test_bad_parameters(two_zone):
 def test_duplicate_element_names_warn(two_zone):
     d = two_zone_dict()
     d["elements"][1]["name"] = "A_S_wall"
+    from hvacfmu.models.physics import geometry
+
+    geometry._WARNED.clear()
     with pytest.warns(HvacfmuWarning, match="elements names used more than once"):
         net = assemble(building_from_dict(d))
     assert len(set(net.node_names)) == net.n_states
@@ -508,3 +511,27 @@ def test_model_file_errors(recovered):
     bad["params"]["gamma_floor"] = 0.0
     with pytest.raises(ModelError, match="gamma_floor"):
         model_from_dict(bad)
+
+
+# --------------------------------------------------------------------------- the emulator's default dataset
+def test_default_dataset_evaluation(default_dataset):
+    """Model B on the default 51-week emulated dataset: a complete Table I that beats persistence.
+
+    A reduced identification (8 weekend segments, 6 iterations) keeps the test short;
+    ``benchmarks/bench_model_b.py`` runs the full one.
+    """
+    evaluation = pytest.importorskip("hvacfmu.evaluation")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        model = fit_physics(default_dataset, progress=False, max_segments=8, max_nfev=6)
+        result = evaluation.evaluate(model, default_dataset)
+    table = result.format_table()
+    for season in default_dataset.seasons:
+        assert season in table
+    assert model.n_states > 200
+    tab = result.table()
+    pers = result.table(which="persistence")
+    assert set(default_dataset.seasons) <= set(tab.index)
+    assert np.all(np.isfinite(tab.to_numpy()))
+    assert tab.loc["all", "mean"] < 0.4  # [K]; the full fit gives 0.21 K, Model A 0.28 K
+    assert np.all(tab.loc["all"] < 0.5 * pers.loc["all"])  # every zone at least twice better than persistence

@@ -49,6 +49,7 @@ DEFAULT_FURNITURE_CAPACITY = 3000.0
 #: Default maximum thickness of one node of a massive layer [m].
 DEFAULT_MAX_LAYER_THICKNESS = 0.02
 
+_WARNED: set = set()
 _MATERIAL_KEYS = {"name", "conductivity", "density", "specific_heat", "r_value"}
 _CONSTRUCTION_KEYS = {"name", "layers", "films"}
 _LAYER_KEYS = {"material", "thickness"}
@@ -196,9 +197,11 @@ def _names(rows, kind, problems, warn_duplicates=False):
             problems.append(f"{kind}[{i}]: missing 'name'")
     dups = sorted({n for n in names if n and names.count(n) > 1})
     if dups and warn_duplicates:
-        # elements and windows are never referenced by name: keep them all, but say so
-        warnings.warn(f"{kind} names used more than once: {dups} (all are kept; check for duplicated entries)",
-                      HvacfmuWarning, stacklevel=3)
+        # elements and windows are never referenced by name: keep them all, but say so (once per process)
+        msg = f"{kind} names used more than once: {dups} (all are kept; check for duplicated entries)"
+        if msg not in _WARNED:
+            _WARNED.add(msg)
+            warnings.warn(msg, HvacfmuWarning, stacklevel=3)
     else:
         for n in dups:
             problems.append(f"{kind} name {n!r} is used more than once")
