@@ -78,7 +78,7 @@ def run_python_loop(model, x0, u, v, q):
     return time.perf_counter() - t
 
 
-def open_fmu(path, model, y0, instance):
+def open_fmu(path, model, y0, instance, first_inputs):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
@@ -91,13 +91,15 @@ def open_fmu(path, model, y0, instance):
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.setReal([vr[f"T_{z}_start"] for z in model.outputs], list(y0))
+    names, values = first_inputs
+    fmu.setReal([vr[n] for n in names], [float(x) for x in values])
     fmu.exitInitializationMode()
     return fmu, vr
 
 
 def run_fmu(path, model, building, m, v, y0, raw):
-    fmu, vr = open_fmu(path, model, y0, "bench")
     names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
+    fmu, vr = open_fmu(path, model, y0, "bench", (names_in, np.hstack([m[0], v[0]])))
     names_out = [f"T_{z}" for z in model.outputs]
     vin, vout = [vr[n] for n in names_in], [vr[n] for n in names_out]
     W = np.hstack([m, v])
@@ -169,7 +171,7 @@ def main():
             season = list(model.gains)[0]
             q = model.gains_at(index, season)
             y0 = np.full(model.n_outputs, 21.0)
-            x0 = state_from_outputs(model, y0)
+            x0 = state_from_outputs(model, y0, u[0], v[0], q[0])
             py = [run_python(model, x0, u, v, q) for _ in range(args.repeats)]
             loop = [run_python_loop(model, x0, u, v, q) for _ in range(args.repeats)]
             fm, raw = [], []

@@ -489,6 +489,9 @@ def run_cosim(
         out_off = np.array([offset(k) for k in out_names])
         Vmat = np.column_stack([V[k] for k in inputs]) if inputs else np.zeros((n, 0))
         nc = len(controls)
+        by_name = {b.name: b for b in building.vavs}
+        m_init = np.array([frame[f"m_{b}"].iloc[0] if f"m_{b}" in frame else np.nan for b in vavs], dtype=float)
+        m_init = np.where(np.isfinite(m_init), m_init, [by_name[b].m_min for b in vavs])
 
         try:
             fmu.setupExperiment(startTime=t0)
@@ -499,7 +502,11 @@ def run_cosim(
                     fmu.setInteger([var.vr], [int(value)])
                 else:
                     fmu.setReal([var.vr], [float(value)])
-            in_np[nc:] = Vmat[0] + in_off[nc:] if len(inputs) else in_np[nc:]
+            # first inputs before leaving initialisation (as FMPy does): row 0's disturbances and the
+            # measured airflows of row 0 (box minimum where missing); they set the FMU's unobserved states
+            in_np[:nc] = m_init
+            in_np[nc:] = Vmat[0] + in_off[nc:]
+            fmu.fmi2SetReal(fmu.component, in_vr, len(in_names), in_val)
             fmu.exitInitializationMode()
             fmu.fmi2GetReal(fmu.component, out_vr, len(out_names), out_val)
         except Exception as exc:  # noqa: BLE001

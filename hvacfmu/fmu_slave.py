@@ -605,10 +605,23 @@ def output_matrix(model) -> np.ndarray:
     return C
 
 
-def state_from_outputs(model, y0) -> np.ndarray:
-    """Initial state with outputs ``y0`` [°C]; unobserved states (walls, masses) start at mean(y0).
+def state_from_outputs(model, y0, u=None, v=None, q=None) -> np.ndarray:
+    """Initial state with outputs ``y0`` [°C]; unobserved states at their steady state.
 
     For models whose state is the zone temperatures this is ``x0 = y0``.
+    Otherwise (walls, thermal masses, delayed airflows) the unobserved states
+    are at their steady state for outputs held at ``y0`` and inputs ``u``
+    [kg/s], disturbances ``v`` and gains ``q`` held: the unobserved part of
+    ``x = F x + g`` is solved with ``output(x0) = y0`` (the affine step map
+    ``F, g`` is found by probing ``step_state``). Without inputs, or if the step is not affine in
+    the state, unobserved states start at ``mean(y0)``.
+
+    Parameters
+    ----------
+    model : ZoneModel
+    y0 : array (n_outputs,) [°C]
+    u, v, q : arrays, optional
+        The model's inputs, disturbances and gain term at the start.
     """
     y0 = np.asarray(y0, dtype=float)
     C = output_matrix(model)
@@ -616,8 +629,28 @@ def state_from_outputs(model, y0) -> np.ndarray:
     if C.shape[0] == nx and np.array_equal(C, np.eye(nx)):
         return y0.copy()
     x_ref = np.full(nx, float(np.mean(y0)))
-    x0 = x_ref + np.linalg.pinv(C) @ (y0 - C @ x_ref)
-    return x0
+    fallback = x_ref + np.linalg.pinv(C) @ (y0 - C @ x_ref)
+    if u is None or v is None or q is None:
+        return fallback
+    u, v, q = (np.asarray(a, dtype=float) for a in (u, v, q))
+    try:
+        g = np.asarray(model.step_state(np.zeros(nx), u, v, q), dtype=float)
+        F = np.column_stack([np.asarray(model.step_state(e, u, v, q), dtype=float) - g for e in np.eye(nx)])
+        probe = np.random.default_rng(2).uniform(10.0, 30.0, nx)
+        if not np.allclose(model.step_state(probe, u, v, q), F @ probe + g, rtol=1e-9, atol=1e-9):
+            return fallback
+        from scipy.linalg import null_space
+
+        N = null_space(C)
+        xp = np.linalg.pinv(C) @ y0
+        if N.shape[1] == 0:
+            return xp
+        R = N.T @ (F - np.eye(nx))  # steady state of the unobserved part only
+        z = np.linalg.lstsq(R @ N, -(R @ xp + N.T @ g), rcond=None)[0]
+        x0 = xp + N @ z
+    except Exception:  # noqa: BLE001 - a model whose step cannot be probed keeps the simple start
+        return fallback
+    return x0 if np.all(np.isfinite(x0)) else fallback
 
 
 def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
@@ -766,7 +799,14 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._n_slots = self._profile.shape[0]
         # slot of model step k: floor((tow + t_start)/step) + k  (mod n_slots)
         self._slot0 = int(math.floor((tow + self._t_start) / self._step + 1e-9))
-        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float))
+        # inputs set before fmi2ExitInitializationMode (FMPy applies the first input row) start the state
+        w = np.array(self._get_inputs(v), dtype=float)
+        nm = self._nm
+        if not np.all(np.isfinite(w)):
+            return ["inputs at initialisation are not finite"]
+        u0 = w[:nm] @ self._MT if self._MT is not None else w[:nm]
+        q0 = self._profile[self._slot0 % self._n_slots]
+        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, w[nm:], q0)
         self._k = 0
         self._t = self._t_start
         self._write_outputs(np.asarray(self.model.output(self._x), dtype=float).tolist())

@@ -69,7 +69,7 @@ def test_replay_run_equals_python_model(zones, data):
     y0 = tab[[f"T_{z}" for z in model.outputs]].iloc[0].to_numpy()
     measured = data.week_frame(week)[[f"T_{z}" for z in model.outputs]].interpolate(limit_direction="both")
     assert_allclose(y0, measured.iloc[0].to_numpy(), rtol=0, atol=1e-12)  # started from measurement
-    _, Y = model.simulate(state_from_outputs(model, y0), u, v, q)
+    _, Y = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
     assert_allclose(tab[[f"T_{z}" for z in model.outputs]].to_numpy(), Y, rtol=0, atol=EXACT)
     # the replayed airflows are the measured ones where measured
     meas = data.week_frame(week)[[f"m_{b}" for b in data.building.vav_names]].to_numpy()
