@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 
 from ..models.extended import (
     ActuationDelay,
@@ -28,12 +29,12 @@ from ..models.extended import (
     dst_active,
     reheat_feature,
 )
-from .design import MAX_DELAY, Signals, Within, effective_inputs, term_features
+from .design import MAX_DELAY, Signals, Within, base_solar, effective_inputs, term_features
 
-#: Thermal-mass filter constants tried [1/step] (time constants 50 h ... 2.5 h at 15 min).
-ALPHAS = (0.005, 0.01, 0.02, 0.05, 0.1)
+#: Thermal-mass filter constants tried [1/step] (time constants 125 h ... 2.5 h at 15 min).
+ALPHAS = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1)
 #: Outdoor-temperature thresholds tried for reheat [°C].
-REHEAT_THRESHOLDS = (6.0, 8.0, 10.0, 12.0, 14.0, 16.0)
+REHEAT_THRESHOLDS = (8.0, 10.0, 12.0, 14.0, 16.0)
 #: Minimum rows in a regime for a reheat candidate to be testable.
 MIN_REGIME_ROWS = 50
 
@@ -164,8 +165,8 @@ def generate(sig: Signals, terms, W: Within, resid: np.ndarray, options: dict) -
                 out.append(Candidate("solar_gain", loc, status="untestable",
                                      reason="no solar data (ghi or facade irradiance) in the dataset"))
                 continue
-            if ("solar_gain", (z, o)) in have:
-                continue
+            if ("solar_gain", (z, o)) in have or base_solar(sig, zi, o) != 0.0:
+                continue  # already a solar path of the model
             I = sig.V[f"I_{o}"]
             r = resid[:, zi]
             Ir = I[rows]
@@ -299,30 +300,55 @@ def day_departures(sig: Signals, resid_all: np.ndarray, ref_weekday: int = 6) ->
 
 
 def _holiday_candidate(sig: Signals, terms, options) -> Candidate:
+    """Weekdays whose gains looked like a weekend day: single days and whole weeks.
+
+    A weekday is picked when its departure scale ``gamma`` (see :func:`day_departures`)
+    reaches ``holiday_gamma`` and lies ``holiday_z`` robust standard deviations above the
+    median of all weekdays; the weekdays of a week are picked together when the week's
+    mean ``gamma`` reaches ``holiday_week_gamma`` (holiday weeks: the building's mass
+    makes the first days of a quiet week look less quiet). Dates are a calendar: they
+    are screened on every week, while coefficients are fitted on training weeks only.
+    """
     resid_all = options.get("_resid_all")
     if resid_all is None or sig.n_tow % 7:
         return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="untestable",
                          reason="no one-step residuals")
     deps = day_departures(sig, resid_all)
-    g_min, t_min = options["holiday_gamma"], options["holiday_t"]
-    picked = [d for d in deps if d["gamma"] >= g_min and d["t"] >= t_min]
     gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
-    ev = {"weekdays_checked": len(deps),
-          "gamma_median": float(np.median(gam)) if len(gam) else None,
-          "gamma_iqr": float(np.subtract(*np.percentile(gam, [75, 25]))) if len(gam) else None,
-          "days": sorted(picked, key=lambda d: -d["gamma"])[:20],
-          "rule": f"weekday with gamma >= {g_min:g} and t >= {t_min:g}"}
+    med = float(np.median(gam)) if len(gam) else 0.0
+    mad = float(1.4826 * np.median(np.abs(gam - med))) if len(gam) else 0.0
+    scale = max(mad, 0.05)
+    for d in deps:
+        d["z"] = (d["gamma"] - med) / scale
+    g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
+    picked = {d["date"] for d in deps if d["gamma"] >= g_min and d["z"] >= z_min}
+    by_week = {}
+    for d in deps:
+        wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
+        by_week.setdefault(wk, []).append(d)
+    weeks = []
+    for wk, ds in by_week.items():
+        g = float(np.mean([d["gamma"] for d in ds]))
+        if len(ds) >= 3 and g >= gw_min and (g - med) / scale >= z_min / 2:
+            weeks.append({"week": wk, "gamma": g})
+            picked |= {d["date"] for d in ds}
+    ev = {"weekdays_checked": len(deps), "gamma_median": med, "gamma_robust_std": mad,
+          "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
+          "weeks": weeks,
+          "rule": f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g}"}
     if len(deps) < 10:
         return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="untestable", evidence=ev,
                          reason=f"only {len(deps)} weekdays with data")
     if not picked:
         return Candidate("internal_gain_schedule", {"variant": "holiday"}, status="not significant", evidence=ev,
                          reason="no weekday departs from the seasonal profile toward a weekend day")
-    dates = tuple(sorted(d["date"] for d in picked))
+    dates = tuple(sorted(picked))
     term = InternalGainSchedule(variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
                                 dates=dates, ref_weekday=6)
+    n_choices = len(weeks) + len([d for d in dates if not any(d in {x["date"] for x in by_week[w["week"]]}
+                                                              for w in weeks)])
     return Candidate("internal_gain_schedule", {"variant": "holiday", "dates": list(dates)}, [term],
-                     len(dates), evidence=ev)
+                     max(n_choices, 1), evidence=ev)
 
 
 def _dst_candidate(sig: Signals, W: Within) -> Candidate:

@@ -35,6 +35,7 @@ from ..models.extended import (
     SupplyAirBilinear,
     ThermalMass,
     ZoneCoupling,
+    dst_active,
     ema_series,
     reheat_feature,
 )
@@ -90,10 +91,14 @@ class Signals:
     test: np.ndarray
     valid: np.ndarray
     group: np.ndarray
+    tow: np.ndarray
+    season_id: np.ndarray
+    dst: np.ndarray
     seasons: tuple
     n_tow: int
     step: float
     u_min: np.ndarray
+    volumes: np.ndarray
     facades: tuple
     neighbours: tuple
     base_q: np.ndarray
@@ -176,9 +181,11 @@ def make_signals(dataset, model) -> Signals:
         base_q[m] = prof[tow[m]]
     # structure
     if base.kind == "zones":
+        volumes = np.array([b.zone(z).volume if z in b.zone_names else 1.0 for z in zones])
         facades = tuple(b.zone(z).orientations if z in b.zone_names else () for z in zones)
         u_min = np.array([sum(v.m_min for v in b.vavs_of(z)) for z in zones])
     else:
+        volumes = np.full(len(zones), sum(z.volume for z in b.zones))
         facades = (tuple(o for o in "NESW" if any(o in z.orientations for z in b.zones)),) * len(zones)
         u_min = np.array([sum(v.m_min for v in b.vavs) * float(base.input_map[i].max()) for i in range(len(zones))])
     adj = np.abs(base.A) > 0
@@ -190,7 +197,8 @@ def make_signals(dataset, model) -> Signals:
     neighbours = tuple(tuple(j for j in range(len(zones)) if j != i and adj[i, j]) for i in range(len(zones)))
     return Signals(
         index=frame.index, zones=zones, Y=Y, U=U, V=V, season=season, week=week, train=train, test=test,
-        valid=valid, group=group, seasons=seasons, n_tow=n_tow, step=float(dataset.step), u_min=u_min,
+        valid=valid, group=group, tow=tow, season_id=s_id, dst=dst_active(frame.index), seasons=seasons,
+        n_tow=n_tow, step=float(dataset.step), u_min=u_min, volumes=volumes,
         facades=facades, neighbours=neighbours, base_q=base_q, base_profiles=base_profiles,
         has_solar=has_solar, base=base,
     )
@@ -246,9 +254,11 @@ def term_features(sig: Signals, term, U_eff: np.ndarray) -> list:
         i = zi[term.zone]
         return [(i, "coef", U_eff[:, i] * (V["T_supply"] - Y[:, i]), 0.0, np.inf)]
     if isinstance(term, ZoneCoupling):
+        # one conductance shared by both zones: coef_ab = k V̄/V_a, coef_ba = k V̄/V_b
         a, b = zi[term.zone_a], zi[term.zone_b]
+        ra, rb = coupling_ratios(sig, a, b)
         d = Y[:, b] - Y[:, a]
-        return [(a, "coef_ab", d, 0.0, 1.0), (b, "coef_ba", -d, 0.0, 1.0)]
+        return [(a, "k", d * ra, 0.0, 1.0), (b, "k", -d * rb, 0.0, 1.0)]
     if isinstance(term, ThermalMass):
         i = zi[term.zone]
         return [(i, "beta", ema_series(Y[:, i], term.alpha) - Y[:, i], 0.0, 1.0)]
@@ -266,6 +276,13 @@ def term_features(sig: Signals, term, U_eff: np.ndarray) -> list:
     if isinstance(term, ActuationDelay):
         return []
     raise TypeError(f"unknown term {term!r}")
+
+
+def coupling_ratios(sig: Signals, a: int, b: int):
+    """``V̄/V_a, V̄/V_b``: a symmetric conductance raises the smaller zone's temperature more."""
+    va, vb = float(sig.volumes[a]), float(sig.volumes[b])
+    vm = 0.5 * (va + vb)
+    return vm / va, vm / vb
 
 
 @dataclasses.dataclass
@@ -302,17 +319,13 @@ def zone_design(sig: Signals, z: int, terms, U_eff=None, feats=None) -> ZoneDesi
     for c in base_disturb:
         if c in ("T_out", "T_supply"):
             add(f"c[{c}]", sig.V[c], 0.0, np.inf)
-        elif c.startswith("I_") and c in sig.V:
-            # the base model's solar coefficients are kept fixed: solar_gain terms add to them
-            ci = sig.base.C[z, base_disturb.index(c)]
-            if ci != 0.0:
-                offset = offset + ci * sig.V[c]
+        elif c.startswith("I_") and c in sig.V and base_solar(sig, z, c[2:]) != 0.0:
+            # solar paths the base model uses are part of its structure (refitted, c >= 0)
+            add(f"c[{c}]", sig.V[c], 0.0, np.inf)
     for ti, t in enumerate(terms):
         fl = feats[ti] if feats is not None else term_features(sig, t, U_eff)
         for (zz, name, col, low, high) in fl:
             if zz == z:
-                if isinstance(t, SolarGain):  # total solar coefficient must stay >= 0
-                    low = -base_solar(sig, z, t.facade)
                 add(name, col, low, high, ti)
     return ZoneDesign(names, np.column_stack(cols), np.array(lo), np.array(hi), owner, offset)
 
@@ -419,45 +432,117 @@ def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None) 
     nz = sig.nz
     A = np.zeros((nz, nz))
     B = np.zeros_like(base.B)
-    C = np.array([[base.C[z, j] if c.startswith("I_") else 0.0 for j, c in enumerate(base.disturbances)]
-                  for z in range(sig.nz)]).reshape(base.C.shape)
+    C = np.zeros_like(base.C)
     coefs = [dict() for _ in terms]
     stds = [dict() for _ in terms]
-    lss, names = [], []
+    lss, names = [None] * nz, [None] * nz
     resid = np.zeros((len(rows), nz))
     target_next = np.vstack([sig.Y[1:], np.full((1, nz), np.nan)])
     yhat_wo_q = np.zeros((len(sig.Y), nz))
-    for z in range(nz):
-        D = zone_design(sig, z, terms, U_eff, feats)
-        Xw = W(D.X)
-        yw = W(target_next[:, z] - D.offset)
-        ls = bounded_ls(Xw, yw, D.lower, D.upper, dof_extra=W.n_groups)
-        lss.append(ls)
-        names.append(D.names)
-        resid[:, z] = yw - Xw @ ls.theta
-        with np.errstate(invalid="ignore"):
-            yhat_wo_q[:, z] = D.X @ ls.theta + D.offset
-        sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
-        for k, (nm, own) in enumerate(zip(D.names, D.owner)):
-            th = float(ls.theta[k])
-            if own >= 0:
-                coefs[own][nm] = th
-                stds[own][nm] = float(sd[k])
-            elif nm == "a_self":
-                A[z, z] = th
-            elif nm.startswith("a["):
-                A[z, sig.zones.index(nm[2:-1])] = th
-            elif nm == "b":
-                B[z, z] = th
-            else:
-                C[z, base.disturbances.index(nm[2:-1])] = th
+    for block in coupled_blocks(sig, terms):
+        bf = fit_block(sig, W, block, terms, U_eff, feats, target_next)
+        for z in block:
+            D = bf.designs[z]
+            th = bf.theta_of(z)
+            lss[z] = bf.zone_ls[z]
+            names[z] = D.names
+            resid[:, z] = bf.resid[z]
+            with np.errstate(invalid="ignore"):
+                yhat_wo_q[:, z] = D.X @ th + D.offset
+            sd = bf.std_of(z)
+            for k, (nm, own) in enumerate(zip(D.names, D.owner)):
+                if own >= 0:
+                    coefs[own][nm] = float(th[k])
+                    stds[own][nm] = float(sd[k])
+                elif nm == "a_self":
+                    A[z, z] = th[k]
+                elif nm.startswith("a["):
+                    A[z, sig.zones.index(nm[2:-1])] = th[k]
+                elif nm == "b":
+                    B[z, z] = th[k]
+                else:
+                    C[z, base.disturbances.index(nm[2:-1])] = th[k]
     gains = _gains_from_fit(sig, rows, target_next - yhat_wo_q, W)
     new_base = dataclasses.replace(base, A=A, B=B, C=C, gains=gains,
                                    meta={**{k: v for k, v in base.meta.items() if k != "uncertainty"},
                                          "refit": "diagnosis within-LS"})
-    new_terms = [_with_coefs(t, coefs[i], stds[i], sig.zones) for i, t in enumerate(terms)]
+    new_terms = [_with_coefs(sig, t, coefs[i], stds[i], sig.zones) for i, t in enumerate(terms)]
     model = ExtendedModel(base=new_base, terms=tuple(new_terms))
     return StructureFit(model, lss, names, len(rows), resid)
+
+
+def coupled_blocks(sig: Signals, terms) -> list:
+    """Zone index groups whose equations share a parameter (zones joined by a coupling term)."""
+    parent = list(range(sig.nz))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for t in terms:
+        if isinstance(t, ZoneCoupling):
+            a, b = find(sig.zones.index(t.zone_a)), find(sig.zones.index(t.zone_b))
+            parent[a] = b
+    blocks = {}
+    for i in range(sig.nz):
+        blocks.setdefault(find(i), []).append(i)
+    return sorted(blocks.values())
+
+
+@dataclasses.dataclass
+class BlockFit:
+    """Joint least squares of several zone equations with shared term parameters."""
+
+    designs: dict
+    keys: list
+    cols: dict  # zone -> column keys of its design
+    theta: np.ndarray
+    sd: np.ndarray
+    zone_ls: dict  # zone -> LSResult-like (rss, n, sigma2) for LR tests
+    resid: dict
+
+    def theta_of(self, z):
+        return np.array([self.theta[self.keys.index(k)] for k in self.cols[z]])
+
+    def std_of(self, z):
+        return np.array([self.sd[self.keys.index(k)] for k in self.cols[z]])
+
+
+def fit_block(sig: Signals, W: Within, block, terms, U_eff, feats, target_next) -> BlockFit:
+    """Fit the equations of the zones in ``block`` jointly (stacked within-transformed rows)."""
+    designs = {z: zone_design(sig, z, terms, U_eff, feats) for z in block}
+    keys, lo, hi, cols = [], [], [], {}
+    for z in block:
+        D = designs[z]
+        cols[z] = []
+        for nm, own, lw, up in zip(D.names, D.owner, D.lower, D.upper):
+            key = (own, nm) if own >= 0 else (-1, z, nm)
+            cols[z].append(key)
+            if key not in keys:
+                keys.append(key)
+                lo.append(lw)
+                hi.append(up)
+    n = len(W.rows)
+    X = np.zeros((n * len(block), len(keys)))
+    y = np.empty(n * len(block))
+    for i, z in enumerate(block):
+        D = designs[z]
+        Xw = W(D.X)
+        for j, key in enumerate(cols[z]):
+            X[i * n:(i + 1) * n, keys.index(key)] = Xw[:, j]
+        y[i * n:(i + 1) * n] = W(target_next[:, z] - D.offset)
+    ls = bounded_ls(X, y, lo, hi, dof_extra=W.n_groups * len(block))
+    sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
+    res = y - X @ ls.theta
+    zone_ls, resid = {}, {}
+    for i, z in enumerate(block):
+        r = res[i * n:(i + 1) * n]
+        resid[z] = r
+        rss = float(r @ r)
+        zone_ls[z] = LSResult(None, rss, n, None, rss / max(n - len(cols[z]) - W.n_groups, 1))
+    return BlockFit(designs, keys, cols, ls.theta, sd, zone_ls, resid)
 
 
 def _gains_from_fit(sig, rows, r, W: Within) -> dict:
@@ -498,12 +583,13 @@ def _fill_cyclic(prof):
     return out
 
 
-def _with_coefs(t, coefs: dict, stds: dict, zones):
+def _with_coefs(sig, t, coefs: dict, stds: dict, zones):
     if isinstance(t, (SolarGain, SupplyAirBilinear, Reheat)):
         return dataclasses.replace(t, coef=coefs.get("coef", 0.0), std={"coef": stds.get("coef", 0.0)})
     if isinstance(t, ZoneCoupling):
-        return dataclasses.replace(t, coef_ab=coefs.get("coef_ab", 0.0), coef_ba=coefs.get("coef_ba", 0.0),
-                                   std={"coef_ab": stds.get("coef_ab", 0.0), "coef_ba": stds.get("coef_ba", 0.0)})
+        ra, rb = coupling_ratios(sig, zones.index(t.zone_a), zones.index(t.zone_b))
+        k, sk = coefs.get("k", 0.0), stds.get("k", 0.0)
+        return dataclasses.replace(t, coef_ab=k * ra, coef_ba=k * rb, std={"coef_ab": sk * ra, "coef_ba": sk * rb})
     if isinstance(t, ThermalMass):
         return dataclasses.replace(t, beta=coefs.get("beta", 0.0), std={"beta": stds.get("beta", 0.0)})
     if isinstance(t, InternalGainSchedule):

@@ -26,7 +26,10 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     model : ZoneModel, path or None
         Base model: a Model A (``zones`` or ``lumped``) or an ``extended`` model (its
         terms are kept and more may be added). Default: fit the six-zone Model A on
-        the dataset's training weeks.
+        the dataset's training weeks with ``v = [T_out, T_supply]`` as in section III-B
+        of the paper (solar omitted), so that solar gains are tested as an extension.
+        Solar paths a given base model already uses are part of its structure and are
+        not candidates.
     plots : path or None
         Folder for the diagnostic figures.
     progress : bool
@@ -34,8 +37,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     **options
         Overrides of :data:`hvacfmu.diagnosis.selection.DEFAULT_OPTIONS`:
         ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
-        ``max_terms`` (8), ``max_tries`` (4), ``holiday_gamma`` (0.6), ``holiday_t``
-        (6.0), ``horizon`` (96 steps).
+        ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
+        ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``horizon`` (96 steps).
 
     Returns
     -------
@@ -57,10 +60,10 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     if model is None:
         from ..fitting import fit
 
-        say("fitting the six-zone Model A on the training weeks")
+        say("fitting the six-zone Model A (v = T_out, T_supply, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False)
+            model = fit(dataset, "zones", progress=False, use_solar=False)
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):
         from ..models import load_model

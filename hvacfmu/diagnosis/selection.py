@@ -34,13 +34,14 @@ import warnings
 import numpy as np
 from scipy import stats
 
-from ..models.extended import ActuationDelay, InternalGainSchedule
+from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat
 from . import candidates as cand
 from .design import (
     Signals,
     Within,
-    bounded_ls,
+    coupled_blocks,
     effective_inputs,
+    fit_block,
     fit_structure,
     term_features,
     zone_design,
@@ -50,12 +51,25 @@ DEFAULT_OPTIONS = {
     "bic_margin": 10.0,
     "min_gain_percent": 1.0,
     "min_gain_abs": 0.003,
-    "max_terms": 8,
-    "max_tries": 4,
+    "max_terms": 20,
+    "max_tries": 8,
     "holiday_gamma": 0.6,
-    "holiday_t": 6.0,
+    "holiday_z": 4.0,
+    "holiday_week_gamma": 0.4,
+    "schedule_min_scale": 0.5,
     "horizon": 96,
 }
+
+
+def _active_on(sig: Signals, term, which: str) -> bool:
+    """Whether the term changes anything on the valid rows of the training or test weeks."""
+    rows = sig.rows(which)
+    if len(rows) == 0:
+        return False
+    if isinstance(term, (InternalGainSchedule, Reheat)):
+        feats = term_features(sig, term, effective_inputs(sig, [term]))
+        return any(np.nanmax(np.abs(f[2][rows])) > 0 for f in feats)
+    return True
 
 
 def lag1(r: np.ndarray) -> float:
@@ -80,12 +94,16 @@ def _affected(sig: Signals, term) -> list:
     return [sig.zones.index(z) for z in term.zones()]
 
 
+def _is_dst(t) -> bool:
+    return isinstance(t, InternalGainSchedule) and t.variant == "dst_shift"
+
+
 def _n_coefs(sig, term) -> int:
     if isinstance(term, ActuationDelay):
         return 0
     if isinstance(term, InternalGainSchedule):
         return sig.nz
-    return len(term_features(sig, term, sig.U))
+    return len({f[1] for f in term_features(sig, term, sig.U)})
 
 
 def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.Candidate", options) -> None:
@@ -97,17 +115,21 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
         new_terms = list(terms) + [t]
         U_eff = effective_inputs(sig, new_terms)
         feats = [term_features(sig, tt, U_eff) for tt in new_terms]
+        aff = set(_affected(sig, t))
         lr, lr_adj, coefs = 0.0, 0.0, {}
-        for z in _affected(sig, t):
-            D = zone_design(sig, z, new_terms, U_eff, feats)
-            ls = bounded_ls(W(D.X), W(target[:, z] - D.offset), D.lower, D.upper, dof_extra=W.n_groups)
-            lr_z = N * np.log(cur_rss[z] / ls.rss)
-            lr += lr_z
-            lr_adj += lr_z * factors[z]
-            sd = np.sqrt(np.maximum(np.diag(ls.cov), 0))
-            for k, (nm, own) in enumerate(zip(D.names, D.owner)):
-                if own == len(new_terms) - 1:
-                    coefs[f"{sig.zones[z]}:{nm}"] = (float(ls.theta[k]), float(sd[k]))
+        for block in coupled_blocks(sig, new_terms):
+            if not aff & set(block):
+                continue
+            bf = fit_block(sig, W, block, new_terms, U_eff, feats, target)
+            for z in block:
+                lr_z = N * np.log(cur_rss[z] / bf.zone_ls[z].rss)
+                lr += lr_z
+                lr_adj += lr_z * factors[z]
+                th, sd = bf.theta_of(z), bf.std_of(z)
+                D = bf.designs[z]
+                for k, (nm, own) in enumerate(zip(D.names, D.owner)):
+                    if own == len(new_terms) - 1:
+                        coefs[f"{sig.zones[z]}:{nm}"] = (float(th[k]), float(sd[k]))
         if best is None or lr > best[1]:
             best = (t, lr, lr_adj, coefs)
     t, lr, lr_adj, coefs = best
@@ -132,8 +154,15 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
     if hasattr(t, "T_threshold"):
         c.location = {**c.location}
         c.evidence["T_threshold"] = float(t.T_threshold)
-    if isinstance(t, InternalGainSchedule) and t.variant == "dst_shift":
+    if _is_dst(t):
         c.location = {**c.location, "shift": int(t.shift)}
+    if isinstance(t, InternalGainSchedule):
+        # amplitude-weighted mean scale over the zones: ~1 for a real schedule change
+        feats = term_features(sig, t, sig.U)
+        w = np.array([np.sqrt(np.nanmean(f[2][W.rows] ** 2)) for f in feats])
+        g = np.array([coefs.get(f"{z}:coef[{z}]", (0.0, 0.0))[0] for z in sig.zones])
+        c.evidence["scale_mean"] = float((w @ g) / w.sum()) if w.sum() > 0 else 0.0
+        c.evidence["scale_by_zone"] = dict(zip(sig.zones, (float(x) for x in g)))
 
 
 def heldout_rms(model, dataset, horizon=96):
@@ -201,16 +230,20 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     """
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     rows = sig.rows("train")
-    W = Within(sig.group, rows)
     terms = list(initial_terms)
-    ref_fit = fit_structure(sig, terms, rows, W)
+    W = Within(sig.group, rows)
+    ref_fit = fit_structure(sig, terms, rows)
     cur = ref_fit
     have_test = any(not w.train for w in dataset.weeks)
     cur_ho = heldout_rms(cur.model, dataset, opts["horizon"]) if have_test else None
     ref_ho = cur_ho
     findings, rounds = [], []
     last_cands = []
+    sig0 = sig
     while len(findings) < opts["max_terms"]:
+        # gain-profile features (holidays, daylight saving) use the current model's profiles
+        sig = dataclasses.replace(sig0, base_profiles={s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons
+                                                       if s in cur.model.base.gains} or sig0.base_profiles)
         resid = cur.resid
         cur_rss = [ls.rss for ls in cur.zone_ls]
         factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
@@ -224,44 +257,75 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
                     c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
                                 f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
                                 f"penalty {c.test['bic_penalty']:.1f})")
+                elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
+                    c.status = "not significant"
+                    c.reason = (f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
+                                f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
+                                f"daily effect correlates with it)")
         ranked = sorted([c for c in cands if c.variants and c.status == "not tested"],
                         key=lambda c: -c.test["delta_bic"])
-        accepted = None
-        for c in ranked[: opts["max_tries"]]:
+        accepted, used = [], set()
+        tried = 0
+        for c in ranked:
+            zs = set(_affected(sig, c.term))
+            if zs & used:
+                c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
+                continue
+            if tried >= opts["max_tries"]:
+                c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
+                continue
+            tried += 1
             if progress:
                 progress(f"testing {c.key} on held-out weeks (ΔBIC {c.test['delta_bic']:.1f})")
-            new = fit_structure(sig, terms + [c.term], rows, W)
+            new = fit_structure(sig, terms + [c.term], rows)
             c.term = new.model.terms[len(terms)]
-            if not have_test:
-                c.status, c.reason = "untestable", "no held-out test week: the gain cannot be measured"
+            if not have_test or not _active_on(sig, c.term, "test"):
+                why = ("no held-out test week" if not have_test else
+                       "the term is inactive in every held-out week")
+                c.heldout = {"measurable": False, "reason": why}
+                if c.test["delta_bic"] > 2 * opts["bic_margin"]:
+                    c.status = "found"
+                    c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g}; held-out gain not "
+                                f"measurable ({why})")
+                    accepted.append((c, None))
+                    used |= zs
+                else:
+                    c.status = "not significant"
+                    c.reason = f"ΔBIC {c.test['delta_bic']:.1f} ≤ 2 × {opts['bic_margin']:g} without held-out check ({why})"
                 continue
             ho = heldout_rms(new.model, dataset, opts["horizon"])
             cmp = compare_heldout(cur_ho, ho, _affected(sig, c.term))
             c.heldout = cmp
             g = cmp.get("gain_percent")
-            if g is not None and g >= opts["min_gain_percent"] and cmp["gain_abs"] >= opts["min_gain_abs"]:
-                accepted = (c, new, ho)
+            every = all(v["after"] < v["before"] for v in cmp["zones"].values())
+            if (g is not None and g >= opts["min_gain_percent"] and cmp["gain_abs"] >= opts["min_gain_abs"]
+                    and (every or len(zs) == sig.nz)):
                 c.status = "found"
                 c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g} and held-out gain "
                             f"{g:.1f} % ({cmp['gain_abs']:.3f} K)")
-                break
+                accepted.append((c, ho))
+                used |= zs
+                continue
             c.status = "no held-out gain"
             c.reason = ("held-out gain " + ("n/a" if g is None else f"{g:.2f} % ({cmp['gain_abs']:.4f} K)")
-                        + f" below {opts['min_gain_percent']:g} % / {opts['min_gain_abs']:g} K")
-        for c in ranked[opts["max_tries"]:]:
-            c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
+                        + f" below {opts['min_gain_percent']:g} % / {opts['min_gain_abs']:g} K"
+                        + ("" if every else " or not positive in every affected zone"))
         rounds.append({"round": len(rounds) + 1,
                        "scored": len([c for c in cands if c.test]),
                        "significant": [c.key for c in ranked],
-                       "accepted": accepted[0].key if accepted else None})
+                       "accepted": [c.key for c, _ in accepted]})
         last_cands = cands
-        if accepted is None:
+        if not accepted:
             break
-        c, new, ho = accepted
-        findings.append(c)
-        terms = terms + [c.term]
-        cur, cur_ho = new, ho
-        # the accepted term's location may have been refined (delay, shift)
+        for c, _ in accepted:
+            findings.append(c)
+            terms = terms + [c.term]
+        cur = fit_structure(sig, terms, rows)
+        if have_test:
+            cur_ho = (accepted[0][1] if len(accepted) == 1 and accepted[0][1] is not None
+                      else heldout_rms(cur.model, dataset, opts["horizon"]))
+        if len(findings) >= opts["max_terms"]:
+            break
     others = [c for c in last_cands if c not in findings]
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
 

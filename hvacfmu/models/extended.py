@@ -28,8 +28,8 @@ cause it models (the cause ids of :mod:`hvacfmu.diagnosis`):
     ``variant="dst_shift"`` — while daylight-saving time is in effect the profile
     is read ``shift`` steps later, scaled by ``coef`` per zone.
 ``reheat``
-    heat added by the box's reheat coil at minimum airflow in cold weather:
-    ``coef · 1[u_z ≤ u_min] · max(0, T_threshold − T_out)`` [K per step per K].
+    heat added by the boxes' reheat coils at minimum airflow in cold weather:
+    ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K per step].
 
 Hidden states (thermal masses, delayed inputs) are appended to the state after
 the zone temperatures; :meth:`ExtendedModel.output` returns the zone
@@ -275,7 +275,7 @@ class InternalGainSchedule(Term):
 
 @dataclasses.dataclass(frozen=True)
 class Reheat(Term):
-    """``coef [K/step per K] · 1[u_z ≤ u_min] · max(0, T_threshold − T_out)`` into ``zone``."""
+    """``coef [K/step] · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` into ``zone`` (``u_min`` [kg/s], ``T_threshold`` [°C])."""
 
     cause: ClassVar[str] = "reheat"
     zone: str = ""
@@ -658,8 +658,9 @@ class ExtendedModel(ZoneModel):
 # shared feature functions (used by the model and by the diagnosis' regressions)
 # ----------------------------------------------------------------------------
 def reheat_feature(u_z, T_out, u_min: float, T_threshold: float):
-    """``1[u_z ≤ u_min] · max(0, T_threshold − T_out)`` [K]; ``u_z`` [kg/s], ``T_out`` [°C]."""
-    return (np.asarray(u_z) <= u_min) * np.maximum(0.0, T_threshold - np.asarray(T_out))
+    """``1[u_z ≤ u_min] · 1[T_out < T_threshold]`` (0/1); ``u_z`` [kg/s], ``u_min`` [kg/s], ``T_out`` [°C]."""
+    with np.errstate(invalid="ignore"):
+        return ((np.asarray(u_z) <= u_min) & (np.asarray(T_out) < T_threshold)).astype(float)
 
 
 def ema_series(y: np.ndarray, alpha: float) -> np.ndarray:
