@@ -40,6 +40,9 @@ camelCase in the model description. Behaviour an importer can rely on:
 - **State.** ``fmi2GetFMUstate``/``fmi2SetFMUstate`` and their serialisation
   save and restore the full internal state vector, the clock, the inputs and
   the parameters exactly (JSON of Python floats round-trips bit for bit).
+- **Initial state.** Parameters ``T_<zone>_start`` set the outputs; unobserved
+  states start at their steady state for those temperatures and the inputs
+  set before ``fmi2ExitInitializationMode`` (see :func:`state_from_outputs`).
 - **Time of week.** The internal-gain profile (a time-of-week table per season)
   is indexed at FMU time ``t`` by slot
   ``floor((start_time_of_week + t) / step) mod n_slots``; ``start_time_of_week``
