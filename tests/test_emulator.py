@@ -453,8 +453,9 @@ def test_generate_csv_and_bad_format(tmp_path):
 
 
 def test_generated_data_load_with_prepare(small_files):
-    data = pytest.importorskip("hvacfmu.data")
-    ds = data.prepare(small_files.measurements, small_files.building)
+    from hvacfmu.data import prepare
+
+    ds = prepare(small_files.measurements, small_files.building)
     assert ds.step == 900
     assert set(f"T_{z}" for z in ("NW", "W", "S", "E", "NE", "C")) <= set(ds.frame.columns)
     assert ds.has_solar
