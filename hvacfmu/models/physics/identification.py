@@ -4,8 +4,12 @@ Step 1 (weekend training data, ``f_IG^v = 0``): the five physical parameters
 ``U_win, gamma_IW, gamma_EW, gamma_floor, gamma_ceil`` and the constant gains
 ``f_IG^c`` (one per zone) minimise the summed squared simulation error of the
 zone temperatures over weekend-day segments of every season (eq. physics_opt).
-Each segment starts from a Kalman-filter estimate of the full state (walls are
-not measured) obtained over the preceding warm-up window. Positivity: the
+Each segment starts from an estimate of the full state (walls are not
+measured): a filter over the preceding warm-up window (by default the
+gain-injection limit of the Kalman filter, see ``segment_observer``), plus the
+amplitudes of the few slowest modes fitted on the segment itself (a
+deterministic smoother of the part of the state a one-day warm-up cannot
+see; without it the slow-mode errors bias the parameters). Positivity: the
 physical parameters are optimised in logarithms, ``f_IG^c >= 0`` by
 non-negative least squares. Because the simulated output is affine in
 ``f_IG^c`` (for given parameters), ``f_IG^c`` is eliminated by variable

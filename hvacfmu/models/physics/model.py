@@ -27,7 +27,7 @@ import pandas as pd
 
 from ...building import Building, building_from_dict
 from ...errors import BuildingError, ModelError
-from ...timeutil import n_time_of_week
+from ...timeutil import n_time_of_week, time_of_week
 from ..base import (
     FORMAT_VERSION,
     ZoneModel,
@@ -275,8 +275,6 @@ class PhysicsModel(ZoneModel):
                 out[rows] = self.gains_at(index[rows], s)
             else:
                 prof = np.mean([np.asarray(g) for g in self.gains.values()], axis=0)
-                from ...timeutil import time_of_week
-
                 out[rows] = prof[time_of_week(index[rows], self.step) % prof.shape[0]]
         return out
 
