@@ -27,7 +27,7 @@ from hvacfmu.emulator import (
 )
 from hvacfmu.emulator.thermal import build_network
 
-WEEKS = 3  # short simulations (plus one week of spin-up)
+WEEKS = 2  # short simulations (plus one week of spin-up)
 
 
 # --------------------------------------------------------------------------- fixtures
