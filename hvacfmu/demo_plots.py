@@ -1,0 +1,102 @@
+"""Figures of the demo report (matplotlib Agg; no math here)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .plots import _pyplot
+
+DAY_NAMES = ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun")
+
+
+def plot_gains(model, path, title, unit) -> Path:
+    """Internal-gain profiles by season over the week (paper Figs. 2, 3 and 5).
+
+    One panel per output (zone); one line per season.
+    """
+    plt = _pyplot()
+    seasons = list(model.gains)
+    first = np.asarray(model.gains[seasons[0]])
+    n_out = first.shape[1]
+    names = list(model.outputs)[:n_out] if len(model.outputs) >= n_out else [f"q{i}" for i in range(n_out)]
+    ncols = 1 if n_out == 1 else 2
+    nrows = int(np.ceil(n_out / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(11 if ncols == 2 else 9, 2.3 * nrows + 0.8),
+                             sharex=True, squeeze=False)
+    hours = np.arange(first.shape[0]) * float(model.step) / 3600.0
+    for j in range(n_out):
+        ax = axes[j // ncols][j % ncols]
+        for s in seasons:
+            ax.plot(hours, np.asarray(model.gains[s])[:, j], lw=0.9, label=s)
+        ax.set_title(names[j], fontsize="medium")
+        ax.set_ylabel(unit)
+        ax.set_xticks(np.arange(7) * 24 + 12, DAY_NAMES)
+        for d in range(1, 7):
+            ax.axvline(24 * d, color="0.85", lw=0.6)
+        ax.grid(axis="y", alpha=0.3)
+    for j in range(n_out, nrows * ncols):
+        axes[j // ncols][j % ncols].axis("off")
+    axes[0][-1].legend(fontsize="small", ncol=2)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_mpc(runs, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0)) -> tuple[Path, Path]:
+    """MPC temperatures and airflows vs measured (paper Figs. 6 and 7).
+
+    Parameters
+    ----------
+    runs : dict label -> pandas.DataFrame (the co-simulation tables)
+    zones : sequence of zone names
+    vavs_of_zone : dict zone -> list of VAV names
+    """
+    plt = _pyplot()
+    paths = []
+    for kind, path in (("temp", path_temp), ("flow", path_flow)):
+        ncols = 2
+        nrows = int(np.ceil(len(zones) / ncols))
+        fig, axes = plt.subplots(nrows, ncols, figsize=(12, 2.4 * nrows + 0.8), sharex=True, squeeze=False)
+        measured_done = False
+        for label, table in runs.items():
+            for j, z in enumerate(zones):
+                ax = axes[j // ncols][j % ncols]
+                if kind == "temp":
+                    if f"T_{z}" in table:
+                        ax.plot(table.index, table[f"T_{z}"], lw=0.9, label=label)
+                    if not measured_done and f"T_{z}_measured" in table:
+                        ax.plot(table.index, table[f"T_{z}_measured"], lw=0.9, color="green", label="measured")
+                else:
+                    cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in table]
+                    if cols:
+                        ax.step(table.index, table[cols].sum(axis=1), where="post", lw=0.9, label=label)
+                    mcols = [f"m_{v}_measured" for v in vavs_of_zone[z] if f"m_{v}_measured" in table]
+                    if not measured_done and mcols:
+                        ax.step(table.index, table[mcols].sum(axis=1), where="post", color="green", lw=0.9,
+                                label="measured")
+            measured_done = True
+        for j, z in enumerate(zones):
+            ax = axes[j // ncols][j % ncols]
+            ax.set_title(z, fontsize="medium")
+            if kind == "temp":
+                for bnd in band:
+                    ax.axhline(bnd, color="k", ls="--", lw=0.7)
+                ax.set_ylabel("°C")
+            else:
+                ax.set_ylabel("kg/s")
+            ax.grid(alpha=0.3)
+        for j in range(len(zones), nrows * ncols):
+            axes[j // ncols][j % ncols].axis("off")
+        axes[0][-1].legend(fontsize="x-small")
+        fig.suptitle("MPC zone temperatures" if kind == "temp" else "MPC zone airflows (sum of the zone's boxes)")
+        fig.autofmt_xdate()
+        fig.tight_layout()
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        paths.append(Path(path))
+    return tuple(paths)
