@@ -130,9 +130,9 @@ def _cmd_diagnose(args):
 def _cmd_demo(args):
     from .demo import run_demo
 
-    result = run_demo(args.out, weeks=args.weeks, seed=args.seed)
+    result = run_demo(args.out, weeks=args.weeks, seed=args.seed, mpc_horizon=args.horizon, progress=not args.quiet)
     print(result)
-    return 0
+    return 1 if result.failed else 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -202,6 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
     p.set_defaults(func=_cmd_demo)
     return parser
 
