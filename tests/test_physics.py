@@ -458,8 +458,10 @@ def test_initial_state_kalman(recovered, two_zone):
     x0 = model.initial_state(frame, k0)
     assert x0.shape == (model.n_states,)
     assert_allclose(x0[:2], model.measured_outputs(frame.iloc[k0:k0 + 1])[0], rtol=0, atol=0.05)
-    xs = model.initial_states(frame, [k0, k0 + 96])
+    xs = model.initial_states(frame, [k0, 10, k0 + 96])
     assert_allclose(xs[0], x0, rtol=0, atol=1e-9)
+    assert_allclose(xs[1], model.initial_state(frame, 10), rtol=0, atol=1e-9)  # shorter warm-up at the start
+    assert_allclose(model.initial_state(frame, 0)[:2], model.measured_outputs(frame)[0], rtol=0, atol=0.05)
     u, v = model.signals(frame)
     _, Y = model.simulate(x0, u[k0:k0 + 96], v[k0:k0 + 96], q[k0:k0 + 96])
     err = Y[1:] - model.measured_outputs(frame)[k0 + 1:k0 + 97]
@@ -535,3 +537,26 @@ def test_default_dataset_evaluation(default_dataset):
     assert np.all(np.isfinite(tab.to_numpy()))
     assert tab.loc["all", "mean"] < 0.4  # [K]; the full fit gives 0.21 K, Model A 0.28 K
     assert np.all(tab.loc["all"] < 0.5 * pers.loc["all"])  # every zone at least twice better than persistence
+
+
+def test_cli_fit_and_evaluate(two_zone, tmp_path):
+    """``hvacfmu fit --model physics`` and ``hvacfmu evaluate`` as a user runs them."""
+    import subprocess
+    import sys
+
+    ds, _ = simulate_dataset(two_zone, TRUE, weeks=6, seed=7)
+    data = tmp_path / "measurements.parquet"
+    ds.frame.drop(columns=["excitation"]).to_parquet(data)
+    bfile = two_zone.save(tmp_path / "building.toml")
+    model_file = tmp_path / "physics.json"
+    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q"]
+    fit = subprocess.run(cmd + ["fit", str(data), "-b", str(bfile), "--model", "physics", "-o", str(model_file)],
+                         capture_output=True, text=True, timeout=300)
+    assert fit.returncode == 0, fit.stderr
+    assert "Model B (physics)" in fit.stdout and "gamma_floor" in fit.stdout
+    model = load_model(model_file)
+    assert model.kind == "physics" and model.n_states == assemble(two_zone).n_states
+    ev = subprocess.run(cmd + ["evaluate", str(data), "-b", str(bfile), "--model", str(model_file)],
+                        capture_output=True, text=True, timeout=300)
+    assert ev.returncode == 0, ev.stderr
+    assert "physics" in ev.stdout and "fall" in ev.stdout

@@ -337,7 +337,14 @@ class PhysicsModel(ZoneModel):
         if np.any((k0s < 0) | (k0s >= n)):
             raise ModelError(f"initial_state: rows {k0s[(k0s < 0) | (k0s >= n)].tolist()} outside the frame (0..{n - 1})")
         nw = int(self.options["kalman"]["warmup_steps"])
-        w = int(min(nw, k0s.min()))  # common warm-up length of the batch
+        short = k0s < nw
+        if short.any() and not short.all():  # rows near the start of the data get the warm-up they can
+            out = np.empty((len(k0s), self.n_states))
+            out[~short] = self.initial_states(frame, k0s[~short])
+            for i in np.flatnonzero(short):
+                out[i] = self.initial_states(frame, k0s[i:i + 1])[0]
+            return out
+        w = int(min(nw, k0s.min()))
         rows = k0s[:, None] + np.arange(-w, 1)[None, :]
         need = np.unique(rows)
         sub = frame.iloc[need]
