@@ -197,6 +197,7 @@ class HvacfmuSlaveBase(Fmi2Slave):
         self._in_lo = np.array([self._lo_list[vr] for vr in self._input_vrs], dtype=float)
         self._in_hi = np.array([self._hi_list[vr] for vr in self._input_vrs], dtype=float)
         self._unchecked = False  # inputs set by the fast path, bounds not checked yet
+        self._w = None  # checked input block as an array (None: stale)
         if self._broken:
             self.log(self._broken, Fmi2Status.error)
 
@@ -280,8 +281,10 @@ class HvacfmuSlaveBase(Fmi2Slave):
             self._values[a : a + len(vrs)] = values
             self._bad.clear()
             self._unchecked = True  # checked (vectorised) by the next step
+            self._w = None
             return
         store, lo, hi, kind, bad = self._values, self._lo_list, self._hi_list, self._kind, self._bad
+        self._w = None
         try:
             for vr, value in zip(vrs, values):
                 k = kind[vr]
@@ -389,6 +392,8 @@ class HvacfmuSlaveBase(Fmi2Slave):
         if not ok.all():
             for j in np.flatnonzero(~ok):
                 self._bad[vrs[j]] = float(w[j])
+        else:
+            self._w = w
 
     def _refuse(self, message):
         self.log(message, Fmi2Status.error)
@@ -422,6 +427,7 @@ class HvacfmuSlaveBase(Fmi2Slave):
             self._values[:] = values
             self._bad = {int(vr): v for vr, v in state["bad"]}
             self._unchecked = bool(self._input_vrs)  # check the restored inputs at the next step
+            self._w = None
             self._t = float(state["t"])
             self._t_start = float(state["t_start"])
             self._initialized = bool(state["initialized"])
@@ -775,7 +781,8 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         m_vrs, v_vrs = self.vrs_with_role("m"), self.vrs_with_role("v")
         self._nm = len(m_vrs)
         in_vrs = m_vrs + v_vrs
-        if _contiguous(in_vrs):
+        self._w_ok = in_vrs == self._input_vrs  # the checked input block is (m, v) in this order
+        if _contiguous(in_vrs) and self._w_ok:
             a, b = in_vrs[0], in_vrs[0] + len(in_vrs)
             self._get_inputs = lambda values: values[a:b]
         else:
@@ -832,7 +839,9 @@ class ZoneModelSlave(HvacfmuSlaveBase):
                 f"communication step {step_size!r} s at t={current_time} s is not a whole multiple of the "
                 f"model step {self._step:g} s; step refused (use a step of k*{self._step:g} s, k >= 1)"
             )
-        w = np.array(self._get_inputs(self._values), dtype=float)
+        w = self._w if self._w_ok else None
+        if w is None:
+            w = np.array(self._get_inputs(self._values), dtype=float)
         nm = self._nm
         u = w[:nm] @ self._MT if self._MT is not None else w[:nm]
         vdist = w[nm:]
