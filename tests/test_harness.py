@@ -178,3 +178,21 @@ def test_cosim_command_line(zones, short_paths, tmp_path):
     assert "672 / 672 steps" in run.stdout and "comfort" in run.stdout
     tab = pd.read_csv(out)
     assert len(tab) == 673 and json.loads(out.with_suffix(".json").read_text())["controller"] == "rule"
+
+
+def test_cli_reports_plant_stopping_early(tmp_path, short_paths):
+    """A plant FMU whose emulated span ends inside the requested span: exit 1, loud message, partial table."""
+    from hvacfmu.emulator import cached_dataset
+
+    short = cached_dataset(weeks=3, seed=0)
+    plant = export_plant_fmu(short.truth, tmp_path / "Plant3w.fmu")
+    out = tmp_path / "partial.csv"
+    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "cosim", "--plant", str(plant),
+           "--data", str(short_paths.measurements), "--building", str(short_paths.building), "--controller", "rule",
+           "--start", "2025-09-21T12:00", "--stop", "2025-09-22T12:00", "--out", str(out)]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1
+    assert "STOPPED EARLY" in run.stdout and "beyond the emulated span" in run.stderr
+    tab = pd.read_csv(out)
+    assert len(tab) == 49  # 12 h of steps, then the refusal
+    assert json.loads(out.with_suffix(".json").read_text())["covered"] is False
