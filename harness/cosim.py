@@ -247,6 +247,7 @@ class FMUInstance:
 # the run
 # =============================================================================
 def _select_span(dataset, week=None, start=None, stop=None):
+    """Rows of the run and its season (a week's season, or None for a free span)."""
     frame = dataset.frame
     if week is not None:
         weeks = {w.number: w for w in dataset.weeks}
@@ -261,10 +262,13 @@ def _select_span(dataset, week=None, start=None, stop=None):
             return dataset.week_frame(w), w.season
         return frame, None
     idx = frame.index
-    i0 = 0 if start is None else idx.searchsorted(pd.Timestamp(start).tz_convert(idx.tz) if pd.Timestamp(start).tzinfo
-                                                  else pd.Timestamp(start).tz_localize(idx.tz))
-    i1 = len(idx) if stop is None else idx.searchsorted(pd.Timestamp(stop).tz_convert(idx.tz) if pd.Timestamp(stop).tzinfo
-                                                        else pd.Timestamp(stop).tz_localize(idx.tz))
+
+    def local(ts):
+        ts = pd.Timestamp(ts)
+        return ts.tz_convert(idx.tz) if ts.tzinfo else ts.tz_localize(idx.tz)
+
+    i0 = 0 if start is None else idx.searchsorted(local(start))
+    i1 = len(idx) if stop is None else idx.searchsorted(local(stop))
     return frame.iloc[i0:i1], None
 
 
@@ -322,7 +326,7 @@ def _fill(series: pd.Series) -> tuple[pd.Series, int]:
     return series.interpolate(method="time", limit_direction="both"), n
 
 
-def _measured_start(name, zones, frame, building, model, outputs):
+def _measured_start(name, zones, frame, building, model):
     """Measured value of an output at the first row (gaps filled from the nearest rows)."""
     if model is not None and tuple(model.outputs) and name in {f"T_{z}" for z in model.outputs}:
         cols = [f"T_{z}" for z in getattr(model, "measured_zones", ())]
@@ -448,7 +452,7 @@ def run_cosim(
                 if e.get("role") == "y0":
                     out = e["name"][: -len("_start")]
                     if out in outputs:
-                        sv[e["name"]] = _measured_start(out, outputs[out], frame, building, model, outputs)
+                        sv[e["name"]] = _measured_start(out, outputs[out], frame, building, model)
                 elif e.get("role") == "season":
                     seasons = inst.interface["seasons"]
                     if season not in seasons:
