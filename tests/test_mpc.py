@@ -327,8 +327,10 @@ def slsqp_bilinear(model, x0, V, Q, N, U0):
     cons = [{"type": "ineq", "fun": lambda z: 22.0 - Y(z)}, {"type": "ineq", "fun": lambda z: Y(z) - 20.0}]
     bounds = list(zip(np.tile(model.m_min, N), np.tile(model.m_max, N)))
     res = scipy.optimize.minimize(lambda z: z @ z, U0.ravel(), jac=lambda z: 2 * z, bounds=bounds,
-                                  constraints=cons, method="SLSQP", options={"ftol": 1e-15, "maxiter": 1000})
-    assert res.success, res.message
+                                  constraints=cons, method="SLSQP", options={"ftol": 1e-13, "maxiter": 1000})
+    # SLSQP may stop on "positive directional derivative" at this precision: check its point instead
+    assert res.success or res.status == 8, res.message
+    assert min(float(np.min(c["fun"](res.x))) for c in cons) >= -1e-7
     return res.x.reshape(N, nu), res.fun
 
 
@@ -438,3 +440,46 @@ def test_closed_loop_bilinear_keeps_feasible_plant_in_band(rc_medium, N, lineari
     assert s["failures"] == 0 and s["input_excess_max"] <= FEAS_TOL
     assert band_residual(r.y) <= 1e-5  # first move is exact for the known state: band within solver tol
     assert np.max(r.y) >= 22.0 - 0.01  # occupied hours drive the zones to the upper limit
+
+
+# ---------------------------------------------------------------------------
+# reduced-order prediction for long horizons
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("linearisation", ["frozen", "newton"])
+def test_reduced_prediction_matches_condensed(rc_medium, linearisation):
+    """At (numerically) full order the sparse reduced problem is the condensed problem; at the
+    default tolerance the plans differ by about the reduced model's Markov-parameter error."""
+    m = rc_medium
+    N = 24
+    x0, V, Q = bilinear_case(m, N, seed=5)
+    plans = {}
+    for name, kw in {"condensed": dict(prediction="condensed"),
+                     "full": dict(prediction="reduced", rom_tol=1e-12),
+                     "reduced": dict(prediction="reduced", rom_tol=1e-3)}.items():
+        c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, blocks="auto", linearisation=linearisation,
+                                                           max_iter=1, **kw))
+        assert c.reduced == (name != "condensed")
+        plans[name] = c.plan(x0, V, Q)
+        assert plans[name].found
+    err = c.pred.reduced_error(N, tol=1e-3)
+    assert 0 < err < 1e-2 and c.pred.reduced_model(1e-3)["order"] < m.n_states
+    assert_allclose(plans["full"].U, plans["condensed"].U, rtol=0, atol=1e-6)
+    scale = np.max(np.abs(plans["condensed"].U))
+    assert np.max(np.abs(plans["reduced"].U - plans["condensed"].U)) <= 20 * err * scale
+    # first move: its output is exact in every formulation
+    for p in plans.values():
+        y1 = m.output(m.step_state(x0, p.U[0], V[0], Q[0]))
+        assert y1.max() <= 22.0 + FEAS_TOL and y1.min() >= 20.0 - FEAS_TOL
+
+
+def test_closed_loop_reduced_long_horizon_keeps_band(rc_medium):
+    m = rc_medium
+    N = 48
+    V, Q = synthetic_week(m, 120 + N, seed=4)
+    x0 = steady_state_at(m, V[0], Q[0], target=21.0)
+    c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, blocks="auto", max_iter=2))
+    assert c.reduced  # "auto" picks the reduced model for N > 24
+    c.reset(x0=x0)
+    r = closed_loop(c, m, x0, V, Q, 120)
+    assert r.summary()["failures"] == 0
+    assert band_residual(r.y) <= 1e-5

@@ -30,7 +30,7 @@ import pandas as pd
 from hvacfmu.errors import ModelError
 
 from .predict import KalmanFilter, make_predictor
-from .problem import CondensedProblem, MPCSettings, save_problem
+from .problem import CondensedProblem, MPCSettings, ReducedProblem, save_problem
 
 
 @dataclasses.dataclass
@@ -108,6 +108,8 @@ class MPCController:
         self.lengths = np.asarray(self.settings.block_lengths)
         self.N = int(self.lengths.sum())
         self.bilinear = not self.pred.linear
+        pm = self.settings.prediction
+        self.reduced = self.bilinear and (pm == "reduced" or (pm == "auto" and self.N > 24))
         self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.bilinear else None
         self.failure_dir = Path(failure_dir) if failure_dir is not None else None
         self._problem = None
@@ -217,11 +219,22 @@ class MPCController:
         Xbar = self.pred.simulate(x0, Ubar, V, Qg)
         solve_time, best, converged, it = 0.0, None, False, 0
         for it in range(1, s.max_iter + 1):
-            y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
-            if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+            if self.reduced:
+                y0, beta, theta = self.pred.reduced_prediction(x0, V, Qg, Xbar=Xbar, Ubar=Ubar,
+                                                               mode=s.linearisation, tol=s.rom_tol)
+                if self._problem is None:
+                    rom = self.pred.reduced_model(s.rom_tol)
+                    self._problem = ReducedProblem(rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta,
+                                                   self.u_min, self.u_max, s)
+                else:
+                    self._problem.update_blocks(beta, theta)
             else:
-                self._problem.update_G(G)
+                y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar,
+                                                    mode=s.linearisation)
+                if self._problem is None:
+                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+                else:
+                    self._problem.update_G(G)
             sol = self._problem.solve(y0)
             solve_time += sol.solve_time
             if not sol.found:

@@ -173,6 +173,95 @@ class AffinePredictor:
         return (X[1:] @ self.C.T).ravel() - G @ Ub, G
 
 
+    # --- reduced-order forced response -------------------------------------
+    def reduced_model(self, tol=1e-3):
+        """Balanced truncation of the airflow-to-output map ``(A, P, C)``, cached per ``tol``.
+
+        The order is the smallest with ``2 Σ_{i>n_r} σ_i <= tol · σ_1`` (σ the
+        Hankel singular values; the left side bounds the H∞ error). A
+        feedthrough ``D0 = C P - C_r B_r`` makes the first Markov parameter exact,
+        so the first predicted step (the one applied) is exact.
+
+        Returns
+        -------
+        dict with ``Ar, Br, Cr, D0, T`` (x ≈ T ξ), ``hsv`` and ``order``.
+        """
+        key = ("rom", float(tol))
+        if key not in self._markov:
+            A, P, C = self.A, self.basis, self.C
+            Wc = scipy.linalg.solve_discrete_lyapunov(A, P @ P.T)
+            Wo = scipy.linalg.solve_discrete_lyapunov(A.T, C.T @ C)
+
+            def sqrtm_psd(W):
+                w, V = np.linalg.eigh(0.5 * (W + W.T))
+                return V * np.sqrt(np.clip(w, 0.0, None))
+
+            Lc, Lo = sqrtm_psd(Wc), sqrtm_psd(Wo)
+            U, hsv, Vt = np.linalg.svd(Lo.T @ Lc)
+            tail = 2.0 * np.cumsum(hsv[::-1])[::-1]  # tail[i] = 2 Σ_{j>=i} σ_j
+            ok = np.flatnonzero(tail <= tol * hsv[0])
+            order = int(ok[0]) if ok.size else hsv.size
+            order = max(order, 1)
+            s_inv = 1.0 / np.sqrt(hsv[:order])
+            T = Lc @ Vt[:order].T * s_inv
+            Ti = (U[:, :order] * s_inv).T @ Lo.T
+            Ar, Br, Cr = Ti @ A @ T, Ti @ P, C @ T
+            lam, S = np.linalg.eig(Ar)
+            if np.all(np.abs(lam.imag) <= 1e-12 * np.abs(lam).max()) and np.linalg.cond(S) < 1e8:
+                # RC networks have real modes: diagonal A_r keeps the problem rows sparse
+                S = S.real
+                Si = np.linalg.inv(S)
+                Ar, Br, Cr, T = lam.real, Si @ Br, Cr @ S, T @ S
+            self._markov[key] = {"Ar": Ar, "Br": Br, "Cr": Cr, "D0": C @ P - Cr @ Br, "T": T,
+                                 "hsv": hsv, "order": order}
+        return self._markov[key]
+
+    def reduced_error(self, N, tol=1e-3) -> float:
+        """Largest Markov-parameter error of the reduced model over N steps, relative to the largest parameter."""
+        rom = self.reduced_model(tol)
+        Q, _ = self.markov(N)
+        H = np.einsum("yn,jnr->jyr", self.C, Q)
+        Hr = np.empty_like(H)
+        Ar = np.diag(rom["Ar"]) if rom["Ar"].ndim == 1 else rom["Ar"]
+        M = rom["Br"].copy()
+        for j in range(N):
+            Hr[j] = rom["Cr"] @ M + (rom["D0"] if j == 0 else 0.0)
+            M = Ar @ M
+        return float(np.abs(Hr - H).max() / np.abs(H).max())
+
+    def reduced_prediction(self, x0, V, Qg, Xbar=None, Ubar=None, mode="frozen", tol=1e-3):
+        """Prediction for :class:`~harness.mpc.problem.ReducedProblem`.
+
+        Returns
+        -------
+        y0 : array (N ny,) [°C]
+            Free response of the exact model or, for ``"newton"``, the exact
+            response at Ubar minus the reduced model's forced response at Ubar.
+        beta : array (N, r, nu)
+        theta : array (N, r, nr) or None
+            ``Θ_k T`` (``"newton"`` only): state feedback of the linearised bilinear terms.
+        """
+        rom = self.reduced_model(tol)
+        N = V.shape[0]
+        if self.linear or mode == "frozen":
+            Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
+            Xf = self.free_trajectory(x0, self.drift(V, Qg))
+            return (Xf[1:] @ self.C.T).ravel(), self.beta(Xr, V), None
+        if Ubar is None:
+            raise ModelError("the full linearisation needs reference moves Ubar")
+        X = self.simulate(x0, Ubar, V, Qg)
+        beta = self.beta(X[:N], V)
+        theta = np.einsum("krn,nb->krb", self.theta(Ubar), rom["T"])
+        Ar = np.diag(rom["Ar"]) if rom["Ar"].ndim == 1 else rom["Ar"]
+        xi = np.zeros(rom["order"])
+        Yf = np.empty((N, self.ny))
+        for k in range(N):
+            w = beta[k] @ Ubar[k] + theta[k] @ xi
+            xi = Ar @ xi + rom["Br"] @ w
+            Yf[k] = rom["Cr"] @ xi + rom["D0"] @ w
+        return (X[1:] @ self.C.T - Yf).ravel(), beta, theta
+
+
 class LinearPredictor(AffinePredictor):
     """Model A: ``x+ = A x + B u + C_v v + q``, y = x. Built from a ``LinearZoneModel``."""
 

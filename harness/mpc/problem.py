@@ -95,6 +95,13 @@ class MPCSettings:
         Hard lower bound on every planned airflow (an airflow cannot be
         negative, whatever the slack allows); ``None`` keeps only the paper's
         soft limits.
+    prediction : {"auto", "condensed", "reduced"}
+        Bilinear models only. ``"condensed"``: exact ``Y = y0 + G U``;
+        ``"reduced"``: forced response from a balanced truncation of the
+        airflow-to-zone map (sparse rows, linear cost in N; the free response
+        and the first step stay exact). ``"auto"``: reduced for N > 24.
+    rom_tol : float
+        Balanced-truncation tolerance (``2 Σ tail σ <= rom_tol σ_1``).
     """
 
     horizon: int = 3
@@ -109,6 +116,8 @@ class MPCSettings:
     tol: float = 1.0e-4
     solver_tol: float = 1.0e-8
     u_floor: float | None = 0.0
+    prediction: str = "auto"
+    rom_tol: float = 1.0e-3
 
     def __post_init__(self):
         problems = []
@@ -128,6 +137,10 @@ class MPCSettings:
             problems.append(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
         if not self.tol > 0 or not self.solver_tol > 0:
             problems.append(f"tol and solver_tol must be > 0, got {self.tol}, {self.solver_tol}")
+        if self.prediction not in ("auto", "condensed", "reduced"):
+            problems.append(f"prediction must be 'auto', 'condensed' or 'reduced', got {self.prediction!r}")
+        if not 0 < self.rom_tol < 1:
+            problems.append(f"rom_tol must be in (0, 1), got {self.rom_tol}")
         if self.u_floor is not None and not np.isfinite(self.u_floor):
             problems.append(f"u_floor must be finite or None, got {self.u_floor}")
         if self.blocks is not None and self.blocks != "auto" and not problems:
@@ -258,7 +271,8 @@ class _MPCProblem:
             r, c = np.asarray(r), np.asarray(c)
             rows.append(r + state["r0"])
             cols.append(c)
-            vals.append(np.broadcast_to(np.asarray(v, dtype=float), r.shape).ravel())
+            v = np.asarray(v, dtype=float)
+            vals.append(v.ravel() if v.size == r.size else np.broadcast_to(v, r.shape).ravel())
             state["n"] += r.size
 
         def slot(name):
@@ -475,82 +489,97 @@ class CondensedProblem(_MPCProblem):
 class ReducedProblem(_MPCProblem):
     """The MPC problem with the forced response from a reduced-order state-space model.
 
-    ``Y = y0 + (forced response)`` with, for k = 0..N-1,
+    With ``w(k)`` the heat-flow inputs of the reduced model (r per step) and
+    ``u_b(k)`` the move of step k's block, for k = 0..N-1:
 
-        ξ(k+1) = A_k ξ(k) + B_k u_b(k),   ξ(0) = 0
-        y(k+1) = y0(k+1) + C_r ξ(k+1) + D_k u_b(k)
+        w(k)   = β_k u_b(k) + Θ_k ξ(k)                (Θ_k = 0 for the frozen linearisation)
+        ξ(k+1) = A_r ξ(k) + B_r w(k),   ξ(0) = 0
+        y(k+1) = y0(k+1) + C_r ξ(k+1) + D_0 w(k)
 
-    where ``u_b(k)`` is the move of step k's block. The rows are sparse and
-    banded in time, so the cost grows linearly with the horizon instead of the
+    All rows are sparse and banded in time (A_r is diagonal in modal
+    coordinates), so the cost grows linearly with the horizon, instead of the
     dense (N ny) x (n_blocks nu) block of the condensed form.
 
     Parameters
     ----------
-    Ak : array (N, nr, nr);  Bk : array (N, nr, nu);  Cr : array (ny, nr);  Dk : array (N, ny, nu)
+    Ar : array (nr,) diagonal or (nr, nr);  Br : (nr, r);  Cr : (ny, nr);  D0 : (ny, r)
+    beta : array (N, r, nu);  theta : array (N, r, nr) or None
     u_min, u_max, settings : as :class:`CondensedProblem`
     """
 
-    def __init__(self, Ak, Bk, Cr, Dk, u_min, u_max, settings: MPCSettings):
-        Cr = np.asarray(Cr, dtype=float)
-        self.nr = Cr.shape[1]
-        self.n_extra = settings.horizon * self.nr
-        super().__init__(u_min, u_max, Cr.shape[0], settings)
-        self.Cr = Cr
-        self._blocks = {"Ak": np.asarray(Ak, float), "Bk": np.asarray(Bk, float), "Dk": np.asarray(Dk, float)}
-        self._check_blocks(**self._blocks)
+    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings):
+        self.Ar, self.Br = np.asarray(Ar, float), np.asarray(Br, float)
+        self.Cr, self.D0 = np.asarray(Cr, float), np.asarray(D0, float)
+        self.nr, self.r = self.Br.shape
+        self.has_theta = theta is not None
+        self.n_extra = settings.horizon * (self.nr + self.r)
+        super().__init__(u_min, u_max, self.Cr.shape[0], settings)
+        self._beta = np.asarray(beta, float)
+        self._theta = None if theta is None else np.asarray(theta, float)
+        self._check_blocks(beta=self._beta, theta=self._theta)
         self._assemble()
 
-    def _check_blocks(self, **blocks):
-        want = {"Ak": (self.N, self.nr, self.nr), "Bk": (self.N, self.nr, self.nu), "Dk": (self.N, self.ny, self.nu)}
-        bad = [f"{k} has shape {np.shape(v)}, expected {want[k]}" for k, v in blocks.items() if np.shape(v) != want[k]]
+    def _check_blocks(self, beta=None, theta=None):
+        bad = []
+        if beta is not None and beta.shape != (self.N, self.r, self.nu):
+            bad.append(f"beta has shape {beta.shape}, expected {(self.N, self.r, self.nu)}")
+        if theta is not None and theta.shape != (self.N, self.r, self.nr):
+            bad.append(f"theta has shape {theta.shape}, expected {(self.N, self.r, self.nr)}")
         if bad:
             raise SolverError(problems_message("invalid reduced prediction", bad))
 
     def _prediction_rows(self, put, slot):
-        N, nr, ny, nu = self.N, self.nr, self.ny, self.nu
+        N, nr, r_, ny, nu = self.N, self.nr, self.r, self.ny, self.nu
         blk = np.repeat(np.arange(self.nb), self.lengths)
-        r = 0
-        ii, jj = np.divmod(np.arange(nr * nr), nr)
-        bi, bj = np.divmod(np.arange(nr * nu), nu)
-        di, dj = np.divmod(np.arange(ny * nu), nu)
-        ci, cj = np.divmod(np.arange(ny * nr), nr)
+        i_w = self.i_x + N * nr
+        grid = lambda a, b: np.divmod(np.arange(a * b), b)  # noqa: E731
+        bi, bj = grid(r_, nu)
+        ti, tj = grid(r_, nr)
+        ri, rj = grid(nr, r_)
+        ci, cj = grid(ny, nr)
+        di, dj = grid(ny, r_)
+        row = 0
         for k in range(N):
-            xk1 = self.i_x + k * nr  # ξ(k+1)
-            put(r + np.arange(nr), xk1 + np.arange(nr), 1.0)
+            wk, xk, xk1 = i_w + k * r_, self.i_x + (k - 1) * nr, self.i_x + k * nr
+            put(row + np.arange(r_), wk + np.arange(r_), 1.0)               # w(k) - β_k u - Θ_k ξ(k) = 0
+            slot("beta")
+            put(row + bi, blk[k] * nu + bj, -self._beta[k])
+            if self.has_theta and k > 0:
+                slot("theta")
+                put(row + ti, xk + tj, -self._theta[k])
+            row += r_
+            put(row + np.arange(nr), xk1 + np.arange(nr), 1.0)              # ξ(k+1) - A_r ξ(k) - B_r w(k) = 0
             if k > 0:
-                slot("Ak")
-                put(r + ii, self.i_x + (k - 1) * nr + jj, -self._blocks["Ak"][k])
-            slot("Bk")
-            put(r + bi, blk[k] * nu + bj, -self._blocks["Bk"][k])
-            r += nr
-            put(r + np.arange(ny), self.i_y + k * ny + np.arange(ny), 1.0)
-            put(r + ci, xk1 + cj, -self.Cr)
-            slot("Dk")
-            put(r + di, blk[k] * nu + dj, -self._blocks["Dk"][k])
-            r += ny
-        return r
+                if self.Ar.ndim == 1:
+                    put(row + np.arange(nr), xk + np.arange(nr), -self.Ar)
+                else:
+                    ai, aj = grid(nr, nr)
+                    put(row + ai, xk + aj, -self.Ar)
+            put(row + ri, wk + rj, -self.Br)
+            row += nr
+            put(row + np.arange(ny), self.i_y + k * ny + np.arange(ny), 1.0)  # y - C_r ξ(k+1) - D_0 w(k) = y0
+            put(row + ci, xk1 + cj, -self.Cr)
+            put(row + di, wk + dj, -self.D0)
+            row += ny
+        return row
 
     def _prediction_rhs(self, y0):
-        out = np.zeros((self.N, self.nr + self.ny))
-        out[:, self.nr :] = y0.reshape(self.N, self.ny)
+        out = np.zeros((self.N, self.r + self.nr + self.ny))
+        out[:, self.r + self.nr :] = y0.reshape(self.N, self.ny)
         return out.ravel()
 
-    def update_blocks(self, Ak=None, Bk=None, Dk=None):
+    def update_blocks(self, beta, theta=None):
         """Replace the time-varying blocks in place (a new linearisation)."""
-        new = {k: np.asarray(v, float) for k, v in (("Ak", Ak), ("Bk", Bk), ("Dk", Dk)) if v is not None}
-        self._check_blocks(**new)
-        self._blocks.update(new)
-        upd = {}
-        if "Ak" in new:  # one slot per step k >= 1, in step order
-            for k, start in zip(range(1, self.N), self._slots["Ak"]):
-                v = -new["Ak"][k].ravel()
-                self._coo_data[start : start + v.size] = v
-        for name in ("Bk", "Dk"):
-            if name in new:
-                for k, start in enumerate(self._slots[name]):
-                    v = -new[name][k].ravel()
-                    self._coo_data[start : start + v.size] = v
-        self._update_slots(**upd)
+        beta = np.asarray(beta, float)
+        theta = None if theta is None else np.asarray(theta, float)
+        self._check_blocks(beta=beta, theta=theta)
+        for k, start in enumerate(self._slots["beta"]):
+            self._coo_data[start : start + beta[k].size] = -beta[k].ravel()
+        if self.has_theta and theta is not None:
+            for k, start in zip(range(1, self.N), self._slots["theta"]):
+                self._coo_data[start : start + theta[k].size] = -theta[k].ravel()
+        self._beta, self._theta = beta, theta if theta is not None else self._theta
+        self._update_slots()
 
 
 def save_problem(path, arrays: dict) -> Path:

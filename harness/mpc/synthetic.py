@@ -205,16 +205,20 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
 
 
 def steady_state_at(model: RCNetworkModel, v, q, target=21.0) -> np.ndarray:
-    """Equilibrium state (nx,) whose mean zone temperature is ``target`` [°C].
+    """Equilibrium state (nx,) with every zone temperature near ``target`` [°C].
 
-    All boxes run at the same fraction of their range, found by bisection;
-    the fraction is clipped to [0, 1], so the target may not be met.
+    The boxes of each zone run at a common fraction of their range, found by
+    a per-zone bisection (zones are weakly coupled); fractions stay in
+    [0, 1], so a zone whose target needs more or less than the limits misses it.
     """
-    lo, hi = 0.0, 1.0
+    nz = len(model.outputs)
+    lo, hi = np.zeros(nz), np.ones(nz)
     for _ in range(60):
         a = 0.5 * (lo + hi)
-        x = model.steady_state(model.m_min + a * (model.m_max - model.m_min), v, q)
-        lo, hi = (a, hi) if model.output(x).mean() > target else (lo, a)
+        frac = a[model.box_zone]
+        x = model.steady_state(model.m_min + frac * (model.m_max - model.m_min), v, q)
+        hot = model.output(x) > target
+        lo, hi = np.where(hot, a, lo), np.where(hot, hi, a)
     return x
 
 
