@@ -34,12 +34,14 @@ import warnings
 import numpy as np
 from scipy import stats
 
-from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat
+from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .design import (
     Signals,
     Within,
+    bounded_ls,
     coupled_blocks,
+    coupling_ratios,
     effective_inputs,
     fit_block,
     fit_structure,
@@ -57,6 +59,7 @@ DEFAULT_OPTIONS = {
     "holiday_z": 4.0,
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
+    "coupling_max_asymmetry": 2.0,
     "horizon": 96,
 }
 
@@ -148,6 +151,8 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
     }
     if isinstance(t, ActuationDelay):
         c.location = {**c.location, "delay": int(t.delay)}
+    if isinstance(t, ZoneCoupling):
+        c.evidence.update(coupling_symmetry(sig, W, terms, t))
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
@@ -163,6 +168,34 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
         g = np.array([coefs.get(f"{z}:coef[{z}]", (0.0, 0.0))[0] for z in sig.zones])
         c.evidence["scale_mean"] = float((w @ g) / w.sum()) if w.sum() > 0 else 0.0
         c.evidence["scale_by_zone"] = dict(zip(sig.zones, (float(x) for x in g)))
+
+
+def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
+    """Untied fit of a coupling: each zone's own coefficient on the temperature difference.
+
+    A heat exchange through a conductance ``UA`` raises each zone's temperature in
+    proportion to ``UA / C_zone``; with capacities proportional to the zone volumes the
+    two coefficients, rescaled by ``V̄/V``, must agree. Returns the untied coefficients
+    and ``symmetry_ratio`` (1 for a perfect exchange).
+    """
+    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    U_eff = effective_inputs(sig, terms)
+    feats = [term_features(sig, tt, U_eff) for tt in terms]
+    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+    ra, rb = coupling_ratios(sig, a, b)
+    d = sig.Y[:, b] - sig.Y[:, a]
+    out = {}
+    ks = []
+    for z, col, r in ((a, d, ra), (b, -d, rb)):
+        D = zone_design(sig, z, terms, U_eff, feats)
+        X = np.column_stack([D.X, col])
+        ls = bounded_ls(W(X), W(target[:, z] - D.offset), np.r_[D.lower, 0.0], np.r_[D.upper, 1.0],
+                        dof_extra=W.n_groups)
+        out[f"untied_coef_{sig.zones[z]}"] = float(ls.theta[-1])
+        ks.append(ls.theta[-1] / r)
+    ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
+    out["symmetry_ratio"] = float(ratio)
+    return out
 
 
 def heldout_rms(model, dataset, horizon=96):
@@ -257,6 +290,14 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
                     c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
                                 f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
                                 f"penalty {c.test['bic_penalty']:.1f})")
+                elif c.cause == "zone_coupling" and not (1.0 / opts["coupling_max_asymmetry"]
+                                                         <= c.evidence["symmetry_ratio"]
+                                                         <= opts["coupling_max_asymmetry"]):
+                    c.status = "not significant"
+                    c.reason = (f"asymmetric: the zones' own coefficients differ by a factor "
+                                f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
+                                f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
+                                f"not a heat exchange between them")
                 elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
                     c.status = "not significant"
                     c.reason = (f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "

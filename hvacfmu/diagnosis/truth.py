@@ -1,0 +1,103 @@
+"""Compare a diagnosis with the emulator's ``truth.json`` (tests, demo report).
+
+A finding is *supported* when the emulator really contains the cause at that
+location, either in its baseline structure (``truth["baseline"]["structure"]``:
+window solar gains per zone and facade, bilinear supply air, wall/slab/furniture
+mass, reheat coils) or as an injected effect (``truth["effects"]``). An injected
+effect is *found* when a finding names its cause and location.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+
+def _effects(truth, name):
+    return [e for e in truth.get("effects", []) if e.get("name") == name]
+
+
+def _holiday_dates(truth, effect) -> set:
+    start = pd.Timestamp(truth.get("start", "2025-09-01")).tz_localize(None).normalize()
+    out = set()
+    for w in effect.get("weeks", []):
+        for d in range(5):
+            out.add((start + pd.Timedelta(days=7 * int(w) + d)).date().isoformat())
+    return out
+
+
+def effect_matches(finding: dict, effect: dict, truth: dict) -> bool:
+    """True if ``finding`` (a report finding dict) names ``effect``'s cause and location."""
+    c, loc = finding["cause"], finding["location"]
+    name = effect["name"]
+    if c != name:
+        return False
+    if name == "solar_gain":
+        return loc.get("zone") == effect["zone"] and loc.get("facade") == effect["facade"]
+    if name == "zone_coupling":
+        return set(loc.get("zones", [])) == set(effect["zones"])
+    if name in ("thermal_mass", "reheat"):
+        return loc.get("zone") == effect["zone"]
+    if name == "actuation_delay":
+        steps = float(effect["minutes"]) * 60.0 / float(truth.get("step", 900.0))
+        return loc.get("zone") == effect["zone"] and abs(int(loc.get("delay", 0)) - steps) <= 1.0
+    if name == "internal_gain_schedule":
+        kind = effect.get("kind", "holiday")
+        if kind == "dst":
+            return loc.get("variant") == "dst_shift"
+        if loc.get("variant") != "holiday":
+            return False
+        true_days = _holiday_dates(truth, effect)
+        days = set(loc.get("dates", []))
+        return bool(days) and len(days & true_days) >= 0.5 * len(days)
+    return False
+
+
+def finding_supported(finding: dict, truth: dict) -> tuple[bool, str]:
+    """Whether the emulator's truth contains the finding's cause at its location, and why."""
+    c, loc = finding["cause"], finding["location"]
+    for e in truth.get("effects", []):
+        if effect_matches(finding, e, truth):
+            return True, f"injected effect {e['name']}"
+    st = truth.get("baseline", {}).get("structure", {})
+    if c == "solar_gain":
+        if loc.get("facade") in st.get("solar_gain", {}).get(loc.get("zone"), []):
+            return True, "baseline window solar gain"
+    elif c == "supply_air_bilinear":
+        if st.get("supply_air", {}).get("form") == "bilinear":
+            return True, "baseline bilinear supply air"
+    elif c == "thermal_mass":
+        tm = st.get("thermal_mass", {})
+        if tm.get("walls") or tm.get("slabs") or tm.get("furniture_J_per_K_m2"):
+            return True, "baseline wall/slab/furniture mass"
+    elif c == "reheat":
+        if st.get("reheat"):
+            return True, "baseline reheat coils"
+    return False, "not in the emulator's truth"
+
+
+def compare_with_truth(report, truth: dict) -> dict:
+    """Findings vs truth.
+
+    Parameters
+    ----------
+    report : DiagnosisReport or its ``to_dict()``
+    truth : dict
+        Parsed ``truth.json``.
+
+    Returns
+    -------
+    dict with ``found`` (injected effects matched by a finding), ``missed`` (injected
+    effects not found), ``unsupported`` (findings absent from the truth: false alarms)
+    and ``supported`` (findings with the reason they are in the truth).
+    """
+    d = report if isinstance(report, dict) else report.to_dict()
+    findings = d["findings"]
+    found, missed = [], []
+    for e in truth.get("effects", []):
+        (found if any(effect_matches(f, e, truth) for f in findings) else missed).append(e)
+    supported, unsupported = [], []
+    for f in findings:
+        ok, why = finding_supported(f, truth)
+        (supported if ok else unsupported).append({"cause": f["cause"], "location": f["location"], "why": why})
+    return {"found": found, "missed": missed, "supported": supported, "unsupported": unsupported}
+
