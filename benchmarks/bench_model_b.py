@@ -58,7 +58,7 @@ def main(argv=None):
     rng = np.random.default_rng(0)
     starts = np.sort(rng.choice(np.arange(200, len(frame) - 100), 35, replace=False))
     t, _ = median_time(lambda: [model.initial_state(frame, int(k)) for k in starts], args.repeat)
-    print(f"initial_state, 35 windows (24 h warm-up): {t:8.3f} s  ({1e3 * t / 35:.1f} ms each)")
+    print(f"initial_state, 35 windows (48 h warm-up): {t:8.3f} s  ({1e3 * t / 35:.1f} ms each)")
     t, _ = median_time(lambda: model.initial_states(frame, starts), args.repeat)
     print(f"initial_states, 35 windows batched:   {t:8.3f} s")
 

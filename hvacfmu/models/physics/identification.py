@@ -248,7 +248,7 @@ def fit_physics(
     furniture_capacity: float | None = None,
     internal_mass: float | None = None,
     segment_hours: float = 24.0,
-    warmup_hours: float = 24.0,
+    warmup_hours: float = 48.0,
     max_segments: int | None = 24,
     kalman: dict | None = None,
     kalman_rounds: int = 1,

@@ -42,7 +42,7 @@ from .network import BilinearMatrices, NetworkTemplate, single_threaded
 
 #: Default Kalman filter settings: process noise per step on air and on other
 #: nodes [K], measurement noise [K], warm-up length [steps].
-DEFAULT_KALMAN = {"observer": "kalman", "q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 96}
+DEFAULT_KALMAN = {"observer": "kalman", "q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 192}
 OBSERVERS = ("gain_injection", "kalman")
 
 
