@@ -8,6 +8,7 @@ PhysicsModel is exercised when its module imports.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 import scipy.optimize
 from numpy.testing import assert_allclose
@@ -483,3 +484,48 @@ def test_closed_loop_reduced_long_horizon_keeps_band(rc_medium):
     r = closed_loop(c, m, x0, V, Q, 120)
     assert r.summary()["failures"] == 0
     assert band_residual(r.y) <= 1e-5
+
+
+# ---------------------------------------------------------------------------
+# harness adapter (controller protocol of harness.controllers)
+# ---------------------------------------------------------------------------
+def test_cosim_adapter_runs_model_a_in_band(small_building):
+    """The protocol object maps FMU outputs, previews the data and splits zone airflow over boxes."""
+    from harness.controllers import ControlContext, Controller
+    from harness.mpc import cosim_controller
+
+    model = LinearZoneModel(
+        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
+        vavs=("V1", "V2", "V3"), input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        disturbances=("T_out", "T_supply"), A=np.array([[0.9, 0.02], [0.03, 0.88]]), B=-np.diag([0.9, 1.2]),
+        C=np.array([[0.05, 0.02], [0.06, 0.03]]), gains={"fall": np.full((672, 2), 0.9)},
+    )
+    n = 96
+    idx = pd.date_range("2025-10-06", periods=n, freq="15min", tz="America/Los_Angeles")
+    rng = np.random.default_rng(0)
+    frame = pd.DataFrame({"T_A": 21.0, "T_B": 21.0, "m_V1": 0.1, "m_V2": 0.1, "m_V3": 0.05,
+                          "T_out": 16.0 + 4 * np.sin(np.arange(n) / 15), "T_supply": 13.0 + rng.normal(0, 0.1, n)},
+                         index=idx)
+    ctx = ControlContext(frame=frame, building=small_building, vavs=("V3", "V1", "V2"), outputs=("T_B", "T_A"),
+                         output_zones=(("B",), ("A",)), step=900.0, band=(20.0, 22.0), season="fall", model=model)
+    ctrl = cosim_controller(model, small_building, horizon=3, rho=100, comfort_penalty="none")
+    assert isinstance(ctrl, Controller)
+    ctrl.reset(ctx)
+    x = np.array([21.0, 21.0])
+    lo = np.array([0.03, 0.05, 0.05])  # V3, V1, V2
+    hi = np.array([0.40, 0.60, 0.60])
+    for k in range(n):
+        m_box = ctrl(k, idx[k], np.array([x[1], x[0]]), frame.iloc[k][["T_out", "T_supply"]].to_dict())
+        assert m_box.shape == (3,) and np.all(m_box >= lo - 1e-7) and np.all(m_box <= hi + 1e-7)
+        u = np.array([m_box[1] + m_box[2], m_box[0]])  # zone airflows seen by the model
+        assert_allclose(u, ctrl.mpc.plans[-1].U[0], rtol=0, atol=1e-12)
+        x = model.step_state(x, u, frame.iloc[k][["T_out", "T_supply"]].to_numpy(float), np.full(2, 0.9))
+        assert band_residual(x) <= FEAS_TOL
+    assert ctrl.stats()["failures"] == 0 and ctrl.stats()["steps"] == n
+
+
+def test_cosim_adapter_rejects_unknown_option():
+    from harness.mpc import cosim_controller
+
+    with pytest.raises(Exception, match="unknown MPC option"):
+        cosim_controller(linear_model(), None, horizon=3, bogus=1)

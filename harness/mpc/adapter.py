@@ -1,0 +1,175 @@
+"""The MPC controller in the co-simulation harness (``hvacfmu cosim --controller mpc``).
+
+:func:`cosim_controller` wraps :class:`~harness.mpc.controller.MPCController`
+in the controller protocol of :mod:`harness.controllers`: it maps the FMU's
+outputs to the model's measured outputs, previews disturbances and internal
+gains from the run's prepared data (a perfect forecast, as in the paper), and
+maps the model's inputs to VAV box commands.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from hvacfmu.errors import HvacfmuError, ModelError
+
+from .controller import MPCController, input_limits
+from .problem import MPCSettings
+
+_SETTING_NAMES = {f.name for f in dataclasses.fields(MPCSettings)}
+
+
+def settings_from_options(band=None, **options) -> tuple[MPCSettings, dict]:
+    """MPCSettings from ``KEY=VALUE`` harness options; returns (settings, remaining options).
+
+    ``comfort_penalty=none`` keeps the band hard, ``blocks=auto`` selects
+    :func:`~harness.mpc.problem.default_blocks`, ``blocks=1/1/2`` gives explicit lengths.
+    """
+    kw, rest = {}, {}
+    for key, value in options.items():
+        if key not in _SETTING_NAMES:
+            rest[key] = value
+            continue
+        if isinstance(value, str) and value.lower() in ("none", "null", "hard"):
+            value = None
+        if key == "blocks" and isinstance(value, str) and value != "auto":
+            value = tuple(int(x) for x in value.replace(",", "/").split("/"))
+        kw[key] = value
+    if band is not None:
+        kw.setdefault("T_min", float(band[0]))
+        kw.setdefault("T_max", float(band[1]))
+    return MPCSettings(**kw), rest
+
+
+class CosimMPC:
+    """Energy-efficient MPC following the harness controller protocol.
+
+    Parameters
+    ----------
+    model : ZoneModel (Model A or Model B)
+    building : Building or None (the harness passes the run's building at reset)
+    failure_dir : path or None
+        Where failed problems are saved for replay.
+    kalman_q_std, kalman_r_std : float [K]
+    **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
+    """
+
+    name = "mpc"
+
+    def __init__(self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05, **options):
+        self.model = model
+        self.building = building
+        self.failure_dir = failure_dir
+        self.kalman = (float(kalman_q_std), float(kalman_r_std))
+        self.options = dict(options)
+        self.settings, unknown = settings_from_options(**self.options)
+        if unknown:
+            raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
+        self.mpc = None
+
+    # ----- protocol ------------------------------------------------------
+    def reset(self, context) -> None:
+        model = self.model
+        self.settings, _ = settings_from_options(band=context.band, **self.options)
+        building = context.building if context.building is not None else self.building
+        u_min, u_max = input_limits(model, building)
+        self.mpc = MPCController(model, u_min, u_max, self.settings, kalman_q_std=self.kalman[0],
+                                 kalman_r_std=self.kalman[1], failure_dir=self.failure_dir)
+        N = self.mpc.N
+        frame = context.frame
+        # previews: the run's rows, then the last row held for the horizon past the end
+        idx = pd.date_range(frame.index[0], periods=len(frame) + N, freq=pd.Timedelta(seconds=context.step),
+                            tz=frame.index.tz)
+        ext = frame.reindex(idx).ffill()
+        missing = [c for c in model.disturbances if c not in ext]
+        if missing:
+            raise ModelError(f"the run's data lack disturbance column(s) {missing} that the model needs")
+        self.V = ext[list(model.disturbances)].to_numpy(dtype=float)
+        if hasattr(model, "gains_for_rows"):
+            self.Q = np.asarray(model.gains_for_rows(idx), dtype=float)
+        else:
+            season = context.season if context.season in model.gains else next(iter(model.gains))
+            self.Q = np.asarray(model.gains_at(idx, season), dtype=float)
+        self._output_map(context)
+        self._input_map(context, building)
+        x0 = None
+        if self.mpc.bilinear and hasattr(model, "initial_state"):
+            try:  # the model's own estimate from the data before the run, when it has one
+                x0 = np.asarray(model.initial_state(frame, 0), dtype=float)
+            except (HvacfmuError, KeyError, ValueError, IndexError):
+                x0 = None
+        self.mpc.reset(x0=x0)
+
+    def __call__(self, k, t, y, v):
+        y = np.asarray(y, dtype=float)
+        y_model = self._W @ y
+        u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N])
+        m = self._split_offset + self._split @ u
+        return np.maximum(m, 0.0)
+
+    def stats(self) -> dict:
+        return self.mpc.stats() if self.mpc is not None else {}
+
+    # ----- mappings ------------------------------------------------------
+    def _output_map(self, context):
+        """``y_model = W y_fmu``: model outputs from the FMU outputs."""
+        outs = list(context.outputs)
+        model = self.model
+        W = np.zeros((len(model.outputs), len(outs)))
+        problems = []
+        zone_out = {}
+        for j, zs in enumerate(context.output_zones):
+            if len(zs) == 1:
+                zone_out[zs[0]] = j
+        for i, o in enumerate(model.outputs):
+            if f"T_{o}" in outs:
+                W[i, outs.index(f"T_{o}")] = 1.0
+            elif hasattr(model, "measured_zones") and hasattr(model, "output_weights"):
+                for z, w in zip(model.measured_zones, model.output_weights[i]):
+                    if w != 0.0 and z not in zone_out:
+                        problems.append(f"model output {o!r} needs zone {z!r}, which no FMU output measures")
+                    elif w != 0.0:
+                        W[i, zone_out[z]] = w
+            else:
+                problems.append(f"no FMU output for model output {o!r} (FMU outputs: {outs})")
+        if problems:
+            raise HvacfmuError("MPC cannot read the plant's outputs: " + "; ".join(problems))
+        self._W = W
+
+    def _input_map(self, context, building):
+        """``m_vav = offset + S u``: box commands from the model's inputs.
+
+        Model A's zone (or total) airflow is split affinely so that the summed
+        limits map onto every box's own ``[m_min, m_max]``.
+        """
+        vavs = list(context.vavs)
+        m_min, m_max = context.box_limits()
+        model = self.model
+        nu = self.mpc.pred.nu
+        S = np.zeros((len(vavs), nu))
+        off = np.zeros(len(vavs))
+        if hasattr(model, "input_map") and hasattr(model, "vavs"):
+            for i in range(nu):
+                boxes = [vavs.index(b) for b, w in zip(model.vavs, model.input_map[i]) if w != 0.0 and b in vavs]
+                if not boxes:
+                    raise HvacfmuError(f"model input {model.inputs[i]!r} drives no box of the plant")
+                lo, hi = m_min[boxes], m_max[boxes]
+                span = max(float(np.sum(hi - lo)), 1e-12)
+                S[boxes, i] = (hi - lo) / span
+                off[boxes] = lo - (hi - lo) / span * float(np.sum(lo))
+        else:
+            names = [n[2:] if n.startswith("m_") else n for n in model.inputs]
+            missing = [n for n in names if n not in vavs]
+            if missing:
+                raise HvacfmuError(f"model inputs {missing} are not boxes of the plant")
+            for i, n in enumerate(names):
+                S[vavs.index(n), i] = 1.0
+        self._split, self._split_offset = S, off
+
+
+def cosim_controller(model, building=None, **options) -> CosimMPC:
+    """The MPC controller for :func:`harness.cosim.make_controller` (``--controller mpc``)."""
+    return CosimMPC(model, building, **options)
