@@ -560,3 +560,12 @@ def test_cli_fit_and_evaluate(two_zone, tmp_path):
                         capture_output=True, text=True, timeout=300)
     assert ev.returncode == 0, ev.stderr
     assert "physics" in ev.stdout and "fall" in ev.stdout
+
+
+def test_fit_bad_options(recovered):
+    from hvacfmu.errors import FitError
+
+    ds, _, _ = recovered
+    with pytest.raises(FitError, match=r"\(2 problems\)") as info:
+        fit_physics(ds, progress=False, segment_observer="oracle", free_modes=-1)
+    assert "segment_observer" in str(info.value) and "free_modes" in str(info.value)

@@ -336,6 +336,19 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
+    problems = []
+    if segment_observer not in ("gain_injection", "kalman"):
+        problems.append(f"segment_observer must be 'gain_injection' or 'kalman', got {segment_observer!r}")
+    if int(free_modes) < 0:
+        problems.append(f"free_modes must be >= 0, got {free_modes}")
+    if not segment_hours > 0 or warmup_hours < 0:
+        problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
+    if not bound_factor > 1:
+        problems.append(f"bound_factor must be > 1, got {bound_factor}")
+    if problems:
+        from ...errors import problems_message
+
+        raise FitError(problems_message("fit_physics: bad options", problems))
     if solar is None:
         solar = bool(getattr(dataset, "has_solar", False))
     if solar and not getattr(dataset, "has_solar", False):
@@ -395,8 +408,6 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         bar = tqdm(desc="Model B step 1", unit="eval", disable=not progress, leave=False)
     except ImportError:  # pragma: no cover
         bar = None
-    if segment_observer not in ("gain_injection", "kalman"):
-        raise FitError(f"segment_observer must be 'gain_injection' or 'kalman', got {segment_observer!r}")
     observer = segment_observer
     state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
 
@@ -410,7 +421,8 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
 
     theta = theta0
     results = []
-    for rnd in range(max(1, int(kalman_rounds))):
+    n_rounds = max(1, int(kalman_rounds)) if observer == "kalman" else 1
+    for rnd in range(n_rounds):
         if rnd > 0 and observer == "kalman":
             net = template.build(np.exp(theta))
             k = model.options["kalman"]
@@ -439,8 +451,12 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
         "fit_seconds": round(time.perf_counter() - t_start, 2),
         "data": {"source": str(getattr(dataset, "source", "")), "sha256": getattr(dataset, "sha256", None)},
-        "method": "Zhou, Hu & Tomlin sec. IV.B: weekend simulation-error fit (variable projection for f_IG^c, "
-                  "log-parameters), Kalman-filter initial states; f_IG^v by one-step OLS averaged per season",
+        "method": "Zhou, Hu & Tomlin sec. IV.B: weekend simulation-error fit (log-parameters, variable "
+                  "projection for f_IG^c >= 0), segment initial states from a filter over the warm-up plus "
+                  "fitted slowest modes; f_IG^v by one-step OLS (gain injection) averaged per season",
+        "fit_options": {"segment_hours": segment_hours, "warmup_hours": warmup_hours, "max_segments": max_segments,
+                        "free_modes": int(free_modes), "segment_observer": segment_observer,
+                        "bound_factor": bound_factor, "max_nfev": max_nfev, "solar": bool(solar)},
         "nominal": nominal,
         "initial": start,
         "estimates": estimates,
