@@ -210,7 +210,8 @@ class DiagnosisReport:
         o = self.options
         L.append("")
         L.append(f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, and held-out gain "
-                 f">= {o['min_gain_percent']:g} % and >= {o['min_gain_abs']:g} K in the affected zones.")
+                 f">= {o['min_gain_percent']:g} % (zone_coupling {o['coupling_min_gain_percent']:g} %) and "
+                 f">= {o['min_gain_abs']:g} K, positive in every affected zone.")
         for n in self.notes:
             L.append(f"note: {n}")
         return "\n".join(L)

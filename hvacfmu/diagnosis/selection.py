@@ -13,7 +13,12 @@ A candidate is *confirmed* when both hold:
    plus the searched hyper-parameters (time constant, delay, thresholds, dates).
 2. **Held-out weeks** — the 24-hour open-loop RMS of :func:`hvacfmu.evaluation.evaluate`
    on the test weeks, averaged over the affected zones, improves by at least
-   ``min_gain_percent`` (default 1 %) and ``min_gain_abs`` (default 0.003 K).
+   ``min_gain_percent`` (default 1 %) and ``min_gain_abs`` (default 0.003 K), and in
+   every affected zone. A ``zone_coupling`` needs ``coupling_min_gain_percent``
+   (default 3 %) and a symmetric exchange (the two zones' own coefficients, scaled by
+   their volumes, within a factor ``coupling_max_asymmetry`` = 4): a path between two
+   zones can trade their common-mode errors (floors above and below, weather, the
+   day's occupancy) for a small spurious gain.
 
 Forward selection (in the spirit of Bacher & Madsen, 2011): score every
 candidate, try the confirmed ones in order of BIC evidence, add the first that
@@ -59,7 +64,8 @@ DEFAULT_OPTIONS = {
     "holiday_z": 4.0,
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
-    "coupling_max_asymmetry": 2.0,
+    "coupling_max_asymmetry": 4.0,
+    "coupling_min_gain_percent": 3.0,
     "horizon": 96,
 }
 
@@ -339,7 +345,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             c.heldout = cmp
             g = cmp.get("gain_percent")
             every = all(v["after"] < v["before"] for v in cmp["zones"].values())
-            if (g is not None and g >= opts["min_gain_percent"] and cmp["gain_abs"] >= opts["min_gain_abs"]
+            need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["min_gain_percent"]
+            if (g is not None and g >= need and cmp["gain_abs"] >= opts["min_gain_abs"]
                     and (every or len(zs) == sig.nz)):
                 c.status = "found"
                 c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g} and held-out gain "
@@ -349,7 +356,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
                 continue
             c.status = "no held-out gain"
             c.reason = ("held-out gain " + ("n/a" if g is None else f"{g:.2f} % ({cmp['gain_abs']:.4f} K)")
-                        + f" below {opts['min_gain_percent']:g} % / {opts['min_gain_abs']:g} K"
+                        + f" below {need:g} % / {opts['min_gain_abs']:g} K"
                         + ("" if every else " or not positive in every affected zone"))
         rounds.append({"round": len(rounds) + 1,
                        "scored": len([c for c in cands if c.test]),
