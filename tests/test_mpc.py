@@ -529,3 +529,93 @@ def test_cosim_adapter_rejects_unknown_option():
 
     with pytest.raises(Exception, match="unknown MPC option"):
         cosim_controller(linear_model(), None, horizon=3, bogus=1)
+
+
+# ---------------------------------------------------------------------------
+# the real Model B class (hvacfmu.models.physics.PhysicsModel)
+# ---------------------------------------------------------------------------
+def physics_two_rooms():
+    """A two-room PhysicsModel (walls, windows, floor on the ground, partition) with constant gains."""
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.models.physics import PhysicsModel
+
+    nominal = {"U_win": 2.6, "gamma_interior_wall": 3.0, "gamma_exterior_wall": 3.0, "gamma_floor": 3.0,
+               "gamma_ceiling": 3.0}
+    d = {
+        "name": "two rooms", "latitude": 37.875, "longitude": -122.259, "timezone": "America/Los_Angeles",
+        "zones": [{"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"]},
+                  {"name": "B", "area": 60.0, "volume": 180.0, "adjacent": ["A"]}],
+        "vavs": [{"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.5},
+                 {"name": "V2", "zone": "A", "m_min": 0.05, "m_max": 0.5},
+                 {"name": "V3", "zone": "B", "m_min": 0.04, "m_max": 0.4}],
+        "materials": [{"name": "concrete", "conductivity": 1.4, "density": 2300.0, "specific_heat": 880.0},
+                      {"name": "insulation", "conductivity": 0.04, "density": 30.0, "specific_heat": 1400.0},
+                      {"name": "gypsum", "conductivity": 0.25, "density": 800.0, "specific_heat": 1090.0}],
+        "constructions": [
+            {"name": "exterior_wall", "films": ["ambient", "exterior_wall"],
+             "layers": [{"material": "concrete", "thickness": 0.15}, {"material": "insulation", "thickness": 0.08}]},
+            {"name": "partition", "films": ["interior_wall", "interior_wall"],
+             "layers": [{"material": "gypsum", "thickness": 0.05}]},
+            {"name": "floor", "films": ["floor", "none"], "layers": [{"material": "concrete", "thickness": 0.12}]},
+        ],
+        "windows": [{"name": "A_S", "zone": "A", "orientation": "S", "area": 15.0, "u_value": 2.6, "shgc": 0.4},
+                    {"name": "B_N", "zone": "B", "orientation": "N", "area": 8.0, "u_value": 2.6, "shgc": 0.4}],
+        "elements": [
+            {"name": "A_S_wall", "construction": "exterior_wall", "area": 25.0, "side1": "ambient", "side2": "A",
+             "orientation": "S"},
+            {"name": "B_N_wall", "construction": "exterior_wall", "area": 15.0, "side1": "ambient", "side2": "B",
+             "orientation": "N"},
+            {"name": "A_B", "construction": "partition", "area": 30.0, "side1": "A", "side2": "B"},
+            {"name": "A_floor", "construction": "floor", "area": 100.0, "side1": "A", "side2": "ground"},
+            {"name": "B_floor", "construction": "floor", "area": 60.0, "side1": "B", "side2": "ground"},
+        ],
+        "physics": {"ambient_film": 25.0, "ground_temperature": 14.0, "internal_mass": 8000.0,
+                    "max_layer_thickness": 0.04, "nominal": nominal},
+    }
+    b = building_from_dict(d)
+    probe = PhysicsModel(b, nominal, {"fall": np.zeros((672, 3))})
+    nq = len(probe.q_names)
+    gains = np.zeros((672, nq))
+    gains[:, :2] = [4000.0, 2500.0]  # [W] internal gains of A and B
+    if nq > 2:
+        gains[:, 2:] = 14.0  # ground temperature [°C]
+    return PhysicsModel(b, nominal, {"fall": gains}), b
+
+
+def test_physics_model_scp_matches_nonlinear_optimum_and_holds_band():
+    model, building = physics_two_rooms()
+    u_min, u_max = input_limits(model, building)
+    assert_allclose(u_min, [0.05, 0.05, 0.04], rtol=0, atol=0)
+    pred = make_predictor(model)
+    assert pred.r == 2 and model.n_states > 10  # airflows reach the two zone air nodes only
+    n = 60
+    V = np.column_stack([18.0 + 4 * np.sin(np.arange(n) / 12.0), np.full(n, 13.0)])
+    Q = np.asarray(model.gains["fall"][:n])
+    U_hold = np.tile(u_min + 0.25 * (u_max - u_min), (200, 1))
+    x0 = model.simulate(np.full(model.n_states, 21.0), U_hold, np.tile(V[0], (200, 1)), np.tile(Q[0], (200, 1)))[0][-1]
+    # one step: SCP vs SLSQP on the bilinear problem, with the model's own simulate
+    N = 3
+    c = MPCController(model, u_min, u_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
+                                                       comfort_penalty=None, T_max=float(model.output(x0).max()) - 0.3))
+    plan = c.plan(x0, V[:N], Q[:N])
+    assert plan.found and plan.converged
+    X, Y = model.simulate(x0, plan.U, V[:N], Q[:N])
+    assert_allclose(plan.X, X, rtol=0, atol=1e-8)
+    assert np.max(Y[1:]) <= c.settings.T_max + FEAS_TOL and np.min(Y[1:]) >= 20.0 - FEAS_TOL
+
+    def Yf(z):
+        return model.simulate(x0, z.reshape(N, 3), V[:N], Q[:N])[1][1:].ravel()
+
+    cons = [{"type": "ineq", "fun": lambda z: c.settings.T_max - Yf(z)}, {"type": "ineq", "fun": lambda z: Yf(z) - 20.0}]
+    res = scipy.optimize.minimize(lambda z: z @ z, np.tile(u_max, N), jac=lambda z: 2 * z, method="SLSQP",
+                                  bounds=list(zip(np.tile(u_min, N), np.tile(u_max, N))), constraints=cons,
+                                  options={"ftol": 1e-13, "maxiter": 500})
+    assert res.success or res.status == 8
+    assert min(float(np.min(cc["fun"](res.x))) for cc in cons) >= -1e-7
+    assert_allclose(plan.obj, res.fun, rtol=1e-6, atol=0)
+    assert_allclose(plan.U, res.x.reshape(N, 3), rtol=0, atol=1e-4)
+    # closed loop with the model as its own plant, walls estimated by the Kalman filter
+    c2 = MPCController(model, u_min, u_max, MPCSettings(horizon=12, blocks="auto"))
+    r = closed_loop(c2, model, x0, np.vstack([V, np.tile(V[-1], (12, 1))]), np.vstack([Q, Q[:12]]), n)
+    assert r.summary()["failures"] == 0
+    assert band_residual(r.y[1:]) <= 0.05  # [K] after the filter settles from its steady-state initial guess
