@@ -102,6 +102,12 @@ class CosimResult:
         path.with_suffix(".json").write_text(json.dumps(summary, indent=1, default=str), encoding="utf-8")
         return path
 
+    def plot(self, path) -> Path:
+        """Figure of the run (temperatures in the band, total airflow) as an image file."""
+        from .cosim_plots import plot_cosim
+
+        return plot_cosim(self, path)
+
     def format_summary(self) -> str:
         s = self.summary
         lines = [
@@ -677,6 +683,7 @@ def add_cosim_arguments(parser):
     parser.add_argument("--start", help="start of the span instead of --week (local time)")
     parser.add_argument("--stop", help="end of the span (exclusive)")
     parser.add_argument("--out", "-o", help="results table (.csv or .parquet); summary beside it (.json)")
+    parser.add_argument("--plot", help="figure of the run (.png, .pdf, .svg)")
     parser.add_argument("--mapping", help="JSON mapping of a foreign FMU's variables (see harness.cosim)")
     parser.add_argument("--band", type=float, nargs=2, default=DEFAULT_BAND, metavar=("T_MIN", "T_MAX"),
                         help="comfort band [degC] (default 20 22)")
@@ -716,6 +723,8 @@ def main_cosim(args) -> int:
     print(result.format_summary())
     if args.out:
         print(f"wrote {result.save(args.out)}")
+    if args.plot:
+        print(f"wrote {result.plot(args.plot)}")
     if not result.covered:
         print(f"hvacfmu cosim: error: the FMU stopped early: {result.summary['stopped_because']}",
               file=sys.stderr)

@@ -172,9 +172,10 @@ def test_cosim_command_line(zones, short_paths, tmp_path):
     out = tmp_path / "res.csv"
     cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "cosim", "--fmu", str(path), "--data", str(short_paths.measurements),
            "--building", str(short_paths.building), "--controller", "rule", "--model", str(mp), "--week", "2",
-           "--out", str(out)]
+           "--out", str(out), "--plot", str(tmp_path / "run.png")]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
+    assert (tmp_path / "run.png").stat().st_size > 10_000
     assert "672 / 672 steps" in run.stdout and "comfort" in run.stdout
     tab = pd.read_csv(out)
     assert len(tab) == 673 and json.loads(out.with_suffix(".json").read_text())["controller"] == "rule"
