@@ -28,7 +28,7 @@ def plot_cosim(result, path) -> Path:
     ax1.set_title(f"{s['fmu']}, controller {s['controller']}: {s['comfort_violation_Kh']:.1f} K·h outside the band, "
                   f"Σm² = {s['energy_proxy']:.1f}" + ("" if s["covered"] else "  (STOPPED EARLY)"), fontsize=10)
     ax1.legend(ncol=4, fontsize=7, loc="upper right")
-    ax2.plot(tab.index, tab[boxes].sum(axis=1), lw=1.0, color="tab:blue")
+    ax2.plot(tab.index, tab[boxes].sum(axis=1, min_count=1), lw=1.0, color="tab:blue")
     ax2.set_ylabel("total airflow [kg/s]")
     ax2.set_xlabel("local time")
     fig.tight_layout()
