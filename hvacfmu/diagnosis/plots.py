@@ -42,7 +42,7 @@ def plot_residual_profiles(report, path):
     s = report.series
     idx = s["index"]
     hours = np.asarray(idx.hour)
-    wd = np.asarray(idx.dayofweek)
+    wd = np.asarray(idx.day_of_week)
     zones = _zones(report)
     fig, axes = plt.subplots(2, 2, figsize=(12, 7), sharey="row")
     for col, key, title in ((0, "open_loop_before", "base model"), (1, "open_loop_after", "extended model")):

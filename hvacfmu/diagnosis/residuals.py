@@ -239,7 +239,7 @@ def breakdown(resid: np.ndarray, ctx: Context, zones, mask=None) -> dict:
     keys = {
         "season": ctx.season,
         "hour": np.asarray(idx.hour),
-        "day_type": np.where(np.asarray(idx.dayofweek) < 5, "weekday", "weekend"),
+        "day_type": np.where(np.asarray(idx.day_of_week) < 5, "weekday", "weekend"),
         "T_out_band": ctx.T_out_band,
         "sky": ctx.sky,
     }

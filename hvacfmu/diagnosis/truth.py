@@ -25,8 +25,11 @@ def _holiday_dates(truth, effect) -> set:
     return out
 
 
-def effect_matches(finding: dict, effect: dict, truth: dict) -> bool:
-    """True if ``finding`` (a report finding dict) names ``effect``'s cause and location."""
+def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0) -> bool:
+    """True if ``finding`` (a report finding dict) names ``effect``'s cause and location.
+
+    ``step`` [s] is the model step of the diagnosis (a delay is matched within one step).
+    """
     c, loc = finding["cause"], finding["location"]
     name = effect["name"]
     if c != name:
@@ -38,7 +41,7 @@ def effect_matches(finding: dict, effect: dict, truth: dict) -> bool:
     if name in ("thermal_mass", "reheat"):
         return loc.get("zone") == effect["zone"]
     if name == "actuation_delay":
-        steps = float(effect["minutes"]) * 60.0 / float(truth.get("step", 900.0))
+        steps = float(effect["minutes"]) * 60.0 / float(step)
         return loc.get("zone") == effect["zone"] and abs(int(loc.get("delay", 0)) - steps) <= 1.0
     if name == "internal_gain_schedule":
         kind = effect.get("kind", "holiday")
@@ -52,11 +55,11 @@ def effect_matches(finding: dict, effect: dict, truth: dict) -> bool:
     return False
 
 
-def finding_supported(finding: dict, truth: dict) -> tuple[bool, str]:
+def finding_supported(finding: dict, truth: dict, step: float = 900.0) -> tuple[bool, str]:
     """Whether the emulator's truth contains the finding's cause at its location, and why."""
     c, loc = finding["cause"], finding["location"]
     for e in truth.get("effects", []):
-        if effect_matches(finding, e, truth):
+        if effect_matches(finding, e, truth, step):
             return True, f"injected effect {e['name']}"
     st = truth.get("baseline", {}).get("structure", {})
     if c == "solar_gain":
@@ -92,12 +95,13 @@ def compare_with_truth(report, truth: dict) -> dict:
     """
     d = report if isinstance(report, dict) else report.to_dict()
     findings = d["findings"]
+    step = float(d.get("data", {}).get("step", 900.0))
     found, missed = [], []
     for e in truth.get("effects", []):
-        (found if any(effect_matches(f, e, truth) for f in findings) else missed).append(e)
+        (found if any(effect_matches(f, e, truth, step) for f in findings) else missed).append(e)
     supported, unsupported = [], []
     for f in findings:
-        ok, why = finding_supported(f, truth)
+        ok, why = finding_supported(f, truth, step)
         (supported if ok else unsupported).append({"cause": f["cause"], "location": f["location"], "why": why})
     return {"found": found, "missed": missed, "supported": supported, "unsupported": unsupported}
 

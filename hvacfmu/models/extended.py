@@ -305,7 +305,7 @@ def dst_active(index: pd.DatetimeIndex) -> np.ndarray:
     index = pd.DatetimeIndex(index)
     if index.tz is None or len(index) == 0:
         return np.zeros(len(index), dtype=bool)
-    off = index.map(lambda t: t.utcoffset().total_seconds()).to_numpy(dtype=float)
+    off = (index.tz_localize(None) - index.tz_convert("UTC").tz_localize(None)).total_seconds().to_numpy(dtype=float)
     # standard offset: the smaller of January's and July's offset in this time zone
     y = index[0].year
     jan = pd.Timestamp(_dt.datetime(y, 1, 15), tz=index.tz).utcoffset().total_seconds()

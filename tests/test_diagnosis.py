@@ -1,0 +1,328 @@
+"""Diagnosis: residual tests, cause detection, no false alarms, messiness, report, CLI.
+
+Two kinds of data:
+
+- *synthetic*: a three-zone floor (A–B–C in a row, A and C not adjacent) simulated at
+  the model step from a known Model A, optionally extended with one catalogue term,
+  with process noise (fast unit tests of the math);
+- *emulator*: the SDH-like emulator of :mod:`hvacfmu.emulator` with an effect injected
+  (end to end; 16-week datasets shared through ``cached_dataset``).
+
+The diagnosis is never told what was injected; assertions compare its findings with
+the generator's truth afterwards.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacfmu.building import building_from_dict
+from hvacfmu.data.dataset import Dataset
+from hvacfmu.diagnosis import CAUSES, SCHEMA, diagnose
+from hvacfmu.diagnosis.residuals import acf, cumulated_periodogram, whiteness
+from hvacfmu.diagnosis.truth import compare_with_truth
+from hvacfmu.models.extended import (
+    ActuationDelay,
+    ExtendedModel,
+    Reheat,
+    SolarGain,
+    SupplyAirBilinear,
+    ThermalMass,
+    ZoneCoupling,
+)
+from hvacfmu.models.linear import LinearZoneModel
+
+TZ = "America/Los_Angeles"
+
+ROW = {
+    "name": "three rooms in a row", "latitude": 37.875, "longitude": -122.259, "timezone": TZ,
+    "zones": [
+        {"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
+         "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}]},
+        {"name": "B", "area": 100.0, "volume": 300.0, "adjacent": ["A", "C"], "facades": []},
+        {"name": "C", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
+         "facades": [{"orientation": "W", "window_area": 8.0, "wall_area": 20.0}]},
+    ],
+    "vavs": [
+        {"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.6},
+        {"name": "V2", "zone": "B", "m_min": 0.05, "m_max": 0.6},
+        {"name": "V3", "zone": "C", "m_min": 0.05, "m_max": 0.6},
+    ],
+}
+
+
+def row_model() -> LinearZoneModel:
+    """A plausible six-zone-style Model A for the three rooms (time constants of a few hours)."""
+    tow = np.arange(672)
+    hour, day = (tow % 96) / 4.0, tow // 96
+    occ = ((hour > 8) & (hour < 18) & (day < 5)).astype(float)
+    prof = 0.05 + 0.25 * occ
+    gains = {s: np.column_stack([prof * f for f in (1.0, 1.1, 0.9)]) * (0.6 if s == "winter" else 1.0)
+             for s in ("fall", "winter", "spring", "summer")}
+    return LinearZoneModel(
+        kind="zones", step=900.0, outputs=("A", "B", "C"), measured_zones=("A", "B", "C"),
+        output_weights=np.eye(3), vavs=("V1", "V2", "V3"), input_map=np.eye(3),
+        disturbances=("T_out", "T_supply"),
+        A=np.array([[0.90, 0.03, 0.0], [0.03, 0.89, 0.03], [0.0, 0.03, 0.90]]),
+        B=np.diag([-0.30, -0.35, -0.33]), C=np.array([[0.04, 0.03]] * 3), gains=gains)
+
+
+def simulate_dataset(model, weeks=12, seed=0, noise=0.02, ghi=True, gaps=False, start="2025-09-01",
+                     at_min=0.0) -> Dataset:
+    """Inputs and weather drawn at random, temperatures simulated from ``model`` with process noise [K].
+
+    ``at_min``: fraction of hours whose airflow sits at the boxes' minimum (reheat regime).
+    """
+    rng = np.random.default_rng(seed)
+    building = building_from_dict(ROW)
+    idx = pd.date_range(start, periods=weeks * 672, freq="15min", tz=TZ, name="time")
+    n = len(idx)
+    hour = np.asarray(idx.hour) + np.asarray(idx.minute) / 60.0
+    days = np.arange(n) / 96.0
+    T_out = 12 + 5 * np.sin(2 * np.pi * (hour - 9) / 24) + 4 * np.sin(2 * np.pi * days / 23.0) + rng.normal(0, 0.3, n)
+    T_supply = 14 + 0.5 * np.sin(2 * np.pi * days / 3.1) + rng.normal(0, 0.1, n)
+    u = rng.uniform(0.06, 0.5, (n // 4 + 1, 3)).repeat(4, axis=0)[:n]
+    low = (rng.random(n // 4 + 1) < at_min).repeat(4)[:n]
+    u[low] = 0.05
+    cloud = np.repeat(rng.uniform(0.3, 1.0, weeks * 7), 96)[:n]
+    frame = pd.DataFrame({"T_out": T_out, "T_supply": T_supply}, index=idx)
+    for j, v in enumerate(("V1", "V2", "V3")):
+        frame[f"m_{v}"] = u[:, j]
+    if ghi:
+        frame["ghi"] = np.maximum(0, np.sin(np.pi * (hour - 6.5) / 13)) * 850 * cloud
+    for z in "ABC":
+        frame[f"T_{z}"] = 21.0
+    ds0 = Dataset.from_frame(frame, building, step=900.0, seed=seed)
+    uu, vv = model.signals(ds0.frame)
+    q = np.zeros((n, 3))
+    season = ds0.season_of_row
+    for s in np.unique(season):
+        m = season == s
+        q[m] = model.gains_at(idx[m], s)
+    x = np.full(model.n_states, 21.0)
+    if isinstance(model, ExtendedModel):
+        x[3:] = 0.2
+    Y = np.empty((n, 3))
+    for k in range(n):
+        Y[k] = model.output(x)
+        x = model.step_state(x, uu[k], vv[k], q[k])
+        x[:3] += rng.normal(0, noise, 3)
+    for j, z in enumerate("ABC"):
+        frame[f"T_{z}"] = Y[:, j]
+    if gaps:
+        frame.iloc[1000:1100, frame.columns.get_loc("T_A")] = np.nan
+        frame.iloc[3000:3040] = np.nan
+    return Dataset.from_frame(frame, building, step=900.0, seed=seed)
+
+
+def _found(report, cause, **loc):
+    out = []
+    for f in report.findings:
+        if f["cause"] == cause and all(f["location"].get(k) == v for k, v in loc.items()):
+            out.append(f)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# residual tests on arrays
+# ---------------------------------------------------------------------------------------------
+def test_whiteness_of_white_and_coloured_noise(rng):
+    e = rng.normal(size=5000)
+    w = whiteness(e, 900.0)
+    assert w["white"] is True
+    assert abs(w["acf_lag1"]) < 0.05
+    ar = np.zeros(5000)
+    for k in range(1, 5000):
+        ar[k] = 0.8 * ar[k - 1] + e[k]
+    w2 = whiteness(ar, 900.0)
+    assert w2["white"] is False
+    assert w2["ljung_box"]["p_value"] < 1e-6
+    # a daily cycle is located by the periodogram peak
+    t = np.arange(96 * 60)
+    w3 = whiteness(np.sin(2 * np.pi * t / 96) + 0.3 * rng.normal(size=len(t)), 900.0)
+    assert w3["white"] is False
+    np.testing.assert_allclose(w3["peak_period_h"], 24.0, rtol=0, atol=0.5)
+
+
+def test_acf_and_cpgram_handle_gaps(rng):
+    e = rng.normal(size=2000)
+    e[100:150] = np.nan
+    r = acf(e, 10)
+    assert r[0] == pytest.approx(1.0)
+    assert np.all(np.abs(r[1:]) < 0.1)
+    f, C, bound, period, share = cumulated_periodogram(e)
+    assert C[-1] == pytest.approx(1.0)
+    assert 0 < bound < 0.1
+
+
+# ---------------------------------------------------------------------------------------------
+# synthetic data: each catalogue term is found at its location, nothing else
+# ---------------------------------------------------------------------------------------------
+# magnitudes: 0.0008 K/step per W/m² (~0.7 K/h of extra warming at 900 W/m²), coupling 0.04/step,
+# slab with a 12.5-h time constant, 30-min delay, bilinear 0.03/step per kg/s·K, reheat 0.05 K/step
+SYNTHETIC_CASES = [
+    (SolarGain(zone="A", facade="S", coef=0.0008), 0, {"zone": "A", "facade": "S"}),
+    (SolarGain(zone="C", facade="W", coef=0.0005), 1, {"zone": "C", "facade": "W"}),
+    (ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.04, coef_ba=0.04), 0, {"zones": ["A", "C"]}),
+    (ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.02, coef_ba=0.02), 1, {"zones": ["A", "C"]}),
+    (ThermalMass(zone="B", alpha=0.02, beta=0.05), 0, {"zone": "B"}),
+    (ThermalMass(zone="A", alpha=0.05, beta=0.03), 1, {"zone": "A"}),
+    (ActuationDelay(zone="C", delay=2), 0, {"zone": "C", "delay": 2}),
+    (ActuationDelay(zone="A", delay=3), 1, {"zone": "A", "delay": 3}),
+    (SupplyAirBilinear(zone="A", coef=0.03), 0, {"zone": "A"}),
+    (SupplyAirBilinear(zone="B", coef=0.02), 1, {"zone": "B"}),
+    (Reheat(zone="A", coef=0.06, u_min=0.0526, T_threshold=12.0), 0, {"zone": "A"}),
+    (Reheat(zone="C", coef=0.04, u_min=0.0526, T_threshold=10.0), 1, {"zone": "C"}),
+]
+
+
+@pytest.mark.parametrize("term, seed, loc", SYNTHETIC_CASES, ids=lambda x: getattr(x, "cause", None))
+def test_synthetic_effect_is_found(term, seed, loc):
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(term,)), weeks=12, seed=seed, at_min=0.3)
+    rep = diagnose(ds, model=base, progress=False)
+    hits = _found(rep, term.cause, **loc)
+    assert hits, f"{term.cause} at {loc} not found: {rep.summary()}"
+    assert [f["cause"] for f in rep.findings] == [term.cause], rep.summary()
+    f = hits[0]
+    assert f["heldout"]["gain_percent"] > 0
+    assert f["test"]["delta_bic"] > rep.options["bic_margin"]
+    # fitted parameters recover the simulated ones within 4 standard deviations (or 20 %)
+    for name, true in term.coefficients().items():
+        if name in ("u_min", "T_threshold", "alpha"):
+            continue
+        est = f["parameters"][name]
+        tol = max(4 * (est["std"] or 0.0), 0.2 * abs(true))
+        assert abs(est["value"] - true) <= tol, (name, est, true)
+
+
+def test_two_synthetic_effects_are_both_found():
+    base = row_model()
+    terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
+    ds = simulate_dataset(ExtendedModel(base=base, terms=terms), weeks=12, seed=3)
+    rep = diagnose(ds, model=base, progress=False)
+    assert _found(rep, "solar_gain", zone="A", facade="S")
+    assert _found(rep, "actuation_delay", zone="C", delay=2)
+    assert sorted(rep.causes) == ["actuation_delay", "solar_gain"]
+    assert rep.heldout["gain_percent"]["A"] > 0 and rep.heldout["gain_percent"]["C"] > 0
+
+
+@pytest.mark.parametrize("seed", [10, 11, 12])
+def test_no_false_alarm_on_model_a_data(seed):
+    base = row_model()
+    ds = simulate_dataset(base, weeks=12, seed=seed, at_min=0.2)
+    rep = diagnose(ds, model=base, progress=False)
+    assert rep.findings == [], rep.summary()
+    assert rep.verdict == "nothing missing"
+    assert rep.unexplained == []
+    assert "nothing missing" in rep.format()
+
+
+def test_missing_ghi_makes_solar_untestable_not_absent():
+    base = row_model()
+    ds = simulate_dataset(base, weeks=8, seed=4, ghi=False)
+    assert not ds.has_solar
+    rep = diagnose(ds, model=base, progress=False)
+    solar = [c for c in rep.candidates if c["cause"] == "solar_gain"]
+    assert solar and all(c["status"] == "untestable" for c in solar)
+    d = rep.to_dict()
+    solar_untestable = {u["location"]["zone"] for u in d["untestable"] if u["cause"] == "solar_gain"}
+    assert solar_untestable == {"A", "C"}
+    assert "Untestable (not absent)" in rep.format()
+
+
+def test_gaps_do_not_break_it():
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(ThermalMass(zone="B", alpha=0.02, beta=0.05),)),
+                          weeks=10, seed=5, gaps=True)
+    assert ds.frame["T_A"].isna().sum() >= 100
+    rep = diagnose(ds, model=base, progress=False)
+    assert _found(rep, "thermal_mass", zone="B")
+
+
+# ---------------------------------------------------------------------------------------------
+# report, JSON schema, CLI, extended model round trip
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def solar_case(tmp_path_factory):
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(SolarGain(zone="A", facade="S", coef=0.0008),)),
+                          weeks=8, seed=6)
+    folder = tmp_path_factory.mktemp("solar")
+    frame = ds.frame.drop(columns=[c for c in ds.frame.columns if c.startswith("I_") or c == "excitation"])
+    frame.reset_index().to_csv(folder / "data.csv", index=False)
+    ds.building.save(folder / "building.toml")
+    base.save(folder / "base.json")
+    return ds, base, folder
+
+
+def test_report_json_schema(solar_case, tmp_path):
+    ds, base, _ = solar_case
+    rep = diagnose(ds, model=base, progress=False, plots=tmp_path / "figs")
+    d = json.loads(rep.save_json(tmp_path / "r.json").read_text())
+    assert d["schema"] == SCHEMA
+    for key in ("verdict", "summary", "data", "base_model", "options", "findings", "candidates", "untestable",
+                "unexplained", "whiteness", "errors", "heldout", "rounds", "notes", "model"):
+        assert key in d, key
+    f = d["findings"][0]
+    assert set(f) >= {"cause", "location", "status", "evidence", "test", "parameters", "heldout"}
+    assert f["cause"] in CAUSES and f["status"] == "found"
+    assert set(f["test"]) >= {"lr", "lr_adjusted", "dof", "delta_bic", "p_value", "n"}
+    assert f["parameters"]["coef"]["std"] > 0
+    assert set(f["heldout"]["zones"]["A"]) == {"before", "after"}
+    assert all(c["cause"] in CAUSES for c in d["candidates"])
+    for by in ("season", "hour", "day_type", "airflow_regime", "T_out_band", "sky", "zone"):
+        assert by in d["errors"]["open_loop"], by
+    assert set(d["whiteness"]["before"]["A"]) >= {"acf_lag1", "ljung_box", "cpgram_departure", "peak_period_h"}
+    assert d["heldout"]["zones"] == ["A", "B", "C"]
+    figs = sorted(p.name for p in (tmp_path / "figs").iterdir())
+    assert figs == ["acf.png", "cumulated_periodogram.png", "heldout_before_after.png",
+                    "residuals_by_hour_weekday.png", "residuals_by_zone.png"]
+
+
+def test_cli_diagnose_then_evaluate(solar_case, tmp_path):
+    _, _, folder = solar_case
+    out = tmp_path / "ext.json"
+    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "diagnose", str(folder / "data.csv"), "-b",
+           str(folder / "building.toml"), "-m", str(folder / "base.json"), "--json", str(tmp_path / "r.json"),
+           "-o", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "solar_gain" in r.stdout and "Verdict: found" in r.stdout
+    assert json.loads((tmp_path / "r.json").read_text())["findings"][0]["location"] == {"zone": "A", "facade": "S"}
+    saved = json.loads(out.read_text())
+    assert saved["kind"] == "extended" and saved["terms"][0]["cause"] == "solar_gain"
+    r2 = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "evaluate", str(folder / "data.csv"), "-b",
+                         str(folder / "building.toml"), "-m", str(out)], capture_output=True, text=True, timeout=300)
+    assert r2.returncode == 0, r2.stderr
+    assert "extended" in r2.stdout
+
+
+def test_bad_options_and_models(solar_case):
+    ds, base, _ = solar_case
+    with pytest.raises(TypeError, match="unknown diagnosis options"):
+        diagnose(ds, model=base, progress=False, bic_margins=3)
+    from hvacfmu.errors import FitError
+
+    phys = type("P", (), {"kind": "physics"})()
+    with pytest.raises(FitError, match="Model A base"):
+        diagnose(ds, model=phys, progress=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# emulator: end to end
+# ---------------------------------------------------------------------------------------------
+emulator = pytest.importorskip("hvacfmu.emulator")
+
+
+def _emulated(weeks, seed, effects=()):
+    from hvacfmu.data import prepare
+
+    paths = emulator.cached_dataset(weeks=weeks, seed=seed, effects=list(effects))
+    return prepare(paths.measurements, paths.building), json.loads(paths.truth.read_text())
