@@ -619,3 +619,38 @@ def test_physics_model_scp_matches_nonlinear_optimum_and_holds_band():
     r = closed_loop(c2, model, x0, np.vstack([V, np.tile(V[-1], (12, 1))]), np.vstack([Q, Q[:12]]), n)
     assert r.summary()["failures"] == 0
     assert band_residual(r.y[1:]) <= 0.05  # [K] after the filter settles from its steady-state initial guess
+
+
+@pytest.mark.parametrize("formulation", ["socp", "qp"])
+def test_per_step_slack_matches_brute_force(formulation):
+    """slack="per_step": every step has its own slack; only the steps that need it pay."""
+    x0 = np.array([23.5, 23.0, 23.2])
+    V, Q = linear_preview(3, seed=1)
+    plan, _ = solve_linear(formulation, x0, V, Q, slack="per_step")
+    assert plan.found and plan.eps.shape == (3, 3)
+    # the hot start needs slack now; later steps none (ℓ1, exact) or little (ℓ2 spreads a small amount)
+    assert np.max(plan.eps[0]) > 0.05
+    assert np.max(plan.eps[2]) <= (1e-6 if formulation == "qp" else 0.01 * np.max(plan.eps[0]))
+    m = linear_model()
+
+    def Y(z):
+        return m.simulate(x0, z[:9].reshape(3, 3), V[:3], Q[:3])[1][1:].ravel()
+
+    cons = [
+        {"type": "ineq", "fun": lambda z: 22.0 - Y(z)},
+        {"type": "ineq", "fun": lambda z: Y(z) - 20.0},
+        {"type": "ineq", "fun": lambda z: np.tile(LIN_UMAX, 3) + z[9:] - z[:9]},
+        {"type": "ineq", "fun": lambda z: z[:9] - np.tile(LIN_UMIN, 3) + z[9:]},
+    ]
+    if formulation == "qp":
+        pen, dpen = (lambda e: e.sum()), np.ones_like
+    else:
+        pen, dpen = np.linalg.norm, (lambda e: e / np.linalg.norm(e))
+    z0 = np.concatenate([np.tile(LIN_UMAX, 3) + 1.0, np.ones(9)])
+    res = scipy.optimize.minimize(lambda z: z[:9] @ z[:9] + 100.0 * pen(z[9:]), z0, method="SLSQP",
+                                  jac=lambda z: np.concatenate([2 * z[:9], 100.0 * dpen(z[9:])]),
+                                  constraints=cons, bounds=[(0, None)] * 18, options={"ftol": 1e-12, "maxiter": 1000})
+    assert res.success or res.status == 8, res.message
+    assert min(float(np.min(c["fun"](res.x))) for c in cons) >= -1e-7
+    assert_allclose(plan.obj, res.fun, rtol=1e-6, atol=0)
+    assert_allclose(plan.U, res.x[:9].reshape(3, 3), rtol=0, atol=1e-3)

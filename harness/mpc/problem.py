@@ -102,6 +102,12 @@ class MPCSettings:
         and the first step stay exact). ``"auto"``: reduced for N > 24.
     rom_tol : float
         Balanced-truncation tolerance (``2 Σ tail σ <= rom_tol σ_1``).
+    slack : {"shared", "per_step"}
+        ``"shared"``: one input-limit slack per input for the whole horizon, as
+        in the paper (``eps`` has no time index). Over long horizons this lets
+        one future step that needs slack open the limits for every step;
+        ``"per_step"`` gives every step (block) its own slack, with
+        ``||eps||`` taken over all steps.
     """
 
     horizon: int = 3
@@ -118,6 +124,7 @@ class MPCSettings:
     u_floor: float | None = 0.0
     prediction: str = "auto"
     rom_tol: float = 1.0e-3
+    slack: str = "shared"
 
     def __post_init__(self):
         problems = []
@@ -139,6 +146,8 @@ class MPCSettings:
             problems.append(f"tol and solver_tol must be > 0, got {self.tol}, {self.solver_tol}")
         if self.prediction not in ("auto", "condensed", "reduced"):
             problems.append(f"prediction must be 'auto', 'condensed' or 'reduced', got {self.prediction!r}")
+        if self.slack not in ("shared", "per_step"):
+            problems.append(f"slack must be 'shared' or 'per_step', got {self.slack!r}")
         if not 0 < self.rom_tol < 1:
             problems.append(f"rom_tol must be in (0, 1), got {self.rom_tol}")
         if self.u_floor is not None and not np.isfinite(self.u_floor):
@@ -193,7 +202,7 @@ class QPSolution:
     found: bool
     status: str
     U: np.ndarray  #: (N, nu) planned airflows [kg/s] (block values repeated)
-    eps: np.ndarray  #: (nu,) input-limit slack [kg/s]
+    eps: np.ndarray  #: (nu,) input-limit slack [kg/s], or (N, nu) with ``slack="per_step"``
     s: np.ndarray  #: (N, ny) comfort slack [K] (zeros for a hard band)
     Y: np.ndarray  #: (N, ny) [°C] outputs predicted by the problem's (linearised) model
     obj: float  #: Σ u² + ρ||eps|| (+ comfort penalty)
@@ -232,8 +241,12 @@ class _MPCProblem:
         self.soft = settings.comfort_penalty is not None
         self.socp = settings.formulation == "socp"
         nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
+        self.per_step = settings.slack == "per_step"
+        self.ne = nU if self.per_step else nu  # slack entries: per block and input, or per input
+        # weight of each slack entry: the number of steps it covers (per_step), so ||eps|| is over steps
+        self.eps_w = np.repeat(self.lengths, nu).astype(float) if self.per_step else np.ones(nu)
         self.i_eps = nU
-        self.i_t = nU + nu
+        self.i_t = nU + self.ne
         self.i_s = self.i_t + (1 if self.socp else 0)
         self.i_y = self.i_s + (nY if self.soft else 0)
         self.i_x = self.i_y + nY
@@ -245,7 +258,7 @@ class _MPCProblem:
         if self.socp:
             self.q[self.i_t] = settings.rho
         else:
-            self.q[self.i_eps : self.i_eps + nu] = settings.rho
+            self.q[self.i_eps : self.i_eps + self.ne] = settings.rho * self.eps_w
         if self.soft:
             self.q[self.i_s : self.i_y] = settings.comfort_penalty
         self.T_min = np.array(np.broadcast_to(np.asarray(settings.T_min, dtype=float), (self.N, self.ny))).ravel()
@@ -282,7 +295,7 @@ class _MPCProblem:
         state["r0"] = n_eq
         self.n_eq = n_eq
         iU = np.arange(nU)
-        eps_of = self.i_eps + np.tile(np.arange(nu), self.nb)
+        eps_of = self.i_eps + (iU if self.per_step else np.tile(np.arange(nu), self.nb))
         iY = np.arange(nY)
         put(iU, iU, 1.0)                                  # U - eps <= u_max
         put(iU, eps_of, -1.0)
@@ -290,8 +303,8 @@ class _MPCProblem:
         put(iU, iU, -1.0)                                 # -U - eps <= -u_min
         put(iU, eps_of, -1.0)
         state["r0"] += nU
-        put(np.arange(nu), self.i_eps + np.arange(nu), -1.0)  # -eps <= 0
-        state["r0"] += nu
+        put(np.arange(self.ne), self.i_eps + np.arange(self.ne), -1.0)  # -eps <= 0
+        state["r0"] += self.ne
         for sign in (1.0, -1.0):                          # ±y - s <= ±T_max/min
             put(iY, self.i_y + iY, sign)
             if self.soft:
@@ -306,8 +319,8 @@ class _MPCProblem:
         self.n_nonneg = state["r0"] - n_eq
         if self.socp:                                     # (t, eps) in the second-order cone
             put(np.array([0]), np.array([self.i_t]), -1.0)
-            put(1 + np.arange(nu), self.i_eps + np.arange(nu), -1.0)
-            state["r0"] += 1 + nu
+            put(1 + np.arange(self.ne), self.i_eps + np.arange(self.ne), -np.sqrt(self.eps_w))
+            state["r0"] += 1 + self.ne
         rows, cols = np.concatenate(rows), np.concatenate(cols)
         self._coo_data = np.concatenate(vals).astype(float)
         tag = sparse.csc_matrix((np.arange(1, rows.size + 1, dtype=float), (rows, cols)), shape=(state["r0"], self.nz))
@@ -319,12 +332,12 @@ class _MPCProblem:
         self._b_const = np.concatenate([
             np.tile(self.u_max, self.nb),
             -np.tile(self.u_min, self.nb),
-            np.zeros(nu),
+            np.zeros(self.ne),
             self.T_max,
             -self.T_min,
             np.zeros(nY if self.soft else 0),
             np.full(nU if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
-            np.zeros(1 + nu if self.socp else 0),
+            np.zeros(1 + self.ne if self.socp else 0),
         ])
 
     def _update_slots(self, **blocks):
@@ -344,7 +357,7 @@ class _MPCProblem:
 
         c = [clarabel.ZeroConeT(self.n_eq), clarabel.NonnegativeConeT(self.n_nonneg)]
         if self.socp:
-            c.append(clarabel.SecondOrderConeT(1 + self.nu))
+            c.append(clarabel.SecondOrderConeT(1 + self.ne))
         return c
 
     def _clarabel_settings(self):
@@ -413,11 +426,13 @@ class _MPCProblem:
         nU, nu = self.nb * self.nu, self.nu
         Ub = z[:nU].reshape(self.nb, nu)
         U = np.repeat(Ub, self.lengths, axis=0)
-        eps = z[self.i_eps : self.i_eps + nu]
+        eps = z[self.i_eps : self.i_eps + self.ne]
         s = z[self.i_s : self.i_y].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
         obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) if found else float("nan")
         if found and self.socp:  # report ρ||eps||_2 itself, not the cone variable t
-            obj += self.settings.rho * (float(np.linalg.norm(eps)) - float(z[self.i_t]))
+            obj += self.settings.rho * (float(np.linalg.norm(np.sqrt(self.eps_w) * eps)) - float(z[self.i_t]))
+        if self.per_step:  # per step (N, nu), like U
+            eps = np.repeat(eps.reshape(self.nb, nu), self.lengths, axis=0)
         Y = z[self.i_y : self.i_x].reshape(self.N, self.ny)
         return QPSolution(found, status, U, eps, s, Y, obj, dt, z)
 
@@ -430,7 +445,7 @@ class _MPCProblem:
             "P_shape": np.array(self.P.shape), "q": self.q,
             "A_data": A.data, "A_indices": A.indices, "A_indptr": A.indptr, "A_shape": np.array(A.shape),
             "b": self.rhs(y0), "n_zero": np.array(self.n_eq), "n_nonneg": np.array(self.n_nonneg),
-            "n_soc": np.array(1 + self.nu if self.socp else 0),
+            "n_soc": np.array(1 + self.ne if self.socp else 0),
             "settings_json": np.array(json.dumps(self.settings.to_dict())),
         }
         for k, v in context.items():
