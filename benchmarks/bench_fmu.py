@@ -101,11 +101,12 @@ def open_fmu(path, model, y0, instance, first_inputs):
 
 
 def run_fmu(path, model, building, m, v, y0, raw):
-    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
-    fmu, vr = open_fmu(path, model, y0, "bench", (names_in, np.hstack([m[0], v[0]])))
+    # all inputs, in the FMU's order; time_of_week = -1 keeps the FMU clock
+    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances) + ["time_of_week"]
+    W = np.column_stack([m, v, np.full(len(m), -1.0)])
+    fmu, vr = open_fmu(path, model, y0, "bench", (names_in, W[0]))
     names_out = [f"T_{z}" for z in model.outputs]
     vin, vout = [vr[n] for n in names_in], [vr[n] for n in names_out]
-    W = np.hstack([m, v])
     n = len(W)
     try:
         if raw:

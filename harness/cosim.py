@@ -414,6 +414,9 @@ def run_cosim(
     frame, week_season = _select_span(dataset, week, start, stop)
     if len(frame) == 0:
         raise DataError("the co-simulation span holds no data")
+    # local time of week of every step: our FMUs take it as the optional input `time_of_week`,
+    # which makes their gain profile follow daylight-saving time as the Python models do
+    frame = frame.assign(time_of_week=seconds_of_week(frame.index).astype(float))
     building = dataset.building
     step = float(dataset.step)
     season = season or week_season or dataset.season_of_row[dataset.frame.index.get_loc(frame.index[0])]

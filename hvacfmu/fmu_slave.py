@@ -47,7 +47,9 @@ camelCase in the model description. Behaviour an importer can rely on:
   is indexed at FMU time ``t`` by slot
   ``floor((start_time_of_week + t) / step) mod n_slots``; ``start_time_of_week``
   [s since Monday 00:00 local time] is the time of week at FMU time 0. The FMU
-  clock has no daylight-saving shifts.
+  clock has no daylight-saving shifts; a master that wants them (or any
+  calendar) sets the optional input ``time_of_week`` [s] to the local time of
+  week of each step's start (the harness does), which then places the profile.
 """
 
 from __future__ import annotations
@@ -689,6 +691,10 @@ def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
         unit = signal_unit(name)
         var.append(_entry("v", sanitize_name(name), "Real", "input", defaults.get(name, 0.0), unit,
                           signal_description(name), BOUNDS.get(unit, (None, None))))
+    var.append(_entry("tow_in", "time_of_week", "Real", "input", -1.0, "s",
+                      "Optional: local time of week at the start of the step [s since Monday 00:00]; when >= 0 it "
+                      "places the internal-gain profile instead of the FMU clock (follow daylight-saving time); "
+                      "-1 (default): use start_time_of_week + time", (-1.0, 7 * 86400.0)))
     label = "the floor (area-weighted mean)" if model.kind == "lumped" else "zone"
     for z in model.outputs:
         var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
@@ -778,10 +784,12 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._y_vrs = self.vrs_with_role("y")
         self._y_start = self._y_vrs[0] if _contiguous(self._y_vrs) else None
         self._y0_vrs = self.vrs_with_role("y0")
-        m_vrs, v_vrs = self.vrs_with_role("m"), self.vrs_with_role("v")
+        m_vrs, v_vrs, c_vrs = self.vrs_with_role("m"), self.vrs_with_role("v"), self.vrs_with_role("tow_in")
         self._nm = len(m_vrs)
-        in_vrs = m_vrs + v_vrs
-        self._w_ok = in_vrs == self._input_vrs  # the checked input block is (m, v) in this order
+        self._nmv = len(m_vrs) + len(v_vrs)
+        self._has_clock_input = bool(c_vrs)
+        in_vrs = m_vrs + v_vrs + c_vrs
+        self._w_ok = in_vrs == self._input_vrs  # the checked input block is (m, v, time_of_week) in this order
         if _contiguous(in_vrs) and self._w_ok:
             a, b = in_vrs[0], in_vrs[0] + len(in_vrs)
             self._get_inputs = lambda values: values[a:b]
@@ -811,16 +819,22 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._slot0 = int(math.floor((tow + self._t_start) / self._step + 1e-9))
         # inputs set before fmi2ExitInitializationMode (FMPy applies the first input row) start the state
         w = np.array(self._get_inputs(v), dtype=float)
-        nm = self._nm
+        nm, nmv = self._nm, self._nmv
         if not np.all(np.isfinite(w)):
             return ["inputs at initialisation are not finite"]
         u0 = w[:nm] @ self._MT if self._MT is not None else w[:nm]
-        q0 = self._profile[self._slot0 % self._n_slots]
-        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, w[nm:], q0)
+        q0 = self._profile[self._slot(w, 0) % self._n_slots]
+        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, w[nm:nmv], q0)
         self._k = 0
         self._t = self._t_start
         self._write_outputs(np.asarray(self.model.output(self._x), dtype=float).tolist())
         return []
+
+    def _slot(self, w, k):
+        """Gain-profile slot of model step ``k``: from the ``time_of_week`` input when set, else the clock."""
+        if self._has_clock_input and w[self._nmv] >= 0.0:
+            return int(math.floor(w[self._nmv] / self._step + 1e-9))
+        return self._slot0 + k
 
     def _write_outputs(self, y):
         a = self._y_start
@@ -844,9 +858,9 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             w = np.array(self._get_inputs(self._values), dtype=float)
         nm = self._nm
         u = w[:nm] @ self._MT if self._MT is not None else w[:nm]
-        vdist = w[nm:]
+        vdist = w[nm : self._nmv]
         x, model, prof, ns = self._x, self.model, self._profile, self._n_slots
-        slot = self._slot0 + self._k
+        slot = self._slot(w, self._k)
         for j in range(n):
             x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
         y = np.asarray(model.output(x), dtype=float).tolist()

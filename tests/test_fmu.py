@@ -565,3 +565,32 @@ def test_initial_state_of_unobserved_states(built, fmu_data):
     xp = state_from_outputs(phys, y0, np.full(21, 0.3), v0, phys.gains["fall"][0])
     assert_allclose(phys.output(xp), y0, rtol=0, atol=1e-9)
     assert np.all((xp > 5.0) & (xp < 35.0))  # walls between outdoor and zone temperatures, not arbitrary
+
+
+def test_time_of_week_input_follows_daylight_saving(built):
+    """Over the end of DST the gains follow local time when the master feeds `time_of_week`."""
+    from hvacfmu.timeutil import seconds_of_week
+
+    model, _, path = built["zones"]
+    idx = pd.date_range("2025-10-27", periods=672, freq="15min", tz="America/Los_Angeles")  # DST ends Nov 2
+    rng = np.random.default_rng(5)
+    m = rng.uniform(0.05, 0.6, (672, len(model.vavs)))
+    v = np.column_stack([rng.uniform(5, 25, 672), rng.uniform(12, 15, 672), rng.uniform(0, 300, (672, 4))])
+    y0 = np.full(6, 21.0)
+    tow = seconds_of_week(idx).astype(float)
+    names_in = [f"m_{b}" for b in model.vavs] + list(model.disturbances)
+    names_out = [f"T_{z}" for z in model.outputs]
+    sv = {"season": 1, "start_time_of_week": float(tow[0])}
+    Yref = reference(model, idx, m, v, y0, "fall")
+    runs = {}
+    for clock in (True, False):
+        s = Slave(path, f"dst{clock}")
+        try:
+            U = np.column_stack([m, v, tow]) if clock else np.hstack([m, v])
+            names = names_in + ["time_of_week"] if clock else names_in
+            s.init(sv, inputs=(names, U[0]))
+            runs[clock] = run_fmu(s, names, U, names_out)
+        finally:
+            s.close()
+    assert_allclose(runs[True], Yref, rtol=0, atol=EXACT)
+    assert np.abs(runs[False] - Yref).max() > 1e-3  # the FMU clock alone does not know DST
