@@ -76,12 +76,12 @@ def test_report_numbers_are_the_library_results(demo_out):
         table = sc.table("model", ev.season_order)
         for season, row in table.iterrows():
             for col, value in row.items():
-                assert_allclose(reported[season][col], value, rtol=0, atol=1e-12)
+                assert_allclose(reported[season][col], value, rtol=0, atol=1e-9)  # [K]; reloaded models may differ in the last bits
     # the comparison prose quotes the same means
     a = ev.scores[0].table("model").loc["all", "mean"]
     b = ev.scores[1].table("model").loc["all", "mean"]
-    assert_allclose(numbers["comparison.rms_a"], a, rtol=0, atol=1e-12)
-    assert_allclose(numbers["comparison.rms_b"], b, rtol=0, atol=1e-12)
+    assert_allclose(numbers["comparison.rms_a"], a, rtol=0, atol=1e-9)
+    assert_allclose(numbers["comparison.rms_b"], b, rtol=0, atol=1e-9)
     # the FMU table reports what fmpy's validation returns
     fmus = _table(numbers, "fmus")
     for kind, row in fmus.items():
