@@ -326,3 +326,102 @@ def _emulated(weeks, seed, effects=()):
 
     paths = emulator.cached_dataset(weeks=weeks, seed=seed, effects=list(effects))
     return prepare(paths.measurements, paths.building), json.loads(paths.truth.read_text())
+
+
+_CACHE = {}
+
+
+def _diagnosed(seed, effects=(), weeks=16):
+    """Diagnosis of an emulated dataset (default Model A base), cached per worker."""
+    key = (weeks, seed, tuple(effects))
+    if key not in _CACHE:
+        ds, truth = _emulated(weeks, seed, effects)
+        _CACHE[key] = (diagnose(ds, progress=False), truth, ds)
+    return _CACHE[key]
+
+
+def _assert_truthful(rep, truth):
+    cmp = compare_with_truth(rep, truth)
+    assert cmp["unsupported"] == [], f"false alarm(s): {cmp['unsupported']}"
+    return cmp
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_emulator_baseline_findings_are_all_in_truth(seed):
+    """Baseline emulator data: window solar, bilinear supply air, wall mass and reheat coils
+    may be found (they are in truth.json's baseline structure); nothing else."""
+    rep, truth, _ = _diagnosed(seed)
+    _assert_truthful(rep, truth)
+    assert {f["cause"] for f in rep.findings} <= {"solar_gain", "supply_air_bilinear", "thermal_mass", "reheat"}
+    assert rep.heldout["mean_extended"] < rep.heldout["mean_base"]
+
+
+def _effect_finding(rep, truth, name):
+    from hvacfmu.diagnosis.truth import effect_matches
+
+    e = [x for x in truth["effects"] if x["name"] == name][0]
+    hits = [f for f in rep.findings if effect_matches(f, e, truth, rep.data["step"])]
+    assert hits, f"{name} {e} not found; findings: {rep.summary()}"
+    return hits[0]
+
+
+# Magnitudes (emulator parameters) — moderate and realistic for an office floor:
+#   solar_gain: extra SHGC 0.2 of one facade's windows straight to the air (blinds left open);
+#   zone_coupling: 1200 W/K between two non-adjacent zones (open double doors / a transfer duct);
+#   reheat: 3000 W (seed 0) and 4000 W (seed 1) at minimum airflow below 13 °C outdoors;
+#   actuation_delay: 30 and 45 minutes between logged and delivered airflow;
+#   thermal_mass: 2e8 J/K (a concrete core wall) coupled by 1000 W/K;
+#   internal_gain_schedule: two holiday weeks with weekday gains at 20 %.
+EFFECT_CASES = [
+    ("solar_gain:zone=NE,facade=E", 0),
+    ("solar_gain:zone=W,facade=S", 1),
+    ("zone_coupling:ua=1200", 0),
+    ("zone_coupling:ua=1200", 1),
+    ("reheat", 0),
+    ("reheat:power=4000", 1),
+    ("actuation_delay", 0),
+    ("actuation_delay:minutes=45", 1),
+    ("thermal_mass", 0),
+    ("thermal_mass:zone=W", 0),
+    ("internal_gain_schedule", 0),
+    ("internal_gain_schedule", 1),
+]
+
+
+@pytest.mark.parametrize("effect, seed", EFFECT_CASES)
+def test_emulator_effect_is_found(effect, seed):
+    name = effect.split(":")[0]
+    rep, truth, _ = _diagnosed(seed, (effect,))
+    cmp = _assert_truthful(rep, truth)
+    assert [e["name"] for e in cmp["found"]] == [name]
+    f = _effect_finding(rep, truth, name)
+    h = f["heldout"]
+    if h.get("measurable", True):
+        assert h["gain_percent"] > 0
+    if name == "solar_gain":
+        # the injected path is measured stronger than the same path in the baseline data
+        base_rep, _, _ = _diagnosed(seed)
+        loc = f["location"]
+        base_hits = _found(base_rep, "solar_gain", **loc)
+        base_coef = base_hits[0]["parameters"]["coef"]["value"] if base_hits else 0.0
+        assert f["parameters"]["coef"]["value"] > 1.5 * base_coef
+    if name == "reheat":
+        top = max((g for g in rep.findings if g["cause"] == "reheat"), key=lambda g: g["test"]["delta_bic"])
+        assert top["location"] == f["location"]
+
+
+def test_emulator_two_effects_are_both_found():
+    rep, truth, _ = _diagnosed(0, ("reheat", "actuation_delay"))
+    cmp = _assert_truthful(rep, truth)
+    assert sorted(e["name"] for e in cmp["found"]) == ["actuation_delay", "reheat"]
+    assert cmp["missed"] == []
+
+
+def test_emulator_short_dataset():
+    """Four weeks (one season, one test week) and the emulator's gaps do not break it."""
+    rep, truth, ds = _diagnosed(0, (), weeks=4)
+    assert ds.frame.isna().any().any()
+    assert rep.data["n_weeks"] == 4
+    _assert_truthful(rep, truth)
+    assert rep.verdict in ("found", "nothing missing", "unexplained")
+    assert rep.format()
