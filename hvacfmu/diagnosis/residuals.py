@@ -109,8 +109,16 @@ def _segments(r: np.ndarray) -> np.ndarray:
     return r[np.isfinite(r)]
 
 
-def cumulated_periodogram(r: np.ndarray):
+def cumulated_periodogram(r: np.ndarray, max_period: float | None = None):
     """Bartlett's cumulated periodogram of the valid values of ``r``.
+
+    Parameters
+    ----------
+    r : array
+        Residuals (NaN-gaps are dropped and the segments joined).
+    max_period : float, optional [steps]
+        Look for the peak only among periods up to this (e.g. 8 days: seasonal drifts
+        are not a "where").
 
     Returns
     -------
@@ -120,7 +128,7 @@ def cumulated_periodogram(r: np.ndarray):
     bound : float
         1 % Kolmogorov–Smirnov half-width around the white-noise line.
     peak_period : float [steps]
-        Period of the largest periodogram ordinate.
+        Period of the largest periodogram ordinate (within ``max_period``).
     peak_share : float
         Share of the variance in that ordinate.
     """
@@ -136,7 +144,10 @@ def cumulated_periodogram(r: np.ndarray):
     C = np.cumsum(P) / tot if tot > 0 else np.zeros_like(P)
     q = len(P)
     bound = KS_99 / np.sqrt(q)
-    j = int(np.argmax(P))
+    ok = np.ones(len(P), bool) if max_period is None else (1.0 / freq) <= max_period
+    if not ok.any():
+        ok[:] = True
+    j = int(np.flatnonzero(ok)[np.argmax(P[ok])])
     return freq, C, float(bound), float(1.0 / freq[j]), float(P[j] / tot) if tot > 0 else np.nan
 
 
@@ -148,7 +159,8 @@ def whiteness(r: np.ndarray, step: float, nlags: int = 96) -> dict:
     dict with ``n``, ``acf_lag1``, ``acf_max`` (largest |ρ| at lags 1..nlags) and its lag,
     ``acf_bound`` (95 % ±1.96/√n), ``ljung_box`` {``lags``, ``stat``, ``p_value``}
     (statsmodels), ``cpgram_departure`` (max distance to the white-noise line),
-    ``cpgram_bound`` (1 % KS), ``peak_period_h``, ``peak_share``, and ``white``
+    ``cpgram_bound`` (1 % KS), ``peak_period_h`` (dominant period up to 8 days),
+    ``peak_share``, and ``white``
     (True unless both significant and practically relevant: departure > bound and
     > :data:`MIN_CPGRAM_DEPARTURE`).
     """
@@ -164,7 +176,7 @@ def whiteness(r: np.ndarray, step: float, nlags: int = 96) -> dict:
     k = 1 + int(np.nanargmax(np.abs(rho[1:])))
     lags = int(min(nlags, n // 4))
     lb = acorr_ljungbox(x, lags=[lags], return_df=True)
-    freq, C, bound, period, share = cumulated_periodogram(r)
+    freq, C, bound, period, share = cumulated_periodogram(r, max_period=8 * 86400.0 / step)
     dep = float(np.max(np.abs(C - np.arange(1, len(C) + 1) / len(C)))) if len(C) else np.nan
     out.update(
         acf_lag1=float(rho[1]),
