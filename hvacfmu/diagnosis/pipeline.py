@@ -124,6 +124,11 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
 
     # --- held-out comparison (the evaluation protocol) ---------------------------------------
     heldout = _heldout_table(base_model, final, dataset, opts["horizon"], notes)
+    ref = sel.heldout_reference
+    if heldout and ref is not None and len(ref["rms"]):
+        # the base structure refitted by the diagnosis' least squares, without extension terms
+        heldout["refit_base"] = {z: float(np.mean(ref["rms"][:, j])) for j, z in enumerate(ref["outputs"])}
+        heldout["mean_refit_base"] = float(np.mean(ref["rms"]))
 
     verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
     fdicts = []

@@ -148,6 +148,9 @@ class DiagnosisReport:
                 L.append(f"  {z:>6}: {b:.3f} -> {a:.3f}  ({g:+.1f} %)")
             L.append(f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  "
                      f"({ho['gain_percent_mean']:+.1f} %)")
+            if "mean_refit_base" in ho:
+                L.append(f"  (base structure refitted without extensions: mean {ho['mean_refit_base']:.3f}; "
+                         f"each finding's gain below is measured against the model before it)")
             L.append("")
         if self.findings:
             L.append("Findings (in order of selection):")
