@@ -423,3 +423,41 @@ def test_emulator_short_dataset():
     _assert_truthful(rep, truth)
     assert rep.verdict in ("found", "nothing missing", "unexplained")
     assert rep.format()
+
+
+@pytest.fixture(scope="module")
+def fitted_model_a():
+    """Model A (six zones, with solar) fitted on 16 emulated weeks, and that dataset."""
+    from hvacfmu.fitting import fit
+
+    ds, _ = _emulated(16, 0)
+    return fit(ds, "zones", progress=False), ds
+
+
+@pytest.mark.parametrize("noise_seed", [0, 1, 2])
+def test_no_false_alarm_on_data_simulated_from_fitted_model_a(fitted_model_a, noise_seed):
+    """Temperatures simulated at the model step from a fitted Model A (measured airflows and
+    weather of the emulator, the model's own gain profiles, 0.05 K process noise): the base
+    structure contains the truth, so nothing may be found."""
+    model, ds = fitted_model_a
+    rng = np.random.default_rng(100 + noise_seed)
+    frame = ds.frame.copy()
+    u, v = model.signals(frame)
+    u = pd.DataFrame(u).ffill().bfill().to_numpy()
+    v = pd.DataFrame(v).ffill().bfill().to_numpy()
+    season = ds.season_of_row
+    q = np.zeros((len(frame), model.n_states))
+    for s in np.unique(season):
+        m = season == s
+        q[m] = model.gains_at(frame.index[m], s if s in model.gains else next(iter(model.gains)))
+    x = np.nan_to_num(model.initial_state(frame, 0), nan=21.0)
+    Y = np.empty((len(frame), model.n_states))
+    for k in range(len(frame)):
+        Y[k] = x
+        x = model.step_state(x, u[k], v[k], q[k]) + rng.normal(0, 0.05, model.n_states)
+    for j, z in enumerate(model.outputs):
+        frame[f"T_{z}"] = np.where(frame[f"T_{z}"].isna(), np.nan, Y[:, j])
+    sim = Dataset.from_frame(frame, ds.building, step=ds.step, seed=0)
+    rep = diagnose(sim, model=model, progress=False)
+    assert rep.findings == [], rep.summary()
+    assert rep.verdict in ("nothing missing", "unexplained")

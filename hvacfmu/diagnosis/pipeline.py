@@ -184,7 +184,11 @@ def _heldout_table(base_model, final, dataset, horizon, notes) -> dict:
         return {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = evaluate([base_model, final], dataset, horizon=horizon, names=["base", "extended"])
+        try:
+            res = evaluate([base_model, final], dataset, horizon=horizon, names=["base", "extended"])
+        except DataError as exc:
+            notes.append(f"held-out RMS not available: {exc}")
+            return {}
     tb = res.table("base")
     te = res.table("extended")
     zones = [z for z in final.outputs]

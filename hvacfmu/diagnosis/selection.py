@@ -39,6 +39,7 @@ import warnings
 import numpy as np
 from scipy import stats
 
+from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .design import (
@@ -274,7 +275,12 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     ref_fit = fit_structure(sig, terms, rows)
     cur = ref_fit
     have_test = any(not w.train for w in dataset.weeks)
-    cur_ho = heldout_rms(cur.model, dataset, opts["horizon"]) if have_test else None
+    cur_ho = None
+    if have_test:
+        try:
+            cur_ho = heldout_rms(cur.model, dataset, opts["horizon"])
+        except DataError:  # no evaluable test window (missing data)
+            have_test = False
     ref_ho = cur_ho
     findings, rounds = [], []
     last_cands = []
@@ -411,7 +417,8 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
 
 
 def _teacher_forced(sig: Signals, model) -> np.ndarray:
-    from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
+    from ..errors import DataError
+from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
     from .design import shifted
 
     n = len(sig.Y)
