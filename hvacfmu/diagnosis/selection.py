@@ -417,8 +417,7 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
 
 
 def _teacher_forced(sig: Signals, model) -> np.ndarray:
-    from ..errors import DataError
-from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
+    from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
     from .design import shifted
 
     n = len(sig.Y)
