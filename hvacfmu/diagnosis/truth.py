@@ -1,9 +1,10 @@
 """Compare a diagnosis with the emulator's ``truth.json`` (tests, demo report).
 
 A finding is *supported* when the emulator really contains the cause at that
-location, either in its baseline structure (``truth["baseline"]["structure"]``:
-window solar gains per zone and facade, bilinear supply air, wall/slab/furniture
-mass, reheat coils) or as an injected effect (``truth["effects"]``). An injected
+location, either in its baseline structure (``truth["baseline"]["structure"]["causes"]``,
+or for older files the structure's description: window solar gains per zone and
+facade, bilinear supply air, wall/slab/furniture mass, reheat coils) or as an
+injected effect (``truth["effects"]``). An injected
 effect is *found* when a finding names its cause and location.
 """
 
@@ -62,6 +63,15 @@ def finding_supported(finding: dict, truth: dict, step: float = 900.0) -> tuple[
         if effect_matches(finding, e, truth, step):
             return True, f"injected effect {e['name']}"
     st = truth.get("baseline", {}).get("structure", {})
+    listed = st.get("causes")
+    if isinstance(listed, dict):  # emulator >= 1.2: cause ids present in the baseline, by location
+        for entry in listed.get(c, []):
+            keys = [k for k in ("zone", "facade", "zones") if k in entry]
+            same = all((set(entry[k]) == set(loc.get(k, [])) if k == "zones" else entry[k] == loc.get(k))
+                       for k in keys)
+            if same:
+                return True, f"baseline: {entry.get('source', c)}"
+        return False, "not in the emulator's truth"
     if c == "solar_gain":
         if loc.get("facade") in st.get("solar_gain", {}).get(loc.get("zone"), []):
             return True, "baseline window solar gain"
