@@ -63,21 +63,22 @@ def plot_mpc(runs, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0))
         nrows = int(np.ceil(len(zones) / ncols))
         fig, axes = plt.subplots(nrows, ncols, figsize=(12, 2.4 * nrows + 0.8), sharex=True, squeeze=False)
         measured_done = False
-        for label, table in runs.items():
+        colors = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:cyan"]
+        for (label, table), color in zip(runs.items(), colors * 3):
             for j, z in enumerate(zones):
                 ax = axes[j // ncols][j % ncols]
                 if kind == "temp":
                     if f"T_{z}" in table:
-                        ax.plot(table.index, table[f"T_{z}"], lw=0.9, label=label)
+                        ax.plot(table.index, table[f"T_{z}"], lw=0.9, color=color, label=label)
                     if not measured_done and f"T_{z}_measured" in table:
-                        ax.plot(table.index, table[f"T_{z}_measured"], lw=0.9, color="green", label="measured")
+                        ax.plot(table.index, table[f"T_{z}_measured"], lw=1.1, color="k", label="measured")
                 else:
                     cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in table]
                     if cols:
-                        ax.step(table.index, table[cols].sum(axis=1), where="post", lw=0.9, label=label)
+                        ax.step(table.index, table[cols].sum(axis=1), where="post", lw=0.9, color=color, label=label)
                     mcols = [f"m_{v}_measured" for v in vavs_of_zone[z] if f"m_{v}_measured" in table]
                     if not measured_done and mcols:
-                        ax.step(table.index, table[mcols].sum(axis=1), where="post", color="green", lw=0.9,
+                        ax.step(table.index, table[mcols].sum(axis=1), where="post", color="k", lw=1.1,
                                 label="measured")
             measured_done = True
         for j, z in enumerate(zones):
