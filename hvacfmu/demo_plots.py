@@ -47,12 +47,14 @@ def plot_gains(model, path, title, unit) -> Path:
     return path
 
 
-def plot_mpc(runs, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0)) -> tuple[Path, Path]:
+def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0)) -> tuple[Path, Path]:
     """MPC temperatures and airflows vs measured (paper Figs. 6 and 7).
 
     Parameters
     ----------
     runs : dict label -> pandas.DataFrame (the co-simulation tables)
+    measured : pandas.DataFrame
+        The measured data over the same span (``T_<zone>``, ``m_<vav>``).
     zones : sequence of zone names
     vavs_of_zone : dict zone -> list of VAV names
     """
@@ -62,7 +64,15 @@ def plot_mpc(runs, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0))
         ncols = 2
         nrows = int(np.ceil(len(zones) / ncols))
         fig, axes = plt.subplots(nrows, ncols, figsize=(12, 2.4 * nrows + 0.8), sharex=True, squeeze=False)
-        measured_done = False
+        for j, z in enumerate(zones):
+            ax = axes[j // ncols][j % ncols]
+            if kind == "temp" and f"T_{z}" in measured:
+                ax.plot(measured.index, measured[f"T_{z}"], lw=1.1, color="k", label="measured")
+            elif kind == "flow":
+                cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in measured]
+                if cols:
+                    ax.step(measured.index, measured[cols].sum(axis=1), where="post", color="k", lw=1.1,
+                            label="measured")
         colors = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:cyan"]
         for (label, table), color in zip(runs.items(), colors * 3):
             for j, z in enumerate(zones):
@@ -70,17 +80,10 @@ def plot_mpc(runs, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0))
                 if kind == "temp":
                     if f"T_{z}" in table:
                         ax.plot(table.index, table[f"T_{z}"], lw=0.9, color=color, label=label)
-                    if not measured_done and f"T_{z}_measured" in table:
-                        ax.plot(table.index, table[f"T_{z}_measured"], lw=1.1, color="k", label="measured")
                 else:
                     cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in table]
                     if cols:
                         ax.step(table.index, table[cols].sum(axis=1), where="post", lw=0.9, color=color, label=label)
-                    mcols = [f"m_{v}_measured" for v in vavs_of_zone[z] if f"m_{v}_measured" in table]
-                    if not measured_done and mcols:
-                        ax.step(table.index, table[mcols].sum(axis=1), where="post", color="k", lw=1.1,
-                                label="measured")
-            measured_done = True
         for j, z in enumerate(zones):
             ax = axes[j // ncols][j % ncols]
             ax.set_title(z, fontsize="medium")

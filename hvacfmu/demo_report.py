@@ -190,7 +190,9 @@ def _section_mpc(rep, r, figs, paper_figures):
     for name, runs in (("own", own), ("plant", plant)):
         if not runs:
             continue
-        pt, pf = plot_mpc(runs, zones, vavs, figs / f"mpc_{name}_temperature.png", figs / f"mpc_{name}_airflow.png")
+        first = next(iter(runs.values()))
+        measured = r["data"]["dataset"].frame.reindex(first.index)
+        pt, pf = plot_mpc(runs, measured, zones, vavs, figs / f"mpc_{name}_temperature.png", figs / f"mpc_{name}_airflow.png")
         where = "each model's own FMU" if name == "own" else "the emulator plant FMU"
         rep.figure(pt, f"MPC zone temperatures on {where} (Fig. 6)")
         rep.figure(pf, f"MPC airflows on {where} (Fig. 7)")
