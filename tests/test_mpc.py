@@ -80,7 +80,8 @@ def band_residual(Y, T_min=20.0, T_max=22.0):
 # settings and blocking
 # ---------------------------------------------------------------------------
 def test_default_blocks_cover_horizon():
-    assert default_blocks(96) == (1, 1, 2, 4, 8, 16, 32, 32)
+    assert default_blocks(96) == (1, 1, 2, 4) + (8,) * 11
+    assert default_blocks(96, max_len=32) == (1, 1, 2, 4, 8, 16, 32, 32)
     assert default_blocks(12) == (1, 1, 2, 4, 4)
     for N in (1, 2, 3, 5, 12, 47, 96):
         assert sum(default_blocks(N)) == N
