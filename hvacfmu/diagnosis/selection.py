@@ -116,12 +116,44 @@ def _n_coefs(sig, term) -> int:
     return len({f[1] for f in term_features(sig, term, sig.U)})
 
 
-def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.Candidate", options) -> None:
-    """Fill ``c.test`` (and ``c.term``: best variant, with its fitted coefficients) in place."""
+def _zone_cache(cache, sig, W, terms, z, target):
+    """Within-transformed design of zone ``z`` under the current terms (computed once per round)."""
+    if z not in cache:
+        D = zone_design(sig, z, terms, cache["U_eff"], cache["feats"])
+        cache[z] = (D.names, W(D.X), W(target[:, z] - D.offset), D.lower, D.upper)
+    return cache[z]
+
+
+def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.Candidate", options,
+                    cache=None) -> None:
+    """Fill ``c.test`` (and ``c.term``: best variant, with its fitted coefficients) in place.
+
+    ``cache``: ``{"U_eff": ..., "feats": ...}`` of the current terms, shared by the candidates
+    of one round (transformed designs are added to it).
+    """
     N = len(W.rows)
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    blocks = coupled_blocks(sig, terms)
     best = None
     for t in c.variants:
+        zs = _affected(sig, t)
+        fast = (cache is not None and len(zs) == 1 and not isinstance(t, (ActuationDelay, ZoneCoupling))
+                and [zs[0]] in blocks)
+        if fast:
+            # the term only adds columns to one uncoupled zone equation: reuse its transformed design
+            z = zs[0]
+            names0, Xw0, yw, lo0, hi0 = _zone_cache(cache, sig, W, terms, z, target)
+            new = [f for f in term_features(sig, t, cache["U_eff"]) if f[0] == z]
+            Xw = np.column_stack([Xw0] + [W(f[2]) for f in new])
+            ls = bounded_ls(Xw, yw, np.r_[lo0, [f[3] for f in new]], np.r_[hi0, [f[4] for f in new]],
+                            dof_extra=W.n_groups)
+            lr = N * np.log(cur_rss[z] / ls.rss)
+            sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
+            coefs = {f"{sig.zones[z]}:{f[1]}": (float(ls.theta[len(names0) + i]), float(sd[len(names0) + i]))
+                     for i, f in enumerate(new)}
+            if best is None or lr > best[1]:
+                best = (t, lr, lr * factors[z], coefs)
+            continue
         new_terms = list(terms) + [t]
         U_eff = effective_inputs(sig, new_terms)
         feats = [term_features(sig, tt, U_eff) for tt in new_terms]
@@ -294,9 +326,11 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
         factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
         resid_all = one_step_residuals(sig, cur.model)
         cands = cand.generate(sig, terms, W, resid, {**opts, "_resid_all": resid_all})
+        U_cur = effective_inputs(sig, terms)
+        cache = {"U_eff": U_cur, "feats": [term_features(sig, tt, U_cur) for tt in terms]}
         for c in cands:
             if c.variants and c.status == "not tested":
-                score_candidate(sig, W, terms, cur_rss, factors, c, opts)
+                score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache)
                 if c.test["delta_bic"] <= opts["bic_margin"]:
                     c.status = "not significant"
                     c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
