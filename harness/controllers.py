@@ -118,6 +118,8 @@ class ReplayController:
     """
 
     name = "replay"
+    #: the measured airflows come with the boxes' own (unmeasured) reheat: the plant FMU keeps its loops
+    fmu_start_values = {"local_reheat": 1}
 
     def reset(self, context: ControlContext) -> None:
         cols = [f"m_{v}" for v in context.vavs]

@@ -904,12 +904,19 @@ def plant_layout(plant, truth: dict) -> dict:
     for name, start in (("T_out", 15.0), ("T_supply", 14.0)) + tuple((i, 0.0) for i in FACADE_INPUTS):
         unit = signal_unit(name)
         var.append(_entry("v", name, "Real", "input", start, unit, signal_description(name), BOUNDS[unit]))
+    var.append(_entry("ghi", "ghi", "Real", "input", -1.0, "W/m2",
+                      "Global horizontal irradiance [W/m2]; when >= 0 the facade irradiance is computed from it "
+                      "with the emulator's own model (Erbs + Perez) and I_N..I_W are ignored; "
+                      "-1 (default): use I_N..I_W", (-1.0, BOUNDS["W/m2"][1])))
     for z in plant.zones:
         var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
                           f"Air temperature of zone {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
     for z in plant.zones:
         var.append(_entry("y0", sanitize_name(f"T_{z}_start"), "Real", "parameter", 21.0, "degC",
                           f"Initial air temperature of zone {z} (all its nodes) [degC]", BOUNDS["degC"]))
+    var.append(_entry("local_reheat", "local_reheat", "Integer", "parameter", 0, None,
+                      "1: the boxes keep their local reheat loops (the building's own heating sequence; the "
+                      "commanded airflows replace only the airflow loops); 0 (default): no reheat", (0, 1)))
     start = truth.get("start", "?")
     return {
         "slave_api": SLAVE_API_VERSION,
@@ -936,8 +943,9 @@ class PlantSlave(HvacfmuSlaveBase):
     """FMU slave of the emulated building (``resources/truth.json``).
 
     Inputs ``m_<vav>`` [kg/s] for every box, ``T_out``, ``T_supply`` [°C],
-    ``I_N`` ... ``I_W`` [W/m²]; outputs ``T_<zone>`` [°C]; parameters
-    ``T_<zone>_start`` [°C]. FMU time is seconds since the dataset start.
+    ``I_N`` ... ``I_W`` [W/m²], optional ``ghi`` [W/m²] (facades from it
+    when >= 0); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
+    [°C], ``local_reheat`` (0/1). FMU time is seconds since the dataset start.
     """
 
     TRUTH_FILE = "truth.json"
@@ -980,9 +988,14 @@ class PlantSlave(HvacfmuSlaveBase):
         k0 = self._t_start / PLANT_STEP
         if abs(k0 - round(k0)) > 1e-9 * max(1.0, k0) or self._t_start < 0:
             problems.append(f"start time {self._t_start} s must be a non-negative multiple of {PLANT_STEP:g} s")
+        (rh_vr,) = self.vrs_with_role("local_reheat")
+        if v[rh_vr] not in (0, 1):
+            problems.append(f"local_reheat={v[rh_vr]!r} must be 0 or 1")
         if problems:
             return problems
-        self._x = self.plant.initial_state(np.asarray(y0, dtype=float))
+        self._run = self.plant.with_local_reheat(bool(v[rh_vr]))
+        (self._ghi_vr,) = self.vrs_with_role("ghi")
+        self._x = self._run.initial_state(np.asarray(y0, dtype=float))
         self._t = self._t_start
         for vr, val in zip(self._y_vrs, self.plant.zone_temperatures(self._x).tolist()):
             v[vr] = val
@@ -1000,9 +1013,10 @@ class PlantSlave(HvacfmuSlaveBase):
                 f"({self.plant.horizon:g} s from the dataset start); step refused")
         values = self._values
         w = self._get_v(values)
-        x, T = self.plant.advance(self._x, round(current_time / PLANT_STEP) * PLANT_STEP,
-                                  round(n) * PLANT_STEP, np.array(self._get_m(values), dtype=float),
-                                  w[0], w[1], np.array(w[2:6], dtype=float))
+        t, dt = round(current_time / PLANT_STEP) * PLANT_STEP, round(n) * PLANT_STEP
+        ghi = values[self._ghi_vr]
+        irr = self._run.facades_from_ghi(t, dt, ghi) if ghi >= 0 else np.array(w[2:6], dtype=float)
+        x, T = self._run.advance(self._x, t, dt, np.array(self._get_m(values), dtype=float), w[0], w[1], irr)
         self._x = x
         self._t = current_time + step_size
         for vr, val in zip(self._y_vrs, T.tolist()):

@@ -13,6 +13,14 @@ Per 60 s sub-step ``k`` the zone air receives from the VAV boxes::
 evaluated with the zone temperature at the start of the sub-step (the bilinear
 term), and the linear part is advanced exactly:
 ``x_{k+1} = Ad x_k + Bd [T_out, T_fl, I_N..I_W, Q_ig, Q_hvac]_k``.
+
+With ``local_reheat=True`` the boxes keep their own reheat loops (the heating
+sequence of :class:`hvacfmu.emulator.controllers.VavControllers` with the
+dataset's settings, run every control interval from the dataset start): the
+commanded airflows replace only the boxes' airflow loops. That is the building
+the measured airflows came from; reheat power is not measured, so replaying
+the airflows without it runs the heated zones too cold. Not modelled: the
+reset of the loops during the Saturday excitation experiments.
 """
 
 from __future__ import annotations
@@ -153,14 +161,122 @@ class Plant:
     >>> x, T = plant.advance(x, 0.0, 900.0, m, 15.0, 14.0, [0, 0, 0, 0])  # doctest: +SKIP
     """
 
-    def __init__(self, core: PlantCore, truth: dict):
+    def __init__(self, core: PlantCore, truth: dict, local_reheat: bool = False):
         self.core = core
         self.truth = truth
+        self.local_reheat = bool(local_reheat)
+        self._loops = None
 
     @classmethod
-    def from_truth(cls, truth: dict) -> "Plant":
-        """Build the plant from a ``truth.json`` mapping (everything needed is in it)."""
-        return cls(PlantCore.from_truth(truth), truth)
+    def from_truth(cls, truth: dict, local_reheat: bool = False) -> "Plant":
+        """Build the plant from a ``truth.json`` mapping (everything needed is in it).
+
+        Parameters
+        ----------
+        truth : dict
+        local_reheat : bool
+            Keep the boxes' local reheat loops (see the module docstring).
+        """
+        return cls(PlantCore.from_truth(truth), truth, local_reheat)
+
+    def with_local_reheat(self, on: bool = True) -> "Plant":
+        """The same plant (shared matrices and gains) with or without the boxes' local reheat loops."""
+        return Plant(self.core, self.truth, on)
+
+    def facades_from_ghi(self, t, dt, ghi) -> np.ndarray:
+        """Facade irradiance ``I_N, I_E, I_S, I_W`` [W/m2] per minute from a global horizontal irradiance.
+
+        The emulator's own model (:mod:`hvacfmu.emulator.weather`): Erbs
+        decomposition and Perez transposition on the vertical facades, with
+        ``ghi`` held over ``[t, t + dt)``. Measured datasets only carry ``ghi``;
+        another transposition (e.g. isotropic sky) misses part of the sun on
+        the facades.
+
+        Parameters
+        ----------
+        t, dt : float [s]
+            Start (since the dataset start) and length, multiples of 60 s.
+        ghi : float [W/m2]
+
+        Returns
+        -------
+        ndarray (dt / 60, 4)
+        """
+        import warnings
+
+        import pvlib
+
+        from .weather import FACADE_AZIMUTH
+
+        k0, n = int(round(t / DT)), int(round(dt / DT))
+        sun = self._sun(k0, k0 + n)
+        g = np.full(n, max(float(ghi), 0.0))
+        out = np.zeros((n, 4))
+        with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
+            warnings.simplefilter("ignore")
+            erbs = pvlib.irradiance.erbs(g, sun["zenith"], sun["index"])
+            dni = np.nan_to_num(np.asarray(erbs["dni"], dtype=float), nan=0.0)
+            dhi = np.nan_to_num(np.asarray(erbs["dhi"], dtype=float), nan=0.0)
+            for j, az in enumerate(FACADE_AZIMUTH[o] for o in ORIENTATIONS):
+                poa = pvlib.irradiance.get_total_irradiance(
+                    90.0, az, sun["apparent_zenith"], sun["azimuth"], dni, g, dhi, dni_extra=sun["dni_extra"],
+                    airmass=sun["airmass"], model="perez", albedo=0.2,
+                )
+                out[:, j] = np.clip(np.nan_to_num(np.asarray(poa["poa_global"], dtype=float), nan=0.0), 0.0, None)
+        return out
+
+    def _sun(self, k0, k1) -> dict:
+        """Sun position of minutes ``k0..k1-1`` (computed a week at a time and kept)."""
+        import warnings
+
+        import pvlib
+
+        cache = self.__dict__.setdefault("_sun_cache", {})
+        week = 7 * 1440
+        parts = []
+        for w in range(k0 // week, (k1 - 1) // week + 1):
+            if w not in cache:
+                if len(cache) > 8:
+                    cache.clear()
+                index = dataset_index(self.truth["start"], self.truth["weeks"], self.truth["timezone"])[w * week:(w + 1) * week]
+                bld = self.truth["baseline"]["building"]
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sp = pvlib.solarposition.ephemeris(index, bld["latitude"], bld["longitude"])
+                    app_zen = sp["apparent_zenith"].to_numpy()
+                    cache[w] = {
+                        "index": index,
+                        "zenith": sp["zenith"].to_numpy(),
+                        "apparent_zenith": app_zen,
+                        "azimuth": sp["azimuth"].to_numpy(),
+                        "dni_extra": pvlib.irradiance.get_extra_radiation(index).to_numpy(),
+                        "airmass": pvlib.atmosphere.get_relative_airmass(app_zen),
+                    }
+            a, b = max(k0 - w * week, 0), min(k1 - w * week, week)
+            parts.append({key: val[a:b] for key, val in cache[w].items()})
+        if len(parts) == 1:
+            return parts[0]
+        return {key: (parts[0][key].append([q[key] for q in parts[1:]]) if key == "index"
+                      else np.concatenate([q[key] for q in parts])) for key in parts[0]}
+
+    def _reheat_loops(self) -> dict:
+        """Settings of the boxes' heating loops (built once)."""
+        if self._loops is None:
+            from .controllers import occupied_mode
+
+            cp = self.truth["baseline"]["controllers"]
+            index = dataset_index(self.truth["start"], self.truth["weeks"], self.truth["timezone"])
+            kp = float(cp["kp"])
+            self._loops = {
+                "per": int(round(float(cp["control_interval"]) / DT)),
+                "occupied": occupied_mode(index, cp),
+                "sp": {True: float(cp["heating_setpoint"]["occupied"]), False: float(cp["heating_setpoint"]["unoccupied"])},
+                "kp": kp,
+                "ki_dt": kp * float(cp["control_interval"]) / float(cp["integral_time"]),
+                "offsets": np.asarray(cp["box_offsets"], dtype=float),
+                "rh_max": self.core.m_min * CP_AIR * float(cp["reheat_rise"]),
+            }
+        return self._loops
 
     @property
     def zones(self) -> tuple:
@@ -171,8 +287,13 @@ class Plant:
         return self.core.vavs
 
     @property
+    def n_loop_states(self) -> int:
+        """Local reheat loop states (integrator and held power of every box), 0 without local reheat."""
+        return 2 * len(self.vavs) if self.local_reheat else 0
+
+    @property
     def n_states(self) -> int:
-        return self.core.n_thermal + self.core.n_buffer
+        return self.core.n_thermal + self.core.n_buffer + self.n_loop_states
 
     @property
     def horizon(self) -> float:
@@ -191,7 +312,8 @@ class Plant:
         Returns
         -------
         ndarray (n_states,)
-            Thermal nodes, then the delay buffer filled with minimum airflows.
+            Thermal nodes, then the delay buffer filled with minimum airflows,
+            then (local reheat) the loop integrators and held powers at 0.
         """
         T = np.asarray(T_zones, dtype=float)
         if T.shape != (len(self.zones),):
@@ -202,6 +324,8 @@ class Plant:
             buf = np.zeros((c.delay_minutes, len(c.delay_boxes), 2))
             buf[:, :, 0] = c.m_min[c.delay_boxes]
             x = np.concatenate([x, buf.ravel()])
+        if self.local_reheat:
+            x = np.concatenate([x, np.zeros(self.n_loop_states)])
         return x
 
     def zone_temperatures(self, x) -> np.ndarray:
@@ -222,10 +346,11 @@ class Plant:
             Airflow of every box, in the order of :attr:`vavs`.
         T_out : float [°C]
         T_supply : float [°C]
-        irradiance : array (4,) [W/m2]
-            Facade irradiance ``I_N, I_E, I_S, I_W``.
+        irradiance : array (4,) or (dt / 60, 4) [W/m2]
+            Facade irradiance ``I_N, I_E, I_S, I_W`` (held, or per minute).
         reheat : array (n_vav,) [W], optional
-            Reheat power added to each box's supply air (default none).
+            Reheat power added to each box's supply air (default none); with
+            local reheat it adds to the loops' power.
 
         Returns
         -------
@@ -247,8 +372,9 @@ class Plant:
         elif not np.all(np.isfinite(m)) or np.any(m < 0):
             problems.append("m_vav must be finite and >= 0 kg/s")
         irr = np.asarray(irradiance, dtype=float)
-        if irr.shape != (4,):
-            problems.append(f"irradiance must be [I_N, I_E, I_S, I_W], got shape {irr.shape}")
+        per_minute = irr.ndim == 2 and irr.shape == (int(round(nsub)), 4)
+        if irr.shape != (4,) and not per_minute:
+            problems.append(f"irradiance must be [I_N, I_E, I_S, I_W] or one such row per minute, got shape {irr.shape}")
         if not (np.isfinite(T_out) and np.isfinite(T_supply)) or not np.all(np.isfinite(irr)):
             problems.append("T_out, T_supply and irradiance must be finite")
         x = np.asarray(x, dtype=float)
@@ -270,10 +396,23 @@ class Plant:
             raise EmulatorError(problems_message("Plant.advance", problems))
         nth = c.n_thermal
         xt = x[:nth].copy()
-        buf = x[nth:].reshape(c.delay_minutes, len(c.delay_boxes), 2).copy() if c.delay_minutes else None
+        buf = x[nth: nth + c.n_buffer].reshape(c.delay_minutes, len(c.delay_boxes), 2).copy() if c.delay_minutes else None
         W = self.core.w_rows(k0, k0 + nsub, T_out, irr) @ c.Bw.T
         nz = len(self.zones)
+        p_cmd = p
+        if self.local_reheat:
+            loops = self._reheat_loops()
+            nb = len(self.vavs)
+            integ = x[nth + c.n_buffer: nth + c.n_buffer + nb].copy()
+            p_loc = x[nth + c.n_buffer + nb:].copy()
         for j in range(nsub):
+            if self.local_reheat:
+                k = k0 + j
+                if k % loops["per"] == 0:  # control interval boundary: the loops act on the room temperatures
+                    eh = loops["sp"][bool(loops["occupied"][k])] - (xt[c.box_zone] + loops["offsets"])
+                    integ = np.clip(integ + loops["ki_dt"] * eh, 0.0, 1.0)
+                    p_loc = np.clip(loops["kp"] * eh + integ, 0.0, 1.0) * loops["rh_max"]
+                p = p_cmd + p_loc
             m_app, p_app = m, p
             if buf is not None:
                 m_app, p_app = m.copy(), p.copy()
@@ -291,4 +430,6 @@ class Plant:
             Q = mcp_z * (T_supply - xt[:nz]) + h_z
             xt = c.Ad @ xt + W[j] + c.BQ @ Q
         out = xt if buf is None else np.concatenate([xt, buf.ravel()])
+        if self.local_reheat:
+            out = np.concatenate([out, integ, p_loc])
         return out, xt[:nz].copy()
