@@ -113,8 +113,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     rol_final = R.open_loop_residuals(final, dataset.frame, starts, seasons, opts["horizon"])
     white_after = {z: R.whiteness(np.where(train_rows, r1_final[:, j], np.nan), sig.step)
                    for j, z in enumerate(sig.zones)}
-    errors["open_loop_after"] = {"zone": R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)["zone"],
-                                 "hour": R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)["hour"]}
+    after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)
+    errors["open_loop_after"] = {"zone": after["zone"], "hour": after["hour"]}
     unexplained = []
     for z, w in white_after.items():
         if w.get("white") is False:
