@@ -1,4 +1,4 @@
-"""The energy-efficient MPC problem of Zhou, Hu & Tomlin in condensed form.
+"""The energy-efficient MPC problem of Zhou, Hu & Tomlin as a conic program.
 
 For a prediction that is affine in the airflows over the horizon,
 
@@ -35,6 +35,12 @@ initial state is never softened (it is data, not a variable).
 
 Move blocking holds ``u`` constant over blocks of steps (``blocks`` lengths
 summing to N); the cost then weights each block value by its length.
+``slack="per_step"`` gives every block its own slack (weighted by its length).
+
+The prediction enters as equality rows: :class:`CondensedProblem` writes
+``y - G U = y0`` (dense ``G``, horizons up to ~24 steps);
+:class:`ReducedProblem` writes the forced response of a reduced-order
+state-space model step by step (sparse rows banded in time, long horizons).
 
 References
 ----------
