@@ -63,7 +63,7 @@ logger = logging.getLogger(__name__)
 STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 CONTROLLERS = ("replay", "rule", "mpc")
 #: FMU inputs left at their default when the data has no such column
-OPTIONAL_INPUTS = ("ghi",)
+OPTIONAL_INPUTS = ("ghi", "excitation")
 #: warm-up of the plant FMU before the span [s] (its slab and walls settle within days)
 PLANT_WARMUP = 7 * 86400.0
 DEFAULT_BAND = (20.0, 22.0)

@@ -908,6 +908,9 @@ def plant_layout(plant, truth: dict) -> dict:
                       "Global horizontal irradiance [W/m2]; when >= 0 the facade irradiance is computed from it "
                       "with the emulator's own model (Erbs + Perez) and I_N..I_W are ignored; "
                       "-1 (default): use I_N..I_W", (-1.0, BOUNDS["W/m2"][1])))
+    var.append(_entry("exc", "excitation", "Real", "input", 0.0, None,
+                      "1 while a forced-response experiment overrides the boxes (their local reheat loops are "
+                      "off and reset), 0 otherwise (default)", (0.0, 1.0)))
     for z in plant.zones:
         var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
                           f"Air temperature of zone {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
@@ -944,7 +947,7 @@ class PlantSlave(HvacfmuSlaveBase):
 
     Inputs ``m_<vav>`` [kg/s] for every box, ``T_out``, ``T_supply`` [°C],
     ``I_N`` ... ``I_W`` [W/m²], optional ``ghi`` [W/m²] (facades from it
-    when >= 0); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
+    when >= 0) and ``excitation`` (0/1); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
     [°C], ``local_reheat`` (0/1). FMU time is seconds since the dataset start.
     """
 
@@ -995,6 +998,7 @@ class PlantSlave(HvacfmuSlaveBase):
             return problems
         self._run = self.plant.with_local_reheat(bool(v[rh_vr]))
         (self._ghi_vr,) = self.vrs_with_role("ghi")
+        (self._exc_vr,) = self.vrs_with_role("exc")
         self._x = self._run.initial_state(np.asarray(y0, dtype=float))
         self._t = self._t_start
         for vr, val in zip(self._y_vrs, self.plant.zone_temperatures(self._x).tolist()):
@@ -1016,7 +1020,8 @@ class PlantSlave(HvacfmuSlaveBase):
         t, dt = round(current_time / PLANT_STEP) * PLANT_STEP, round(n) * PLANT_STEP
         ghi = values[self._ghi_vr]
         irr = self._run.facades_from_ghi(t, dt, ghi) if ghi >= 0 else np.array(w[2:6], dtype=float)
-        x, T = self._run.advance(self._x, t, dt, np.array(self._get_m(values), dtype=float), w[0], w[1], irr)
+        x, T = self._run.advance(self._x, t, dt, np.array(self._get_m(values), dtype=float), w[0], w[1], irr,
+                                 excitation=values[self._exc_vr] >= 0.5)
         self._x = x
         self._t = current_time + step_size
         for vr, val in zip(self._y_vrs, T.tolist()):

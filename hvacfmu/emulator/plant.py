@@ -19,8 +19,9 @@ sequence of :class:`hvacfmu.emulator.controllers.VavControllers` with the
 dataset's settings, run every control interval from the dataset start): the
 commanded airflows replace only the boxes' airflow loops. That is the building
 the measured airflows came from; reheat power is not measured, so replaying
-the airflows without it runs the heated zones too cold. Not modelled: the
-reset of the loops during the Saturday excitation experiments.
+the airflows without it runs the heated zones too cold. During the
+forced-response experiments (``excitation``) the building's loops are off
+and reset, as in the dataset.
 """
 
 from __future__ import annotations
@@ -332,7 +333,7 @@ class Plant:
         """Zone air temperatures [°C] of state ``x``."""
         return np.asarray(x)[: len(self.zones)].copy()
 
-    def advance(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat=None):
+    def advance(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat=None, excitation=False):
         """Advance the plant by ``dt`` seconds with inputs held constant.
 
         Parameters
@@ -351,6 +352,9 @@ class Plant:
         reheat : array (n_vav,) [W], optional
             Reheat power added to each box's supply air (default none); with
             local reheat it adds to the loops' power.
+        excitation : bool
+            A forced-response experiment runs: the local reheat loops are off
+            and reset (no effect without local reheat).
 
         Returns
         -------
@@ -408,7 +412,10 @@ class Plant:
         for j in range(nsub):
             if self.local_reheat:
                 k = k0 + j
-                if k % loops["per"] == 0:  # control interval boundary: the loops act on the room temperatures
+                if excitation:  # the experiment overrides the boxes: loops reset, no reheat
+                    integ = np.zeros_like(integ)
+                    p_loc = np.zeros_like(p_loc)
+                elif k % loops["per"] == 0:  # control interval boundary: the loops act on the room temperatures
                     eh = loops["sp"][bool(loops["occupied"][k])] - (xt[c.box_zone] + loops["offsets"])
                     integ = np.clip(integ + loops["ki_dt"] * eh, 0.0, 1.0)
                     p_loc = np.clip(loops["kp"] * eh + integ, 0.0, 1.0) * loops["rh_max"]
