@@ -348,6 +348,37 @@ def _fill(series: pd.Series) -> tuple[pd.Series, int]:
     return series.interpolate(method="time", limit_direction="both"), n
 
 
+def _warmup_rows(dataset, t_start, warmup, earliest, inputs, controls, outputs, V, building):
+    """Measured rows of the ``warmup`` seconds before ``t_start`` (at most ``earliest``) and their inputs.
+
+    Returns ``(frame, M, V)``: the rows, the box airflows (gaps held, box
+    minimum before the first value) and the disturbances (gaps interpolated,
+    the span's first value where a column has none). No rows when the data
+    holds no zone temperature for an output there (nothing to start from).
+    """
+    full = dataset.frame
+    seconds = max(0.0, min(warmup, earliest))
+    i_start = full.index.get_loc(t_start)
+    i_warm = full.index.searchsorted(t_start - pd.Timedelta(seconds=seconds))
+    # the index is regular (Dataset checks it): the rows end exactly one step before the span
+    wframe = full.iloc[i_warm:i_start]
+    wframe = wframe.assign(time_of_week=seconds_of_week(wframe.index).astype(float))
+    zones = {z for zs in outputs.values() for z in zs}
+    if any(f"T_{z}" not in wframe or not wframe[f"T_{z}"].notna().any() for z in zones):
+        wframe = wframe.iloc[:0]
+    n = len(wframe)
+    Vw = np.empty((n, len(inputs)))
+    for j, (fmu_name, col) in enumerate(inputs.items()):
+        s = wframe[col].interpolate(method="time", limit_direction="both") if n else wframe[col]
+        Vw[:, j] = s.fillna(V[fmu_name][0]).to_numpy(dtype=float)
+    m_min = {b.name: b.m_min for b in building.vavs}
+    Mw = np.empty((n, len(controls)))
+    for j, b in enumerate(controls.values()):
+        col = f"m_{b}"
+        Mw[:, j] = wframe[col].ffill().fillna(m_min[b]).to_numpy(dtype=float) if col in wframe else m_min[b]
+    return wframe, Mw, Vw
+
+
 def _measured_start(name, zones, frame, building, model):
     """Measured value of an output at the first row (gaps filled from the nearest rows)."""
     if model is not None and tuple(model.outputs) and name in {f"T_{z}" for z in model.outputs}:
@@ -476,27 +507,12 @@ def run_cosim(
         if mapping is not None and mapping.get("time_origin"):
             origin = pd.Timestamp(mapping["time_origin"])
         t0 = (t_start - origin).total_seconds()
-        # --- warm-up rows before the span (contiguous: the data's index is regular)
+        # --- warm-up rows before the span
         if warmup is None:
             warmup = PLANT_WARMUP if kind == "plant" else 0.0
-        warm_seconds = max(0.0, min(float(warmup), t0 if kind == "plant" else math.inf))
-        full = dataset.frame
-        i_start = full.index.get_loc(t_start)
-        i_warm = full.index.searchsorted(t_start - pd.Timedelta(seconds=warm_seconds))
-        wframe = full.iloc[i_warm:i_start].assign(
-            time_of_week=seconds_of_week(full.index[i_warm:i_start]).astype(float))
+        wframe, Mw, Vw = _warmup_rows(dataset, t_start, float(warmup), t0 if kind == "plant" else math.inf,
+                                      inputs, controls, outputs, V, building)
         nw = len(wframe)
-        Vw = np.zeros((nw, len(inputs)))
-        Mw = np.zeros((nw, len(controls)))
-        if nw:
-            for j, (fmu_name, col) in enumerate(inputs.items()):
-                s_w = wframe[col]
-                Vw[:, j] = s_w.interpolate(method="time", limit_direction="both").fillna(V[fmu_name][0]) \
-                    .to_numpy(dtype=float) if s_w.notna().any() else V[fmu_name][0]
-            m_lim = {b.name: b.m_min for b in building.vavs}
-            for j, b in enumerate(controls.values()):
-                col = f"m_{b}"
-                Mw[:, j] = (wframe[col].ffill().bfill().fillna(m_lim[b]) if col in wframe else m_lim[b])
         sframe = wframe if nw else frame
         # --- start values
         sv = {}
@@ -748,6 +764,9 @@ def add_cosim_arguments(parser):
     parser.add_argument("--horizon", type=int, help="MPC horizon in steps (passed to harness.mpc)")
     parser.add_argument("--option", action="append", metavar="KEY=VALUE",
                         help="controller option (repeatable), e.g. kp=0.8 for rule, rho=100 for mpc")
+    parser.add_argument("--warmup", type=float, metavar="HOURS",
+                        help="replay the measured data this long before the span first (default: 168 h for "
+                             "the plant FMU, 0 for model FMUs)")
     parser.add_argument("--step", type=float, default=900.0, help="model/communication step [s] (default 900)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the train/test week split (default 0)")
     parser.add_argument("--interpolate-gaps", type=float, default=None, metavar="MINUTES",
@@ -776,7 +795,8 @@ def main_cosim(args) -> int:
             raise HvacfmuError(f"cannot read mapping file {args.mapping}: {exc}") from None
     result = run_cosim(args.fmu, dataset, controller, week=args.week, start=args.start, stop=args.stop,
                        model=model, mapping=mapping, band=tuple(args.band), season=args.season,
-                       allow_partial=True, progress=not getattr(args, "quiet", True))
+                       allow_partial=True, progress=not getattr(args, "quiet", True),
+                       warmup=None if getattr(args, "warmup", None) is None else args.warmup * 3600.0)
     print(result.format_summary())
     if args.out:
         print(f"wrote {result.save(args.out)}")

@@ -129,3 +129,29 @@ def test_facades_from_ghi_are_the_emulator_weather(short_paths):
     assert_allclose(I, I_ref[::7], rtol=0, atol=1e-6)
     # held over a step: one row per minute
     assert plant.facades_from_ghi(60.0 * k0, 900.0, 300.0).shape == (15, 4)
+
+
+def test_plant_without_ghi_column_uses_facade_inputs(tmp_path, short_paths):
+    """Data with facade irradiance but no ghi: the plant's optional inputs keep their defaults."""
+    import warnings
+
+    import pandas as pd
+
+    from hvacfmu.data import Dataset, prepare
+    from hvacfmu.errors import HvacfmuWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        data = prepare(short_paths.measurements, short_paths.building)
+        no_ghi = Dataset.from_frame(data.frame.drop(columns=["ghi"]), data.building)
+    fmu = export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu")
+    start = data.test_weeks()[0].start
+    span = dict(start=start, stop=start + pd.Timedelta(days=1), warmup=86400.0)
+    with_ghi = run_cosim(fmu, data, ReplayController(), **span)
+    without = run_cosim(fmu, no_ghi, ReplayController(), **span)
+    assert with_ghi.covered and without.covered
+    assert with_ghi.summary["warmup_steps"] == without.summary["warmup_steps"] == 96
+    assert "ghi" in with_ghi.table and "ghi" not in without.table
+    zones = [f"T_{z}" for z in data.building.zone_names]
+    diff = (with_ghi.table[zones] - without.table[zones]).abs().to_numpy()
+    assert 0.0 < np.nanmax(diff) < 0.5  # same building, only the transposition model differs
