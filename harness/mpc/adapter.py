@@ -54,12 +54,18 @@ class CosimMPC:
     failure_dir : path or None
         Where failed problems are saved for replay.
     kalman_q_std, kalman_r_std : float [K]
+    init : {"outputs", "model"}
+        Initial estimate of hidden states (see :meth:`_initial_estimate`).
     **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
     """
 
     name = "mpc"
 
-    def __init__(self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05, **options):
+    def __init__(self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05,
+                 init="outputs", **options):
+        if init not in ("outputs", "model"):
+            raise HvacfmuError(f"init must be 'outputs' or 'model', got {init!r}")
+        self.init = init
         self.model = model
         self.building = building
         self.failure_dir = failure_dir
@@ -95,13 +101,31 @@ class CosimMPC:
             self.Q = np.asarray(model.gains_at(idx, season), dtype=float)
         self._output_map(context)
         self._input_map(context, building)
-        x0 = None
-        if self.mpc.bilinear and hasattr(model, "initial_state"):
-            try:  # the model's own estimate from the data before the run, when it has one
-                x0 = np.asarray(model.initial_state(frame, 0), dtype=float)
-            except (HvacfmuError, KeyError, ValueError, IndexError):
-                x0 = None
+        x0 = self._initial_estimate(frame) if self.mpc.bilinear else None
         self.mpc.reset(x0=x0)
+
+    def _initial_estimate(self, frame):
+        """Initial state estimate of a model with hidden states (walls).
+
+        ``init="outputs"`` (default): hidden states at their steady state for
+        the first measured outputs, inputs, disturbances and gains held — how
+        the model FMUs start (:func:`hvacfmu.fmu_slave.state_from_outputs`), so
+        an MPC run against its own model's FMU starts from the FMU's state.
+        ``init="model"``: the model's own estimate (``model.initial_state``,
+        a Kalman filter over the run's first rows). Either way the Kalman
+        filter then corrects the walls from the measured zone temperatures.
+        """
+        model = self.model
+        row = frame.iloc[:1]
+        if self.init == "model" and hasattr(model, "initial_state"):
+            return np.asarray(model.initial_state(frame, 0), dtype=float)
+        from hvacfmu.fmu_slave import state_from_outputs
+
+        u, v = model.signals(row)
+        y0 = model.measured_outputs(row)[0]
+        if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
+            return None  # gaps at the start: the controller's own steady-state initialisation
+        return np.asarray(state_from_outputs(model, y0, u[0], v[0], self.Q[0]), dtype=float)
 
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
