@@ -127,8 +127,13 @@ def test_facades_from_ghi_are_the_emulator_weather(short_paths):
     I = np.vstack([plant.facades_from_ghi(60.0 * (k0 + j), 60.0, w["ghi"][j]) for j in range(0, n, 7)])
     assert np.max(I_ref) > 100.0
     assert_allclose(I, I_ref[::7], rtol=0, atol=1e-6)
-    # held over a step: one row per minute
+    # held over a step: one row per minute, also across the sun-position cache's week boundary
     assert plant.facades_from_ghi(60.0 * k0, 900.0, 300.0).shape == (15, 4)
+    t_week = 7 * 86400.0 + 12 * 3600.0 - 600.0  # noon of day 7 (the cache holds weeks from the dataset start)
+    both = plant.facades_from_ghi(7 * 86400.0 - 600.0, 1200.0, 300.0)
+    parts = [plant.facades_from_ghi(7 * 86400.0 - 600.0, 600.0, 300.0), plant.facades_from_ghi(7 * 86400.0, 600.0, 300.0)]
+    assert_allclose(both, np.vstack(parts), rtol=0, atol=0)
+    assert np.min(plant.facades_from_ghi(t_week, 1200.0, 300.0)) > 10.0  # diffuse light on every facade at noon
 
 
 def test_plant_without_ghi_column_uses_facade_inputs(tmp_path, short_paths):
