@@ -695,3 +695,14 @@ def test_mpc_in_harness_on_its_own_fmu_and_on_the_plant(tmp_path, short_paths, s
     assert plant.summary["controller_stats"]["failures"] == 0
     M = plant.table[[f"m_{b}" for b in short_data.building.vav_names]].iloc[:-1].to_numpy()
     assert np.all(M >= 0.0) and np.all(np.isfinite(M))
+
+
+def test_settings_from_harness_options():
+    from harness.mpc import settings_from_options
+
+    s, rest = settings_from_options(band=(20.5, 21.5), horizon=12, blocks="1/1/2/4/4", comfort_penalty="none",
+                                    formulation="qp", failure_dir="x")
+    assert (s.horizon, s.block_lengths, s.comfort_penalty, s.formulation) == (12, (1, 1, 2, 4, 4), None, "qp")
+    assert (s.T_min, s.T_max) == (20.5, 21.5) and rest == {"failure_dir": "x"}
+    s, _ = settings_from_options(band=(20.0, 22.0), T_max=21.0)  # an explicit option beats the run's band
+    assert s.T_max == 21.0
