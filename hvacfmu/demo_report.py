@@ -162,7 +162,9 @@ def _section_mpc(rep, r, figs, paper_figures):
         f"soft input limits with penalty ρ = 100, over held-out {wk.season} week {wk.number}. As in the paper, each "
         "model's MPC runs against that model's own FMU; beyond the paper, each MPC also controls the emulator's plant "
         "FMU (a building that is neither model) with state feedback every step, next to the replay of measured "
-        "airflows and a rule-based PI controller. All runs go through the FMPy co-simulation harness.")
+        "airflows and a rule-based PI controller; there the boxes' local reheat loops stay active under every "
+        "controller, and each run starts after a week of warm-up on measured data. All runs go through the FMPy "
+        "co-simulation harness.")
     rows = {}
     for label, d in mpc["runs"].items():
         s = d["result"].summary
