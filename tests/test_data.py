@@ -132,10 +132,47 @@ def test_offsets_across_dst_start_are_accepted(tmp_path, small_building):
     assert np.isfinite(day.to_numpy()).all()
 
 
-def test_naive_times_across_dst_are_reported(tmp_path, small_building):
+def test_naive_times_across_both_dst_changes_are_inferred(tmp_path, small_building):
+    # one naive 1-minute export with two days around each change of 2024: the spring day skips
+    # 02:00..02:59, the autumn day lists 01:00..01:59 twice (PDT, then PST)
+    spring = make_measurements(small_building, start="2024-03-09 12:00", periods=2 * 1440 - 60, seed=1)
+    fall = make_measurements(small_building, start="2024-11-02 12:00", periods=2 * 1440 + 60, seed=2)
+    frame = pd.concat([spring, fall])
+    path = write(frame, tmp_path / "year.csv", "naive")
+    assert (pd.read_csv(path)["time"] == "2024-11-03T01:00:00").sum() == 2
+    loaded, report = load_measurements(path, small_building)
+    assert not report.has_offsets
+    assert loaded.index.equals(frame.index)  # the same UTC instants, not just the same wall clock
+    utc = loaded.index.tz_convert("UTC")
+    first = np.flatnonzero(loaded.index.tz_localize(None) == pd.Timestamp("2024-11-03 01:00"))
+    assert list(utc[first]) == [pd.Timestamp("2024-11-03 08:00", tz="UTC"), pd.Timestamp("2024-11-03 09:00", tz="UTC")]
+    assert (np.diff(utc.asi8)[np.r_[: len(spring) - 1, len(spring) : len(frame) - 1]] == 60 * 10**9).all()
+    assert_allclose(loaded.to_numpy(), frame.to_numpy(), rtol=0, atol=1e-9)
+    # hourly data with gaps: the repeated hour is a repeated time, still inferred from the order
+    hourly = make_measurements(small_building, start="2024-11-02 20:00", periods=12, freq="1h").iloc[[0, 1, 4, 5, 6, 7, 9]]
+    loaded, _ = load_measurements(write(hourly, tmp_path / "hourly.csv", "naive"), small_building)
+    assert loaded.index.equals(hourly.index)
+
+
+def test_naive_times_that_cannot_be_inferred_are_reported(tmp_path, small_building):
+    # the repeated hour logged once only (a logger that dropped the second occurrence)
+    once = make_measurements(small_building, start="2024-11-03 00:00", periods=4 * 60).reset_index(drop=True)
+    once.insert(0, "time", [t.isoformat() for t in pd.date_range("2024-11-03 00:00", periods=4 * 60, freq="1min")])
+    once.to_csv(tmp_path / "once.csv", index=False)
+    with pytest.raises(
+        DataError,
+        match=r"60 naive local times are ambiguous.*2024-11-03 01:00:00\.\.2024-11-03 01:59:00 \(rows 61-120\): "
+        r"the repeated hour appears once only.*2024-11-03T01:00:00-07:00 for the first occurrence, "
+        r"2024-11-03T01:00:00-08:00 for the second",
+    ):
+        load_measurements(tmp_path / "once.csv", small_building)
+    # the two occurrences interleaved (rows out of order): the order cannot tell them apart
     fall = make_measurements(small_building, start="2024-11-03 00:00", periods=4 * 60)
     path = write(fall, tmp_path / "fall.csv", "naive")
-    with pytest.raises(DataError, match=r"120 naive local times \(60 distinct\) are ambiguous.*2024-11-03 01:00:00 at row 61"):
+    rows = pd.read_csv(path)
+    order = np.r_[0:60, np.ravel(np.column_stack([np.arange(60, 120), np.arange(120, 180)])), 180:240]
+    rows.iloc[order].to_csv(path, index=False)
+    with pytest.raises(DataError, match=r"120 naive local times are ambiguous.*\(rows 61-180\): times step back 60 times"):
         load_measurements(path, small_building)
     # a naive logger writing every wall-clock minute from 00:00: 02:00..02:59 do not exist locally
     spring = make_measurements(small_building, start="2024-03-09 00:00", periods=4 * 60).reset_index(drop=True)

@@ -228,29 +228,79 @@ def _has_offset(text: pd.Series) -> np.ndarray:
 
 
 def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows=None):
-    """Naive local times -> UTC ns; ambiguous or nonexistent times are problems."""
+    """Naive local times -> UTC ns, resolving repeated autumn hours from the row order.
+
+    A naive time in the hour repeated when daylight saving time ends is
+    ambiguous. Each run of consecutive rows inside such an hour is resolved the
+    way a logger writes it: wall-clock times increase, step back once (to the
+    start of the repeated hour, or repeat a time for hourly data) and increase
+    again; the rows before the step are daylight saving time, the rows after it
+    standard time (the rule of pandas' ``tz_localize(ambiguous='infer')``,
+    applied per run so that every unresolvable run is reported). A run without
+    exactly one step back (the repeated hour logged once only, rows out of
+    order, unordered duplicates) cannot be resolved and is a problem, as are
+    naive times that do not exist (skipped when daylight saving time starts).
+    """
     n = len(naive)
     rows = np.arange(n) if rows is None else rows
     amb = np.asarray(naive.tz_localize(tz, ambiguous="NaT", nonexistent="shift_forward").isna()) & ~unparsed
-    localized = naive.tz_localize(tz, ambiguous=np.ones(n, dtype=bool), nonexistent="NaT")
-    nonexistent = np.asarray(localized.isna()) & ~unparsed
+    as_dst = naive.tz_localize(tz, ambiguous=np.ones(n, dtype=bool), nonexistent="NaT")
+    nonexistent = np.asarray(as_dst.isna()) & ~unparsed
+    utc = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+    dst_utc = as_dst.tz_convert("UTC").as_unit("ns").asi8
+    unresolved = np.zeros(n, dtype=bool)
     if amb.any():
-        problems.append(
-            f"{label}: column {name!r}: {int(amb.sum())} naive local times ({len(np.unique(naive.asi8[amb]))} distinct) "
-            f"are ambiguous (repeated when "
-            f"daylight saving time ends in {tz}): {_naive_rows(naive, rows, amb)}; "
-            "write times with their UTC offset (e.g. 2024-11-03T01:30:00-07:00)"
-        )
+        std_utc = naive.tz_localize(tz, ambiguous=np.zeros(n, dtype=bool), nonexistent="NaT").tz_convert("UTC")
+        std_utc = std_utc.as_unit("ns").asi8
+        local = naive.asi8
+        pos = np.flatnonzero(amb)
+        runs = np.split(pos, np.flatnonzero(np.diff(pos) != 1) + 1)
+        bad_runs = []
+        for run in runs:
+            back = np.flatnonzero(np.diff(local[run]) <= 0)
+            if len(back) != 1:
+                unresolved[run] = True
+                bad_runs.append((run, len(back)))
+                continue
+            switch = back[0] + 1
+            utc[run[:switch]] = dst_utc[run[:switch]]
+            utc[run[switch:]] = std_utc[run[switch:]]
+        if bad_runs:
+            why = "; ".join(
+                f"{naive[run[0]]}..{naive[run[-1]]} (rows {int(rows[run[0]]) + 1}-{int(rows[run[-1]]) + 1}): "
+                + ("the repeated hour appears once only" if steps == 0 else f"times step back {steps} times, not once")
+                for run, steps in bad_runs[:N_EXAMPLES]
+            )
+            more = f" and {len(bad_runs) - N_EXAMPLES} more" if len(bad_runs) > N_EXAMPLES else ""
+            first = bad_runs[0][0][0]
+            example = naive[first].isoformat()
+            offsets = [
+                _fmt_offset(int(x) - int(local[first])) for x in (dst_utc[first], std_utc[first])
+            ]
+            problems.append(
+                f"{label}: column {name!r}: {int(unresolved.sum())} naive local times are ambiguous (repeated when "
+                f"daylight saving time ends in {tz}) and their order does not tell which occurrence they are: "
+                f"{why}{more}; a file in time order must list the repeated hour twice, first in daylight "
+                f"saving time then in standard time; otherwise write times with their UTC offset "
+                f"(e.g. {example}{offsets[0]} for the first occurrence, {example}{offsets[1]} for the second)"
+            )
     if nonexistent.any():
         problems.append(
             f"{label}: column {name!r}: {int(nonexistent.sum())} naive local times do not exist (skipped when "
             f"daylight saving time starts in {tz}): {_naive_rows(naive, rows, nonexistent)}; "
             "write times with their UTC offset"
         )
-    ok = ~(amb | nonexistent | unparsed)
-    utc = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
-    utc[ok] = localized.tz_convert("UTC").as_unit("ns").asi8[ok]
+    ok = ~(unresolved | nonexistent | unparsed)
+    plain = ok & ~amb
+    utc[plain] = dst_utc[plain]
     return utc, ok
+
+
+def _fmt_offset(ns: int) -> str:
+    """UTC offset text such as '-07:00' from an offset UTC - local [ns] (sign flipped to ISO 8601)."""
+    minutes = -ns // 60_000_000_000
+    sign = "+" if minutes >= 0 else "-"
+    return f"{sign}{abs(minutes) // 60:02d}:{abs(minutes) % 60:02d}"
 
 
 def _naive_rows(naive, rows, mask, limit=N_EXAMPLES) -> str:
@@ -301,8 +351,9 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
     path : str or Path
         CSV (``.csv``, ``.csv.gz``) or Parquet (``.parquet``) file with one row
         per timestamp. The ``time`` column holds ISO 8601 times with UTC offset
-        (naive times are local times of ``building.timezone``) or, in Parquet,
-        timestamps.
+        (naive times are local times of ``building.timezone``; the hour repeated
+        when daylight saving time ends is resolved from the row order, see
+        :func:`_localize`) or, in Parquet, timestamps.
     building : Building or path
         Gives the expected columns, the column mapping
         (:meth:`Building.column_for`) and the units (:meth:`Building.unit_for`).
@@ -320,8 +371,9 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
     ------
     DataError
         Listing every problem found: missing columns, non-numeric values,
-        unparseable, duplicate or non-increasing times, daylight-saving
-        ambiguities, physically impossible values and implausible units.
+        unparseable, duplicate or non-increasing times, naive times that do
+        not exist or whose daylight-saving ambiguity the row order cannot
+        resolve, physically impossible values and implausible units.
     """
     building = as_building(building)
     frame, report, problems = _load(Path(path), building)
