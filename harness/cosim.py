@@ -529,6 +529,8 @@ def run_cosim(
                     sv["season"] = seasons.index(season) + 1
                 elif e.get("role") == "tow":
                     sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_start]))[0]) - t0
+                elif e.get("role") == "t_abs":  # calendar-dependent model: Unix epoch [s] of FMU time 0
+                    sv[e["name"]] = (t_start - pd.Timedelta(seconds=t0)).timestamp()
         wanted = getattr(controller, "fmu_start_values", None) or {}
         sv.update({k: val for k, val in wanted.items() if k in inst.vars})
         if mapping is not None:

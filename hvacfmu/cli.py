@@ -98,7 +98,7 @@ def _cmd_evaluate(args):
 def _cmd_export(args):
     from .fmu import export_file
 
-    path = export_file(args.model, args.output)
+    path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
     return 0
 
@@ -179,6 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
     p.add_argument("model", help="model file (JSON), or an emulator truth.json for the plant FMU")
     p.add_argument("--output", "-o", required=True, help="FMU to write")
+    p.add_argument("--timezone", help="IANA time zone of the building (e.g. America/Los_Angeles); lets the FMU of a "
+                   "model with calendar terms (holidays) follow the calendar through its start_time parameter")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")

@@ -79,7 +79,7 @@ def slave_script(kind: str) -> Path:
     return path
 
 
-def export_fmu(model_path, out_path) -> Path:
+def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
     """Export a saved zone model as an FMI 2.0 co-simulation FMU.
 
     Parameters
@@ -88,6 +88,14 @@ def export_fmu(model_path, out_path) -> Path:
         Model file (JSON) of any kind :func:`hvacfmu.models.load_model` reads.
     out_path : path
         FMU to write (``.fmu``); parent folders are created.
+    timezone : str, optional
+        IANA time zone of the building (e.g. ``America/Los_Angeles``), needed
+        only by models whose internal gains depend on the date (holidays,
+        daylight-saving shift: :func:`hvacfmu.fmu_slave.calendar_dependent`);
+        defaults to the model's ``meta["timezone"]``. With it such an FMU gets the
+        parameter ``start_time`` [s, Unix epoch] and reproduces the Python
+        model's gains exactly; without it the export warns that the FMU
+        follows the time-of-week profile only. Ignored for other models.
 
     Returns
     -------
@@ -107,20 +115,29 @@ def export_fmu(model_path, out_path) -> Path:
     disturbances (``T_out``, ``T_supply`` [°C], ``I_N`` ... ``I_W`` [W/m²]);
     outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start`` [°C],
     ``season`` (Integer, mapping in its description) and
-    ``start_time_of_week`` [s]. Communication steps must be whole multiples of
-    the model step. See :mod:`hvacfmu.fmu_slave`.
+    ``start_time_of_week`` [s], and for calendar-dependent models exported
+    with a time zone ``start_time`` [s since 1970-01-01T00:00:00Z]: the
+    absolute time at FMU time 0, from which the FMU computes the model's
+    calendar gains. Communication steps must be whole multiples of the model
+    step. See :mod:`hvacfmu.fmu_slave`.
     """
     from .models import load_model
 
-    from .fmu_slave import INTERFACE_FILE, zone_model_layout
+    from .fmu_slave import INTERFACE_FILE, calendar_dependent, zone_model_layout
 
     model_path = Path(model_path)
     model = load_model(model_path)  # validates the file before anything is built
+    calendar = calendar_dependent(model)
+    if calendar:
+        timezone = timezone or (getattr(model, "meta", None) or {}).get("timezone")
+        if timezone is not None:
+            _check_timezone(timezone, model_path)
+        else:
+            _warn_calendar_gains(model, model_path)
     try:
-        layout, _ = zone_model_layout(model)
+        layout, _ = zone_model_layout(model, timezone if calendar else None)
     except ValueError as exc:
         raise FMUError(f"cannot export {model_path}: {exc}") from None
-    _warn_calendar_gains(model, model_path)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
         res = Path(tmp) / "model.json"
         shutil.copyfile(model_path, res)
@@ -132,28 +149,30 @@ def export_fmu(model_path, out_path) -> Path:
 
 
 def _warn_calendar_gains(model, model_path):
-    """Warn when the model's gains depend on the calendar (holidays ...), which the FMU clock cannot follow."""
+    """Warn that a calendar-dependent model exported without a time zone cannot follow its calendar."""
     import warnings
 
-    import numpy as np
-    import pandas as pd
-
     from .errors import HvacfmuWarning
-    from .models.base import ZoneModel
-    from .timeutil import time_of_week
 
-    if type(model).gains_at is ZoneModel.gains_at:
-        return
-    index = pd.date_range("2025-01-06", "2026-01-05", freq=f"{int(model.step)}s", tz="UTC", inclusive="left")
-    for season, prof in model.gains.items():
-        prof = np.asarray(prof)
-        plain = prof[time_of_week(index, model.step) % prof.shape[0]]
-        if not np.array_equal(np.asarray(model.gains_at(index, season)), plain):
-            warnings.warn(
-                f"{model_path}: the {model.kind} model's internal gains depend on the calendar (e.g. holidays); "
-                "the FMU uses the seasonal time-of-week profile and will differ from the Python model on those days",
-                HvacfmuWarning, stacklevel=3)
-            return
+    warnings.warn(
+        f"{model_path}: the {model.kind} model's internal gains depend on the calendar (e.g. holidays); "
+        "without a time zone the FMU uses the seasonal time-of-week profile and will differ from the Python "
+        "model on those days: export with timezone=... (hvacfmu export --timezone) to give the FMU the "
+        "parameter start_time",
+        HvacfmuWarning, stacklevel=3)
+
+
+def _check_timezone(timezone, model_path):
+    """FMUError unless ``timezone`` is an IANA time zone name known here."""
+    import zoneinfo
+
+    try:
+        zoneinfo.ZoneInfo(str(timezone))
+    except (zoneinfo.ZoneInfoNotFoundError, ValueError, TypeError):
+        raise FMUError(
+            f"cannot export {model_path}: unknown time zone {timezone!r}; give an IANA name such as "
+            "'America/Los_Angeles'"
+        ) from None
 
 
 def export_plant_fmu(truth_path, out_path) -> Path:
@@ -194,10 +213,11 @@ def export_plant_fmu(truth_path, out_path) -> Path:
     return path
 
 
-def export_file(path, out_path) -> Path:
+def export_file(path, out_path, *, timezone: str | None = None) -> Path:
     """Export a model file or an emulator ``truth.json`` (recognised by its content) as an FMU.
 
-    This is what ``hvacfmu export FILE -o OUT.fmu`` runs.
+    This is what ``hvacfmu export FILE -o OUT.fmu [--timezone TZ]`` runs;
+    ``timezone`` is passed to :func:`export_fmu` (plants ignore it).
     """
     path = Path(path)
     try:
@@ -206,7 +226,7 @@ def export_file(path, out_path) -> Path:
         d = None  # load_model reports it
     if isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d:
         return export_plant_fmu(path, out_path)
-    return export_fmu(path, out_path)
+    return export_fmu(path, out_path, timezone=timezone)
 
 
 def _build(script: Path, out_path, resources) -> Path:

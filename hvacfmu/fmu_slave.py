@@ -50,6 +50,19 @@ camelCase in the model description. Behaviour an importer can rely on:
   clock has no daylight-saving shifts; a master that wants them (or any
   calendar) sets the optional input ``time_of_week`` [s] to the local time of
   week of each step's start (the harness does), which then places the profile.
+- **Calendar.** A model whose internal gains depend on the date itself
+  (:func:`calendar_dependent`: e.g. an extended model with holiday or
+  daylight-saving terms, ``internal_gain_schedule``) and exported with a time
+  zone has the extra parameter ``start_time`` [s]: the absolute time at FMU
+  time 0 as a Unix epoch (seconds since 1970-01-01T00:00:00Z). When it is set
+  (>= 0), the gains of model step ``k`` are the model's own
+  ``gains_at(index, season)`` at the instant ``start_time + t_start + k*step``
+  in the exported time zone (``timezone`` in ``resources/interface.json`` and
+  in the parameter's description), exactly as in Python; ``start_time_of_week``
+  and the ``time_of_week`` input are then ignored. Left at -1 (default), the
+  FMU uses the seasonal time-of-week profile without the calendar (a warning
+  is logged at initialisation). Models without calendar terms have no
+  ``start_time`` and behave as described above.
 """
 
 from __future__ import annotations
@@ -528,6 +541,14 @@ def _entry(role, name, vtype, causality, start, unit=None, description="", bound
             "unit": unit, "description": description, "min": bounds[0], "max": bounds[1]}
 
 
+def _stored_timezone(resources) -> str | None:
+    """The ``timezone`` written at export into ``interface.json`` (None when absent or unreadable)."""
+    try:
+        return json.loads((Path(resources or ".") / INTERFACE_FILE).read_text(encoding="utf-8")).get("timezone")
+    except Exception:  # noqa: BLE001 - read_layout reports an unreadable file
+        return None
+
+
 def read_layout(resources, model_layout, resource_name):
     """The FMU's variable layout: ``interface.json`` when present, checked against the model's.
 
@@ -664,8 +685,43 @@ def state_from_outputs(model, y0, u=None, v=None, q=None) -> np.ndarray:
     return x0 if np.all(np.isfinite(x0)) else fallback
 
 
-def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
+def calendar_dependent(model) -> bool:
+    """True if the model's internal gains depend on the date, not only on the time of week.
+
+    That is a model overriding :meth:`~hvacfmu.models.ZoneModel.gains_at` with
+    calendar terms: an ``internal_gain_schedule`` term (holidays, daylight-saving
+    shift), or gains that differ from the seasonal time-of-week profile on some
+    day of a year in UTC.
+    """
+    import pandas as pd
+
+    from hvacfmu.models.base import ZoneModel
+    from hvacfmu.timeutil import time_of_week
+
+    if type(model).gains_at is ZoneModel.gains_at:
+        return False
+    if any(getattr(t, "cause", None) == "internal_gain_schedule" for t in getattr(model, "terms", ())):
+        return True
+    index = pd.date_range("2025-01-06", "2026-01-05", freq=f"{int(model.step)}s", tz="UTC", inclusive="left")
+    for season, prof in model.gains.items():
+        prof = np.asarray(prof)
+        plain = prof[time_of_week(index, model.step) % len(prof)]
+        if not np.array_equal(np.asarray(model.gains_at(index, season)), plain):
+            return True
+    return False
+
+
+def zone_model_layout(model, timezone: str | None = None) -> tuple[dict, np.ndarray | None]:
     """Variable layout of the FMU of a zone model, and the box-to-input matrix.
+
+    Parameters
+    ----------
+    model : ZoneModel
+    timezone : str, optional
+        IANA time zone of the building (e.g. ``America/Los_Angeles``). Given for a
+        :func:`calendar_dependent` model, the layout gets the parameter
+        ``start_time`` [s, Unix epoch] and the key ``timezone`` (see the module
+        docstring); ignored for other models.
 
     Returns
     -------
@@ -708,6 +764,13 @@ def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
     var.append(_entry("tow", "start_time_of_week", "Real", "parameter", 0.0, "s",
                       "Local time of week at FMU time 0 [s since Monday 00:00]; places the internal-gain "
                       "profile: slot = floor((start_time_of_week + time)/step) mod slots", (0.0, 7 * 86400.0)))
+    calendar = timezone is not None and calendar_dependent(model)
+    if calendar:
+        var.append(_entry("t_abs", "start_time", "Real", "parameter", -1.0, "s",
+                          "Absolute time at FMU time 0 [s since 1970-01-01T00:00:00Z, Unix epoch]; when >= 0 the "
+                          f"internal gains follow the model's calendar (holidays, daylight saving time in {timezone}) "
+                          "at start_time + time, and start_time_of_week and the time_of_week input are ignored; "
+                          "-1 (default): time-of-week profile without the calendar", (-1.0, None)))
     names = [v["name"] for v in var]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -725,6 +788,8 @@ def zone_model_layout(model) -> tuple[dict, np.ndarray | None]:
         ),
         "variables": var,
     }
+    if calendar:
+        layout["timezone"] = str(timezone)
     return layout, M
 
 
@@ -739,8 +804,12 @@ class ZoneModelSlave(HvacfmuSlaveBase):
       ``I_N`` ... ``I_W`` [W/m²] when used);
     - outputs ``T_<zone>`` [°C] (``T_floor`` for the lumped model);
     - parameters ``T_<zone>_start`` [°C], ``season`` (Integer, mapping in its
-      description), ``start_time_of_week`` [s].
+      description), ``start_time_of_week`` [s], and ``start_time`` [s, Unix
+      epoch] for calendar-dependent models (see the module docstring).
     """
+
+    #: model steps of internal gains computed at once from the calendar
+    CALENDAR_CHUNK = 672
 
     MODEL_FILE = "model.json"
 
@@ -751,7 +820,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             from hvacfmu.models import load_model  # host environment
 
             model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
-            layout, M = zone_model_layout(model)
+            layout, M = zone_model_layout(model, _stored_timezone(self.resources))
         except Exception as exc:  # noqa: BLE001 - reported, never raised
             model, layout, M = None, None, None
             from hvacfmu.errors import HvacfmuError
@@ -768,6 +837,9 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=7 * 86400.0, step_size=layout["step"])
         self.seasons = tuple(layout["seasons"])
         self._step = float(layout["step"])
+        self._timezone = layout.get("timezone")
+        self._abs0 = None  # start_time [s] when the calendar is used
+        self._q_chunk = (None, None)  # (first model step, gains) computed from the calendar
         if model is not None and not problem:
             self.model = model
             self._M = M
@@ -810,6 +882,19 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         tow = v[tow_vr]
         if not (0.0 <= tow <= 7 * 86400.0):
             problems.append(f"start_time_of_week={tow!r} s is outside [0, 604800]")
+        abs_vrs = self.vrs_with_role("t_abs")
+        self._abs0 = None
+        self._q_chunk = (None, None)
+        if abs_vrs:
+            t_abs = v[abs_vrs[0]]
+            if t_abs == -1.0:
+                self.log("start_time is not set (-1): the internal gains follow the time-of-week profile "
+                         "without the model's calendar (holidays, daylight saving time); set start_time "
+                         "[s, Unix epoch] to the absolute time at FMU time 0", Fmi2Status.warning)
+            elif not (math.isfinite(t_abs) and t_abs >= 0.0):
+                problems.append(f"start_time={t_abs!r} s is neither -1 (unset) nor a Unix epoch time >= 0")
+            else:
+                self._abs0 = float(t_abs)
         if problems:
             return problems
         self._season = season
@@ -823,7 +908,10 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         if not np.all(np.isfinite(w)):
             return ["inputs at initialisation are not finite"]
         u0 = w[:nm] @ self._MT if self._MT is not None else w[:nm]
-        q0 = self._profile[self._slot(w, 0) % self._n_slots]
+        if self._abs0 is not None:
+            q0 = self._calendar_gains(0, 1)[0]
+        else:
+            q0 = self._profile[self._slot(w, 0) % self._n_slots]
         self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, w[nm:nmv], q0)
         self._k = 0
         self._t = self._t_start
@@ -835,6 +923,27 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         if self._has_clock_input and w[self._nmv] >= 0.0:
             return int(math.floor(w[self._nmv] / self._step + 1e-9))
         return self._slot0 + k
+
+    def _calendar_gains(self, k, n):
+        """Internal gains (n, n_q) of model steps ``k .. k+n-1`` from the model's calendar (``gains_at``).
+
+        The instants are ``start_time + t_start + j*step`` [s, Unix epoch], in
+        the exported time zone, computed in whole milliseconds so that they
+        equal the timestamps of a data index exactly. Gains are computed for
+        :attr:`CALENDAR_CHUNK` steps at a time and reused.
+        """
+        first, q = self._q_chunk
+        if q is None or k < first or k + n > first + len(q):
+            import pandas as pd
+
+            m = max(n, self.CALENDAR_CHUNK)
+            t0_ms = int(round((self._abs0 + self._t_start) * 1000.0))
+            ms = t0_ms + (k + np.arange(m, dtype=np.int64)) * int(round(self._step * 1000.0))
+            index = pd.DatetimeIndex(pd.to_datetime(ms, unit="ms", utc=True)).tz_convert(self._timezone)
+            q = np.asarray(self.model.gains_at(index, self.seasons[self._season - 1]), dtype=float)
+            first = k
+            self._q_chunk = (first, q)
+        return q[k - first : k - first + n]
 
     def _write_outputs(self, y):
         a = self._y_start
@@ -860,9 +969,13 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         u = w[:nm] @ self._MT if self._MT is not None else w[:nm]
         vdist = w[nm : self._nmv]
         x, model, prof, ns = self._x, self.model, self._profile, self._n_slots
-        slot = self._slot(w, self._k)
-        for j in range(n):
-            x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
+        if self._abs0 is not None:
+            for qj in self._calendar_gains(self._k, n):
+                x = model.step_state(x, u, vdist, qj)
+        else:
+            slot = self._slot(w, self._k)
+            for j in range(n):
+                x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
         y = np.asarray(model.output(x), dtype=float).tolist()
         if not math.isfinite(sum(y)):
             return self._refuse(
@@ -875,7 +988,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
 
     def _get_internal_state(self):
         return {"x": None if self._x is None else self._x.tolist(), "k": self._k, "slot0": self._slot0,
-                "season": getattr(self, "_season", None)}
+                "season": getattr(self, "_season", None), "abs0": self._abs0}
 
     def _set_internal_state(self, state):
         x = None if state["x"] is None else np.array(state["x"], dtype=float)
@@ -887,6 +1000,8 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._x = x
         self._k = int(state["k"])
         self._slot0 = int(state["slot0"])
+        self._abs0 = state.get("abs0")
+        self._q_chunk = (None, None)
 
 
 # =============================================================================

@@ -594,3 +594,72 @@ def test_time_of_week_input_follows_daylight_saving(built):
             s.close()
     assert_allclose(runs[True], Yref, rtol=0, atol=EXACT)
     assert np.abs(runs[False] - Yref).max() > 1e-3  # the FMU clock alone does not know DST
+
+
+def calendar_model(building, seed=4):
+    """Extended model with calendar terms: a holiday (Sunday profile) and a daylight-saving shift."""
+    from hvacfmu.models.extended import ExtendedModel, InternalGainSchedule, ThermalMass
+
+    nz = len(building.zone_names)
+    return ExtendedModel(base=zones_model(building, seed=seed), terms=(
+        InternalGainSchedule(variant="holiday", zone_names=building.zone_names, coef=(1.0,) * nz,
+                             dates=("2025-10-29",), ref_weekday=6),
+        InternalGainSchedule(variant="dst_shift", zone_names=building.zone_names,
+                             coef=tuple(np.linspace(0.5, 1.0, nz)), shift=4),
+        ThermalMass(zone="C", alpha=0.02, beta=0.05),
+    ))
+
+
+def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
+    """An extended model with holiday and DST terms: with `start_time` the FMU equals the Python model."""
+    from hvacfmu.fmu_slave import calendar_dependent
+
+    building = fmu_data.building
+    tz = building.timezone
+    model = calendar_model(building)
+    assert calendar_dependent(model) and not calendar_dependent(extended_model(building))
+    mp = model.save(tmp_path / "calendar.json")
+    path = export_fmu(mp, tmp_path / "calendar.fmu", timezone=tz)
+    assert validate(path) == []
+    with zipfile.ZipFile(path) as z:
+        assert json.loads(z.read("resources/interface.json"))["timezone"] == tz
+    # without a time zone: a warning, and no start_time parameter
+    with pytest.warns(HvacfmuWarning, match="depend on the calendar.*--timezone"):
+        plain = export_fmu(mp, tmp_path / "plain.fmu")
+    with pytest.raises(FMUError, match="unknown time zone 'Mars/Olympus'"):
+        export_fmu(mp, tmp_path / "bad.fmu", timezone="Mars/Olympus")
+
+    # a week with the holiday (Wed 2025-10-29) and the end of DST (Sun 2025-11-02), in the fall season
+    idx = pd.date_range("2025-10-27", periods=672, freq="15min", tz=tz)
+    rng = np.random.default_rng(6)
+    m = rng.uniform(0.05, 0.6, (672, len(building.vav_names)))
+    v = np.column_stack([rng.uniform(5, 25, 672), rng.uniform(12, 15, 672), rng.uniform(0, 300, (672, 4))])
+    y0 = np.full(len(model.outputs), 21.0)
+    season = "fall"
+    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
+    names_out = [f"T_{z}" for z in model.outputs]
+    U = np.hstack([m, v])
+    Yref = reference(model, idx, m, v, y0, season)
+    sv = {"season": list(model.gains).index(season) + 1, "start_time_of_week": 0.0,  # ignored with start_time
+          "start_time": idx[0].timestamp()}
+    runs = {}
+    for name, fmu, values in (("calendar", path, sv), ("unset", path, {**sv, "start_time": -1.0}),
+                              ("plain", plain, {k: x for k, x in sv.items() if k != "start_time"})):
+        s = Slave(fmu, name)
+        try:
+            if name != "calendar":
+                from hvacfmu.timeutil import seconds_of_week
+
+                values["start_time_of_week"] = float(seconds_of_week(idx[:1])[0])
+            s.init(values, inputs=(names_in, U[0]))
+            runs[name] = run_fmu(s, names_in, U, names_out)
+            if name == "unset":
+                assert any(st == "warning" and "start_time is not set" in msg for st, _, msg in s.log)
+        finally:
+            s.close()
+    assert_allclose(runs["calendar"], Yref, rtol=0, atol=EXACT)
+    q_plain = LinearZoneModel.gains_at(model.base, idx, season)
+    assert np.abs(model.gains_at(idx, season) - q_plain).max() > 0.1  # the calendar terms change the gains
+    for name in ("unset", "plain"):  # the time-of-week profile alone misses the holiday and DST terms
+        assert np.abs(runs[name] - Yref).max() > 1e-2
+    assert_allclose(runs["unset"], runs["plain"], rtol=0, atol=EXACT)
