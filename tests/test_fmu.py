@@ -596,14 +596,14 @@ def test_time_of_week_input_follows_daylight_saving(built):
     assert np.abs(runs[False] - Yref).max() > 1e-3  # the FMU clock alone does not know DST
 
 
-def calendar_model(building, seed=4):
+def calendar_model(building, seed=4, dates=("2025-10-29",)):
     """Extended model with calendar terms: a holiday (Sunday profile) and a daylight-saving shift."""
     from hvacfmu.models.extended import ExtendedModel, InternalGainSchedule, ThermalMass
 
     nz = len(building.zone_names)
     return ExtendedModel(base=zones_model(building, seed=seed), terms=(
         InternalGainSchedule(variant="holiday", zone_names=building.zone_names, coef=(1.0,) * nz,
-                             dates=("2025-10-29",), ref_weekday=6),
+                             dates=tuple(dates), ref_weekday=6),
         InternalGainSchedule(variant="dst_shift", zone_names=building.zone_names,
                              coef=tuple(np.linspace(0.5, 1.0, nz)), shift=4),
         ThermalMass(zone="C", alpha=0.02, beta=0.05),
@@ -663,3 +663,44 @@ def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
     for name in ("unset", "plain"):  # the time-of-week profile alone misses the holiday and DST terms
         assert np.abs(runs[name] - Yref).max() > 1e-2
     assert_allclose(runs["unset"], runs["plain"], rtol=0, atol=EXACT)
+
+    # the serialised state mid-week, restored into a fresh instance, continues on the calendar exactly
+    k_mid = 300
+    s = Slave(path, "calendar_a")
+    try:
+        s.init(sv, inputs=(names_in, U[0]))
+        run_fmu(s, names_in, U[:k_mid], names_out)
+        blob = s.fmu.serializeFMUstate(s.fmu.getFMUstate())
+    finally:
+        s.close()
+    fresh = Slave(path, "calendar_b")
+    try:
+        fresh.init({**sv, "start_time": 0.0}, inputs=(names_in, U[0]))  # the state brings its own start_time
+        fresh.fmu.setFMUstate(fresh.fmu.deSerializeFMUstate(blob))
+        Y2 = run_fmu(fresh, names_in, U[k_mid:], names_out, k0=k_mid)
+    finally:
+        fresh.close()
+    assert_allclose(Y2, Yref[k_mid:], rtol=0, atol=EXACT)
+
+
+def test_cosim_sets_start_time_of_calendar_fmu(fmu_data, tmp_path):
+    """run_cosim gives a calendar FMU its start_time: a replayed week with a holiday equals the Python model."""
+    from harness.controllers import ReplayController
+    from harness.cosim import run_cosim
+
+    week = fmu_data.test_weeks()[0]
+    holiday = (week.start + pd.Timedelta(days=2)).date().isoformat()
+    model = calendar_model(fmu_data.building, dates=(holiday,))
+    path = export_fmu(model.save(tmp_path / "calendar.json"), tmp_path / "calendar.fmu",
+                      timezone=fmu_data.building.timezone)
+    r = run_cosim(path, fmu_data, ReplayController(), week=week.number, model=model)
+    rows = r.table.iloc[:-1]
+    u, v = model.signals(rows)
+    q = model.gains_at(rows.index, week.season)
+    assert np.abs(q - LinearZoneModel.gains_at(model.base, rows.index, week.season)).max() > 0.1
+    y0 = r.table[[f"T_{z}" for z in model.outputs]].iloc[0].to_numpy()
+    _, Y = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
+    assert_allclose(r.table[[f"T_{z}" for z in model.outputs]].to_numpy(), Y, rtol=0, atol=EXACT)
+    # left unset, the FMU warns at initialisation, which the harness refuses
+    with pytest.raises(FMUError, match="start_time is not set"):
+        run_cosim(path, fmu_data, ReplayController(), week=week.number, model=model, start_values={"start_time": -1.0})
