@@ -628,6 +628,11 @@ def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
         plain = export_fmu(mp, tmp_path / "plain.fmu")
     with pytest.raises(FMUError, match="unknown time zone 'Mars/Olympus'"):
         export_fmu(mp, tmp_path / "bad.fmu", timezone="Mars/Olympus")
+    cli = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "cli.fmu"),
+                          "--timezone", tz], capture_output=True, text=True, timeout=300)
+    assert cli.returncode == 0, cli.stderr
+    with zipfile.ZipFile(tmp_path / "cli.fmu") as z:
+        assert json.loads(z.read("resources/interface.json"))["timezone"] == tz
 
     # a week with the holiday (Wed 2025-10-29) and the end of DST (Sun 2025-11-02), in the fall season
     idx = pd.date_range("2025-10-27", periods=672, freq="15min", tz=tz)
