@@ -255,6 +255,10 @@ def _stage_export(out, r):
             continue
         fmu = export_fmu(models[kind]["path"], out / "fmus" / f"{kind}.fmu")
         res[kind] = {"path": fmu, "problems": validate(fmu)}
+    if r.get("diagnosis"):
+        tz = r["data"]["dataset"].building.timezone
+        fmu = export_fmu(r["diagnosis"]["path"], out / "fmus" / "extended.fmu", timezone=tz)
+        res["extended"] = {"path": fmu, "problems": validate(fmu)}
     if r.get("data"):
         fmu = export_plant_fmu(r["data"]["paths"].truth, out / "fmus" / "plant.fmu")
         res["plant"] = {"path": fmu, "problems": validate(fmu)}

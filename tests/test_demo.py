@@ -40,7 +40,7 @@ def test_demo_files(demo_out):
     out, _ = demo_out
     for f in ("report.html", "report.md", "report_numbers.json", "models/lumped.json", "models/zones.json",
               "models/physics.json", "models/extended.json", "fmus/lumped.fmu", "fmus/zones.fmu", "fmus/physics.fmu",
-              "fmus/plant.fmu", "results/evaluation_zones.json", "results/diagnosis.json",
+              "fmus/extended.fmu", "fmus/plant.fmu", "results/evaluation_zones.json", "results/diagnosis.json",
               "figures/gains_lumped.png", "figures/gains_zones.png", "figures/gains_physics.png",
               "figures/mpc_own_temperature.png", "figures/mpc_own_airflow.png",
               "figures/mpc_plant_temperature.png", "figures/mpc_plant_airflow.png"):
