@@ -351,6 +351,9 @@ def test_emulator_baseline_findings_are_all_in_truth(seed):
     rep, truth, _ = _diagnosed(seed)
     _assert_truthful(rep, truth)
     assert {f["cause"] for f in rep.findings} <= {"solar_gain", "supply_air_bilinear", "thermal_mass", "reheat"}
+    # the occupancy follows the local clock: no daylight-saving jump of the weekday mornings
+    dst = [c for c in rep.candidates if c["location"].get("variant") == "dst_shift"]
+    assert dst and dst[0]["status"] == "not significant", dst
     assert rep.heldout["mean_extended"] < rep.heldout["mean_base"]
 
 
@@ -369,7 +372,8 @@ def _effect_finding(rep, truth, name):
 #   reheat: 3000 W (seed 0) and 4000 W (seed 1) at minimum airflow below 13 °C outdoors;
 #   actuation_delay: 30 and 45 minutes between logged and delivered airflow;
 #   thermal_mass: 2e8 J/K (a concrete core wall) coupled by 1000 W/K;
-#   internal_gain_schedule: two holiday weeks with weekday gains at 20 %.
+#   internal_gain_schedule: two holiday weeks with weekday gains at 20 %; or occupancy kept on
+#   standard time all year (one hour late on the local clock until DST ends on 2025-11-02).
 EFFECT_CASES = [
     ("solar_gain:zone=NE,facade=E", 0),
     ("solar_gain:zone=W,facade=S", 1),
@@ -383,6 +387,8 @@ EFFECT_CASES = [
     ("thermal_mass:zone=W", 0),
     ("internal_gain_schedule", 0),
     ("internal_gain_schedule", 1),
+    ("internal_gain_schedule:kind=dst", 0),
+    ("internal_gain_schedule:kind=dst", 1),
 ]
 
 
@@ -403,6 +409,11 @@ def test_emulator_effect_is_found(effect, seed):
         base_hits = _found(base_rep, "solar_gain", **loc)
         base_coef = base_hits[0]["parameters"]["coef"]["value"] if base_hits else 0.0
         assert f["parameters"]["coef"]["value"] > 1.5 * base_coef
+    if "kind=dst" in effect:
+        # gains one hour late under daylight saving: the profile is read 4 steps (±1) earlier
+        assert f["location"]["variant"] == "dst_shift"
+        assert abs(f["location"]["shift"] + round(3600 / rep.data["step"])) <= 1, f["location"]
+        assert f["evidence"]["lag_h"] > 0.5
     if name == "reheat":
         top = max((g for g in rep.findings if g["cause"] == "reheat"), key=lambda g: g["test"]["delta_bic"])
         assert top["location"] == f["location"]

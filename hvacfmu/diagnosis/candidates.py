@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 import pandas as pd
+import scipy.ndimage
 
 from ..models.extended import (
     ActuationDelay,
@@ -77,6 +78,8 @@ class Candidate:
     test: dict = dataclasses.field(default_factory=dict)
     term: object = None
     heldout: dict | None = None
+    #: gain profiles (season -> (n_tow, nz)) the candidate's features use, per variant key (DST shift)
+    profiles: dict | None = None
 
     @property
     def key(self) -> str:
@@ -252,7 +255,7 @@ def generate(sig: Signals, terms, W: Within, resid: np.ndarray, options: dict) -
     if not any(isinstance(t, InternalGainSchedule) and t.variant == "holiday" for t in terms):
         out.append(_holiday_candidate(sig, terms, options))
     if not any(isinstance(t, InternalGainSchedule) and t.variant == "dst_shift" for t in terms):
-        out.append(_dst_candidate(sig, W))
+        out.append(_dst_candidate(sig, W, options))
     return out
 
 
@@ -351,15 +354,177 @@ def _holiday_candidate(sig: Signals, terms, options) -> Candidate:
                      max(n_choices, 1), evidence=ev)
 
 
-def _dst_candidate(sig: Signals, W: Within) -> Candidate:
+#: Lags [steps] searched when aligning the daylight-saving and standard-time weekday gain profiles.
+DST_MAX_LAG_H = 2.0
+#: Minimum weekdays with data on each side (daylight saving on / off) within a season.
+DST_MIN_DAYS = 5
+#: Local hours [h] of the morning occupancy ramp-up compared (the afternoon ramp-down moves with
+#: the season's weather, cooling vs heating, and is left out).
+DST_WINDOW_H = (6.0, 12.0)
+#: Minimum weekend days with data on each side.
+DST_MIN_WEEKEND_DAYS = 4
+
+
+def apparent_gains(sig: Signals, resid_all: np.ndarray) -> np.ndarray:
+    """One-step residual plus the current gain profile (n, nz) [K/step]: the gains the data imply."""
+    q = np.full_like(resid_all, np.nan)
+    for s in sig.seasons:
+        m = sig.season == s
+        if m.any() and s in sig.base_profiles:
+            q[m] = np.asarray(sig.base_profiles[s])[sig.tow[m]]
+    return resid_all + q
+
+
+def dst_profile_lag(sig: Signals, gains: np.ndarray, rows: np.ndarray) -> dict:
+    """Lag between the weekday gain profiles of daylight-saving and standard-time days of a season.
+
+    Within each season whose ``rows`` contain at least :data:`DST_MIN_DAYS` weekdays on
+    each side of a daylight-saving change, the floor-total apparent gain is averaged by
+    time of day separately over daylight-saving and standard-time weekdays. The lag
+    ``L`` [steps] maximising the correlation of the two profiles' time derivatives
+    (occupancy ramp-up and ramp-down dominate them) over ``|L| ≤`` :data:`DST_MAX_LAG_H`
+    is the shift: the daylight-saving profile is the standard-time one ``L`` steps later
+    (``L > 0``: gains one hour late on the local clock when they stay on standard time).
+    Solar-time effects drift smoothly with the date; an occupancy schedule that ignores
+    daylight saving jumps by a whole hour at the change.
+
+    Returns
+    -------
+    dict
+        ``lag_steps``, ``lag_h``, ``corr_at_lag``, ``corr_at_zero``, ``corr_by_lag``,
+        ``seasons`` (with day counts) — or ``seasons`` empty when no season has both sides.
+    """
+    per_day = sig.n_tow // 7
+    wd = sig.index.day_of_week.to_numpy()
+    dates = np.array(sig.index.date)
+    total = np.nansum(gains, axis=1)
+    ok = np.zeros(len(total), bool)
+    ok[rows] = True
+    ok &= np.isfinite(gains).all(axis=1)
+    max_lag = int(round(DST_MAX_LAG_H * 3600 / sig.step))
+    lags = np.arange(-max_lag, max_lag + 1)
+    num, den, dd = np.zeros(len(lags)), np.zeros(len(lags)), np.zeros(len(lags))
+    seasons = {}
+    slot = sig.tow % per_day
+    weekday = wd < 5
+
+    def day_profile(sel):
+        cnt = np.bincount(slot[sel], minlength=per_day)
+        val = np.bincount(slot[sel], weights=total[sel], minlength=per_day)
+        return None if (cnt == 0).any() else val / cnt
+
+    for s in sig.seasons:
+        m = ok & (sig.season == s)
+        prof, counts = [], []
+        for side in (sig.dst, ~sig.dst):
+            wk, we = m & side & weekday, m & side & ~weekday
+            counts.append((len(np.unique(dates[wk])), len(np.unique(dates[we]))))
+            if counts[-1][0] < DST_MIN_DAYS or counts[-1][1] < DST_MIN_WEEKEND_DAYS:
+                break
+            p_wk, p_we = day_profile(wk), day_profile(we)
+            if p_wk is None or p_we is None:
+                break
+            # weekday minus weekend: occupancy stays, weather and sun (the same on every day) cancel
+            prof.append(p_wk - p_we)
+        if len(prof) < 2:
+            continue
+        (n_on, n_on_we), (n_off, n_off_we) = counts
+        # a 75-min running median removes the short spikes of the HVAC schedule (which follows the
+        # local clock on both sides) and keeps the occupancy ramps
+        prof = [scipy.ndimage.median_filter(p, size=5, mode="wrap") for p in prof]
+        hours = np.arange(per_day) * sig.step / 3600.0
+        win = (hours >= DST_WINDOW_H[0]) & (hours < DST_WINDOW_H[1])
+        delta = (prof[0] - prof[1])[win]
+        delta = delta - delta.mean()
+        w = min(n_on, n_off)
+        for i, L in enumerate(lags):
+            x = (np.roll(prof[1], L) - prof[1])[win]
+            x = x - x.mean()
+            num[i] += w * float(delta @ x)
+            den[i] += w * float(x @ x)
+            dd[i] += w * float(delta @ delta)
+        seasons[s] = {"weekdays_dst": int(n_on), "weekdays_standard": int(n_off),
+                      "weekend_days_dst": int(n_on_we), "weekend_days_standard": int(n_off_we)}
+    if not seasons:
+        return {"seasons": {}}
+    gamma = num / np.maximum(den, 1e-300)
+    r2 = np.where(gamma > 0, gamma * num / np.maximum(dd, 1e-300), 0.0)
+    i = int(np.argmax(r2))
+    return {"lag_steps": int(lags[i]), "lag_h": float(lags[i] * sig.step / 3600.0),
+            "r2_at_lag": float(r2[i]), "scale_at_lag": float(gamma[i]),
+            "r2_by_lag": {str(int(L)): round(float(c), 4) for L, c in zip(lags, r2)}, "seasons": seasons}
+
+
+def shifted_clock_profiles(sig: Signals, gains: np.ndarray, rows: np.ndarray, shift: int) -> dict:
+    """Season profiles (n_tow, nz) of the apparent gains on a clock read ``shift`` steps later under DST.
+
+    Slot ``(tow + shift) mod n_tow`` on daylight-saving rows, ``tow`` otherwise: with
+    ``shift = −L`` the profile of the standard-time clock the gains really follow, which
+    the ``dst_shift`` term then reads ``shift`` steps later while daylight saving is on.
+    Slots without data keep the current profile.
+    """
+    out = {}
+    ok = np.zeros(len(gains), bool)
+    ok[rows] = True
+    ok &= np.isfinite(gains).all(axis=1)
+    clock = np.where(sig.dst, (sig.tow + shift) % sig.n_tow, sig.tow)
+    for s in sig.seasons:
+        prof = np.array(sig.base_profiles[s], dtype=float, copy=True)
+        m = ok & (sig.season == s)
+        cnt = np.bincount(clock[m], minlength=sig.n_tow)
+        for j in range(sig.nz):
+            val = np.bincount(clock[m], weights=gains[m, j], minlength=sig.n_tow)
+            has = cnt > 0
+            prof[has, j] = val[has] / cnt[has]
+        out[s] = prof
+    return out
+
+
+def _dst_candidate(sig: Signals, W: Within, options: dict) -> Candidate:
+    """Daylight-saving shift of the gain schedule: a one-hour jump of the weekday profile at the change.
+
+    Evidence: the lag aligning the weekday gain profiles of daylight-saving and
+    standard-time weekdays of the same season (:func:`dst_profile_lag`). A lag of at
+    least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read
+    ``−L`` steps later while daylight saving is on, also the legal one hour in the same
+    direction), with the profile re-estimated on the clock the gains follow.
+    """
     on = dst_active(sig.index)
     onw = W(on.astype(float))
     loc = {"variant": "dst_shift"}
     if np.var(onw) < 1e-3:
         return Candidate("internal_gain_schedule", loc, status="untestable",
                          reason="daylight-saving time does not change within any season's training weeks")
-    steps = int(round(3600 / sig.step))
-    variants = [InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
-                                     shift=s) for s in (steps, -steps)]
+    resid_all = options.get("_resid_all")
     ev = {"dst_fraction_of_training_rows": float(on[W.rows].mean())}
-    return Candidate("internal_gain_schedule", loc, variants, 1, evidence=ev)
+    if resid_all is None:
+        return Candidate("internal_gain_schedule", loc, status="untestable", evidence=ev,
+                         reason="no one-step residuals")
+    gains = apparent_gains(sig, resid_all)
+    ev.update(dst_profile_lag(sig, gains, W.rows))
+    if not ev["seasons"]:
+        return Candidate("internal_gain_schedule", loc, status="untestable", evidence=ev,
+                         reason=f"no season has {DST_MIN_DAYS} training weekdays both with and without daylight "
+                                f"saving")
+    steps = int(round(3600 / sig.step))
+    L = ev["lag_steps"]
+    if 2 * abs(L) < steps:
+        return Candidate("internal_gain_schedule", loc, status="not significant", evidence=ev,
+                         reason=f"the weekday gain profiles with and without daylight saving align at lag "
+                                f"{L * sig.step / 60:+.0f} min (under half an hour)")
+    r2_min, g_min = options["dst_min_r2"], options["dst_min_scale"]
+    if ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min:
+        return Candidate("internal_gain_schedule", loc, status="not significant", evidence=ev,
+                         reason=f"a {L * sig.step / 60:+.0f}-min shift explains {100 * ev['r2_at_lag']:.0f} % of the "
+                                f"morning difference between daylight-saving and standard-time weekdays at scale "
+                                f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
+                                f"schedule jump at the change")
+    shifts = sorted({-int(np.sign(L)) * steps, -L}, key=lambda x: abs(abs(x) - steps))
+    variants = []
+    for sh in shifts:
+        t = InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
+                                 shift=sh)
+        variants.append(t)
+    c = Candidate("internal_gain_schedule", loc, variants, 1, evidence=ev)
+    c.profiles = {sh: shifted_clock_profiles(sig, gains, W.rows, sh) for sh in shifts}
+    return c

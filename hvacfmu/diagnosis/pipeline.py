@@ -38,7 +38,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         Overrides of :data:`hvacfmu.diagnosis.selection.DEFAULT_OPTIONS`:
         ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
         ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
-        ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``coupling_max_asymmetry`` (4.0),
+        ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``dst_min_r2`` (0.2) and ``dst_min_scale``
+        (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
         ``coupling_min_gain_percent`` (3.0), ``horizon`` (96 steps).
 
     Returns

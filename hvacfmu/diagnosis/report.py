@@ -274,5 +274,9 @@ def _short_evidence(f: dict) -> str:
     if c == "internal_gain_schedule":
         if "days" in ev:
             return f"{len(f['location'].get('dates', []))} weekdays with weekend-like gains ({ev.get('rule')})"
+        if "lag_h" in ev:
+            return (f"weekday morning gains {60 * ev['lag_h']:+.0f} min later under daylight saving "
+                    f"(R² {ev.get('r2_at_lag', 0):.2f}, scale {ev.get('scale_at_lag', 0):.2f}); daylight-saving rows "
+                    f"{100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training")
         return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
     return ""

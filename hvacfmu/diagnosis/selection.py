@@ -65,6 +65,8 @@ DEFAULT_OPTIONS = {
     "holiday_z": 4.0,
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
+    "dst_min_r2": 0.2,
+    "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
     "horizon": 96,
@@ -108,6 +110,12 @@ def _is_dst(t) -> bool:
     return isinstance(t, InternalGainSchedule) and t.variant == "dst_shift"
 
 
+def sig_for(sig: Signals, c, term) -> Signals:
+    """``sig`` with the gain profiles the candidate ``c`` estimated for ``term`` (DST shift), if any."""
+    prof = (getattr(c, "profiles", None) or {}).get(getattr(term, "shift", None)) if _is_dst(term) else None
+    return sig if prof is None else dataclasses.replace(sig, base_profiles=prof)
+
+
 def _n_coefs(sig, term) -> int:
     if isinstance(term, ActuationDelay):
         return 0
@@ -135,7 +143,9 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
     blocks = coupled_blocks(sig, terms)
     best = None
+    sig0 = sig
     for t in c.variants:
+        sig = sig_for(sig0, c, t)
         zs = _affected(sig, t)
         fast = (cache is not None and len(zs) == 1 and not isinstance(t, (ActuationDelay, ZoneCoupling))
                 and [zs[0]] in blocks)
@@ -175,6 +185,7 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.C
         if best is None or lr > best[1]:
             best = (t, lr, lr_adj, coefs)
     t, lr, lr_adj, coefs = best
+    sig = sig_for(sig0, c, t)
     k = _n_coefs(sig, t) + c.hyper + (1 if isinstance(t, ActuationDelay) else 0)
     penalty = k * np.log(N)
     c.term = t
@@ -364,7 +375,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             tried += 1
             if progress:
                 progress(f"testing {c.key} on held-out weeks (ΔBIC {c.test['delta_bic']:.1f})")
-            new = fit_structure(sig, terms + [c.term], rows)
+            new = fit_structure(sig_for(sig, c, c.term), terms + [c.term], rows)
             c.term = new.model.terms[len(terms)]
             if not have_test or not _active_on(sig, c.term, "test"):
                 why = ("no held-out test week" if not have_test else
@@ -405,10 +416,12 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
         last_cands = cands
         if not accepted:
             break
+        sig_fit = sig
         for c, _ in accepted:
             findings.append(c)
             terms = terms + [c.term]
-        cur = fit_structure(sig, terms, rows)
+            sig_fit = sig_for(sig_fit, c, c.term)
+        cur = fit_structure(sig_fit, terms, rows)
         if have_test:
             cur_ho = (accepted[0][1] if len(accepted) == 1 and accepted[0][1] is not None
                       else heldout_rms(cur.model, dataset, opts["horizon"]))
