@@ -90,12 +90,16 @@ class _PartialFailure(Exception):
 class _Stages:
     """Runs named stages, printing progress with elapsed times; a failure is recorded, not fatal."""
 
-    def __init__(self, n, stream=sys.stderr):
+    def __init__(self, n, stream=None):
         self.n = n
         self.i = 0
         self.t0 = time.perf_counter()
         self.times: list[StageTime] = []
-        self.stream = stream
+        self._stream = stream
+
+    @property
+    def stream(self):
+        return self._stream or sys.stderr
 
     def run(self, name, what, func, *args, **kwargs):
         self.i += 1
