@@ -148,6 +148,57 @@ def test_whiteness_of_white_and_coloured_noise(rng):
     np.testing.assert_allclose(w3["peak_period_h"], 24.0, rtol=0, atol=0.5)
 
 
+def _dst_signals(standard_time_occupancy: bool, seed: int):
+    """Ten weeks of 15-min apparent gains around the end of DST (2025-11-02), three zones.
+
+    Weekday occupancy ramps up at 08:00 and down at 17:30 on the local clock, or on standard
+    time (one hour late on the local clock while DST is on); a solar-like bump at solar noon
+    (13:00 local under DST, 12:00 after) is the same on every day; AR(1) noise on top.
+    """
+    from types import SimpleNamespace
+
+    from hvacfmu.models.extended import dst_active
+    from hvacfmu.timeutil import n_time_of_week, time_of_week
+
+    rng = np.random.default_rng(seed)
+    idx = pd.date_range("2025-09-29", periods=10 * 7 * 96, freq="15min", tz="America/Los_Angeles")
+    dst = dst_active(idx)
+    hour = idx.hour.to_numpy() + idx.minute.to_numpy() / 60.0
+    occ_hour = hour - 1.0 * dst if standard_time_occupancy else hour
+    weekday = idx.day_of_week.to_numpy() < 5
+    occ = weekday / (1 + np.exp(-(occ_hour - 8.0) / 0.35)) / (1 + np.exp(-(17.5 - occ_hour) / 0.5))
+    solar = np.exp(-(((hour - dst - 12.0) / 2.5) ** 2))
+    e = np.zeros((len(idx), 3))
+    for k in range(1, len(idx)):
+        e[k] = 0.7 * e[k - 1] + rng.normal(0.0, 0.004, 3)
+    gains = 0.05 * occ[:, None] * np.array([1.0, 0.8, 1.2]) + 0.04 * solar[:, None] + e
+    n_tow = n_time_of_week(900.0)
+    sig = SimpleNamespace(index=idx, n_tow=n_tow, step=900.0, tow=time_of_week(idx, 900.0) % n_tow,
+                          season=np.full(len(idx), "fall", dtype=object), seasons=("fall",), dst=dst)
+    return sig, gains
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_dst_profile_lag_sees_the_schedule_jump_not_the_sun(seed):
+    from hvacfmu.diagnosis.candidates import dst_profile_lag
+
+    sig, gains = _dst_signals(True, seed)
+    rows = np.arange(len(gains))
+    lag = dst_profile_lag(sig, gains, rows)
+    assert abs(lag["lag_steps"] - 4) <= 1, lag
+    assert lag["scale_at_lag"] > 0.6 and lag["r2_at_lag"] > 0.5
+    assert lag["seasons"]["fall"]["weekdays_dst"] == 25 and lag["seasons"]["fall"]["weekdays_standard"] == 25
+    # occupancy on the local clock: the sun still jumps by an hour at the change, but it is the
+    # same on weekends and cancels
+    sig, gains = _dst_signals(False, seed)
+    lag = dst_profile_lag(sig, gains, rows)
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS as opt
+
+    shifted = 2 * abs(lag["lag_steps"]) >= 4
+    assert not (shifted and lag["r2_at_lag"] >= opt["dst_min_r2"] and lag["scale_at_lag"] >= opt["dst_min_scale"]), lag
+    assert lag["scale_at_lag"] < 0.25, lag
+
+
 def test_acf_and_cpgram_handle_gaps(rng):
     e = rng.normal(size=2000)
     e[100:150] = np.nan
@@ -410,10 +461,11 @@ def test_emulator_effect_is_found(effect, seed):
         base_coef = base_hits[0]["parameters"]["coef"]["value"] if base_hits else 0.0
         assert f["parameters"]["coef"]["value"] > 1.5 * base_coef
     if "kind=dst" in effect:
-        # gains one hour late under daylight saving: the profile is read 4 steps (±1) earlier
+        # gains one hour late under daylight saving: the profile is read one hour earlier
         assert f["location"]["variant"] == "dst_shift"
-        assert abs(f["location"]["shift"] + round(3600 / rep.data["step"])) <= 1, f["location"]
-        assert f["evidence"]["lag_h"] > 0.5
+        assert f["location"]["shift"] == -round(3600 / rep.data["step"]), f["location"]
+        assert 0.5 <= f["evidence"]["lag_h"] <= 2.0
+        assert f["evidence"]["scale_mean"] > 0.5
     if name == "reheat":
         top = max((g for g in rep.findings if g["cause"] == "reheat"), key=lambda g: g["test"]["delta_bic"])
         assert top["location"] == f["location"]

@@ -485,9 +485,9 @@ def _dst_candidate(sig: Signals, W: Within, options: dict) -> Candidate:
 
     Evidence: the lag aligning the weekday gain profiles of daylight-saving and
     standard-time weekdays of the same season (:func:`dst_profile_lag`). A lag of at
-    least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read
-    ``−L`` steps later while daylight saving is on, also the legal one hour in the same
-    direction), with the profile re-estimated on the clock the gains follow.
+    least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read one
+    hour earlier while daylight saving is on for ``L > 0``, later for ``L < 0``), with the
+    profile re-estimated on the clock the gains follow.
     """
     on = dst_active(sig.index)
     onw = W(on.astype(float))
@@ -519,7 +519,9 @@ def _dst_candidate(sig: Signals, W: Within, options: dict) -> Candidate:
                                 f"morning difference between daylight-saving and standard-time weekdays at scale "
                                 f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
                                 f"schedule jump at the change")
-    shifts = sorted({-int(np.sign(L)) * steps, -L}, key=lambda x: abs(abs(x) - steps))
+    # the clock moves by the legal hour; the estimated lag (often 60-90 min: the ramp of a
+    # partly shifted profile looks wider) gives the direction and is reported as evidence
+    shifts = [-int(np.sign(L)) * steps]
     variants = []
     for sh in shifts:
         t = InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
