@@ -378,21 +378,25 @@ def apparent_gains(sig: Signals, resid_all: np.ndarray) -> np.ndarray:
 def dst_profile_lag(sig: Signals, gains: np.ndarray, rows: np.ndarray) -> dict:
     """Lag between the weekday gain profiles of daylight-saving and standard-time days of a season.
 
-    Within each season whose ``rows`` contain at least :data:`DST_MIN_DAYS` weekdays on
-    each side of a daylight-saving change, the floor-total apparent gain is averaged by
-    time of day separately over daylight-saving and standard-time weekdays. The lag
-    ``L`` [steps] maximising the correlation of the two profiles' time derivatives
-    (occupancy ramp-up and ramp-down dominate them) over ``|L| ≤`` :data:`DST_MAX_LAG_H`
-    is the shift: the daylight-saving profile is the standard-time one ``L`` steps later
-    (``L > 0``: gains one hour late on the local clock when they stay on standard time).
-    Solar-time effects drift smoothly with the date; an occupancy schedule that ignores
-    daylight saving jumps by a whole hour at the change.
+    Within each season whose ``rows`` contain at least :data:`DST_MIN_DAYS` weekdays and
+    :data:`DST_MIN_WEEKEND_DAYS` weekend days on each side of a daylight-saving change, the
+    floor-total apparent gain is averaged by time of day over weekdays minus weekend days
+    (weather and sun are the same on both and cancel; occupancy stays), separately for
+    daylight-saving and standard-time days, and smoothed by a 75-min running median (the
+    short spikes of the HVAC schedule follow the local clock on both sides). On the morning
+    ramp-up (:data:`DST_WINDOW_H`), the difference of the two profiles is regressed on the
+    standard-time profile shifted by ``L`` steps minus itself; the lag ``L`` with the
+    largest R² (``|L| ≤`` :data:`DST_MAX_LAG_H`, positive coefficient) is the shift: the
+    daylight-saving profile is the standard-time one ``L`` steps later (``L > 0``: gains
+    one hour late on the local clock because they stay on standard time). The regression
+    coefficient (``scale_at_lag``) is the shifted share: ~1 when the whole occupancy jumps
+    by an hour at the change. (Per-zone profiles were tried: too noisy.)
 
     Returns
     -------
     dict
-        ``lag_steps``, ``lag_h``, ``corr_at_lag``, ``corr_at_zero``, ``corr_by_lag``,
-        ``seasons`` (with day counts) — or ``seasons`` empty when no season has both sides.
+        ``lag_steps``, ``lag_h``, ``r2_at_lag``, ``scale_at_lag``, ``r2_by_lag``,
+        ``seasons`` (day counts) — or only ``seasons`` (empty) when no season has both sides.
     """
     per_day = sig.n_tow // 7
     wd = sig.index.day_of_week.to_numpy()
