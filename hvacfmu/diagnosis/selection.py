@@ -328,10 +328,14 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     findings, rounds = [], []
     last_cands = []
     sig0 = sig
+    fixed_profiles = None
     while len(findings) < opts["max_terms"]:
-        # gain-profile features (holidays, daylight saving) use the current model's profiles
-        sig = dataclasses.replace(sig0, base_profiles={s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons
-                                                       if s in cur.model.base.gains} or sig0.base_profiles)
+        # gain-profile features (holidays, daylight saving) use the current model's profiles; once
+        # a daylight-saving shift is in, the profile of the clock the gains follow, on which the
+        # current fit was made, stays (the refit's slot means are a blend of both clocks)
+        sig = dataclasses.replace(sig0, base_profiles=fixed_profiles or {
+            s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
+            or sig0.base_profiles)
         resid = cur.resid
         cur_rss = [ls.rss for ls in cur.zone_ls]
         factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
@@ -421,6 +425,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             findings.append(c)
             terms = terms + [c.term]
             sig_fit = sig_for(sig_fit, c, c.term)
+        if sig_fit is not sig:
+            fixed_profiles = sig_fit.base_profiles
         cur = fit_structure(sig_fit, terms, rows)
         if have_test:
             cur_ho = (accepted[0][1] if len(accepted) == 1 and accepted[0][1] is not None
