@@ -471,10 +471,14 @@ def test_emulator_effect_is_found(effect, seed):
         assert top["location"] == f["location"]
 
 
-def test_emulator_two_effects_are_both_found():
-    rep, truth, _ = _diagnosed(0, ("reheat", "actuation_delay"))
+@pytest.mark.parametrize("seed, effects", [
+    (0, ("reheat", "actuation_delay")),
+    (1, ("internal_gain_schedule:kind=dst", "reheat:power=4000")),
+])
+def test_emulator_two_effects_are_both_found(seed, effects):
+    rep, truth, _ = _diagnosed(seed, effects)
     cmp = _assert_truthful(rep, truth)
-    assert sorted(e["name"] for e in cmp["found"]) == ["actuation_delay", "reheat"]
+    assert sorted(e["name"] for e in cmp["found"]) == sorted(e.split(":")[0] for e in effects)
     assert cmp["missed"] == []
 
 
