@@ -48,25 +48,81 @@ BUILD_OPTIONS = {
 }
 
 
-def slave_dir() -> Path:
-    """Folder holding the slave scripts: ``$HVACFMU_SLAVE_DIR`` or the repository's ``fmus/``.
+#: slave script name -> (what it serves, base class, resource file); the scripts in ``fmus/`` are
+#: exactly :func:`slave_source` of these (tests/test_fmu.py checks it)
+SLAVE_SPECS = {
+    "HvacfmuLumped": ("models of kind 'lumped'", "ZoneModelSlave", "lumped, resources/model.json"),
+    "HvacfmuZones": ("models of kind 'zones'", "ZoneModelSlave", "zones, resources/model.json"),
+    "HvacfmuPhysics": ("models of kind 'physics'", "ZoneModelSlave", "physics, resources/model.json"),
+    "HvacfmuExtended": ("models of kind 'extended'", "ZoneModelSlave", "extended, resources/model.json"),
+    GENERIC_SLAVE: ("models of a kind without a dedicated slave", "ZoneModelSlave",
+                    "kinds without a dedicated slave, resources/model.json"),
+    PLANT_SLAVE: ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json"),
+}
 
-    Raises
-    ------
-    FMUError
-        If the folder cannot be found (hvacfmu installed without its source tree).
+_SLAVE_TEMPLATE = '''"""pythonfmu slave of the hvacfmu FMUs for {what}.
+
+A unique script and class name per FMU kind: pythonfmu names the FMU's binary
+and Python module after them, and FMUs that share a name must not run each
+other's code when loaded in one process. Built by ``hvacfmu.fmu``.
+
+All logic is in ``hvacfmu/fmu_slave.py`` (host Python environment). Its source
+is executed in this module's namespace instead of being imported, because the
+pythonfmu 0.7.0 binary corrupts the interpreter when it frees an instance whose
+class or methods were defined in another module (measured: the slave module's
+dictionary is cleared and the next instance crashes the host).
+"""
+
+import hvacfmu.fmu_slave as _impl
+
+exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines {base} and its bases here
+
+
+class {name}({base}):  # noqa: F821 - defined by the exec above
+    """FMI 2.0 co-simulation slave ({doc})."""
+'''
+
+
+def slave_source(name: str) -> str:
+    """Text of the slave script ``name`` (a key of :data:`SLAVE_SPECS`)."""
+    what, base, doc = SLAVE_SPECS[name]
+    return _SLAVE_TEMPLATE.format(what=what, base=base, name=name, doc=doc)
+
+
+def write_slaves(folder) -> list:
+    """Write every slave script into ``folder`` (how ``fmus/`` is made); returns the paths."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name in SLAVE_SPECS:
+        path = folder / f"{name}.py"
+        path.write_text(slave_source(name), encoding="utf-8")
+        paths.append(path)
+    return paths
+
+
+def slave_dir() -> Path:
+    """Folder holding the slave scripts.
+
+    ``$HVACFMU_SLAVE_DIR`` if set, else the repository's ``fmus/`` (editable
+    install), else a folder in the user cache where the scripts are written from
+    :func:`slave_source` (an installation without the source tree).
     """
     env = os.environ.get("HVACFMU_SLAVE_DIR")
-    candidates = [Path(env)] if env else []
-    candidates.append(Path(__file__).resolve().parents[1] / "fmus")
-    for c in candidates:
-        if (c / f"{GENERIC_SLAVE}.py").is_file():
-            return c
-    raise FMUError(
-        "cannot find the FMU slave scripts (fmus/HvacfmuModel.py ...); looked in "
-        + ", ".join(str(c) for c in candidates)
-        + ". Install hvacfmu from a clone of its repository (pip install -e .) or set HVACFMU_SLAVE_DIR"
-    )
+    if env:
+        if not (Path(env) / f"{GENERIC_SLAVE}.py").is_file():
+            raise FMUError(f"HVACFMU_SLAVE_DIR={env} holds no slave scripts ({GENERIC_SLAVE}.py ...)")
+        return Path(env)
+    repo = Path(__file__).resolve().parents[1] / "fmus"
+    if (repo / f"{GENERIC_SLAVE}.py").is_file():
+        return repo
+    from . import __version__
+
+    cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
+    if not all((cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n)
+               for n in SLAVE_SPECS):
+        write_slaves(cache)
+    return cache
 
 
 def slave_script(kind: str) -> Path:

@@ -709,3 +709,31 @@ def test_cosim_sets_start_time_of_calendar_fmu(fmu_data, tmp_path):
     # left unset, the FMU warns at initialisation, which the harness refuses
     with pytest.raises(FMUError, match="start_time is not set"):
         run_cosim(path, fmu_data, ReplayController(), week=week.number, model=model, start_values={"start_time": -1.0})
+
+
+# ----------------------------------------------------------------------------- slave scripts
+def test_slave_scripts_in_fmus_are_the_template():
+    """fmus/*.py are exactly what hvacfmu.fmu writes when installed without the source tree."""
+    from hvacfmu.fmu import SLAVE_SPECS, slave_source
+
+    folder = Path(__file__).resolve().parents[1] / "fmus"
+    assert sorted(p.stem for p in folder.glob("*.py")) == sorted(SLAVE_SPECS)
+    for name in SLAVE_SPECS:
+        assert (folder / f"{name}.py").read_text(encoding="utf-8") == slave_source(name), name
+
+
+def test_export_without_source_tree(tmp_path, monkeypatch, sdh_building, fmu_data):
+    """An installation without fmus/ writes the slave scripts into the cache and still exports."""
+    import hvacfmu.fmu as fmu_mod
+
+    monkeypatch.delenv("HVACFMU_SLAVE_DIR", raising=False)
+    monkeypatch.setenv("HVACFMU_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(fmu_mod, "__file__", str(tmp_path / "site-packages" / "hvacfmu" / "fmu.py"))
+    folder = fmu_mod.slave_dir()
+    assert folder.is_relative_to(tmp_path / "cache")
+    model_path = zones_model(sdh_building).save(tmp_path / "zones.json")
+    out = export_fmu(model_path, tmp_path / "zones.fmu")
+    assert validate(out) == []
+    monkeypatch.setenv("HVACFMU_SLAVE_DIR", str(tmp_path / "nowhere"))
+    with pytest.raises(FMUError, match="holds no slave scripts"):
+        fmu_mod.slave_dir()
