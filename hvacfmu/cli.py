@@ -89,7 +89,7 @@ def _cmd_evaluate(args):
         result.save_json(args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        files = result.plot(args.plots, dataset=dataset)
+        files = result.plot(args.plots, dataset=dataset, week=args.week)
         print("wrote " + ", ".join(str(f) for f in files))
     return 0
 
@@ -174,6 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--plots", help="folder for figures (7-day open-loop trajectories)")
+    p.add_argument("--week", type=int, help="week number of the 7-day trajectory figure (default: a spring test week)")
     p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")

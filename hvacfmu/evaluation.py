@@ -591,7 +591,12 @@ def week_trajectory(model, dataset, week, name=None) -> Trajectory:
 def _choose_week(dataset, week):
     if week is not None:
         if isinstance(week, (int, np.integer)):
-            return next((w for w in dataset.weeks if w.number == int(week)), None)
+            found = next((w for w in dataset.weeks if w.number == int(week)), None)
+            if found is None:
+                numbers = [w.number for w in dataset.weeks]
+                raise DataError(f"no week {int(week)} in the dataset; weeks are numbered "
+                                f"{min(numbers)}..{max(numbers)}" if numbers else "the dataset has no week")
+            return found
         return week
     tests = dataset.test_weeks()
     spring = [w for w in tests if w.season == "spring"]

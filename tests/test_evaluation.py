@@ -256,3 +256,12 @@ def test_default_dataset_every_zone_beats_both_baselines(default_result, default
     for b in BASELINES:
         base = default_result.table(which=b).loc["all", zones]
         assert np.all(model.to_numpy(float) < base.to_numpy(float)), (b, model, base)
+
+
+def test_trajectory_week_must_exist(default_dataset):
+    from hvacfmu.errors import DataError
+    from hvacfmu.evaluation import _choose_week
+
+    assert _choose_week(default_dataset, 3).number == 3
+    with pytest.raises(DataError, match="no week 999 in the dataset"):
+        _choose_week(default_dataset, 999)
