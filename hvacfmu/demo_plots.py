@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import _pyplot
+from .plots import panel_grid, save_figure
 
 DAY_NAMES = ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun")
 
@@ -16,18 +16,15 @@ def plot_gains(model, path, title, unit) -> Path:
 
     One panel per output (zone); one line per season.
     """
-    plt = _pyplot()
     seasons = list(model.gains)
     first = np.asarray(model.gains[seasons[0]])
     n_out = first.shape[1]
     names = list(model.outputs)[:n_out] if len(model.outputs) >= n_out else [f"q{i}" for i in range(n_out)]
     ncols = 1 if n_out == 1 else 2
-    nrows = int(np.ceil(n_out / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(11 if ncols == 2 else 9, 2.3 * nrows + 0.8),
-                             sharex=True, squeeze=False)
+    plt, fig, axes, panels = panel_grid(n_out, ncols, (5.5 if ncols == 2 else 9, 2.3), sharex=True)
+    fig.set_figheight(2.3 * axes.shape[0] + 0.8)
     hours = np.arange(first.shape[0]) * float(model.step) / 3600.0
-    for j in range(n_out):
-        ax = axes[j // ncols][j % ncols]
+    for j, ax in enumerate(panels):
         for s in seasons:
             ax.plot(hours, np.asarray(model.gains[s])[:, j], lw=0.9, label=s)
         ax.set_title(names[j], fontsize="medium")
@@ -36,15 +33,9 @@ def plot_gains(model, path, title, unit) -> Path:
         for d in range(1, 7):
             ax.axvline(24 * d, color="0.85", lw=0.6)
         ax.grid(axis="y", alpha=0.3)
-    for j in range(n_out, nrows * ncols):
-        axes[j // ncols][j % ncols].axis("off")
     axes[0][-1].legend(fontsize="small", ncol=2)
     fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(plt, fig, path, dpi=100)
 
 
 def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20.0, 22.0)) -> tuple[Path, Path]:
@@ -58,14 +49,11 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
     zones : sequence of zone names
     vavs_of_zone : dict zone -> list of VAV names
     """
-    plt = _pyplot()
     paths = []
     for kind, path in (("temp", path_temp), ("flow", path_flow)):
-        ncols = 2
-        nrows = int(np.ceil(len(zones) / ncols))
-        fig, axes = plt.subplots(nrows, ncols, figsize=(12, 2.4 * nrows + 0.8), sharex=True, squeeze=False)
-        for j, z in enumerate(zones):
-            ax = axes[j // ncols][j % ncols]
+        plt, fig, axes, panels = panel_grid(len(zones), 2, (6, 2.4), sharex=True)
+        fig.set_figheight(2.4 * axes.shape[0] + 0.8)
+        for z, ax in zip(zones, panels):
             if kind == "temp" and f"T_{z}" in measured:
                 ax.plot(measured.index, measured[f"T_{z}"], lw=1.1, color="k", label="measured")
             elif kind == "flow":
@@ -75,8 +63,7 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
                             label="measured")
         colors = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:cyan"]
         for (label, table), color in zip(runs.items(), colors * 3):
-            for j, z in enumerate(zones):
-                ax = axes[j // ncols][j % ncols]
+            for z, ax in zip(zones, panels):
                 if kind == "temp":
                     if f"T_{z}" in table:
                         ax.plot(table.index, table[f"T_{z}"], lw=0.9, color=color, label=label)
@@ -84,8 +71,7 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
                     cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in table]
                     if cols:
                         ax.step(table.index, table[cols].sum(axis=1), where="post", lw=0.9, color=color, label=label)
-        for j, z in enumerate(zones):
-            ax = axes[j // ncols][j % ncols]
+        for z, ax in zip(zones, panels):
             ax.set_title(z, fontsize="medium")
             if kind == "temp":
                 for bnd in band:
@@ -94,13 +80,8 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
             else:
                 ax.set_ylabel("kg/s")
             ax.grid(alpha=0.3)
-        for j in range(len(zones), nrows * ncols):
-            axes[j // ncols][j % ncols].axis("off")
         axes[0][-1].legend(fontsize="x-small")
         fig.suptitle("MPC zone temperatures" if kind == "temp" else "MPC zone airflows (sum of the zone's boxes)")
         fig.autofmt_xdate()
-        fig.tight_layout()
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        paths.append(Path(path))
+        paths.append(save_figure(plt, fig, path, dpi=100))
     return tuple(paths)

@@ -19,6 +19,31 @@ def _pyplot():
     return plt
 
 
+def panel_grid(n, ncols, panel_size, **kwargs):
+    """A figure with ``n`` panels on a grid of ``ncols`` columns (each ``panel_size`` = (w, h) [in]).
+
+    Returns ``(plt, fig, axes, panels)`` where ``panels`` lists the first ``n`` axes in reading order.
+    """
+    plt = _pyplot()
+    ncols = max(1, min(ncols, n))
+    nrows = int(np.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(panel_size[0] * ncols, panel_size[1] * nrows),
+                             squeeze=False, **kwargs)
+    flat = list(axes.ravel())
+    for ax in flat[n:]:
+        ax.axis("off")
+    return plt, fig, axes, flat[:n]
+
+
+def save_figure(plt, fig, path, dpi=110) -> Path:
+    """Lay out, write (PNG) and close ``fig``; returns the path."""
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def plot_rms_table(score, path, season_order=None) -> Path:
     """Bar chart of the mean RMS by season and output: model vs both baselines.
 

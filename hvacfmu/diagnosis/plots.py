@@ -8,13 +8,8 @@ from pathlib import Path
 import numpy as np
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from ..plots import _pyplot as _plt
+from ..plots import panel_grid, save_figure
 
 
 def plot_all(report, folder) -> list:
@@ -94,15 +89,10 @@ def plot_acf(report, path, nlags=96):
     """Autocorrelation of the one-step residuals (training weeks), before and after, with the 95 % band."""
     from .residuals import acf
 
-    plt = _plt()
     s = report.series
     zones = _zones(report)
-    n = len(zones)
-    cols = min(3, n)
-    rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
-    for j, z in enumerate(zones):
-        ax = axes[j // cols, j % cols]
+    plt, fig, axes, panels = panel_grid(len(zones), 3, (4.2, 3.0))
+    for j, (z, ax) in enumerate(zip(zones, panels)):
         for key, lab in (("one_step_before", "base"), ("one_step_after", "extended")):
             r = np.where(s["train"], s[key][:, j], np.nan)
             ax.plot(np.arange(1, nlags + 1), acf(r, nlags)[1:], label=lab, lw=1)
@@ -111,28 +101,18 @@ def plot_acf(report, path, nlags=96):
         ax.axhline(0, color="k", lw=0.5)
         ax.set_title(f"ACF of one-step residuals, {z}")
         ax.set_xlabel(f"lag [steps of {s['step'] / 60:g} min]")
-    for j in range(n, rows * cols):
-        axes[j // cols, j % cols].axis("off")
     axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(plt, fig, path)
 
 
 def plot_cpgram(report, path):
     """Cumulated periodogram of the one-step residuals with the 1 % Kolmogorov–Smirnov band."""
     from .residuals import cumulated_periodogram
 
-    plt = _plt()
     s = report.series
     zones = _zones(report)
-    n = len(zones)
-    cols = min(3, n)
-    rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
-    for j, z in enumerate(zones):
-        ax = axes[j // cols, j % cols]
+    plt, fig, axes, panels = panel_grid(len(zones), 3, (4.2, 3.0))
+    for j, (z, ax) in enumerate(zip(zones, panels)):
         for key, lab in (("one_step_before", "base"), ("one_step_after", "extended")):
             r = np.where(s["train"], s[key][:, j], np.nan)
             f, C, bound, _, _ = cumulated_periodogram(r)
@@ -144,13 +124,8 @@ def plot_cpgram(report, path):
             ax.fill_between(f, line - bound, line + bound, color="grey", alpha=0.3)
         ax.set_title(f"cumulated periodogram, {z}")
         ax.set_xlabel("frequency [cycles per step]")
-    for j in range(n, rows * cols):
-        axes[j // cols, j % cols].axis("off")
     axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(plt, fig, path)
 
 
 def plot_heldout(report, path):
