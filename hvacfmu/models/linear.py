@@ -119,6 +119,15 @@ class LinearZoneModel(ZoneModel):
     def output(self, x):
         return np.asarray(x)
 
+    def equations(self):
+        """The model as :class:`~hvacfmu.models.equations.ModelEquations` (linear: no bilinear terms)."""
+        from .equations import ModelEquations
+
+        nx = self.n_states
+        return ModelEquations(step=float(self.step), A=self.A, Bu=self.B, Bv=self.C, Bq=np.eye(nx),
+                              C=np.eye(nx), inputs=self.inputs, disturbances=tuple(self.disturbances),
+                              outputs=tuple(self.outputs), gains=dict(self.gains))
+
     def summary(self) -> str:
         """Readable coefficients, stability, internal-gain levels and fit provenance."""
         ny = len(self.outputs)

@@ -282,6 +282,19 @@ class PhysicsModel(ZoneModel):
     def step_state(self, x, u, v, q):
         return self._disc.step_state(x, u, v, q)
 
+    def equations(self):
+        """The model as :class:`~hvacfmu.models.equations.ModelEquations` (bilinear in the airflows)."""
+        from ..equations import ModelEquations
+
+        m = self.discrete_matrices()
+        dense = lambda M: M.toarray() if hasattr(M, "toarray") else np.asarray(M, dtype=float)  # noqa: E731
+        A = dense(m.A)
+        return ModelEquations(step=float(self.step), A=A, Bu=np.zeros((A.shape[0], len(self.inputs))),
+                              Bv=dense(m.Bv), Bq=dense(m.Bq), C=dense(m.C), inputs=tuple(self.inputs),
+                              disturbances=tuple(self.disturbances), outputs=tuple(self.outputs),
+                              gains=dict(self.gains), Bxu=tuple(dense(b) for b in m.Bxu),
+                              Bvu=tuple(dense(b) for b in m.Bvu))
+
     def output(self, x):
         return np.asarray(x)[..., : len(self.outputs)]
 
