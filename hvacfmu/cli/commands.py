@@ -32,7 +32,7 @@ def _data_args(p):
 
 
 def _load_dataset(args):
-    from .data import prepare
+    from ..data import prepare
 
     return prepare(
         args.data,
@@ -45,7 +45,7 @@ def _load_dataset(args):
 
 # --------------------------------------------------------------------------- check
 def _cmd_check(args):
-    from .data import check
+    from ..data import check
 
     report = check(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
     print(report)
@@ -54,7 +54,7 @@ def _cmd_check(args):
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
-    from .emulator import generate, parse_effect
+    from ..emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
@@ -64,7 +64,7 @@ def _cmd_generate(args):
 
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
-    from .fitting import fit
+    from ..fitting import fit
 
     dataset = _load_dataset(args)
     model = fit(dataset, args.model, progress=not args.quiet)
@@ -78,8 +78,8 @@ def _cmd_fit(args):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    from .evaluation import evaluate
-    from .models import load_model
+    from ..evaluation import evaluate
+    from ..models import load_model
 
     dataset = _load_dataset(args)
     models = [load_model(m) for m in args.model]
@@ -96,7 +96,7 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_file
+    from ..fmu import export_file
 
     path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
@@ -112,7 +112,7 @@ def _cmd_cosim(args):
 
 # --------------------------------------------------------------------------- diagnose
 def _cmd_diagnose(args):
-    from .diagnosis import diagnose
+    from ..diagnosis import diagnose
 
     dataset = _load_dataset(args)
     report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
@@ -211,13 +211,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version():
-    from . import __version__
+    from .. import __version__
 
     return __version__
 
 
 def main(argv=None) -> int:
-    from .errors import HvacfmuError
+    from ..errors import HvacfmuError
 
     parser = build_parser()
     args = parser.parse_args(argv)
