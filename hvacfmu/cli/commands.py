@@ -136,6 +136,8 @@ def _cmd_demo(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ..models.registry import fittable_kinds
+
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -164,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
+                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
     p.set_defaults(func=_cmd_fit)
 
