@@ -142,6 +142,8 @@ def export_fmu(model: Any, path: Any, *, timezone: str | None = None) -> Any:
 __all__ = [
     "BuildingError",
     "DataError",
+    "Dataset",
+    "EvaluationResult",
     "FMUError",
     "FitError",
     "HvacfmuError",

@@ -55,6 +55,7 @@ def _cmd_check(args):
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
     import hvacfmu as hf
+
     from ..emulator import parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
@@ -224,7 +225,8 @@ def main(argv=None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

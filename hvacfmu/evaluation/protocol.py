@@ -41,6 +41,7 @@ from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
 
+
 # =============================================================================
 # layer 1: arrays
 # =============================================================================

@@ -69,7 +69,8 @@ class ModelScore:
         order += [s for s in dict.fromkeys(self.seasons) if s not in order]
         rows = {}
         for s in order:
-            rows[s] = np.nanmean(R[seasons == s], axis=0) if np.any(seasons == s) else np.full(len(self.outputs), np.nan)
+            in_s = seasons == s
+            rows[s] = np.nanmean(R[in_s], axis=0) if np.any(in_s) else np.full(len(self.outputs), np.nan)
         if len(self.seasons):
             rows["all"] = np.nanmean(R, axis=0)
         df = pd.DataFrame.from_dict(rows, orient="index", columns=list(self.outputs))

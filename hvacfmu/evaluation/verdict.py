@@ -145,7 +145,8 @@ class Verdict:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"zones": [z.to_dict() for z in self.zones], "likely_causes": {k: list(v) for k, v in self.causes.items()},
+        return {"zones": [z.to_dict() for z in self.zones],
+                "likely_causes": {k: list(v) for k, v in self.causes.items()},
                 "thresholds": {"nmbe_percent": G14_NMBE_MAX, "cvrmse_percent": G14_CVRMSE_MAX,
                                "correlation": CORRELATION_MIN}}
 
