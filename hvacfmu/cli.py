@@ -57,7 +57,10 @@ def _cmd_generate(args):
     from .emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    paths = generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
+    paths = generate(
+        args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
+        construction=args.construction, climate=args.climate, start=args.start,
+    )
     print(paths)
     return 0
 
@@ -149,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
-    p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
+    p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
@@ -160,6 +163,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.add_argument("--layout", choices=("sdh", "row4", "core9"), default="sdh",
+                   help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)")
+    p.add_argument("--construction", choices=("medium", "light", "heavy"), default="medium",
+                   help="construction template (default medium: the SDH-like concrete frame)")
+    p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
+                   help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
+    p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")
