@@ -29,6 +29,12 @@ def _data_args(p):
         metavar="MINUTES",
         help="linearly interpolate gaps up to this length (default: keep every gap)",
     )
+    p.add_argument(
+        "--timezone",
+        default=None,
+        help="time zone of the data's naive timestamps, e.g. UTC (default: the building's data_timezone, "
+        "else its timezone)",
+    )
 
 
 def _load_dataset(args):
@@ -40,6 +46,7 @@ def _load_dataset(args):
         step=args.step,
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
     )
 
 
@@ -47,7 +54,14 @@ def _load_dataset(args):
 def _cmd_check(args):
     from .data import check
 
-    report = check(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
+    report = check(
+        args.data,
+        args.building,
+        step=args.step,
+        seed=args.seed,
+        interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
+    )
     print(report)
     return 0 if report.ok else 1
 
