@@ -38,7 +38,7 @@ def _data_args(p):
 
 
 def _load_dataset(args):
-    from .data import prepare
+    from ..data import prepare
 
     return prepare(
         args.data,
@@ -52,7 +52,7 @@ def _load_dataset(args):
 
 # --------------------------------------------------------------------------- check
 def _cmd_check(args):
-    from .data import check
+    from ..data import check
 
     report = check(
         args.data,
@@ -68,7 +68,7 @@ def _cmd_check(args):
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
-    from .emulator import generate, parse_effect
+    from ..emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = generate(
@@ -81,7 +81,7 @@ def _cmd_generate(args):
 
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
-    from .fitting import fit
+    from ..fitting import fit
 
     dataset = _load_dataset(args)
     model = fit(dataset, args.model, progress=not args.quiet)
@@ -95,8 +95,8 @@ def _cmd_fit(args):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    from .evaluation import evaluate
-    from .models import load_model
+    from ..evaluation import evaluate
+    from ..models import load_model
 
     dataset = _load_dataset(args)
     models = [load_model(m) for m in args.model]
@@ -113,7 +113,7 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_file
+    from ..fmu import export_file
 
     path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
@@ -129,7 +129,7 @@ def _cmd_cosim(args):
 
 # --------------------------------------------------------------------------- diagnose
 def _cmd_diagnose(args):
-    from .diagnosis import diagnose
+    from ..diagnosis import diagnose
 
     dataset = _load_dataset(args)
     report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
@@ -153,6 +153,8 @@ def _cmd_demo(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ..models.registry import fittable_kinds
+
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -188,7 +190,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
+                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
     p.set_defaults(func=_cmd_fit)
 
@@ -235,13 +238,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version():
-    from . import __version__
+    from .. import __version__
 
     return __version__
 
 
 def main(argv=None) -> int:
-    from .errors import HvacfmuError
+    from ..errors import HvacfmuError
 
     parser = build_parser()
     args = parser.parse_args(argv)
