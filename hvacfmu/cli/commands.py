@@ -29,6 +29,12 @@ def _data_args(p):
         metavar="MINUTES",
         help="linearly interpolate gaps up to this length (default: keep every gap)",
     )
+    p.add_argument(
+        "--timezone",
+        default=None,
+        help="time zone of the data's naive timestamps, e.g. UTC (default: the building's data_timezone, "
+        "else its timezone)",
+    )
 
 
 def _load_dataset(args):
@@ -40,6 +46,7 @@ def _load_dataset(args):
         step=args.step,
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
     )
 
 
@@ -47,7 +54,8 @@ def _load_dataset(args):
 def _cmd_check(args):
     import hvacfmu as hf
 
-    report = hf.check(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
+    report = hf.check(args.data, args.building, step=args.step, seed=args.seed,
+                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone)
     print(report)
     return 0 if report.ok else 1
 
@@ -59,7 +67,10 @@ def _cmd_generate(args):
     from ..emulator import parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    paths = hf.generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
+    paths = hf.generate(
+        args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
+        construction=args.construction, climate=args.climate, start=args.start,
+    )
     print(paths)
     return 0
 
@@ -151,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
-    p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
+    p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
@@ -162,6 +173,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.add_argument("--layout", choices=("sdh", "row4", "core9"), default="sdh",
+                   help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)")
+    p.add_argument("--construction", choices=("medium", "light", "heavy"), default="medium",
+                   help="construction template (default medium: the SDH-like concrete frame)")
+    p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
+                   help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
+    p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")
