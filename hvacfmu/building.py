@@ -641,7 +641,10 @@ def _validate_ahus(b: Building) -> list[str]:
 def _validate_columns(b: Building) -> list[str]:
     """Two canonical quantities mapped to one file column are a problem (one would silently copy the other)."""
     used: dict = {}
-    for canonical in list(b.columns) + [f"{q}_{a.name}" for a in b.ahus for q in a.columns]:
+    implicit = {"T_supply"} if b.ahus and "T_supply" not in b.columns else set()  # may be a unit's own column
+    names = dict.fromkeys(c for c in ["time", *b.expected_columns(), *b.columns] if c not in implicit)
+    names.update(dict.fromkeys(f"{q}_{a.name}" for a in b.ahus for q in a.columns))
+    for canonical in names:
         used.setdefault(b.column_for(canonical), []).append(canonical)
     return [
         f"[columns]: {', '.join(names)} all map to the file column {col!r}; each quantity needs its own column"

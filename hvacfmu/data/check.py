@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import BuildingError, DataError
-from .dataset import Dataset, _prepare
+from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
 from .resample import MIN_COVERAGE
 
@@ -171,12 +171,19 @@ def check(
     Returns
     -------
     CheckReport
-        ``ok`` is False, with every problem listed, when the building file or
-        the data cannot be used: any load problem (see
-        :func:`load_measurements`), no complete week, or a required column
-        without a single value on the model step.
+        ``ok`` is False, with every problem listed, when the options, the
+        building file or the data cannot be used: any load problem (see
+        :func:`load_measurements`), no complete week, a required column
+        without a single value on the model step, or any measured column with
+        a value in fewer than :data:`~hvacfmu.data.dataset.MIN_COLUMN_COVERAGE`
+        (50 %) of the model steps. Plausibility findings that were masked
+        (airflow spikes, stuck sensors) and a clock that looks offset
+        (:func:`~hvacfmu.data.clock.clock_check`) are warnings.
     """
     path = Path(path)
+    bad_options = option_problems(step, train_fraction, interpolate_limit, min_coverage)
+    if bad_options:
+        return CheckReport(ok=False, problems=bad_options, warnings=[], path=str(path))
     try:
         building = as_building(building, timezone)
     except BuildingError as exc:
@@ -198,6 +205,7 @@ def check(
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
     gaps = []
+    missing_all: dict = {}
     step_s = dataset.step
     for col in dataset.frame.columns:
         missing = ~np.isfinite(dataset.frame[col].to_numpy())
@@ -212,11 +220,16 @@ def check(
                 longest_start=dataset.frame.index[longest_run[0]] if longest_run else None,
             )
         )
+        missing_all[col] = bool(len(missing) and missing.all())
         if col in required and len(missing) and missing.all():
             problems.append(
                 f"{path.name}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
                 f"(at least {100 * min_coverage:g} % of the step)"
             )
+    sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
+    for msg, col in sparse.items():
+        if not (col in required and missing_all.get(col)):
+            problems.append(f"{path.name}: {msg}")
     if not dataset.weeks:
         span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
         problems.append(
@@ -227,7 +240,7 @@ def check(
     periods = [
         (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
     ]
-    notes = [w for w in dataset.warnings]
+    notes = [w for w in dataset.warnings if w not in sparse]
     zone_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in dataset.frame.columns]
     all_zones = np.isfinite(dataset.frame[zone_cols].to_numpy()).all(axis=1)
     for w in dataset.weeks:
