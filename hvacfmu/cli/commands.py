@@ -38,7 +38,7 @@ def _data_args(p):
 
 
 def _load_dataset(args):
-    from .data import prepare
+    from ..data import prepare
 
     return prepare(
         args.data,
@@ -52,7 +52,7 @@ def _load_dataset(args):
 
 # --------------------------------------------------------------------------- check
 def _cmd_check(args):
-    from .data import check
+    from ..data import check
 
     report = check(
         args.data,
@@ -68,17 +68,20 @@ def _cmd_check(args):
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
-    from .emulator import generate, parse_effect
+    from ..emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    paths = generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
+    paths = generate(
+        args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
+        construction=args.construction, climate=args.climate, start=args.start,
+    )
     print(paths)
     return 0
 
 
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
-    from .fitting import fit
+    from ..fitting import fit
 
     dataset = _load_dataset(args)
     model = fit(dataset, args.model, progress=not args.quiet)
@@ -92,8 +95,8 @@ def _cmd_fit(args):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    from .evaluation import evaluate
-    from .models import load_model
+    from ..evaluation import evaluate
+    from ..models import load_model
 
     dataset = _load_dataset(args)
     models = [load_model(m) for m in args.model]
@@ -110,7 +113,7 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_file
+    from ..fmu import export_file
 
     path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
@@ -126,7 +129,7 @@ def _cmd_cosim(args):
 
 # --------------------------------------------------------------------------- diagnose
 def _cmd_diagnose(args):
-    from .diagnosis import diagnose
+    from ..diagnosis import diagnose
 
     dataset = _load_dataset(args)
     report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
@@ -150,6 +153,8 @@ def _cmd_demo(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ..models.registry import fittable_kinds
+
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -163,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
-    p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
+    p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
@@ -174,11 +179,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.add_argument("--layout", choices=("sdh", "row4", "core9"), default="sdh",
+                   help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)")
+    p.add_argument("--construction", choices=("medium", "light", "heavy"), default="medium",
+                   help="construction template (default medium: the SDH-like concrete frame)")
+    p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
+                   help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
+    p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
+                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
     p.set_defaults(func=_cmd_fit)
 
@@ -225,13 +238,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version():
-    from . import __version__
+    from .. import __version__
 
     return __version__
 
 
 def main(argv=None) -> int:
-    from .errors import HvacfmuError
+    from ..errors import HvacfmuError
 
     parser = build_parser()
     args = parser.parse_args(argv)
