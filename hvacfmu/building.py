@@ -547,15 +547,15 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
     ) or tuple(Season(*s) for s in DEFAULT_SEASONS)
     physics = {k: d[k] for k in PHYSICS_KEYS if k in d}
     data_tz = d.get("data_timezone")
-    fields = dict(
-        name=_as_str(d.get("name"), "name", problems, default=""),
-        latitude=_as_float(d.get("latitude", 0.0), "latitude [deg]", problems),
-        longitude=_as_float(d.get("longitude", 0.0), "longitude [deg]", problems),
-        timezone=_as_str(d.get("timezone"), "timezone", problems, default="UTC"),
-        data_timezone=None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
-        columns=_str_map(d.get("columns"), "columns", problems),
-        units=_str_map(d.get("units"), "units", problems),
-    )
+    fields = {
+        "name": _as_str(d.get("name"), "name", problems, default=""),
+        "latitude": _as_float(d.get("latitude", 0.0), "latitude [deg]", problems),
+        "longitude": _as_float(d.get("longitude", 0.0), "longitude [deg]", problems),
+        "timezone": _as_str(d.get("timezone"), "timezone", problems, default="UTC"),
+        "data_timezone": None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
+        "columns": _str_map(d.get("columns"), "columns", problems),
+        "units": _str_map(d.get("units"), "units", problems),
+    }
     if problems:
         raise BuildingError(problems_message(f"Invalid building file {source or ''}".strip(), problems))
     return Building(

@@ -20,7 +20,7 @@ N_PERIODS_LISTED = 12
 
 
 def _duration(seconds: float) -> str:
-    seconds = int(round(seconds))
+    seconds = round(seconds)
     d, rest = divmod(seconds, 86400)
     h, rest = divmod(rest, 3600)
     m = rest // 60

@@ -219,7 +219,7 @@ class Dataset:
         warnings_=None,
         coverage=None,
         load_report=None,
-    ) -> "Dataset":
+    ) -> Dataset:
         """A dataset from a frame already on the model step (weeks, split and facade irradiance added).
 
         ``frame`` must have a regular tz-aware index ``step`` apart and
@@ -313,7 +313,7 @@ def _check_step_frame(frame: pd.DataFrame, step: float) -> None:
         raise DataError("a dataset frame needs a tz-aware DatetimeIndex (local time of the building)")
     if len(idx) > 1:
         d = np.diff(idx.as_unit("ns").asi8)
-        bad = np.flatnonzero(d != int(round(step * 1e9)))
+        bad = np.flatnonzero(d != round(step * 1e9))
         if len(bad):
             raise DataError(
                 f"a dataset frame must be regular with the model step {step:g} s; {len(bad)} spacing(s) differ, "
@@ -418,7 +418,7 @@ def option_problems(step, train_fraction=0.9, interpolate_limit=None, min_covera
     """Problems of the numeric options of :func:`prepare` (empty if fine), each naming the option and the fix."""
     problems = []
     ok_step = isinstance(step, numbers.Real) and np.isfinite(step) and step > 0
-    if not ok_step or abs(step - round(step)) > 1e-9 or 3600 % int(round(step)):
+    if not ok_step or abs(step - round(step)) > 1e-9 or 3600 % round(step):
         problems.append(
             f"step {step!r} s: the model step must be a positive whole number of seconds dividing one hour "
             "(e.g. 300, 600, 900, 1800, 3600)"
@@ -474,5 +474,12 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
 
 
 __all__ = [
-    "MIN_COLUMN_COVERAGE", "Dataset", "Week", "make_weeks", "prepare", "primary_supply", "file_sha256", "sparse_columns"
+    "MIN_COLUMN_COVERAGE",
+    "Dataset",
+    "Week",
+    "file_sha256",
+    "make_weeks",
+    "prepare",
+    "primary_supply",
+    "sparse_columns"
 ]
