@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import BuildingError, DataError
+from .clock import ClockCheck, clock_check
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
 from .resample import MIN_COVERAGE
@@ -77,6 +78,8 @@ class CheckReport:
     gaps : list of ColumnGaps
     excitation_periods : list of (Timestamp, Timestamp)
         Start and end (exclusive) of each run of excitation steps.
+    clock : ClockCheck or None
+        The data's daily cycle against the declared clock (:func:`~hvacfmu.data.clock.clock_check`).
     """
 
     ok: bool
@@ -88,6 +91,7 @@ class CheckReport:
     load_report: LoadReport | None = None
     gaps: list = dataclasses.field(default_factory=list)
     excitation_periods: list = dataclasses.field(default_factory=list)
+    clock: ClockCheck | None = None
 
     def __str__(self) -> str:
         return self.format()
@@ -126,6 +130,9 @@ class CheckReport:
                 if n_gaps:
                     longest = f", longest {_duration(longest_s)} from {longest_start.isoformat()}"
                 lines.append(f"  {100 * coverage:6.2f} %  {n_gaps:4d} gap(s){longest}: {_names(names)}")
+            if self.clock is not None:
+                offset = "" if self.clock.offset is None else f" (offset {self.clock.offset:+.1f} h)"
+                lines.append(f"Clock: {self.clock.detail}{offset}")
             lines.append(f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else ""))
             for season in ds.building.season_names:
                 weeks = [w for w in ds.weeks if w.season == season]
@@ -253,6 +260,9 @@ def check(
             )
     if not periods:
         notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    if clock.warning:
+        notes.insert(0, f"{path.name}: clock: {clock.warning}")
     return CheckReport(
         ok=not problems,
         problems=problems,
@@ -263,4 +273,5 @@ def check(
         load_report=report,
         gaps=gaps,
         excitation_periods=periods,
+        clock=clock,
     )
