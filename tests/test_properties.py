@@ -17,16 +17,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from hvacfmu.building import building_from_dict  # noqa: E402
-from hvacfmu.data import check, prepare  # noqa: E402
-from hvacfmu.data.loading import TEMPERATURE_RANGE  # noqa: E402
-from hvacfmu.data.plausibility import SPIKE_FACTOR  # noqa: E402
-from hvacfmu.data.units import from_si  # noqa: E402
-from hvacfmu.errors import BuildingError, HvacfmuError, HvacfmuWarning  # noqa: E402
+from hvacfmu.building import building_from_dict
+from hvacfmu.data import check, prepare
+from hvacfmu.data.loading import TEMPERATURE_RANGE
+from hvacfmu.data.plausibility import SPIKE_FACTOR
+from hvacfmu.data.units import from_si
+from hvacfmu.errors import BuildingError, HvacfmuError, HvacfmuWarning
 
 BUILDING = {
     "name": "two rooms",

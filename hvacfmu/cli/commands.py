@@ -47,6 +47,7 @@ def _load_dataset(args):
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
         timezone=args.timezone,
+        progress=not args.quiet,
     )
 
 
@@ -61,6 +62,7 @@ def _cmd_check(args):
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
         timezone=args.timezone,
+        progress=not args.quiet,
     )
     print(report)
     return 0 if report.ok else 1

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import BuildingError, DataError
+from ..progress import Progress
 from .clock import ClockCheck, clock_check
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
@@ -170,10 +171,11 @@ def check(
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
     timezone: str | None = None,
+    progress: bool = False,
 ) -> CheckReport:
     """Load and validate a dataset; never raises for bad data or a bad building file.
 
-    Parameters are those of :func:`hvacfmu.data.prepare`.
+    Parameters are those of :func:`hvacfmu.data.prepare` (``timezone``, ``progress`` included).
 
     Returns
     -------
@@ -196,14 +198,17 @@ def check(
     except BuildingError as exc:
         return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
     about = f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"
-    frame, report, problems = _load(path, building)
+    with Progress(total=1, desc=f"reading {path.name}", unit="file", enabled=progress) as bar:
+        frame, report, problems = _load(path, building)
+        bar.update()
     if problems:
         return CheckReport(
             ok=False, problems=problems, warnings=list(report.warnings), path=str(path), building=about, load_report=report
         )
     try:
         dataset = _prepare(
-            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report)
+            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report),
+            progress=progress,
         )
     except (DataError, ValueError) as exc:
         return CheckReport(
