@@ -653,7 +653,20 @@ def test_check_report_contents(tmp_path, small_building):
     assert "week #1 (2024-09-09, fall, test): only 57 % of its steps have every zone temperature" in text
     assert "Excitation periods: 2 (4 h 30 min in total)" in text
     assert "2024-09-07 Sat 10:00 .. 14:00" in text
+    assert "Plausibility: 3 airflow column(s) against their box's m_min..m_max" in text and "nothing masked" in text
+    assert "Clock: measured solar noon (ghi-weighted mean time)" in text
     assert text.rstrip().endswith("OK: the data can be used for fitting")
+
+
+def test_check_counts_masked_samples(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-09-02", periods=8 * 1440)
+    frame.iloc[[10, 5000], frame.columns.get_loc("m_V3")] = 50.0
+    frame.iloc[1440 : 4 * 1440, frame.columns.get_loc("T_B")] = 22.25
+    report = check(write(frame, tmp_path / "m.csv"), small_building)
+    text = str(report)
+    assert report.ok
+    assert "  2 sample(s) of m_V3 masked (airflow spike)" in text
+    assert "  4320 sample(s) of T_B masked (stuck sensor)" in text
 
 
 def test_check_reports_problems_instead_of_raising(tmp_path, small_building):

@@ -13,6 +13,7 @@ from ..progress import Progress
 from .clock import ClockCheck, clock_check
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
+from .plausibility import SPIKE_FACTOR, SPIKE_SHARE_MAX, STUCK_DAYS
 from .resample import MIN_COVERAGE
 
 #: Weeks with fewer steps than this holding every zone temperature are flagged.
@@ -97,6 +98,23 @@ class CheckReport:
     def __str__(self) -> str:
         return self.format()
 
+    def _plausibility_lines(self) -> list:
+        """What the physical checks covered and what they masked, with counts."""
+        lr, b = self.load_report, self.dataset.building
+        n_m = sum(1 for c in lr.columns if c.startswith("m_"))
+        n_t = sum(1 for c in lr.columns if c.startswith(("T_", "Td_")))
+        lines = [
+            f"Plausibility: {n_m} airflow column(s) against their box's m_min..m_max (spikes above "
+            f"{SPIKE_FACTOR:g} x m_max masked up to {100 * SPIKE_SHARE_MAX:g} %), {n_t} temperature column(s) "
+            f"against their unit and -50..80 °C, T_out against the climate at latitude {b.latitude:g}°, "
+            f"stuck temperature sensors ({STUCK_DAYS:g} days)"
+        ]
+        if not lr.masked:
+            lines.append("  nothing masked")
+        for (col, why), count in lr.masked.items():
+            lines.append(f"  {count} sample(s) of {col} masked ({why})")
+        return lines
+
     def format(self) -> str:
         """The human-readable report printed by ``hvacfmu check``."""
         lines = [f"Measurements: {self.path}"]
@@ -122,6 +140,7 @@ class CheckReport:
                 lines.append(f"Solar: facade irradiance I_N, I_E, I_S, I_W {how}")
             else:
                 lines.append("Solar: none (no ghi and no facade columns)")
+            lines += self._plausibility_lines()
             lines.append("Coverage on the model step (steps with a value, gaps, longest gap):")
             groups: dict = {}
             for g in self.gaps:  # columns with identical coverage share one line

@@ -57,6 +57,9 @@ class LoadReport:
         File columns that map to no canonical quantity (ignored).
     has_offsets : bool
         True if the times carry UTC offsets (no daylight-saving ambiguity).
+    masked : dict
+        ``(canonical column, reason) -> samples`` set missing by a plausibility
+        check (reasons ``"airflow spike"``, ``"stuck sensor"``).
     warnings : list of str
         Usable but noteworthy findings (unknown columns, clipped sensor noise ...).
     """
@@ -71,6 +74,7 @@ class LoadReport:
     units: dict = dataclasses.field(default_factory=dict)
     unknown_columns: tuple = ()
     has_offsets: bool = False
+    masked: dict = dataclasses.field(default_factory=dict)
     warnings: list = dataclasses.field(default_factory=list)
 
 
@@ -533,7 +537,10 @@ def _load(path: Path, building: Building):
             if canonical == "T_out" and len(problems) == n_before:
                 check_outdoor(si, unit, local, building.latitude, f"{label}: {desc}", problems)
         elif kind == "airflow":
+            kept = int(np.isfinite(si).sum())
             si = _check_airflow(canonical, desc, label, unit, finite, si, boxes.get(canonical), where, problems, report)
+            if kept > np.isfinite(si).sum():
+                report.masked[(canonical, "airflow spike")] = kept - int(np.isfinite(si).sum())
         elif kind == "irradiance":
             si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
         elif kind == "fraction":
@@ -544,7 +551,10 @@ def _load(path: Path, building: Building):
                 problems.append(
                     f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
                 )
+        kept = int(np.isfinite(si).sum())
         si = check_stuck(canonical, si, utc if utc is not None else None, f"{label}: {desc}", rows_of, report.warnings)
+        if kept > np.isfinite(si).sum():
+            report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
         out[canonical] = si
         if utc is not None:
             sel = np.isfinite(si) & ok
