@@ -73,7 +73,8 @@ def _cmd_generate(args):
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = generate(
         args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
-        construction=args.construction, climate=args.climate, start=args.start,
+        construction=args.construction, climate=args.climate, start=args.start, hvac=args.hvac, units=args.units,
+        clock=args.clock, export_step=args.export_step, faults=args.fault or (),
     )
     print(paths)
     return 0
@@ -184,6 +185,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
     p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
+    p.add_argument("--hvac", choices=("vav", "reheat"), default="vav",
+                   help="vav (default) or reheat: real-BMS-like VAV with reheat, two air handlers, Td_/rh_ columns")
+    p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
+    p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
+                   help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
+    p.add_argument("--export-step", type=int, default=60, metavar="SECONDS", help="trend-log interval (default 60)")
+    p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
+                   help="real-world export defect (repeatable)")
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")

@@ -467,13 +467,17 @@ def cache_key(weeks: int, seed: int, effects=(), **options) -> str:
     blob = json.dumps(parsed, sort_keys=True)
     h = hashlib.sha256(blob.encode()).hexdigest()[:12] if parsed else "none"
     key = f"emulator-v{EMULATOR_VERSION}-w{int(weeks)}-s{int(seed)}-{h}"
+    options = {k: (tuple(v) if k == "faults" else v) for k, v in options.items()}
+    if "start" in options:
+        options["start"] = pd.Timestamp(options["start"]).strftime("%Y-%m-%dT%H:%M:%S")
     extra = {k: v for k, v in sorted(options.items()) if v is not None and v != _GENERATE_DEFAULTS.get(k)}
     if extra:
         key += "-" + hashlib.sha256(json.dumps(extra, sort_keys=True).encode()).hexdigest()[:10]
     return key
 
 
-_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START}
+_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START,
+                      "hvac": "vav", "units": "si", "clock": "aware", "export_step": 60, "faults": ()}
 
 
 def cached_dataset(weeks: int = 51, seed: int = 0, effects=(), **options) -> GeneratedPaths:
