@@ -80,6 +80,14 @@ def _cmd_generate(args):
     return 0
 
 
+def _cmd_generate_fleet(args):
+    from .emulator import generate_fleet
+
+    path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
+    print(f"fleet manifest: {path}")
+    return 0
+
+
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
     from .fitting import fit
@@ -194,6 +202,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
                    help="real-world export defect (repeatable)")
     p.set_defaults(func=_cmd_generate)
+
+    p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
+    p.add_argument("n", type=int, metavar="N")
+    p.add_argument("outdir", metavar="DIR")
+    p.add_argument("--weeks", type=int, default=51, help="length of every dataset (default 51)")
+    p.add_argument("--seed", type=int, default=0, help="draws layouts, constructions, climates, effects, modes")
+    p.set_defaults(func=_cmd_generate_fleet)
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)

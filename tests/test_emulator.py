@@ -608,7 +608,6 @@ LAYOUT_CASES = [
     ("row4", "heavy", "cold", "2026-01-12", 2),
     ("core9", "medium", "hot", "2026-07-06", 1),
     ("core9", "light", "cold", "2026-01-05", 2),
-    ("sdh", "heavy", "hot", "2026-06-01", 3),
 ]
 
 
@@ -885,6 +884,7 @@ def test_bad_export_options(tmp_path, kwargs, match):
         generate(tmp_path / "x", weeks=1, **kwargs)
 
 
+@pytest.mark.slow
 def test_cli_generate_real_bms_options(tmp_path):
     out = tmp_path / "cli"
     cmd = [sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--weeks", "1", "--seed", "1", "--layout", "row4",
@@ -900,3 +900,58 @@ def test_cli_generate_real_bms_options(tmp_path):
     assert truth["export"]["units"] == "us" and truth["export"]["clock"] == "naive-utc"
     bad = subprocess.run(cmd[:4] + ["--layout", "atrium"], capture_output=True, text=True, check=False)
     assert bad.returncode != 0 and "atrium" in bad.stderr
+
+
+# --------------------------------------------------------------------------- fleet
+def test_fleet_parameters_are_varied_and_seeded():
+    from hvacfmu.emulator import fleet_parameters
+
+    many = fleet_parameters(30, seed=0, weeks=51)
+    assert many == fleet_parameters(30, seed=0, weeks=51)
+    assert many != fleet_parameters(30, seed=1, weeks=51)
+    for key, values in [("layout", {"sdh", "row4", "core9"}), ("climate", {"mild", "cold", "hot"}),
+                        ("construction", {"light", "medium", "heavy"}), ("hvac", {"vav", "reheat"})]:
+        assert {p[key] for p in many} == values, key
+    assert {e for p in many for e in p["effects"]} == set(EFFECT_NAMES)
+    assert any(not p["effects"] for p in many)  # clean buildings too
+    assert len({p["seed"] for p in many}) == 30
+    assert all(p["units"] == "us" for p in many if p["hvac"] == "reheat")
+    assert len({p["start"] for p in fleet_parameters(30, seed=0, weeks=4)}) > 2  # short datasets: several seasons
+
+
+def test_generate_fleet(tmp_path):
+    """Three 2-week buildings: manifest with relative paths, each building prepares, truth matches its parameters."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import FLEET_FORMAT, generate_fleet
+    from hvacfmu.errors import HvacfmuWarning
+
+    manifest = generate_fleet(3, tmp_path / "fleet", seed=2, weeks=2, progress=False)
+    m = json.loads(manifest.read_text())
+    assert m["format"] == FLEET_FORMAT and m["weeks"] == 2 and len(m["buildings"]) == 3
+    for row in m["buildings"]:
+        folder = manifest.parent / row["folder"]
+        assert folder.is_dir()
+        truth = json.loads((manifest.parent / row["truth"]).read_text())
+        p = row["parameters"]
+        assert (truth["layout"], truth["climate"], truth["construction"], truth["hvac"], truth["seed"]) == (
+            p["layout"], p["climate"], p["construction"], p["hvac"], p["seed"])
+        assert [e["name"] for e in truth["effects"]] == p["effects"]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HvacfmuWarning)
+            ds = prepare(manifest.parent / row["measurements"], manifest.parent / row["building"])
+        assert list(ds.building.zone_names) == truth["zones"]
+        assert len(ds.weeks) == 2
+    with pytest.raises(EmulatorError, match="n must be a positive number of buildings"):
+        generate_fleet(0, tmp_path / "none")
+
+
+@pytest.mark.slow
+def test_cli_generate_fleet(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate-fleet", "2", str(tmp_path / "f"), "--weeks", "1",
+                        "--seed", "3"], capture_output=True, text=True, check=False)
+    assert r.returncode == 0, r.stderr
+    m = json.loads((tmp_path / "f" / "fleet.json").read_text())
+    assert [b["name"] for b in m["buildings"]] == ["b000", "b001"]
+    assert "fleet: 2/2 b001" in r.stderr
