@@ -38,9 +38,9 @@ def _data_args(p):
 
 
 def _load_dataset(args):
-    from .data import prepare
+    import hvacfmu as hf
 
-    return prepare(
+    return hf.prepare(
         args.data,
         args.building,
         step=args.step,
@@ -52,26 +52,22 @@ def _load_dataset(args):
 
 # --------------------------------------------------------------------------- check
 def _cmd_check(args):
-    from .data import check
+    import hvacfmu as hf
 
-    report = check(
-        args.data,
-        args.building,
-        step=args.step,
-        seed=args.seed,
-        interpolate_limit=args.interpolate_gaps,
-        timezone=args.timezone,
-    )
+    report = hf.check(args.data, args.building, step=args.step, seed=args.seed,
+                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone)
     print(report)
     return 0 if report.ok else 1
 
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
-    from .emulator import generate, parse_effect
+    import hvacfmu as hf
+
+    from ..emulator import parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    paths = generate(
+    paths = hf.generate(
         args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
         construction=args.construction, climate=args.climate, start=args.start, hvac=args.hvac, units=args.units,
         clock=args.clock, export_step=args.export_step, faults=args.fault or (),
@@ -90,10 +86,10 @@ def _cmd_generate_fleet(args):
 
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
-    from .fitting import fit
+    import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    model = fit(dataset, args.model, progress=not args.quiet)
+    model = hf.fit(dataset, args.model, progress=not args.quiet)
     path = model.save(args.output)
     print(f"saved {args.model} model to {path}")
     summary = getattr(model, "summary", None)
@@ -104,13 +100,11 @@ def _cmd_fit(args):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    from .evaluation import evaluate
-    from .models import load_model
+    import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    models = [load_model(m) for m in args.model]
-    result = evaluate(models if len(models) > 1 else models[0], dataset, horizon=args.horizon)
-    print(result.format_table())
+    result = hf.evaluate(args.model if len(args.model) > 1 else args.model[0], dataset, horizon=args.horizon)
+    print(result.format())
     if args.json:
         result.save_json(args.json)
         print(f"wrote {args.json}")
@@ -122,7 +116,7 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_file
+    from ..fmu import export_file
 
     path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
@@ -138,10 +132,10 @@ def _cmd_cosim(args):
 
 # --------------------------------------------------------------------------- diagnose
 def _cmd_diagnose(args):
-    from .diagnosis import diagnose
+    import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
+    report = hf.diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
     print(report.format())
     if args.json:
         report.save_json(args.json)
@@ -162,6 +156,8 @@ def _cmd_demo(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ..models.registry import fittable_kinds
+
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -212,11 +208,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
+                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
     p.set_defaults(func=_cmd_fit)
 
-    p = sub.add_parser("evaluate", help="24-hour open-loop RMS on held-out weeks (the paper's Table I)")
+    p = sub.add_parser("evaluate", help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
+                       "CV(RMSE)), then 24-hour open-loop RMS on held-out weeks (the paper's Table I)")
     _data_args(p)
     p.add_argument("--model", "-m", action="append", required=True, help="model file (repeatable)")
     p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
@@ -259,17 +257,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version():
-    from . import __version__
+    from .. import __version__
 
     return __version__
 
 
 def main(argv=None) -> int:
-    from .errors import HvacfmuError
+    from ..errors import HvacfmuError
 
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
