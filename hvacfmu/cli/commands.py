@@ -69,9 +69,18 @@ def _cmd_generate(args):
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = hf.generate(
         args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
-        construction=args.construction, climate=args.climate, start=args.start,
+        construction=args.construction, climate=args.climate, start=args.start, hvac=args.hvac, units=args.units,
+        clock=args.clock, export_step=args.export_step, faults=args.fault or (),
     )
     print(paths)
+    return 0
+
+
+def _cmd_generate_fleet(args):
+    from .emulator import generate_fleet
+
+    path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
+    print(f"fleet manifest: {path}")
     return 0
 
 
@@ -180,7 +189,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
     p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
+    p.add_argument("--hvac", choices=("vav", "reheat"), default="vav",
+                   help="vav (default) or reheat: real-BMS-like VAV with reheat, two air handlers, Td_/rh_ columns")
+    p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
+    p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
+                   help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
+    p.add_argument("--export-step", type=int, default=60, metavar="SECONDS", help="trend-log interval (default 60)")
+    p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
+                   help="real-world export defect (repeatable)")
     p.set_defaults(func=_cmd_generate)
+
+    p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
+    p.add_argument("n", type=int, metavar="N")
+    p.add_argument("outdir", metavar="DIR")
+    p.add_argument("--weeks", type=int, default=51, help="length of every dataset (default 51)")
+    p.add_argument("--seed", type=int, default=0, help="draws layouts, constructions, climates, effects, modes")
+    p.set_defaults(func=_cmd_generate_fleet)
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
