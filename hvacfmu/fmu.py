@@ -314,14 +314,22 @@ def _build(script: Path, out_path, resources) -> Path:
     return Path(path)
 
 
-def validate(path) -> list[str]:
-    """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine)."""
+def validate(path, native: bool | None = None) -> list[str]:
+    """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine).
+
+    ``native``: the FMU is a native one (C sources, no resources); None: recognised by its ``sources/``.
+    """
     from fmpy.validation import validate_fmu
 
     problems = list(validate_fmu(str(path)))
     with zipfile.ZipFile(path) as z:
         names = set(z.namelist())
-    if not any(n.startswith("resources/") and n.endswith((".json",)) for n in names):
+    if native is None:
+        native = any(n.startswith("sources/") for n in names)
+    if native:
+        if not any(n.startswith("sources/") and n.endswith(".c") for n in names):
+            problems.append("no C sources in the native FMU's sources/")
+    elif not any(n.startswith("resources/") and n.endswith((".json",)) for n in names):
         problems.append("no model file (JSON) in the FMU's resources")
     return problems
 
