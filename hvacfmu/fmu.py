@@ -269,18 +269,29 @@ def export_plant_fmu(truth_path, out_path) -> Path:
     return path
 
 
-def export_file(path, out_path, *, timezone: str | None = None) -> Path:
+def export_file(path, out_path, *, timezone: str | None = None, native: bool = False) -> Path:
     """Export a model file or an emulator ``truth.json`` (recognised by its content) as an FMU.
 
-    This is what ``hvacfmu export FILE -o OUT.fmu [--timezone TZ]`` runs;
-    ``timezone`` is passed to :func:`export_fmu` (plants ignore it).
+    This is what ``hvacfmu export FILE -o OUT.fmu [--timezone TZ] [--native]`` runs;
+    ``timezone`` is passed to :func:`export_fmu` (plants ignore it); ``native``
+    writes a native FMU (:func:`hvacfmu.fmu_native.export_native_fmu`, model
+    files only).
     """
     path = Path(path)
     try:
         d = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         d = None  # load_model reports it
-    if isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d:
+    plant = isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d
+    if native:
+        if plant:
+            raise FMUError(f"{path} is an emulated plant (truth.json): it has no linear equations and cannot be "
+                           "exported as a native FMU; export it without --native")
+        from .fmu_native import export_native_fmu
+        from .models import load_model
+
+        return export_native_fmu(load_model(path), out_path, model_name=path.name)
+    if plant:
         return export_plant_fmu(path, out_path)
     return export_fmu(path, out_path, timezone=timezone)
 
@@ -314,6 +325,13 @@ def _build(script: Path, out_path, resources) -> Path:
     return Path(path)
 
 
+def export_native_fmu(model, out_path, **kwargs) -> Path:
+    """Native FMU of ``model`` (generated C, no Python at run time); see :func:`hvacfmu.fmu_native.export_native_fmu`."""
+    from .fmu_native import export_native_fmu as _export
+
+    return _export(model, out_path, **kwargs)
+
+
 def validate(path, native: bool | None = None) -> list[str]:
     """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine).
 
@@ -334,4 +352,4 @@ def validate(path, native: bool | None = None) -> list[str]:
     return problems
 
 
-__all__ = ["export_file", "export_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
+__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]

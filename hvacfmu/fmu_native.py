@@ -63,14 +63,14 @@ def native_equations(model, model_name="the model"):
     from .models.equations import check_equations
 
     kind = getattr(model, "kind", type(model).__name__)
-    if not callable(getattr(model, "equations", None)):
-        raise FMUError(f"cannot export {model_name} as a native FMU: model kind {kind!r} has no equations() "
-                       "(it is not linear or bilinear in a finite state); export the pythonfmu FMU instead "
-                       "(hvacfmu export without --native)")
     if calendar_dependent(model):
         raise FMUError(f"cannot export {model_name} as a native FMU: its internal gains depend on the calendar "
                        "(holidays or daylight-saving terms), which the native FMU does not compute; export the "
                        "pythonfmu FMU with --timezone instead")
+    if not callable(getattr(model, "equations", None)):
+        raise FMUError(f"cannot export {model_name} as a native FMU: model kind {kind!r} has no equations() "
+                       "(it is not linear or bilinear in a finite state); export the pythonfmu FMU instead "
+                       "(hvacfmu export without --native)")
     eq = model.equations()
     problems = []
     if tuple(eq.inputs) != tuple(model.inputs):
