@@ -26,7 +26,7 @@
 
 enum { R_M = 0, R_V = 1, R_TOWIN = 2, R_Y = 3, R_Y0 = 4, R_SEASON = 5, R_TOW = 6 };
 
-/* a matrix: sparse (nnz entries row[k], col[k], val[k]) or, when row is NULL, dense row-major nrows x ncols */
+/* a matrix: sparse (nnz entries row[k], col[k], val[k]) or, when row is NULL, dense column-major nrows x ncols */
 typedef struct {
     int nnz;
     const int *row;
@@ -105,12 +105,13 @@ static void hv_log(hv_inst *c, fmi2Status status, const char *category, const ch
 }
 
 static void spmv_add(const hv_sparse *a, const double *x, double *y) {
-    if (!a->row) {
-        const double *v = a->val;
-        for (int i = 0; i < a->nrows; ++i, v += a->ncols) {
-            double s = 0.0;
-            for (int j = 0; j < a->ncols; ++j) s += v[j] * x[j];
-            y[i] += s;
+    if (!a->row) { /* dense, column-major: y += sum_j a[:, j] x[j] (independent lanes, vectorises) */
+        const double *col = a->val;
+        const int nr = a->nrows;
+        for (int j = 0; j < a->ncols; ++j, col += nr) {
+            const double xj = x[j];
+            if (xj == 0.0) continue;
+            for (int i = 0; i < nr; ++i) y[i] += col[i] * xj;
         }
         return;
     }

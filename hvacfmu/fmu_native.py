@@ -129,8 +129,8 @@ def _is_dense(M) -> bool:
 
 def _c_sparse(name: str, M) -> str:
     M = np.asarray(M, dtype=float)
-    if _is_dense(M):
-        return _c_array("double", f"{name}_val", M.ravel().tolist(), _c_double)
+    if _is_dense(M):  # column-major
+        return _c_array("double", f"{name}_val", M.T.ravel().tolist(), _c_double)
     rows, cols = np.nonzero(M)
     out = _c_array("int", f"{name}_row", rows.tolist())
     out += _c_array("int", f"{name}_col", cols.tolist())
@@ -259,7 +259,7 @@ def compile_binary(sources: Path, identifier: str, out_dir: Path) -> Path:
                        "also be compiled later with `fmpy compile`")
     out_dir.mkdir(parents=True, exist_ok=True)
     lib = out_dir / f"{identifier}.so"
-    cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=default", "-Wall",
+    cmd = [cc, "-std=c99", "-O3", "-fPIC", "-shared", "-fvisibility=default", "-Wall",
            "-I", str(sources), "-I", str(fmi_include_dir()), "-o", str(lib), str(sources / RUNTIME_NAME)]
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
