@@ -281,7 +281,8 @@ def _zip_folder(folder: Path, out_path: Path) -> None:
     tmp.replace(out_path)
 
 
-def export_native_fmu(model, out_path, *, model_name: str | None = None, compile: bool = True) -> Path:
+def export_native_fmu(model, out_path, *, model_name: str | None = None, compile: bool = True,
+                      building=None) -> Path:
     """Export a zone model as a native FMI 2.0 co-simulation FMU (generated C code, no Python at run time).
 
     Parameters
@@ -295,6 +296,8 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
     compile : bool
         Compile ``binaries/linux64`` now (default); without it the FMU holds only
         its sources (``fmpy compile`` builds them).
+    building : Building, optional
+        Box airflow bounds (``m_max``) and zones, as for :func:`hvacfmu.fmu.export_fmu`.
 
     Returns
     -------
@@ -308,7 +311,7 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         validating failed.
     """
     from .fmu_description import documentation_html, model_description_xml
-    from .fmu_slave import zone_model_layout
+    from .fmu_slave import box_limits, zone_model_layout
 
     out_path = Path(out_path)
     if out_path.suffix != ".fmu":
@@ -316,7 +319,7 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
     name = model_name or f"{model.kind} model"
     eq = native_equations(model, name)
     try:
-        layout, M = zone_model_layout(model, None)
+        layout, M = zone_model_layout(model, None, box_limits(model, building))
     except ValueError as exc:
         raise FMUError(f"cannot export {name}: {exc}") from None
     layout["description"] = layout["description"].replace(
