@@ -118,7 +118,7 @@ def _cmd_evaluate(args):
 def _cmd_export(args):
     from ..fmu import export_file
 
-    path = export_file(args.model, args.output, timezone=args.timezone)
+    path = export_file(args.model, args.output, timezone=args.timezone, native=args.native, building=args.building)
     print(f"wrote {path}")
     return 0
 
@@ -228,6 +228,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", required=True, help="FMU to write")
     p.add_argument("--timezone", help="IANA time zone of the building (e.g. America/Los_Angeles); lets the FMU of a "
                    "model with calendar terms (holidays) follow the calendar through its start_time parameter")
+    p.add_argument("--building", "-b", help="building file (TOML) the model was fitted on: box airflow bounds "
+                   "(m_max) and zones in the model description")
+    p.add_argument("--native", action="store_true", help="native FMU: the model as generated C code compiled "
+                   "with the system C compiler, no Python at run time (linear/bilinear model kinds)")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
