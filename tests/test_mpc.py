@@ -519,7 +519,8 @@ def test_cosim_adapter_runs_model_a_in_band(small_building):
         m_box = ctrl(k, idx[k], np.array([x[1], x[0]]), frame.iloc[k][["T_out", "T_supply"]].to_dict())
         assert m_box.shape == (3,) and np.all(m_box >= lo - 1e-7) and np.all(m_box <= hi + 1e-7)
         u = np.array([m_box[1] + m_box[2], m_box[0]])  # zone airflows seen by the model
-        assert_allclose(u, ctrl.mpc.plans[-1].U[0], rtol=0, atol=1e-12)
+        applied = np.clip(ctrl.mpc.plans[-1].U[0], ctrl.mpc.u_min, ctrl.mpc.u_max)  # the plan's move, projected
+        assert_allclose(u, applied, rtol=0, atol=1e-12)
         x = model.step_state(x, u, frame.iloc[k][["T_out", "T_supply"]].to_numpy(float), np.full(2, 0.9))
         assert band_residual(x) <= FEAS_TOL
     assert ctrl.stats()["failures"] == 0 and ctrl.stats()["steps"] == n
@@ -683,12 +684,21 @@ def test_mpc_in_harness_on_its_own_fmu_and_on_the_plant(tmp_path, short_paths, s
     mp = model.save(tmp_path / "zones.json")
     week = short_data.weeks[1]
     span = dict(start=week.start, stop=week.start + pd.Timedelta(days=1))
-    own = run_cosim(export_fmu(mp, tmp_path / "Zones.fmu"), short_data,
-                    make_controller("mpc", model, short_data.building, {"horizon": 3}), model=model, **span)
+    ctrl = make_controller("mpc", model, short_data.building, {"horizon": 3})
+    own = run_cosim(export_fmu(mp, tmp_path / "Zones.fmu"), short_data, ctrl, model=model, **span)
     assert own.covered and own.summary["steps_completed"] == 96
-    assert own.summary["controller"] == "mpc" and own.summary["controller_stats"]["failures"] == 0
+    stats = own.summary["controller_stats"]
+    assert own.summary["controller"] == "mpc" and stats["failures"] == 0
     T = own.table[[f"T_{z}" for z in model.outputs]].iloc[1:].to_numpy()
-    assert np.max(np.maximum(T - 22.0, 20.0 - T)) <= 1e-4  # the plant is the model: the band holds
+    M = own.table[[f"m_{b}" for b in short_data.building.vav_names]].iloc[:-1].to_numpy()
+    lo, hi = (np.array([getattr(b, a) for b in short_data.building.vavs]) for a in ("m_min", "m_max"))
+    assert np.all(M >= lo) and np.all(M <= hi)  # the boxes' limits, whatever the plan wanted
+    # the plant is the model: wherever the plan needed no input slack (limits enough), the band holds
+    no_slack = np.array([np.max(p.eps) <= 1e-7 for p in ctrl.mpc.plans])
+    assert no_slack.sum() >= 40
+    assert np.max(np.maximum(T - 22.0, 20.0 - T)[no_slack]) <= 1e-4
+    # the day is too warm for the boxes' m_max at times: the plan's excess is projected and reported
+    assert stats["projected_steps"] == int(np.sum(~no_slack)) > 0 and stats["clipped_box_steps"] == 0
     plant = run_cosim(export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu"), short_data,
                       make_controller("mpc", model, short_data.building, {"horizon": 3}), model=model, **span)
     assert plant.covered and plant.summary["steps_completed"] == 96
@@ -706,3 +716,45 @@ def test_settings_from_harness_options():
     assert (s.T_min, s.T_max) == (20.5, 21.5) and rest == {"failure_dir": "x"}
     s, _ = settings_from_options(band=(20.0, 22.0), T_max=21.0)  # an explicit option beats the run's band
     assert s.T_max == 21.0
+
+
+# ---------------------------------------------------------------------------
+# limits: every applied input inside the box limits, on every model kind
+# ---------------------------------------------------------------------------
+def _week_case(kind, rc_medium):
+    """(model, u_min, u_max, V, Q, x0) for a week (672 steps) with input limits too tight at times."""
+    from harness.mpc.synthetic import delayed_three_zones
+
+    n = 672 + 12
+    if kind == "physics":
+        m = rc_medium
+        V, Q = synthetic_week(m, n, seed=9)
+        return m, m.m_min, 0.6 * m.m_max, V, Q, steady_state_at(m, V[0], Q[0], target=21.0)
+    V, Q = linear_preview(n, seed=3)
+    Q = Q + 0.6 * (np.sin(np.arange(n) * 2 * np.pi / 96)[:, None] > 0.3)  # occupied hours: more heat
+    if kind == "zones":
+        return linear_model(), LIN_UMIN, 0.5 * LIN_UMAX, V, Q, np.full(3, 21.0)
+    m = delayed_three_zones(delay=2, bilinear=kind == "extended-bilinear")
+    if kind == "extended-bilinear":
+        V[:, 0] -= 6.0  # cold nights switch the reheat term on
+    return m, m.m_min, 0.5 * m.m_max, V, Q, np.concatenate([np.full(3, 21.0), np.full(2, m.m_min[2])])
+
+
+@pytest.mark.parametrize("kind", ["zones", "physics", "extended-linear", "extended-bilinear"])
+def test_applied_inputs_stay_inside_limits_over_a_week(kind, rc_medium):
+    """The plan may soften the limits (slack); the applied move never leaves [u_min, u_max], and
+    every projection is counted (model as its own plant, one week, same cost and constraints)."""
+    m, u_min, u_max, V, Q, x0 = _week_case(kind, rc_medium)
+    c = MPCController(m, u_min, u_max, MPCSettings(horizon=3))
+    assert c.bilinear == (kind in ("physics", "extended-bilinear"))
+    assert c.estimated == (kind != "zones")  # hidden states (walls, delay buffers): Kalman filter
+    c.reset(x0=x0 if c.estimated else None)
+    r = closed_loop(c, m, x0, V, Q, 672)
+    assert np.all(r.u >= u_min) and np.all(r.u <= u_max)
+    assert r.summary()["input_excess_max"] == 0.0
+    planned = np.array([p.U[0] for p in c.plans])
+    outside = np.any((planned < u_min) | (planned > u_max), axis=1)
+    st = c.stats()
+    assert st["projected_steps"] == int(outside.sum()) > 0  # the test exercises the projection
+    assert_allclose(st["projected_max"], np.max(np.abs(planned - r.u)), rtol=0, atol=0)
+    assert st["failures"] == 0 and np.all(np.isfinite(r.y))

@@ -110,7 +110,8 @@ class MPCController:
         self.bilinear = not self.pred.linear
         pm = self.settings.prediction
         self.reduced = self.bilinear and (pm == "reduced" or (pm == "auto" and self.N > 24))
-        self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.bilinear else None
+        self.estimated = self.bilinear or not self.pred.state_is_output  # hidden states: Kalman filter
+        self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.estimated else None
         self.failure_dir = Path(failure_dir) if failure_dir is not None else None
         self._problem = None
         self.reset()
@@ -122,6 +123,9 @@ class MPCController:
         self.plans = []
         self.failed_problems = []
         self.n_failures = 0
+        self.n_projected = 0  # steps whose planned move left [u_min, u_max] (softened limits) and was projected
+        self.projected_max = 0.0  # [kg/s] largest projected difference of one input
+        self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
         self._plan = None
         self._last = None  # (u, v, q) applied at the previous step
         if self.kf is not None:
@@ -131,7 +135,7 @@ class MPCController:
     def estimate(self, y, v, q) -> np.ndarray:
         """State estimate from the measured outputs y (ny,) [°C]."""
         y = np.asarray(y, dtype=float)
-        if self.kf is None:  # Model A: the state is the measured output
+        if self.kf is None:  # the state is the measured output (Model A)
             return y.copy()
         if self.kf.x is None:
             self.kf.initialise(y, v, q, self.u_min)
@@ -155,6 +159,9 @@ class MPCController:
         Returns
         -------
         u : array (nu,) [kg/s]
+            Always inside ``[u_min, u_max]``: the plan may use the softened
+            limits (slack ``eps``), the applied move is its projection onto the
+            limits; the difference is counted in :meth:`stats`.
         """
         t0 = time.perf_counter()
         V = self._preview(V, "V")
@@ -169,6 +176,7 @@ class MPCController:
             u = self._fallback_move()
             shifted = self._shifted_plan()
             self._plan = dataclasses.replace(plan, U=shifted) if shifted is not None else None
+        u = self._project(u)
         plan.step_time = time.perf_counter() - t0
         self.plans.append(plan)
         self._last = (u, V[0], Qg[0])
@@ -186,6 +194,16 @@ class MPCController:
         if not np.all(np.isfinite(A[: self.N])):
             raise ModelError(f"{name} preview contains NaN or infinite values")
         return A[: self.N]
+
+    def _project(self, u) -> np.ndarray:
+        """The move made feasible: clipped to ``[u_min, u_max]``; the difference is counted."""
+        applied = np.clip(u, self.u_min, self.u_max)
+        diff = np.abs(np.asarray(u, dtype=float) - applied)
+        if float(diff.max(initial=0.0)) > 0.0:
+            self.n_projected += 1
+            self.projected_max = max(self.projected_max, float(diff.max()))
+            self.projected_sum += float(diff.sum())
+        return applied
 
     def _shifted_plan(self):
         if self._plan is None:
@@ -267,17 +285,35 @@ class MPCController:
 
     # ----- statistics ---------------------------------------------------------
     def stats(self) -> dict:
-        """Solve-time and iteration statistics over the steps so far."""
+        """Solve-time, iteration and limit statistics over the steps so far.
+
+        ``projected_steps``: steps whose planned move used the softened input
+        limits and was projected onto ``[u_min, u_max]``; ``projected_max``
+        [kg/s] the largest difference of one input, ``projected_sum``
+        [kg/s · steps] the summed differences.
+        """
         st = np.array([p.step_time for p in self.plans]) if self.plans else np.zeros(1)
         it = np.array([p.iterations for p in self.plans]) if self.plans else np.zeros(1)
         return {
             "steps": len(self.plans),
             "failures": self.n_failures,
             "not_converged": int(sum(1 for p in self.plans if p.found and not p.converged)),
+            "projected_steps": self.n_projected,
+            "projected_max": self.projected_max,
+            "projected_sum": self.projected_sum,
             "step_time_median": float(np.median(st)),
             "step_time_max": float(np.max(st)),
             "iterations_mean": float(np.mean(it)),
         }
+
+
+def input_mapping(model):
+    """``(vavs, input_map)`` of a model whose inputs aggregate boxes (Model A, and extended models
+    through their base), or None when the inputs are the boxes themselves (``m_<vav>``)."""
+    for m in (model, getattr(model, "base", None)):
+        if m is not None and hasattr(m, "input_map") and hasattr(m, "vavs"):
+            return tuple(m.vavs), np.asarray(m.input_map, dtype=float)
+    return None
 
 
 def input_limits(model, building=None):
@@ -292,13 +328,15 @@ def input_limits(model, building=None):
             return np.asarray(model.m_min, dtype=float), np.asarray(model.m_max, dtype=float)
         raise ModelError("input limits need the building (VAV m_min/m_max)")
     boxes = {v.name: v for v in building.vavs}
-    if hasattr(model, "input_map") and hasattr(model, "vavs"):
-        missing = [b for b in model.vavs if b not in boxes]
+    mapped = input_mapping(model)
+    if mapped is not None:
+        vavs, input_map = mapped
+        missing = [b for b in vavs if b not in boxes]
         if missing:
             raise ModelError(f"model VAV boxes {missing} are not in building {building.name!r}")
-        lo = np.array([boxes[b].m_min for b in model.vavs])
-        hi = np.array([boxes[b].m_max for b in model.vavs])
-        return model.input_map @ lo, model.input_map @ hi
+        lo = np.array([boxes[b].m_min for b in vavs])
+        hi = np.array([boxes[b].m_max for b in vavs])
+        return input_map @ lo, input_map @ hi
     names = [n[2:] if n.startswith("m_") else n for n in model.inputs]
     missing = [n for n in names if n not in boxes]
     if missing:
