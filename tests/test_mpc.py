@@ -758,3 +758,56 @@ def test_applied_inputs_stay_inside_limits_over_a_week(kind, rc_medium):
     assert st["projected_steps"] == int(outside.sum()) > 0  # the test exercises the projection
     assert_allclose(st["projected_max"], np.max(np.abs(planned - r.u)), rtol=0, atol=0)
     assert st["failures"] == 0 and np.all(np.isfinite(r.y))
+
+
+def test_prediction_from_equations_is_exact_for_delay_bilinear_and_switch_terms():
+    """One adapter for every kind: the predictor built from ModelEquations steps exactly like the
+    equations (augmented delay states, bilinear supply-air term, reheat switch), and a converged
+    plan is a trajectory of the model."""
+    from harness.mpc.synthetic import delayed_three_zones
+
+    m = delayed_three_zones(delay=2, bilinear=True)
+    pred = make_predictor(m)
+    assert not pred.linear and not pred.state_is_output and pred.nx == 5
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        x, u = 20 + rng.normal(size=5), rng.uniform(m.m_min, m.m_max)
+        u[1] = m.m_min[1] if rng.uniform() < 0.5 else u[1]  # switch on and off
+        v, q = np.array([rng.uniform(5, 20), 13.0]), rng.uniform(0, 1, 3)
+        assert_allclose(pred.step(x, u, v, q), m.step_state(x, u, v, q), rtol=0, atol=1e-12)
+    V, Q = linear_preview(6, seed=2)
+    V[:, 0] = 8.0  # cold: the reheat switch is live at minimum airflow
+    x0 = np.array([21.0, 20.2, 21.5, 0.3, 0.3])
+    merits = []
+    for max_iter in (1, 2, 3, 8):
+        c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=6, max_iter=max_iter, tol=1e-9))
+        plan = c.plan(x0, V, Q)
+        assert plan.found
+        X = x0[None]
+        for k in range(6):
+            X = np.vstack([X, m.step_state(X[-1], plan.U[k], V[k], Q[k])])
+        assert_allclose(plan.X, X, rtol=0, atol=1e-10)  # the plan is a trajectory of the model
+        assert_allclose(plan.merit, c.merit(plan.U, X), rtol=1e-12, atol=0)
+        merits.append(plan.merit)
+    # the switch makes the iteration cycle (on at minimum airflow, off above): not converged, and
+    # more iterations never return a worse plan than fewer (the best iterate is kept)
+    assert not plan.converged
+    assert np.all(np.diff(merits) <= 1e-9)
+
+
+def test_extended_model_equations_by_probing(tmp_path):
+    """An extended model without its own equations() is probed exactly; a reheat switch is refused."""
+    from harness.mpc.predict import probe_equations
+    from hvacfmu.models.equations import check_equations
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, Reheat, SupplyAirBilinear, ThermalMass
+
+    base = linear_model()
+    ext = ExtendedModel(base=base, terms=(ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="A", coef=0.02),
+                                          ThermalMass(zone="C", alpha=0.05, beta=0.1)))
+    eq = probe_equations(ext)
+    assert eq.bilinear and eq.n_states == 6
+    assert check_equations(ext, eq, n=50, seed=3) <= 1e-12
+    c = MPCController(ext, LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3))
+    assert c.bilinear and c.estimated
+    with pytest.raises(ModelError, match="reheat"):
+        probe_equations(ExtendedModel(base=base, terms=(Reheat(zone="A", coef=0.3, u_min=0.1),)))

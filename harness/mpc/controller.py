@@ -47,9 +47,10 @@ class Plan:
     Y : array (N+1, ny) [°C] outputs along X
     obj : float   Σ u² + ρ||eps|| (+ comfort penalty)
     iterations : int
-    converged : bool
+    converged : bool  the sequential iteration met ``settings.tol`` (always True for linear models)
     solve_time : float [s]  solver calls only
     step_time : float [s]   whole step (estimation, condensing, solving)
+    merit : float  cost on the exact model trajectory (:meth:`MPCController.merit`; bilinear models)
     """
 
     found: bool
@@ -63,6 +64,7 @@ class Plan:
     converged: bool
     solve_time: float
     step_time: float = 0.0
+    merit: float = float("nan")
 
 
 def _block_starts(lengths):
@@ -260,15 +262,37 @@ class MPCController:
                 break
             X = self.pred.simulate(x0, sol.U, V, Qg)
             delta = float(np.max(np.abs(sol.U - Ubar)))
-            best = (sol, X)
+            merit = self.merit(sol.U, X)
+            if best is None or merit <= best[2] or delta < s.tol:
+                best = (sol, X, merit)
             Ubar, Xbar = sol.U, X
             if delta < s.tol:
                 converged = True
                 break
         if best is None:
             return self._failed_plan(sol, it, solve_time)
-        sol, X = best
-        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time)
+        sol, X, merit = best
+        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time,
+                    merit=merit)
+
+    def merit(self, U, X) -> float:
+        """The problem's cost of moves U (N, nu) evaluated on the exact model trajectory X (N+1, nx).
+
+        ``Σ ||u||² + ρ ||eps|| + comfort_penalty Σ band violation`` with the slack
+        ``eps`` the moves' actual excess over the limits (shared: the largest
+        per input; per step: every step's) and the band violation of the
+        simulated outputs, not of the linearisation. A hard band weighs its
+        violation by 1e6. Sequential iterations that stop before converging
+        return the iterate with the lowest merit (the best plan found).
+        """
+        s = self.settings
+        exc = np.maximum(0.0, np.maximum(U - self.u_max, self.u_min - U))
+        eps = exc.max(axis=0) if s.slack == "shared" else exc.ravel()
+        pen = float(np.linalg.norm(eps)) if s.formulation == "socp" else float(eps.sum())
+        Y = X[1:] @ self.pred.C.T
+        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - s.T_max, s.T_min - Y))))
+        weight = s.comfort_penalty if s.comfort_penalty is not None else 1e6
+        return float(np.sum(U**2)) + s.rho * pen + weight * viol
 
     def _failed_plan(self, sol, it, solve_time=None):
         nan = np.full((self.N + 1, self.pred.nx), np.nan)
