@@ -54,10 +54,16 @@ def _cmd_check(args):
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
+    if args.engine == "energyplus":
+        from .energyplus import generate_from_args
+
+        print(generate_from_args(args))
+        return 0
     from .emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    paths = generate(args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format)
+    weeks = 51 if args.weeks is None else args.weeks
+    paths = generate(args.outdir, weeks=weeks, seed=args.seed, effects=effects, fmt=args.format)
     print(paths)
     return 0
 
@@ -151,7 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
-    p.add_argument("--weeks", type=int, default=51)
+    p.add_argument("--engine", choices=("emulator", "energyplus"), default="emulator",
+                   help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')")
+    p.add_argument("--weeks", type=int, default=None, help="length [weeks] (emulator default 51, energyplus: a year)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
         "--effect",
@@ -160,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    from .energyplus.cli import add_energyplus_arguments
+
+    add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")

@@ -9,6 +9,7 @@ the approximations). See :mod:`hvacfmu.energyplus` for the columns.
 from __future__ import annotations
 
 import dataclasses
+import datetime as _dt
 import hashlib
 import json
 import logging
@@ -202,7 +203,10 @@ def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days:
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))
-    notes = inputs.prepare_idf(idf, first, last, site)
+    # EnergyPlus days are standard-time days: start a day early so that local midnight (23:00 standard time in
+    # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
+    run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
+    notes = inputs.prepare_idf(idf, run_first, last, site)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
@@ -214,6 +218,9 @@ def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days:
     if len(values) == 0:
         raise DataError(f"EnergyPlus run of {idf_path} produced no weather-period steps")
     frame = _frame(values, times, probes, site, boxes, ahus)
+    lo = pd.Timestamp(first).tz_localize(site.timezone)
+    hi = pd.Timestamp(last + _dt.timedelta(days=1)).tz_localize(site.timezone)
+    frame = frame[(frame.index >= lo) & (frame.index < hi)]
     limits = _sizing_limits(read_idf(idf_path), boxes, eio, hvac.std_air_density(site.elevation))
     label = f"{idf_path.stem} ({site.label})" + (f", zones with {floor!r}" if floor else "")
     d = _building_dict(read_idf(idf_path), site, boxes, ahus, limits, label)
