@@ -34,8 +34,8 @@ EXPORT_VERSION = "1.0"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
-    "box airflow m_<vav> and discharge temperature Td_<vav> are the zone inlet node's mass flow and temperature, "
-    "time-averaged over the HVAC steps of each 15-minute step (not flow-weighted)",
+    ("box airflow m_<vav> and discharge temperature Td_<vav> are the zone inlet node's mass flow and temperature, "
+     "time-averaged over the HVAC steps of each 15-minute step (not flow-weighted)"),
     "T_supply_<ahu> is the air handler's supply outlet node temperature; it holds an idle value when the unit is off",
     "T_supply is the airflow-weighted mean of the units' supply temperatures (plain mean when no air flows)",
     "ghi = direct normal x sin(solar altitude) + diffuse horizontal, from EnergyPlus's site variables",

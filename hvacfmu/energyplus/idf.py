@@ -87,9 +87,8 @@ def parse_idf(text: str, source: str = "") -> Idf:
     chunks = clean.split(";")
     for chunk in chunks[:-1]:
         fields = [f.strip() for f in chunk.split(",")]
-        if not fields[0]:
-            if len(fields) == 1:
-                continue
+        if not fields[0] and len(fields) == 1:
+            continue
         objects.append(IdfObject(fields[0], fields[1:]))
     if chunks[-1].strip():
         raise BuildingError(f"IDF file {source or '(text)'}: ends inside an object ({chunks[-1].strip()[:60]!r}...); "

@@ -10,7 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import AMBIENT_FILM, DEFAULT_WINDOW, NOMINAL_FILMS, SLAB, _other_zone, orientation, rotations
+from .geometry import (
+    AMBIENT_FILM,
+    DEFAULT_WINDOW,
+    NOMINAL_FILMS,
+    SLAB,
+    _other_zone,
+    orientation,
+    rotations,
+)
 from .hvac import sanitise
 
 _GROUND_BC = ("ground", "groundfcfactormethod", "groundslabpreprocessoraverage", "groundslabpreprocessorcore",
