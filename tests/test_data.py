@@ -742,3 +742,73 @@ def test_hand_made_bms_export():
     assert_allclose(frame["T_out"].iloc[0], 5.0, rtol=0, atol=1e-9)
     assert report.unknown_columns == ("Trend Flags",)
     assert report.native_step == 60.0 and not report.has_offsets
+
+
+# --------------------------------------------------------------------------- air handlers, Td, rh (issue 13 p.1)
+def _two_ahu_dict(d):
+    d["ahus"] = [{"name": "AHU1"}, {"name": "AHU2", "columns": {"T_supply": "AHU-2 SAT"}}]
+    for v, a in zip(d["vavs"], ("AHU1", "AHU1", "AHU2")):
+        v["ahu"] = a
+    d["columns"] = {"Td_V1": "V1 DAT"}
+    d["units"] = {"T_supply_*": "degF", "Td_*": "degF", "rh_*": "%"}
+    return d
+
+
+def test_air_handlers_discharge_and_reheat_columns(tmp_path, small_building_dict):
+    building = building_from_dict(_two_ahu_dict(small_building_dict))
+    f = make_measurements(building, periods=1440).drop(columns=["T_supply"])
+    rng = np.random.default_rng(3)
+    s1, s2 = 13.0 + rng.normal(0, 0.1, len(f)), 15.0 + rng.normal(0, 0.1, len(f))
+    f["T_supply_AHU1"], f["AHU-2 SAT"] = s1 * 1.8 + 32, s2 * 1.8 + 32
+    td = {v: 20.0 + 3 * j + rng.normal(0, 0.2, len(f)) for j, v in enumerate(building.vav_names)}
+    f["V1 DAT"], f["Td_V2"], f["Td_V3"] = (td[v] * 1.8 + 32 for v in building.vav_names)
+    f["rh_V1"] = np.linspace(0, 100, len(f))
+    ds = prepare(write(f, tmp_path / "m.csv"), building)
+    fr = ds.frame
+    for c in ("T_supply", "T_supply_AHU1", "T_supply_AHU2", "Td_V1", "Td_V2", "Td_V3", "rh_V1"):
+        assert c in fr.columns
+    assert "rh_V2" not in fr.columns
+    assert_allclose(fr["T_supply_AHU1"].mean(), s1.mean(), atol=1e-6)
+    assert_allclose(fr["Td_V3"].mean(), td["V3"].mean(), atol=1e-6)
+    assert fr["rh_V1"].min() >= 0 and fr["rh_V1"].max() <= 1 and fr["rh_V1"].iloc[-1] > 0.98
+    # T_supply: per-step mean of the units weighted by their boxes' airflow
+    w1 = fr["m_V1"] + fr["m_V2"]
+    w2 = fr["m_V3"]
+    expect = (w1 * fr["T_supply_AHU1"] + w2 * fr["T_supply_AHU2"]) / (w1 + w2)
+    assert_allclose(fr["T_supply"], expect, rtol=0, atol=1e-9)
+    assert any("airflow-weighted mean of T_supply_AHU1, T_supply_AHU2" in w for w in ds.warnings)
+
+
+def test_single_air_handler_keeps_plain_T_supply(tmp_path, small_building_dict):
+    d = small_building_dict
+    d["ahus"] = [{"name": "AHU"}]
+    for v in d["vavs"]:
+        v["ahu"] = "AHU"
+    building = building_from_dict(d)
+    f = make_measurements(building, periods=1440)
+    ds = prepare(write(f, tmp_path / "m.csv"), building)
+    assert_allclose(ds.frame["T_supply_AHU"], ds.frame["T_supply"], rtol=0, atol=0)
+
+
+def test_missing_unit_supply_column_is_named(tmp_path, small_building_dict):
+    building = building_from_dict(_two_ahu_dict(small_building_dict))
+    f = make_measurements(building, periods=1440).drop(columns=["T_supply"]).assign(T_supply_AHU1=57.0)
+    with pytest.raises(DataError, match=r"missing required column 'AHU-2 SAT' \(mapped from T_supply_AHU2\)"):
+        load_measurements(write(f, tmp_path / "m.csv"), building)
+
+
+@pytest.mark.parametrize(
+    "column, values, units, message",
+    [
+        ("rh_V1", 55.0, {}, r"column 'rh_V1': values reach 55 \(declared as a fraction 0\.\.1\); .* percent"),
+        ("rh_V1", 1.5, {"rh_*": "1"}, r"column 'rh_V1': \d+ value\(s\) outside 0\.\.1"),
+        ("Td_V2", 85.0, {}, r"column 'Td_V2': declared degC but the median is 85.*degF"),
+    ],
+)
+def test_bad_discharge_and_reheat_columns(tmp_path, small_building_dict, column, values, units, message):
+    small_building_dict["units"] = units
+    building = building_from_dict(small_building_dict)
+    f = make_measurements(building, periods=1440)
+    f[column] = values
+    with pytest.raises(DataError, match=message):
+        load_measurements(write(f, tmp_path / "m.csv"), building)

@@ -521,3 +521,171 @@ def test_plant_from_truth_file(small_files):
     assert_allclose(plant.core.Q_ig, ref.core.Q_ig, rtol=0, atol=0)
     assert plant.zones == ("NW", "W", "S", "E", "NE", "C") and len(plant.vavs) == 21
     assert plant.horizon == 2 * 7 * 86400.0
+
+
+# --------------------------------------------------------------------------- layouts, constructions, climates
+LAYOUT_ZONES = {
+    "sdh": ("NW", "W", "S", "E", "NE", "C"),
+    "row4": ("R1", "R2", "R3", "R4"),
+    "core9": ("NW", "N", "NE", "E", "SE", "S", "SW", "W", "C"),
+}
+
+
+@pytest.mark.parametrize("layout", sorted(LAYOUT_ZONES))
+def test_layout_building_structure(layout):
+    """Every layout: zones, areas tile the floor, adjacency symmetric, facades on the outline, boxes per zone."""
+    from hvacfmu.building import validate_building
+    from hvacfmu.emulator import LAYOUTS, emulated_building
+
+    b = emulated_building(layout)
+    lay = LAYOUTS[layout]
+    assert b.zone_names == LAYOUT_ZONES[layout]
+    x0, x1, y0, y1 = lay.extent
+    assert_allclose(sum(z.area for z in b.zones), (x1 - x0) * (y1 - y0), rtol=0, atol=1e-9)
+    assert validate_building(b) == []
+    for z in b.zones:
+        for a in z.adjacent:
+            assert z.name in b.zone(a).adjacent
+        assert b.vavs_of(z.name), z.name
+        assert all(0 < v.m_min < v.m_max for v in b.vavs_of(z.name))
+    facades = {z.name: sorted(f.orientation for f in z.facades) for z in b.zones}
+    if layout == "row4":
+        assert facades == {"R1": ["N", "S", "W"], "R2": ["N", "S"], "R3": ["S"], "R4": ["E", "N", "S"]}
+        assert ("R1", "R3") not in b.adjacency_pairs()
+    if layout == "core9":
+        assert facades["C"] == [] and set(b.zone("C").adjacent) == {"N", "E", "S", "W"}
+        assert facades["NW"] == ["N", "W"] and facades["E"] == ["E"]
+        assert "C" not in b.zone("NW").adjacent  # corners touch the core only at a point
+    windows = {(w["zone"], w["orientation"]) for w in b.physics["windows"]}
+    assert windows == {(z, o) for z, fs in facades.items() for o in fs}
+
+
+def test_constructions_and_climates_differ():
+    from hvacfmu.emulator import emulated_building
+
+    def mass(b):
+        ph = b.physics
+        mats = {m["name"]: m for m in ph["materials"]}
+        total = ph["physics"]["internal_mass"] * sum(z.area for z in b.zones)
+        cons = {c["name"]: c for c in ph["constructions"]}
+        for el in ph["elements"]:
+            for layer in cons[el["construction"]]["layers"]:
+                m = mats[layer["material"]]
+                if "density" in m:
+                    total += m["density"] * m["specific_heat"] * layer["thickness"] * el["area"]
+        return total
+
+    light, medium, heavy = (mass(emulated_building("row4", c)) for c in ("light", "medium", "heavy"))
+    assert light < 0.7 * medium and heavy > 1.3 * medium
+    cold, hot = emulated_building("core9", climate="cold"), emulated_building("core9", climate="hot")
+    assert cold.timezone == "America/Chicago" and hot.timezone == "America/Phoenix"
+    assert cold.latitude > 40 and hot.latitude < 35
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"layout": "atrium"}, "unknown layout 'atrium'; known layouts: sdh, row4, core9"),
+        ({"climate": "arctic"}, "unknown climate 'arctic'"),
+        ({"construction": "straw"}, "unknown construction 'straw'"),
+        ({"layout": "row4", "effects": ["solar_gain:zone=NW"]}, r"zone 'NW' is not one of R1, R2, R3, R4"),
+        ({"layout": "row4", "effects": ["solar_gain:zone=R3,facade=N"]}, r"zone R3 has no 'N' facade \(it has S\)"),
+        ({"layout": "core9", "effects": ["solar_gain:zone=C"]}, r"zone 'C' is not one of NW, N, NE"),
+        ({"layout": "core9", "effects": ["zone_coupling:zones=N+C"]}, "declared adjacent"),
+        ({"layout": "row4", "effects": ["reheat:zone=C"]}, "zone 'C' is not one of R1"),
+        ({"start": "2025-09-01T06:00"}, "start must be a local midnight"),
+    ],
+)
+def test_bad_layout_options(kwargs, match):
+    weeks = kwargs.pop("weeks", 1)
+    effects = kwargs.pop("effects", ())
+    with pytest.raises(EmulatorError, match=match):
+        make_truth(weeks, 0, effects, **kwargs)
+
+
+LAYOUT_CASES = [
+    ("row4", "light", "mild", "2025-10-06", 1),
+    ("row4", "heavy", "cold", "2026-01-12", 2),
+    ("core9", "medium", "hot", "2026-07-06", 1),
+    ("core9", "light", "cold", "2026-01-05", 2),
+    ("sdh", "heavy", "hot", "2026-06-01", 3),
+]
+
+
+@pytest.fixture(scope="module")
+def layout_sims():
+    out = {}
+    for layout, construction, climate, start, seed in LAYOUT_CASES:
+        truth = make_truth(1, seed, list(EFFECT_NAMES), start=start, layout=layout, construction=construction,
+                           climate=climate)
+        out[(layout, construction, climate)] = (truth, simulate(truth))
+    return out
+
+
+def test_layouts_simulate_plausibly_with_every_effect(layout_sims):
+    """Each layout x construction x climate with all six effects: plausible zone temperatures and weather."""
+    for (layout, construction, climate), (truth, sim) in layout_sims.items():
+        case = f"{layout}/{construction}/{climate}"
+        assert {e["name"] for e in truth["effects"]} == set(EFFECT_NAMES)
+        for e in truth["effects"]:
+            for z in [e["zone"]] if "zone" in e else e.get("zones", []):
+                assert z in LAYOUT_ZONES[layout], (case, e)
+        T = sim["T_zone"]
+        assert T.shape[1] == len(LAYOUT_ZONES[layout])
+        assert np.all(np.isfinite(T))
+        assert 15.0 < np.percentile(T, 1) and np.percentile(T, 99) < 29.0, case  # [°C]
+        T_out = sim["T_out"]
+        if climate == "cold":
+            assert T_out.mean() < 3.0 and sim["reheat"].sum() > 0, case
+        elif climate == "hot":
+            assert T_out.mean() > 24.0 and T_out.max() > 33.0, case
+            vavs = truth["baseline"]["building"]["vavs"]
+            m_min = np.array([v["m_min"] for v in vavs])
+            m_max = np.array([v["m_max"] for v in vavs])
+            idx = sim["index"]
+            afternoon = np.asarray((idx.day_of_week < 5) & (idx.hour >= 10) & (idx.hour < 18))
+            cooling = np.mean((sim["m_vav"][afternoon] - m_min) / (m_max - m_min))
+            assert 0.1 < cooling < 0.9, (case, cooling)  # boxes cool above minimum airflow, not saturated
+        else:
+            assert 8.0 < T_out.mean() < 22.0, case
+
+
+def test_plant_reproduces_simulation_on_other_layouts(layout_sims):
+    """Plant.from_truth works for every layout and replays the closed loop exactly (delay, reheat effects included)."""
+    for key in [("row4", "heavy", "cold"), ("core9", "light", "cold")]:
+        truth, sim = layout_sims[key]
+        plant = Plant.from_truth(truth)
+        assert plant.zones == LAYOUT_ZONES[key[0]]
+        x = sim["x0"]
+        T = []
+        for k in range(720):
+            x, Tz = plant.advance(
+                x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k],
+                sim["T_supply"][k], sim["I"][k], reheat=sim["reheat_command"][k],
+            )
+            T.append(Tz)
+        assert_allclose(np.array(T)[:-1], sim["T_zone"][1:720], rtol=0, atol=1e-9)  # [K]
+
+
+def test_layout_dataset_prepares_at_5_and_15_minutes(tmp_path):
+    from hvacfmu.data import prepare
+
+    paths = generate(tmp_path / "row4", weeks=2, seed=4, layout="row4", climate="cold", start="2025-12-01",
+                     effects=["thermal_mass:zone=R2"])
+    truth = json.loads(paths.truth.read_text())
+    assert truth["layout"] == "row4" and truth["climate"] == "cold" and truth["timezone"] == "America/Chicago"
+    for step in (300, 900):
+        ds = prepare(paths.measurements, paths.building, step=step)
+        assert ds.step == step
+        assert [c for c in ds.frame.columns if c.startswith("T_R")] == ["T_R1", "T_R2", "T_R3", "T_R4"]
+        assert len(ds.frame) == 2 * 7 * 86400 // step
+        assert str(ds.frame.index.tz) == "America/Chicago"
+        assert ds.frame["T_out"].mean() < 5.0
+
+
+def test_cache_key_depends_on_layout_options_only_when_not_default():
+    from hvacfmu.emulator import cache_key
+
+    assert cache_key(2, 0) == cache_key(2, 0, layout="sdh", climate="mild")
+    assert cache_key(2, 0, layout="row4") != cache_key(2, 0)
+    assert cache_key(2, 0, layout="row4") != cache_key(2, 0, layout="core9")

@@ -102,6 +102,12 @@ def test_prepare_loads_the_export(export):
     assert {f"T_{z}" for z in ZONES} <= set(ds.frame.columns)
     assert ds.frame[[f"T_{z}" for z in ZONES]].notna().all().all()
     assert ds.has_solar
+    # several air handlers (one packaged unit per zone) with their own supply temperature; discharge temperatures
+    b = ds.building
+    assert [a.name for a in b.ahus] == [f"PSZ_AC_{i}" for i in range(1, 6)]
+    assert {b.supply_column(f"VAV_{z}") for z in ZONES} == {f"T_supply_{a.name}" for a in b.ahus}
+    assert {f"Td_VAV_{z}" for z in ZONES} | {f"T_supply_PSZ_AC_{i}" for i in range(1, 6)} <= set(ds.frame.columns)
+    assert not any("unknown column" in w for w in ds.warnings)
 
 
 def test_idf_parser_and_geometry():
@@ -165,7 +171,7 @@ def test_callback_exception_stops_the_run(tmp_path):
 def test_cli_generate_energyplus(tmp_path):
     out = tmp_path / "ep"
     r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus",
-                        "--prototype", "restaurant_fast_food", "--days", "1", "--start", "01-02", "--format", "csv"],
+                        "--prototype", "restaurant_fast_food", "--days", "1", "--start", "2017-01-02", "--format", "csv"],
                        check=False, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     df = pd.read_csv(out / "measurements.csv")

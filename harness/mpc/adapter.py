@@ -109,7 +109,7 @@ class CosimMPC:
 
         ``init="outputs"`` (default): hidden states at their steady state for
         the first measured outputs, inputs, disturbances and gains held — how
-        the model FMUs start (:func:`hvacfmu.fmu_slave.state_from_outputs`), so
+        the model FMUs start (:func:`hvacfmu.models.state.state_from_outputs`), so
         an MPC run against its own model's FMU starts from the FMU's state.
         ``init="model"``: the model's own estimate (``model.initial_state``,
         a Kalman filter over the run's first rows). Either way the Kalman
@@ -119,7 +119,7 @@ class CosimMPC:
         row = frame.iloc[:1]
         if self.init == "model" and hasattr(model, "initial_state"):
             return np.asarray(model.initial_state(frame, 0), dtype=float)
-        from hvacfmu.fmu_slave import state_from_outputs
+        from hvacfmu.models.state import state_from_outputs
 
         u, v = model.signals(row)
         y0 = model.measured_outputs(row)[0]

@@ -162,6 +162,7 @@ def check(
     train_fraction: float = 0.9,
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
+    timezone: str | None = None,
 ) -> CheckReport:
     """Load and validate a dataset; never raises for bad data or a bad building file.
 
@@ -177,7 +178,7 @@ def check(
     """
     path = Path(path)
     try:
-        building = as_building(building)
+        building = as_building(building, timezone)
     except BuildingError as exc:
         return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
     about = f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"

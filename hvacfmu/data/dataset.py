@@ -121,9 +121,12 @@ class Dataset:
     frame : DataFrame
         Index: tz-aware local bin starts named ``time`` (regular, ``step``
         apart). Columns: ``T_<zone>`` [°C], ``m_<vav>`` [kg/s], ``T_supply``
-        [°C], ``T_out`` [°C], optional ``ghi`` [W/m²], ``I_N I_E I_S I_W``
-        [W/m²] when ``has_solar``, ``excitation`` (0/1 float). NaN where data
-        are missing.
+        [°C] (with several air handlers: their airflow-weighted mean, see
+        :func:`primary_supply`), ``T_supply_<ahu>`` [°C] per declared air
+        handler, ``T_out`` [°C], optional ``ghi`` [W/m²], ``I_N I_E I_S I_W``
+        [W/m²] when ``has_solar``, ``excitation`` (0/1 float), and when the
+        file has them per box ``Td_<vav>`` (discharge air) [°C] and
+        ``rh_<vav>`` (reheat command) [0..1]. NaN where data are missing.
     building : Building
     step : float [s]
     source : str or None
@@ -242,8 +245,18 @@ class Dataset:
         if "excitation" not in frame.columns:
             notes.append("no 'excitation' column: no forced-response experiments are flagged (all 0)")
             frame["excitation"] = 0.0
+        if building.ahus and "T_supply" not in frame.columns and all(c in frame.columns for c in building.supply_columns()):
+            frame["T_supply"] = primary_supply(frame, building)
+            if len(building.ahus) > 1:
+                notes.append(
+                    f"T_supply is the airflow-weighted mean of {', '.join(building.supply_columns())} per step "
+                    "(weights: the measured airflow of each unit's boxes, their m_max where airflow is missing); "
+                    "per-box models use each box's own unit (Building.supply_column)"
+                )
         order = [f"T_{z}" for z in building.zone_names] + [f"m_{v}" for v in building.vav_names]
-        order += ["T_supply", "T_out", "ghi"] + (list(FACADE_COLUMNS) if has_solar else []) + ["excitation"]
+        order += ["T_supply", *building.supply_columns(), "T_out", "ghi"]
+        order += (list(FACADE_COLUMNS) if has_solar else []) + ["excitation"]
+        order += [f"Td_{v}" for v in building.vav_names] + [f"rh_{v}" for v in building.vav_names]
         frame = frame[[c for c in order if c in frame.columns]].astype(float)
         end = frame.index[-1] + pd.Timedelta(seconds=step) if len(frame) else None
         weeks, week_notes = make_weeks(frame.index, end, building, seed=seed, train_fraction=train_fraction)
@@ -262,6 +275,32 @@ class Dataset:
             coverage=coverage,
             load_report=load_report,
         )
+
+
+def primary_supply(frame: pd.DataFrame, building: Building) -> np.ndarray:
+    """One supply temperature [°C] per row from the units' ``T_supply_<ahu>`` columns.
+
+    The mean of the units' supply temperatures weighted by the airflow their
+    boxes deliver in that row (``m_<vav>`` [kg/s]); in rows where a box's
+    airflow is missing or the total is 0, weighted by the units' summed
+    ``m_max`` instead. NaN where any unit's supply temperature is missing.
+    """
+    n = len(frame)
+    temps = np.column_stack([frame[c].to_numpy(dtype=float) for c in building.supply_columns()]) if n else np.zeros((0, 0))
+    flows = np.zeros((n, len(building.ahus)))
+    nominal = np.zeros(len(building.ahus))
+    for j, a in enumerate(building.ahus):
+        for v in building.vavs:
+            if v.ahu == a.name:
+                col = f"m_{v.name}"
+                m = frame[col].to_numpy(dtype=float) if col in frame.columns else np.full(n, np.nan)
+                flows[:, j] += m
+                nominal[j] += v.m_max
+    total = flows.sum(axis=1)
+    use_flow = np.isfinite(total) & (total > 0)
+    weights = np.where(use_flow[:, None], flows, nominal[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (weights * temps).sum(axis=1) / weights.sum(axis=1)
 
 
 def _check_step_frame(frame: pd.DataFrame, step: float) -> None:
@@ -297,6 +336,7 @@ def prepare(
     train_fraction: float = 0.9,
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
+    timezone: str | None = None,
 ) -> Dataset:
     """Load, validate, resample and split a measurements file.
 
@@ -316,6 +356,9 @@ def prepare(
         (default None: keep every gap).
     min_coverage : float
         Minimum fraction of raw samples for a step to get a value.
+    timezone : str, optional
+        Zone of the data's naive timestamps (e.g. ``"UTC"``), overriding the
+        building's ``data_timezone`` (default: the building's ``timezone``).
 
     Returns
     -------
@@ -331,6 +374,7 @@ def prepare(
     HvacfmuWarning
         For each entry of :attr:`Dataset.warnings`.
     """
+    building = as_building(building, timezone)
     dataset = _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage)
     for w in dataset.warnings:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
@@ -371,4 +415,4 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
     )
 
 
-__all__ = ["Dataset", "Week", "make_weeks", "prepare", "file_sha256"]
+__all__ = ["Dataset", "Week", "make_weeks", "prepare", "primary_supply", "file_sha256"]

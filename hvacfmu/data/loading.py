@@ -73,11 +73,17 @@ class LoadReport:
     warnings: list = dataclasses.field(default_factory=list)
 
 
-def as_building(building) -> Building:
-    """A :class:`Building`, loading it if ``building`` is a path."""
-    if isinstance(building, Building):
-        return building
-    return load_building(building)
+def as_building(building, timezone: str | None = None) -> Building:
+    """A :class:`Building`, loading it if ``building`` is a path.
+
+    ``timezone`` (optional) overrides the building's ``data_timezone``: the zone
+    naive timestamps of the measurements are read in (e.g. ``"UTC"``).
+    """
+    if not isinstance(building, Building):
+        building = load_building(building)
+    if timezone is not None and timezone != building.data_timezone:
+        building = dataclasses.replace(building, data_timezone=str(timezone))
+    return building
 
 
 def _fmt_time(t) -> str:
@@ -343,7 +349,7 @@ def _median_step(t_ns: np.ndarray, max_samples: int = 20_000) -> float | None:
     return float(np.median(d)) / 1e9
 
 
-def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
+def load_measurements(path, building, timezone: str | None = None) -> tuple[pd.DataFrame, LoadReport]:
     """Read, validate and convert a measurements file.
 
     Parameters
@@ -351,20 +357,26 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
     path : str or Path
         CSV (``.csv``, ``.csv.gz``) or Parquet (``.parquet``) file with one row
         per timestamp. The ``time`` column holds ISO 8601 times with UTC offset
-        (naive times are local times of ``building.timezone``; the hour repeated
-        when daylight saving time ends is resolved from the row order, see
-        :func:`_localize`) or, in Parquet, timestamps.
+        (naive times are wall-clock times of the data's clock zone,
+        ``building.clock_timezone``: ``data_timezone`` or else ``timezone``; the
+        hour repeated when daylight saving time ends is resolved from the row
+        order, see :func:`_localize`) or, in Parquet, timestamps.
     building : Building or path
         Gives the expected columns, the column mapping
         (:meth:`Building.column_for`) and the units (:meth:`Building.unit_for`).
+    timezone : str, optional
+        Zone of naive timestamps (e.g. ``"UTC"``), overriding the building's
+        ``data_timezone``. The returned index is always in ``building.timezone``.
 
     Returns
     -------
     frame : pandas.DataFrame
         Native resolution; index: tz-aware ``DatetimeIndex`` in the building's
         time zone named ``time``; columns: canonical names in SI units
-        (``T_*`` [°C], ``m_*`` [kg/s], ``ghi``/``I_*`` [W/m²], ``excitation``
-        0/1) present in the file; NaN where values are missing.
+        (``T_*`` and ``Td_*`` [°C], ``m_*`` [kg/s], ``rh_*`` [0..1],
+        ``ghi``/``I_*`` [W/m²], ``excitation`` 0/1) present in the file; NaN
+        where values are missing. A single declared air handler without its
+        ``T_supply_<ahu>`` column takes the ``T_supply`` column.
     report : LoadReport
 
     Raises
@@ -375,7 +387,7 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
         not exist or whose daylight-saving ambiguity the row order cannot
         resolve, physically impossible values and implausible units.
     """
-    building = as_building(building)
+    building = as_building(building, timezone)
     frame, report, problems = _load(Path(path), building)
     if problems:
         raise DataError(problems_message(f"Cannot use measurements {path}", problems))
@@ -405,6 +417,10 @@ def _load(path: Path, building: Building):
         name = building.column_for(canonical)
         if name in raw.columns:
             present[canonical] = name
+        elif len(building.ahus) == 1 and canonical == building.ahus[0].supply_column and (
+            building.column_for("T_supply") in raw.columns
+        ):
+            present[canonical] = building.column_for("T_supply")  # the single unit's plain T_supply column
         elif required:
             mapped = f" (mapped from {canonical})" if name != canonical else ""
             problems.append(f"{label}: missing required column {name!r}{mapped}")
@@ -439,7 +455,7 @@ def _load(path: Path, building: Building):
         utc = None
         local = None
     else:
-        utc, ok, has_offsets = _parse_times(raw[time_name], tz, time_name, label, problems)
+        utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
         report.has_offsets = has_offsets
         local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
         local = local.tz_localize("UTC").tz_convert(tz)
@@ -501,6 +517,8 @@ def _load(path: Path, building: Building):
             si = _check_airflow(canonical, desc, label, unit, finite, si, m_max.get(canonical), where, problems, report)
         elif kind == "irradiance":
             si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+        elif kind == "fraction":
+            si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
         else:
             flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
             if len(flag_bad):
@@ -594,6 +612,33 @@ def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, probl
             f"{label}: {desc}: {int(neg.sum())} slightly negative airflow value(s) (sensor noise) set to 0"
         )
         si = np.where(neg, 0.0, si)
+    return si
+
+
+#: A reheat command this far outside 0..1 is sensor noise and is clipped [1].
+FRACTION_NOISE = 0.02
+
+
+def _check_fraction(desc, label, unit, finite, si, where, problems, report):
+    """A reheat command/valve position must lie in 0..1 (after conversion from %)."""
+    top = float(np.max(finite))
+    if unit == "1" and 1.5 < top <= 100.5 and float(np.min(finite)) >= -0.5:
+        problems.append(
+            f"{label}: {desc}: values reach {top:.4g} (declared as a fraction 0..1); the data look like percent: "
+            "declare the unit in the building's [units] table, e.g. \"rh_*\" = \"%\""
+        )
+        return si
+    bad = np.flatnonzero((si < -FRACTION_NOISE) | (si > 1 + FRACTION_NOISE))
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} value(s) outside 0..1 (after conversion from {unit}), "
+            f"e.g. {where.rows(bad, values=si)}"
+        )
+        return si
+    out = (si < 0) | (si > 1)
+    if out.any():
+        report.warnings.append(f"{label}: {desc}: {int(out.sum())} value(s) slightly outside 0..1 clipped")
+        si = np.clip(si, 0.0, 1.0)
     return si
 
 

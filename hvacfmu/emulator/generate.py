@@ -13,15 +13,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .building import ALTITUDE, TIMEZONE, TRUE_PARAMETERS, sdh_building, true_building_dict
+from .building import TRUE_PARAMETERS, emulated_building, true_building_dict
 from .effects import EmulatorError, parse_effect, resolve_effects
+from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, check_options, get_layout
 from .occupancy import DEFAULT_OCCUPANCY
 from .plant import DT, stream
 from .simulate import controller_defaults, simulate
 from .thermal import DEFAULT_EXTRAS
 
 #: Version of the emulator's physics and data; part of the cache key.
-EMULATOR_VERSION = "1.2"
+EMULATOR_VERSION = "1.3"
 DEFAULT_START = "2025-09-01T00:00:00"
 
 NOISE = {
@@ -55,35 +56,59 @@ class GeneratedPaths:
         )
 
 
-def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_START) -> dict:
-    """The truth mapping of a dataset before simulation (structure, parameters, resolved effects)."""
+def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_START, layout: str = "sdh",
+               construction: str = "medium", climate: str = "mild") -> dict:
+    """The truth mapping of a dataset before simulation (structure, parameters, resolved effects).
+
+    ``layout``, ``construction`` and ``climate`` name entries of
+    :mod:`hvacfmu.emulator.layouts`; ``start`` is the local start time (ISO, no offset).
+    """
     problems = []
     if not isinstance(weeks, (int, np.integer)) or weeks < 1:
         problems.append(f"weeks must be a positive integer, got {weeks!r}")
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         problems.append(f"seed must be a non-negative integer, got {seed!r}")
+    problems += check_options(layout, construction, climate)
+    try:
+        t0 = pd.Timestamp(start)
+        if t0.tzinfo is not None or t0 != t0.normalize():
+            problems.append(f"start must be a local midnight without UTC offset like '2025-09-01', got {start!r}")
+    except (ValueError, TypeError):
+        problems.append(f"start must be an ISO date like '2025-09-01', got {start!r}")
     if problems:
         from ..errors import problems_message
 
         raise EmulatorError(problems_message("Invalid emulator arguments", problems))
-    bld = true_building_dict()
+    start = pd.Timestamp(start).strftime("%Y-%m-%dT%H:%M:%S")
+    bld = true_building_dict(layout, construction, climate)
+    lay = get_layout(layout)
+    clim = CLIMATES[climate]
     controllers = controller_defaults(int(seed), len(bld["vavs"]))
+    controllers.update(json.loads(json.dumps(clim["controllers"])))
     resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
+    occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
+    occupancy["peak_gain"] = dict(lay.peak_gain)
+    occupancy["meeting_zone"] = lay.meeting_zone
     return {
         "version": EMULATOR_VERSION,
         "seed": int(seed),
         "weeks": int(weeks),
         "start": start,
-        "timezone": TIMEZONE,
+        "timezone": clim["timezone"],
         "step": DT,
+        "layout": layout,
+        "construction": construction,
+        "climate": climate,
         "zones": [z["name"] for z in bld["zones"]],
         "vavs": [v["name"] for v in bld["vavs"]],
         "baseline": {
             "building": bld,
-            "altitude": ALTITUDE,
+            "altitude": clim["altitude"],
+            "climate": {"name": climate, **json.loads(json.dumps(clim))},
+            "construction": {"name": construction, **CONSTRUCTION_TEMPLATES[construction]},
             "parameters": dict(TRUE_PARAMETERS),
             "extras": dict(DEFAULT_EXTRAS),
-            "occupancy": json.loads(json.dumps(DEFAULT_OCCUPANCY)),
+            "occupancy": occupancy,
             "controllers": controllers,
             "noise": NOISE,
         },
@@ -216,8 +241,9 @@ def _json_clean(obj):
     return obj
 
 
-def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "parquet") -> GeneratedPaths:
-    """Write an emulated SDH-like dataset.
+def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "parquet", layout: str = "sdh",
+             construction: str = "medium", climate: str = "mild", start: str = DEFAULT_START) -> GeneratedPaths:
+    """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
     Parameters
     ----------
@@ -232,6 +258,15 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
         Effects to inject (see :mod:`hvacfmu.emulator.effects`), e.g.
         ``["solar_gain:zone=S", {"name": "zone_coupling"}]``.
     fmt : {"parquet", "csv"}
+    layout : {"sdh", "row4", "core9"}
+        Floor layout (:mod:`hvacfmu.emulator.layouts`); effect zones and facades
+        must exist in it.
+    construction : {"medium", "light", "heavy"}
+        Construction template (massive layers, furniture).
+    climate : {"mild", "cold", "hot"}
+        Location and weather statistics (Berkeley, Chicago-like, Phoenix-like).
+    start : str
+        Local midnight of the first sample, e.g. ``"2025-12-01"``.
 
     Returns
     -------
@@ -241,7 +276,7 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
     """
     if fmt not in ("parquet", "csv"):
         raise EmulatorError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
-    truth = make_truth(weeks, seed, effects)
+    truth = make_truth(weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate)
     sim = simulate(truth)
     index = sim["index"]
     n = len(index)
@@ -290,7 +325,7 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
     ]
     w = sim["weather"]
     base["weather"] = {
-        "model": "synthetic Berkeley: monthly normals, AR(1) daily anomaly, clear-sky (pvlib Ineichen) x cloud "
+        "model": f"synthetic {CLIMATES[climate]['description']}: monthly normals, AR(1) daily anomaly, clear-sky (pvlib Ineichen) x cloud "
         "transmittance; facades by Erbs + Perez",
         "T_out_mean": float(np.mean(w["T_out"])),
         "T_out_min": float(np.min(w["T_out"])),
@@ -313,7 +348,7 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
     else:
         mpath = outdir / "measurements.csv"
         frame.to_csv(mpath, index=False, float_format="%.6g")
-    bpath = sdh_building(nominal=True).save(outdir / "building.toml")
+    bpath = emulated_building(layout, construction, climate, nominal=True).save(outdir / "building.toml")
     tpath = outdir / "truth.json"
     tpath.write_text(json.dumps(_json_clean(truth), indent=1, allow_nan=False), encoding="utf-8")
     return GeneratedPaths(mpath, bpath, tpath)
@@ -323,30 +358,47 @@ def _cache_root() -> Path:
     return Path(os.environ.get("HVACFMU_CACHE", "~/.cache/hvacfmu")).expanduser()
 
 
-def cache_key(weeks: int, seed: int, effects=()) -> str:
-    """Folder name of a cached dataset: arguments and emulator version."""
+def cache_key(weeks: int, seed: int, effects=(), **options) -> str:
+    """Folder name of a cached dataset: arguments and emulator version.
+
+    ``options`` are further :func:`generate` keywords (``layout``, ``climate``,
+    ...); options at their defaults do not change the key.
+    """
     parsed = [parse_effect(e) for e in effects]
     blob = json.dumps(parsed, sort_keys=True)
     h = hashlib.sha256(blob.encode()).hexdigest()[:12] if parsed else "none"
-    return f"emulator-v{EMULATOR_VERSION}-w{int(weeks)}-s{int(seed)}-{h}"
+    key = f"emulator-v{EMULATOR_VERSION}-w{int(weeks)}-s{int(seed)}-{h}"
+    extra = {k: v for k, v in sorted(options.items()) if v is not None and v != _GENERATE_DEFAULTS.get(k)}
+    if extra:
+        key += "-" + hashlib.sha256(json.dumps(extra, sort_keys=True).encode()).hexdigest()[:10]
+    return key
 
 
-def cached_dataset(weeks: int = 51, seed: int = 0, effects=()) -> GeneratedPaths:
+_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START}
+
+
+def cached_dataset(weeks: int = 51, seed: int = 0, effects=(), **options) -> GeneratedPaths:
     """Generate a dataset once into ``$HVACFMU_CACHE`` (default ``~/.cache/hvacfmu``) and reuse it.
 
+    ``options`` are passed to :func:`generate` (``layout``, ``construction``,
+    ``climate``, ``start``, ...) and are part of the cache key.
     Safe under concurrency (e.g. pytest-xdist workers): each caller that finds
     no cached copy generates into a private temporary folder and renames it into
     place atomically; a caller that loses the race discards its copy.
     """
+    unknown = set(options) - set(_GENERATE_DEFAULTS)
+    if unknown:
+        raise EmulatorError(f"cached_dataset: unknown option(s) {', '.join(sorted(unknown))}; "
+                            f"known: {', '.join(_GENERATE_DEFAULTS)}")
     root = _cache_root()
-    final = root / cache_key(weeks, seed, effects)
+    final = root / cache_key(weeks, seed, effects, **options)
     paths = GeneratedPaths(final / "measurements.parquet", final / "building.toml", final / "truth.json")
     if all(p.exists() for p in (paths.measurements, paths.building, paths.truth)):
         return paths
     root.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}-", dir=root))
     try:
-        generate(tmp, weeks=weeks, seed=seed, effects=effects, fmt="parquet")
+        generate(tmp, weeks=weeks, seed=seed, effects=effects, fmt="parquet", **options)
         try:
             os.rename(tmp, final)
         except OSError:

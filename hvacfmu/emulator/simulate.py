@@ -47,7 +47,9 @@ def simulate(truth: dict) -> dict:
     index = dataset_index(truth["start"], truth["weeks"], truth["timezone"])
     n = len(index)
     bld = base["building"]
-    weather = synthetic_weather(index, stream(seed, "weather"), bld["latitude"], bld["longitude"], base["altitude"])
+    weather = synthetic_weather(
+        index, stream(seed, "weather"), bld["latitude"], bld["longitude"], base["altitude"], base.get("climate")
+    )
     cp = base["controllers"]
     T_supply = supply_air_temperature(weather["T_out"], stream(seed, "supply"), cp)
     irr = np.column_stack([weather[f"I_{o}"] for o in ("N", "E", "S", "W")])

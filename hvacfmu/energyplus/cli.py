@@ -12,8 +12,6 @@ def add_energyplus_arguments(parser) -> None:
                    "pyenergyplus.dataset key (office_medium, ref:small_office)")
     g.add_argument("--weather", help="EPW file or pyenergyplus.dataset weather key (default: the example's city)")
     g.add_argument("--days", type=int, help="run length [days] instead of --weeks")
-    g.add_argument("--start", default="01-01", help="first day, month-day (default 01-01)")
-    g.add_argument("--year", type=int, default=2017, help="calendar year of the run (default 2017)")
     g.add_argument("--floor", help="keep conditioned zones whose IDF name contains this text (e.g. mid)")
     g.add_argument("--zone", action="append", dest="zones", help="keep this IDF zone (repeatable)")
     g.add_argument("--site-timezone", dest="site_timezone", help="IANA time zone of the site (default from the EPW)")
@@ -25,6 +23,11 @@ def generate_from_args(args):
         raise DataError("--engine energyplus needs --prototype (an IDF file or an example building name)")
     from .generate import generate
 
+    start = args.start or "2017-01-01"
+    try:
+        year, month, day = (int(x) for x in start.split("-"))
+    except ValueError:
+        raise DataError(f"--start {start!r} is not a date like 2017-01-01") from None
     return generate(args.outdir, args.prototype, weather=args.weather, weeks=args.weeks, days=args.days,
-                    start=args.start, year=args.year, floor=args.floor, zones=args.zones,
+                    start=f"{month:02d}-{day:02d}", year=year, floor=args.floor, zones=args.zones,
                     timezone=args.site_timezone, fmt=args.format)

@@ -30,7 +30,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.0"
+EXPORT_VERSION = "1.1"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -142,17 +142,9 @@ def _building_dict(idf, site, boxes, ahus, limits, label):
         if t is not None:
             a["T_supply_max"] = t
         d["ahus"].append(a)
-    if not supports_ahus():  # main without [[ahus]] yet: one implicit unit, T_supply only
-        d.pop("ahus")
-        for v in d["vavs"]:
-            v.pop("ahu")
     d.update(physics.physics_tables(idf, zones, surfs, wins))
     return d
 
-
-def supports_ahus() -> bool:
-    """True when :mod:`hvacfmu.building` reads ``[[ahus]]`` and ``vav.ahu``."""
-    return "ahus" in {f.name for f in dataclasses.fields(_building.Building)}
 
 
 def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days: int | None = None,

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .demo import _models
+from .demo_results import stage_models
 from .report import Report
 
 
@@ -94,7 +94,7 @@ def _section_gains(rep, r, figs):
     from .demo_plots import plot_gains
 
     rep.heading("Estimated internal gains (the paper's Figures 2, 3 and 5)")
-    models = {kind: d["model"] for kind, d in _models(r).items()}
+    models = {kind: d["model"] for kind, d in stage_models(r).items()}
     spec = {
         "lumped": ("Model A, lumped: q_IG by season (Fig. 2)", "K per step"),
         "zones": ("Model A, six zones: q_IG by zone and season (Fig. 3)", "K per step"),
@@ -128,7 +128,7 @@ def _gains_view(model):
 
 
 def _section_trajectories(rep, r, figs):
-    from .plots import plot_week_trajectories
+    from ..evaluation.plots import plot_week_trajectories
 
     rep.heading("Seven-day open-loop predictions (the paper's Figure 4)")
     ev = r.get("evaluation")
@@ -269,7 +269,7 @@ def _section_comparison(rep, r):
         per_zone = (a.table("model").loc["all"] - b.table("model").loc["all"]).drop("mean")
         items.append("Largest per-zone differences (A − B): "
                      + ", ".join(f"{z} {v:+.3f} K" for z, v in per_zone.sort_values(key=abs, ascending=False).items()))
-    models = _models(r)
+    models = stage_models(r)
     if "zones" in models and "physics" in models:
         na, nb = models["zones"]["model"].n_states, models["physics"]["model"].n_states
         items.append(f"Complexity: Model A has {rep.value('comparison.states_a', na)} states, Model B "

@@ -29,10 +29,16 @@ def _data_args(p):
         metavar="MINUTES",
         help="linearly interpolate gaps up to this length (default: keep every gap)",
     )
+    p.add_argument(
+        "--timezone",
+        default=None,
+        help="time zone of the data's naive timestamps, e.g. UTC (default: the building's data_timezone, "
+        "else its timezone)",
+    )
 
 
 def _load_dataset(args):
-    from .data import prepare
+    from ..data import prepare
 
     return prepare(
         args.data,
@@ -40,14 +46,22 @@ def _load_dataset(args):
         step=args.step,
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
     )
 
 
 # --------------------------------------------------------------------------- check
 def _cmd_check(args):
-    from .data import check
+    from ..data import check
 
-    report = check(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
+    report = check(
+        args.data,
+        args.building,
+        step=args.step,
+        seed=args.seed,
+        interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
+    )
     print(report)
     return 0 if report.ok else 1
 
@@ -55,22 +69,25 @@ def _cmd_check(args):
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
     if args.engine == "energyplus":
-        from .energyplus import generate_from_args
+        from ..energyplus import generate_from_args
 
         print(generate_from_args(args))
         return 0
-    from .emulator import generate, parse_effect
+    from ..emulator import generate, parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
-    weeks = 51 if args.weeks is None else args.weeks
-    paths = generate(args.outdir, weeks=weeks, seed=args.seed, effects=effects, fmt=args.format)
+    paths = generate(
+        args.outdir, weeks=51 if args.weeks is None else args.weeks, seed=args.seed, effects=effects,
+        fmt=args.format, layout=args.layout, construction=args.construction, climate=args.climate,
+        start=args.start or "2025-09-01",
+    )
     print(paths)
     return 0
 
 
 # --------------------------------------------------------------------------- fit
 def _cmd_fit(args):
-    from .fitting import fit
+    from ..fitting import fit
 
     dataset = _load_dataset(args)
     model = fit(dataset, args.model, progress=not args.quiet)
@@ -84,8 +101,8 @@ def _cmd_fit(args):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    from .evaluation import evaluate
-    from .models import load_model
+    from ..evaluation import evaluate
+    from ..models import load_model
 
     dataset = _load_dataset(args)
     models = [load_model(m) for m in args.model]
@@ -102,7 +119,7 @@ def _cmd_evaluate(args):
 
 # --------------------------------------------------------------------------- export
 def _cmd_export(args):
-    from .fmu import export_file
+    from ..fmu import export_file
 
     path = export_file(args.model, args.output, timezone=args.timezone)
     print(f"wrote {path}")
@@ -118,7 +135,7 @@ def _cmd_cosim(args):
 
 # --------------------------------------------------------------------------- diagnose
 def _cmd_diagnose(args):
-    from .diagnosis import diagnose
+    from ..diagnosis import diagnose
 
     dataset = _load_dataset(args)
     report = diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
@@ -142,6 +159,8 @@ def _cmd_demo(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ..models.registry import fittable_kinds
+
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -155,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
-    p = sub.add_parser("generate", help="write an emulated SDH-like dataset (measurements, building.toml, truth.json)")
+    p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument("--engine", choices=("emulator", "energyplus"), default="emulator",
                    help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')")
@@ -168,14 +187,23 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
-    from .energyplus.cli import add_energyplus_arguments
+    p.add_argument("--layout", choices=("sdh", "row4", "core9"), default="sdh",
+                   help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)")
+    p.add_argument("--construction", choices=("medium", "light", "heavy"), default="medium",
+                   help="construction template (default medium: the SDH-like concrete frame)")
+    p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
+                   help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
+    p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
+                   help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
+    from ..energyplus.cli import add_energyplus_arguments
 
     add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=("lumped", "zones", "physics"), required=True)
+    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
+                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
     p.set_defaults(func=_cmd_fit)
 
@@ -222,13 +250,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _version():
-    from . import __version__
+    from .. import __version__
 
     return __version__
 
 
 def main(argv=None) -> int:
-    from .errors import HvacfmuError
+    from ..errors import HvacfmuError
 
     parser = build_parser()
     args = parser.parse_args(argv)
