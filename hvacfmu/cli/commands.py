@@ -62,14 +62,20 @@ def _cmd_check(args):
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
+    if args.engine == "energyplus":
+        from ..energyplus import generate_from_args
+
+        print(generate_from_args(args))
+        return 0
     import hvacfmu as hf
 
     from ..emulator import parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = hf.generate(
-        args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
-        construction=args.construction, climate=args.climate, start=args.start, hvac=args.hvac, units=args.units,
+        args.outdir, weeks=51 if args.weeks is None else args.weeks, seed=args.seed, effects=effects,
+        fmt=args.format, layout=args.layout, construction=args.construction, climate=args.climate,
+        start=args.start or "2025-09-01", hvac=args.hvac, units=args.units,
         clock=args.clock, export_step=args.export_step, faults=args.fault or (),
     )
     print(paths)
@@ -173,7 +179,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
-    p.add_argument("--weeks", type=int, default=51)
+    p.add_argument("--engine", choices=("emulator", "energyplus"), default="emulator",
+                   help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')")
+    p.add_argument("--weeks", type=int, default=None, help="length [weeks] (emulator default 51, energyplus: a year)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
         "--effect",
@@ -188,7 +196,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="construction template (default medium: the SDH-like concrete frame)")
     p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
-    p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
+    p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
+                   help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
     p.add_argument("--hvac", choices=("vav", "reheat"), default="vav",
                    help="vav (default) or reheat: real-BMS-like VAV with reheat, two air handlers, Td_/rh_ columns")
     p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
@@ -197,6 +206,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--export-step", type=int, default=60, metavar="SECONDS", help="trend-log interval (default 60)")
     p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
                    help="real-world export defect (repeatable)")
+    from ..energyplus.cli import add_energyplus_arguments
+
+    add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
