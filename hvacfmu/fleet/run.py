@@ -117,7 +117,8 @@ def _run_on_dask(specs: list[BuildingSpec], stages, out, options, scheduler, n_w
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:  # pragma: no cover - dask is a dependency
-        raise HvacfmuError(f"the fleet command needs dask.distributed ({exc}); pip install 'dask[distributed]'")
+        raise HvacfmuError(f"the fleet command needs dask.distributed ({exc}); "
+                           "pip install 'dask[distributed]'") from None
     cluster = None
     if scheduler:
         client = Client(scheduler, timeout="30s")
