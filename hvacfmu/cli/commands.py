@@ -161,6 +161,17 @@ def _cmd_demo(args):
     return 1 if result.failed else 0
 
 
+def _cmd_fleet(args):
+    from ..fleet import fleet
+
+    result = fleet(args.source, stages=args.stages, out=args.out, scheduler=args.scheduler,
+                   n_workers=args.workers, kinds=tuple(args.kind or ("lumped", "zones")),
+                   progress=False if args.quiet else None)
+    print(result.summary())
+    print(f"table: {result.out / 'fleet.parquet'} and fleet.csv; report: {result.out / 'report.html'}")
+    return 1 if result.failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..models.registry import fittable_kinds
 
@@ -269,6 +280,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("fleet", help="run check/fit/evaluate/diagnose/export over many buildings on Dask")
+    p.add_argument("source", help="folder of building folders, a folder with fleet.json, or a manifest (.json/.csv)")
+    p.add_argument("--stages", default="check,fit,evaluate",
+                   help="comma-separated subset of check,fit,evaluate,diagnose,export (default check,fit,evaluate)")
+    p.add_argument("--out", default="hvacfmu-fleet", help="output folder (default ./hvacfmu-fleet)")
+    p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=int, help="local workers (default: the machine's cores)")
+    p.add_argument("--kind", action="append", choices=fittable_kinds(),
+                   help="model kind to fit (repeatable; default lumped and zones)")
+    p.set_defaults(func=_cmd_fleet)
     return parser
 
 
