@@ -932,3 +932,46 @@ def test_unit_column_named_T_supply_is_that_units_not_the_primary(tmp_path, smal
     ds = prepare(write(f, tmp_path / "m.csv"), building)
     assert_allclose(ds.frame["T_supply_AHU1"], f["T_supply"].resample("15min").mean().to_numpy(), atol=1e-9)
     assert (ds.frame["T_supply"] > ds.frame["T_supply_AHU1"]).all()  # the weighted mean with AHU2 at 16 °C
+
+
+# --------------------------------------------------------------------------- the emulator's BMS-like export (issue 13)
+@pytest.fixture(scope="module")
+def bms_export():
+    """Three winter weeks as a real BMS exports them: °F, CFM, %, naive UTC, 15-minute trend log, faults."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(
+        weeks=3, seed=1, start="2025-12-01", hvac="reheat", units="us", clock="naive-utc", export_step=900,
+        faults=("outages", "sparse_box", "stuck_sensor"),
+    )
+
+
+def test_bms_like_export_sparse_box_refused_stuck_sensor_masked(bms_export):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, bms_export.building)
+    b = report.dataset.building
+    assert b.ahu_names == ("AHU1", "AHU2") and b.data_timezone == "UTC"
+    frame = report.dataset.frame
+    for c in ("T_supply_AHU1", "T_supply_AHU2", "Td_VAV_NW_1", "rh_VAV_NW_1"):
+        assert c in frame.columns
+    assert 10 < np.nanmedian(frame["T_supply_AHU1"]) < 20 and 0 <= np.nanmax(frame["rh_VAV_NW_1"]) <= 1
+    assert not report.ok
+    sparse = [p for p in report.problems if "a value in only" in p]
+    assert sparse and all("%" in p and "below the 50 %" in p for p in sparse)
+    cov = [float(p.split("a value in only ")[1].split(" %")[0]) for p in sparse]
+    assert max(cov) < 10  # the ~6 % box is not inflated by interpolation between its rare samples
+    assert any("stuck sensor" in w and "masked" in w for w in report.warnings)
+    assert abs(report.clock.offset) < 0.5 and not any("clock:" in w for w in report.warnings)
+
+
+def test_bms_like_export_naive_utc_without_declaration_looks_8_hours_late(tmp_path, bms_export):
+    from hvacfmu.building import load_building
+
+    d = load_building(bms_export.building).to_dict()
+    d.pop("data_timezone")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, building_from_dict(d))
+    (msg,) = [w for w in report.warnings if "clock:" in w]
+    assert "the data look 8 h late" in msg and "naive timestamps in UTC? use --timezone UTC" in msg

@@ -128,7 +128,10 @@ class CheckReport:
             if lr.native_step:
                 expected = span / lr.native_step + 1
                 native += f", {100 * min(lr.rows / expected, 1.0):.2f} % of the rows expected at that spacing"
-            lines.append(f"Native resolution: {native}; times {'with UTC offsets' if lr.has_offsets else 'naive local'}")
+            clock = "with UTC offsets" if lr.has_offsets or self.dataset is None else (
+                f"naive, read in {self.dataset.building.clock_timezone}"
+            )
+            lines.append(f"Native resolution: {native}; times {clock}")
             coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
             if coarse:
                 lines.append("  coarser columns: " + ", ".join(f"{c} {s:g} s" for c, s in coarse.items()))

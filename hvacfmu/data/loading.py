@@ -354,6 +354,29 @@ def _median_step(t_ns: np.ndarray, max_samples: int = 20_000) -> float | None:
     return float(np.median(d)) / 1e9
 
 
+#: A column whose samples are spaced more coarsely than the file is "coarse" (interpolated to the model
+#: step) only if at least this share of its sample spacings equal its median spacing; otherwise it is
+#: a sparse column at the file's resolution (its missing steps stay missing).
+REGULAR_SHARE = 0.8
+
+
+def _column_step(t_ns: np.ndarray, report: LoadReport, desc: str, n_rows: int) -> float | None:
+    """Native spacing [s] of one column's valid samples (see :data:`REGULAR_SHARE`)."""
+    step = _median_step(t_ns) or report.native_step
+    native = report.native_step
+    if not step or not native or step <= 1.5 * native:
+        return step
+    d = np.diff(t_ns) / 1e9
+    regular = float(np.mean(np.abs(d - step) <= 0.01 * step)) if len(d) else 0.0
+    if regular >= REGULAR_SHARE:
+        return step
+    report.warnings.append(
+        f"{desc}: values in only {100 * len(t_ns) / max(n_rows, 1):.1f} % of the rows, at irregular times "
+        f"(median spacing {step:g} s, the file's {native:g} s): kept at the file's resolution, not interpolated"
+    )
+    return native
+
+
 def load_measurements(path, building, timezone: str | None = None) -> tuple[pd.DataFrame, LoadReport]:
     """Read, validate and convert a measurements file.
 
@@ -558,7 +581,7 @@ def _load(path: Path, building: Building):
         out[canonical] = si
         if utc is not None:
             sel = np.isfinite(si) & ok
-            report.column_steps[canonical] = _median_step(utc[sel]) or report.native_step
+            report.column_steps[canonical] = _column_step(utc[sel], report, f"{label}: {desc}", n)
 
     if problems or utc is None:
         return None, report, problems
