@@ -975,3 +975,21 @@ def test_bms_like_export_naive_utc_without_declaration_looks_8_hours_late(tmp_pa
         report = check(bms_export.measurements, building_from_dict(d))
     (msg,) = [w for w in report.warnings if "clock:" in w]
     assert "the data look 8 h late" in msg and "naive timestamps in UTC? use --timezone UTC" in msg
+
+
+def test_discharge_colder_than_supply_is_flagged(tmp_path, small_building_dict):
+    d = _two_ahu_dict(small_building_dict)
+    d["units"], d["columns"] = {}, {}
+    d["ahus"][0]["T_supply_max"] = 30.0
+    building = building_from_dict(d)
+    f = make_measurements(building, periods=1440).drop(columns=["T_supply"])
+    f["T_supply_AHU1"], f["AHU-2 SAT"] = 13.0, 14.0
+    f["Td_V1"] = 8.0  # colder than the supply air: impossible
+    f["Td_V2"] = 40.0  # 10 K above the heating limit
+    f["Td_V3"] = 25.0  # fine
+    with pytest.warns(HvacfmuWarning) as record:
+        prepare(write(f, tmp_path / "m.csv"), building)
+    text = "\n".join(str(r.message) for r in record)
+    assert "column 'Td_V1': discharge air below its unit's supply air T_supply_AHU1 - 3 K in 100 %" in text
+    assert "column 'Td_V2': discharge air above T_supply_max = 30 °C of AHU1 + 5 K in 100 %" in text
+    assert "Td_V3" not in text

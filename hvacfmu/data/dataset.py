@@ -16,6 +16,7 @@ from ..building import ORIENTATIONS, Building
 from ..errors import DataError, HvacfmuWarning, problems_message
 from ..progress import Progress
 from .loading import LoadReport, as_building, load_measurements
+from .plausibility import check_discharge
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
 from .solar import facade_irradiance
 
@@ -471,6 +472,7 @@ def _prepare(
             )
         sparse = sparse_columns(frame)
         notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
+        notes += check_discharge(frame, building)
         bar.update(note="solar and weeks")
         dataset = Dataset.from_frame(
             frame,
