@@ -236,6 +236,40 @@ def check(
         return CheckReport(
             ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), building=about, load_report=report
         )
+    gaps, problems, sparse = _coverage(dataset, building, path.name, min_coverage)
+    step_s = dataset.step
+    if not dataset.weeks:
+        span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
+        problems.append(
+            f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
+            "fitting needs at least one"
+        )
+    exc = dataset.frame["excitation"].to_numpy() == 1
+    periods = [
+        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
+    ]
+    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
+    if not periods:
+        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    if clock.warning:
+        notes.insert(0, f"{path.name}: clock: {clock.warning}")
+    return CheckReport(
+        ok=not problems,
+        problems=problems,
+        warnings=notes,
+        path=str(path),
+        building=about,
+        dataset=dataset,
+        load_report=report,
+        gaps=gaps,
+        excitation_periods=periods,
+        clock=clock,
+    )
+
+
+def _coverage(dataset, building, label, min_coverage):
+    """Gaps per column, the coverage problems, and the sparse-column messages (also in the dataset's warnings)."""
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
     gaps = []
@@ -255,50 +289,30 @@ def check(
             )
         )
         missing_all[col] = bool(len(missing) and missing.all())
-        if col in required and len(missing) and missing.all():
+        if col in required and missing_all[col]:
             problems.append(
-                f"{path.name}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
+                f"{label}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
                 f"(at least {100 * min_coverage:g} % of the step)"
             )
     sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
     for msg, col in sparse.items():
         if not (col in required and missing_all.get(col)):
-            problems.append(f"{path.name}: {msg}")
-    if not dataset.weeks:
-        span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
-        problems.append(
-            f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
-            "fitting needs at least one"
-        )
-    exc = dataset.frame["excitation"].to_numpy() == 1
-    periods = [
-        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
-    ]
-    notes = [w for w in dataset.warnings if w not in sparse]
-    zone_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in dataset.frame.columns]
+            problems.append(f"{label}: {msg}")
+    return gaps, problems, sparse
+
+
+def _week_notes(dataset) -> list:
+    """Weeks with fewer than :data:`WEEK_COVERAGE_WARNING` of their steps holding every zone temperature."""
+    notes = []
+    b = dataset.building
+    zone_cols = [f"T_{z}" for z in b.zone_names if f"T_{z}" in dataset.frame.columns]
     all_zones = np.isfinite(dataset.frame[zone_cols].to_numpy()).all(axis=1)
     for w in dataset.weeks:
-        a, b = dataset.frame.index.searchsorted(w.start), dataset.frame.index.searchsorted(w.end)
-        share = float(all_zones[a:b].mean()) if b > a else 0.0
+        a, e = dataset.frame.index.searchsorted(w.start), dataset.frame.index.searchsorted(w.end)
+        share = float(all_zones[a:e].mean()) if e > a else 0.0
         if share < WEEK_COVERAGE_WARNING:
             notes.append(
                 f"week #{w.number} ({w.start.date()}, {w.season}, {'train' if w.train else 'test'}): only "
                 f"{100 * share:.0f} % of its steps have every zone temperature"
             )
-    if not periods:
-        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
-    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
-    if clock.warning:
-        notes.insert(0, f"{path.name}: clock: {clock.warning}")
-    return CheckReport(
-        ok=not problems,
-        problems=problems,
-        warnings=notes,
-        path=str(path),
-        building=about,
-        dataset=dataset,
-        load_report=report,
-        gaps=gaps,
-        excitation_periods=periods,
-        clock=clock,
-    )
+    return notes
