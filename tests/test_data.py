@@ -993,3 +993,12 @@ def test_discharge_colder_than_supply_is_flagged(tmp_path, small_building_dict):
     assert "column 'Td_V1': discharge air below its unit's supply air T_supply_AHU1 - 3 K in 100 %" in text
     assert "column 'Td_V2': discharge air above T_supply_max = 30 °C of AHU1 + 5 K in 100 %" in text
     assert "Td_V3" not in text
+
+
+def test_check_says_why_a_stuck_column_is_empty(tmp_path, small_building):
+    f = _quarter_hourly(small_building, days=8)
+    f["T_B"] = 22.0
+    report = check(write(f, tmp_path / "m.csv"), small_building)
+    assert not report.ok
+    (msg,) = [p for p in report.problems if "'T_B'" in p]
+    assert "no model step of 900 s has enough samples" in msg and "(768 sample(s) masked as stuck sensor" in msg

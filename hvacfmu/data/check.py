@@ -292,12 +292,12 @@ def _coverage(dataset, building, label, min_coverage):
         if col in required and missing_all[col]:
             problems.append(
                 f"{label}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
-                f"(at least {100 * min_coverage:g} % of the step)"
+                f"(at least {100 * min_coverage:g} % of the step){_masked_note(dataset, col)}"
             )
     sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
     for msg, col in sparse.items():
         if not (col in required and missing_all.get(col)):
-            problems.append(f"{label}: {msg}")
+            problems.append(f"{label}: {msg}{_masked_note(dataset, col)}")
     return gaps, problems, sparse
 
 
@@ -316,3 +316,10 @@ def _week_notes(dataset) -> list:
                 f"{100 * share:.0f} % of its steps have every zone temperature"
             )
     return notes
+
+
+def _masked_note(dataset, col) -> str:
+    """'' or a note that plausibility checks masked samples of ``col`` (why a column may look empty)."""
+    masked = dataset.load_report.masked if dataset.load_report is not None else {}
+    parts = [f"{n} sample(s) masked as {why}" for (c, why), n in masked.items() if c == col]
+    return f" ({', '.join(parts)}: see the warnings)" if parts else ""
