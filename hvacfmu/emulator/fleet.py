@@ -39,7 +39,7 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
     """The :func:`~hvacfmu.emulator.generate` keywords of every building of a fleet (drawn from ``seed``)."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(b"fleet")]))
     out = []
-    for i in range(int(n)):
+    for _ in range(int(n)):
         layout = str(rng.choice(list(LAYOUTS)))
         climate = str(rng.choice(list(CLIMATES)))
         hvac = "reheat" if rng.random() < REHEAT_SHARE else "vav"
