@@ -594,6 +594,9 @@ def test_constructions_and_climates_differ():
         ({"layout": "core9", "effects": ["zone_coupling:zones=N+C"]}, "declared adjacent"),
         ({"layout": "row4", "effects": ["reheat:zone=C"]}, "zone 'C' is not one of R1"),
         ({"start": "2025-09-01T06:00"}, "start must be a local midnight"),
+        ({"climate": "hot", "effects": ["internal_gain_schedule:kind=dst"]}, r"needs daylight saving .*America/Phoenix"),
+        ({"layout": "core9", "effects": ["thermal_mass:zone=NE", "solar_gain:zone=X"], "hvac": "steam"},
+         r"(?s)unknown hvac mode 'steam'.*"),
     ],
 )
 def test_bad_layout_options(kwargs, match):
@@ -601,6 +604,27 @@ def test_bad_layout_options(kwargs, match):
     effects = kwargs.pop("effects", ())
     with pytest.raises(EmulatorError, match=match):
         make_truth(weeks, 0, effects, **kwargs)
+
+
+@pytest.mark.parametrize("layout", sorted(LAYOUT_ZONES))
+@pytest.mark.parametrize("seed", [0, 7])
+def test_random_effects_resolve_on_every_layout(layout, seed):
+    """Unspecified effect locations are drawn from the layout's own zones, facades and non-adjacent pairs."""
+    from hvacfmu.emulator import emulated_building
+
+    b = emulated_building(layout)
+    truth = make_truth(4, seed, list(EFFECT_NAMES), layout=layout)
+    assert truth["zones"] == list(LAYOUT_ZONES[layout])
+    for e in truth["effects"]:
+        if e["name"] in ("solar_gain", "reheat"):
+            assert b.zone(e["zone"]).facades, e  # a perimeter zone
+        if e["name"] == "solar_gain":
+            assert e["facade"] in [f.orientation for f in b.zone(e["zone"]).facades]
+        if e["name"] == "zone_coupling":
+            assert tuple(e["zones"]) not in b.adjacency_pairs() and tuple(e["zones"][::-1]) not in b.adjacency_pairs()
+        if e["name"] in ("actuation_delay", "thermal_mass"):
+            assert e["zone"] in LAYOUT_ZONES[layout]
+    assert truth == make_truth(4, seed, list(EFFECT_NAMES), layout=layout)  # seeded
 
 
 LAYOUT_CASES = [

@@ -105,6 +105,12 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         controllers["ahus"] = {a["name"]: dict(REHEAT_MODE_AHUS[a["name"]]) for a in bld["ahus"]}
         controllers["T_discharge_max"] = HVAC_MODES["reheat"]["T_discharge_max"]
     resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
+    if any(e.get("kind") == "dst" for e in resolved) and not _has_dst(clim["timezone"], start, int(weeks)):
+        raise EmulatorError(
+            f"Invalid emulator effects: internal_gain_schedule:kind=dst needs daylight saving time, but climate "
+            f"{climate!r} ({clim['timezone']}) has none from {start} for {int(weeks)} weeks; use kind=holiday "
+            "or another climate"
+        )
     occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
     occupancy["peak_gain"] = dict(lay.peak_gain)
     occupancy["meeting_zone"] = lay.meeting_zone
@@ -134,6 +140,12 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         },
         "effects": resolved,
     }
+
+
+def _has_dst(timezone: str, start: str, weeks: int) -> bool:
+    """True if daylight saving time is in force at some hour of the span in ``timezone``."""
+    hours = pd.date_range(pd.Timestamp(start), periods=weeks * 7 * 24, freq="h", tz="UTC").tz_convert(timezone)
+    return any(bool(t.dst()) for t in hours[::24])
 
 
 def _structure(truth: dict, core) -> dict:
