@@ -943,6 +943,7 @@ def test_fleet_parameters_are_varied_and_seeded():
     assert len({p["start"] for p in fleet_parameters(30, seed=0, weeks=4)}) > 2  # short datasets: several seasons
 
 
+@pytest.mark.slow
 def test_generate_fleet(tmp_path):
     """Three 2-week buildings: manifest with relative paths, each building prepares, truth matches its parameters."""
     import warnings

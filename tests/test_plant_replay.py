@@ -189,22 +189,20 @@ def test_replay_on_other_layouts(tmp_path, layout, climate, start):
     assert np.all(np.abs(bias) < 2 * BIAS_BOUND), dict(zip(zones, bias.round(3)))
 
 
-def _replay_plant(plant, frame, use_discharge, warmup_rows):
+def _replay_plant(plant, frame, use_discharge, warmup_rows, irradiance):
     """Step ``plant`` through a prepared 15-minute frame with the measured inputs; zone temperatures per row."""
     zones, vavs = plant.zones, plant.vavs
     f = frame.ffill().bfill()
     T_meas = f[[f"T_{z}" for z in zones]].to_numpy()
+    Ts = f[[f"T_supply_{a}" for a in plant.ahus]].to_numpy()
+    Td = f[[f"Td_{v}" for v in vavs]].to_numpy()
+    m = f[[f"m_{v}" for v in vavs]].to_numpy()
+    T_out = f["T_out"].to_numpy()
     x = plant.initial_state(T_meas[0])
     out = np.full_like(T_meas, np.nan)
-    t0 = (frame.index[0] - frame.index[0].normalize()).total_seconds()  # the dataset starts at a local midnight
     for k in range(len(f)):
-        t = t0 + 900.0 * k
-        row = f.iloc[k]
-        irr = plant.facades_from_ghi(t, 900.0, row["ghi"])
-        Ts = [row[f"T_supply_{a}"] for a in plant.ahus]
-        Td = np.array([row[f"Td_{v}"] for v in vavs]) if use_discharge else None
-        m = np.array([row[f"m_{v}"] for v in vavs])
-        x, _ = plant.advance(x, t, 900.0, m, row["T_out"], Ts, irr, T_discharge=Td)
+        x, _ = plant.advance(x, 900.0 * k, 900.0, m[k], T_out[k], Ts[k], irradiance[k],
+                             T_discharge=Td[k] if use_discharge else None)
         if k + 1 < len(f):
             out[k + 1] = plant.zone_temperatures(x)
     return out[warmup_rows:], T_meas[warmup_rows:]
@@ -231,11 +229,14 @@ def test_reheat_mode_replay_needs_discharge_temperatures():
     plant = Plant.from_truth(json.loads(paths.truth.read_text()))
     assert plant.ahus == ("AHU1", "AHU2")
     frame = data.frame
+    assert frame.index[0] == frame.index[0].normalize()  # t = 0 is the dataset start
+    ghi = frame["ghi"].ffill().bfill().to_numpy()
+    irradiance = [plant.facades_from_ghi(900.0 * k, 900.0, ghi[k]) for k in range(len(frame))]
     warm = 7 * 96
-    sim, meas = _replay_plant(plant, frame, True, warm)
+    sim, meas = _replay_plant(plant, frame, True, warm, irradiance)
     err = sim - meas
     rms = np.sqrt(np.nanmean(err ** 2, axis=0))
     assert np.all(rms < 0.3), dict(zip(plant.zones, rms.round(3)))
-    cold, meas = _replay_plant(plant, frame, False, warm)
+    cold, meas = _replay_plant(plant, frame, False, warm, irradiance)
     bias = np.nanmean(cold - meas, axis=0)
     assert np.all(bias < -1.0), dict(zip(plant.zones, bias.round(2)))
