@@ -1,4 +1,8 @@
-"""The SDH-like 4th floor: floor plan, VAV boxes and construction tables.
+"""Emulated floors as building files: floor plan, VAV boxes (and air handlers) and construction tables.
+
+The geometry of every layout (``sdh``, ``row4``, ``core9``), the construction
+templates and the climates are tables in :mod:`hvacfmu.emulator.layouts`; this
+module turns them into building-file mappings. The default layout is described here.
 
 The floor is a 64 m x 40 m rectangle (2,560 m2) split into six zones named as
 in the paper (Zhou, Hu, Tomlin, Fig. 1): four perimeter zones with windows,
