@@ -317,13 +317,15 @@ def _discharge_columns(sim: dict, truth: dict) -> dict:
     cp = truth["baseline"]["controllers"]
     rng = stream(truth["seed"], "noise_discharge")
     nd = NOISE["Td"]
-    Td = discharge_temperature(sim)
-    Tdn = _quantise(Td + rng.normal(0.0, nd["std"], Td.shape), nd["quantum"])
+    Tdn = discharge_temperature(sim)
+    Tdn += rng.normal(0.0, nd["std"], Tdn.shape)
+    Tdn = _quantise(Tdn, nd["quantum"])
     per = int(round(cp["control_interval"] / DT))
-    Ts_ctrl = np.repeat(sim["T_supply"][::per], per, axis=0)[:, sim["box_ahu"]]  # held at each control instant
+    # the valve command of each control interval: power over the coil's power at the discharge limit
+    Ts_ctrl = sim["T_supply"][::per][:, sim["box_ahu"]]  # supply air at each control instant
     m_min = np.array([v["m_min"] for v in truth["baseline"]["building"]["vavs"]])
     p_max = m_min * CP_AIR * np.maximum(float(cp["T_discharge_max"]) - Ts_ctrl, 1e-6)
-    rh = np.clip(np.round(sim["reheat_command"] / p_max, 2), 0.0, 1.0)
+    rh = np.repeat(np.clip(np.round(sim["reheat_command"][::per] / p_max, 2), 0.0, 1.0), per, axis=0)
     out = {}
     for j, v in enumerate(vavs):
         out[f"Td_{v}"] = Tdn[:, j]
