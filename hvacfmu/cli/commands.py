@@ -83,7 +83,7 @@ def _cmd_generate(args):
 
 
 def _cmd_generate_fleet(args):
-    from .emulator import generate_fleet
+    from ..emulator import generate_fleet
 
     path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
     print(f"fleet manifest: {path}")
