@@ -900,7 +900,7 @@ def test_real_world_faults(tmp_path):
         ({"clock": "utc"}, "clock must be one of aware, naive-local, naive-utc"),
         ({"export_step": 90}, "export_step must be a positive multiple of 60 s"),
         ({"faults": ["gremlins"]}, "unknown fault 'gremlins'"),
-        ({"hvac": "radiators"}, "unknown hvac mode 'radiators'; known modes: vav, reheat"),
+        ({"hvac": "radiators"}, "unknown hvac mode 'radiators'; known modes: vav, reheat, reheat-dual"),
     ],
 )
 def test_bad_export_options(tmp_path, kwargs, match):
@@ -934,12 +934,13 @@ def test_fleet_parameters_are_varied_and_seeded():
     assert many == fleet_parameters(30, seed=0, weeks=51)
     assert many != fleet_parameters(30, seed=1, weeks=51)
     for key, values in [("layout", {"sdh", "row4", "core9"}), ("climate", {"mild", "cold", "hot"}),
-                        ("construction", {"light", "medium", "heavy"}), ("hvac", {"vav", "reheat"})]:
+                        ("construction", {"light", "medium", "heavy"}),
+                        ("hvac", {"vav", "reheat", "reheat-dual"})]:
         assert {p[key] for p in many} == values, key
     assert {e for p in many for e in p["effects"]} == set(EFFECT_NAMES)
     assert any(not p["effects"] for p in many)  # clean buildings too
     assert len({p["seed"] for p in many}) == 30
-    assert all(p["units"] == "us" for p in many if p["hvac"] == "reheat")
+    assert all(p["units"] == "us" for p in many if p["hvac"] != "vav")
     assert len({p["start"] for p in fleet_parameters(30, seed=0, weeks=4)}) > 2  # short datasets: several seasons
 
 
@@ -980,3 +981,29 @@ def test_cli_generate_fleet(tmp_path):
     m = json.loads((tmp_path / "f" / "fleet.json").read_text())
     assert [b["name"] for b in m["buildings"]] == ["b000", "b001"]
     assert "fleet: 2/2 b001" in r.stderr
+
+
+def test_dual_maximum_boxes_heat_with_more_air():
+    """reheat-dual: in heating the discharge air reaches its limit first, then the airflow rises (more air = more heat)."""
+    from hvacfmu.emulator.simulate import discharge_temperature
+
+    truth = make_truth(1, 2, [], start="2026-01-12", layout="row4", climate="cold", hvac="reheat-dual")
+    sim = simulate(truth)
+    vavs = truth["baseline"]["building"]["vavs"]
+    m_min = np.array([v["m_min"] for v in vavs])
+    m_max = np.array([v["m_max"] for v in vavs])
+    Td = discharge_temperature(sim)
+    heating = sim["reheat"] > 0
+    more_air = heating & (sim["m_applied"] > m_min + 1e-9)
+    assert more_air.mean() > 0.05
+    assert np.all(Td[more_air] > 35.0 - 0.6)  # the airflow stage only runs at the discharge limit
+    assert np.all(sim["m_applied"][more_air] <= 0.6 * m_max[np.nonzero(more_air)[1]] + 1e-12)
+    # more air is more heat: boxes heating above minimum airflow deliver more than those at minimum
+    assert sim["reheat"][more_air].mean() > 1.3 * sim["reheat"][heating & ~more_air].mean()
+    plant = Plant.from_truth(truth)
+    x, T = sim["x0"], []
+    for k in range(0, 600):
+        x, Tz = plant.advance(x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+                              T_discharge=Td[k])
+        T.append(Tz)
+    assert_allclose(np.array(T)[:-1], sim["T_zone"][1:600], rtol=0, atol=1e-9)  # [K]
