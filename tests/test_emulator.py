@@ -1007,3 +1007,35 @@ def test_dual_maximum_boxes_heat_with_more_air():
                               T_discharge=Td[k])
         T.append(Tz)
     assert_allclose(np.array(T)[:-1], sim["T_zone"][1:600], rtol=0, atol=1e-9)  # [K]
+
+
+@pytest.mark.slow
+def test_dual_maximum_winter_data_need_the_discharge_temperatures():
+    """Issue 13's trap, reproduced: on dual-maximum reheat data in a cold winter the six-zone model beats
+    persistence with the Td columns and loses to it without them (more air looks like more cooling).
+
+    Measured (10 weeks from 2025-11-03, cold climate, seed 0): with Td 0.17-0.30 K against persistence
+    0.57-0.95 K in every zone; without Td 1.38-1.58 K, worse than persistence in 6/6 zones.
+    Bounds: with Td below 0.7 x persistence in every zone; without Td worse than persistence in >= 4 zones.
+    """
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.data.dataset import Dataset
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.fitting import fit
+
+    paths = cached_dataset(weeks=10, seed=0, hvac="reheat-dual", climate="cold", start="2025-11-03")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = prepare(paths.measurements, paths.building)
+        dropped = [c for c in ds.frame.columns if c.startswith(("Td_", "rh_"))]
+        no_td = Dataset.from_frame(ds.frame.drop(columns=dropped), ds.building)
+        ratios = {}
+        for name, d in (("with", ds), ("without", no_td)):
+            rows = evaluate(fit(d, "zones", progress=False), d).verdict.to_dict()["zones"]
+            assert [r["output"] for r in rows] == list(ds.building.zone_names)
+            ratios[name] = np.array([r["rms"] / r["persistence"] for r in rows])
+    assert np.all(ratios["with"] < 0.7), ratios
+    assert np.sum(ratios["without"] > 1.0) >= 4, ratios
