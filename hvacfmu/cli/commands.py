@@ -84,7 +84,7 @@ def _cmd_generate(args):
 
 
 def _cmd_generate_fleet(args):
-    from .emulator import generate_fleet
+    from ..emulator import generate_fleet
 
     path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
     print(f"fleet manifest: {path}")
@@ -210,8 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
     p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
                    help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
-    p.add_argument("--hvac", choices=("vav", "reheat"), default="vav",
-                   help="vav (default) or reheat: real-BMS-like VAV with reheat, two air handlers, Td_/rh_ columns")
+    p.add_argument("--hvac", choices=("vav", "reheat", "reheat-dual"), default="vav",
+                   help="vav (default), reheat: real-BMS-like VAV with reheat at constant minimum airflow, two air "
+                        "handlers, Td_/rh_ columns; reheat-dual: the same with dual-maximum boxes")
     p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
     p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
                    help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
