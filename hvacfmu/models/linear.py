@@ -107,7 +107,7 @@ class LinearZoneModel(ZoneModel):
         if self.kind not in self.KINDS:
             raise ModelError(f"LinearZoneModel kind must be one of {self.KINDS}, got {self.kind!r}")
         nx, nu, nv = len(self.outputs), self.input_map.shape[0] if np.ndim(self.input_map) == 2 else -1, len(self.disturbances)
-        set_ = lambda k, v: object.__setattr__(self, k, v)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass normalisation
         set_("outputs", tuple(self.outputs))
         set_("measured_zones", tuple(self.measured_zones))
         set_("vavs", tuple(self.vavs))
@@ -125,7 +125,7 @@ class LinearZoneModel(ZoneModel):
 
     def _check_delivered(self, nx, nv):
         """Normalise and check the delivered-heat fields (beta, inlets, heat_map)."""
-        set_ = lambda k, v: object.__setattr__(self, k, v)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         nb = len(self.vavs)
         set_("beta", check_shape(self.beta, (nx,), "beta"))
         set_("inlets", tuple(self.inlets))
@@ -214,7 +214,7 @@ class LinearZoneModel(ZoneModel):
         """Readable coefficients, stability, internal-gain levels and fit provenance."""
         ny = len(self.outputs)
         w = max(8, *(len(s) for s in self.outputs))
-        fmt = lambda v: f"{v: .4g}".rjust(11)
+        fmt = lambda v: f"{v: .4g}".rjust(11)  # noqa: E731
         lines = [f"Model A ({self.kind}), step {self.step:g} s, {ny} state(s)"]
         lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
         lines.append("A:" + "".ljust(w - 2) + "".join(o.rjust(11) for o in self.outputs))
