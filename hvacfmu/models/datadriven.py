@@ -735,7 +735,9 @@ class _Prepared:
             x = X[self.train, j]
             x = x[np.isfinite(x)]
             if x.size < 2:
-                problems.append(f"{what} {name}: no data in the training weeks")
+                why = [w for w in getattr(self.dataset, "warnings", []) or [] if f"'T_{name}'" in w]
+                problems.append(f"{what} {name}: no data in the training weeks"
+                                + (f" (the data layer said: {why[0]})" if why else ""))
             elif np.ptp(x) < 1e-6:
                 problems.append(
                     f"{what} {name}: constant at {x[0]:g} over all training weeks (stuck sensor?); "
