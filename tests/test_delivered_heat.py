@@ -228,3 +228,23 @@ def test_bad_model_files_are_refused(truth, tmp_path, edit, message):
     path.write_text(json.dumps(d).replace("NaN", "NaN"))
     with pytest.raises(ModelError, match=message):
         load_model(path)
+
+
+def test_air_handler_off_switches_to_delivered_heat(building, tmp_path):
+    """Without Td, an air handler off (all boxes at zero flow) in >5 % of the steps selects the delivered form,
+    so the idle supply temperature never enters; forcing the airflow form warns about it."""
+    from tests.test_datadriven import true_zone_model
+
+    frame = simulate_frame(true_zone_model(building), building, seed=7, weeks=6)
+    night = np.asarray(frame.index.hour < 5)  # 21 % of the steps: unit off, supply node drifts to 30 °C
+    frame.loc[night, [c for c in frame.columns if c.startswith("m_")]] = 0.0
+    frame.loc[night, "T_supply"] = 30.0
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        m = fit_zones(ds)
+    assert m.heat == "delivered" and "air handler is off" in m.meta["heat"]["reason"]
+    assert "T_supply" not in m.disturbances or "T_supply" in m.inlets
+    assert set(m.inlets) == {"T_supply"}
+    with pytest.warns(HvacfmuWarning, match="enters linearly although an air handler is off in 21 %"):
+        fit_zones(ds, heat="airflow")

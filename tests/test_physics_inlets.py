@@ -136,3 +136,15 @@ def test_fit_uses_discharge_air_and_beats_the_fit_without_it(building):
         assert_allclose(fit.params[k], TRUE[k], rtol=0.10, atol=0, err_msg=k)
     assert fit.meta["fit_rms"] * 10 < blind.meta["fit_rms"], (fit.meta["fit_rms"], blind.meta["fit_rms"])
     assert fit.meta["plausibility"]["spectral_radius"] < 1
+
+
+def test_physics_model_for_other_zones_is_refused(model):
+    idx = pd.date_range("2025-11-03", periods=4, freq="15min", tz="UTC")
+    frame = pd.DataFrame({"T_A": 21.0, "T_Q": 21.0, "m_V1": 0.1, "T_out": 5.0}, index=idx)
+    from hvacfmu.errors import ModelError
+
+    with pytest.raises(ModelError, match=r"zone temperature column\(s\) \['T_B'\].*Model zones: \['A', 'B'\]; "
+                                         r"data zones: \['A', 'Q'\]"):
+        model.measured_outputs(frame)
+    with pytest.raises(ModelError, match=r"VAV airflow column\(s\) \['m_V2', 'm_V3'\]"):
+        model.signals(frame)
