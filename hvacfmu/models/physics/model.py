@@ -468,6 +468,8 @@ class PhysicsModel(ZoneModel):
             if e.get("flags"):
                 s += "   [" + "; ".join(e["flags"]) + "]"
             lines.append(s)
+        if self.inlets and set(self.inlets) != {"T_supply"}:
+            lines.append("  box inlet air: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.inputs, self.inlets)))
         flagged = self.meta.get("unidentifiable", [])
         if flagged:
             lines.append("  not identifiable from these data: " + ", ".join(flagged))
