@@ -248,3 +248,11 @@ def test_air_handler_off_switches_to_delivered_heat(building, tmp_path):
     assert set(m.inlets) == {"T_supply"}
     with pytest.warns(HvacfmuWarning, match="enters linearly although an air handler is off in 21 %"):
         fit_zones(ds, heat="airflow")
+
+
+def test_diagnosis_refuses_a_delivered_model_and_fits_the_airflow_form(fit, dataset):
+    """The diagnosis cause terms assume zone airflow inputs: a delivered-heat model is refused with the fix."""
+    from hvacfmu.diagnosis import diagnose
+
+    with pytest.raises(ModelError, match="airflow form .* heat=airflow"):
+        diagnose(dataset, model=fit, progress=False)
