@@ -254,5 +254,24 @@ def test_diagnosis_refuses_a_delivered_model_and_fits_the_airflow_form(fit, data
     """The diagnosis cause terms assume zone airflow inputs: a delivered-heat model is refused with the fix."""
     from hvacfmu.diagnosis import diagnose
 
-    with pytest.raises(ModelError, match="airflow form .* heat=airflow"):
+    with pytest.raises(ModelError, match="airflow form .* --heat airflow"):
         diagnose(dataset, model=fit, progress=False)
+
+
+def test_cli_fit_heat_option(dataset, tmp_path):
+    """`hvacfmu fit --heat airflow|delivered` forces the form of Model A; the physics model refuses the option."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    data = Path(dataset.source)
+    bld = data.parent / "data_building.toml"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    run = lambda *a: subprocess.run([sys.executable, "-m", "hvacfmu.cli", "-q", "fit", str(data), "-b", str(bld),  # noqa: E731
+                                     *a], capture_output=True, text=True, env=env, timeout=300)
+    r = run("--model", "zones", "--heat", "airflow", "-o", str(tmp_path / "a.json"))
+    assert r.returncode == 0, r.stderr
+    assert load_model(tmp_path / "a.json").heat == "airflow"
+    r = run("--model", "physics", "--heat", "airflow", "-o", str(tmp_path / "p.json"))
+    assert r.returncode == 2 and "--heat applies to Model A" in r.stderr and "Traceback" not in r.stderr

@@ -76,7 +76,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         from ..errors import ModelError
 
         raise ModelError("diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
-                         "delivered-heat form (heat='delivered'). Refit with --option heat=airflow, or let "
+                         "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
                          "diagnose fit its own base model")
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
