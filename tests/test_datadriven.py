@@ -461,7 +461,8 @@ def test_constant_zone_temperature_is_an_error(tmp_path, six_building, zone_trut
     ds = write_dataset(tmp_path, frame, six_zone_building_dict())
     assert any("'T_E': a stuck sensor?" in w for w in ds.warnings)
     for fit in (fit_zones, fit_lumped):
-        with pytest.raises(FitError, match=r"zone temperature E: (constant at 21|no data in the training weeks)"):
+        # the data layer masks the stuck sensor; the fit names the zone and passes on why
+        with pytest.raises(FitError, match=r"zone temperature E: no data .* stuck sensor"):
             fit(ds)
 
 

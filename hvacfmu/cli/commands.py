@@ -95,8 +95,15 @@ def _cmd_generate_fleet(args):
 def _cmd_fit(args):
     import hvacfmu as hf
 
+    options = {}
+    if args.heat is not None:
+        if args.model not in ("lumped", "zones"):
+            print(f"hvacfmu: error: --heat applies to Model A (lumped, zones), not {args.model}; the physics model "
+                  "always uses each box's Td_<vav> where measured", file=sys.stderr)
+            return 2
+        options["heat"] = args.heat
     dataset = _load_dataset(args)
-    model = hf.fit(dataset, args.model, progress=not args.quiet)
+    model = hf.fit(dataset, args.model, progress=not args.quiet, **options)
     path = model.save(args.output)
     print(f"saved {args.model} model to {path}")
     summary = getattr(model, "summary", None)
@@ -236,6 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
                    help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
+    p.add_argument("--heat", choices=("auto", "airflow", "delivered"),
+                   help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
+                   "are measured or an air handler is often off, else the paper's airflow form)")
     p.set_defaults(func=_cmd_fit)
 
     p = sub.add_parser("evaluate", help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "

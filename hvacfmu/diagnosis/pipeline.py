@@ -65,12 +65,19 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         say("fitting the six-zone Model A (v = T_out, T_supply, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False, use_solar=False)
+            # the airflow form: the cause terms assume zone airflow inputs (delivered heat: issue 13, open)
+            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow")
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):
         from ..models import load_model
 
         model = load_model(model)
+    if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
+        from ..errors import ModelError
+
+        raise ModelError("diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
+                         "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
+                         "diagnose fit its own base model")
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)
