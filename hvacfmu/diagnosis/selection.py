@@ -101,9 +101,7 @@ def ess_factor(rho: float) -> float:
 
 
 def _affected(sig: Signals, term) -> list:
-    if isinstance(term, InternalGainSchedule):
-        return list(range(sig.nz))
-    return [sig.zones.index(z) for z in term.zones()]
+    return [sig.zones.index(z) for z in term.affected(sig.zones)]
 
 
 def _is_dst(t) -> bool:
@@ -132,7 +130,7 @@ def _zone_cache(cache, sig, W, terms, z, target):
     return cache[z]
 
 
-def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.Candidate", options,
+def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Candidate, options,
                     cache=None) -> None:
     """Fill ``c.test`` (and ``c.term``: best variant, with its fitted coefficients) in place.
 
@@ -470,23 +468,7 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
 
 
 def _teacher_forced(sig: Signals, model) -> np.ndarray:
-    from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
-    from .design import shifted
-
-    n = len(sig.Y)
-    X = np.empty((n, model.n_states))
-    X[:, : sig.nz] = sig.Y
-    off = sig.nz
-    for t in model.terms:
-        if isinstance(t, _TM):
-            X[:, off] = ema_series(sig.Y[:, sig.zones.index(t.zone)], t.alpha)
-            off += 1
-        elif isinstance(t, _AD):
-            u = sig.U[:, sig.zones.index(t.zone)]
-            for j in range(t.delay):
-                X[:, off + j] = shifted(u, t.delay - j)
-            off += t.delay
-    return X
+    return model.teacher_forced(sig.Y, sig.U)
 
 
 __all__ = ["DEFAULT_OPTIONS", "SelectionResult", "compare_heldout", "forward_select", "heldout_rms",
