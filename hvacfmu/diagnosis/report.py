@@ -170,9 +170,14 @@ class DiagnosisReport:
                     L.append(f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
                              f"({cv['n_weeks']} weeks, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
                              f"affected zones open loop, others measured)")
+                rv = (f.get("evidence") or {}).get("rival")
+                if rv:
+                    t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
+                    L.append(f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
+                             f"(cross-validated paired t {t}); the data favour {rv['favoured']}")
                 for o in f.get("competitors") or []:
-                    L.append(f"    competing: {o['cause']} at {_loc(o['location'])} (ΔBIC {o['delta_bic']:.1f}, "
-                             f"{o['status']}); the evidence favours {f['cause']}")
+                    L.append(f"    also significant here: {o['cause']} at {_loc(o['location'])} "
+                             f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})")
                 h = f.get("heldout") or {}
                 if h.get("zones"):
                     zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())

@@ -464,7 +464,45 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
         else:
             c.status = "no cross-validated gain"
             c.reason = _rejected_reason(c, opts)
+    if plan is not None:
+        for i, c in enumerate(list(accepted)):
+            o = _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores)
+            if o is not None and c.evidence["rival"]["favoured"] == o.cause and _cv_accepts(o, opts) \
+                    and not (set(_affected(sig, o.term)) - set(_affected(sig, c.term))) & used:
+                # the rival explains the same gain better on the same folds: it is the finding
+                o.status, o.reason = "found", _found_reason(o, opts)
+                o.evidence["rival"] = {"cause": c.cause, "location": c.location, "cv_gain_percent":
+                                       c.cv.get("gain_percent"), "cv_t": c.cv.get("t"), "favoured": o.cause}
+                c.status = "no evidence"
+                c.reason = (f"a {o.cause} at {o.location} explains the same gain better on the same folds "
+                            f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})")
+                accepted[i] = o
     return accepted
+
+
+def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
+    """Cross-validate the strongest significant candidate of another cause at the same zones.
+
+    Two causes can explain one gain (a coupling and a slow mass, solar and a schedule): both
+    are scored on the same folds, and ``c.evidence["rival"]`` says which the data favour.
+    """
+    zs = set(_affected(sig, c.term))
+    rivals = [o for o in ranked if o is not c and o.cause != c.cause and o.term is not None
+              and zs & set(_affected(sig, o.term))]
+    if not rivals:
+        return None
+    o = rivals[0]
+    if o.cv is None:
+        key = tuple(sorted(set(_affected(sig, o.term))))
+        if key not in base_scores:
+            base_scores[key] = fold_scores(sig, plan, base_models, key)
+        sig_o = sig_for(sig, o, o.term)
+        o.cv = paired_test(plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan,
+                                                                                     list(terms) + [o.term]), key))
+    ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
+    c.evidence["rival"] = {"cause": o.cause, "location": o.location, "cv_gain_percent": o.cv.get("gain_percent"),
+                           "cv_t": o.cv.get("t"), "favoured": c.cause if ct >= ot else o.cause}
+    return o
 
 
 def _cv_accepts(c, opts) -> bool:

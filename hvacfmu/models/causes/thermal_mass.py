@@ -94,5 +94,22 @@ class ThermalMass(Term):
                 f = cls(zone=z, alpha=al).features(sig, None)[0][2]
                 cors[f"{al:g}"] = corr(resid[:, zi], W(f))
             out.append(Candidate(cls.cause, {"zone": z}, [cls(zone=z, alpha=al) for al in ALPHAS], 1,
-                                 evidence={"corr_by_alpha": cors}))
+                                 evidence=slow_mode_evidence(cors, sig.step)))
         return out
+
+
+def slow_mode_evidence(cors: dict, step: float) -> dict:
+    """Correlations by filter constant and whether the residual carries a slow mode.
+
+    A hidden mass shows as a residual that follows a *slowly* filtered temperature departure:
+    the correlation peaks at a time constant of hours to days (``slow_mode``: the best time
+    constant is longer than the fastest one tried and its correlation is positive).
+    """
+    finite = {a: c for a, c in cors.items() if np.isfinite(c)}
+    if not finite:
+        return {"corr_by_alpha": cors, "slow_mode": False}
+    best = max(finite, key=lambda a: finite[a])
+    tau = step / float(best) / 3600.0
+    fastest = max(finite, key=float)
+    return {"corr_by_alpha": cors, "best_time_constant_h": tau, "best_corr": finite[best],
+            "slow_mode": bool(finite[best] > 0 and best != fastest)}
