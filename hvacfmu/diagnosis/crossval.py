@@ -115,9 +115,14 @@ def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horiz
     return out
 
 
-def fold_fits(sig: Signals, plan: CVPlan, terms) -> list:
-    """The structure with ``terms`` refitted on each fold's fit rows (list of ExtendedModel)."""
-    return [fit_structure(sig, terms, rows, within=W).model for rows, W in zip(plan.fit_rows, plan.within)]
+def fold_fits(sig: Signals, plan: CVPlan, terms, zones_idx=None) -> list:
+    """The structure with ``terms`` refitted on each fold's fit rows (list of ExtendedModel).
+
+    ``zones_idx``: fit only the equations of these zones (and the zones coupled to them): the
+    others are measured in :func:`zone_open_loop_rms`, so their coefficients are not needed.
+    """
+    return [fit_structure(sig, terms, rows, within=W, only_zones=zones_idx).model
+            for rows, W in zip(plan.fit_rows, plan.within)]
 
 
 def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:

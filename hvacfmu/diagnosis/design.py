@@ -168,8 +168,13 @@ class StructureFit:
     resid: np.ndarray  # (n_rows, nz) within residuals on training rows
 
 
-def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None) -> StructureFit:
-    """Refit base structure + ``terms`` jointly on the training rows; returns an ExtendedModel."""
+def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None, only_zones=None) -> StructureFit:
+    """Refit base structure + ``terms`` jointly on the training rows; returns an ExtendedModel.
+
+    ``only_zones`` (zone indices): fit only the equations of the coupled blocks holding them
+    (cross-validation of a local term, where every other zone is measured); the other zones'
+    equations are then left at zero and must not be simulated.
+    """
     rows = sig.rows("train") if rows is None else rows
     if len(rows) < 50:
         raise FitError(f"only {len(rows)} usable one-step rows in the training weeks; need at least 50")
@@ -188,6 +193,8 @@ def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None) 
     target_next = np.vstack([sig.Y[1:], np.full((1, nz), np.nan)])
     yhat_wo_q = np.zeros((len(sig.Y), nz))
     for block in coupled_blocks(sig, terms):
+        if only_zones is not None and not set(block) & set(only_zones):
+            continue
         bf = fit_block(sig, W, block, terms, U_eff, feats, target_next)
         for z in block:
             D = bf.designs[z]

@@ -431,7 +431,7 @@ def _delay_is_causal(c) -> bool:
 def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
     """Cross-validate the significant candidates (best ΔBIC first); accept at most one per zone."""
     accepted, used = [], set()
-    base_models = fold_fits(sig, plan, terms) if plan is not None and ranked else None
+    base_models = None
     base_scores: dict = {}
     tried = 0
     for c in ranked:
@@ -451,9 +451,9 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
         else:
             key = tuple(sorted(zs))
             if key not in base_scores:
-                base_scores[key] = fold_scores(sig, plan, base_models, key)
+                base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
             sig_c = sig_for(sig, c, c.term)
-            models = fold_fits(sig_c, plan, list(terms) + [c.term])
+            models = fold_fits(sig_c, plan, list(terms) + [c.term], key)
             c.cv = paired_test(plan, base_scores[key], fold_scores(sig_c, plan, models, key))
             ok = _cv_accepts(c, opts)
         if ok:
@@ -495,10 +495,11 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     if o.cv is None:
         key = tuple(sorted(set(_affected(sig, o.term))))
         if key not in base_scores:
-            base_scores[key] = fold_scores(sig, plan, base_models, key)
+            base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
         sig_o = sig_for(sig, o, o.term)
         o.cv = paired_test(plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan,
-                                                                                     list(terms) + [o.term]), key))
+                                                                                     list(terms) + [o.term], key),
+                                                               key))
     ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
     c.evidence["rival"] = {"cause": o.cause, "location": o.location, "cv_gain_percent": o.cv.get("gain_percent"),
                            "cv_t": o.cv.get("t"), "favoured": c.cause if ct >= ot else o.cause}
