@@ -358,6 +358,53 @@ def test_toy_cause_plugin_is_screened_fitted_and_exported(toy_cause, tmp_path):
     np.testing.assert_allclose(Y_fmu[:n], Y[:n], rtol=0, atol=1e-6)  # [K]
 
 
+def closed_loop_dataset(model, weeks=12, seed=0, gain=0.25, noise=0.02) -> Dataset:
+    """Model A data where every box answers its zone's temperature at once (P control, no delay)."""
+    rng = np.random.default_rng(seed)
+    ds0 = simulate_dataset(model, weeks=weeks, seed=seed, noise=noise)
+    frame = ds0.frame.copy()
+    n = len(frame)
+    u, v = model.signals(frame)
+    q = np.zeros((n, 3))
+    for s in np.unique(ds0.season_of_row):
+        m = ds0.season_of_row == s
+        q[m] = model.gains_at(frame.index[m], s)
+    x = np.full(3, 21.0)
+    Y, M = np.empty((n, 3)), np.empty((n, 3))
+    for k in range(n):
+        Y[k] = x
+        uk = np.clip(0.2 + gain * (x - 21.5) + rng.normal(0, 0.03, 3), 0.05, 0.6)  # feedback, same step
+        M[k] = uk
+        x = model.step_state(x, uk, v[k], q[k]) + rng.normal(0, noise, 3)
+    for j, z in enumerate("ABC"):
+        frame[f"T_{z}"] = Y[:, j]
+        frame[f"m_V{j + 1}"] = M[:, j]
+    return Dataset.from_frame(frame, ds0.building, step=900.0, seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_feedback_is_not_delay(seed):
+    """Closed-loop data without any delay: the residual leads the airflow (the controller answers the
+    error), which must not be read as an actuation delay."""
+    rep = diagnose(closed_loop_dataset(row_model(), seed=seed), model=row_model(), progress=False)
+    assert not [f for f in rep.findings if f["cause"] == "actuation_delay"], rep.summary()
+    assert rep.findings == [], rep.summary()
+
+
+@pytest.mark.parametrize("past, future, causal", [
+    ({"0": -0.3, "1": 0.05, "2": 0.25}, {"1": 0.1, "2": 0.05}, True),    # residual follows u(k-2): a delay
+    ({"0": -0.3, "1": 0.05, "2": 0.10}, {"1": 0.35, "2": 0.2}, False),   # residual leads u: feedback
+])
+def test_delay_gate_compares_past_and_future_airflow(past, future, causal):
+    from hvacfmu.diagnosis.selection import _delay_is_causal
+
+    c = Candidate("actuation_delay", {"zone": "A"}, evidence={"xcorr_resid_airflow_by_lag": past,
+                                                              "xcorr_resid_future_airflow_by_lag": future})
+    c.term = ActuationDelay(zone="A", delay=2)
+    assert _delay_is_causal(c) is causal
+    assert set(c.evidence["delay_past_vs_future"]) == {"past_at_delay", "future_max"}
+
+
 @pytest.mark.parametrize("seed", [10, 11, 12])
 def test_no_false_alarm_on_model_a_data(seed):
     base = row_model()
