@@ -18,8 +18,8 @@ Two formulations are assembled from the same rows:
     solved with clarabel's own API (problem data are updated in place between
     steps when only the right-hand side changes).
 ``"qp"``
-    the exact-penalty QP ``ρ ||eps||_1`` (``eps >= 0``), solved through
-    qpsolvers with the clarabel backend.
+    the exact-penalty QP ``ρ ||eps||_1`` (``eps >= 0``), with clarabel's own
+    API too (data updated in place; qpsolvers rebuilt the solver every step).
 
 Both have the same minimiser when the input limits are not violated: if the
 SOCP optimum has ``eps = 0``, the hard-limit problem's input-limit multipliers
@@ -61,7 +61,6 @@ from scipy import sparse
 from hvacfmu.errors import SolverError, problems_message
 
 FORMULATIONS = ("socp", "qp")
-SOLVERS = ("clarabel", "osqp")
 LINEARISATIONS = ("frozen", "newton")
 
 
@@ -79,7 +78,7 @@ class MPCSettings:
         Penalty on the input-limit slack ``eps`` [1/(kg/s)] (paper: 100).
     formulation : {"socp", "qp"}
         ``"socp"``: ``ρ ||eps||_2`` as a second-order cone (clarabel API);
-        ``"qp"``: exact penalty ``ρ ||eps||_1`` through qpsolvers + clarabel.
+        ``"qp"``: exact penalty ``ρ ||eps||_1`` (clarabel API).
     comfort_penalty : float or None
         ℓ1 penalty on band violation [1/K per output and step]; ``None`` keeps
         the band hard (a step may then be infeasible and fall back).
@@ -114,13 +113,6 @@ class MPCSettings:
         and the first step stay exact). ``"auto"``: reduced for N > 24.
     rom_tol : float
         Balanced-truncation tolerance (``2 Σ tail σ <= rom_tol σ_1``).
-    solver : {"clarabel", "osqp"}
-        ``"clarabel"`` (interior point, default). ``"osqp"``: OSQP's own API for
-        ``formulation="qp"``, set up once and warm-started from the previous
-        step's primal and dual solution, with solution polishing (an active-set
-        refinement to high accuracy); a step whose polish fails is re-solved
-        with clarabel. Fastest for Model A at long horizons (measured in
-        ``benchmarks/bench_mpc_toolkit.py``).
     slack : {"shared", "per_step"}
         ``"shared"``: one input-limit slack per input for the whole horizon, as
         in the paper (``eps`` has no time index). Over long horizons this lets
@@ -144,14 +136,9 @@ class MPCSettings:
     prediction: str = "auto"
     rom_tol: float = 1.0e-3
     slack: str = "shared"
-    solver: str = "clarabel"
 
     def __post_init__(self):
         problems = []
-        if self.solver not in SOLVERS:
-            problems.append(f"solver must be one of {SOLVERS}, got {self.solver!r}")
-        elif self.solver == "osqp" and self.formulation != "qp":
-            problems.append("solver 'osqp' needs formulation 'qp' (OSQP has no second-order cone)")
         if not (isinstance(self.horizon, (int, np.integer)) and self.horizon >= 1):
             problems.append(f"horizon must be an integer >= 1, got {self.horizon!r}")
         if not self.T_min < self.T_max:
@@ -401,48 +388,7 @@ class _MPCProblem:
     def solve(self, y0) -> QPSolution:
         """Solve for the free response ``y0`` (N*ny,) [°C]; never raises on solver failure."""
         b = self.rhs(y0)
-        if self.socp:
-            return self._solve_clarabel(b)
-        if self.settings.solver == "osqp":
-            sol = self._solve_osqp(b)
-            if sol.found:
-                return sol
-            fallback = self._solve_qpsolvers(b)
-            fallback.status = f"{fallback.status} (after osqp: {sol.status})"
-            fallback.solve_time += sol.solve_time
-            return fallback
-        return self._solve_qpsolvers(b)
-
-    def _solve_osqp(self, b) -> QPSolution:
-        """OSQP with warm start and polishing; found only when the polish succeeded."""
-        import osqp
-
-        t0 = time.perf_counter()
-        ne = self.n_eq
-        lo = np.concatenate([b[:ne], np.full(b.size - ne, -np.inf)])
-        try:
-            if getattr(self, "_osqp", None) is None:
-                self._osqp = osqp.OSQP()
-                self._osqp.setup(sparse.triu(self.P, format="csc"), self.q, self.A, lo, b, verbose=False,
-                                 eps_abs=1e-7, eps_rel=1e-7, polishing=True, polish_refine_iter=5, max_iter=20000,
-                                 warm_starting=True, adaptive_rho=True)
-                self._osqp_A = False
-            elif self._A_changed:
-                self._osqp.update(Ax=self.A.data.copy(), l=lo, u=b)
-            else:
-                self._osqp.update(l=lo, u=b)
-            self._A_changed = False
-            res = self._osqp.solve()
-            polished = int(getattr(res.info, "status_polish", 0)) == 1
-            status = str(res.info.status) + ("" if polished else ", not polished")
-            z = np.asarray(res.x, dtype=float)
-            found = res.info.status == "solved" and polished and bool(np.all(np.isfinite(z)))
-        except BaseException as exc:  # noqa: BLE001 - a failed step must not stop the week
-            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
-                raise
-            self._osqp = None
-            found, status, z = False, f"exception: {exc}", np.full(self.nz, np.nan)
-        return self._solution(found, "Solved" if found else status, z, time.perf_counter() - t0)
+        return self._solve_clarabel(b)
 
     def _solve_clarabel(self, b) -> QPSolution:
         import clarabel
@@ -468,25 +414,6 @@ class _MPCProblem:
         dt = time.perf_counter() - t0
         found = status in ("Solved", "AlmostSolved") and bool(np.all(np.isfinite(z)))
         return self._solution(found, status, z, dt)
-
-    def _solve_qpsolvers(self, b) -> QPSolution:
-        import qpsolvers
-
-        t0 = time.perf_counter()
-        st = self.settings.solver_tol
-        try:
-            ne = self.n_eq
-            prob = qpsolvers.Problem(self.P, self.q, self.A[ne:], b[ne:], self.A[:ne], b[:ne])
-            sol = qpsolvers.solve_problem(prob, solver="clarabel", verbose=False, tol_feas=st,
-                                          tol_gap_abs=st, tol_gap_rel=st, direct_solve_method="qdldl")
-            found = bool(sol.found) and sol.x is not None and bool(np.all(np.isfinite(sol.x)))
-            z = np.asarray(sol.x, dtype=float) if sol.x is not None else np.full(self.nz, np.nan)
-            status = "Solved" if found else str(getattr(sol.extras, "get", lambda *_: "failed")("status", "failed"))
-        except BaseException as exc:  # noqa: BLE001 - a failed step must not stop the week
-            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
-                raise
-            found, status, z = False, f"exception: {exc}", np.full(self.nz, np.nan)
-        return self._solution(found, status, z, time.perf_counter() - t0)
 
     def _solution(self, found, status, z, dt) -> QPSolution:
         nU, nu = self.nb * self.nu, self.nu
