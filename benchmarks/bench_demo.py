@@ -27,7 +27,7 @@ def main(argv=None):
     p.add_argument("--cold", action="store_true", help="use an empty dataset cache for every run")
     args = p.parse_args(argv)
     warnings.simplefilter("ignore")
-    from hvacfmu.demo import run_demo
+    from hvacfmu.cli.demo import run_demo
 
     stage_times, totals = {}, []
     for i in range(args.repeat):

@@ -19,9 +19,15 @@ Example (abridged)::
     adjacent = ["W", "C", "NE"]
     facades = [{orientation = "N", window_area = 40.0, wall_area = 60.0}]
 
+    [[ahus]]             # optional: several air handlers
+    name = "AHU1"
+    T_supply_max = 35.0 # [°C] optional heating limit of the discharge air
+    columns = {T_supply = "AHU-1 SA-T"}   # optional: file column of its supply temperature
+
     [[vavs]]
     name = "VAV_NW_1"
     zone = "NW"
+    ahu = "AHU1"        # required when [[ahus]] are declared
     m_min = 0.05        # [kg/s]
     m_max = 0.8         # [kg/s]
 
@@ -35,7 +41,26 @@ Example (abridged)::
 
     [units]              # optional: canonical name or glob = unit of the data file
     "T_*" = "degF"
+    "Td_*" = "degF"
     "m_*" = "cfm"
+    "rh_*" = "%"
+
+Air handlers
+------------
+Without ``[[ahus]]`` every box belongs to one implicit air handler whose supply
+temperature is the column ``T_supply``. With ``[[ahus]]``, each ``[[vavs]]``
+entry names its unit (``ahu = "AHU1"``) and the supply temperature of unit ``X``
+is the column ``T_supply_X`` (a single declared unit may keep the plain
+``T_supply`` column). Per box, the data may add the discharge air temperature
+``Td_<vav>`` [°C] and the reheat command ``rh_<vav>`` [0..1].
+
+Time zones
+----------
+``timezone`` is the building's local zone: the clock of the calendar, the
+seasons, the time of week and the index of prepared data. ``data_timezone``
+(optional, default ``timezone``) is the zone the data logger's clock is in: the
+zone in which *naive* timestamps of the measurements file are read (e.g.
+``"UTC"`` for an export in naive UTC). Timestamps with a UTC offset ignore it.
 """
 
 from __future__ import annotations
@@ -44,8 +69,11 @@ import dataclasses
 import datetime as _dt
 import fnmatch
 import hashlib
+import numbers
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 try:  # Python >= 3.11
     import tomllib
@@ -102,12 +130,44 @@ class Zone:
 
 @dataclasses.dataclass(frozen=True)
 class Vav:
-    """A VAV box serving one zone; airflow limits ``m_min``, ``m_max`` [kg/s]."""
+    """A VAV box serving one zone; airflow limits ``m_min``, ``m_max`` [kg/s].
+
+    ``ahu`` names the air handler feeding the box (None: the implicit single unit).
+    """
 
     name: str
     zone: str
     m_min: float = 0.0
     m_max: float = 1.0
+    ahu: str | None = None
+
+
+#: Per-unit quantities an ``[[ahus]]`` entry may map to file columns in its ``columns`` table.
+AHU_QUANTITIES = ("T_supply",)
+
+
+@dataclasses.dataclass(frozen=True)
+class Ahu:
+    """An air handler feeding VAV boxes.
+
+    Parameters
+    ----------
+    name : str
+    T_supply_max : float or None [°C]
+        Heating limit of the air the unit's boxes may discharge (None: unknown).
+    columns : dict
+        Per-unit quantity (``T_supply``) -> column name in the data file
+        (default ``T_supply_<name>``).
+    """
+
+    name: str
+    T_supply_max: float | None = None
+    columns: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def supply_column(self) -> str:
+        """Canonical name of this unit's supply temperature column [°C]."""
+        return f"T_supply_{self.name}"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -141,6 +201,8 @@ class Building:
     zones: tuple[Zone, ...]
     vavs: tuple[Vav, ...]
     seasons: tuple[Season, ...] = tuple(Season(*s) for s in DEFAULT_SEASONS)
+    ahus: tuple[Ahu, ...] = ()
+    data_timezone: str | None = None
     columns: dict = dataclasses.field(default_factory=dict)
     units: dict = dataclasses.field(default_factory=dict)
     physics: dict = dataclasses.field(default_factory=dict)
@@ -172,6 +234,41 @@ class Building:
                 return z
         raise KeyError(f"no zone named {name!r}; zones are {list(self.zone_names)}")
 
+    @property
+    def ahu_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.ahus)
+
+    def vav(self, name: str) -> Vav:
+        for v in self.vavs:
+            if v.name == name:
+                return v
+        raise KeyError(f"no VAV box named {name!r}; boxes are {list(self.vav_names)}")
+
+    def ahu_of(self, vav: str) -> Ahu | None:
+        """The air handler feeding box ``vav``; None for the implicit single unit (no ``[[ahus]]``)."""
+        name = self.vav(vav).ahu
+        for a in self.ahus:
+            if a.name == name:
+                return a
+        return None
+
+    def supply_column(self, vav: str) -> str:
+        """Canonical supply temperature column [°C] of the unit feeding box ``vav``.
+
+        ``T_supply_<ahu>`` when ``[[ahus]]`` are declared, ``T_supply`` otherwise.
+        """
+        ahu = self.ahu_of(vav)
+        return "T_supply" if ahu is None else ahu.supply_column
+
+    def supply_columns(self) -> tuple[str, ...]:
+        """Canonical supply temperature columns of the declared units (empty without ``[[ahus]]``)."""
+        return tuple(a.supply_column for a in self.ahus)
+
+    @property
+    def clock_timezone(self) -> str:
+        """Zone of naive timestamps in the measurements: ``data_timezone`` or ``timezone``."""
+        return self.data_timezone or self.timezone
+
     def vavs_of(self, zone: str) -> tuple[Vav, ...]:
         """VAV boxes serving ``zone``."""
         return tuple(v for v in self.vavs if v.zone == zone)
@@ -189,8 +286,6 @@ class Building:
 
     def zone_vav_matrix(self):
         """(n_zones, n_vavs) 0/1 matrix summing box airflows into zone airflows."""
-        import numpy as np
-
         M = np.zeros((len(self.zones), len(self.vavs)))
         idx = {n: i for i, n in enumerate(self.zone_names)}
         for j, v in enumerate(self.vavs):
@@ -199,8 +294,6 @@ class Building:
 
     def area_weights(self):
         """Zone floor areas normalised to sum to one (for the lumped model)."""
-        import numpy as np
-
         a = np.array([z.area for z in self.zones], dtype=float)
         return a / a.sum()
 
@@ -214,8 +307,18 @@ class Building:
 
     # --- columns / units -----------------------------------------------
     def column_for(self, canonical: str) -> str:
-        """Name of the data-file column holding canonical quantity ``canonical``."""
-        return self.columns.get(canonical, canonical)
+        """Name of the data-file column holding canonical quantity ``canonical``.
+
+        ``[columns]`` first, then an air handler's own ``columns`` table for its
+        ``T_supply_<ahu>``, else the canonical name itself.
+        """
+        if canonical in self.columns:
+            return self.columns[canonical]
+        for a in self.ahus:
+            for quantity, name in a.columns.items():
+                if canonical == f"{quantity}_{a.name}":
+                    return name
+        return canonical
 
     def unit_for(self, canonical: str) -> str | None:
         """Declared unit of canonical column ``canonical`` (exact name beats glob), or None."""
@@ -230,8 +333,12 @@ class Building:
         """Canonical columns a measurement file should have -> whether required."""
         cols = {f"T_{z}": True for z in self.zone_names}
         cols.update({f"m_{v}": True for v in self.vav_names})
-        cols.update({"T_supply": True, "T_out": True, "ghi": False, "excitation": False})
+        cols.update({c: True for c in self.supply_columns()})
+        # with declared units, T_supply is optional (a single unit may use it as its supply column)
+        cols.update({"T_supply": not self.ahus, "T_out": True, "ghi": False, "excitation": False})
         cols.update({f"I_{o}": False for o in ORIENTATIONS})
+        cols.update({f"Td_{v}": False for v in self.vav_names})
+        cols.update({f"rh_{v}": False for v in self.vav_names})
         return cols
 
     # --- serialisation -------------------------------------------------
@@ -251,9 +358,18 @@ class Building:
                 }
                 for z in self.zones
             ],
-            "vavs": [dataclasses.asdict(v) for v in self.vavs],
+            "vavs": [{k: x for k, x in dataclasses.asdict(v).items() if x is not None} for v in self.vavs],
             "seasons": [dataclasses.asdict(s) for s in self.seasons],
         }
+        if self.data_timezone:
+            d["data_timezone"] = self.data_timezone
+        if self.ahus:
+            d["ahus"] = [
+                {"name": a.name}
+                | ({"T_supply_max": a.T_supply_max} if a.T_supply_max is not None else {})
+                | ({"columns": dict(a.columns)} if a.columns else {})
+                for a in self.ahus
+            ]
         if self.columns:
             d["columns"] = dict(self.columns)
         if self.units:
@@ -276,18 +392,145 @@ class Building:
 PHYSICS_KEYS = ("materials", "constructions", "windows", "elements", "physics")
 
 
-def _as_float(value, what, problems):
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        problems.append(f"{what}: expected a number, got {value!r}")
+def _as_float(value, what, problems, default=None):
+    """A finite float from a TOML value; booleans, text and inf/nan are problems (None: ``default``)."""
+    if value is None and default is not None:
+        return default
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        problems.append(f"{what}: expected a number, got {value!r} ({type(value).__name__})")
         return float("nan")
+    value = float(value)
+    if not np.isfinite(value):
+        problems.append(f"{what}: expected a finite number, got {value!r}")
+    return value
+
+
+def _as_str(value, what, problems, default=None):
+    """A non-empty string from a TOML value (numbers, booleans, tables are problems)."""
+    if value is None and default is not None:
+        return default
+    if not isinstance(value, str):
+        problems.append(f"{what}: expected text, got {value!r} ({type(value).__name__})")
+        return str(value)
+    return value
+
+
+def _tables(d, key, where, problems) -> list:
+    """The entries of an array of tables ``key``; non-table entries are problems and skipped."""
+    value = d.get(key, [])
+    if isinstance(value, dict):
+        value = [value]
+    if not isinstance(value, list):
+        problems.append(f"{where}{key}: expected an array of tables ([[{key}]]), got {value!r}")
+        return []
+    out = []
+    for i, entry in enumerate(value):
+        if isinstance(entry, dict):
+            out.append((i, entry))
+        else:
+            problems.append(
+                f"{where}{key}[{i}]: expected a table (e.g. [[{key}]] with name = ...), got {entry!r} "
+                f"({type(entry).__name__})"
+            )
+    return out
+
+
+def _str_list(value, what, problems) -> tuple:
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
+        problems.append(f"{what}: expected a list of names such as [\"B\", \"C\"], got {value!r}")
+        return ()
+    return tuple(value)
+
+
+def _str_map(value, what, problems) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(x, str) for k, x in value.items()):
+        problems.append(f"{what}: expected a table of text values (name = \"text\"), got {value!r}")
+        return {}
+    return dict(value)
+
+
+def _zone_from(i, z, problems) -> Zone:
+    where = f"zones[{i}] ({z.get('name', '?')})"
+    for key in ("name", "area", "volume"):
+        if key not in z:
+            problems.append(f"{where}: missing {key!r}")
+    facades = []
+    for j, f in _tables(z, "facades", f"{where}.", problems):
+        if "orientation" not in f:
+            problems.append(f"{where}.facades[{j}]: missing 'orientation'")
+            continue
+        facades.append(
+            Facade(
+                _as_str(f["orientation"], f"{where}.facades[{j}].orientation", problems),
+                _as_float(f.get("window_area", 0.0), f"{where}.facades[{j}].window_area", problems),
+                _as_float(f.get("wall_area", 0.0), f"{where}.facades[{j}].wall_area", problems),
+            )
+        )
+    return Zone(
+        _as_str(z.get("name"), f"{where}.name", problems, default=f"zone{i}"),
+        _as_float(z.get("area", 1.0), f"{where}.area", problems),
+        _as_float(z.get("volume", 1.0), f"{where}.volume", problems),
+        tuple(facades),
+        _str_list(z.get("adjacent"), f"{where}.adjacent", problems),
+    )
+
+
+def _vav_from(i, v, problems) -> Vav:
+    where = f"vavs[{i}] ({v.get('name', '?')})"
+    for key in ("name", "zone"):
+        if key not in v:
+            problems.append(f"{where}: missing {key!r}")
+    unknown = set(v) - {"name", "zone", "m_min", "m_max", "ahu"}
+    if unknown:
+        problems.append(f"{where}: unknown key(s) {sorted(unknown)} (known: ahu, m_max, m_min, name, zone)")
+    ahu = v.get("ahu")
+    return Vav(
+        _as_str(v.get("name"), f"{where}.name", problems, default=f"vav{i}"),
+        _as_str(v.get("zone"), f"{where}.zone", problems, default=""),
+        _as_float(v.get("m_min", 0.0), f"{where}.m_min [kg/s]", problems),
+        _as_float(v.get("m_max", 1.0), f"{where}.m_max [kg/s]", problems),
+        None if ahu is None else _as_str(ahu, f"{where}.ahu", problems),
+    )
+
+
+def _ahu_from(i, a, problems) -> Ahu:
+    where = f"ahus[{i}] ({a.get('name', '?')})"
+    if "name" not in a:
+        problems.append(f"{where}: missing 'name'")
+    unknown = set(a) - {"name", "T_supply_max", "columns"}
+    if unknown:
+        problems.append(f"{where}: unknown key(s) {sorted(unknown)} (known: T_supply_max, columns, name)")
+    columns = _str_map(a.get("columns"), f"{where}.columns", problems)
+    for q in columns:
+        if q not in AHU_QUANTITIES:
+            problems.append(f"{where}.columns: unknown quantity {q!r} (known: {', '.join(AHU_QUANTITIES)})")
+    t_max = a.get("T_supply_max")
+    return Ahu(
+        _as_str(a.get("name"), f"{where}.name", problems, default=f"ahu{i}"),
+        None if t_max is None else _as_float(t_max, f"{where}.T_supply_max [°C]", problems),
+        columns,
+    )
 
 
 def building_from_dict(d: dict, source: str | None = None, sha256: str | None = None) -> Building:
-    """Build a :class:`Building` from a parsed TOML mapping, reporting every problem."""
+    """Build a :class:`Building` from a parsed TOML mapping, reporting every problem.
+
+    Raises
+    ------
+    BuildingError
+        Listing every problem: missing or unknown keys, values of the wrong type
+        (a boolean or text where a number belongs, a name where a table belongs),
+        and every inconsistency found by :func:`validate_building`.
+    """
     problems: list[str] = []
-    known = {"name", "latitude", "longitude", "timezone", "zones", "vavs", "seasons", "columns", "units"}
+    if not isinstance(d, dict):
+        raise BuildingError(f"building {source or ''}: expected a table of keys, got {type(d).__name__}")
+    known = {"name", "latitude", "longitude", "timezone", "data_timezone", "zones", "vavs", "ahus", "seasons",
+             "columns", "units"}
     known |= set(PHYSICS_KEYS)
     for key in d:
         if key not in known:
@@ -295,66 +538,29 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
     for key in ("name", "latitude", "longitude", "timezone", "zones", "vavs"):
         if key not in d:
             problems.append(f"missing required key {key!r}")
-    zones = []
-    for i, z in enumerate(d.get("zones", [])):
-        where = f"zones[{i}] ({z.get('name', '?')})"
-        for key in ("name", "area", "volume"):
-            if key not in z:
-                problems.append(f"{where}: missing {key!r}")
-        facades = []
-        for j, f in enumerate(z.get("facades", [])):
-            if "orientation" not in f:
-                problems.append(f"{where}.facades[{j}]: missing 'orientation'")
-                continue
-            facades.append(
-                Facade(
-                    str(f["orientation"]),
-                    _as_float(f.get("window_area", 0.0), f"{where}.facades[{j}].window_area", problems),
-                    _as_float(f.get("wall_area", 0.0), f"{where}.facades[{j}].wall_area", problems),
-                )
-            )
-        zones.append(
-            Zone(
-                str(z.get("name", f"zone{i}")),
-                _as_float(z.get("area", float("nan")), f"{where}.area", problems),
-                _as_float(z.get("volume", float("nan")), f"{where}.volume", problems),
-                tuple(facades),
-                tuple(str(a) for a in z.get("adjacent", [])),
-            )
-        )
-    vavs = []
-    for i, v in enumerate(d.get("vavs", [])):
-        where = f"vavs[{i}] ({v.get('name', '?')})"
-        for key in ("name", "zone"):
-            if key not in v:
-                problems.append(f"{where}: missing {key!r}")
-        vavs.append(
-            Vav(
-                str(v.get("name", f"vav{i}")),
-                str(v.get("zone", "")),
-                _as_float(v.get("m_min", 0.0), f"{where}.m_min", problems),
-                _as_float(v.get("m_max", 1.0), f"{where}.m_max", problems),
-            )
-        )
+    zones = [_zone_from(i, z, problems) for i, z in _tables(d, "zones", "", problems)]
+    vavs = [_vav_from(i, v, problems) for i, v in _tables(d, "vavs", "", problems)]
+    ahus = [_ahu_from(i, a, problems) for i, a in _tables(d, "ahus", "", problems)]
     seasons = tuple(
-        Season(str(s.get("name")), str(s.get("start")), str(s.get("end"))) for s in d.get("seasons", [])
+        Season(*(_as_str(s.get(k), f"seasons[{i}].{k}", problems) for k in ("name", "start", "end")))
+        for i, s in _tables(d, "seasons", "", problems)
     ) or tuple(Season(*s) for s in DEFAULT_SEASONS)
     physics = {k: d[k] for k in PHYSICS_KEYS if k in d}
+    data_tz = d.get("data_timezone")
+    fields = {
+        "name": _as_str(d.get("name"), "name", problems, default=""),
+        "latitude": _as_float(d.get("latitude", 0.0), "latitude [deg]", problems),
+        "longitude": _as_float(d.get("longitude", 0.0), "longitude [deg]", problems),
+        "timezone": _as_str(d.get("timezone"), "timezone", problems, default="UTC"),
+        "data_timezone": None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
+        "columns": _str_map(d.get("columns"), "columns", problems),
+        "units": _str_map(d.get("units"), "units", problems),
+    }
     if problems:
         raise BuildingError(problems_message(f"Invalid building file {source or ''}".strip(), problems))
     return Building(
-        name=str(d["name"]),
-        latitude=_as_float(d["latitude"], "latitude", problems),
-        longitude=_as_float(d["longitude"], "longitude", problems),
-        timezone=str(d["timezone"]),
-        zones=tuple(zones),
-        vavs=tuple(vavs),
-        seasons=seasons,
-        columns=dict(d.get("columns", {})),
-        units=dict(d.get("units", {})),
-        physics=physics,
-        source=source,
-        sha256=sha256,
+        zones=tuple(zones), vavs=tuple(vavs), ahus=tuple(ahus), seasons=seasons, physics=physics,
+        source=source, sha256=sha256, **fields,
     )
 
 
@@ -386,6 +592,67 @@ def _valid_md(s) -> bool:
         return False
 
 
+#: No VAV box delivers more air than this [kg/s] (about 16 000 cfm).
+M_MAX_LIMIT = 10.0
+
+
+def _valid_name(name) -> bool:
+    return bool(name) and not any(c in name for c in " .[]")
+
+
+def valid_timezone(name) -> bool:
+    """True if ``name`` is a known IANA time zone name (``UTC`` included)."""
+    import zoneinfo
+
+    try:
+        zoneinfo.ZoneInfo(str(name))
+        return bool(name)
+    except Exception:  # noqa: BLE001 - any failure means an unusable zone name
+        return False
+
+
+def _validate_ahus(b: Building) -> list[str]:
+    """Problems of the air handlers and of the boxes' ``ahu`` references."""
+    problems = []
+    names = [a.name for a in b.ahus]
+    for n in sorted({n for n in names if names.count(n) > 1}):
+        problems.append(f"air handler name {n!r} is used more than once in [[ahus]]")
+    for a in b.ahus:
+        if not _valid_name(a.name):
+            problems.append(f"air handler name {a.name!r} must be non-empty and contain no spaces, dots or brackets")
+        if a.T_supply_max is not None and not 15.0 <= a.T_supply_max <= 80.0:
+            problems.append(
+                f"air handler {a.name}: T_supply_max = {a.T_supply_max:g} °C is not a plausible heating limit of "
+                "supply/discharge air (15..80 °C); is it in °F?"
+            )
+        if not any(v.ahu == a.name for v in b.vavs):
+            problems.append(f"air handler {a.name}: no VAV box names it (set ahu = \"{a.name}\" on its [[vavs]])")
+    for v in b.vavs:
+        if v.ahu is None and b.ahus:
+            problems.append(
+                f"VAV {v.name}: no 'ahu' although [[ahus]] are declared; set ahu to one of {', '.join(names)}"
+            )
+        elif v.ahu is not None and v.ahu not in names:
+            declared = f"declared units are {', '.join(names)}" if names else "no [[ahus]] are declared"
+            problems.append(f"VAV {v.name}: ahu {v.ahu!r} is not a declared air handler ({declared})")
+    return problems
+
+
+def _validate_columns(b: Building) -> list[str]:
+    """Two canonical quantities mapped to one file column are a problem (one would silently copy the other)."""
+    used: dict = {}
+    implicit = {"T_supply"} if b.ahus and "T_supply" not in b.columns else set()  # may be a unit's own column
+    names = dict.fromkeys(c for c in ["time", *b.expected_columns(), *b.columns] if c not in implicit)
+    names.update(dict.fromkeys(f"{q}_{a.name}" for a in b.ahus for q in a.columns))
+    for canonical in names:
+        used.setdefault(b.column_for(canonical), []).append(canonical)
+    return [
+        f"[columns]: {', '.join(names)} all map to the file column {col!r}; each quantity needs its own column"
+        for col, names in used.items()
+        if len(names) > 1
+    ]
+
+
 def validate_building(b: Building) -> list[str]:
     """Every problem of a :class:`Building`, as readable strings (empty if fine)."""
     problems = []
@@ -393,12 +660,10 @@ def validate_building(b: Building) -> list[str]:
         problems.append(f"latitude {b.latitude} is outside -90..90")
     if not -180 <= b.longitude <= 180:
         problems.append(f"longitude {b.longitude} is outside -180..180")
-    try:
-        import zoneinfo
-
-        zoneinfo.ZoneInfo(b.timezone)
-    except Exception:  # noqa: BLE001 - any failure means an unusable zone name
-        problems.append(f"timezone {b.timezone!r} is not a known IANA time zone (e.g. 'America/Los_Angeles')")
+    for key in ("timezone", "data_timezone"):
+        value = getattr(b, key)
+        if value is not None and not valid_timezone(value):
+            problems.append(f"{key} {value!r} is not a known IANA time zone (e.g. 'America/Los_Angeles' or 'UTC')")
     if not b.zones:
         problems.append("no zones defined")
     if not b.vavs:
@@ -408,7 +673,9 @@ def validate_building(b: Building) -> list[str]:
         problems.append(f"zone name {n!r} is used more than once")
     zone_set = set(names)
     for z in b.zones:
-        if not z.name or any(c in z.name for c in " .[]"):
+        if z.name == "supply" or z.name.startswith("supply_") or z.name == "out":
+            problems.append(f"zone name {z.name!r} is reserved (T_{z.name} is an air handler or outdoor column)")
+        if not _valid_name(z.name):
             problems.append(f"zone name {z.name!r} must be non-empty and contain no spaces, dots or brackets")
         if not z.area > 0:
             problems.append(f"zone {z.name}: area must be > 0 m2, got {z.area}")
@@ -430,8 +697,19 @@ def validate_building(b: Building) -> list[str]:
     for v in b.vavs:
         if v.zone not in zone_set:
             problems.append(f"VAV {v.name}: serves zone {v.zone!r}, which is not a zone of this building")
+        if not _valid_name(v.name):
+            problems.append(f"VAV name {v.name!r} must be non-empty and contain no spaces, dots or brackets")
         if not (0 <= v.m_min <= v.m_max):
             problems.append(f"VAV {v.name}: need 0 <= m_min <= m_max, got m_min={v.m_min}, m_max={v.m_max} kg/s")
+        if not v.m_max > 0:
+            problems.append(f"VAV {v.name}: m_max must be > 0 kg/s (a box that can deliver no air), got {v.m_max}")
+        elif v.m_max > M_MAX_LIMIT:
+            problems.append(
+                f"VAV {v.name}: m_max = {v.m_max:g} kg/s is more than any VAV box delivers (> {M_MAX_LIMIT:g} kg/s, "
+                "about 16 000 cfm); is the value in kg/s?"
+            )
+    problems += _validate_ahus(b)
+    problems += _validate_columns(b)
     for z in b.zones:
         if z.name in zone_set and not any(v.zone == z.name for v in b.vavs) and b.vavs:
             problems.append(f"zone {z.name}: no VAV box serves it")

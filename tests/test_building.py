@@ -66,3 +66,89 @@ def test_bad_toml(tmp_path):
         load_building(p)
     with pytest.raises(BuildingError, match="does not exist"):
         load_building(tmp_path / "missing.toml")
+
+
+# --------------------------------------------------------------------------- air handlers (issue 13)
+def _two_ahus(d):
+    d["ahus"] = [{"name": "AHU1", "T_supply_max": 35.0}, {"name": "AHU2", "columns": {"T_supply": "AHU-2 SAT"}}]
+    for v, a in zip(d["vavs"], ("AHU1", "AHU1", "AHU2")):
+        v["ahu"] = a
+    return d
+
+
+def test_air_handlers_map_boxes_and_columns(tmp_path, small_building_dict):
+    b = building_from_dict(_two_ahus(small_building_dict))
+    assert b.ahu_names == ("AHU1", "AHU2")
+    assert b.ahu_of("V1").name == "AHU1" and b.ahu_of("V3").name == "AHU2"
+    assert b.ahu_of("V1").T_supply_max == 35.0 and b.ahu_of("V3").T_supply_max is None
+    assert [b.supply_column(v) for v in b.vav_names] == ["T_supply_AHU1", "T_supply_AHU1", "T_supply_AHU2"]
+    assert b.column_for("T_supply_AHU2") == "AHU-2 SAT" and b.column_for("T_supply_AHU1") == "T_supply_AHU1"
+    exp = b.expected_columns()
+    assert exp["T_supply_AHU1"] and exp["T_supply_AHU2"] and not exp["T_supply"]
+    assert exp["Td_V1"] is False and exp["rh_V3"] is False
+    again = load_building(b.save(tmp_path / "b.toml"))
+    assert again.ahus == b.ahus and again.vavs == b.vavs
+
+
+def test_without_air_handlers_one_implicit_unit(small_building):
+    assert small_building.ahus == ()
+    assert small_building.ahu_of("V2") is None
+    assert small_building.supply_column("V2") == "T_supply"
+    assert small_building.expected_columns()["T_supply"] is True
+
+
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda d: d["vavs"][0].update(ahu="AHU9"), r"VAV V1: ahu 'AHU9' is not a declared air handler \(declared units are AHU1, AHU2\)"),
+        (lambda d: d["vavs"][0].pop("ahu"), r"VAV V1: no 'ahu' although \[\[ahus\]\] are declared"),
+        (lambda d: d["vavs"][2].update(ahu="AHU1"), r"air handler AHU2: no VAV box names it"),
+        (lambda d: d["ahus"].append({"name": "AHU1"}), r"air handler name 'AHU1' is used more than once"),
+        (lambda d: d["ahus"][0].update(T_supply_max=95.0), r"T_supply_max = 95 °C is not a plausible .* °F"),
+        (lambda d: d["ahus"][0].update(T_supply_max=True), r"ahus\[0\] \(AHU1\)\.T_supply_max \[°C\]: expected a number, got True"),
+        (lambda d: d["ahus"][1].update(columns={"T_mixed": "x"}), r"unknown quantity 'T_mixed'"),
+        (lambda d: d.pop("ahus"), r"VAV V1: ahu 'AHU1' is not a declared air handler \(no \[\[ahus\]\] are declared\)"),
+    ],
+)
+def test_bad_air_handlers(small_building_dict, mutate, message):
+    d = _two_ahus(small_building_dict)
+    mutate(d)
+    with pytest.raises(BuildingError, match=message):
+        building_from_dict(d)
+
+
+# --------------------------------------------------------------------------- wrong types (issue 17)
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda d: d["zones"][0].update(area=True), r"zones\[0\] \(A\)\.area: expected a number, got True \(bool\)"),
+        (lambda d: d["zones"][0].update(volume="300"), r"zones\[0\] \(A\)\.volume: expected a number, got '300' \(str\)"),
+        (lambda d: d["vavs"][0].update(m_max=float("inf")), r"vavs\[0\] \(V1\)\.m_max \[kg/s\]: expected a finite number"),
+        (lambda d: d.update(zones=["A", "B"]), r"zones\[0\]: expected a table .* got 'A' \(str\)"),
+        (lambda d: d.update(vavs="V1"), r"vavs: expected an array of tables"),
+        (lambda d: d["zones"][0].update(adjacent="B"), r"zones\[0\] \(A\)\.adjacent: expected a list of names"),
+        (lambda d: d.update(latitude=False), r"latitude \[deg\]: expected a number, got False"),
+        (lambda d: d["vavs"][0].update(m_max=0.0, m_min=0.0), r"VAV V1: m_max must be > 0 kg/s"),
+        (lambda d: d["vavs"][0].update(m_min=0.7), r"VAV V1: need 0 <= m_min <= m_max, got m_min=0.7, m_max=0.6"),
+        (lambda d: d["vavs"][0].update(m_max=400.0), r"VAV V1: m_max = 400 kg/s is more than any VAV box"),
+        (lambda d: d.update(columns={"T_A": "room", "T_B": "room"}), r"T_A, T_B all map to the file column 'room'"),
+        (lambda d: d.update(columns={"T_A": 3}), r"columns: expected a table of text values"),
+        (lambda d: d.update(columns={"T_A": "T_B"}), r"T_A, T_B all map to the file column 'T_B'"),
+        (lambda d: d.update(data_timezone="Europe/Nowhere"), r"data_timezone 'Europe/Nowhere' is not a known IANA"),
+        (lambda d: d["zones"][0].update(name="supply"), r"zone name 'supply' is reserved"),
+        (lambda d: d["vavs"][0].update(zone=1), r"vavs\[0\] \(V1\)\.zone: expected text, got 1 \(int\)"),
+    ],
+)
+def test_wrong_types_and_values_are_named(small_building_dict, mutate, message):
+    mutate(small_building_dict)
+    with pytest.raises(BuildingError, match=message):
+        building_from_dict(small_building_dict)
+
+
+def test_wrong_types_in_toml_file_name_the_file(tmp_path):
+    p = tmp_path / "b.toml"
+    p.write_text('name = "x"\nlatitude = 1.0\nlongitude = 2.0\ntimezone = "UTC"\nzones = ["A"]\nvavs = ["V"]\n')
+    with pytest.raises(BuildingError) as info:
+        load_building(p)
+    msg = str(info.value)
+    assert str(p) in msg and "zones[0]: expected a table" in msg and "vavs[0]: expected a table" in msg

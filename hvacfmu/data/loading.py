@@ -17,6 +17,7 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
+from .plausibility import check_airflow, check_outdoor, check_stuck
 from .units import kind_of, normalize_unit, to_si
 
 #: Plausible range of any air temperature [°C].
@@ -73,11 +74,17 @@ class LoadReport:
     warnings: list = dataclasses.field(default_factory=list)
 
 
-def as_building(building) -> Building:
-    """A :class:`Building`, loading it if ``building`` is a path."""
-    if isinstance(building, Building):
-        return building
-    return load_building(building)
+def as_building(building, timezone: str | None = None) -> Building:
+    """A :class:`Building`, loading it if ``building`` is a path.
+
+    ``timezone`` (optional) overrides the building's ``data_timezone``: the zone
+    naive timestamps of the measurements are read in (e.g. ``"UTC"``).
+    """
+    if not isinstance(building, Building):
+        building = load_building(building)
+    if timezone is not None and timezone != building.data_timezone:
+        building = dataclasses.replace(building, data_timezone=str(timezone))
+    return building
 
 
 def _fmt_time(t) -> str:
@@ -343,7 +350,7 @@ def _median_step(t_ns: np.ndarray, max_samples: int = 20_000) -> float | None:
     return float(np.median(d)) / 1e9
 
 
-def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
+def load_measurements(path, building, timezone: str | None = None) -> tuple[pd.DataFrame, LoadReport]:
     """Read, validate and convert a measurements file.
 
     Parameters
@@ -351,20 +358,26 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
     path : str or Path
         CSV (``.csv``, ``.csv.gz``) or Parquet (``.parquet``) file with one row
         per timestamp. The ``time`` column holds ISO 8601 times with UTC offset
-        (naive times are local times of ``building.timezone``; the hour repeated
-        when daylight saving time ends is resolved from the row order, see
-        :func:`_localize`) or, in Parquet, timestamps.
+        (naive times are wall-clock times of the data's clock zone,
+        ``building.clock_timezone``: ``data_timezone`` or else ``timezone``; the
+        hour repeated when daylight saving time ends is resolved from the row
+        order, see :func:`_localize`) or, in Parquet, timestamps.
     building : Building or path
         Gives the expected columns, the column mapping
         (:meth:`Building.column_for`) and the units (:meth:`Building.unit_for`).
+    timezone : str, optional
+        Zone of naive timestamps (e.g. ``"UTC"``), overriding the building's
+        ``data_timezone``. The returned index is always in ``building.timezone``.
 
     Returns
     -------
     frame : pandas.DataFrame
         Native resolution; index: tz-aware ``DatetimeIndex`` in the building's
         time zone named ``time``; columns: canonical names in SI units
-        (``T_*`` [°C], ``m_*`` [kg/s], ``ghi``/``I_*`` [W/m²], ``excitation``
-        0/1) present in the file; NaN where values are missing.
+        (``T_*`` and ``Td_*`` [°C], ``m_*`` [kg/s], ``rh_*`` [0..1],
+        ``ghi``/``I_*`` [W/m²], ``excitation`` 0/1) present in the file; NaN
+        where values are missing. A single declared air handler without its
+        ``T_supply_<ahu>`` column takes the ``T_supply`` column.
     report : LoadReport
 
     Raises
@@ -375,7 +388,7 @@ def load_measurements(path, building) -> tuple[pd.DataFrame, LoadReport]:
         not exist or whose daylight-saving ambiguity the row order cannot
         resolve, physically impossible values and implausible units.
     """
-    building = as_building(building)
+    building = as_building(building, timezone)
     frame, report, problems = _load(Path(path), building)
     if problems:
         raise DataError(problems_message(f"Cannot use measurements {path}", problems))
@@ -405,9 +418,17 @@ def _load(path: Path, building: Building):
         name = building.column_for(canonical)
         if name in raw.columns:
             present[canonical] = name
+        elif len(building.ahus) == 1 and canonical == building.ahus[0].supply_column and (
+            building.column_for("T_supply") in raw.columns
+        ):
+            present[canonical] = building.column_for("T_supply")  # the single unit's plain T_supply column
         elif required:
             mapped = f" (mapped from {canonical})" if name != canonical else ""
             problems.append(f"{label}: missing required column {name!r}{mapped}")
+    if building.ahus and "T_supply" in present and "T_supply" not in building.columns and any(
+        present.get(c) == present["T_supply"] for c in building.supply_columns()
+    ):
+        del present["T_supply"]  # the file's T_supply is a unit's own column; the primary supply is derived
     used = set(present.values()) | {time_name}
     unknown = tuple(c for c in file_cols if c not in used and not c.startswith("Unnamed: "))
     report.unknown_columns = unknown
@@ -439,7 +460,7 @@ def _load(path: Path, building: Building):
         utc = None
         local = None
     else:
-        utc, ok, has_offsets = _parse_times(raw[time_name], tz, time_name, label, problems)
+        utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
         report.has_offsets = has_offsets
         local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
         local = local.tz_localize("UTC").tz_convert(tz)
@@ -470,7 +491,11 @@ def _load(path: Path, building: Building):
 
     # --- values -----------------------------------------------------------
     out = {}
-    m_max = {f"m_{v.name}": v.m_max for v in building.vavs}
+    boxes = {f"m_{v.name}": v for v in building.vavs}
+
+    def rows_of(positions, values):
+        return where.rows(positions, values=values)
+
     for canonical, name in present.items():
         desc = f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
         kind = kind_of(canonical)
@@ -485,6 +510,13 @@ def _load(path: Path, building: Building):
             problems.append(
                 f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {where.rows(bad, values=raw[name].to_numpy())}"
             )
+        infinite = np.flatnonzero(np.isinf(values))
+        if len(infinite):
+            problems.append(
+                f"{label}: {desc}: {len(infinite)} infinite value(s), e.g. {where.rows(infinite, values=values)}; "
+                "a missing value must be an empty cell"
+            )
+            values = np.where(np.isinf(values), np.nan, values)
         finite = values[np.isfinite(values)]
         if not len(finite):
             if expected.get(canonical, False) and n:
@@ -496,17 +528,23 @@ def _load(path: Path, building: Building):
             continue
         si = to_si(values, unit)
         if kind == "temperature":
+            n_before = len(problems)
             si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
+            if canonical == "T_out" and len(problems) == n_before:
+                check_outdoor(si, unit, local, building.latitude, f"{label}: {desc}", problems)
         elif kind == "airflow":
-            si = _check_airflow(canonical, desc, label, unit, finite, si, m_max.get(canonical), where, problems, report)
+            si = _check_airflow(canonical, desc, label, unit, finite, si, boxes.get(canonical), where, problems, report)
         elif kind == "irradiance":
             si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+        elif kind == "fraction":
+            si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
         else:
             flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
             if len(flag_bad):
                 problems.append(
                     f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
                 )
+        si = check_stuck(canonical, si, utc if utc is not None else None, f"{label}: {desc}", rows_of, report.warnings)
         out[canonical] = si
         if utc is not None:
             sel = np.isfinite(si) & ok
@@ -564,24 +602,12 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
     return si
 
 
-def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, problems, report):
-    valid = _sample(si[np.isfinite(si)])
-    med = float(np.median(valid))
-    if m_max is not None and m_max > 0 and med > 5 * m_max:
-        hint = "cfm or L/s" if unit in ("kg/s", "m3/s") else "a smaller unit"
-        problems.append(
-            f"{label}: {desc}: median airflow {med:.4g} kg/s (declared {unit}) is far above the box's "
-            f"m_max = {m_max:g} kg/s; the unit cannot be right, the data look like {hint}: "
-            "declare the unit in the building's [units] table"
+def _check_airflow(canonical, desc, label, unit, finite, si, box, where, problems, report):
+    """Negative airflow (noise clipped, else refused), then :func:`plausibility.check_airflow` against the box."""
+    if box is not None:
+        si = check_airflow(
+            si, unit, box, f"{label}: {desc}", lambda p, v: where.rows(p, values=v), problems, report.warnings
         )
-        return si
-    if m_max is not None and m_max > 0:
-        p99 = float(np.percentile(valid, 99))
-        if 0 < p99 < m_max / 100:
-            report.warnings.append(
-                f"{label}: {desc}: airflow stays below {p99:.3g} kg/s, under 1 % of m_max = {m_max:g} kg/s "
-                f"(declared {unit}); check the unit"
-            )
     neg = si < 0
     bad = np.flatnonzero(si < -AIRFLOW_NOISE)
     if len(bad):
@@ -594,6 +620,33 @@ def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, probl
             f"{label}: {desc}: {int(neg.sum())} slightly negative airflow value(s) (sensor noise) set to 0"
         )
         si = np.where(neg, 0.0, si)
+    return si
+
+
+#: A reheat command this far outside 0..1 is sensor noise and is clipped [1].
+FRACTION_NOISE = 0.02
+
+
+def _check_fraction(desc, label, unit, finite, si, where, problems, report):
+    """A reheat command/valve position must lie in 0..1 (after conversion from %)."""
+    top = float(np.max(finite))
+    if unit == "1" and 1.5 < top <= 100.5 and float(np.min(finite)) >= -0.5:
+        problems.append(
+            f"{label}: {desc}: values reach {top:.4g} (declared as a fraction 0..1); the data look like percent: "
+            "declare the unit in the building's [units] table, e.g. \"rh_*\" = \"%\""
+        )
+        return si
+    bad = np.flatnonzero((si < -FRACTION_NOISE) | (si > 1 + FRACTION_NOISE))
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} value(s) outside 0..1 (after conversion from {unit}), "
+            f"e.g. {where.rows(bad, values=si)}"
+        )
+        return si
+    out = (si < 0) | (si > 1)
+    if out.any():
+        report.warnings.append(f"{label}: {desc}: {int(out.sum())} value(s) slightly outside 0..1 clipped")
+        si = np.clip(si, 0.0, 1.0)
     return si
 
 

@@ -6,7 +6,9 @@ Canonical quantities and their SI units:
 canonical column   quantity                    SI unit
 =================  ==========================  =======
 ``T_*``            air temperature             °C
+``Td_*``           discharge air temperature   °C
 ``m_*``            air mass flow of a box      kg/s
+``rh_*``           reheat command/valve        – (0..1; ``%`` accepted)
 ``ghi``, ``I_*``   irradiance                  W/m²
 ``excitation``     experiment flag             – (0/1)
 =================  ==========================  =======
@@ -32,6 +34,7 @@ KINDS = {
     "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm")),
     "irradiance": ("W/m2", ("W/m2", "kW/m2")),
     "flag": ("1", ("1",)),
+    "fraction": ("1", ("1", "%")),
 }
 
 _ALIASES = {
@@ -45,12 +48,13 @@ _ALIASES = {
     "w/m2": "W/m2", "w/m^2": "W/m2", "w/m²": "W/m2", "wm-2": "W/m2",
     "kw/m2": "kW/m2", "kw/m^2": "kW/m2", "kw/m²": "kW/m2",
     "1": "1", "-": "1", "": "1", "none": "1", "bool": "1",
+    "%": "%", "percent": "%", "pct": "%",
 }
 
 
 def kind_of(canonical: str) -> str:
-    """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``) of a canonical column."""
-    if canonical.startswith("T_"):
+    """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``, ``fraction``) of a canonical column."""
+    if canonical.startswith(("T_", "Td_")):
         return "temperature"
     if canonical.startswith("m_"):
         return "airflow"
@@ -58,6 +62,8 @@ def kind_of(canonical: str) -> str:
         return "irradiance"
     if canonical == "excitation":
         return "flag"
+    if canonical.startswith("rh_"):
+        return "fraction"
     raise KeyError(f"no physical kind known for column {canonical!r}")
 
 
@@ -87,13 +93,13 @@ def to_si(values, unit: str):
         Values in ``unit``.
     unit : str
         One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``,
-        ``W/m2``, ``kW/m2``, ``1`` (canonical spellings, see :func:`normalize_unit`).
+        ``W/m2``, ``kW/m2``, ``1``, ``%`` (canonical spellings, see :func:`normalize_unit`).
 
     Returns
     -------
     numpy.ndarray of float
         Temperatures in [°C], airflows in [kg/s] (volumetric flows times
-        :data:`AIR_DENSITY`), irradiance in [W/m²].
+        :data:`AIR_DENSITY`), irradiance in [W/m²], fractions in [1].
     """
     x = np.asarray(values, dtype=float)
     if unit in ("degC", "kg/s", "W/m2", "1"):
@@ -110,6 +116,8 @@ def to_si(values, unit: str):
         return x * (CFM_IN_M3_PER_S * AIR_DENSITY)
     if unit == "kW/m2":
         return x * 1000.0
+    if unit == "%":
+        return x / 100.0
     raise ValueError(f"unknown unit {unit!r}")
 
 
@@ -130,4 +138,6 @@ def from_si(values, unit: str):
         return x / (CFM_IN_M3_PER_S * AIR_DENSITY)
     if unit == "kW/m2":
         return x / 1000.0
+    if unit == "%":
+        return x * 100.0
     raise ValueError(f"unknown unit {unit!r}")

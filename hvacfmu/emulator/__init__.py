@@ -1,4 +1,4 @@
-"""The building emulator: an SDH-like office floor that produces realistic "measured" data.
+"""The building emulator: office floors (SDH-like by default) that produce realistic "measured" data.
 
 Public API (see DEVELOPING.md):
 
@@ -15,13 +15,42 @@ supply-air reset, occupancy with calendar and randomness), so identification
 is never checked against its own model class.
 """
 
-from .building import sdh_building, sdh_building_dict, true_building_dict  # noqa: F401
-from .effects import EFFECT_DEFAULTS, EFFECT_NAMES, EmulatorError, effect_label, parse_effect  # noqa: F401
-from .generate import EMULATOR_VERSION, GeneratedPaths, cache_key, cached_dataset, generate, make_truth  # noqa: F401
+from .building import (  # noqa: F401
+    building_dict,
+    emulated_building,
+    sdh_building,
+    sdh_building_dict,
+    true_building_dict,
+)
+from .effects import (  # noqa: F401
+    EFFECT_DEFAULTS,
+    EFFECT_NAMES,
+    EmulatorError,
+    effect_label,
+    parse_effect,
+)
+from .fleet import FLEET_FORMAT, fleet_parameters, generate_fleet  # noqa: F401
+from .generate import (  # noqa: F401
+    EMULATOR_VERSION,
+    GeneratedPaths,
+    cache_key,
+    cached_dataset,
+    generate,
+    make_truth,
+)
+from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, LAYOUTS  # noqa: F401
 from .plant import Plant  # noqa: F401
 from .simulate import simulate  # noqa: F401
 
 __all__ = [
+    "FLEET_FORMAT",
+    "fleet_parameters",
+    "generate_fleet",
+    "CLIMATES",
+    "CONSTRUCTION_TEMPLATES",
+    "LAYOUTS",
+    "building_dict",
+    "emulated_building",
     "EFFECT_DEFAULTS",
     "EFFECT_NAMES",
     "EMULATOR_VERSION",

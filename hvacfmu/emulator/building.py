@@ -24,8 +24,11 @@ from __future__ import annotations
 import copy
 
 from ..building import Building, building_from_dict
+from ..errors import problems_message
+from .effects import EmulatorError
+from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, HVAC_MODES, SDH, ahu_groups, check_options, get_layout
 
-#: Location of Sutardja Dai Hall, UC Berkeley.
+#: Location of Sutardja Dai Hall, UC Berkeley (the ``mild`` climate).
 LATITUDE = 37.8750
 LONGITUDE = -122.2587
 TIMEZONE = "America/Los_Angeles"
@@ -35,33 +38,19 @@ FLOOR_TO_FLOOR = 3.9  # [m] slab to slab
 CEILING_HEIGHT = 2.9  # [m] room height below the suspended ceiling
 WINDOW_TO_WALL = 0.45  # window fraction of the facade area [-]
 
-#: Zone rectangles (x0, x1, y0, y1) [m].
-ZONE_RECTS = {
-    "NW": (0.0, 32.0, 28.0, 40.0),
-    "W": (0.0, 12.0, 0.0, 28.0),
-    "S": (12.0, 52.0, 0.0, 10.0),
-    "E": (52.0, 64.0, 0.0, 28.0),
-    "NE": (32.0, 64.0, 28.0, 40.0),
-    "C": (12.0, 52.0, 10.0, 28.0),
-}
-ZONE_ORDER = ("NW", "W", "S", "E", "NE", "C")
-FLOOR_EXTENT = (0.0, 64.0, 0.0, 40.0)
+#: Zone rectangles (x0, x1, y0, y1) [m] of the default layout (see :mod:`.layouts`).
+ZONE_RECTS = dict(SDH.rects)
+ZONE_ORDER = SDH.zone_order
+FLOOR_EXTENT = SDH.extent
 
 #: VAV boxes per zone and their airflow limits [kg/s] (m_min is ~25 % of m_max).
-VAV_LAYOUT = {
-    "NW": (3, 0.13, 0.55),
-    "W": (3, 0.12, 0.50),
-    "S": (4, 0.13, 0.55),
-    "E": (3, 0.12, 0.50),
-    "NE": (3, 0.13, 0.55),
-    "C": (5, 0.12, 0.50),
-}
+VAV_LAYOUT = dict(SDH.vavs)
 
 
-def _facades_of(rect):
+def _facades_of(rect, extent=FLOOR_EXTENT):
     """Exterior facade lengths [m] of a zone rectangle by orientation."""
     x0, x1, y0, y1 = rect
-    X0, X1, Y0, Y1 = FLOOR_EXTENT
+    X0, X1, Y0, Y1 = extent
     out = {}
     if y1 == Y1:
         out["N"] = x1 - x0
@@ -85,8 +74,8 @@ def _shared_length(a, b):
     return 0.0
 
 
-def floor_plan():
-    """Geometry of the floor.
+def floor_plan(layout: str = "sdh"):
+    """Geometry of the floor of ``layout``.
 
     Returns
     -------
@@ -94,15 +83,18 @@ def floor_plan():
         ``zones``: name -> dict(area [m2], volume [m3], facades {orientation: length [m]}),
         ``shared``: {(a, b): shared wall length [m]} for adjacent zone pairs.
     """
+    lay = get_layout(layout)
+    order = lay.zone_order
     zones = {}
-    for name in ZONE_ORDER:
-        x0, x1, y0, y1 = ZONE_RECTS[name]
+    for name in order:
+        x0, x1, y0, y1 = lay.rects[name]
         area = (x1 - x0) * (y1 - y0)
-        zones[name] = {"area": area, "volume": area * CEILING_HEIGHT, "facades": _facades_of(ZONE_RECTS[name])}
+        facades = {o: v for o, v in _facades_of(lay.rects[name], lay.extent).items() if (name, o) not in lay.blind}
+        zones[name] = {"area": area, "volume": area * CEILING_HEIGHT, "facades": facades}
     shared = {}
-    for i, a in enumerate(ZONE_ORDER):
-        for b in ZONE_ORDER[i + 1:]:
-            length = _shared_length(ZONE_RECTS[a], ZONE_RECTS[b])
+    for i, a in enumerate(order):
+        for b in order[i + 1:]:
+            length = _shared_length(lay.rects[a], lay.rects[b])
             if length > 0:
                 shared[(a, b)] = length
     return {"zones": zones, "shared": shared}
@@ -150,6 +142,24 @@ CONSTRUCTIONS = {
     },
 }
 
+
+def constructions_of(template: str = "medium") -> dict:
+    """The four constructions of a template (see :data:`.layouts.CONSTRUCTION_TEMPLATES`).
+
+    ``medium`` returns :data:`CONSTRUCTIONS` unchanged; the others change the
+    concrete and insulation thicknesses (a zero thickness drops the layer).
+    """
+    t = CONSTRUCTION_TEMPLATES[template]
+    out = copy.deepcopy(CONSTRUCTIONS)
+    if template == "medium":
+        return out
+    ext = [("concrete", t["exterior_concrete"]), ("insulation", t["insulation"]), ("gypsum", 0.016)]
+    out["exterior_wall"]["layers"] = [(m, d) for m, d in ext if d > 0]
+    for name in ("floor_slab", "ceiling_slab"):
+        out[name]["layers"] = [(m, t["slab"] if m == "concrete" else d) for m, d in out[name]["layers"]]
+    return out
+
+
 #: The paper's five physical parameters: nominal (handbook) and true values.
 NOMINAL_PARAMETERS = {
     "U_win": 2.6,  # [W/(m2 K)]
@@ -172,8 +182,9 @@ TRUE_INTERNAL_MASS = 16000.0
 AMBIENT_FILM = 25.0  # [W/(m2 K)]
 
 
-def _physics_tables(nominal: bool) -> dict:
-    plan = floor_plan()
+def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "medium") -> dict:
+    lay = get_layout(layout)
+    plan = floor_plan(layout)
     materials = NOMINAL_MATERIALS if nominal else TRUE_MATERIALS
     params = NOMINAL_PARAMETERS if nominal else TRUE_PARAMETERS
     shgc = NOMINAL_SHGC if nominal else TRUE_SHGC
@@ -181,7 +192,7 @@ def _physics_tables(nominal: bool) -> dict:
     for name, props in materials.items():
         mats.append({"name": name, **props})
     cons = []
-    for name, c in CONSTRUCTIONS.items():
+    for name, c in constructions_of(construction).items():
         cons.append(
             {
                 "name": name,
@@ -190,11 +201,11 @@ def _physics_tables(nominal: bool) -> dict:
             }
         )
     windows, elements = [], []
-    for zname in ZONE_ORDER:
+    for zname in lay.zone_order:
         z = plan["zones"][zname]
         for orient, length in z["facades"].items():
             facade_area = length * FLOOR_TO_FLOOR
-            win = round(WINDOW_TO_WALL * facade_area, 2)
+            win = round(lay.wwr(zname, orient) * facade_area, 2)
             windows.append(
                 {
                     "name": f"{zname}_{orient}_window",
@@ -231,26 +242,40 @@ def _physics_tables(nominal: bool) -> dict:
                 "side2": b,
             }
         )
+    mass = (NOMINAL_INTERNAL_MASS if nominal else TRUE_INTERNAL_MASS) * CONSTRUCTION_TEMPLATES[construction][
+        "internal_mass_factor"
+    ]
     physics = {
         "ambient_film": AMBIENT_FILM,
         "ground_temperature": 15.0,
-        "internal_mass": NOMINAL_INTERNAL_MASS if nominal else TRUE_INTERNAL_MASS,
+        "internal_mass": mass,
         "nominal": dict(params),
     }
     return {"materials": mats, "constructions": cons, "windows": windows, "elements": elements, "physics": physics}
 
 
-def sdh_building_dict(nominal: bool = True) -> dict:
-    """The default floor as a building-file mapping (see :func:`sdh_building`)."""
-    plan = floor_plan()
+def _check(layout, construction, climate, hvac="vav"):
+    problems = check_options(layout, construction, climate, hvac)
+    if problems:
+        raise EmulatorError(problems_message("Invalid emulator building", problems))
+
+
+def building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True,
+                  hvac: str = "vav") -> dict:
+    """A floor as a building-file mapping (see :func:`emulated_building`)."""
+    _check(layout, construction, climate, hvac)
+    lay = get_layout(layout)
+    clim = CLIMATES[climate]
+    plan = floor_plan(layout)
+    order = lay.zone_order
     zones = []
-    adjacent = {n: [] for n in ZONE_ORDER}
+    adjacent = {n: [] for n in order}
     for a, b in plan["shared"]:
         adjacent[a].append(b)
         adjacent[b].append(a)
-    tables = _physics_tables(nominal)
+    tables = _physics_tables(nominal, layout, construction)
     win_area = {(w["zone"], w["orientation"]): w["area"] for w in tables["windows"]}
-    for name in ZONE_ORDER:
+    for name in order:
         z = plan["zones"][name]
         facades = []
         for orient in ("N", "E", "S", "W"):
@@ -268,25 +293,80 @@ def sdh_building_dict(nominal: bool = True) -> dict:
                 "name": name,
                 "area": z["area"],
                 "volume": round(z["volume"], 2),
-                "adjacent": [n for n in ZONE_ORDER if n in adjacent[name]],
+                "adjacent": [n for n in order if n in adjacent[name]],
                 "facades": facades,
             }
         )
-    vavs = []
-    for name in ZONE_ORDER:
-        n, m_min, m_max = VAV_LAYOUT[name]
-        for i in range(1, n + 1):
-            vavs.append({"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max})
+    vavs = _vavs(lay, clim, hvac)
+    title = lay.title
+    if (construction, climate) != ("medium", "mild"):
+        title = f"{title}, {construction} construction, {climate} climate"
     d = {
-        "name": "SDH-like floor 4 (emulated)",
-        "latitude": LATITUDE,
-        "longitude": LONGITUDE,
-        "timezone": TIMEZONE,
+        "name": title,
+        "latitude": clim["latitude"],
+        "longitude": clim["longitude"],
+        "timezone": clim["timezone"],
         "zones": zones,
         "vavs": vavs,
     }
+    if hvac == "reheat":
+        mode = HVAC_MODES[hvac]
+        units = sorted(set(ahu_groups(layout).values()))
+        d["ahus"] = [{"name": a, "T_supply_max": mode["T_discharge_max"]} for a in units]
     d.update(copy.deepcopy(tables))
     return d
+
+
+def _vavs(lay, clim, hvac) -> list[dict]:
+    """Box entries: the layout's sizing scaled for the climate and the HVAC mode."""
+    scale, min_scale = float(clim["airflow_scale"]), float(clim["min_airflow_scale"])
+    cap = 1.0
+    if hvac == "reheat":
+        min_scale *= HVAC_MODES[hvac]["min_airflow_scale"]
+        cap = HVAC_MODES[hvac]["max_min_fraction"]
+        groups = ahu_groups(lay.name)
+    vavs = []
+    for name in lay.zone_order:
+        n, m_min, m_max = lay.vavs[name]
+        if (scale, min_scale) != (1.0, 1.0):
+            m_min, m_max = round(m_min * scale * min_scale, 3), round(m_max * scale, 2)
+            m_min = min(m_min, round(cap * m_max, 3))
+        for i in range(1, n + 1):
+            v = {"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max}
+            if hvac == "reheat":
+                v["ahu"] = groups[name]
+            vavs.append(v)
+    return vavs
+
+
+def sdh_building_dict(nominal: bool = True) -> dict:
+    """The default floor as a building-file mapping (see :func:`sdh_building`)."""
+    return building_dict("sdh", "medium", "mild", nominal)
+
+
+def emulated_building(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
+                      nominal: bool = True, hvac: str = "vav") -> Building:
+    """An emulated floor as a :class:`~hvacfmu.building.Building`.
+
+    Parameters
+    ----------
+    layout : {"sdh", "row4", "core9"}
+        Floor layout (see :mod:`hvacfmu.emulator.layouts`).
+    construction : {"medium", "light", "heavy"}
+        Construction template of the massive layers and furniture.
+    climate : {"mild", "cold", "hot"}
+        Location (latitude, longitude, time zone) and box sizing of the climate.
+    nominal : bool
+        Nominal handbook tables (as written to ``building.toml``) or the true ones.
+    hvac : {"vav", "reheat"}
+        ``reheat`` adds the ``[[ahus]]`` (each box's ``ahu``) of the real-BMS-like mode
+        and raises the boxes' minimum airflow (see :data:`.layouts.HVAC_MODES`).
+
+    Returns
+    -------
+    Building
+    """
+    return building_from_dict(building_dict(layout, construction, climate, nominal, hvac))
 
 
 def sdh_building(nominal: bool = True) -> Building:
@@ -310,15 +390,16 @@ def sdh_building(nominal: bool = True) -> Building:
     return building_from_dict(sdh_building_dict(nominal))
 
 
-def true_building_dict() -> dict:
+def true_building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
+                       hvac: str = "vav") -> dict:
     """The emulator's true building: true tables, and slabs facing the floors above and below.
 
     Floor and ceiling slabs are not adiabatic in the truth: their far side faces
     the air of the floor below / above (side ``"adjacent_floor"``, film
     ``"adjacent_floor"``), whose temperature is a boundary input.
     """
-    d = sdh_building_dict(nominal=False)
-    d["name"] = "SDH-like floor 4 (emulator truth)"
+    d = building_dict(layout, construction, climate, nominal=False, hvac=hvac)
+    d["name"] = d["name"].replace("(emulated)", "(emulator truth)")
     for c in d["constructions"]:
         if c["name"] in ("floor_slab", "ceiling_slab"):
             c["films"] = [c["films"][0], "adjacent_floor"]

@@ -1,6 +1,7 @@
-"""Synthetic but realistic Berkeley weather at one-minute resolution.
+"""Synthetic but realistic weather at one-minute resolution (Berkeley by default, or another climate).
 
-Outdoor temperature: monthly climate normals of Berkeley (daily mean and
+Outdoor temperature: monthly climate normals (Berkeley by default, see
+:data:`hvacfmu.emulator.layouts.CLIMATES`) (daily mean and
 diurnal range), a daily AR(1) anomaly, cooler and flatter cloudy days, a
 skewed diurnal shape (minimum near sunrise, maximum mid-afternoon) and a fast
 AR(1) fluctuation. Solar: clear-sky irradiance from pvlib (Ineichen, sun
@@ -55,7 +56,8 @@ def _diurnal_shape(hour):
     return out
 
 
-def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitude, longitude, altitude=60.0) -> dict:
+def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitude, longitude, altitude=60.0,
+                      climate=None) -> dict:
     """Generate weather for a tz-aware one-minute index.
 
     Parameters
@@ -65,6 +67,10 @@ def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitud
     rng : numpy Generator
     latitude, longitude : float [deg]
     altitude : float [m]
+    climate : dict, optional
+        Monthly tables ``monthly_mean``, ``monthly_range``, ``monthly_cloudy``,
+        ``monthly_linke`` and ``anomaly_std`` [K] (see
+        :data:`hvacfmu.emulator.layouts.CLIMATES`); default Berkeley.
 
     Returns
     -------
@@ -76,25 +82,34 @@ def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitud
     with warnings.catch_warnings():  # pandas deprecations raised inside pvlib
         warnings.simplefilter("ignore", DeprecationWarning)
         warnings.simplefilter("ignore", FutureWarning)
-        return _synthetic_weather(index, rng, latitude, longitude, altitude)
+        return _synthetic_weather(index, rng, latitude, longitude, altitude, climate or {})
 
 
-def _synthetic_weather(index, rng, latitude, longitude, altitude):
+def _standard_offset(index) -> float:
+    """UTC offset [s] of local standard time (daylight saving removed) of a tz-aware index."""
+    t0 = index[0]
+    dst = t0.dst() or pd.Timedelta(0)
+    return (t0.utcoffset() - dst).total_seconds()
+
+
+def _synthetic_weather(index, rng, latitude, longitude, altitude, climate):
     import pvlib
 
     n = len(index)
     utc_s = index.as_unit("s").asi8
-    # local standard time (PST = UTC-8) drives the diurnal shape
-    std_days = (utc_s - 8 * 3600) / 86400.0
+    # local standard time (e.g. PST = UTC-8) drives the diurnal shape
+    std_days = (utc_s + int(_standard_offset(index))) / 86400.0
     day0 = np.floor(std_days[0])
     dfl = std_days - day0
     n_days = int(np.ceil(dfl[-1])) + 2
     first_day = pd.Timestamp(int(day0) * 86400, unit="s")
     doy_days = ((first_day.day_of_year - 1) + np.arange(n_days)) % 365 + 0.5
 
-    clim_mean = _monthly_interp(doy_days, MONTHLY_MEAN)
-    clim_range = _monthly_interp(doy_days, MONTHLY_RANGE)
-    p_cloudy = _monthly_interp(doy_days, MONTHLY_CLOUDY)
+    table = {key: np.asarray(climate.get(f"monthly_{key}", default), dtype=float) for key, default in
+             (("mean", MONTHLY_MEAN), ("range", MONTHLY_RANGE), ("cloudy", MONTHLY_CLOUDY), ("linke", MONTHLY_LINKE))}
+    clim_mean = _monthly_interp(doy_days, table["mean"])
+    clim_range = _monthly_interp(doy_days, table["range"])
+    p_cloudy = _monthly_interp(doy_days, table["cloudy"])
     # persistent cloudy/clear days
     u = rng.random(n_days)
     cloudy = np.zeros(n_days, dtype=bool)
@@ -104,7 +119,7 @@ def _synthetic_weather(index, rng, latitude, longitude, altitude):
     clear_val = 0.93 + 0.07 * rng.random(n_days)
     cloud_val = rng.beta(2.0, 3.0, n_days) * 0.8 + 0.1
     clearness = np.where(cloudy, cloud_val, clear_val)
-    anomaly = _ar1(rng, n_days, 2.5, 1.5)
+    anomaly = _ar1(rng, n_days, 2.5, float(climate.get("anomaly_std", 1.5)))
     day_mean = clim_mean + anomaly - 1.2 * (1.0 - clearness)
     day_range = clim_range * (0.45 + 0.55 * clearness)
 
@@ -123,7 +138,7 @@ def _synthetic_weather(index, rng, latitude, longitude, altitude):
     am_rel = pvlib.atmosphere.get_relative_airmass(app_zen)
     am_abs = pvlib.atmosphere.get_absolute_airmass(am_rel, pvlib.atmosphere.alt2pres(altitude))
     doy_min = np.asarray(index.day_of_year, dtype=float)
-    linke = _monthly_interp(doy_min, MONTHLY_LINKE)
+    linke = _monthly_interp(doy_min, table["linke"])
     with np.errstate(divide="ignore", invalid="ignore"):  # night-time: sun below the horizon
         cs = pvlib.clearsky.ineichen(app_zen, am_abs, linke, altitude=altitude, dni_extra=dni_extra)
     ghi_clear = np.nan_to_num(np.asarray(cs["ghi"], dtype=float), nan=0.0)

@@ -1,33 +1,23 @@
 """Zone models: the common interface, Model A (linear), Model B (physics), extensions.
 
 Use :func:`load_model` to read any saved model; it dispatches on the file's
-``kind`` and never executes code from the file.
+``kind`` through the model-kind registry (:mod:`hvacfmu.models.registry`) and never
+executes code from the file.
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 from pathlib import Path
 
 from ..errors import ModelError
 from .base import FORMAT_VERSION, ZoneModel
-
-#: kind -> "module:Class", imported lazily. Modules add their kinds here.
-MODEL_KINDS = {
-    "lumped": "hvacfmu.models.linear:LinearZoneModel",
-    "zones": "hvacfmu.models.linear:LinearZoneModel",
-    "physics": "hvacfmu.models.physics:PhysicsModel",
-    "extended": "hvacfmu.models.extended:ExtendedModel",
-}
+from .registry import ModelKind, get_kind, kind_names, kinds, register_kind
 
 
 def model_class(kind: str):
-    """The class implementing model ``kind``."""
-    if kind not in MODEL_KINDS:
-        raise ModelError(f"unknown model kind {kind!r}; known kinds: {sorted(MODEL_KINDS)}")
-    module, name = MODEL_KINDS[kind].split(":")
-    return getattr(importlib.import_module(module), name)
+    """The class implementing model ``kind`` (from the registry; unknown kind -> :class:`ModelError`)."""
+    return get_kind(kind).load_class()
 
 
 def model_from_dict(d: dict) -> ZoneModel:
@@ -52,4 +42,15 @@ def load_model(path) -> ZoneModel:
         raise ModelError(f"{path}: {exc}") from None
 
 
-__all__ = ["FORMAT_VERSION", "MODEL_KINDS", "ZoneModel", "load_model", "model_class", "model_from_dict"]
+__all__ = [
+    "FORMAT_VERSION",
+    "ModelKind",
+    "ZoneModel",
+    "get_kind",
+    "kind_names",
+    "kinds",
+    "load_model",
+    "model_class",
+    "model_from_dict",
+    "register_kind",
+]

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import panel_grid, save_figure
+from ..plots import panel_grid, save_figure
 
 DAY_NAMES = ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun")
 

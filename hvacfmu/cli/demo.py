@@ -25,6 +25,8 @@ import time
 import traceback
 from pathlib import Path
 
+from .demo_results import label, stage_models
+
 #: The paper's Table I (Zhou, Hu, Tomlin), for side-by-side comparison [°C].
 PAPER_TABLE = {
     "model A": {
@@ -177,8 +179,8 @@ def run_demo(out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: in
 # stages
 # =============================================================================
 def _stage_dataset(out, weeks, seed):
-    from .data import prepare
-    from .emulator import cached_dataset
+    from ..data import prepare
+    from ..emulator import cached_dataset
 
     paths = cached_dataset(weeks=weeks, seed=seed)
     dataset = prepare(paths.measurements, paths.building, seed=seed)
@@ -187,7 +189,7 @@ def _stage_dataset(out, weeks, seed):
 
 
 def _stage_model_a(out, ds):
-    from .fitting import fit
+    from ..fitting import fit
 
     res = {}
     for kind in ("lumped", "zones"):
@@ -199,7 +201,7 @@ def _stage_model_a(out, ds):
 
 
 def _stage_model_b(out, ds, progress):
-    from .fitting import fit
+    from ..fitting import fit
 
     t = time.perf_counter()
     model = fit(ds, "physics", progress=progress)
@@ -207,40 +209,28 @@ def _stage_model_b(out, ds, progress):
                         "seconds": time.perf_counter() - t}}
 
 
-def _models(r):
-    models = {}
-    for key in ("model_a", "model_b"):
-        for kind, d in (r.get(key) or {}).items():
-            models[kind] = d
-    return models
-
-
 def _stage_evaluate(out, ds, r):
-    from .evaluation import _choose_week, evaluate, week_trajectory
+    from ..evaluation import choose_week, evaluate, week_trajectory
 
-    models = _models(r)
+    models = stage_models(r)
     res = {}
     zone_models = [(k, models[k]["model"]) for k in ("zones", "physics") if k in models]
     if zone_models:
-        ev = evaluate([m for _, m in zone_models], ds, names=[_label(k) for k, _ in zone_models])
+        ev = evaluate([m for _, m in zone_models], ds, names=[label(k) for k, _ in zone_models])
         ev.save_json(out / "results" / "evaluation_zones.json")
         res["zones"] = ev
     if "lumped" in models:
-        ev = evaluate(models["lumped"]["model"], ds, names=[_label("lumped")])
+        ev = evaluate(models["lumped"]["model"], ds, names=[label("lumped")])
         ev.save_json(out / "results" / "evaluation_lumped.json")
         res["lumped"] = ev
-    week = _choose_week(ds, None)
+    week = choose_week(ds, None)
     res["week"] = week
-    res["trajectories"] = [week_trajectory(m, ds, week, name=_label(k)) for k, m in zone_models] if week else []
+    res["trajectories"] = [week_trajectory(m, ds, week, name=label(k)) for k, m in zone_models] if week else []
     return res
 
 
-def _label(kind):
-    return {"lumped": "Model A (lumped)", "zones": "Model A (six zones)", "physics": "Model B (physics)"}.get(kind, kind)
-
-
 def _stage_diagnose(out, ds, r):
-    from .diagnosis import diagnose
+    from ..diagnosis import diagnose
 
     base = r["model_a"]["zones"]["model"]
     rep = diagnose(ds, model=base, plots=None, progress=False)
@@ -250,10 +240,10 @@ def _stage_diagnose(out, ds, r):
 
 
 def _stage_export(out, r):
-    from .fmu import export_fmu, export_plant_fmu, validate
+    from ..fmu import export_fmu, export_plant_fmu, validate
 
     res = {}
-    models = _models(r)
+    models = stage_models(r)
     for kind in ("lumped", "zones", "physics"):
         if kind not in models:
             continue
@@ -272,25 +262,25 @@ def _stage_export(out, r):
 def _stage_mpc(out, ds, r, horizon):
     from harness.cosim import make_controller, run_cosim
 
-    models = _models(r)
+    models = stage_models(r)
     week = r["evaluation"]["week"] if r.get("evaluation") else None
     if week is None:
         week = ds.test_weeks()[0]
     res = {"week": week, "runs": {}, "errors": {}}
     b = ds.building
-    # (label, fmu to run, controller name, controller model)
+    # (run label, fmu to run, controller name, controller model)
     runs = []
     for kind in ("zones", "physics"):
         if kind in models and kind in r["fmus"]:
-            runs.append((f"MPC {_label(kind)} on its own FMU", r["fmus"][kind]["path"], "mpc", kind))
+            runs.append((f"MPC {label(kind)} on its own FMU", r["fmus"][kind]["path"], "mpc", kind))
     if "plant" in r["fmus"]:
         plant = r["fmus"]["plant"]["path"]
         runs.append(("replay of measured airflows on the plant", plant, "replay", None))
         runs.append(("rule-based PI on the plant", plant, "rule", None))
         for kind in ("zones", "physics"):
             if kind in models:
-                runs.append((f"MPC {_label(kind)} on the plant", plant, "mpc", kind))
-    for label, fmu, ctrl, kind in runs:
+                runs.append((f"MPC {label(kind)} on the plant", plant, "mpc", kind))
+    for run_label, fmu, ctrl, kind in runs:
         model = models[kind]["model"] if kind else None
         options = {"horizon": horizon} if ctrl == "mpc" else {}
         try:
@@ -302,11 +292,11 @@ def _stage_mpc(out, ds, r, horizon):
                                start_values=start_values)
         except Exception as exc:  # noqa: BLE001 - one failed run must not hide the others
             traceback.print_exc(file=sys.stderr)
-            res["errors"][label] = f"{type(exc).__name__}: {exc}"
+            res["errors"][run_label] = f"{type(exc).__name__}: {exc}"
             continue
-        slug = label.lower().replace(" ", "_").replace("(", "").replace(")", "")
+        slug = run_label.lower().replace(" ", "_").replace("(", "").replace(")", "")
         result.save(out / "results" / f"cosim_{slug}.csv")
-        res["runs"][label] = {"result": result, "kind": kind, "controller": ctrl, "fmu": str(fmu)}
+        res["runs"][run_label] = {"result": result, "kind": kind, "controller": ctrl, "fmu": str(fmu)}
     if res["errors"]:
         raise _PartialFailure("MPC runs failed: " + "; ".join(f"{k}: {v}" for k, v in res["errors"].items())
                               + " (the other runs are in the report)", res)

@@ -1,0 +1,78 @@
+"""Checks of what is identified on EnergyPlus data: margins against the baselines, closed-loop airflow gains.
+
+Duck-typed on purpose: this package sits below :mod:`hvacfmu.models` and
+:mod:`hvacfmu.evaluation` and imports neither; it reads an ``EvaluationResult``'s
+``scores`` and a linear model's ``B``/``outputs``/``inputs`` attributes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+#: Baseline names of :func:`hvacfmu.evaluation.evaluate`.
+BASELINES = ("persistence", "time-of-week mean")
+CP_AIR = 1005.0  # [J/(kg K)]
+RHO_AIR = 1.2  # [kg/m3]
+#: Largest plausible effective heat capacity of a zone, as a multiple of its air's (furniture, light structure).
+MAX_CAPACITY_FACTOR = 30.0
+#: Smallest supply-to-zone temperature difference [K] while a box cools or heats noticeably.
+MIN_DELTA_T = 2.0
+
+
+def margins_table(result) -> pd.DataFrame:
+    """Per model and season: RMS [K] (mean over outputs) of the model and the baselines, the margin against each
+    baseline [%, positive = the model is better] and the worst output's margin [%].
+
+    Parameters
+    ----------
+    result : hvacfmu.evaluation.EvaluationResult
+    """
+    rows = []
+    for sc in result.scores:
+        seasons = np.asarray(sc.seasons, dtype=object)
+        for season in [*dict.fromkeys(sc.seasons), "all"]:
+            sel = np.ones(len(seasons), bool) if season == "all" else seasons == season
+            if not sel.any():
+                continue
+            model = np.nanmean(sc.rms[sel], axis=0)
+            row = {"model": sc.name, "season": season, "windows": int(sel.sum()), "rms": float(np.mean(model))}
+            for b in BASELINES:
+                base = np.nanmean(sc.baselines[b][sel], axis=0)
+                short = "pers" if b == "persistence" else "tow"
+                row[short] = float(np.mean(base))
+                row[f"margin_{short}_%"] = 100.0 * (1.0 - row["rms"] / row[short])
+                row[f"worst_{short}_%"] = float(np.min(100.0 * (1.0 - model / base)))
+            rows.append(row)
+    return pd.DataFrame(rows).set_index(["model", "season"])
+
+
+def airflow_identifiability(model, building, step: float | None = None) -> list:
+    """Lines reporting, per zone, the fitted airflow gain of a linear zones model against the smallest plausible one.
+
+    The smallest plausible gain [K per (kg/s) per step] of zone i is ``cp · ΔT_min · step / C_max`` with ``C_max``
+    ``MAX_CAPACITY_FACTOR`` times the zone air's heat capacity and ``ΔT_min = 2 K``. A fitted gain below it means the
+    airflow's effect was not identified: closed-loop data without excitation let the thermostat loop (airflow
+    follows temperature) explain the response instead.
+    """
+    B = getattr(model, "B", None)
+    outputs = tuple(getattr(model, "outputs", ()))
+    if B is None or not outputs or outputs == ("floor",):
+        return ["airflow identifiability: not a zones model, not checked"]
+    step = float(step if step is not None else model.step)
+    B = np.asarray(B, dtype=float)
+    lines, flagged = [], []
+    for i, zone in enumerate(outputs):
+        if i >= B.shape[1]:
+            break
+        vol = building.zone(zone).volume
+        g_min = CP_AIR * MIN_DELTA_T * step / (MAX_CAPACITY_FACTOR * RHO_AIR * CP_AIR * vol)
+        gain = abs(B[i, i])
+        ok = gain >= g_min
+        if not ok:
+            flagged.append(zone)
+        lines.append(f"{zone}: airflow gain {B[i, i]:+.3g} K/(kg/s)/step, smallest plausible {g_min:.3g}"
+                     + ("" if ok else "  -> NOT IDENTIFIED (closed loop, no excitation)"))
+    head = (f"airflow identifiability: {len(flagged)} of {len(outputs)} zone gains below the physical minimum"
+            + (f" ({', '.join(flagged)})" if flagged else ""))
+    return [head, *lines]

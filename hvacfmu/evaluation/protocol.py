@@ -1,0 +1,356 @@
+"""The evaluation protocol every model is judged by: 24-hour open-loop RMS on held-out weeks.
+
+On each held-out test week, an open-loop prediction of ``horizon`` steps (96 =
+24 h at 15 minutes) starts at every local midnight from
+``model.initial_state(frame, k0)``, driven by the measured inputs ``u``,
+disturbances ``v`` and the season's internal-gain profile. Each window gets the
+RMS error of eq. (RMS) of the paper,
+
+    RMS = ( 1/N sum_{k=1..N} (y_measured(k) - y_predicted(k))^2 )^(1/2),
+
+per output; RMS values are averaged by output and season (the paper's Table I).
+Windows with any missing value (measured outputs over the window, inputs or
+disturbances over the horizon, or a non-finite initial state) are skipped and
+counted.
+
+Two baselines are scored on exactly the same windows and outputs:
+
+- ``persistence``: the output at the window's start held for 24 h;
+- ``time-of-week mean``: the mean measured output of the season's training
+  weeks at the same time of week.
+
+Only the :class:`~hvacfmu.models.base.ZoneModel` interface is used
+(``measured_outputs``, ``signals``, ``gains_at``, ``initial_state``,
+``simulate``), so every model kind plugs in unchanged.
+
+References
+----------
+D. Zhou, Q. Hu, C. J. Tomlin, "Model comparison of a data-driven and a physical
+model for simulating HVAC systems", eq. (RMS), Table I and section V-A.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+
+from ..errors import DataError, HvacfmuWarning, problems_message
+from ..timeutil import n_time_of_week, time_of_week
+from .result import BASELINES, EvaluationResult, ModelScore
+from .verdict import make_verdict
+
+
+# =============================================================================
+# layer 1: arrays
+# =============================================================================
+def window_rms(measured, predicted):
+    """RMS error per window and output, eq. (RMS).
+
+    Parameters
+    ----------
+    measured, predicted : arrays (W, N, ny) [°C]
+        Values at steps k = 1..N of each window.
+
+    Returns
+    -------
+    array (W, ny) [K]
+    """
+    e = np.asarray(measured, float) - np.asarray(predicted, float)
+    return np.sqrt(np.mean(e * e, axis=-2))
+
+
+def time_of_week_profile(y, slots, n_slots):
+    """Mean of ``y`` (n, ny) per time-of-week slot; empty slots interpolated around the week.
+
+    Returns
+    -------
+    profile : array (n_slots, ny)
+    coverage : float
+        Fraction of slots with data before filling (0 means the profile is all NaN).
+    """
+    from ..models.datadriven import estimate_gains
+
+    return estimate_gains(y, slots, n_slots)
+
+
+# =============================================================================
+# layer 2: the protocol
+# =============================================================================
+def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> EvaluationResult:
+    """Score models by 24-hour open-loop prediction RMS on the held-out test weeks, verdict first.
+
+    Parameters
+    ----------
+    model_or_models : ZoneModel or sequence of ZoneModel
+    dataset : hvacfmu.data.Dataset
+        Its test weeks are evaluated; its training weeks feed the
+        time-of-week-mean baseline.
+    horizon : int
+        Prediction horizon N [steps] (96 = 24 h at 15 minutes).
+    names : sequence of str, optional
+        Labels of the models (default: ``meta["name"]`` or the kind, made unique).
+
+    Returns
+    -------
+    EvaluationResult
+        With ``.verdict``: per zone against both baselines, ASHRAE Guideline 14 hourly
+        NMBE and CV(RMSE), and the likely causes when a model loses to persistence.
+
+    Raises
+    ------
+    DataError
+        If no window of any model could be evaluated (every reason listed).
+
+    Warns
+    -----
+    HvacfmuWarning
+        For seasons without a test week and models that cannot predict a season.
+    """
+    models = _check_models(model_or_models, dataset, horizon)
+    names = _model_names(models, names)
+    b = dataset.building
+    notes = _season_notes(dataset)
+    test_weeks = dataset.test_weeks()
+    if not test_weeks:
+        raise DataError("the dataset has no test week: nothing to evaluate (need at least two weeks in a season)")
+    starts = _window_starts(dataset.frame.index, test_weeks)
+    scores = []
+    failures = []
+    for model, name in zip(models, names):
+        sc, more = _score_model(model, name, dataset, starts, int(horizon))
+        notes += more
+        scores.append(sc)
+        if not sc.starts:
+            failures.append(f"{name}: " + (", ".join(f"{v} {k}" for k, v in sc.skipped.items() if v) or "no windows"))
+    if len(failures) == len(scores):
+        raise DataError(problems_message("No test window could be evaluated", failures))
+    return EvaluationResult(
+        scores=scores,
+        horizon=int(horizon),
+        step=float(dataset.step),
+        season_order=tuple(b.season_names),
+        notes=notes,
+        data_sha256=getattr(dataset, "sha256", None),
+        models=models,
+        verdict=make_verdict(scores, models, dataset),
+    )
+
+
+def _check_models(model_or_models, dataset, horizon):
+    """The models as a list, checked: ZoneModel instances on the dataset's step, a positive horizon."""
+    from ..models.base import ZoneModel
+
+    models = list(model_or_models) if isinstance(model_or_models, (list, tuple)) else [model_or_models]
+    if not models:
+        raise ValueError("no model to evaluate")
+    for m in models:
+        if not isinstance(m, ZoneModel):
+            raise TypeError(f"expected ZoneModel instances, got {type(m).__name__}")
+    if int(horizon) < 1:
+        raise ValueError(f"horizon must be at least one step, got {int(horizon)}")
+    step = float(dataset.step)
+    for m in models:
+        if abs(float(m.step) - step) > 1e-9:
+            raise DataError(f"model step {m.step} s differs from the dataset step {step} s; "
+                            f"prepare the data with --step {m.step:g}")
+    return models
+
+
+def _season_notes(dataset):
+    """Notes (also warned) for seasons with data but no test week."""
+    notes = []
+    seasons_with_data = [s for s in dataset.building.season_names if any(w.season == s for w in dataset.weeks)]
+    test_weeks = dataset.test_weeks()
+    for s in seasons_with_data:
+        if not any(w.season == s for w in test_weeks):
+            notes.append(f"season {s} has no test week (too few weeks); it is not evaluated")
+    for n in notes:
+        warnings.warn(n, HvacfmuWarning, stacklevel=3)
+    return notes
+
+
+def _window_starts(index, weeks):
+    """(week, local midnight) pairs: every midnight of every test week."""
+    out = []
+    for w in weeks:
+        tz = w.start.tz
+        day0 = w.start.tz_localize(None)
+        for d in range(7):
+            t = (day0 + pd.Timedelta(days=d)).tz_localize(tz, nonexistent="shift_forward", ambiguous=False)
+            if t < w.end:
+                out.append((w, t))
+    return out
+
+
+_SKIP_REASONS = ("missing data", "window past the end of the data", "no internal-gain profile for season",
+                 "no row at midnight")
+
+
+def _usable_windows(model, name, dataset, starts, horizon, Y, u, v, skipped, notes):
+    """(week, start, k0) of the windows with complete data and a gains profile; counts the others."""
+    idx = dataset.frame.index
+    n, N = len(idx), horizon
+    badY = np.r_[0, np.cumsum(~np.all(np.isfinite(Y), axis=1))]  # prefix sums of bad rows
+    badUV = np.r_[0, np.cumsum(~(np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)))]
+    keep, no_profile = [], set()
+    for w, t in starts:
+        k0 = idx.get_indexer([t])[0]
+        if k0 < 0:
+            skipped["no row at midnight"] += 1
+        elif k0 + N >= n:
+            skipped["window past the end of the data"] += 1
+        elif badY[k0 + N + 1] - badY[k0] or badUV[k0 + N] - badUV[k0]:
+            skipped["missing data"] += 1
+        elif w.season not in getattr(model, "gains", {}):
+            skipped["no internal-gain profile for season"] += 1
+            no_profile.add(w.season)
+        else:
+            keep.append((w, t, k0))
+    for s in sorted(no_profile):
+        msg = f"{name}: no internal-gain profile for season {s} (no training data in it); its test windows are skipped"
+        notes.append(msg)
+        warnings.warn(msg, HvacfmuWarning, stacklevel=4)
+    return keep
+
+
+def _initial_states(model, frame, keep, skipped):
+    """Initial states of the kept windows; windows with a non-finite state are skipped."""
+    x0, final = [], []
+    for w, t, k0 in keep:
+        x = np.asarray(model.initial_state(frame, k0), float)
+        if not np.all(np.isfinite(x)):
+            skipped["missing data"] += 1
+            continue
+        x0.append(x)
+        final.append((w, t, k0))
+    return x0, final
+
+
+def _score_model(model, name, dataset, starts, horizon):
+    """Open-loop windows of one model: RMS, baselines, hourly statistics and residuals."""
+    frame = dataset.frame
+    idx = frame.index
+    N = horizon
+    Y = np.asarray(model.measured_outputs(frame), float)
+    u, v = (np.asarray(a, float) for a in model.signals(frame))
+    ny = Y.shape[1]
+    skipped = dict.fromkeys(_SKIP_REASONS, 0)
+    notes: list = []
+    keep = _usable_windows(model, name, dataset, starts, N, Y, u, v, skipped, notes)
+    x0, final = _initial_states(model, frame, keep, skipped)
+    W = len(final)
+    rms = np.empty((W, ny))
+    base = {b: np.full((W, ny), np.nan) for b in BASELINES}
+    hourly, residuals = None, None
+    if W:
+        k0s = np.array([k for _, _, k in final])
+        rng = k0s[:, None] + np.arange(N)[None, :]  # (W, N) rows k0..k0+N-1
+        q = np.stack([np.asarray(model.gains_at(idx[r], w.season), float) for (w, _, _), r in zip(final, rng)])
+        _, Yp = model.simulate(np.stack(x0), u[rng], v[rng], q)
+        meas, pred = Y[rng + 1], np.asarray(Yp)[:, 1:, :]  # (W, N, ny) at k = 1..N
+        rms = window_rms(meas, pred)
+        rms[~np.isfinite(rms)] = np.inf  # a diverging model must show, not vanish from the means
+        base["persistence"] = window_rms(meas, np.broadcast_to(Y[k0s][:, None, :], meas.shape))
+        base["time-of-week mean"] = _tow_baseline(dataset, Y, final, rng, notes, name)
+        hourly = hourly_statistics(meas, pred, float(dataset.step))
+        residuals = pd.DataFrame((meas - pred).reshape(W * N, ny), index=idx[(rng + 1).ravel()],
+                                 columns=list(model.outputs))
+    total_skipped = sum(skipped.values())
+    if total_skipped:
+        notes.append(f"{name}: {total_skipped} of {len(starts)} windows skipped ("
+                     + ", ".join(f"{v} {k}" for k, v in skipped.items() if v) + ")")
+    sc = ModelScore(
+        name=name,
+        kind=str(getattr(model, "kind", type(model).__name__)),
+        outputs=tuple(model.outputs),
+        starts=[t for _, t, _ in final],
+        seasons=[w.season for w, _, _ in final],
+        weeks=[w.number for w, _, _ in final],
+        rms=rms,
+        baselines=base,
+        skipped=skipped,
+        hourly=hourly,
+        residuals=residuals,
+    )
+    return sc, notes
+
+
+def hourly_statistics(measured, predicted, step):
+    """Sums over hourly means of the windows, for ASHRAE Guideline 14 NMBE and CV(RMSE).
+
+    Parameters
+    ----------
+    measured, predicted : arrays (W, N, ny) [°C]
+        Values at steps 1..N of each window.
+    step : float [s]
+        Model step; steps are averaged to whole hours (a trailing partial hour is dropped;
+        steps of an hour or more are used as they are).
+
+    Returns
+    -------
+    dict
+        ``n`` (hours per output), ``sum_error`` (ny,) [K·h], ``sum_sq_error`` (ny,) [K²·h],
+        ``sum_measured`` (ny,) [°C·h]; errors are measured minus predicted.
+    """
+    measured, predicted = np.asarray(measured, float), np.asarray(predicted, float)
+    W, N, ny = measured.shape
+    per_hour = max(1, int(round(3600.0 / step)))
+    H = N // per_hour
+    if H == 0:
+        per_hour, H = 1, N
+    m = measured[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
+    p = predicted[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
+    e = m - p
+    return {"n": int(W * H), "sum_error": e.sum(axis=0), "sum_sq_error": (e * e).sum(axis=0),
+            "sum_measured": m.sum(axis=0)}
+
+
+def _tow_baseline(dataset, Y, final, rng, notes, name):
+    """RMS of the seasonal time-of-week mean of the training weeks, on the given windows."""
+    idx = dataset.frame.index
+    step = float(dataset.step)
+    n_slots = n_time_of_week(step)
+    slots = time_of_week(idx, step)
+    week_of_row = np.full(len(idx), -1)
+    train_season = np.full(len(idx), None, dtype=object)
+    for w in dataset.weeks:
+        a, e = idx.searchsorted(w.start), idx.searchsorted(w.end)
+        week_of_row[a:e] = w.number
+        if w.train:
+            train_season[a:e] = w.season
+    profiles = {}
+    out = np.full((len(final), Y.shape[1]), np.nan)
+    for i, ((w, _, _), r) in enumerate(zip(final, rng)):
+        s = w.season
+        if s not in profiles:
+            sel = train_season == s
+            prof, cov = time_of_week_profile(Y[sel], slots[sel], n_slots) if sel.any() else (None, 0.0)
+            if cov == 0.0:
+                prof = None
+                notes.append(f"{name}: season {s} has no training data, so no time-of-week-mean baseline")
+            profiles[s] = prof
+        prof = profiles[s]
+        if prof is not None:
+            out[i] = window_rms(Y[r + 1][None], prof[slots[r + 1]][None])[0]
+    return out
+
+
+# =============================================================================
+# helpers
+# =============================================================================
+def _model_names(models, names):
+    if names is not None:
+        names = [str(n) for n in names]
+        if len(names) != len(models) or len(set(names)) != len(names):
+            raise ValueError("names must be unique, one per model")
+        return names
+    out = []
+    for m in models:
+        base = str((getattr(m, "meta", None) or {}).get("name") or getattr(m, "kind", type(m).__name__))
+        nm, i = base, 2
+        while nm in out:
+            nm, i = f"{base}-{i}", i + 1
+        out.append(nm)
+    return out
