@@ -163,9 +163,11 @@ def test_callback_exception_stops_the_run(tmp_path):
             raise ZeroDivisionError("boom in step 5")
 
     probes = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment")]
-    with pytest.raises(CallbackError, match="ZeroDivisionError: boom in step 5"):
+    with pytest.raises(CallbackError, match="ZeroDivisionError: boom in step 5") as info:
         simulate(tmp_path / "in.idf", epw, tmp_path / "out", probes, on_step=on_step)
-    assert calls == [0, 1, 2, 3, 4, 5]  # stopped at once: no further step reached the callback
+    assert calls == [0, 1, 2, 3, 4, 5]
+    assert isinstance(info.value.__cause__, ZeroDivisionError)
+    assert info.value.steps_after_error == 0  # EnergyPlus stopped at once (2 days = 192 steps otherwise)
 
 
 def test_cli_generate_energyplus(tmp_path):
@@ -179,3 +181,21 @@ def test_cli_generate_energyplus(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus"],
                        check=False, capture_output=True, text=True, timeout=60)
     assert r.returncode != 0 and "--prototype" in r.stderr
+
+
+def test_airflow_identifiability_check_flags_tiny_gains():
+    import types
+
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.energyplus.checks import airflow_identifiability
+
+    b = building_from_dict({"name": "t", "latitude": 40, "longitude": -105, "timezone": "America/Denver",
+                            "zones": [{"name": "A", "area": 100, "volume": 300}, {"name": "B", "area": 100, "volume": 300}],
+                            "vavs": [{"name": "VA", "zone": "A"}, {"name": "VB", "zone": "B"}]})
+    # smallest plausible gain for 300 m3: 1005 * 2 * 900 / (30 * 1.2 * 1005 * 300) = 0.167 K/(kg/s)/step
+    model = types.SimpleNamespace(B=np.array([[-1e-6, 0.0], [0.0, -0.9]]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(model, b)
+    assert lines[0] == "airflow identifiability: 1 of 2 zone gains below the physical minimum (A)"
+    assert "NOT IDENTIFIED" in lines[1] and "NOT IDENTIFIED" not in lines[2]
+    lumped = types.SimpleNamespace(B=np.array([[-1e-6]]), outputs=("floor",), step=900.0)
+    assert "not checked" in airflow_identifiability(lumped, b)[0]

@@ -51,7 +51,11 @@ def load_api():
 
 
 class CallbackError(RuntimeError):
-    """Raised after a run whose callback failed; ``__cause__`` is the original exception."""
+    """Raised after a run whose callback failed; ``__cause__`` is the original exception.
+
+    ``steps_after_error``: zone steps EnergyPlus still ran after the failure (0 when it stopped at once)."""
+
+    steps_after_error = 0
 
 
 class _Recorder:
@@ -64,6 +68,7 @@ class _Recorder:
         self.sys_sum = np.zeros(len(probes))
         self.sys_dt = 0.0
         self.error = None
+        self.steps_after_error = 0
 
     def _ready(self, state) -> bool:
         x = self.api.exchange
@@ -101,6 +106,8 @@ class _Recorder:
         self.sys_dt += dt
 
     def zone_step(self, state):
+        if self.error is not None:
+            self.steps_after_error += 1
         self._guard(state, self._zone_step)
 
     def _zone_step(self, state):
@@ -164,8 +171,10 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     code = api.runtime.run_energyplus(state, ["-d", str(workdir), "-w", str(epw_path), str(idf_path)])
     api.state_manager.delete_state(state)
     if rec.error is not None:
-        raise CallbackError(f"EnergyPlus run of {idf_path} stopped: a callback raised "
-                            f"{type(rec.error).__name__}: {rec.error}") from rec.error
+        err = CallbackError(f"EnergyPlus run of {idf_path} stopped: a callback raised "
+                            f"{type(rec.error).__name__}: {rec.error}")
+        err.steps_after_error = rec.steps_after_error
+        raise err from rec.error
     if code != 0:
         err = workdir / "eplusout.err"
         tail = err.read_text(errors="replace").splitlines()[-15:] if err.exists() else []
