@@ -10,10 +10,10 @@ import pytest
 
 pytest.importorskip("pyenergyplus")
 
-from hvacfmu.data import prepare  # noqa: E402
-from hvacfmu.energyplus import cached_export  # noqa: E402
-from hvacfmu.energyplus.checks import airflow_identifiability, margins_table  # noqa: E402
-from hvacfmu.energyplus.run import CallbackError  # noqa: E402
+from hvacfmu.data import prepare
+from hvacfmu.energyplus import cached_export
+from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
+from hvacfmu.energyplus.run import CallbackError
 
 pytestmark = pytest.mark.slow
 
@@ -53,7 +53,7 @@ def _report(name, res):
 
 @pytest.mark.parametrize("which", ["vav_office", "packaged"])
 def test_pipeline_runs_end_to_end(which, request):
-    ds, models, res = request.getfixturevalue(which)
+    ds, _models, res = request.getfixturevalue(which)
     assert len(ds.weeks) >= 50 and len(ds.test_weeks()) >= 4
     assert {s.name for s in res.scores} == {"lumped", "zones", "physics"}
     table = _report(which, res)
@@ -140,7 +140,7 @@ def test_energyplus_hosts_fmu_and_mpc(host_setup):
 def test_exception_in_the_loop_stops_energyplus(host_setup):
     from harness.energyplus_host import run_host
 
-    ds, model, fmu, frame = host_setup
+    ds, _model, _fmu, frame = host_setup
 
     class Broken:
         name = "broken"
