@@ -76,7 +76,8 @@ def test_report_numbers_are_the_library_results(demo_out):
         table = sc.table("model", ev.season_order)
         for season, row in table.iterrows():
             for col, value in row.items():
-                assert_allclose(reported[season][col], value, rtol=0, atol=1e-9)  # [K]; reloaded models may differ in the last bits
+                # [K]; reloaded models may differ in the last bits
+                assert_allclose(reported[season][col], value, rtol=0, atol=1e-9)
     # the comparison prose quotes the same means
     a = ev.scores[0].table("model").loc["all", "mean"]
     b = ev.scores[1].table("model").loc["all", "mean"]

@@ -9,15 +9,8 @@ import sys
 import warnings
 
 import numpy as np
-import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
-
-from hvacfmu.errors import DataError, HvacfmuWarning
-from hvacfmu.evaluation import BASELINES, evaluate, week_trajectory, window_rms
-from hvacfmu.models.base import ZoneModel
-from hvacfmu.models.datadriven import fit_zones
-from hvacfmu.models.linear import LinearZoneModel
 from test_datadriven import (
     simulate_frame,
     six_zone_building_dict,
@@ -27,6 +20,11 @@ from test_datadriven import (
 )
 
 from hvacfmu.building import building_from_dict
+from hvacfmu.errors import DataError, HvacfmuWarning
+from hvacfmu.evaluation import BASELINES, evaluate, week_trajectory, window_rms
+from hvacfmu.models.base import ZoneModel
+from hvacfmu.models.datadriven import fit_zones
+from hvacfmu.models.linear import LinearZoneModel
 
 
 @pytest.fixture(scope="module")

@@ -71,10 +71,17 @@ def test_replay_run_equals_python_model(zones, data):
     assert_allclose(y0, measured.iloc[0].to_numpy(), rtol=0, atol=1e-12)  # started from measurement
     _, Y = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
     assert_allclose(tab[[f"T_{z}" for z in model.outputs]].to_numpy(), Y, rtol=0, atol=EXACT)
-    # the replayed airflows are the measured ones where measured
+    # the replayed airflows are the measured ones where measured, clipped to the box limits (and counted)
     meas = data.week_frame(week)[[f"m_{b}" for b in data.building.vav_names]].to_numpy()
     ok = np.isfinite(meas)
-    assert_allclose(rows[[f"m_{b}" for b in data.building.vav_names]].to_numpy()[ok], meas[ok], rtol=0, atol=0)
+    boxes = {b.name: b for b in data.building.vavs}
+    lo = np.array([boxes[b].m_min for b in data.building.vav_names])
+    hi = np.array([boxes[b].m_max for b in data.building.vav_names])
+    clipped = np.clip(meas, lo, hi)
+    assert_allclose(rows[[f"m_{b}" for b in data.building.vav_names]].to_numpy()[ok], clipped[ok], rtol=0, atol=0)
+    filled = pd.DataFrame(meas).ffill().fillna(pd.Series(lo)).to_numpy()  # gaps: last value, m_min first
+    n_out = int(np.sum(np.abs(np.clip(filled, lo, hi) - filled) > 1e-9))
+    assert r.summary["controller_stats"]["clipped_box_steps"] == n_out
 
 
 def test_summary_figures(zones, data, tmp_path):

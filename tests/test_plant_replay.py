@@ -160,3 +160,30 @@ def test_plant_without_ghi_column_uses_facade_inputs(tmp_path, short_paths):
     zones = [f"T_{z}" for z in data.building.zone_names]
     diff = (with_ghi.table[zones] - without.table[zones]).abs().to_numpy()
     assert 0.0 < np.nanmax(diff) < 0.5  # same building, only the transposition model differs
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("layout, climate, start", [("core9", "cold", "2025-11-03"), ("row4", "hot", "2026-05-04")])
+def test_replay_on_other_layouts(tmp_path, layout, climate, start):
+    """The plant FMU of a nine-zone (cold) and a four-zone-row (hot) building replays their measured data.
+
+    Same bound as for the default building: one week of measured warm-up, then one
+    week replayed with the boxes' local reheat loops (RMS per zone < RMS_BOUND).
+    """
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.errors import HvacfmuWarning
+
+    paths = cached_dataset(weeks=3, seed=1, layout=layout, climate=climate, start=start)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        data = prepare(paths.measurements, paths.building)
+    fmu = export_plant_fmu(paths.truth, tmp_path / "Plant.fmu")
+    zones = list(data.building.zone_names)
+    r = run_cosim(fmu, data, ReplayController(), week=2)
+    assert r.covered and r.summary["warmup_steps"] == 7 * 96
+    rms, bias = _errors(r, zones)
+    assert len(rms) == len(zones) and np.all(rms < RMS_BOUND), dict(zip(zones, rms.round(3)))
+    assert np.all(np.abs(bias) < 2 * BIAS_BOUND), dict(zip(zones, bias.round(3)))

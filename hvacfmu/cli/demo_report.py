@@ -69,10 +69,12 @@ def _section_table1(rep, r, paper_table, paper_zones, paper_figures):
         "started at every midnight of the held-out test weeks from the measured temperature, driven by measured "
         "inputs and disturbances and the season's internal-gain profile; averaged by zone and season. "
         "Baselines: persistence (temperature held for 24 h) and the seasonal time-of-week mean of the training weeks.")
+    _verdict(rep, ev)
     if "zones" in ev:
         res = ev["zones"]
-        for i, sc in enumerate(res.scores):
-            rep.table(f"table1.{sc.name}", sc.table("model", res.season_order), f"{sc.name}: RMS [K] by zone and season")
+        for sc in res.scores:
+            rep.table(f"table1.{sc.name}", sc.table("model", res.season_order),
+                      f"{sc.name}: RMS [K] by zone and season")
         sc0 = res.scores[0]
         for bname in sc0.baselines:
             rep.table(f"table1.baseline.{bname}", sc0.table(bname, res.season_order),
@@ -88,6 +90,25 @@ def _section_table1(rep, r, paper_table, paper_zones, paper_figures):
         df = pd.DataFrame({"ours": t["mean"], "paper": paper.reindex(t.index)})
         df.index.name = "season"
         rep.table("table1.lumped", df, "Lumped Model A: mean RMS [K], ours vs the paper's")
+
+
+def _verdict(rep, ev):
+    """The verdict first: per zone against persistence and the time-of-week mean, ASHRAE Guideline 14."""
+    for key in ("zones", "lumped"):
+        verdict = ev[key].verdict if key in ev else None
+        if verdict is None:
+            continue
+        models = list(dict.fromkeys(z.model for z in verdict.zones))
+        rep.bullets([verdict.summary(m) for m in models]
+                    + [f"{z.model}: worse than persistence in {z.output} ({z.rms:.3f} K against {z.persistence:.3f} K)"
+                       for z in verdict.losing()]
+                    + [f"likely cause for {m}: {c}" for m, cs in verdict.causes.items() for c in cs])
+        df = pd.DataFrame([{"model / zone": f"{z.model} / {z.output}", "RMS [K]": z.rms,
+                            "persistence [K]": z.persistence, "time-of-week [K]": z.time_of_week,
+                            "NMBE [%]": z.nmbe, "CV(RMSE) [%]": z.cvrmse} for z in verdict.zones])
+        rep.table(f"verdict.{key}", df.set_index("model / zone"),
+                  "Verdict per zone: 24-h open-loop RMS against the baselines; ASHRAE Guideline 14 hourly NMBE "
+                  "and CV(RMSE) (calibrated: |NMBE| <= 10 %, CV(RMSE) <= 30 %)")
 
 
 def _section_gains(rep, r, figs):
@@ -192,7 +213,8 @@ def _section_mpc(rep, r, figs, paper_figures):
             continue
         first = next(iter(runs.values()))
         measured = r["data"]["dataset"].frame.reindex(first.index)
-        pt, pf = plot_mpc(runs, measured, zones, vavs, figs / f"mpc_{name}_temperature.png", figs / f"mpc_{name}_airflow.png")
+        pt, pf = plot_mpc(runs, measured, zones, vavs, figs / f"mpc_{name}_temperature.png",
+                          figs / f"mpc_{name}_airflow.png")
         where = "each model's own FMU" if name == "own" else "the emulator plant FMU"
         rep.figure(pt, f"MPC zone temperatures on {where} (Fig. 6)")
         rep.figure(pf, f"MPC airflows on {where} (Fig. 7)")
@@ -243,7 +265,8 @@ def _section_fmus(rep, r):
     if not fm:
         rep.paragraph("The export stage failed.")
         return
-    rows = {k: {"file": str(v["path"]), "fmpy validate": "no problems" if not v["problems"] else "; ".join(v["problems"])}
+    rows = {k: {"file": str(v["path"]),
+                "fmpy validate": "no problems" if not v["problems"] else "; ".join(v["problems"])}
             for k, v in fm.items()}
     df = pd.DataFrame.from_dict(rows, orient="index")
     df.index.name = "model"

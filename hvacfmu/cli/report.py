@@ -121,7 +121,8 @@ class Report:
                 rows = ["<tr><th>" + e(str(df.index.name or "")) + "</th>"
                         + "".join(f"<th>{e(str(c))}</th>" for c in df.columns) + "</tr>"]
                 for idx, row in df.iterrows():
-                    rows.append(f"<tr><th>{e(str(idx))}</th>" + "".join(f"<td>{e(_fmt(v, digits))}</td>" for v in row) + "</tr>")
+                    cells = "".join(f"<td>{e(_fmt(v, digits))}</td>" for v in row)
+                    rows.append(f"<tr><th>{e(str(idx))}</th>{cells}</tr>")
                 cap = f"<caption>{e(caption)}</caption>" if caption else ""
                 out.append(f"<table>{cap}{''.join(rows)}</table>")
             elif b.kind == "figure":

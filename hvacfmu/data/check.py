@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import BuildingError, DataError
-from .dataset import Dataset, _prepare
+from .clock import ClockCheck, clock_check
+from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
 from .resample import MIN_COVERAGE
 
@@ -20,7 +21,7 @@ N_PERIODS_LISTED = 12
 
 
 def _duration(seconds: float) -> str:
-    seconds = int(round(seconds))
+    seconds = round(seconds)
     d, rest = divmod(seconds, 86400)
     h, rest = divmod(rest, 3600)
     m = rest // 60
@@ -77,6 +78,8 @@ class CheckReport:
     gaps : list of ColumnGaps
     excitation_periods : list of (Timestamp, Timestamp)
         Start and end (exclusive) of each run of excitation steps.
+    clock : ClockCheck or None
+        The data's daily cycle against the declared clock (:func:`~hvacfmu.data.clock.clock_check`).
     """
 
     ok: bool
@@ -88,6 +91,7 @@ class CheckReport:
     load_report: LoadReport | None = None
     gaps: list = dataclasses.field(default_factory=list)
     excitation_periods: list = dataclasses.field(default_factory=list)
+    clock: ClockCheck | None = None
 
     def __str__(self) -> str:
         return self.format()
@@ -126,6 +130,9 @@ class CheckReport:
                 if n_gaps:
                     longest = f", longest {_duration(longest_s)} from {longest_start.isoformat()}"
                 lines.append(f"  {100 * coverage:6.2f} %  {n_gaps:4d} gap(s){longest}: {_names(names)}")
+            if self.clock is not None:
+                offset = "" if self.clock.offset is None else f" (offset {self.clock.offset:+.1f} h)"
+                lines.append(f"Clock: {self.clock.detail}{offset}")
             lines.append(f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else ""))
             for season in ds.building.season_names:
                 weeks = [w for w in ds.weeks if w.season == season]
@@ -171,12 +178,19 @@ def check(
     Returns
     -------
     CheckReport
-        ``ok`` is False, with every problem listed, when the building file or
-        the data cannot be used: any load problem (see
-        :func:`load_measurements`), no complete week, or a required column
-        without a single value on the model step.
+        ``ok`` is False, with every problem listed, when the options, the
+        building file or the data cannot be used: any load problem (see
+        :func:`load_measurements`), no complete week, a required column
+        without a single value on the model step, or any measured column with
+        a value in fewer than :data:`~hvacfmu.data.dataset.MIN_COLUMN_COVERAGE`
+        (50 %) of the model steps. Plausibility findings that were masked
+        (airflow spikes, stuck sensors) and a clock that looks offset
+        (:func:`~hvacfmu.data.clock.clock_check`) are warnings.
     """
     path = Path(path)
+    bad_options = option_problems(step, train_fraction, interpolate_limit, min_coverage)
+    if bad_options:
+        return CheckReport(ok=False, problems=bad_options, warnings=[], path=str(path))
     try:
         building = as_building(building, timezone)
     except BuildingError as exc:
@@ -198,6 +212,7 @@ def check(
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
     gaps = []
+    missing_all: dict = {}
     step_s = dataset.step
     for col in dataset.frame.columns:
         missing = ~np.isfinite(dataset.frame[col].to_numpy())
@@ -212,11 +227,16 @@ def check(
                 longest_start=dataset.frame.index[longest_run[0]] if longest_run else None,
             )
         )
+        missing_all[col] = bool(len(missing) and missing.all())
         if col in required and len(missing) and missing.all():
             problems.append(
                 f"{path.name}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
                 f"(at least {100 * min_coverage:g} % of the step)"
             )
+    sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
+    for msg, col in sparse.items():
+        if not (col in required and missing_all.get(col)):
+            problems.append(f"{path.name}: {msg}")
     if not dataset.weeks:
         span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
         problems.append(
@@ -227,7 +247,7 @@ def check(
     periods = [
         (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
     ]
-    notes = [w for w in dataset.warnings]
+    notes = [w for w in dataset.warnings if w not in sparse]
     zone_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in dataset.frame.columns]
     all_zones = np.isfinite(dataset.frame[zone_cols].to_numpy()).all(axis=1)
     for w in dataset.weeks:
@@ -240,6 +260,9 @@ def check(
             )
     if not periods:
         notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    if clock.warning:
+        notes.insert(0, f"{path.name}: clock: {clock.warning}")
     return CheckReport(
         ok=not problems,
         problems=problems,
@@ -250,4 +273,5 @@ def check(
         load_report=report,
         gaps=gaps,
         excitation_periods=periods,
+        clock=clock,
     )

@@ -17,6 +17,7 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
+from .plausibility import check_airflow, check_outdoor, check_stuck
 from .units import kind_of, normalize_unit, to_si
 
 #: Plausible range of any air temperature [°C].
@@ -424,6 +425,10 @@ def _load(path: Path, building: Building):
         elif required:
             mapped = f" (mapped from {canonical})" if name != canonical else ""
             problems.append(f"{label}: missing required column {name!r}{mapped}")
+    if building.ahus and "T_supply" in present and "T_supply" not in building.columns and any(
+        present.get(c) == present["T_supply"] for c in building.supply_columns()
+    ):
+        del present["T_supply"]  # the file's T_supply is a unit's own column; the primary supply is derived
     used = set(present.values()) | {time_name}
     unknown = tuple(c for c in file_cols if c not in used and not c.startswith("Unnamed: "))
     report.unknown_columns = unknown
@@ -486,7 +491,11 @@ def _load(path: Path, building: Building):
 
     # --- values -----------------------------------------------------------
     out = {}
-    m_max = {f"m_{v.name}": v.m_max for v in building.vavs}
+    boxes = {f"m_{v.name}": v for v in building.vavs}
+
+    def rows_of(positions, values):
+        return where.rows(positions, values=values)
+
     for canonical, name in present.items():
         desc = f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
         kind = kind_of(canonical)
@@ -501,6 +510,13 @@ def _load(path: Path, building: Building):
             problems.append(
                 f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {where.rows(bad, values=raw[name].to_numpy())}"
             )
+        infinite = np.flatnonzero(np.isinf(values))
+        if len(infinite):
+            problems.append(
+                f"{label}: {desc}: {len(infinite)} infinite value(s), e.g. {where.rows(infinite, values=values)}; "
+                "a missing value must be an empty cell"
+            )
+            values = np.where(np.isinf(values), np.nan, values)
         finite = values[np.isfinite(values)]
         if not len(finite):
             if expected.get(canonical, False) and n:
@@ -512,9 +528,12 @@ def _load(path: Path, building: Building):
             continue
         si = to_si(values, unit)
         if kind == "temperature":
+            n_before = len(problems)
             si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
+            if canonical == "T_out" and len(problems) == n_before:
+                check_outdoor(si, unit, local, building.latitude, f"{label}: {desc}", problems)
         elif kind == "airflow":
-            si = _check_airflow(canonical, desc, label, unit, finite, si, m_max.get(canonical), where, problems, report)
+            si = _check_airflow(canonical, desc, label, unit, finite, si, boxes.get(canonical), where, problems, report)
         elif kind == "irradiance":
             si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
         elif kind == "fraction":
@@ -525,6 +544,7 @@ def _load(path: Path, building: Building):
                 problems.append(
                     f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
                 )
+        si = check_stuck(canonical, si, utc if utc is not None else None, f"{label}: {desc}", rows_of, report.warnings)
         out[canonical] = si
         if utc is not None:
             sel = np.isfinite(si) & ok
@@ -582,24 +602,12 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
     return si
 
 
-def _check_airflow(canonical, desc, label, unit, finite, si, m_max, where, problems, report):
-    valid = _sample(si[np.isfinite(si)])
-    med = float(np.median(valid))
-    if m_max is not None and m_max > 0 and med > 5 * m_max:
-        hint = "cfm or L/s" if unit in ("kg/s", "m3/s") else "a smaller unit"
-        problems.append(
-            f"{label}: {desc}: median airflow {med:.4g} kg/s (declared {unit}) is far above the box's "
-            f"m_max = {m_max:g} kg/s; the unit cannot be right, the data look like {hint}: "
-            "declare the unit in the building's [units] table"
+def _check_airflow(canonical, desc, label, unit, finite, si, box, where, problems, report):
+    """Negative airflow (noise clipped, else refused), then :func:`plausibility.check_airflow` against the box."""
+    if box is not None:
+        si = check_airflow(
+            si, unit, box, f"{label}: {desc}", lambda p, v: where.rows(p, values=v), problems, report.warnings
         )
-        return si
-    if m_max is not None and m_max > 0:
-        p99 = float(np.percentile(valid, 99))
-        if 0 < p99 < m_max / 100:
-            report.warnings.append(
-                f"{label}: {desc}: airflow stays below {p99:.3g} kg/s, under 1 % of m_max = {m_max:g} kg/s "
-                f"(declared {unit}); check the unit"
-            )
     neg = si < 0
     bad = np.flatnonzero(si < -AIRFLOW_NOISE)
     if len(bad):

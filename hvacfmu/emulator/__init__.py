@@ -29,6 +29,7 @@ from .effects import (  # noqa: F401
     effect_label,
     parse_effect,
 )
+from .fleet import FLEET_FORMAT, fleet_parameters, generate_fleet  # noqa: F401
 from .generate import (  # noqa: F401
     EMULATOR_VERSION,
     GeneratedPaths,
@@ -42,6 +43,9 @@ from .plant import Plant  # noqa: F401
 from .simulate import simulate  # noqa: F401
 
 __all__ = [
+    "FLEET_FORMAT",
+    "fleet_parameters",
+    "generate_fleet",
     "CLIMATES",
     "CONSTRUCTION_TEMPLATES",
     "LAYOUTS",

@@ -39,6 +39,8 @@ import pandas as pd
 from ..errors import DataError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
+from .verdict import make_verdict
+
 
 # =============================================================================
 # layer 1: arrays
@@ -77,7 +79,7 @@ def time_of_week_profile(y, slots, n_slots):
 # layer 2: the protocol
 # =============================================================================
 def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> EvaluationResult:
-    """Score models by 24-hour open-loop prediction RMS on the held-out test weeks.
+    """Score models by 24-hour open-loop prediction RMS on the held-out test weeks, verdict first.
 
     Parameters
     ----------
@@ -93,6 +95,8 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
     Returns
     -------
     EvaluationResult
+        With ``.verdict``: per zone against both baselines, ASHRAE Guideline 14 hourly
+        NMBE and CV(RMSE), and the likely causes when a model loses to persistence.
 
     Raises
     ------
@@ -104,39 +108,18 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
     HvacfmuWarning
         For seasons without a test week and models that cannot predict a season.
     """
-    from ..models.base import ZoneModel
-
-    models = list(model_or_models) if isinstance(model_or_models, (list, tuple)) else [model_or_models]
-    if not models:
-        raise ValueError("no model to evaluate")
-    for m in models:
-        if not isinstance(m, ZoneModel):
-            raise TypeError(f"expected ZoneModel instances, got {type(m).__name__}")
-    horizon = int(horizon)
-    if horizon < 1:
-        raise ValueError(f"horizon must be at least one step, got {horizon}")
-    step = float(dataset.step)
-    for m in models:
-        if abs(float(m.step) - step) > 1e-9:
-            raise DataError(f"model step {m.step} s differs from the dataset step {step} s; prepare the data with --step {m.step:g}")
+    models = _check_models(model_or_models, dataset, horizon)
     names = _model_names(models, names)
-    frame = dataset.frame
     b = dataset.building
-    notes = []
+    notes = _season_notes(dataset)
     test_weeks = dataset.test_weeks()
-    seasons_with_data = [s for s in b.season_names if any(w.season == s for w in dataset.weeks)]
-    for s in seasons_with_data:
-        if not any(w.season == s for w in test_weeks):
-            notes.append(f"season {s} has no test week (too few weeks); it is not evaluated")
-    for n in notes:
-        warnings.warn(n, HvacfmuWarning, stacklevel=2)
     if not test_weeks:
         raise DataError("the dataset has no test week: nothing to evaluate (need at least two weeks in a season)")
-    starts = _window_starts(frame.index, test_weeks)
+    starts = _window_starts(dataset.frame.index, test_weeks)
     scores = []
     failures = []
     for model, name in zip(models, names):
-        sc, more = _score_model(model, name, dataset, starts, horizon)
+        sc, more = _score_model(model, name, dataset, starts, int(horizon))
         notes += more
         scores.append(sc)
         if not sc.starts:
@@ -145,13 +128,47 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
         raise DataError(problems_message("No test window could be evaluated", failures))
     return EvaluationResult(
         scores=scores,
-        horizon=horizon,
-        step=step,
+        horizon=int(horizon),
+        step=float(dataset.step),
         season_order=tuple(b.season_names),
         notes=notes,
         data_sha256=getattr(dataset, "sha256", None),
         models=models,
+        verdict=make_verdict(scores, models, dataset),
     )
+
+
+def _check_models(model_or_models, dataset, horizon):
+    """The models as a list, checked: ZoneModel instances on the dataset's step, a positive horizon."""
+    from ..models.base import ZoneModel
+
+    models = list(model_or_models) if isinstance(model_or_models, (list, tuple)) else [model_or_models]
+    if not models:
+        raise ValueError("no model to evaluate")
+    for m in models:
+        if not isinstance(m, ZoneModel):
+            raise TypeError(f"expected ZoneModel instances, got {type(m).__name__}")
+    if int(horizon) < 1:
+        raise ValueError(f"horizon must be at least one step, got {int(horizon)}")
+    step = float(dataset.step)
+    for m in models:
+        if abs(float(m.step) - step) > 1e-9:
+            raise DataError(f"model step {m.step} s differs from the dataset step {step} s; "
+                            f"prepare the data with --step {m.step:g}")
+    return models
+
+
+def _season_notes(dataset):
+    """Notes (also warned) for seasons with data but no test week."""
+    notes = []
+    seasons_with_data = [s for s in dataset.building.season_names if any(w.season == s for w in dataset.weeks)]
+    test_weeks = dataset.test_weeks()
+    for s in seasons_with_data:
+        if not any(w.season == s for w in test_weeks):
+            notes.append(f"season {s} has no test week (too few weeks); it is not evaluated")
+    for n in notes:
+        warnings.warn(n, HvacfmuWarning, stacklevel=3)
+    return notes
 
 
 def _window_starts(index, weeks):
@@ -167,46 +184,40 @@ def _window_starts(index, weeks):
     return out
 
 
-def _score_model(model, name, dataset, starts, horizon):
-    frame = dataset.frame
-    idx = frame.index
-    n = len(frame)
-    N = horizon
-    Y = np.asarray(model.measured_outputs(frame), float)
-    u, v = (np.asarray(a, float) for a in model.signals(frame))
-    ny = Y.shape[1]
-    okY = np.all(np.isfinite(Y), axis=1)
-    okUV = np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)
-    # windows with all data: prefix sums of bad rows
-    badY = np.r_[0, np.cumsum(~okY)]
-    badUV = np.r_[0, np.cumsum(~okUV)]
-    skipped = {"missing data": 0, "window past the end of the data": 0, "no internal-gain profile for season": 0,
-               "no row at midnight": 0}
-    notes = []
-    keep = []  # (week, t, k0)
-    no_profile = set()
+_SKIP_REASONS = ("missing data", "window past the end of the data", "no internal-gain profile for season",
+                 "no row at midnight")
+
+
+def _usable_windows(model, name, dataset, starts, horizon, Y, u, v, skipped, notes):
+    """(week, start, k0) of the windows with complete data and a gains profile; counts the others."""
+    idx = dataset.frame.index
+    n, N = len(idx), horizon
+    badY = np.r_[0, np.cumsum(~np.all(np.isfinite(Y), axis=1))]  # prefix sums of bad rows
+    badUV = np.r_[0, np.cumsum(~(np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)))]
+    keep, no_profile = [], set()
     for w, t in starts:
         k0 = idx.get_indexer([t])[0]
         if k0 < 0:
             skipped["no row at midnight"] += 1
-            continue
-        if k0 + N >= n:
+        elif k0 + N >= n:
             skipped["window past the end of the data"] += 1
-            continue
-        if badY[k0 + N + 1] - badY[k0] or badUV[k0 + N] - badUV[k0]:
+        elif badY[k0 + N + 1] - badY[k0] or badUV[k0 + N] - badUV[k0]:
             skipped["missing data"] += 1
-            continue
-        if w.season not in getattr(model, "gains", {}):
+        elif w.season not in getattr(model, "gains", {}):
             skipped["no internal-gain profile for season"] += 1
             no_profile.add(w.season)
-            continue
-        keep.append((w, t, k0))
+        else:
+            keep.append((w, t, k0))
     for s in sorted(no_profile):
         msg = f"{name}: no internal-gain profile for season {s} (no training data in it); its test windows are skipped"
         notes.append(msg)
-        warnings.warn(msg, HvacfmuWarning, stacklevel=3)
-    x0 = []
-    final = []
+        warnings.warn(msg, HvacfmuWarning, stacklevel=4)
+    return keep
+
+
+def _initial_states(model, frame, keep, skipped):
+    """Initial states of the kept windows; windows with a non-finite state are skipped."""
+    x0, final = [], []
     for w, t, k0 in keep:
         x = np.asarray(model.initial_state(frame, k0), float)
         if not np.all(np.isfinite(x)):
@@ -214,19 +225,38 @@ def _score_model(model, name, dataset, starts, horizon):
             continue
         x0.append(x)
         final.append((w, t, k0))
+    return x0, final
+
+
+def _score_model(model, name, dataset, starts, horizon):
+    """Open-loop windows of one model: RMS, baselines, hourly statistics and residuals."""
+    frame = dataset.frame
+    idx = frame.index
+    N = horizon
+    Y = np.asarray(model.measured_outputs(frame), float)
+    u, v = (np.asarray(a, float) for a in model.signals(frame))
+    ny = Y.shape[1]
+    skipped = dict.fromkeys(_SKIP_REASONS, 0)
+    notes: list = []
+    keep = _usable_windows(model, name, dataset, starts, N, Y, u, v, skipped, notes)
+    x0, final = _initial_states(model, frame, keep, skipped)
     W = len(final)
     rms = np.empty((W, ny))
     base = {b: np.full((W, ny), np.nan) for b in BASELINES}
+    hourly, residuals = None, None
     if W:
         k0s = np.array([k for _, _, k in final])
         rng = k0s[:, None] + np.arange(N)[None, :]  # (W, N) rows k0..k0+N-1
         q = np.stack([np.asarray(model.gains_at(idx[r], w.season), float) for (w, _, _), r in zip(final, rng)])
         _, Yp = model.simulate(np.stack(x0), u[rng], v[rng], q)
-        meas = Y[rng + 1]  # (W, N, ny) at k = 1..N
-        rms = window_rms(meas, Yp[:, 1:, :])
+        meas, pred = Y[rng + 1], np.asarray(Yp)[:, 1:, :]  # (W, N, ny) at k = 1..N
+        rms = window_rms(meas, pred)
         rms[~np.isfinite(rms)] = np.inf  # a diverging model must show, not vanish from the means
         base["persistence"] = window_rms(meas, np.broadcast_to(Y[k0s][:, None, :], meas.shape))
         base["time-of-week mean"] = _tow_baseline(dataset, Y, final, rng, notes, name)
+        hourly = hourly_statistics(meas, pred, float(dataset.step))
+        residuals = pd.DataFrame((meas - pred).reshape(W * N, ny), index=idx[(rng + 1).ravel()],
+                                 columns=list(model.outputs))
     total_skipped = sum(skipped.values())
     if total_skipped:
         notes.append(f"{name}: {total_skipped} of {len(starts)} windows skipped ("
@@ -241,8 +271,40 @@ def _score_model(model, name, dataset, starts, horizon):
         rms=rms,
         baselines=base,
         skipped=skipped,
+        hourly=hourly,
+        residuals=residuals,
     )
     return sc, notes
+
+
+def hourly_statistics(measured, predicted, step):
+    """Sums over hourly means of the windows, for ASHRAE Guideline 14 NMBE and CV(RMSE).
+
+    Parameters
+    ----------
+    measured, predicted : arrays (W, N, ny) [°C]
+        Values at steps 1..N of each window.
+    step : float [s]
+        Model step; steps are averaged to whole hours (a trailing partial hour is dropped;
+        steps of an hour or more are used as they are).
+
+    Returns
+    -------
+    dict
+        ``n`` (hours per output), ``sum_error`` (ny,) [K·h], ``sum_sq_error`` (ny,) [K²·h],
+        ``sum_measured`` (ny,) [°C·h]; errors are measured minus predicted.
+    """
+    measured, predicted = np.asarray(measured, float), np.asarray(predicted, float)
+    W, N, ny = measured.shape
+    per_hour = max(1, int(round(3600.0 / step)))
+    H = N // per_hour
+    if H == 0:
+        per_hour, H = 1, N
+    m = measured[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
+    p = predicted[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
+    e = m - p
+    return {"n": int(W * H), "sum_error": e.sum(axis=0), "sum_sq_error": (e * e).sum(axis=0),
+            "sum_measured": m.sum(axis=0)}
 
 
 def _tow_baseline(dataset, Y, final, rng, notes, name):

@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .verdict import Verdict
+
 #: Names of the baselines, in table order.
 BASELINES = ("persistence", "time-of-week mean")
 
@@ -37,6 +39,11 @@ class ModelScore:
         Baseline RMS on the same windows (NaN where a baseline is undefined).
     skipped : dict reason -> int
         Windows not evaluated, by reason.
+    hourly : dict or None
+        Sums over the hourly means of all windows for ASHRAE Guideline 14 (see
+        :func:`hvacfmu.evaluation.protocol.hourly_statistics`).
+    residuals : DataFrame or None
+        Measured minus predicted [K] at every window step (rows: time; columns: outputs).
     """
 
     name: str
@@ -48,6 +55,8 @@ class ModelScore:
     rms: np.ndarray
     baselines: dict
     skipped: dict
+    hourly: dict | None = dataclasses.field(default=None, repr=False, compare=False)
+    residuals: pd.DataFrame | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def table(self, which: str = "model", season_order=None) -> pd.DataFrame:
         """Table I: rows seasons (+ ``all``), columns outputs + ``mean`` [K].
@@ -60,7 +69,8 @@ class ModelScore:
         order += [s for s in dict.fromkeys(self.seasons) if s not in order]
         rows = {}
         for s in order:
-            rows[s] = np.nanmean(R[seasons == s], axis=0) if np.any(seasons == s) else np.full(len(self.outputs), np.nan)
+            in_s = seasons == s
+            rows[s] = np.nanmean(R[in_s], axis=0) if np.any(in_s) else np.full(len(self.outputs), np.nan)
         if len(self.seasons):
             rows["all"] = np.nanmean(R, axis=0)
         df = pd.DataFrame.from_dict(rows, orient="index", columns=list(self.outputs))
@@ -90,6 +100,9 @@ class EvaluationResult:
     data_sha256 : str or None
     models : list
         The evaluated models (not serialised), for :meth:`plot`.
+    verdict : Verdict or None
+        Per zone against persistence and the time-of-week mean, ASHRAE Guideline 14 hourly
+        NMBE / CV(RMSE), and the likely causes where a model loses to persistence.
     """
 
     scores: list
@@ -99,6 +112,7 @@ class EvaluationResult:
     notes: list
     data_sha256: str | None = None
     models: list = dataclasses.field(default_factory=list, repr=False)
+    verdict: Verdict | None = None
 
     def score(self, name: str) -> ModelScore:
         for s in self.scores:
@@ -112,6 +126,11 @@ class EvaluationResult:
         return sc.table(which, self.season_order)
 
     # --- text ----------------------------------------------------------
+    def format(self, digits: int = 3) -> str:
+        """The verdict first (losing zones and their likely causes on top), then the RMS tables."""
+        head = self.verdict.format() + "\n\n" if self.verdict is not None else ""
+        return head + self.format_table(digits)
+
     def format_table(self, digits: int = 3) -> str:
         """The paper's Table I for each model and both baselines, as text."""
         out = [f"24-hour open-loop prediction RMS [K] on held-out weeks "
@@ -138,7 +157,7 @@ class EvaluationResult:
         return "\n".join(out)
 
     def __str__(self):
-        return self.format_table()
+        return self.format()
 
     # --- data ----------------------------------------------------------
     def to_dict(self) -> dict:
@@ -171,6 +190,7 @@ class EvaluationResult:
                 }
             )
         return {
+            "verdict": self.verdict.to_dict() if self.verdict is not None else None,
             "horizon": int(self.horizon),
             "step": float(self.step),
             "unit": "K",

@@ -14,6 +14,7 @@ from ..errors import ModelError
 from .base import FORMAT_VERSION, ZoneModel
 from .registry import ModelKind, get_kind, kind_names, kinds, register_kind
 
+
 def model_class(kind: str):
     """The class implementing model ``kind`` (from the registry; unknown kind -> :class:`ModelError`)."""
     return get_kind(kind).load_class()

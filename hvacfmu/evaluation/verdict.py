@@ -1,0 +1,329 @@
+"""The verdict that opens every evaluation: per zone, does the model beat the baselines?
+
+For each model and output (zone) over all evaluated windows:
+
+- mean 24-hour open-loop RMS of the model against **persistence** and the
+  **time-of-week mean** (the two baselines of the protocol), with the margin
+  ``1 - RMS_model / RMS_baseline``;
+- ASHRAE Guideline 14 hourly **NMBE** and **CV(RMSE)** of the predictions, hourly means
+  of measured and predicted temperature over every window step, relative to the mean
+  measured temperature [°C] (so they read small for temperatures), with the Guideline's
+  calibration thresholds for hourly data: |NMBE| <= 10 % and CV(RMSE) <= 30 %;
+- when the model is worse than persistence in a zone, the **likely causes the data can
+  test**: measured columns the model does not use that explain its residuals (``Td_*``
+  discharge temperatures, ``rh_*`` reheat, ...), sparse columns, an airflow gain too small
+  to be identified from closed-loop data, a LOESS bandwidth at the edge of its grid, and
+  clock or unit warnings from loading.
+
+References
+----------
+ASHRAE Guideline 14-2014, *Measurement of Energy, Demand, and Water Savings*, section 4.3
+(calibration of simulation models: NMBE and CV(RMSE) with ``n - p`` degrees of freedom, p = 1).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+#: ASHRAE Guideline 14 calibration thresholds for hourly data [%]
+G14_NMBE_MAX = 10.0
+G14_CVRMSE_MAX = 30.0
+#: |correlation| of an unused column with a zone's residuals that names it as a likely cause
+CORRELATION_MIN = 0.3
+#: a column with less than this share of finite values over the evaluated rows is "sparse"
+SPARSE_SHARE = 0.8
+#: an airflow gain whose effect (|B| times the airflow's standard deviation) is below this is not
+#: identifiable from the data [K per step]
+AIRFLOW_EFFECT_MIN = 0.01
+
+
+@dataclasses.dataclass(frozen=True)
+class ZoneVerdict:
+    """One model's verdict in one output (zone).
+
+    Attributes
+    ----------
+    model, output : str
+    rms, persistence, time_of_week : float [K]
+        Mean 24-hour open-loop RMS of the model and of the baselines on the same windows.
+    nmbe, cvrmse : float [%]
+        ASHRAE Guideline 14 hourly NMBE and CV(RMSE) (NaN without data).
+    n_hours : int
+    """
+
+    model: str
+    output: str
+    rms: float
+    persistence: float
+    time_of_week: float
+    nmbe: float
+    cvrmse: float
+    n_hours: int
+
+    @property
+    def beats_persistence(self) -> bool:
+        return bool(self.rms < self.persistence)
+
+    @property
+    def beats_time_of_week(self) -> bool:
+        return bool(not np.isfinite(self.time_of_week) or self.rms < self.time_of_week)
+
+    @property
+    def calibrated(self) -> bool:
+        """Within ASHRAE Guideline 14's hourly thresholds (|NMBE| <= 10 %, CV(RMSE) <= 30 %)."""
+        return bool(abs(self.nmbe) <= G14_NMBE_MAX and self.cvrmse <= G14_CVRMSE_MAX)
+
+    @property
+    def status(self) -> str:
+        if not self.beats_persistence:
+            return "WORSE THAN PERSISTENCE"
+        if not self.beats_time_of_week:
+            return "worse than time-of-week mean"
+        return "beats both baselines"
+
+    def margin(self, baseline: float) -> float:
+        """``1 - rms / baseline`` [-] (positive: the model is better)."""
+        return float(1.0 - self.rms / baseline) if baseline and np.isfinite(baseline) else float("nan")
+
+    def to_dict(self) -> dict:
+        return {
+            "model": self.model, "output": self.output, "status": self.status,
+            "rms": _num(self.rms), "persistence": _num(self.persistence), "time_of_week": _num(self.time_of_week),
+            "margin_persistence": _num(self.margin(self.persistence)),
+            "margin_time_of_week": _num(self.margin(self.time_of_week)),
+            "beats_persistence": self.beats_persistence, "beats_time_of_week": self.beats_time_of_week,
+            "nmbe_percent": _num(self.nmbe), "cvrmse_percent": _num(self.cvrmse), "n_hours": self.n_hours,
+            "g14_calibrated": self.calibrated,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """Per-zone verdicts of every model and, per model that loses to persistence, the likely causes."""
+
+    zones: tuple
+    causes: dict
+
+    def losing(self, model: str | None = None) -> list:
+        """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
+        return [z for z in self.zones if not z.beats_persistence and (model is None or z.model == model)]
+
+    def summary(self, model: str) -> str:
+        """One line: in how many zones ``model`` beats each baseline and meets Guideline 14."""
+        mine = [z for z in self.zones if z.model == model]
+        n = len(mine)
+        p = sum(z.beats_persistence for z in mine)
+        t = sum(z.beats_time_of_week for z in mine)
+        c = sum(z.calibrated for z in mine)
+        flag = "!! " if p < n else ""
+        return (f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
+                f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}")
+
+    def format(self) -> str:
+        """Text, the losing zones and their likely causes first."""
+        lines = [self.summary(m) for m in dict.fromkeys(z.model for z in self.zones)]
+        for z in self.losing():
+            lines.append(f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
+                         f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)")
+        for model, causes in self.causes.items():
+            if causes:
+                lines.append(f"   likely causes for {model} (what the data can test):")
+                lines += [f"   - {c}" for c in causes]
+        if lines:
+            lines.append("")
+        lines.append("Verdict per zone: 24-h open-loop RMS [K] against the baselines; ASHRAE Guideline 14 hourly "
+                     f"NMBE / CV(RMSE) [%] (calibrated: |NMBE| <= {G14_NMBE_MAX:g}, CV <= {G14_CVRMSE_MAX:g})")
+        head = f"{'model':<22} {'zone':<8} {'model':>7} {'persist':>7} {'tow':>7} {'NMBE':>6} {'CV':>6}  verdict"
+        lines.append(head)
+        for z in self.zones:
+            g14 = "" if z.calibrated else " (G14: not calibrated)"
+            lines.append(f"{z.model[:22]:<22} {z.output[:8]:<8} {z.rms:7.3f} {z.persistence:7.3f} "
+                         f"{z.time_of_week:7.3f} {z.nmbe:6.2f} {z.cvrmse:6.2f}  {z.status}{g14}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"zones": [z.to_dict() for z in self.zones],
+                "likely_causes": {k: list(v) for k, v in self.causes.items()},
+                "thresholds": {"nmbe_percent": G14_NMBE_MAX, "cvrmse_percent": G14_CVRMSE_MAX,
+                               "correlation": CORRELATION_MIN}}
+
+
+# =============================================================================
+# numbers
+# =============================================================================
+def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """ASHRAE Guideline 14 NMBE and CV(RMSE) [%] per output from :func:`hourly_statistics` sums.
+
+    ``NMBE = 100 * sum(m - p) / ((n - 1) * mean(m))``,
+    ``CV(RMSE) = 100 * sqrt(sum((m - p)^2) / (n - 1)) / mean(m)``.
+    """
+    if not hourly or hourly["n"] < 2:
+        nan = np.full(len(hourly["sum_error"]) if hourly else 0, np.nan)
+        return nan, nan
+    n = hourly["n"]
+    mean = np.asarray(hourly["sum_measured"], float) / n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nmbe = 100.0 * np.asarray(hourly["sum_error"], float) / ((n - 1) * mean)
+        cv = 100.0 * np.sqrt(np.asarray(hourly["sum_sq_error"], float) / (n - 1)) / mean
+    return nmbe, cv
+
+
+def make_verdict(scores, models, dataset) -> Verdict:
+    """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
+    zones = []
+    causes = {}
+    for sc, model in zip(scores, models):
+        if not sc.starts:
+            continue
+        nmbe, cv = g14_metrics(sc.hourly)
+        r, p = np.nanmean(sc.rms, axis=0), np.nanmean(sc.baselines["persistence"], axis=0)
+        with np.errstate(all="ignore"):
+            t = np.nanmean(sc.baselines["time-of-week mean"], axis=0) if np.isfinite(
+                sc.baselines["time-of-week mean"]).any() else np.full(len(sc.outputs), np.nan)
+        mine = [ZoneVerdict(sc.name, o, float(r[j]), float(p[j]), float(t[j]), float(nmbe[j]), float(cv[j]),
+                            int(sc.hourly["n"]) if sc.hourly else 0) for j, o in enumerate(sc.outputs)]
+        zones += mine
+        losing = [z.output for z in mine if not z.beats_persistence]
+        if losing:
+            causes[sc.name] = likely_causes(model, sc, dataset, losing)
+    return Verdict(zones=tuple(zones), causes=causes)
+
+
+# =============================================================================
+# likely causes
+# =============================================================================
+def likely_causes(model, score, dataset, losing) -> list[str]:
+    """Causes the data can test for a model worse than persistence in the outputs ``losing``."""
+    out = []
+    out += _unused_columns(model, score, dataset, losing)
+    out += _sparse_columns(model, score, dataset)
+    out += _airflow_gain(model, dataset)
+    out += _bandwidth_edge(model)
+    out += [f"loading warned: {w}" for w in getattr(dataset, "warnings", []) or []
+            if any(k in str(w).lower() for k in ("clock", "offset", "unit", "timezone", "time zone"))]
+    if not out:
+        out.append("none of the cheap checks fired (unused columns, sparse columns, airflow gain, LOESS "
+                   "bandwidth, clock/units); run `hvacfmu diagnose` for the structural causes")
+    return out
+
+
+def _used_columns(model) -> set:
+    used = set(getattr(model, "disturbances", ()))
+    used |= {f"T_{z}" for z in getattr(model, "outputs", ())}
+    used |= {f"T_{z}" for z in getattr(model, "measured_zones", ())}
+    if any(str(c).startswith("I_") for c in used):
+        used.add("ghi")  # facade irradiance is computed from it
+    return used | {"excitation"}
+
+
+def _unused_columns(model, score, dataset, losing) -> list[str]:
+    """Measured columns the model does not use whose values correlate with a losing zone's residuals."""
+    res = score.residuals
+    if res is None or res.empty:
+        return []
+    frame = dataset.frame.reindex(res.index)
+    used = _used_columns(model)
+    found = []
+    for c in frame.columns:
+        if c in used or c.startswith("m_") or c.startswith("T_") and c[2:] in dataset.building.zone_names:
+            continue
+        x = frame[c].to_numpy(float)
+        for z in losing:
+            r = _best_correlation(x, res[z].to_numpy(float))
+            if np.isfinite(r) and abs(r) >= CORRELATION_MIN:
+                hint = _column_hint(c)
+                found.append(f"unused measured column {c!r} correlates with the residuals of {z} "
+                             f"(r = {r:+.2f}): the model does not see it{hint}")
+    return found
+
+
+def _best_correlation(x, r) -> float:
+    """Largest |correlation| of ``x`` with the residual ``r`` or its step-to-step change."""
+    best = float("nan")
+    for a, b in ((x, r), (x[1:], np.diff(r))):
+        ok = np.isfinite(a) & np.isfinite(b)
+        if ok.sum() < 50 or np.std(a[ok]) == 0 or np.std(b[ok]) == 0:
+            continue
+        c = float(np.corrcoef(a[ok], b[ok])[0, 1])
+        if not np.isfinite(best) or abs(c) > abs(best):
+            best = c
+    return best
+
+
+def _column_hint(c: str) -> str:
+    if c.startswith("Td_"):
+        return ("; discharge air temperature: the heat a box delivers is m·cp·(Td − T_zone), which a model "
+                "seeing only airflow and one supply temperature takes for cooling when the box reheats")
+    if c.startswith("rh_"):
+        return "; reheat command/valve: heat the model cannot see"
+    return ""
+
+
+def _sparse_columns(model, score, dataset) -> list[str]:
+    """Columns the model uses with few finite values over the test weeks."""
+    frame = dataset.frame
+    rows = np.zeros(len(frame), bool)
+    for w in dataset.test_weeks():
+        rows[frame.index.searchsorted(w.start):frame.index.searchsorted(w.end)] = True
+    cols = [c for c in frame.columns if c in _used_columns(model) or c.startswith("m_")]
+    out = []
+    for c in cols:
+        share = float(np.isfinite(frame[c].to_numpy(float)[rows]).mean()) if rows.any() else 1.0
+        if share < SPARSE_SHARE:
+            out.append(f"sparse column {c!r}: {100 * share:.0f} % of the test-week steps have a value "
+                       f"({sum(score.skipped.values())} windows skipped)")
+    return out
+
+
+def _airflow_gain(model, dataset) -> list[str]:
+    """Airflow gains of a linear model too small to matter: not identifiable from closed-loop data."""
+    base = getattr(model, "base", model)
+    B = getattr(base, "B", None)
+    if B is None:
+        return []
+    B = np.atleast_2d(np.asarray(B, float))
+    try:
+        u, _ = base.signals(dataset.frame)
+    except Exception:  # noqa: BLE001 - a model whose signals cannot be built gets no airflow check
+        return []
+    sd = np.nanstd(np.asarray(u, float), axis=0)
+    effect = np.abs(B).max(axis=0) * sd if B.shape[1] == sd.size else np.abs(B).max() * sd
+    if not np.all(effect < AIRFLOW_EFFECT_MIN):
+        return []
+    exc = dataset.frame["excitation"].to_numpy(float) if "excitation" in dataset.frame else np.zeros(1)
+    closed = "closed-loop data without excitation experiments" if not np.nansum(exc) else "these data"
+    return [f"airflow gain not identifiable: |B| up to {np.abs(B).max():.2g} K/step per kg/s moves the zones by "
+            f"at most {effect.max():.2g} K per step for the airflow's variation; from {closed} the fit learned "
+            "the thermostat loop, not the building (add forced-response weeks, or use the physics model)"]
+
+
+def _bandwidth_edge(model) -> list[str]:
+    """LOESS bandwidths chosen on the edge of the cross-validation grid (read from ``model.meta``)."""
+    meta = getattr(model, "meta", None) or getattr(getattr(model, "base", None), "meta", None) or {}
+    sm = meta.get("smoothing") if isinstance(meta, dict) else None
+    if not isinstance(sm, dict) or not sm.get("cv_grid_h") or not isinstance(sm.get("bandwidth_h"), dict):
+        return []
+    grid = [float(g) for g in sm["cv_grid_h"]]
+    lo, hi = min(grid), max(grid)
+    at_lo = sorted(k for k, v in sm["bandwidth_h"].items() if float(v) <= lo)
+    at_hi = sorted(k for k, v in sm["bandwidth_h"].items() if float(v) >= hi)
+    out = []
+    for edge, names, what in ((lo, at_lo, "lower"), (hi, at_hi, "upper")):
+        if names:
+            out.append(f"LOESS bandwidth on the {what} edge of its grid ({edge:g} h) for {len(names)} of "
+                       f"{len(sm['bandwidth_h'])} series ({', '.join(names[:6])}{', ...' if len(names) > 6 else ''}): "
+                       "the cross-validation optimum may lie outside the grid; refit with a wider "
+                       "`bandwidths=` grid")
+    return out
+
+
+def _num(x: Any) -> float | None:
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+__all__ = ["G14_CVRMSE_MAX", "G14_NMBE_MAX", "Verdict", "ZoneVerdict", "g14_metrics", "likely_causes",
+           "make_verdict"]

@@ -1,0 +1,134 @@
+"""Verdict first: per-zone verdict against the baselines, ASHRAE Guideline 14 metrics, likely causes.
+
+Models are made to lose on purpose: data simulated from a known Model A with an extra heat input
+that only an unused column (``Td_NW``) measures, a model whose airflow gain is too small to matter,
+and a model whose LOESS bandwidths sit on the edge of their grid.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import warnings
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from test_datadriven import STEP, simulate_frame, six_zone_building_dict, true_zone_model
+
+from hvacfmu.building import building_from_dict
+from hvacfmu.errors import HvacfmuWarning
+from hvacfmu.evaluation import evaluate
+from hvacfmu.evaluation.protocol import hourly_statistics
+from hvacfmu.evaluation.verdict import G14_CVRMSE_MAX, G14_NMBE_MAX, g14_metrics
+
+
+@pytest.fixture(scope="module")
+def building():
+    return building_from_dict(six_zone_building_dict())
+
+
+@pytest.fixture(scope="module")
+def truth(building):
+    return true_zone_model(building)
+
+
+def _dataset(frame, building):
+    """A Dataset of ``frame``; columns the data layer does not know yet (``Td_*``) are put back."""
+    from hvacfmu.data import Dataset
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = Dataset.from_frame(frame, building, step=STEP, seed=0)
+    extra = [c for c in frame.columns if c not in ds.frame.columns]
+    if extra:
+        ds = dataclasses.replace(ds, frame=ds.frame.join(frame[extra]))
+    return ds
+
+
+@pytest.fixture(scope="module")
+def frame(truth, building):
+    return simulate_frame(truth, building, weeks=11, start="2025-10-20", seed=11)
+
+
+@pytest.fixture(scope="module")
+def offset_data(frame, building):
+    """Zone NW gets a piecewise-constant offset (levels held ~2 days) that only ``Td_NW`` measures."""
+    rng = np.random.default_rng(5)
+    n = len(frame)
+    levels = rng.choice([-2.0, -1.0, 1.0, 2.0], size=n // 192 + 1)
+    offset = np.repeat(levels, 192)[:n]
+    f = frame.copy()
+    f["Td_NW"] = 30.0 + 2.0 * offset  # a "discharge temperature" that explains the offset [°C]
+    f["T_NW"] = f["T_NW"] + offset
+    return _dataset(f, building)
+
+
+def test_g14_metrics_by_hand():
+    # two windows of 8 quarter-hours -> 2 hourly means each; one output
+    meas = np.array([[20.0] * 4 + [22.0] * 4, [21.0] * 4 + [23.0] * 4])[:, :, None]
+    pred = meas - np.array([[1.0] * 4 + [0.0] * 4, [0.0] * 4 + [-1.0] * 4])[:, :, None]
+    h = hourly_statistics(meas, pred, 900.0)
+    assert h["n"] == 4
+    nmbe, cv = g14_metrics(h)
+    mean = (20 + 22 + 21 + 23) / 4
+    assert_allclose(nmbe, [100 * 0.0 / (3 * mean)], rtol=0, atol=1e-12)  # [%]
+    assert_allclose(cv, [100 * np.sqrt(2.0 / 3) / mean], rtol=0, atol=1e-12)  # [%]
+    assert G14_NMBE_MAX == 10.0 and G14_CVRMSE_MAX == 30.0
+
+
+def test_true_model_beats_both_baselines_and_is_calibrated(truth, frame, building):
+    res = evaluate(truth, _dataset(frame, building))
+    v = res.verdict
+    assert len(v.zones) == 6 and not v.losing() and not v.causes
+    assert all(z.beats_time_of_week and z.calibrated for z in v.zones)
+    assert res.format().splitlines()[0] == ("zones: beats persistence in 6/6 zones, the time-of-week mean in 6/6; "
+                                            "ASHRAE Guideline 14 hourly calibration met in 6/6")
+
+
+def test_unused_column_makes_the_model_lose_and_is_named_first(truth, offset_data):
+    res = evaluate(truth, offset_data)
+    v = res.verdict
+    assert [z.output for z in v.losing()] == ["NW"]
+    nw = next(z for z in v.zones if z.output == "NW")
+    assert nw.rms > nw.persistence and nw.margin(nw.persistence) < 0
+    text = res.format().splitlines()
+    assert text[0].startswith("!! zones: beats persistence in 5/6 zones")
+    assert text[1].startswith("!! zones: WORSE THAN PERSISTENCE in NW")
+    causes = v.causes["zones"]
+    assert any("'Td_NW'" in c and "of NW" in c and "m·cp·(Td − T_zone)" in c for c in causes), causes
+    d = json.loads(json.dumps(res.to_dict()))
+    assert list(d)[0] == "verdict"
+    row = next(z for z in d["verdict"]["zones"] if z["output"] == "NW")
+    assert row["status"] == "WORSE THAN PERSISTENCE" and row["beats_persistence"] is False
+    assert any("Td_NW" in c for c in d["verdict"]["likely_causes"]["zones"])
+
+
+def test_unidentifiable_airflow_gain_and_bandwidth_edge_are_named(truth, frame, building):
+    meta = {"smoothing": {"cv_grid_h": [2.0, 3.0, 4.0], "bandwidth_h": {"T_NW": 2.0, "T_W": 3.0, "m_NW": 2.0}}}
+    weak = dataclasses.replace(truth, B=truth.B * 1e-5, meta=meta)
+    data = _dataset(frame, building)
+    res = evaluate(weak, data)
+    assert res.verdict.losing(), "a model blind to airflow must lose to persistence on these data"
+    causes = res.verdict.causes["zones"]
+    assert any(c.startswith("airflow gain not identifiable") for c in causes), causes
+    assert any("lower edge of its grid (2 h) for 2 of 3 series (T_NW, m_NW)" in c for c in causes), causes
+    # the true airflow gain with the same data: no such cause even where it would be asked
+    from hvacfmu.evaluation.verdict import likely_causes
+
+    assert not any(c.startswith("airflow gain") for c in likely_causes(truth, res.scores[0], data, ["NW"]))
+
+
+def test_sparse_column_is_named(truth, offset_data, building):
+    f = offset_data.frame.copy()
+    t = f.index
+    tests = offset_data.test_weeks()
+    for w in tests:  # every other hour of the test weeks missing in T_out
+        rows = (t >= w.start) & (t < w.end) & (t.hour % 2 == 0)
+        f.loc[rows, "T_out"] = np.nan
+    data = _dataset(f, building)
+    from hvacfmu.evaluation.verdict import likely_causes
+
+    res = evaluate(truth, offset_data)
+    causes = likely_causes(truth, res.scores[0], data, ["NW"])
+    assert any(c.startswith("sparse column 'T_out': 50 %") for c in causes), causes
