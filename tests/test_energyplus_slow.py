@@ -170,3 +170,12 @@ def test_exception_in_the_loop_stops_energyplus(host_setup):
     with pytest.raises(CallbackError, match="RuntimeError: controller failed at step 1") as info:
         run_host(SMALL_OFFICE, ds.building, frame, controller=broken)
     assert broken.calls == 1 and info.value.steps_after_error == 0
+
+
+def test_export_is_deterministic(tmp_path):
+    from hvacfmu.energyplus import generate
+
+    a = generate(tmp_path / "a", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
+    b = generate(tmp_path / "b", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
+    assert a.measurements.read_bytes() == b.measurements.read_bytes()
+    assert a.building.read_bytes() == b.building.read_bytes()
