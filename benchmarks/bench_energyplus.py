@@ -24,7 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from hvacfmu.energyplus import cached_export
 from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
 
-DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver")
+DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver",
+                      "ASHRAE901_OfficeSmall_STD2019_Denver")
 
 
 def run(prototype: str, kinds, weeks):
