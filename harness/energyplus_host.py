@@ -37,7 +37,7 @@ import pandas as pd
 from hvacfmu.energyplus import hvac, inputs
 from hvacfmu.energyplus.generate import STEP_HOURS, export_probes, select_boxes
 from hvacfmu.energyplus.idf import read_idf
-from hvacfmu.energyplus.run import Probe, simulate
+from hvacfmu.energyplus.run import Probe, simulate, step_start
 from hvacfmu.errors import FMUError, HvacfmuError
 from hvacfmu.timeutil import seconds_of_week
 
@@ -171,10 +171,9 @@ class _Loop:
 
     def step_start(self, api, state) -> pd.Timestamp:
         x = api.exchange
-        end = _dt.datetime(x.calendar_year(state), 1, 1) + _dt.timedelta(
-            days=x.day_of_year(state) - 1, hours=x.current_time(state))
-        utc = pd.Timestamp(end - _dt.timedelta(hours=STEP_HOURS + self.site.tz_hours), tz="UTC")
-        return utc.round("1s").tz_convert(self.site.timezone)
+        start = step_start(x.calendar_year(state), x.day_of_year(state), x.current_time(state), self.site.tz_hours,
+                           STEP_HOURS)
+        return pd.Timestamp(start, tz="UTC").round("1s").tz_convert(self.site.timezone)
 
     def __call__(self, state, api, k, row):
         if self.act is None:

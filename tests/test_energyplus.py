@@ -199,3 +199,15 @@ def test_airflow_identifiability_check_flags_tiny_gains():
     assert "NOT IDENTIFIED" in lines[1] and "NOT IDENTIFIED" not in lines[2]
     lumped = types.SimpleNamespace(B=np.array([[-1e-6]]), outputs=("floor",), step=900.0)
     assert "not checked" in airflow_identifiability(lumped, b)[0]
+
+
+def test_step_times_standard_time_end_of_step():
+    from hvacfmu.energyplus.run import step_times
+
+    # Denver (UTC-7): the first step of 2 January ends at 00:15 standard time; the last step of the year ends at
+    # 24:00 on day 365 and EnergyPlus already reports calendar year 2018 for it
+    idx = step_times([(2017, 2, 0.25), (2017, 365, 23.75), (2018, 365, 24.0)], -7.0, 0.25)
+    local = idx.tz_convert("America/Denver")
+    assert list(local.strftime("%Y-%m-%d %H:%M")) == ["2017-01-02 00:00", "2017-12-31 23:30", "2017-12-31 23:45"]
+    summer = step_times([(2017, 191, 12.25)], -7.0, 0.25).tz_convert("America/Denver")  # 10 July, DST
+    assert summer[0].strftime("%H:%M %z") == "13:00 -0600"

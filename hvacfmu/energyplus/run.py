@@ -15,6 +15,7 @@ after ``run_energyplus`` returns.
 
 from __future__ import annotations
 
+import calendar
 import dataclasses
 import datetime as _dt
 import logging
@@ -183,8 +184,19 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     return np.array(rec.rows), rec.times, eio.read_text(errors="replace") if eio.exists() else ""
 
 
+def step_start(year: int, doy: int, hour: float, tz_hours: float, step_hours: float) -> _dt.datetime:
+    """Naive UTC start of an EnergyPlus step from (calendar year, day of year, end hour [h, standard time]).
+
+    At the last step of 31 December (end hour 24) EnergyPlus already reports the next calendar year.
+    """
+    if hour >= 24.0 - 1e-9 and doy == (366 if calendar.isleap(year - 1) else 365):
+        year -= 1
+    end = _dt.datetime(int(year), 1, 1) + _dt.timedelta(days=int(doy) - 1, hours=float(hour))
+    return end - _dt.timedelta(hours=step_hours + tz_hours)
+
+
 def step_times(times, tz_hours: float, step_hours: float) -> pd.DatetimeIndex:
-    """UTC start of each step from EnergyPlus's (year, day of year, end hour in standard time).
+    """UTC start of each step from EnergyPlus's (calendar year, day of year, end hour in standard time).
 
     Parameters
     ----------
@@ -193,10 +205,5 @@ def step_times(times, tz_hours: float, step_hours: float) -> pd.DatetimeIndex:
     step_hours : float [h]
         Zone time step.
     """
-    starts = []
-    for year, doy, hour in times:
-        end = _dt.datetime(int(year), 1, 1) + _dt.timedelta(days=int(doy) - 1, hours=float(hour))
-        starts.append(end - _dt.timedelta(hours=step_hours + tz_hours))
-    idx = pd.DatetimeIndex(starts).round("1s").tz_localize("UTC")
-    return idx
-
+    starts = [step_start(y, d, h, tz_hours, step_hours) for y, d, h in times]
+    return pd.DatetimeIndex(starts).round("1s").tz_localize("UTC")
