@@ -197,6 +197,10 @@ def test_airflow_identifiability_check_flags_tiny_gains():
     lines = airflow_identifiability(model, b)
     assert lines[0] == "airflow identifiability: 1 of 2 zone gains below the physical minimum (A)"
     assert "NOT IDENTIFIED" in lines[1] and "NOT IDENTIFIED" not in lines[2]
+    # delivered-heat form: beta [K/step per kW] against 1000 * 900 / (30 * 1.2 * 1005 * 300) = 0.0829
+    delivered = types.SimpleNamespace(B=np.zeros((2, 2)), beta=np.array([0.5, 1e-4]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(delivered, b)
+    assert lines[0].endswith("1 of 2 zone gains below the physical minimum (B)") and "delivered-heat" in lines[1]
     lumped = types.SimpleNamespace(B=np.array([[-1e-6]]), outputs=("floor",), step=900.0)
     assert "not checked" in airflow_identifiability(lumped, b)[0]
 

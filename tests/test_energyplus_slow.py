@@ -88,9 +88,13 @@ def test_closed_loop_airflow_gains_are_detected(vav_office):
     assert lines[0].startswith("airflow identifiability:")
     assert len(lines) == 1 + len(ds.building.zones)
     m = models["zones"]
-    # the report agrees with the fitted numbers: flagged exactly where |gain| is below cp dT step / (30 rho cp V)
-    g_min = np.array([2.0 * 900.0 / (30 * 1.2 * ds.building.zone(z).volume) for z in m.outputs])
-    expected = {z for z, g, lo in zip(m.outputs, np.abs(np.diag(m.B)), g_min) if g < lo}
+    # the report agrees with the fitted numbers: flagged exactly where the gain is below step / C_max
+    cap = np.array([30 * 1.2 * 1005.0 * ds.building.zone(z).volume for z in m.outputs])  # [J/K]
+    if getattr(m, "beta", None) is not None:  # delivered heat [K/step per kW]
+        gains, g_min = np.abs(m.beta), 1000.0 * 900.0 / cap
+    else:  # airflow [K/(kg/s)/step] with a 2 K supply-to-zone difference
+        gains, g_min = np.abs(np.diag(m.B)), 1005.0 * 2.0 * 900.0 / cap
+    expected = {z for z, g, lo in zip(m.outputs, gains, g_min) if g < lo}
     flagged = {line.split(":")[0] for line in lines[1:] if "NOT IDENTIFIED" in line}
     assert flagged == expected
     assert f"{len(expected)} of {len(m.outputs)}" in lines[0]
