@@ -35,7 +35,7 @@ def run(prototype: str, kinds, weeks):
 
     name, _, floor = prototype.partition(":")
     t0 = time.perf_counter()
-    paths = cached_export(name, floor=floor or None, weeks=weeks)
+    paths = cached_export(name, floor=floor or None, weeks=weeks)  # the slow tests use the same options
     t_gen = time.perf_counter() - t0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

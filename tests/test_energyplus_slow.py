@@ -26,7 +26,7 @@ def _fit_evaluate(prototype, floor, kinds):
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fitting import fit
 
-    paths = cached_export(prototype, floor=floor)
+    paths = cached_export(prototype, floor=floor, weeks=None)  # the options of bench_energyplus.py (one cache)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ds = prepare(paths.measurements, paths.building)
