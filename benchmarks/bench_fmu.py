@@ -9,7 +9,13 @@ runs both back to back). Target: at most 5x for the six-zone model.
 - ``FMPy FMU2Slave``: ``setReal`` / ``doStep`` / ``getReal`` per step, as a user writes it;
 - ``FMPy raw``: the same FMI calls on preallocated ctypes arrays (as :mod:`harness.cosim` does).
 
-Usage: ``python3 benchmarks/bench_fmu.py [--repeats 5] [--kinds lumped zones physics]``
+A second table compares the native FMU (``hvacfmu export --native``: generated C,
+no Python at run time) with the pythonfmu FMU of the same model, per step through
+the same raw ctypes loop (target: native at least 20x faster), and gives the
+native FMU's cost in a pure C master (``tests/data/fmi2_master.c``, wall clock,
+printing every output) and its largest difference from the Python model.
+
+Usage: ``python3 benchmarks/bench_fmu.py [--repeats 5] [--kinds lumped zones physics] [--steps N]``
 """
 
 from __future__ import annotations
@@ -100,7 +106,7 @@ def open_fmu(path, model, y0, instance, first_inputs):
     return fmu, vr
 
 
-def run_fmu(path, model, building, m, v, y0, raw):
+def run_fmu(path, model, building, m, v, y0, raw, step_times=None):
     # all inputs, in the FMU's order; time_of_week = -1 keeps the FMU clock
     names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances) + ["time_of_week"]
     W = np.column_stack([m, v, np.full(len(m), -1.0)])
@@ -119,14 +125,20 @@ def run_fmu(path, model, building, m, v, y0, raw):
             out = np.frombuffer(a_out, dtype=float)
             set_real, do_step, get_real, comp = fmu.fmi2SetReal, fmu.fmi2DoStep, fmu.fmi2GetReal, fmu.component
             nin, nout = len(vin), len(vout)
+            ns = time.perf_counter_ns
+            t_step = 0
             t = CLOCK()
             for k in range(n):
                 buf[:] = W[k]
                 set_real(comp, a_vin, nin, a_val)
+                t1 = ns()
                 do_step(comp, k * 900.0, 900.0, 1)
+                t_step += ns() - t1
                 get_real(comp, a_vout, nout, a_out)
                 Y[k] = out
             dt = CLOCK() - t
+            if step_times is not None:
+                step_times.append(t_step * 1e-9)
         else:
             rows = W.tolist()
             Y = []
@@ -143,11 +155,82 @@ def run_fmu(path, model, building, m, v, y0, raw):
     return dt, Y
 
 
+def c_master_us_per_step(path, model, building, m, v, tmp):
+    """Wall-clock microseconds per step of the native FMU in the C master (None without gcc)."""
+    import shutil
+    import subprocess
+    import zipfile
+
+    from fmpy import read_model_description
+
+    if shutil.which("gcc") is None:
+        return None
+    src = Path(__file__).resolve().parents[1] / "tests" / "data" / "fmi2_master.c"
+    exe, unz = Path(tmp) / "master", Path(tmp) / f"unz_{model.kind}"
+    if not exe.is_file():
+        subprocess.run(["gcc", "-std=c99", "-O2", "-o", str(exe), str(src), "-ldl"], check=True)
+    with zipfile.ZipFile(path) as z:
+        z.extractall(unz)
+    md = read_model_description(str(path))
+    vr = {x.name: x.valueReference for x in md.modelVariables}
+    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
+    outs = [f"T_{z}" for z in model.outputs]
+    lib = unz / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+    stdin = "\n".join(" ".join(repr(float(x)) for x in row) for row in np.column_stack([m, v]))
+    run = subprocess.run([str(exe), str(lib), md.guid, str(len(m)), "900", str(len(names_in)), str(len(outs))]
+                         + [str(vr[x]) for x in names_in + outs], input=stdin, capture_output=True, text=True,
+                         check=True)
+    return float(run.stderr.split("us_per_step")[1].split()[0])
+
+
+def compare_native(kinds, models, building, n, repeats, tmp):
+    """Second table: the native FMU against the pythonfmu FMU, per step (raw ctypes loop)."""
+    import pandas as pd
+
+    from hvacfmu.fmu_native import export_native_fmu
+
+    index = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")
+    print(f"\nnative vs pythonfmu FMU, {n} steps, raw ctypes loop, medians of {repeats} runs (process CPU time)")
+    print("(loop: setReal + doStep + getReal from Python; doStep: the fmi2DoStep call alone, wall clock; "
+          "C master: process CPU time per step in tests/data/fmi2_master.c)")
+    print(f"{'model':8s} {'loop pythonfmu':>14s} {'loop native':>12s} {'ratio':>6s} {'doStep pythonfmu':>17s} "
+          f"{'doStep native':>14s} {'ratio':>6s} {'C master':>9s} {'max |dT| [K]':>13s} {'export [s]':>10s}  [us/step]")
+    for kind in kinds:
+        model = models[kind]
+        t0 = time.perf_counter()
+        native = export_native_fmu(model, Path(tmp) / f"{kind}_native.fmu")
+        build = time.perf_counter() - t0
+        python_fmu = export_fmu(model.save(Path(tmp) / f"{kind}_cmp.json"), Path(tmp) / f"{kind}_cmp.fmu")
+        m, v = year_inputs(building, model, n)
+        frame = pd.DataFrame({f"m_{b}": m[:, j] for j, b in enumerate(building.vav_names)}, index=index)
+        for j, d in enumerate(model.disturbances):
+            frame[d] = v[:, j]
+        u, _ = model.signals(frame)
+        q = model.gains_at(index, list(model.gains)[0])
+        y0 = np.full(model.n_outputs, 21.0)
+        _, Yref = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
+        py, nat, ratios, py_step, nat_step = [], [], [], [], []
+        for _ in range(repeats):
+            a, _ = run_fmu(python_fmu, model, building, m, v, y0, raw=True, step_times=py_step)
+            b, Y = run_fmu(native, model, building, m, v, y0, raw=True, step_times=nat_step)
+            py.append(a)
+            nat.append(b)
+            ratios.append(a / b)
+        step_ratio = statistics.median(p / q for p, q in zip(py_step, nat_step))
+        err = float(np.max(np.abs(Y - Yref[1:])))
+        c_us = c_master_us_per_step(native, model, building, m, v, tmp)
+        c_txt = f"{c_us:9.2f}" if c_us is not None else f"{'(no gcc)':>9s}"
+        print(f"{kind:8s} {1e6 * statistics.median(py) / n:14.2f} {1e6 * statistics.median(nat) / n:12.2f} "
+              f"{statistics.median(ratios):6.1f} {1e6 * statistics.median(py_step) / n:17.2f} "
+              f"{1e6 * statistics.median(nat_step) / n:14.2f} {step_ratio:6.1f} {c_txt} {err:13.2e} {build:10.2f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics"])
     ap.add_argument("--steps", type=int, default=N_YEAR, help="steps per run (default a year: 35040)")
+    ap.add_argument("--native-only", action="store_true", help="only the native vs pythonfmu table")
     args = ap.parse_args()
     building = sdh_building(nominal=True)
     models = make_models(building)
@@ -155,6 +238,10 @@ def main():
     import pandas as pd
 
     index = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")  # Monday; no DST, like the FMU clock
+    if args.native_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            compare_native(args.kinds, models, building, n, args.repeats, tmp)
+        return
     print(f"{n} steps of 900 s, medians of {args.repeats} runs\n")
     print(f"{'model':8s} {'python [s]':>11s} {'loop [s]':>9s} {'FMU2Slave [s]':>14s} {'raw [s]':>8s} "
           f"{'us/step py':>11s} {'us/step FMU':>12s} {'ratio':>6s} {'ratio raw':>10s} {'max |dT| [K]':>13s}")
@@ -192,6 +279,7 @@ def main():
             p, lp, f, r = (statistics.median(a) for a in (py, loop, fm, raw))
             print(f"{kind:8s} {p:11.3f} {lp:9.3f} {f:14.3f} {r:8.3f} {1e6 * p / n:11.2f} {1e6 * f / n:12.2f} "
                   f"{ratio:6.2f} {ratio_raw:10.2f} {err:13.2e}   (build {build_time:.2f} s)")
+        compare_native(args.kinds, models, building, n, args.repeats, tmp)
 
 
 if __name__ == "__main__":

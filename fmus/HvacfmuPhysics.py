@@ -11,9 +11,47 @@ class or methods were defined in another module (measured: the slave module's
 dictionary is cleared and the next instance crashes the host).
 """
 
-import hvacfmu.fmu_slave as _impl
+try:
+    import hvacfmu.fmu_slave as _impl
+except ImportError as _exc:  # the host lacks hvacfmu or one of its packages: say so, do not crash
+    _impl, _missing = None, f"{type(_exc).__name__}: {_exc}"
 
-exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines ZoneModelSlave and its bases here
+if _impl is not None:
+    exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines ZoneModelSlave and its bases here
+else:
+    from pythonfmu import Fmi2Slave
+    from pythonfmu.enums import Fmi2Status
+
+    class ZoneModelSlave(Fmi2Slave):
+        """Stand-in when the host cannot import the FMU's Python packages: logs why, refuses every step."""
+
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            self._why = (
+                "this FMU runs in the host's Python interpreter and needs the Python packages hvacfmu, numpy, "
+                "scipy and pandas importable there (versions: the FMU's documentation/index.html); importing "
+                "them failed: " + _missing + ". Install hvacfmu in that interpreter (pip install hvacfmu) or use "
+                "a native FMU (hvacfmu export --native), which needs no Python")
+            self.log(self._why, Fmi2Status.error)
+
+        def exit_initialization_mode(self):
+            self.log(self._why, Fmi2Status.error)
+
+        def do_step(self, current_time, step_size):
+            self.log(self._why, Fmi2Status.error)
+            return False
+
+        def get_real(self, vrs):
+            return [float("nan")] * len(vrs)
+
+        def get_integer(self, vrs):
+            return [0] * len(vrs)
+
+        def set_real(self, vrs, values):
+            pass
+
+        def set_integer(self, vrs, values):
+            pass
 
 
 class HvacfmuPhysics(ZoneModelSlave):  # noqa: F821 - defined by the exec above

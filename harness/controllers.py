@@ -110,11 +110,55 @@ class Controller(Protocol):
     def __call__(self, k: int, t: pd.Timestamp, y: np.ndarray, v: Mapping[str, float]) -> np.ndarray: ...
 
 
+class BoxLimiter:
+    """Keeps box commands inside the building's ``[m_min, m_max]`` and counts what it had to clip.
+
+    Every controller passes its commands through one: a VAV box cannot deliver
+    less than its minimum or more than its maximum airflow, so neither may the
+    plant. Clipping is reported, never silent (:meth:`stats`).
+
+    Parameters
+    ----------
+    m_min, m_max : arrays (n_boxes,) [kg/s]
+    vavs : sequence of str, box names (for the report)
+    tol : float [kg/s]
+        Differences up to ``tol`` (solver rounding) are clipped without being counted.
+    """
+
+    def __init__(self, m_min, m_max, vavs=(), tol=1e-9):
+        self.m_min = np.asarray(m_min, dtype=float)
+        self.m_max = np.asarray(m_max, dtype=float)
+        self.vavs = tuple(vavs)
+        self.tol = float(tol)
+        self.n_clipped = np.zeros(self.m_min.size, dtype=int)  # box-steps clipped, per box
+        self.max_clipped = 0.0  # [kg/s]
+        self.n_calls = 0
+
+    def __call__(self, m) -> np.ndarray:
+        m = np.asarray(m, dtype=float)
+        out = np.clip(m, self.m_min, self.m_max)
+        diff = np.abs(m - out)
+        diff = np.where(np.isfinite(diff), diff, np.inf)
+        self.n_clipped += diff > self.tol
+        self.max_clipped = max(self.max_clipped, float(diff.max(initial=0.0)))
+        self.n_calls += 1
+        return out
+
+    def stats(self) -> dict:
+        """``clipped_box_steps`` (total), ``clipped_max`` [kg/s], ``clipped_boxes`` {box: box-steps}."""
+        per_box = {(self.vavs[i] if i < len(self.vavs) else str(i)): int(n)
+                   for i, n in enumerate(self.n_clipped) if n}
+        return {"clipped_box_steps": int(self.n_clipped.sum()), "clipped_max": self.max_clipped,
+                "clipped_boxes": per_box}
+
+
 class ReplayController:
     """Replays the measured airflows of the data (the building's own controller).
 
     Gaps in a box's measured airflow are filled with its last value (the
-    box's ``m_min`` before the first one); :meth:`stats` counts them.
+    box's ``m_min`` before the first one); measured airflows outside the
+    building file's ``[m_min, m_max]`` are clipped to them. :meth:`stats`
+    counts both (``filled_airflows``, ``clipped_box_steps`` ...).
     """
 
     name = "replay"
@@ -130,12 +174,13 @@ class ReplayController:
         self.n_filled = int(m.isna().to_numpy().sum())
         m_min, _ = context.box_limits()
         self._m = m.ffill().fillna(pd.Series(m_min, index=cols)).to_numpy(dtype=float)
+        self.limiter = BoxLimiter(*context.box_limits(), context.vavs)
 
     def __call__(self, k, t, y, v):
-        return self._m[k]
+        return self.limiter(self._m[k])
 
     def stats(self) -> dict:
-        return {"filled_airflows": self.n_filled}
+        return {"filled_airflows": self.n_filled, **self.limiter.stats()}
 
 
 class RuleController:
@@ -187,4 +232,4 @@ class RuleController:
         return {"setpoint": self.T_set, "kp": self.kp, "ti": self.ti}
 
 
-__all__ = ["ControlContext", "Controller", "ReplayController", "RuleController"]
+__all__ = ["BoxLimiter", "ControlContext", "Controller", "ReplayController", "RuleController"]

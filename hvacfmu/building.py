@@ -389,7 +389,7 @@ class Building:
 
 
 #: Top-level keys of a building file that belong to the physics model.
-PHYSICS_KEYS = ("materials", "constructions", "windows", "elements", "physics")
+PHYSICS_KEYS = ("materials", "constructions", "windows", "elements", "physics", "construction_template")
 
 
 def _as_float(value, what, problems, default=None):
@@ -547,15 +547,15 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
     ) or tuple(Season(*s) for s in DEFAULT_SEASONS)
     physics = {k: d[k] for k in PHYSICS_KEYS if k in d}
     data_tz = d.get("data_timezone")
-    fields = dict(
-        name=_as_str(d.get("name"), "name", problems, default=""),
-        latitude=_as_float(d.get("latitude", 0.0), "latitude [deg]", problems),
-        longitude=_as_float(d.get("longitude", 0.0), "longitude [deg]", problems),
-        timezone=_as_str(d.get("timezone"), "timezone", problems, default="UTC"),
-        data_timezone=None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
-        columns=_str_map(d.get("columns"), "columns", problems),
-        units=_str_map(d.get("units"), "units", problems),
-    )
+    fields = {
+        "name": _as_str(d.get("name"), "name", problems, default=""),
+        "latitude": _as_float(d.get("latitude", 0.0), "latitude [deg]", problems),
+        "longitude": _as_float(d.get("longitude", 0.0), "longitude [deg]", problems),
+        "timezone": _as_str(d.get("timezone"), "timezone", problems, default="UTC"),
+        "data_timezone": None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
+        "columns": _str_map(d.get("columns"), "columns", problems),
+        "units": _str_map(d.get("units"), "units", problems),
+    }
     if problems:
         raise BuildingError(problems_message(f"Invalid building file {source or ''}".strip(), problems))
     return Building(
@@ -641,7 +641,10 @@ def _validate_ahus(b: Building) -> list[str]:
 def _validate_columns(b: Building) -> list[str]:
     """Two canonical quantities mapped to one file column are a problem (one would silently copy the other)."""
     used: dict = {}
-    for canonical in list(b.columns) + [f"{q}_{a.name}" for a in b.ahus for q in a.columns]:
+    implicit = {"T_supply"} if b.ahus and "T_supply" not in b.columns else set()  # may be a unit's own column
+    names = dict.fromkeys(c for c in ["time", *b.expected_columns(), *b.columns] if c not in implicit)
+    names.update(dict.fromkeys(f"{q}_{a.name}" for a in b.ahus for q in a.columns))
+    for canonical in names:
         used.setdefault(b.column_for(canonical), []).append(canonical)
     return [
         f"[columns]: {', '.join(names)} all map to the file column {col!r}; each quantity needs its own column"

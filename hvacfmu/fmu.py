@@ -28,13 +28,6 @@ from .errors import FMUError, ModelError, problems_message
 
 logger = logging.getLogger(__name__)
 
-#: model kind -> slave script (and class) name in ``fmus/``
-SLAVES = {
-    "lumped": "HvacfmuLumped",
-    "zones": "HvacfmuZones",
-    "physics": "HvacfmuPhysics",
-    "extended": "HvacfmuExtended",
-}
 #: slave for model kinds without a dedicated script
 GENERIC_SLAVE = "HvacfmuModel"
 #: slave of the emulated plant
@@ -48,17 +41,35 @@ BUILD_OPTIONS = {
 }
 
 
-#: slave script name -> (what it serves, base class, resource file); the scripts in ``fmus/`` are
-#: exactly :func:`slave_source` of these (tests/test_fmu.py checks it)
-SLAVE_SPECS = {
-    "HvacfmuLumped": ("models of kind 'lumped'", "ZoneModelSlave", "lumped, resources/model.json"),
-    "HvacfmuZones": ("models of kind 'zones'", "ZoneModelSlave", "zones, resources/model.json"),
-    "HvacfmuPhysics": ("models of kind 'physics'", "ZoneModelSlave", "physics, resources/model.json"),
-    "HvacfmuExtended": ("models of kind 'extended'", "ZoneModelSlave", "extended, resources/model.json"),
-    GENERIC_SLAVE: ("models of a kind without a dedicated slave", "ZoneModelSlave",
-                    "kinds without a dedicated slave, resources/model.json"),
-    PLANT_SLAVE: ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json"),
-}
+def slave_specs() -> dict:
+    """Slave script name -> (what it serves, base class, doc) for every slave: one per registered model kind
+    (:func:`hvacfmu.models.registry.kinds`, ``ModelKind.fmu_slave``), the generic one and the plant's.
+
+    The scripts in ``fmus/`` are exactly :func:`slave_source` of these (``tests/test_fmu.py`` checks it).
+    """
+    from .models.registry import kinds
+
+    specs = {}
+    for k in kinds():
+        if k.fmu_slave != GENERIC_SLAVE:
+            specs.setdefault(k.fmu_slave, (f"models of kind '{k.name}'", "ZoneModelSlave",
+                                           f"{k.name}, resources/model.json"))
+    specs[GENERIC_SLAVE] = ("models of a kind without a dedicated slave", "ZoneModelSlave",
+                            "kinds without a dedicated slave, resources/model.json")
+    specs[PLANT_SLAVE] = ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json")
+    return specs
+
+
+def slave_name(kind: str) -> str:
+    """Slave script (and class) name serving model ``kind``: the registry's ``fmu_slave``, else the generic one."""
+    from .errors import ModelError as _ModelError
+    from .models.registry import get_kind
+
+    try:
+        return get_kind(kind).fmu_slave
+    except _ModelError:
+        return GENERIC_SLAVE
+
 
 _SLAVE_TEMPLATE = '''"""pythonfmu slave of the hvacfmu FMUs for {what}.
 
@@ -73,9 +84,47 @@ class or methods were defined in another module (measured: the slave module's
 dictionary is cleared and the next instance crashes the host).
 """
 
-import hvacfmu.fmu_slave as _impl
+try:
+    import hvacfmu.fmu_slave as _impl
+except ImportError as _exc:  # the host lacks hvacfmu or one of its packages: say so, do not crash
+    _impl, _missing = None, f"{{type(_exc).__name__}}: {{_exc}}"
 
-exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines {base} and its bases here
+if _impl is not None:
+    exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines {base} and its bases here
+else:
+    from pythonfmu import Fmi2Slave
+    from pythonfmu.enums import Fmi2Status
+
+    class {base}(Fmi2Slave):
+        """Stand-in when the host cannot import the FMU's Python packages: logs why, refuses every step."""
+
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            self._why = (
+                "this FMU runs in the host's Python interpreter and needs the Python packages hvacfmu, numpy, "
+                "scipy and pandas importable there (versions: the FMU's documentation/index.html); importing "
+                "them failed: " + _missing + ". Install hvacfmu in that interpreter (pip install hvacfmu) or use "
+                "a native FMU (hvacfmu export --native), which needs no Python")
+            self.log(self._why, Fmi2Status.error)
+
+        def exit_initialization_mode(self):
+            self.log(self._why, Fmi2Status.error)
+
+        def do_step(self, current_time, step_size):
+            self.log(self._why, Fmi2Status.error)
+            return False
+
+        def get_real(self, vrs):
+            return [float("nan")] * len(vrs)
+
+        def get_integer(self, vrs):
+            return [0] * len(vrs)
+
+        def set_real(self, vrs, values):
+            pass
+
+        def set_integer(self, vrs, values):
+            pass
 
 
 class {name}({base}):  # noqa: F821 - defined by the exec above
@@ -84,8 +133,8 @@ class {name}({base}):  # noqa: F821 - defined by the exec above
 
 
 def slave_source(name: str) -> str:
-    """Text of the slave script ``name`` (a key of :data:`SLAVE_SPECS`)."""
-    what, base, doc = SLAVE_SPECS[name]
+    """Text of the slave script ``name`` (a key of :func:`slave_specs`)."""
+    what, base, doc = slave_specs()[name]
     return _SLAVE_TEMPLATE.format(what=what, base=base, name=name, doc=doc)
 
 
@@ -94,7 +143,7 @@ def write_slaves(folder) -> list:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name in SLAVE_SPECS:
+    for name in slave_specs():
         path = folder / f"{name}.py"
         path.write_text(slave_source(name), encoding="utf-8")
         paths.append(path)
@@ -120,7 +169,7 @@ def slave_dir() -> Path:
 
     cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
     if not all((cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n)
-               for n in SLAVE_SPECS):
+               for n in slave_specs()):
         write_slaves(cache)
     return cache
 
@@ -128,14 +177,30 @@ def slave_dir() -> Path:
 def slave_script(kind: str) -> Path:
     """The slave script used for model ``kind``."""
     d = slave_dir()
-    name = SLAVES.get(kind, GENERIC_SLAVE)
+    name = slave_name(kind)
     path = d / f"{name}.py"
+    if not path.is_file() and name in slave_specs():  # a kind registered by a plugin: write its stub
+        from . import __version__
+
+        cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
+        cache.mkdir(parents=True, exist_ok=True)
+        path = cache / f"{name}.py"
+        path.write_text(slave_source(name), encoding="utf-8")
     if not path.is_file():
         raise FMUError(f"slave script {path} for model kind {kind!r} is missing")
     return path
 
 
-def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
+def _resolve_building(building, model_path):
+    """A Building from a path or Building (None stays None); errors name the file."""
+    if building is None or hasattr(building, "vavs"):
+        return building
+    from .building import load_building
+
+    return load_building(building)
+
+
+def export_fmu(model_path, out_path, *, timezone: str | None = None, building=None) -> Path:
     """Export a saved zone model as an FMI 2.0 co-simulation FMU.
 
     Parameters
@@ -152,6 +217,11 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
         parameter ``start_time`` [s, Unix epoch] and reproduces the Python
         model's gains exactly; without it the export warns that the FMU
         follows the time-of-week profile only. Ignored for other models.
+    building : Building or path, optional
+        The building file the model was fitted on: the box airflow inputs get
+        ``max`` = 1.2 x the box's ``m_max``, ``nominal`` = ``m_max`` and their zone in
+        the description. Physics models carry their building; data-driven model
+        files keep only its name, so without it the bounds are generic (0..50 kg/s).
 
     Returns
     -------
@@ -179,10 +249,11 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
     """
     from .models import load_model
 
-    from .fmu_slave import INTERFACE_FILE, calendar_dependent, zone_model_layout
+    from .fmu_slave import INTERFACE_FILE, box_limits, calendar_dependent, zone_model_layout
 
     model_path = Path(model_path)
     model = load_model(model_path)  # validates the file before anything is built
+    building = _resolve_building(building, model_path)
     calendar = calendar_dependent(model)
     if calendar:
         timezone = timezone or (getattr(model, "meta", None) or {}).get("timezone")
@@ -191,7 +262,7 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
         else:
             _warn_calendar_gains(model, model_path)
     try:
-        layout, _ = zone_model_layout(model, timezone if calendar else None)
+        layout, _ = zone_model_layout(model, timezone if calendar else None, box_limits(model, building))
     except ValueError as exc:
         raise FMUError(f"cannot export {model_path}: {exc}") from None
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
@@ -199,7 +270,7 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None) -> Path:
         shutil.copyfile(model_path, res)
         interface = Path(tmp) / INTERFACE_FILE
         interface.write_text(json.dumps(layout, indent=1), encoding="utf-8")
-        path = _build(slave_script(model.kind), out_path, [res, interface])
+        path = _build(slave_script(model.kind), out_path, [res, interface], _documentation(tmp, layout))
     logger.info("exported %s model %s to %s", model.kind, model_path, path)
     return path
 
@@ -264,28 +335,50 @@ def export_plant_fmu(truth_path, out_path) -> Path:
         interface = Path(tmp) / INTERFACE_FILE
         interface.write_text(json.dumps(layout, indent=1), encoding="utf-8")
         script = slave_dir() / f"{PLANT_SLAVE}.py"
-        path = _build(script, out_path, [res, interface])
+        path = _build(script, out_path, [res, interface], _documentation(tmp, layout))
     logger.info("exported plant %s to %s", truth_path, path)
     return path
 
 
-def export_file(path, out_path, *, timezone: str | None = None) -> Path:
+def export_file(path, out_path, *, timezone: str | None = None, native: bool = False, building=None) -> Path:
     """Export a model file or an emulator ``truth.json`` (recognised by its content) as an FMU.
 
-    This is what ``hvacfmu export FILE -o OUT.fmu [--timezone TZ]`` runs;
-    ``timezone`` is passed to :func:`export_fmu` (plants ignore it).
+    This is what ``hvacfmu export FILE -o OUT.fmu [--timezone TZ] [--native]`` runs;
+    ``timezone`` is passed to :func:`export_fmu` (plants ignore it); ``native``
+    writes a native FMU (:func:`hvacfmu.fmu_native.export_native_fmu`, model
+    files only); ``building`` (path or Building) gives the box airflow bounds.
     """
     path = Path(path)
     try:
         d = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         d = None  # load_model reports it
-    if isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d:
+    plant = isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d
+    if native:
+        if plant:
+            raise FMUError(f"{path} is an emulated plant (truth.json): it has no linear equations and cannot be "
+                           "exported as a native FMU; export it without --native")
+        from .fmu_native import export_native_fmu
+        from .models import load_model
+
+        return export_native_fmu(load_model(path), out_path, model_name=path.name,
+                                 building=_resolve_building(building, path))
+    if plant:
         return export_plant_fmu(path, out_path)
-    return export_fmu(path, out_path, timezone=timezone)
+    return export_fmu(path, out_path, timezone=timezone, building=building)
 
 
-def _build(script: Path, out_path, resources) -> Path:
+def _documentation(tmp, layout) -> Path:
+    """A ``documentation/`` folder (index.html: description, run-time needs, variables) in ``tmp``."""
+    from .fmu_description import documentation_html
+
+    d = Path(tmp) / "documentation"
+    d.mkdir(exist_ok=True)
+    (d / "index.html").write_text(documentation_html(layout, native=False), encoding="utf-8")
+    return d
+
+
+def _build(script: Path, out_path, resources, documentation=None) -> Path:
     """Run the pythonfmu builder in this process, then validate the FMU."""
     from pythonfmu.builder import FmuBuilder
 
@@ -298,7 +391,8 @@ def _build(script: Path, out_path, resources) -> Path:
     had_module = module in sys.modules
     t0 = time.perf_counter()
     try:
-        path = FmuBuilder.build_FMU(script, dest=out_path, project_files=[Path(r) for r in resources], **BUILD_OPTIONS)
+        path = FmuBuilder.build_FMU(script, dest=out_path, project_files=[Path(r) for r in resources],
+                                    documentation_folder=documentation, **BUILD_OPTIONS)
     except ModelError:
         raise
     except Exception as exc:  # noqa: BLE001 - pythonfmu raises plain exceptions
@@ -314,16 +408,32 @@ def _build(script: Path, out_path, resources) -> Path:
     return Path(path)
 
 
-def validate(path) -> list[str]:
-    """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine)."""
+def export_native_fmu(model, out_path, **kwargs) -> Path:
+    """Native FMU of ``model`` (generated C, no Python at run time); see :func:`hvacfmu.fmu_native.export_native_fmu`."""
+    from .fmu_native import export_native_fmu as _export
+
+    return _export(model, out_path, **kwargs)
+
+
+def validate(path, native: bool | None = None) -> list[str]:
+    """Problems ``fmpy.validate_fmu`` finds in an FMU, plus hvacfmu's own checks (empty when fine).
+
+    ``native``: the FMU is a native one (C sources, no resources); None: recognised by its ``sources/``.
+    """
     from fmpy.validation import validate_fmu
 
     problems = list(validate_fmu(str(path)))
     with zipfile.ZipFile(path) as z:
         names = set(z.namelist())
-    if not any(n.startswith("resources/") and n.endswith((".json",)) for n in names):
+    if native is None:
+        native = any(n.startswith("sources/") for n in names)
+    if native:
+        if not any(n.startswith("sources/") and n.endswith(".c") for n in names):
+            problems.append("no C sources in the native FMU's sources/")
+    elif not any(n.startswith("resources/") and n.endswith((".json",)) for n in names):
         problems.append("no model file (JSON) in the FMU's resources")
     return problems
 
 
-__all__ = ["export_file", "export_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
+__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_name", "slave_script", "slave_specs",
+           "validate"]

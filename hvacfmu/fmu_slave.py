@@ -81,15 +81,6 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 #: version of the slave's variable layout; stored in the FMU description
 SLAVE_API_VERSION = 1
 
-#: unit name -> SI base-unit exponents and offset for ``<UnitDefinitions>``
-UNITS = {
-    "degC": ({"K": "1"}, "273.15"),
-    "K": ({"K": "1"}, None),
-    "kg/s": ({"kg": "1", "s": "-1"}, None),
-    "W/m2": ({"kg": "1", "s": "-3"}, None),
-    "s": ({"s": "1"}, None),
-}
-
 #: physical bounds checked on every input before a step (min, max)
 BOUNDS = {
     "degC": (-60.0, 80.0),
@@ -136,12 +127,64 @@ def signal_unit(name: str) -> str | None:
     return None
 
 
+#: plausible ranges of disturbance inputs by name prefix (checked before every step)
+SIGNAL_BOUNDS = {
+    "T_out": (-60.0, 60.0),
+    "T_supply": (0.0, 80.0),
+    "Td_": (0.0, 80.0),
+}
+
+#: box airflow upper bound = this factor x the box's design maximum ``m_max`` (measured flows overshoot
+#: ``m_max`` by a few per cent through sensor error and loop overshoot: up to 2 % in the emulated data)
+M_MAX_MARGIN = 1.2
+
+
+def signal_bounds(name: str):
+    """(min, max) of an input signal: by name (``T_out``, ``T_supply*``, ``Td_*``) or by unit."""
+    for prefix, bounds in SIGNAL_BOUNDS.items():
+        if name == prefix or (prefix.endswith("_") and name.startswith(prefix)) or name.startswith(prefix + "_"):
+            return bounds
+    return BOUNDS.get(signal_unit(name) or "", (None, None))
+
+
+def box_limits(model, building=None) -> dict:
+    """Box name -> {"zone", "m_min", "m_max"} [kg/s] from ``building`` or the model's own building (physics).
+
+    Empty when neither is known (data-driven model files keep only the building's name and hash).
+    """
+    b = building if building is not None else getattr(model, "building", None)
+    if b is None:
+        b = getattr(getattr(model, "base", None), "building", None)
+    try:
+        return {v.name: {"zone": v.zone, "m_min": float(v.m_min), "m_max": float(v.m_max)} for v in b.vavs}
+    except AttributeError:
+        return {}
+
+
+def box_entry(b: str, limits: dict | None) -> dict:
+    """Layout entry of the airflow input of box ``b``; bounds and nominal from its ``limits`` when known."""
+    if not limits:
+        return _entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
+                      f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"])
+    hi = round(M_MAX_MARGIN * limits["m_max"], 12)
+    e = _entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
+               f"Supply air mass flow rate of VAV box {b} serving zone {limits['zone']} [kg/s]; design range "
+               f"m_min={limits['m_min']:g} to m_max={limits['m_max']:g} kg/s (building file), accepted up to "
+               f"{M_MAX_MARGIN:g} x m_max", (0.0, hi))
+    e["nominal"] = limits["m_max"]
+    return e
+
+
 def signal_description(name: str) -> str:
     """A description a Modelica or EnergyPlus user can map by eye."""
     if name == "T_out":
         return "Outdoor air dry-bulb temperature [degC] (EnergyPlus: Site Outdoor Air Drybulb Temperature)"
     if name == "T_supply":
         return "Supply (discharge) air temperature of the VAV boxes [degC]"
+    if name.startswith("T_supply_"):
+        return f"Supply air temperature of air handler {name[len('T_supply_'):]} [degC]"
+    if name.startswith("Td_"):
+        return f"Discharge air temperature of VAV box {name[3:]} [degC] (after its reheat coil)"
     if name == "ghi":
         return "Global horizontal irradiance [W/m2]"
     if name.startswith("I_") and name[2:] in _FACADES:
@@ -478,22 +521,21 @@ class HvacfmuSlaveBase(Fmi2Slave):
             pass
         cs = root.find("CoSimulation")
         cs.set("canHandleVariableCommunicationStepSize", "true" if self.VARIABLE_STEP else "false")
-        # <UnitDefinitions> goes right after <CoSimulation>
-        used = [u for u in UNITS if any(s.get("unit") == u for s in self._spec)]
-        if used:
-            units = Element("UnitDefinitions")
-            for u in used:
-                exps, offset = UNITS[u]
-                unit = SubElement(units, "Unit", name=u)
-                base = SubElement(unit, "BaseUnit", **exps)
-                if offset is not None:
-                    base.set("offset", offset)
-            root.insert(list(root).index(cs) + 1, units)
+        from hvacfmu.fmu_description import type_definitions, unit_definitions, variable_type
+
+        # <UnitDefinitions> and <TypeDefinitions> (one type per quantity) go right after <CoSimulation>
+        at = list(root).index(cs) + 1
+        units = unit_definitions(self._spec)
+        if units is not None:
+            root.insert(at, units)
+            at += 1
+        root.insert(at, type_definitions(self._spec))
         for sv, spec in zip(root.find("ModelVariables"), self._spec):
             typ = sv[0]
+            typ.set("declaredType", variable_type(spec)[0])
             if spec.get("unit") and spec["type"] == "Real":
                 typ.set("unit", spec["unit"])
-            for key in ("min", "max"):
+            for key in ("min", "max", "nominal"):
                 if spec.get(key) is not None:
                     typ.set(key, repr(float(spec[key])) if spec["type"] == "Real" else str(int(spec[key])))
         # complete model structure: outputs have no direct feedthrough from inputs;
@@ -545,6 +587,14 @@ def _stored_timezone(resources) -> str | None:
     """The ``timezone`` written at export into ``interface.json`` (None when absent or unreadable)."""
     try:
         return json.loads((Path(resources or ".") / INTERFACE_FILE).read_text(encoding="utf-8")).get("timezone")
+    except Exception:  # noqa: BLE001 - read_layout reports an unreadable file
+        return None
+
+
+def _stored_boxes(resources) -> dict | None:
+    """The box limits written at export into ``interface.json`` ({} when absent, None when unreadable)."""
+    try:
+        return json.loads((Path(resources or ".") / INTERFACE_FILE).read_text(encoding="utf-8")).get("boxes", {})
     except Exception:  # noqa: BLE001 - read_layout reports an unreadable file
         return None
 
@@ -711,7 +761,7 @@ def calendar_dependent(model) -> bool:
     return False
 
 
-def zone_model_layout(model, timezone: str | None = None) -> tuple[dict, np.ndarray | None]:
+def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = None) -> tuple[dict, np.ndarray | None]:
     """Variable layout of the FMU of a zone model, and the box-to-input matrix.
 
     Parameters
@@ -722,6 +772,11 @@ def zone_model_layout(model, timezone: str | None = None) -> tuple[dict, np.ndar
         :func:`calendar_dependent` model, the layout gets the parameter
         ``start_time`` [s, Unix epoch] and the key ``timezone`` (see the module
         docstring); ignored for other models.
+    boxes : dict, optional
+        Box name -> ``{"zone", "m_min", "m_max"}`` (:func:`box_limits`): airflow
+        inputs get ``max = M_MAX_MARGIN * m_max``, ``nominal = m_max`` and the zone
+        in their description; stored as ``boxes`` in the layout. Default: the
+        model's own building when it has one (physics), else generic bounds.
 
     Returns
     -------
@@ -733,20 +788,19 @@ def zone_model_layout(model, timezone: str | None = None) -> tuple[dict, np.ndar
     M, vavs = input_matrix(model)
     step = float(model.step)
     seasons = [str(s) for s in model.gains]
+    boxes = {str(k): dict(v) for k, v in (boxes if boxes is not None else box_limits(model)).items()}
     var = []
     if M is not None:
         for b in vavs:
-            var.append(_entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
-                              f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"]))
+            var.append(box_entry(b, boxes.get(b)))
     else:
         for name in model.inputs:
-            var.append(_entry("m", sanitize_name(name), "Real", "input", 0.0, "kg/s",
-                              signal_description(name), BOUNDS["kg/s"]))
-    defaults = {"T_out": 15.0, "T_supply": 14.0}
+            var.append(box_entry(name[2:], boxes.get(name[2:])) if name.startswith("m_") and name[2:] in boxes
+                       else _entry("m", sanitize_name(name), "Real", "input", 0.0, "kg/s",
+                                   signal_description(name), BOUNDS["kg/s"]))
     for name in model.disturbances:
-        unit = signal_unit(name)
-        var.append(_entry("v", sanitize_name(name), "Real", "input", defaults.get(name, 0.0), unit,
-                          signal_description(name), BOUNDS.get(unit, (None, None))))
+        var.append(_entry("v", sanitize_name(name), "Real", "input", _signal_start(name), signal_unit(name),
+                          signal_description(name), signal_bounds(name)))
     var.append(_entry("tow_in", "time_of_week", "Real", "input", -1.0, "s",
                       "Optional: local time of week at the start of the step [s since Monday 00:00]; when >= 0 it "
                       "places the internal-gain profile instead of the FMU clock (follow daylight-saving time); "
@@ -790,7 +844,18 @@ def zone_model_layout(model, timezone: str | None = None) -> tuple[dict, np.ndar
     }
     if calendar:
         layout["timezone"] = str(timezone)
+    if boxes:
+        layout["boxes"] = {b: boxes[b] for b in sorted(boxes)}
     return layout, M
+
+
+def _signal_start(name: str) -> float:
+    """Start value of a disturbance input: typical conditions (15 degC outdoors, 14 degC supply air, no sun)."""
+    if name == "T_out":
+        return 15.0
+    if name.startswith(("T_supply", "Td_")):
+        return 14.0
+    return 0.0
 
 
 class ZoneModelSlave(HvacfmuSlaveBase):
@@ -820,7 +885,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             from hvacfmu.models import load_model  # host environment
 
             model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
-            layout, M = zone_model_layout(model, _stored_timezone(self.resources))
+            layout, M = zone_model_layout(model, _stored_timezone(self.resources), _stored_boxes(self.resources))
         except Exception as exc:  # noqa: BLE001 - reported, never raised
             model, layout, M = None, None, None
             from hvacfmu.errors import HvacfmuError

@@ -133,6 +133,7 @@ def test_bad_air_handlers(small_building_dict, mutate, message):
         (lambda d: d["vavs"][0].update(m_max=400.0), r"VAV V1: m_max = 400 kg/s is more than any VAV box"),
         (lambda d: d.update(columns={"T_A": "room", "T_B": "room"}), r"T_A, T_B all map to the file column 'room'"),
         (lambda d: d.update(columns={"T_A": 3}), r"columns: expected a table of text values"),
+        (lambda d: d.update(columns={"T_A": "T_B"}), r"T_A, T_B all map to the file column 'T_B'"),
         (lambda d: d.update(data_timezone="Europe/Nowhere"), r"data_timezone 'Europe/Nowhere' is not a known IANA"),
         (lambda d: d["zones"][0].update(name="supply"), r"zone name 'supply' is reserved"),
         (lambda d: d["vavs"][0].update(zone=1), r"vavs\[0\] \(V1\)\.zone: expected text, got 1 \(int\)"),

@@ -261,8 +261,28 @@ BAD_INPUTS = [
     (
         "cfm declared as kg/s",
         _frame_only(lambda f: f.assign(m_V3=f["m_V3"] / 1.2 / 0.000471947)),
-        r"column 'm_V3': median airflow \d+(\.\d+)? kg/s \(declared kg/s\) is far above the box's m_max = 0\.4 kg/s.*cfm",
+        (r"column 'm_V3': the 99th percentile of the airflow is \d+(\.\d+)? kg/s \(declared kg/s\), above "
+        r"1\.5 x m_max = 0\.6 kg/s of box V3.*the data look like L/s or cfm"),
     ),
+    (
+        "cfm declared as L/s",
+        lambda f, b: (f.assign(m_V3=0.35 / 1.2 / 0.000471947), {**b, "units": {"m_*": "L/s"}}),
+        r"column 'm_V3': the 99th percentile of the airflow is 0\.74\d* kg/s \(declared L/s\).*look like cfm",
+    ),
+    (
+        "L/s declared as cfm",
+        lambda f, b: (f.assign(m_V1=0.055 / 1.2e-3), {**b, "units": {"m_*": "cfm"}}),
+        (r"column 'm_V1': while the box runs, its median airflow is 0\.0259\d* kg/s \(declared cfm\), below "
+        r"0\.6 x m_min = 0\.03 kg/s of box V1.*look like L/s"),
+    ),
+    (
+        "airflow spikes in 5 % of rows",
+        _frame_only(lambda f: f.assign(m_V2=np.where(np.arange(len(f)) % 20 == 3, 50.0, f["m_V2"]))),
+        (r"column 'm_V2': 75 value\(s\) \(5 % of its samples, more than the 1 % that are masked as spikes\) "
+        r"above 2 x m_max = 1\.2 kg/s of box V2, e\.g\. 50 at row 4"),
+    ),
+    ("+inf airflow", _frame_only(lambda f: _set(f, "m_V1", 9, np.inf)), r"column 'm_V1': 1 infinite value\(s\), e\.g\. inf at row 10"),
+    ("-inf temperature", _frame_only(lambda f: _set(f, "T_A", 2, -np.inf)), r"column 'T_A': 1 infinite value\(s\), e\.g\. -inf at row 3"),
     ("negative irradiance", _frame_only(lambda f: _set(f, "ghi", 3, -50.0)), r"column 'ghi': 1 negative irradiance .* -50 at row 4"),
     ("excessive irradiance", _frame_only(lambda f: _set(f, "ghi", 700, 5000.0)), r"column 'ghi': 1 value\(s\) above 1500 W/m²"),
     (
@@ -511,7 +531,7 @@ def test_week_midpoint_season_and_dst_week(small_building):
 
 
 def test_week_split_per_season(small_building):
-    weeks, notes = _weeks("2024-09-02 00:00", 51 * 7, building=small_building)
+    weeks, _notes = _weeks("2024-09-02 00:00", 51 * 7, building=small_building)
     assert len(weeks) == 51
     n_weeks = {s: sum(w.season == s for w in weeks) for s in small_building.season_names}
     n_test = {s: sum(w.season == s and not w.train for w in weeks) for s in small_building.season_names}
@@ -633,7 +653,20 @@ def test_check_report_contents(tmp_path, small_building):
     assert "week #1 (2024-09-09, fall, test): only 57 % of its steps have every zone temperature" in text
     assert "Excitation periods: 2 (4 h 30 min in total)" in text
     assert "2024-09-07 Sat 10:00 .. 14:00" in text
+    assert "Plausibility: 3 airflow column(s) against their box's m_min..m_max" in text and "nothing masked" in text
+    assert "Clock: measured solar noon (ghi-weighted mean time)" in text
     assert text.rstrip().endswith("OK: the data can be used for fitting")
+
+
+def test_check_counts_masked_samples(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-09-02", periods=8 * 1440)
+    frame.iloc[[10, 5000], frame.columns.get_loc("m_V3")] = 50.0
+    frame.iloc[1440 : 4 * 1440, frame.columns.get_loc("T_B")] = 22.25
+    report = check(write(frame, tmp_path / "m.csv"), small_building)
+    text = str(report)
+    assert report.ok
+    assert "  2 sample(s) of m_V3 masked (airflow spike)" in text
+    assert "  4320 sample(s) of T_B masked (stuck sensor)" in text
 
 
 def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
@@ -648,7 +681,7 @@ def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
 
 def _cli(*args, cwd):
     return subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)], cwd=cwd, check=False, capture_output=True, text=True, timeout=120
     )
 
 
@@ -812,3 +845,160 @@ def test_bad_discharge_and_reheat_columns(tmp_path, small_building_dict, column,
     f[column] = values
     with pytest.raises(DataError, match=message):
         load_measurements(write(f, tmp_path / "m.csv"), building)
+
+
+# --------------------------------------------------------------------------- plausibility (issue 17 p.1)
+def _quarter_hourly(building, days=10, start="2024-09-02 00:00"):
+    return make_measurements(building, start=start, periods=96 * days, freq="15min")
+
+
+def test_rare_airflow_spikes_are_masked_with_counts(tmp_path, small_building):
+    f = make_measurements(small_building, periods=3000)
+    spikes = np.arange(3, 3000, 1000)  # 3 rows = 0.1 %
+    f.loc[f.index[spikes], "m_V1"] = 50.0
+    frame, report = load_measurements(write(f, tmp_path / "m.csv"), small_building)
+    assert np.isnan(frame["m_V1"].to_numpy()[spikes]).all()
+    assert np.isfinite(frame["m_V1"].to_numpy()).sum() == 3000 - 3
+    msg = next(w for w in report.warnings if "m_V1" in w)
+    assert "3 value(s) (0.1 % of its samples) above 2 x m_max = 1.2 kg/s" in msg and "masked" in msg
+    assert "50 at row 4" in msg
+
+
+def test_outdoor_celsius_declared_as_fahrenheit_is_refused(tmp_path, small_building_dict):
+    small_building_dict["units"] = {"T_out": "degF"}
+    building = building_from_dict(small_building_dict)
+    f = _quarter_hourly(building)
+    with pytest.raises(DataError, match=r"column 'T_out': monthly mean outdoor temperature \(Sep -9\.4 °C; declared degF\) "
+                       r"is outside 0\.\.40 °C.*latitude 37\.875.*read as degC it would be 15\.0 °C.*look like degC"):
+        load_measurements(write(f, tmp_path / "m.csv"), building)
+
+
+def test_outdoor_fahrenheit_declared_as_celsius_is_refused(tmp_path, small_building):
+    f = _quarter_hourly(small_building)
+    f["T_out"] = f["T_out"] * 1.8 + 32
+    with pytest.raises(DataError, match=r"column 'T_out': declared degC but the median is 59.*look like degF"):
+        load_measurements(write(f, tmp_path / "m.csv"), small_building)
+
+
+def test_outdoor_envelope_accepts_real_climates():
+    from hvacfmu.data.plausibility import outdoor_envelope
+
+    # (latitude, warm half, monthly mean) of real stations: Yakutsk Jan, Chicago Jan, Berkeley Jul, Phoenix Jul
+    for lat, warm, mean in [(62.0, False, -38.6), (41.9, False, -4.6), (37.9, True, 17.0), (33.4, True, 35.0)]:
+        lo, hi = outdoor_envelope(lat, warm)
+        assert lo <= mean <= hi
+
+
+def test_stuck_sensor_is_flagged_and_masked(tmp_path, small_building):
+    f = _quarter_hourly(small_building)
+    f.iloc[96 * 2 : 96 * 5, f.columns.get_loc("T_B")] = 21.5
+    frame, report = load_measurements(write(f, tmp_path / "m.csv"), small_building)
+    msg = next(w for w in report.warnings if "T_B" in w)
+    assert "stuck sensor" in msg and "21.5 for 3.0 days from row 193 (2024-09-04T00:00:00-07:00)" in msg
+    assert "288 sample(s) masked" in msg
+    assert np.isnan(frame["T_B"].to_numpy()[96 * 2 : 96 * 5]).all()
+    assert np.isfinite(frame["T_A"].to_numpy()).all()
+
+
+def test_check_refuses_a_sparse_box_naming_it(tmp_path, small_building):
+    f = _quarter_hourly(small_building, days=9)
+    keep = np.zeros(len(f), bool)
+    keep[: int(0.066 * len(f))] = True
+    f["m_V2"] = np.where(keep, f["m_V2"], np.nan)
+    path = write(f, tmp_path / "m.csv")
+    report = check(path, small_building)
+    assert not report.ok
+    assert any("column 'm_V2': a value in only 6.6 % of the model steps, below the 50 %" in p for p in report.problems)
+    assert not any("m_V2" in w for w in report.warnings)
+    with pytest.warns(HvacfmuWarning, match=r"column 'm_V2': a value in only 6\.6 %"):
+        prepare(path, small_building)
+
+
+@pytest.mark.parametrize("step", [0, -900, 7, float("nan")])
+def test_bad_step_is_a_clear_error(tmp_path, small_building, step):
+    path = write(make_measurements(small_building, periods=60), tmp_path / "m.csv")
+    with pytest.raises(DataError, match=r"step .* must be a positive whole number of seconds dividing one hour"):
+        prepare(path, small_building, step=step)
+    report = check(path, small_building, step=step)
+    assert not report.ok and "dividing one hour" in report.problems[0]
+
+
+def test_unit_column_named_T_supply_is_that_units_not_the_primary(tmp_path, small_building_dict):
+    d = _two_ahu_dict(small_building_dict)
+    d["units"] = {}
+    d["columns"] = {"T_supply_AHU1": "T_supply"}
+    building = building_from_dict(d)
+    f = make_measurements(building, periods=1440).assign(**{"AHU-2 SAT": 16.0})
+    ds = prepare(write(f, tmp_path / "m.csv"), building)
+    assert_allclose(ds.frame["T_supply_AHU1"], f["T_supply"].resample("15min").mean().to_numpy(), atol=1e-9)
+    assert (ds.frame["T_supply"] > ds.frame["T_supply_AHU1"]).all()  # the weighted mean with AHU2 at 16 °C
+
+
+# --------------------------------------------------------------------------- the emulator's BMS-like export (issue 13)
+@pytest.fixture(scope="module")
+def bms_export():
+    """Three winter weeks as a real BMS exports them: °F, CFM, %, naive UTC, 15-minute trend log, faults."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(
+        weeks=3, seed=1, start="2025-12-01", hvac="reheat", units="us", clock="naive-utc", export_step=900,
+        faults=("outages", "sparse_box", "stuck_sensor"),
+    )
+
+
+def test_bms_like_export_sparse_box_refused_stuck_sensor_masked(bms_export):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, bms_export.building)
+    b = report.dataset.building
+    assert b.ahu_names == ("AHU1", "AHU2") and b.data_timezone == "UTC"
+    frame = report.dataset.frame
+    for c in ("T_supply_AHU1", "T_supply_AHU2", "Td_VAV_NW_1", "rh_VAV_NW_1"):
+        assert c in frame.columns
+    assert 10 < np.nanmedian(frame["T_supply_AHU1"]) < 20 and 0 <= np.nanmax(frame["rh_VAV_NW_1"]) <= 1
+    assert not report.ok
+    sparse = [p for p in report.problems if "a value in only" in p]
+    assert sparse and all("%" in p and "below the 50 %" in p for p in sparse)
+    cov = [float(p.split("a value in only ")[1].split(" %")[0]) for p in sparse]
+    assert max(cov) < 10  # the ~6 % box is not inflated by interpolation between its rare samples
+    assert any("stuck sensor" in w and "masked" in w for w in report.warnings)
+    assert abs(report.clock.offset) < 0.5 and not any("clock:" in w for w in report.warnings)
+
+
+def test_bms_like_export_naive_utc_without_declaration_looks_8_hours_late(tmp_path, bms_export):
+    from hvacfmu.building import load_building
+
+    d = load_building(bms_export.building).to_dict()
+    d.pop("data_timezone")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, building_from_dict(d))
+    (msg,) = [w for w in report.warnings if "clock:" in w]
+    assert "the data look 8 h late" in msg and "naive timestamps in UTC? use --timezone UTC" in msg
+
+
+def test_discharge_colder_than_supply_is_flagged(tmp_path, small_building_dict):
+    d = _two_ahu_dict(small_building_dict)
+    d["units"], d["columns"] = {}, {}
+    d["ahus"][0]["T_supply_max"] = 30.0
+    building = building_from_dict(d)
+    f = make_measurements(building, periods=1440).drop(columns=["T_supply"])
+    f["T_supply_AHU1"], f["AHU-2 SAT"] = 13.0, 14.0
+    f["Td_V1"] = 8.0  # colder than the supply air: impossible
+    f["Td_V2"] = 40.0  # 10 K above the heating limit
+    f["Td_V3"] = 25.0  # fine
+    with pytest.warns(HvacfmuWarning) as record:
+        prepare(write(f, tmp_path / "m.csv"), building)
+    text = "\n".join(str(r.message) for r in record)
+    assert "column 'Td_V1': discharge air below its unit's supply air T_supply_AHU1 - 3 K in 100 %" in text
+    assert "column 'Td_V2': discharge air above T_supply_max = 30 °C of AHU1 + 5 K in 100 %" in text
+    assert "Td_V3" not in text
+
+
+def test_check_says_why_a_stuck_column_is_empty(tmp_path, small_building):
+    f = _quarter_hourly(small_building, days=8)
+    f["T_B"] = 22.0
+    report = check(write(f, tmp_path / "m.csv"), small_building)
+    assert not report.ok
+    (msg,) = [p for p in report.problems if "'T_B'" in p]
+    assert "no model step of 900 s has enough samples" in msg and "(768 sample(s) masked as stuck sensor" in msg

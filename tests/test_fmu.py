@@ -300,7 +300,7 @@ def test_multiple_steps_exact_and_other_steps_refused(built, fmu_data):
     [
         ("before_init", "before initialisation"),
         ("nan", r"invalid input value\(s\): m_VAV_NW_1=nan"),
-        ("range", r"T_out=150.0 \(allowed \[-60.0, 80.0\] degC\)"),
+        ("range", r"T_out=150.0 \(allowed \[-60.0, 60.0\] degC\)"),
         ("negative", r"m_VAV_C_1=-0.1"),
         ("season", r"season=9 is not one of 1 \(fall\)"),
         ("wrong_type", "fmi2SetInteger: invalid value reference"),
@@ -714,7 +714,9 @@ def test_cosim_sets_start_time_of_calendar_fmu(fmu_data, tmp_path):
 # ----------------------------------------------------------------------------- slave scripts
 def test_slave_scripts_in_fmus_are_the_template():
     """fmus/*.py are exactly what hvacfmu.fmu writes when installed without the source tree."""
-    from hvacfmu.fmu import SLAVE_SPECS, slave_source
+    from hvacfmu.fmu import slave_source, slave_specs
+
+    SLAVE_SPECS = slave_specs()
 
     folder = Path(__file__).resolve().parents[1] / "fmus"
     assert sorted(p.stem for p in folder.glob("*.py")) == sorted(SLAVE_SPECS)
@@ -737,3 +739,77 @@ def test_export_without_source_tree(tmp_path, monkeypatch, sdh_building, fmu_dat
     monkeypatch.setenv("HVACFMU_SLAVE_DIR", str(tmp_path / "nowhere"))
     with pytest.raises(FMUError, match="holds no slave scripts"):
         fmu_mod.slave_dir()
+
+
+# ----------------------------------------------------------------------------- model descriptions users can trust
+@pytest.mark.parametrize("kind", ["zones", "physics"])
+def test_types_bounds_and_documentation(built, kind):
+    """TypeDefinitions with quantity, declaredType everywhere, box bounds from the building, documentation."""
+    from fmpy import read_model_description
+
+    model, _, path = built[kind]
+    md = read_model_description(str(path))
+    types = {t.name: t for t in md.typeDefinitions}
+    assert types["Temperature"].quantity == "ThermodynamicTemperature" and types["MassFlowRate"].unit == "kg/s"
+    for v in md.modelVariables:
+        assert v.declaredType is not None and v.declaredType.name in types, v.name
+        if v.causality in ("input", "parameter"):
+            assert v.start is not None, v.name
+    names = {v.name: v for v in md.modelVariables}
+    assert float(names["T_out"].min) == -60.0 and float(names["T_out"].max) == 60.0
+    if kind == "physics":  # the model carries its building: 1.2 x m_max, nominal m_max, zone named
+        for vav in model.building.vavs:
+            v = names[f"m_{vav.name}"]
+            assert float(v.max) == pytest.approx(1.2 * vav.m_max) and float(v.nominal) == vav.m_max
+            assert f"serving zone {vav.zone}" in v.description
+    with zipfile.ZipFile(path) as z:
+        doc = z.read("documentation/index.html").decode()
+    from importlib.metadata import version
+
+    assert f"numpy {version('numpy')}" in doc and "hvacfmu" in doc
+
+
+def test_export_with_building_file_bounds_the_box_inputs(built, fmu_data, tmp_path):
+    """A data-driven model file keeps no box limits; `--building` puts them into the model description."""
+    from fmpy import read_model_description
+
+    _, mp, _ = built["zones"]
+    path = export_fmu(mp, tmp_path / "Z.fmu", building=fmu_data.building)
+    names = {v.name: v for v in read_model_description(str(path)).modelVariables}
+    for vav in fmu_data.building.vavs:
+        assert float(names[f"m_{vav.name}"].max) == pytest.approx(1.2 * vav.m_max)
+    generic = {v.name: v for v in read_model_description(str(built["zones"][2])).modelVariables}
+    assert float(generic[f"m_{fmu_data.building.vavs[0].name}"].max) == 50.0
+    s = Slave(path)  # the FMU runs with its stored limits and refuses more than 1.2 x m_max
+    try:
+        s.init({"season": 1})
+        vav = fmu_data.building.vavs[0]
+        s.fmu.setReal([s.vr[f"m_{vav.name}"]], [1.3 * vav.m_max])
+        with pytest.raises(Exception, match="discard"):
+            s.fmu.doStep(0.0, 900.0)
+        assert any(f"m_{vav.name}=" in msg and "invalid input" in msg for _, _, msg in s.log)
+    finally:
+        s.close()
+
+
+def test_pythonfmu_fmu_without_its_python_packages_says_so(built, tmp_path):
+    """Loaded where hvacfmu cannot be imported, the FMU logs what it needs and refuses steps; no crash."""
+    _, _, path = built["zones"]
+    script = tmp_path / "host.py"
+    script.write_text(
+        "import sys\n"
+        "sys.modules['hvacfmu'] = None  # as if hvacfmu were not installed in this interpreter\n"
+        "from fmpy import simulate_fmu\n"
+        "msgs = []\n"
+        "def logger(*args):\n"
+        "    msgs.append(args[-1].decode() if isinstance(args[-1], bytes) else str(args[-1]))\n"
+        "try:\n"
+        f"    simulate_fmu({str(path)!r}, stop_time=1800.0, output_interval=900.0, logger=logger,\n"
+        "                 debug_logging=True)\n"
+        "except Exception as exc:\n"
+        "    print('EXC', exc)\n"
+        "print('\\n'.join(msgs))\n")
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "needs the Python packages hvacfmu, numpy" in run.stdout, run.stdout + run.stderr
+    assert "hvacfmu export --native" in run.stdout

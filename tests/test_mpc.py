@@ -7,6 +7,8 @@ PhysicsModel is exercised when its module imports.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -193,19 +195,96 @@ def solve_linear(formulation, x0, V, Q, comfort_penalty=None, N=3, **kw):
     return c.plan(np.asarray(x0, float), V[:N], Q[:N]), c
 
 
-def brute_force_linear(x0, V, Q, N=3):
-    """SLSQP on the hard-limit problem (the exact-penalty optimum when eps = 0)."""
+def jacobian(fun, z, h=None):
+    """Jacobian of ``fun`` at z: one-sided unit differences for an affine ``fun`` (exact up to
+    rounding), central differences with step h otherwise (error O(h²))."""
+    if h is None:
+        f0 = fun(z)
+        return np.column_stack([fun(z + e) - f0 for e in np.eye(z.size)])
+    return np.column_stack([(fun(z + h * e) - fun(z - h * e)) / (2 * h) for e in np.eye(z.size)])
+
+
+def kkt_certificate(z, grad, cons, jac, active=1e-6):
+    """First-order (KKT) residuals of ``min f(z) s.t. cons(z) >= 0`` at z.
+
+    Multipliers ``λ >= 0`` of the nearly active constraints (``cons <= active``) by non-negative least
+    squares on ``∇f = Σ λ_i ∇c_i`` (Lawson-Hanson, an exact finite algorithm: no tolerance, thread
+    count or library-version dependence). For a convex problem small residuals certify the global
+    optimum; for the bilinear problems a local one.
+
+    Returns
+    -------
+    infeasibility : float   largest violation of a constraint
+    stationarity : float    ``||∇f - Jᵀλ||_∞ / max(1, ||∇f||_∞)``
+    lam : array             multipliers of all constraints (zero where inactive)
+    """
+    c = cons(z)
+    J = jac(z)
+    g = grad(z)
+    act = np.flatnonzero(c <= active)
+    lam = np.zeros(c.size)
+    if act.size:
+        lam[act], _ = scipy.optimize.nnls(J[act].T, g)
+    r = g - J.T @ lam
+    return max(0.0, -float(c.min())), float(np.abs(r).max() / max(1.0, np.abs(g).max())), lam
+
+
+def linear_constraints(x0, V, Q, N, n_eps=0, per_step=False, lo=LIN_UMIN, hi=LIN_UMAX):
+    """Band and limit constraints (>= 0) of the linear test problem in z = [U (N*3), eps (n_eps)],
+    built from the model's own simulate, independent of the MPC's condensing."""
     m = linear_model()
 
-    def Y(z):
-        return m.simulate(x0, z.reshape(N, 3), V[:N], Q[:N])[1][1:].ravel()
+    def cons(z):
+        U = z[: 3 * N].reshape(N, 3)
+        Y = m.simulate(x0, U, V[:N], Q[:N])[1][1:].ravel()
+        e = np.zeros((N, 3)) if n_eps == 0 else (z[3 * N :].reshape(N, 3) if per_step else np.tile(z[3 * N :], (N, 1)))
+        parts = [22.0 - Y, Y - 20.0, (hi + e - U).ravel(), (U - lo + e).ravel(), z[: 3 * N]]  # U >= 0 (u_floor)
+        if n_eps:
+            parts.append(z[3 * N :])
+        return np.concatenate(parts)
 
-    cons = [{"type": "ineq", "fun": lambda z: 22.0 - Y(z)}, {"type": "ineq", "fun": lambda z: Y(z) - 20.0}]
-    bounds = [(lo, hi) for lo, hi in zip(np.tile(LIN_UMIN, N), np.tile(LIN_UMAX, N))]
-    res = scipy.optimize.minimize(lambda z: z @ z, np.tile(LIN_UMAX, N), jac=lambda z: 2 * z, bounds=bounds,
-                                  constraints=cons, method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})
-    assert res.success, res.message
-    return res.x.reshape(N, 3), res.fun
+    return cons
+
+
+def certify_linear_plan(plan, x0, V, Q, penalty=None, per_step=False, rho=100.0, tol=None):
+    """KKT certificate of a linear-model plan for the hard-limit problem (``penalty=None``, eps = 0) or
+    the soft-limit problem with ``penalty`` in {"l1", "l2"}; returns the multipliers.
+
+    Tolerance on the relative stationarity residual: 1e-5 (QP at solver tolerance 1e-8); 1e-4 for the
+    ℓ2 penalty, whose cost is flat in small slack components (a component e costs about
+    ρ e² / (2 ||eps||), so the solver's 1e-8 gap pins it only to ~1e-5).
+    """
+    tol = tol if tol is not None else (1e-4 if penalty == "l2" else 1e-5)
+    N = plan.U.shape[0]
+    if penalty is None:
+        z = plan.U.ravel()
+        cons = linear_constraints(x0, V, Q, N)
+        grad = lambda z: 2 * z  # noqa: E731
+    else:
+        eps = plan.eps.ravel() if per_step else plan.eps
+        z = np.concatenate([plan.U.ravel(), eps])
+        cons = linear_constraints(x0, V, Q, N, n_eps=eps.size, per_step=per_step)
+
+        def grad(z):
+            e = z[3 * N :]
+            de = np.ones_like(e) if penalty == "l1" else e / np.linalg.norm(e)
+            return np.concatenate([2 * z[: 3 * N], rho * de])
+
+    infeas, stat, lam = kkt_certificate(z, grad, cons, lambda z: jacobian(cons, z))
+    assert infeas <= FEAS_TOL, f"plan violates a constraint by {infeas:.2e}"
+    assert stat <= tol, f"plan is not stationary: KKT residual {stat:.2e}"
+    return lam
+
+
+def test_kkt_certificate_fails_for_a_perturbed_plan():
+    """The certificate can fail: a feasible plan moved off the optimum is not stationary."""
+    x0 = np.array([22.4, 21.0, 21.8])
+    V, Q = linear_preview(3, seed=4)
+    plan, _ = solve_linear("qp", x0, V, Q)
+    certify_linear_plan(plan, x0, V, Q)
+    worse = dataclasses.replace(plan, U=plan.U + np.array([0.0, 0.01, 0.01]))  # more air: still feasible
+    with pytest.raises(AssertionError, match="not stationary"):
+        certify_linear_plan(worse, x0, V, Q)
 
 
 @pytest.mark.parametrize("formulation", ["socp", "qp"])
@@ -220,9 +299,8 @@ def test_linear_plan_residuals_and_optimum(formulation):
     assert band_residual(Y[1:]) <= FEAS_TOL  # comfort band (hard)
     assert np.max(plan.U - LIN_UMAX - plan.eps) <= FEAS_TOL and np.max(LIN_UMIN - plan.eps - plan.U) <= FEAS_TOL
     assert np.max(np.abs(plan.eps)) <= FEAS_TOL  # limits reachable: no slack used
-    U_ref, f_ref = brute_force_linear(x0, V, Q)
-    assert_allclose(plan.U, U_ref, rtol=0, atol=1e-5)
-    assert_allclose(plan.obj, f_ref, rtol=1e-7, atol=0)
+    certify_linear_plan(plan, x0, V, Q)  # KKT: the optimum of the hard-limit problem (eps = 0)
+    assert_allclose(plan.obj, np.sum(plan.U**2), rtol=1e-7, atol=0)
     assert np.max(Y[1:, 0]) >= 22.0 - 1e-6  # the band is active: the test constrains the solution
 
 
@@ -247,33 +325,11 @@ def test_socp_and_qp_optimal_when_limits_are_violated():
     for p in (p1, p2):  # both feasible for their own slack
         assert np.max(p.U - LIN_UMAX - p.eps) <= FEAS_TOL
         assert band_residual(p.Y[1:]) <= FEAS_TOL
-    # ℓ2 spreads the slack over the inputs, ℓ1 concentrates it
-    # both optima by brute force: SLSQP over (U, eps >= 0) with each penalty
-    m = linear_model()
-
-    def Y(z):
-        return m.simulate(x0, z[:9].reshape(3, 3), V[:3], Q[:3])[1][1:].ravel()
-
-    cons = [
-        {"type": "ineq", "fun": lambda z: 22.0 - Y(z)},
-        {"type": "ineq", "fun": lambda z: Y(z) - 20.0},
-        {"type": "ineq", "fun": lambda z: np.tile(LIN_UMAX, 3) + np.tile(z[9:], 3) - z[:9]},
-        {"type": "ineq", "fun": lambda z: z[:9] - np.tile(LIN_UMIN, 3) + np.tile(z[9:], 3)},
-    ]
-    z0 = np.concatenate([np.tile(LIN_UMAX, 3) + 1.0, np.ones(3)])
-    l1 = (lambda e: e.sum(), np.ones_like)
-    l2 = (np.linalg.norm, lambda e: e / np.linalg.norm(e))
-    for plan, (pen, dpen) in ((p2, l1), (p1, l2)):  # ℓ1 (QP), ℓ2 (SOCP; eps ≠ 0 here)
-        res = scipy.optimize.minimize(lambda z: z[:9] @ z[:9] + 100.0 * pen(z[9:]), z0, method="SLSQP",
-                                      jac=lambda z: np.concatenate([2 * z[:9], 100.0 * dpen(z[9:])]),
-                                      constraints=cons, bounds=[(0, None)] * 12, options={"ftol": 1e-12, "maxiter": 1000})
-        # SLSQP may stop on "positive directional derivative" at this precision: check its point instead
-        assert res.success or res.status == 8, res.message
-        assert min(float(np.min(c["fun"](res.x))) for c in cons) >= -1e-7 and np.min(res.x) >= -1e-9
-        assert_allclose(plan.obj, res.fun, rtol=1e-6, atol=0)
-        # a move resting on u >= 0 with cost u² is pinned only to ~sqrt(gap tolerance)
-        assert_allclose(plan.U, res.x[:9].reshape(3, 3), rtol=0, atol=1e-3)
-        assert_allclose(plan.eps, res.x[9:], rtol=0, atol=1e-4)
+    # each is the optimum of its own penalty: KKT certificates over (U, eps)
+    certify_linear_plan(p2, x0, V, Q, penalty="l1")
+    certify_linear_plan(p1, x0, V, Q, penalty="l2")
+    for p, pen in ((p2, np.sum(p2.eps)), (p1, np.linalg.norm(p1.eps))):
+        assert_allclose(p.obj, np.sum(p.U**2) + 100.0 * pen, rtol=1e-7, atol=0)
 
 
 def test_soft_band_equals_hard_band_when_feasible_and_reports_violation_otherwise():
@@ -320,20 +376,20 @@ def bilinear_case(model, N, seed):
     return x0, V[30 : 30 + N], Q[30 : 30 + N]  # occupied hours: cutting airflow warms up to T_max
 
 
-def slsqp_bilinear(model, x0, V, Q, N, U0):
-    nu = model.n_inputs
+def certify_bilinear_plan(model, plan, x0, V, Q, u_min, u_max, T_max=22.0, tol=1e-5):
+    """KKT certificate (local) of a bilinear plan for the hard-limit, hard-band problem
+    ``min Σ u² s.t. 20 <= y <= T_max, u_min <= u <= u_max`` with the model's own simulate
+    (Jacobian by central differences)."""
+    N, nu = plan.U.shape
 
-    def Y(z):
-        return model.simulate(x0, z.reshape(N, nu), V, Q)[1][1:].ravel()
+    def cons(z):
+        Y = model.simulate(x0, z.reshape(N, nu), V[:N], Q[:N])[1][1:].ravel()
+        return np.concatenate([T_max - Y, Y - 20.0, np.tile(u_max, N) - z, z - np.tile(u_min, N)])
 
-    cons = [{"type": "ineq", "fun": lambda z: 22.0 - Y(z)}, {"type": "ineq", "fun": lambda z: Y(z) - 20.0}]
-    bounds = list(zip(np.tile(model.m_min, N), np.tile(model.m_max, N)))
-    res = scipy.optimize.minimize(lambda z: z @ z, U0.ravel(), jac=lambda z: 2 * z, bounds=bounds,
-                                  constraints=cons, method="SLSQP", options={"ftol": 1e-13, "maxiter": 1000})
-    # SLSQP may stop on "positive directional derivative" at this precision: check its point instead
-    assert res.success or res.status == 8, res.message
-    assert min(float(np.min(c["fun"](res.x))) for c in cons) >= -1e-7
-    return res.x.reshape(N, nu), res.fun
+    infeas, stat, lam = kkt_certificate(plan.U.ravel(), lambda z: 2 * z, cons, lambda z: jacobian(cons, z, h=1e-6))
+    assert infeas <= FEAS_TOL, f"plan violates a constraint by {infeas:.2e}"
+    assert stat <= tol, f"plan is not stationary: KKT residual {stat:.2e}"
+    return lam
 
 
 @pytest.mark.parametrize("N", [3, 5])
@@ -349,14 +405,14 @@ def test_bilinear_newton_scp_matches_nonlinear_optimum(rc_small, N):
     assert band_residual(Y[1:]) <= FEAS_TOL
     assert np.min(plan.U - m.m_min) >= -FEAS_TOL and np.max(plan.U - m.m_max) <= FEAS_TOL
     assert np.max(Y[1:]) >= 22.0 - 1e-6  # the band binds
-    U_ref, f_ref = slsqp_bilinear(m, x0, V, Q, N, np.tile(m.m_max, (N, 1)))
-    assert_allclose(plan.U, U_ref, rtol=0, atol=1e-5)
-    assert_allclose(plan.obj, f_ref, rtol=1e-7, atol=0)
+    certify_bilinear_plan(m, plan, x0, V, Q, m.m_min, m.m_max)  # a KKT point of the bilinear problem
+    assert_allclose(plan.obj, np.sum(plan.U**2), rtol=1e-7, atol=0)
 
 
 def test_bilinear_frozen_scp_is_feasible_and_near_optimal(rc_small):
     """The frozen-state iteration converges to a feasible plan of the bilinear model whose cost
-    is within 2 % of the nonlinear optimum (it neglects d x̄ / d u in the gradient; 1.3 % here)."""
+    is within 2 % of the nonlinear optimum, the Newton SCP's KKT-certified plan (the frozen
+    iteration neglects d x̄ / d u in the gradient; 1.3 % here)."""
     m = rc_small
     N = 5
     x0, V, Q = bilinear_case(m, N, seed=2)
@@ -366,7 +422,10 @@ def test_bilinear_frozen_scp_is_feasible_and_near_optimal(rc_small):
     assert plan.found and plan.converged
     X, Y = m.simulate(x0, plan.U, V, Q)
     assert band_residual(Y[1:]) <= FEAS_TOL
-    _, f_ref = slsqp_bilinear(m, x0, V, Q, N, np.tile(m.m_max, (N, 1)))
+    ref = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
+                                                         comfort_penalty=None)).plan(x0, V, Q)
+    certify_bilinear_plan(m, ref, x0, V, Q, m.m_min, m.m_max)
+    f_ref = ref.obj
     assert f_ref - 1e-9 <= plan.obj <= 1.02 * f_ref
 
 
@@ -519,7 +578,8 @@ def test_cosim_adapter_runs_model_a_in_band(small_building):
         m_box = ctrl(k, idx[k], np.array([x[1], x[0]]), frame.iloc[k][["T_out", "T_supply"]].to_dict())
         assert m_box.shape == (3,) and np.all(m_box >= lo - 1e-7) and np.all(m_box <= hi + 1e-7)
         u = np.array([m_box[1] + m_box[2], m_box[0]])  # zone airflows seen by the model
-        assert_allclose(u, ctrl.mpc.plans[-1].U[0], rtol=0, atol=1e-12)
+        applied = np.clip(ctrl.mpc.plans[-1].U[0], ctrl.mpc.u_min, ctrl.mpc.u_max)  # the plan's move, projected
+        assert_allclose(u, applied, rtol=0, atol=1e-12)
         x = model.step_state(x, u, frame.iloc[k][["T_out", "T_supply"]].to_numpy(float), np.full(2, 0.9))
         assert band_residual(x) <= FEAS_TOL
     assert ctrl.stats()["failures"] == 0 and ctrl.stats()["steps"] == n
@@ -594,7 +654,7 @@ def test_physics_model_scp_matches_nonlinear_optimum_and_holds_band():
     Q = np.asarray(model.gains["fall"][:n])
     U_hold = np.tile(u_min + 0.25 * (u_max - u_min), (200, 1))
     x0 = model.simulate(np.full(model.n_states, 21.0), U_hold, np.tile(V[0], (200, 1)), np.tile(Q[0], (200, 1)))[0][-1]
-    # one step: SCP vs SLSQP on the bilinear problem, with the model's own simulate
+    # one step: the Newton SCP plan is a KKT point of the bilinear problem (the model's own simulate)
     N = 3
     c = MPCController(model, u_min, u_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
                                                        comfort_penalty=None, T_max=float(model.output(x0).max()) - 0.3))
@@ -604,17 +664,8 @@ def test_physics_model_scp_matches_nonlinear_optimum_and_holds_band():
     assert_allclose(plan.X, X, rtol=0, atol=1e-8)
     assert np.max(Y[1:]) <= c.settings.T_max + FEAS_TOL and np.min(Y[1:]) >= 20.0 - FEAS_TOL
 
-    def Yf(z):
-        return model.simulate(x0, z.reshape(N, 3), V[:N], Q[:N])[1][1:].ravel()
-
-    cons = [{"type": "ineq", "fun": lambda z: c.settings.T_max - Yf(z)}, {"type": "ineq", "fun": lambda z: Yf(z) - 20.0}]
-    res = scipy.optimize.minimize(lambda z: z @ z, np.tile(u_max, N), jac=lambda z: 2 * z, method="SLSQP",
-                                  bounds=list(zip(np.tile(u_min, N), np.tile(u_max, N))), constraints=cons,
-                                  options={"ftol": 1e-13, "maxiter": 500})
-    assert res.success or res.status == 8
-    assert min(float(np.min(cc["fun"](res.x))) for cc in cons) >= -1e-7
-    assert_allclose(plan.obj, res.fun, rtol=1e-6, atol=0)
-    assert_allclose(plan.U, res.x.reshape(N, 3), rtol=0, atol=1e-4)
+    certify_bilinear_plan(model, plan, x0, V, Q, u_min, u_max, T_max=c.settings.T_max)
+    assert_allclose(plan.obj, np.sum(plan.U**2), rtol=1e-7, atol=0)
     # closed loop with the model as its own plant, walls estimated by the Kalman filter
     c2 = MPCController(model, u_min, u_max, MPCSettings(horizon=12, blocks="auto"))
     r = closed_loop(c2, model, x0, np.vstack([V, np.tile(V[-1], (12, 1))]), np.vstack([Q, Q[:12]]), n)
@@ -632,29 +683,9 @@ def test_per_step_slack_matches_brute_force(formulation):
     # the hot start needs slack now; later steps none (ℓ1, exact) or little (ℓ2 spreads a small amount)
     assert np.max(plan.eps[0]) > 0.05
     assert np.max(plan.eps[2]) <= (1e-6 if formulation == "qp" else 0.01 * np.max(plan.eps[0]))
-    m = linear_model()
-
-    def Y(z):
-        return m.simulate(x0, z[:9].reshape(3, 3), V[:3], Q[:3])[1][1:].ravel()
-
-    cons = [
-        {"type": "ineq", "fun": lambda z: 22.0 - Y(z)},
-        {"type": "ineq", "fun": lambda z: Y(z) - 20.0},
-        {"type": "ineq", "fun": lambda z: np.tile(LIN_UMAX, 3) + z[9:] - z[:9]},
-        {"type": "ineq", "fun": lambda z: z[:9] - np.tile(LIN_UMIN, 3) + z[9:]},
-    ]
-    if formulation == "qp":
-        pen, dpen = (lambda e: e.sum()), np.ones_like
-    else:
-        pen, dpen = np.linalg.norm, (lambda e: e / np.linalg.norm(e))
-    z0 = np.concatenate([np.tile(LIN_UMAX, 3) + 1.0, np.ones(9)])
-    res = scipy.optimize.minimize(lambda z: z[:9] @ z[:9] + 100.0 * pen(z[9:]), z0, method="SLSQP",
-                                  jac=lambda z: np.concatenate([2 * z[:9], 100.0 * dpen(z[9:])]),
-                                  constraints=cons, bounds=[(0, None)] * 18, options={"ftol": 1e-12, "maxiter": 1000})
-    assert res.success or res.status == 8, res.message
-    assert min(float(np.min(c["fun"](res.x))) for c in cons) >= -1e-7
-    assert_allclose(plan.obj, res.fun, rtol=1e-6, atol=0)
-    assert_allclose(plan.U, res.x[:9].reshape(3, 3), rtol=0, atol=1e-3)
+    certify_linear_plan(plan, x0, V, Q, penalty="l1" if formulation == "qp" else "l2", per_step=True)
+    pen = np.sum(plan.eps) if formulation == "qp" else np.linalg.norm(plan.eps)
+    assert_allclose(plan.obj, np.sum(plan.U**2) + 100.0 * pen, rtol=1e-7, atol=0)
 
 
 # ---------------------------------------------------------------------------
@@ -683,12 +714,21 @@ def test_mpc_in_harness_on_its_own_fmu_and_on_the_plant(tmp_path, short_paths, s
     mp = model.save(tmp_path / "zones.json")
     week = short_data.weeks[1]
     span = dict(start=week.start, stop=week.start + pd.Timedelta(days=1))
-    own = run_cosim(export_fmu(mp, tmp_path / "Zones.fmu"), short_data,
-                    make_controller("mpc", model, short_data.building, {"horizon": 3}), model=model, **span)
+    ctrl = make_controller("mpc", model, short_data.building, {"horizon": 3})
+    own = run_cosim(export_fmu(mp, tmp_path / "Zones.fmu"), short_data, ctrl, model=model, **span)
     assert own.covered and own.summary["steps_completed"] == 96
-    assert own.summary["controller"] == "mpc" and own.summary["controller_stats"]["failures"] == 0
+    stats = own.summary["controller_stats"]
+    assert own.summary["controller"] == "mpc" and stats["failures"] == 0
     T = own.table[[f"T_{z}" for z in model.outputs]].iloc[1:].to_numpy()
-    assert np.max(np.maximum(T - 22.0, 20.0 - T)) <= 1e-4  # the plant is the model: the band holds
+    M = own.table[[f"m_{b}" for b in short_data.building.vav_names]].iloc[:-1].to_numpy()
+    lo, hi = (np.array([getattr(b, a) for b in short_data.building.vavs]) for a in ("m_min", "m_max"))
+    assert np.all(M >= lo) and np.all(M <= hi)  # the boxes' limits, whatever the plan wanted
+    # the plant is the model: wherever the plan needed no input slack (limits enough), the band holds
+    no_slack = np.array([np.max(p.eps) <= 1e-7 for p in ctrl.mpc.plans])
+    assert no_slack.sum() >= 40
+    assert np.max(np.maximum(T - 22.0, 20.0 - T)[no_slack]) <= 1e-4
+    # the day is too warm for the boxes' m_max at times: the plan's excess is projected and reported
+    assert stats["projected_steps"] == int(np.sum(~no_slack)) > 0 and stats["clipped_box_steps"] == 0
     plant = run_cosim(export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu"), short_data,
                       make_controller("mpc", model, short_data.building, {"horizon": 3}), model=model, **span)
     assert plant.covered and plant.summary["steps_completed"] == 96
@@ -706,3 +746,98 @@ def test_settings_from_harness_options():
     assert (s.T_min, s.T_max) == (20.5, 21.5) and rest == {"failure_dir": "x"}
     s, _ = settings_from_options(band=(20.0, 22.0), T_max=21.0)  # an explicit option beats the run's band
     assert s.T_max == 21.0
+
+
+# ---------------------------------------------------------------------------
+# limits: every applied input inside the box limits, on every model kind
+# ---------------------------------------------------------------------------
+def _week_case(kind, rc_medium):
+    """(model, u_min, u_max, V, Q, x0) for a week (672 steps) with input limits too tight at times."""
+    from harness.mpc.synthetic import delayed_three_zones
+
+    n = 672 + 12
+    if kind == "physics":
+        m = rc_medium
+        V, Q = synthetic_week(m, n, seed=9)
+        return m, m.m_min, 0.6 * m.m_max, V, Q, steady_state_at(m, V[0], Q[0], target=21.0)
+    V, Q = linear_preview(n, seed=3)
+    Q = Q + 0.6 * (np.sin(np.arange(n) * 2 * np.pi / 96)[:, None] > 0.3)  # occupied hours: more heat
+    if kind == "zones":
+        return linear_model(), LIN_UMIN, 0.5 * LIN_UMAX, V, Q, np.full(3, 21.0)
+    m = delayed_three_zones(delay=2, bilinear=kind == "extended-bilinear")
+    if kind == "extended-bilinear":
+        V[:, 0] -= 6.0  # cold nights switch the reheat term on
+    return m, m.m_min, 0.5 * m.m_max, V, Q, np.concatenate([np.full(3, 21.0), np.full(2, m.m_min[2])])
+
+
+@pytest.mark.parametrize("kind", ["zones", "physics", "extended-linear", "extended-bilinear"])
+def test_applied_inputs_stay_inside_limits_over_a_week(kind, rc_medium):
+    """The plan may soften the limits (slack); the applied move never leaves [u_min, u_max], and
+    every projection is counted (model as its own plant, one week, same cost and constraints)."""
+    m, u_min, u_max, V, Q, x0 = _week_case(kind, rc_medium)
+    c = MPCController(m, u_min, u_max, MPCSettings(horizon=3))
+    assert c.bilinear == (kind in ("physics", "extended-bilinear"))
+    assert c.estimated == (kind != "zones")  # hidden states (walls, delay buffers): Kalman filter
+    c.reset(x0=x0 if c.estimated else None)
+    r = closed_loop(c, m, x0, V, Q, 672)
+    assert np.all(r.u >= u_min) and np.all(r.u <= u_max)
+    assert r.summary()["input_excess_max"] == 0.0
+    planned = np.array([p.U[0] for p in c.plans])
+    outside = np.any((planned < u_min) | (planned > u_max), axis=1)
+    st = c.stats()
+    assert st["projected_steps"] == int(outside.sum()) > 0  # the test exercises the projection
+    assert_allclose(st["projected_max"], np.max(np.abs(planned - r.u)), rtol=0, atol=0)
+    assert st["failures"] == 0 and np.all(np.isfinite(r.y))
+
+
+def test_prediction_from_equations_is_exact_for_delay_bilinear_and_switch_terms():
+    """One adapter for every kind: the predictor built from ModelEquations steps exactly like the
+    equations (augmented delay states, bilinear supply-air term, reheat switch), and a converged
+    plan is a trajectory of the model."""
+    from harness.mpc.synthetic import delayed_three_zones
+
+    m = delayed_three_zones(delay=2, bilinear=True)
+    pred = make_predictor(m)
+    assert not pred.linear and not pred.state_is_output and pred.nx == 5
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        x, u = 20 + rng.normal(size=5), rng.uniform(m.m_min, m.m_max)
+        u[1] = m.m_min[1] if rng.uniform() < 0.5 else u[1]  # switch on and off
+        v, q = np.array([rng.uniform(5, 20), 13.0]), rng.uniform(0, 1, 3)
+        assert_allclose(pred.step(x, u, v, q), m.step_state(x, u, v, q), rtol=0, atol=1e-12)
+    V, Q = linear_preview(6, seed=2)
+    V[:, 0] = 8.0  # cold: the reheat switch is live at minimum airflow
+    x0 = np.array([21.0, 20.2, 21.5, 0.3, 0.3])
+    merits = []
+    for max_iter in (1, 2, 3, 8):
+        c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=6, max_iter=max_iter, tol=1e-9))
+        plan = c.plan(x0, V, Q)
+        assert plan.found
+        X = x0[None]
+        for k in range(6):
+            X = np.vstack([X, m.step_state(X[-1], plan.U[k], V[k], Q[k])])
+        assert_allclose(plan.X, X, rtol=0, atol=1e-10)  # the plan is a trajectory of the model
+        assert_allclose(plan.merit, c.merit(plan.U, X), rtol=1e-12, atol=0)
+        merits.append(plan.merit)
+    # the switch makes the iteration cycle (on at minimum airflow, off above): not converged, and
+    # more iterations never return a worse plan than fewer (the best iterate is kept)
+    assert not plan.converged
+    assert np.all(np.diff(merits) <= 1e-9)
+
+
+def test_extended_model_equations_by_probing(tmp_path):
+    """An extended model without its own equations() is probed exactly; a reheat switch is refused."""
+    from harness.mpc.predict import probe_equations
+    from hvacfmu.models.equations import check_equations
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, Reheat, SupplyAirBilinear, ThermalMass
+
+    base = linear_model()
+    ext = ExtendedModel(base=base, terms=(ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="A", coef=0.02),
+                                          ThermalMass(zone="C", alpha=0.05, beta=0.1)))
+    eq = probe_equations(ext)
+    assert eq.bilinear and eq.n_states == 6
+    assert check_equations(ext, eq, n=50, seed=3) <= 1e-12
+    c = MPCController(ext, LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3))
+    assert c.bilinear and c.estimated
+    with pytest.raises(ModelError, match="reheat"):
+        probe_equations(ExtendedModel(base=base, terms=(Reheat(zone="A", coef=0.3, u_min=0.1),)))

@@ -16,7 +16,9 @@ import pandas as pd
 
 from hvacfmu.errors import HvacfmuError, ModelError
 
-from .controller import MPCController, input_limits
+from ..controllers import BoxLimiter
+from .controller import MPCController, input_limits, input_mapping
+from .predict import state_from_outputs
 from .problem import MPCSettings
 
 _SETTING_NAMES = {f.name for f in dataclasses.fields(MPCSettings)}
@@ -101,7 +103,7 @@ class CosimMPC:
             self.Q = np.asarray(model.gains_at(idx, season), dtype=float)
         self._output_map(context)
         self._input_map(context, building)
-        x0 = self._initial_estimate(frame) if self.mpc.bilinear else None
+        x0 = self._initial_estimate(frame) if self.mpc.estimated else None
         self.mpc.reset(x0=x0)
 
     def _initial_estimate(self, frame):
@@ -109,7 +111,7 @@ class CosimMPC:
 
         ``init="outputs"`` (default): hidden states at their steady state for
         the first measured outputs, inputs, disturbances and gains held — how
-        the model FMUs start (:func:`hvacfmu.models.state.state_from_outputs`), so
+        the model FMUs start (:func:`harness.mpc.predict.state_from_outputs`), so
         an MPC run against its own model's FMU starts from the FMU's state.
         ``init="model"``: the model's own estimate (``model.initial_state``,
         a Kalman filter over the run's first rows). Either way the Kalman
@@ -119,23 +121,23 @@ class CosimMPC:
         row = frame.iloc[:1]
         if self.init == "model" and hasattr(model, "initial_state"):
             return np.asarray(model.initial_state(frame, 0), dtype=float)
-        from hvacfmu.models.state import state_from_outputs
-
         u, v = model.signals(row)
         y0 = model.measured_outputs(row)[0]
         if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
             return None  # gaps at the start: the controller's own steady-state initialisation
-        return np.asarray(state_from_outputs(model, y0, u[0], v[0], self.Q[0]), dtype=float)
+        return state_from_outputs(self.mpc.pred, y0, u[0], v[0], self.Q[0])
 
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
         y_model = self._W @ y
         u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N])
-        m = self._split_offset + self._split @ u
-        return np.maximum(m, 0.0)
+        return self.limiter(self._split_offset + self._split @ u)
 
     def stats(self) -> dict:
-        return self.mpc.stats() if self.mpc is not None else {}
+        """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""
+        if self.mpc is None:
+            return {}
+        return {**self.mpc.stats(), **self.limiter.stats()}
 
     # ----- mappings ------------------------------------------------------
     def _output_map(self, context):
@@ -143,6 +145,7 @@ class CosimMPC:
         outs = list(context.outputs)
         model = self.model
         W = np.zeros((len(model.outputs), len(outs)))
+        src = model if hasattr(model, "measured_zones") else getattr(model, "base", model)  # extended: its base
         problems = []
         zone_out = {}
         for j, zs in enumerate(context.output_zones):
@@ -151,8 +154,8 @@ class CosimMPC:
         for i, o in enumerate(model.outputs):
             if f"T_{o}" in outs:
                 W[i, outs.index(f"T_{o}")] = 1.0
-            elif hasattr(model, "measured_zones") and hasattr(model, "output_weights"):
-                for z, w in zip(model.measured_zones, model.output_weights[i]):
+            elif hasattr(src, "measured_zones") and hasattr(src, "output_weights"):
+                for z, w in zip(src.measured_zones, src.output_weights[i]):
                     if w != 0.0 and z not in zone_out:
                         problems.append(f"model output {o!r} needs zone {z!r}, which no FMU output measures")
                     elif w != 0.0:
@@ -175,9 +178,12 @@ class CosimMPC:
         nu = self.mpc.pred.nu
         S = np.zeros((len(vavs), nu))
         off = np.zeros(len(vavs))
-        if hasattr(model, "input_map") and hasattr(model, "vavs"):
+        mapped = input_mapping(model)
+        self.limiter = BoxLimiter(m_min, m_max, vavs)
+        if mapped is not None:
+            m_vavs, input_map = mapped
             for i in range(nu):
-                boxes = [vavs.index(b) for b, w in zip(model.vavs, model.input_map[i]) if w != 0.0 and b in vavs]
+                boxes = [vavs.index(b) for b, w in zip(m_vavs, input_map[i]) if w != 0.0 and b in vavs]
                 if not boxes:
                     raise HvacfmuError(f"model input {model.inputs[i]!r} drives no box of the plant")
                 lo, hi = m_min[boxes], m_max[boxes]

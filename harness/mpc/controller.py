@@ -47,9 +47,10 @@ class Plan:
     Y : array (N+1, ny) [°C] outputs along X
     obj : float   Σ u² + ρ||eps|| (+ comfort penalty)
     iterations : int
-    converged : bool
+    converged : bool  the sequential iteration met ``settings.tol`` (always True for linear models)
     solve_time : float [s]  solver calls only
     step_time : float [s]   whole step (estimation, condensing, solving)
+    merit : float  cost on the exact model trajectory (:meth:`MPCController.merit`; bilinear models)
     """
 
     found: bool
@@ -63,6 +64,7 @@ class Plan:
     converged: bool
     solve_time: float
     step_time: float = 0.0
+    merit: float = float("nan")
 
 
 def _block_starts(lengths):
@@ -110,7 +112,8 @@ class MPCController:
         self.bilinear = not self.pred.linear
         pm = self.settings.prediction
         self.reduced = self.bilinear and (pm == "reduced" or (pm == "auto" and self.N > 24))
-        self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.bilinear else None
+        self.estimated = self.bilinear or not self.pred.state_is_output  # hidden states: Kalman filter
+        self.kf = KalmanFilter(self.pred, self.u_min, kalman_q_std, kalman_r_std) if self.estimated else None
         self.failure_dir = Path(failure_dir) if failure_dir is not None else None
         self._problem = None
         self.reset()
@@ -122,6 +125,9 @@ class MPCController:
         self.plans = []
         self.failed_problems = []
         self.n_failures = 0
+        self.n_projected = 0  # steps whose planned move left [u_min, u_max] (softened limits) and was projected
+        self.projected_max = 0.0  # [kg/s] largest projected difference of one input
+        self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
         self._plan = None
         self._last = None  # (u, v, q) applied at the previous step
         if self.kf is not None:
@@ -131,7 +137,7 @@ class MPCController:
     def estimate(self, y, v, q) -> np.ndarray:
         """State estimate from the measured outputs y (ny,) [°C]."""
         y = np.asarray(y, dtype=float)
-        if self.kf is None:  # Model A: the state is the measured output
+        if self.kf is None:  # the state is the measured output (Model A)
             return y.copy()
         if self.kf.x is None:
             self.kf.initialise(y, v, q, self.u_min)
@@ -155,6 +161,9 @@ class MPCController:
         Returns
         -------
         u : array (nu,) [kg/s]
+            Always inside ``[u_min, u_max]``: the plan may use the softened
+            limits (slack ``eps``), the applied move is its projection onto the
+            limits; the difference is counted in :meth:`stats`.
         """
         t0 = time.perf_counter()
         V = self._preview(V, "V")
@@ -169,6 +178,7 @@ class MPCController:
             u = self._fallback_move()
             shifted = self._shifted_plan()
             self._plan = dataclasses.replace(plan, U=shifted) if shifted is not None else None
+        u = self._project(u)
         plan.step_time = time.perf_counter() - t0
         self.plans.append(plan)
         self._last = (u, V[0], Qg[0])
@@ -186,6 +196,16 @@ class MPCController:
         if not np.all(np.isfinite(A[: self.N])):
             raise ModelError(f"{name} preview contains NaN or infinite values")
         return A[: self.N]
+
+    def _project(self, u) -> np.ndarray:
+        """The move made feasible: clipped to ``[u_min, u_max]``; the difference is counted."""
+        applied = np.clip(u, self.u_min, self.u_max)
+        diff = np.abs(np.asarray(u, dtype=float) - applied)
+        if float(diff.max(initial=0.0)) > 0.0:
+            self.n_projected += 1
+            self.projected_max = max(self.projected_max, float(diff.max()))
+            self.projected_sum += float(diff.sum())
+        return applied
 
     def _shifted_plan(self):
         if self._plan is None:
@@ -217,7 +237,7 @@ class MPCController:
         shifted = self._shifted_plan()
         Ubar = _blocked(shifted, self.lengths) if shifted is not None else np.tile(self.u_min, (self.N, 1))
         Xbar = self.pred.simulate(x0, Ubar, V, Qg)
-        solve_time, best, converged, it = 0.0, None, False, 0
+        solve_time, best, converged, it, last_delta, last_step = 0.0, None, False, 0, np.inf, None
         for it in range(1, s.max_iter + 1):
             if self.reduced:
                 y0, beta, theta = self.pred.reduced_prediction(x0, V, Qg, Xbar=Xbar, Ubar=Ubar,
@@ -242,15 +262,45 @@ class MPCController:
                 break
             X = self.pred.simulate(x0, sol.U, V, Qg)
             delta = float(np.max(np.abs(sol.U - Ubar)))
-            best = (sol, X)
-            Ubar, Xbar = sol.U, X
+            merit = self.merit(sol.U, X)
+            if best is None or merit <= best[2] or delta < s.tol:
+                best = (sol, X, merit)
             if delta < s.tol:
                 converged = True
                 break
+            step = sol.U - Ubar
+            # oscillating (the change reverses) or not contracting: the next reference halfway
+            if delta >= 0.9 * last_delta or (last_step is not None and float(np.sum(step * last_step)) < 0.0):
+                Ubar = Ubar + 0.5 * step
+                Xbar = self.pred.simulate(x0, Ubar, V, Qg)
+                step = 0.5 * step
+            else:
+                Ubar, Xbar = sol.U, X
+            last_delta, last_step = delta, step
         if best is None:
             return self._failed_plan(sol, it, solve_time)
-        sol, X = best
-        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time)
+        sol, X, merit = best
+        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time,
+                    merit=merit)
+
+    def merit(self, U, X) -> float:
+        """The problem's cost of moves U (N, nu) evaluated on the exact model trajectory X (N+1, nx).
+
+        ``Σ ||u||² + ρ ||eps|| + comfort_penalty Σ band violation`` with the slack
+        ``eps`` the moves' actual excess over the limits (shared: the largest
+        per input; per step: every step's) and the band violation of the
+        simulated outputs, not of the linearisation. A hard band weighs its
+        violation by 1e6. Sequential iterations that stop before converging
+        return the iterate with the lowest merit (the best plan found).
+        """
+        s = self.settings
+        exc = np.maximum(0.0, np.maximum(U - self.u_max, self.u_min - U))
+        eps = exc.max(axis=0) if s.slack == "shared" else exc.ravel()
+        pen = float(np.linalg.norm(eps)) if s.formulation == "socp" else float(eps.sum())
+        Y = X[1:] @ self.pred.C.T
+        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - s.T_max, s.T_min - Y))))
+        weight = s.comfort_penalty if s.comfort_penalty is not None else 1e6
+        return float(np.sum(U**2)) + s.rho * pen + weight * viol
 
     def _failed_plan(self, sol, it, solve_time=None):
         nan = np.full((self.N + 1, self.pred.nx), np.nan)
@@ -267,17 +317,35 @@ class MPCController:
 
     # ----- statistics ---------------------------------------------------------
     def stats(self) -> dict:
-        """Solve-time and iteration statistics over the steps so far."""
+        """Solve-time, iteration and limit statistics over the steps so far.
+
+        ``projected_steps``: steps whose planned move used the softened input
+        limits and was projected onto ``[u_min, u_max]``; ``projected_max``
+        [kg/s] the largest difference of one input, ``projected_sum``
+        [kg/s · steps] the summed differences.
+        """
         st = np.array([p.step_time for p in self.plans]) if self.plans else np.zeros(1)
         it = np.array([p.iterations for p in self.plans]) if self.plans else np.zeros(1)
         return {
             "steps": len(self.plans),
             "failures": self.n_failures,
             "not_converged": int(sum(1 for p in self.plans if p.found and not p.converged)),
+            "projected_steps": self.n_projected,
+            "projected_max": self.projected_max,
+            "projected_sum": self.projected_sum,
             "step_time_median": float(np.median(st)),
             "step_time_max": float(np.max(st)),
             "iterations_mean": float(np.mean(it)),
         }
+
+
+def input_mapping(model):
+    """``(vavs, input_map)`` of a model whose inputs aggregate boxes (Model A, and extended models
+    through their base), or None when the inputs are the boxes themselves (``m_<vav>``)."""
+    for m in (model, getattr(model, "base", None)):
+        if m is not None and hasattr(m, "input_map") and hasattr(m, "vavs"):
+            return tuple(m.vavs), np.asarray(m.input_map, dtype=float)
+    return None
 
 
 def input_limits(model, building=None):
@@ -292,13 +360,15 @@ def input_limits(model, building=None):
             return np.asarray(model.m_min, dtype=float), np.asarray(model.m_max, dtype=float)
         raise ModelError("input limits need the building (VAV m_min/m_max)")
     boxes = {v.name: v for v in building.vavs}
-    if hasattr(model, "input_map") and hasattr(model, "vavs"):
-        missing = [b for b in model.vavs if b not in boxes]
+    mapped = input_mapping(model)
+    if mapped is not None:
+        vavs, input_map = mapped
+        missing = [b for b in vavs if b not in boxes]
         if missing:
             raise ModelError(f"model VAV boxes {missing} are not in building {building.name!r}")
-        lo = np.array([boxes[b].m_min for b in model.vavs])
-        hi = np.array([boxes[b].m_max for b in model.vavs])
-        return model.input_map @ lo, model.input_map @ hi
+        lo = np.array([boxes[b].m_min for b in vavs])
+        hi = np.array([boxes[b].m_max for b in vavs])
+        return input_map @ lo, input_map @ hi
     names = [n[2:] if n.startswith("m_") else n for n in model.inputs]
     missing = [n for n in names if n not in boxes]
     if missing:

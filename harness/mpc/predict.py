@@ -65,9 +65,19 @@ class AffinePredictor:
         return self.basis.shape[1]
 
     # --- to be provided -----------------------------------------------------
-    def drift(self, V, Qg) -> np.ndarray:
-        """w(k) (N, nx): disturbance and gain terms, for v (N, nv), q (N, nq)."""
+    def drift(self, V, Qg, Ubar=None) -> np.ndarray:
+        """w(k) (N, nx): disturbance, gain and switch terms, for v (N, nv), q (N, nq).
+
+        Switches (piecewise terms of :class:`~hvacfmu.models.equations.ModelEquations`)
+        are evaluated at the reference moves ``Ubar`` (N, nu) (the airflow
+        floor ``u_min`` when None): a switch is data for one convex iteration.
+        """
         raise NotImplementedError
+
+    @property
+    def state_is_output(self) -> bool:
+        """True when ``y = x`` (the measured outputs are the whole state)."""
+        return self.C.shape[0] == self.C.shape[1] and bool(np.array_equal(self.C, np.eye(self.C.shape[0])))
 
     def beta(self, Xbar, V) -> np.ndarray:
         """Reduced input matrices β_k (N, r, nu) at reference states ``Xbar`` (N, nx)."""
@@ -156,7 +166,7 @@ class AffinePredictor:
         G : array (N ny, n_blocks nu)
         """
         N = V.shape[0]
-        W = self.drift(V, Qg)
+        W = self.drift(V, Qg, Ubar)
         if self.linear or mode == "frozen":
             Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
             beta = self.beta(Xr, V)
@@ -245,7 +255,7 @@ class AffinePredictor:
         N = V.shape[0]
         if self.linear or mode == "frozen":
             Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
-            Xf = self.free_trajectory(x0, self.drift(V, Qg))
+            Xf = self.free_trajectory(x0, self.drift(V, Qg, Ubar))
             return (Xf[1:] @ self.C.T).ravel(), self.beta(Xr, V), None
         if Ubar is None:
             raise ModelError("the full linearisation needs reference moves Ubar")
@@ -263,28 +273,35 @@ class AffinePredictor:
 
 
 class LinearPredictor(AffinePredictor):
-    """Model A: ``x+ = A x + B u + C_v v + q``, y = x. Built from a ``LinearZoneModel``."""
+    """Linear models: ``x+ = A x + Bu u + Bv v + Bq q``, ``y = C x``.
+
+    Built from a :class:`~hvacfmu.models.equations.ModelEquations` without
+    bilinear terms or switches (Model A: ``C = I``, the state is the measured
+    output; linear extended models may carry hidden states, which the
+    controller then estimates with a Kalman filter).
+    """
 
     linear = True
 
-    def __init__(self, model):
+    def __init__(self, eq):
         super().__init__()
-        self.A = np.asarray(model.A, dtype=float)
-        self.B = np.asarray(model.B, dtype=float)
-        self.Cv = np.asarray(model.C, dtype=float)
-        self.C = np.eye(self.A.shape[0])
+        self.A = _dense(eq.A)
+        self.B = _dense(eq.Bu)
+        self.Bv = _dense(eq.Bv)
+        self.Bq = _dense(eq.Bq)
+        self.C = _dense(eq.C)
         self.basis = np.eye(self.A.shape[0])
         self.nu = self.B.shape[1]
         self._G = {}
 
-    def drift(self, V, Qg):
-        return V @ self.Cv.T + Qg
+    def drift(self, V, Qg, Ubar=None):
+        return V @ self.Bv.T + Qg @ self.Bq.T
 
     def beta(self, Xbar, V):
         return np.broadcast_to(self.B, (V.shape[0],) + self.B.shape)
 
     def step(self, x, u, v, q):
-        return self.A @ x + self.B @ u + self.Cv @ v + q
+        return self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q
 
     def sensitivity(self, beta, lengths, theta=None):
         key = (beta.shape[0], tuple(lengths))
@@ -294,15 +311,19 @@ class LinearPredictor(AffinePredictor):
 
 
 class BilinearPredictor(AffinePredictor):
-    """Model B: ``x+ = A x + Bv v + Bq q + Σ_i u_i (Bxu_i x + Bvu_i v)``, y = C x.
+    """Bilinear models: ``x+ = A x + Bu u + Bv v + Bq q + Σ_i u_i (Bxu_i x + Bvu_i v) + switches``, ``y = C x``.
+
+    Model B (``Bu = 0``), extended models with bilinear terms (supply-air
+    terms, reheat switches) and the synthetic RC networks.
 
     Parameters
     ----------
-    mats : BilinearMatrices-like with fields ``A, Bv, Bq, Bxu, Bvu, C``
-        (``Bxu``/``Bvu`` lists of n_vav matrices, dense or scipy.sparse).
+    mats : ModelEquations or BilinearMatrices-like
+        Fields ``A, Bv, Bq, Bxu, Bvu, C`` (``Bxu``/``Bvu`` lists of nu matrices,
+        dense or scipy.sparse, or empty); optional ``Bu`` (nx, nu) and ``switches``.
     rank_tol : float
         Relative eigenvalue threshold on the Gram matrix ``Σ M Mᵀ`` of the
-        bilinear terms for the airflow-reachable basis (the projection is then
+        input terms for the airflow-reachable basis (the projection is then
         checked to reproduce every term to 1e-9 relative).
     """
 
@@ -312,23 +333,29 @@ class BilinearPredictor(AffinePredictor):
         self.Bv = _dense(mats.Bv)
         self.Bq = _dense(mats.Bq)
         self.C = _dense(mats.C)
-        Bxu = [sparse.csr_matrix(M) for M in mats.Bxu]
-        Bvu = [sparse.csr_matrix(M) for M in mats.Bvu]
         nx, nv = self.A.shape[0], self.Bv.shape[1]
+        nu = max(len(mats.Bxu), len(mats.Bvu), np.shape(getattr(mats, "Bu", np.zeros((nx, 0))))[1])
+        Bu = getattr(mats, "Bu", None)
+        Bu = np.zeros((nx, nu)) if Bu is None else _dense(Bu)
+        Bxu = [sparse.csr_matrix(M) for M in mats.Bxu] or [sparse.csr_matrix((nx, nx)) for _ in range(nu)]
+        Bvu = [sparse.csr_matrix(M) for M in mats.Bvu] or [sparse.csr_matrix((nx, nv)) for _ in range(nu)]
         problems = []
-        if len(Bxu) != len(Bvu):
-            problems.append(f"{len(Bxu)} Bxu matrices but {len(Bvu)} Bvu matrices")
+        if not len(Bxu) == len(Bvu) == Bu.shape[1]:
+            problems.append(f"{len(Bxu)} Bxu matrices, {len(Bvu)} Bvu matrices and {Bu.shape[1]} Bu columns")
         for name, Ms, shape in (("Bxu", Bxu, (nx, nx)), ("Bvu", Bvu, (nx, nv))):
             problems += [f"{name}[{i}] has shape {M.shape}, expected {shape}" for i, M in enumerate(Ms) if M.shape != shape]
-        if self.C.shape[1] != nx or self.Bq.shape[0] != nx or self.Bv.shape[0] != nx:
-            problems.append(f"C {self.C.shape}, Bv {self.Bv.shape}, Bq {self.Bq.shape} do not match nx = {nx}")
+        if self.C.shape[1] != nx or self.Bq.shape[0] != nx or self.Bv.shape[0] != nx or Bu.shape[0] != nx:
+            problems.append(f"C {self.C.shape}, Bv {self.Bv.shape}, Bq {self.Bq.shape}, Bu {Bu.shape} "
+                            f"do not match nx = {nx}")
         if problems:
             raise ModelError("bilinear matrices: " + "; ".join(problems))
         self.nu = len(Bxu)
-        S = sparse.hstack(Bxu + Bvu, format="csr")  # every column the airflows can add
+        self.switches = tuple(getattr(mats, "switches", ()) or ())
+        S = sparse.hstack([sparse.csr_matrix(Bu)] + Bxu + Bvu, format="csr")  # every column the airflows can add
         if S.nnz > 0.2 * S.shape[0] * S.shape[1]:
             S = S.toarray()
         self.basis = self._reachable_basis(S, nx, rank_tol)
+        self.PtBu = self.basis.T @ Bu  # (r, nu)
         self.PtBxu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bxu])  # (nu, r, nx)
         self.PtBvu = np.stack([np.asarray((M.T @ self.basis).T) for M in Bvu])  # (nu, r, nv)
         # the projection must reproduce the bilinear terms exactly
@@ -345,24 +372,39 @@ class BilinearPredictor(AffinePredictor):
             P = np.zeros((nx, rows.size))
             P[rows, np.arange(rows.size)] = 1.0
             return P
-        gram = S @ S.T  # range of [Bxu_1 ... Bvu_n] = range of S Sᵀ
+        gram = S @ S.T  # range of [Bu Bxu_1 ... Bvu_n] = range of S Sᵀ
         gram = gram.toarray() if sparse.issparse(gram) else np.asarray(gram)
         w, V = np.linalg.eigh(gram)
         keep = w > rank_tol * max(w.max(), 1e-300)
         return V[:, keep]
 
-    def drift(self, V, Qg):
-        return V @ self.Bv.T + Qg @ self.Bq.T
+    def _switch_terms(self, U, V) -> np.ndarray:
+        """Σ_s [switch s on] scale_s g_s for moves U (..., nu) and disturbances V (..., nv)."""
+        out = np.zeros(np.broadcast_shapes(U.shape[:-1], V.shape[:-1]) + (self.nx,))
+        for sw in self.switches:
+            scale = 1.0 if sw.scale_by is None else V[..., sw.scale_by : sw.scale_by + 1]
+            out = out + sw.active(U, V)[..., None] * scale * np.asarray(sw.gain, dtype=float)
+        return out
+
+    def drift(self, V, Qg, Ubar=None):
+        W = V @ self.Bv.T + Qg @ self.Bq.T
+        if self.switches:
+            W = W + self._switch_terms(np.zeros((V.shape[0], self.nu)) if Ubar is None else Ubar, V)
+        return W
 
     def beta(self, Xbar, V):
-        return np.einsum("irn,kn->kri", self.PtBxu, Xbar) + np.einsum("irv,kv->kri", self.PtBvu, V)
+        return (self.PtBu[None] + np.einsum("irn,kn->kri", self.PtBxu, Xbar)
+                + np.einsum("irv,kv->kri", self.PtBvu, V))
 
     def theta(self, Ubar):
         return np.einsum("ki,irn->krn", Ubar, self.PtBxu)
 
     def step(self, x, u, v, q):
-        bu = np.einsum("irn,n->ri", self.PtBxu, x) + np.einsum("irv,v->ri", self.PtBvu, v)
-        return self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
+        bu = self.PtBu + np.einsum("irn,n->ri", self.PtBxu, x) + np.einsum("irv,v->ri", self.PtBvu, v)
+        out = self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
+        if self.switches:
+            out = out + self._switch_terms(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
+        return out
 
     def state_matrix(self, u) -> np.ndarray:
         """``A + Σ_i u_i Bxu_i`` at airflows u (nu,) [kg/s]."""
@@ -446,10 +488,100 @@ class KalmanFilter:
         return self.x
 
 
+def model_equations(model):
+    """The model's :class:`~hvacfmu.models.equations.ModelEquations`, or None if it cannot give one.
+
+    ``model.equations()`` when the kind implements it; otherwise, for zone
+    models with ``step_state`` and ``gains``, the equations found by probing
+    (:func:`probe_equations`, exact or refused).
+    """
+    if hasattr(model, "equations"):
+        try:
+            return model.equations()
+        except NotImplementedError:
+            pass
+    if hasattr(model, "step_state") and hasattr(model, "gains") and hasattr(model, "n_states"):
+        return probe_equations(model)
+    return None
+
+
+def probe_equations(model):
+    """:class:`~hvacfmu.models.equations.ModelEquations` of a model bilinear in its inputs, by probing ``step_state``.
+
+    Evaluates ``step_state`` on unit vectors (``nx (nu + 1) + nv (nu + 1) + nq + nu`` points) and
+    verifies the result with :func:`hvacfmu.models.equations.check_equations` on random signals.
+    Piecewise terms (switches such as reheat) are not bilinear: the check fails and the model is
+    refused with the difference, so a kind with such terms must implement ``equations()``.
+    """
+    from hvacfmu.models.equations import ModelEquations, check_equations
+
+    nx, nu, nv = int(model.n_states), len(model.inputs), len(model.disturbances)
+    nq = np.asarray(next(iter(model.gains.values()))).shape[1]
+
+    def f(x=None, u=None, v=None, q=None):
+        z = lambda a, n: np.zeros(n) if a is None else a  # noqa: E731
+        return np.asarray(model.step_state(z(x, nx), z(u, nu), z(v, nv), z(q, nq)), dtype=float)
+
+    Ix, Iu, Iv, Iq = np.eye(nx), np.eye(nu), np.eye(nv), np.eye(nq)
+    A = np.column_stack([f(x=e) for e in Ix])
+    Bu = np.column_stack([f(u=e) for e in Iu]) if nu else np.zeros((nx, 0))
+    Bv = np.column_stack([f(v=e) for e in Iv]) if nv else np.zeros((nx, 0))
+    Bq = np.column_stack([f(q=e) for e in Iq]) if nq else np.zeros((nx, 0))
+    Bxu = tuple(np.column_stack([f(x=e, u=ei) - A[:, j] - Bu[:, i] for j, e in enumerate(Ix)])
+                for i, ei in enumerate(Iu))
+    Bvu = tuple(np.column_stack([f(v=e, u=ei) - Bv[:, j] - Bu[:, i] for j, e in enumerate(Iv)]) if nv
+                else np.zeros((nx, 0)) for i, ei in enumerate(Iu))
+    scale = max(1.0, float(np.abs(A).max()))
+    bilinear = any(np.abs(M).max(initial=0.0) > 1e-12 * scale for M in Bxu + Bvu)
+    C = np.asarray(model.output(np.eye(nx)), dtype=float).T
+    eq = ModelEquations(step=float(model.step), A=A, Bu=Bu, Bv=Bv, Bq=Bq, C=C, inputs=tuple(model.inputs),
+                        disturbances=tuple(model.disturbances), outputs=tuple(model.outputs),
+                        gains=dict(model.gains), Bxu=Bxu if bilinear else (), Bvu=Bvu if bilinear else ())
+    try:
+        check_equations(model, eq, atol=1e-8)
+    except ModelError as exc:
+        raise ModelError(f"MPC needs the equations of the {getattr(model, 'kind', '?')} model: it has no "
+                         f"equations() and is not bilinear in its inputs when probed ({exc}); piecewise "
+                         "terms such as reheat need the kind's own equations()") from None
+    return eq
+
+
 def make_predictor(model):
-    """Predictor for a zone model: bilinear if it exposes ``discrete_matrices()``, else linear."""
+    """Predictor for a zone model, from ``model.equations()`` (any linear or bilinear kind).
+
+    Linear equations without switches give a :class:`LinearPredictor` (one QP
+    per step); bilinear terms or switches a :class:`BilinearPredictor`
+    (sequential convex programming). Objects without ``equations()`` but with
+    ``discrete_matrices()`` (the synthetic RC networks) are bilinear.
+    """
+    eq = model_equations(model)
+    if eq is not None:
+        if not eq.bilinear and not eq.switches:
+            return LinearPredictor(eq)
+        return BilinearPredictor(eq)
     if hasattr(model, "discrete_matrices"):
         return BilinearPredictor(model.discrete_matrices())
-    if all(hasattr(model, a) for a in ("A", "B", "C")):
-        return LinearPredictor(model)
-    raise ModelError(f"no MPC predictor for model kind {getattr(model, 'kind', type(model).__name__)!r}")
+    raise ModelError(f"no MPC predictor for model kind {getattr(model, 'kind', type(model).__name__)!r}: "
+                     "it provides neither equations() nor discrete_matrices()")
+
+
+def state_from_outputs(pred, y0, u, v, q) -> np.ndarray:
+    """State with outputs ``y0`` [°C] and the unobserved states at their steady state.
+
+    The steady state of ``x = A(u) x + c`` restricted to the states the outputs
+    do not fix (``C x = y0`` held), for inputs ``u``, disturbances ``v`` and
+    gains ``q`` held — how the model FMUs start. For ``y = x`` this is ``y0``.
+    """
+    y0 = np.asarray(y0, dtype=float)
+    if pred.state_is_output:
+        return y0.copy()
+    C = pred.C
+    Au = pred.state_matrix(u) if hasattr(pred, "state_matrix") else pred.A
+    c = pred.step(np.zeros(pred.nx), u, v, q)  # affine part at x = 0
+    xp = np.linalg.pinv(C) @ y0
+    Nb = scipy.linalg.null_space(C)
+    if Nb.shape[1] == 0:
+        return xp
+    R = Nb.T @ (Au - np.eye(pred.nx))  # steady state of the unobserved part: Nᵀ((A - I) x + c) = 0
+    z = np.linalg.lstsq(R @ Nb, -(Nb.T @ c) - R @ xp, rcond=None)[0]
+    return xp + Nb @ z

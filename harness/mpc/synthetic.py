@@ -240,3 +240,88 @@ def synthetic_week(model: RCNetworkModel, n_steps=672, seed=0, T_out_mean=16.0, 
     occupied = ((hour >= 8) & (hour < 18) & (day < 5)).astype(float)
     Q = zone_area[None, :] * (8.0 + 14.0 * occupied[:, None]) * rng.uniform(0.9, 1.1, (n_steps, nz))
     return V, Q
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class EquationsModel:
+    """A zone model defined only by its :class:`~hvacfmu.models.equations.ModelEquations`.
+
+    For tests and benchmarks of the MPC adapter on model structures no fitted
+    kind has yet (augmented delay states, switches): ``step_state`` and
+    ``output`` are the equations' own.
+    """
+
+    eq: object
+    m_min: np.ndarray
+    m_max: np.ndarray
+    kind: str = "equations"
+
+    def equations(self):
+        return self.eq
+
+    @property
+    def inputs(self) -> tuple:
+        return tuple(self.eq.inputs)
+
+    @property
+    def outputs(self) -> tuple:
+        return tuple(self.eq.outputs)
+
+    @property
+    def disturbances(self) -> tuple:
+        return tuple(self.eq.disturbances)
+
+    @property
+    def n_states(self) -> int:
+        return self.eq.n_states
+
+    @property
+    def step(self) -> float:
+        return float(self.eq.step)
+
+    def step_state(self, x, u, v, q):
+        return self.eq.step_state(x, u, v, q)
+
+    def output(self, x):
+        return self.eq.output(x)
+
+
+def delayed_three_zones(delay=1, bilinear=False) -> EquationsModel:
+    """Three zones cooled by airflow, zone C's airflow acting ``delay`` steps late (augmented states).
+
+    ``bilinear=True`` adds a supply-air term ``0.02 u_A (T_supply - T_A)`` on zone A and a reheat
+    switch on zone B (+0.3 K per step at minimum airflow when ``T_out < 12 °C``), the structure of
+    extended models with ``actuation_delay``, a bilinear supply term and ``reheat``.
+    """
+    from hvacfmu.models.equations import ModelEquations, Switch
+
+    nz, nx = 3, 3 + delay
+    A = np.zeros((nx, nx))
+    A[:3, :3] = [[0.90, 0.03, 0.00], [0.03, 0.88, 0.04], [0.00, 0.04, 0.90]]
+    Bu = np.zeros((nx, 3))
+    Bu[0, 0], Bu[1, 1] = -0.8, -1.1
+    A[2, 3] = -0.9  # zone C sees the oldest buffered airflow
+    for j in range(3, nx - 1):
+        A[j, j + 1] = 1.0  # the buffer shifts
+    Bu[nx - 1, 2] = 1.0  # the newest entry is today's command
+    Bv = np.zeros((nx, 2))
+    Bv[:3] = [[0.05, 0.02], [0.05, 0.03], [0.04, 0.02]]
+    Bq = np.zeros((nx, nz))
+    Bq[:3] = np.eye(3)
+    C = np.zeros((nz, nx))
+    C[:, :3] = np.eye(3)
+    kw = {}
+    u_min, u_max = np.array([0.1, 0.05, 0.05]), np.array([1.2, 1.2, 0.9])
+    if bilinear:
+        Bxu = [np.zeros((nx, nx)) for _ in range(3)]
+        Bvu = [np.zeros((nx, 2)) for _ in range(3)]
+        Bxu[0][0, 0], Bvu[0][0, 1] = -0.02, 0.02
+        g = np.zeros(nx)
+        g[1] = 0.3
+        kw = dict(Bxu=tuple(Bxu), Bvu=tuple(Bvu),
+                  switches=(Switch(g, input_index=1, input_below=u_min[1] + 1e-9, disturbance_index=0,
+                                   disturbance_below=12.0, name="reheat_B"),))
+    eq = ModelEquations(step=900.0, A=A, Bu=Bu, Bv=Bv, Bq=Bq, C=C, inputs=("m_A", "m_B", "m_C"),
+                        disturbances=("T_out", "T_supply"), outputs=("A", "B", "C"),
+                        gains={"fall": np.full((672, nz), 0.5)}, **kw)
+    return EquationsModel(eq, u_min, u_max, kind="extended" if bilinear else "equations")

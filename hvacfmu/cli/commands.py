@@ -47,6 +47,7 @@ def _load_dataset(args):
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
         timezone=args.timezone,
+        progress=not args.quiet,
     )
 
 
@@ -55,23 +56,38 @@ def _cmd_check(args):
     import hvacfmu as hf
 
     report = hf.check(args.data, args.building, step=args.step, seed=args.seed,
-                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone)
+                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone, progress=not args.quiet)
     print(report)
     return 0 if report.ok else 1
 
 
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
+    if args.engine == "energyplus":
+        from ..energyplus import generate_from_args
+
+        print(generate_from_args(args))
+        return 0
     import hvacfmu as hf
 
     from ..emulator import parse_effect
 
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = hf.generate(
-        args.outdir, weeks=args.weeks, seed=args.seed, effects=effects, fmt=args.format, layout=args.layout,
-        construction=args.construction, climate=args.climate, start=args.start,
+        args.outdir, weeks=51 if args.weeks is None else args.weeks, seed=args.seed, effects=effects,
+        fmt=args.format, layout=args.layout, construction=args.construction, climate=args.climate,
+        start=args.start or "2025-09-01", hvac=args.hvac, units=args.units,
+        clock=args.clock, export_step=args.export_step, faults=args.fault or (),
     )
     print(paths)
+    return 0
+
+
+def _cmd_generate_fleet(args):
+    from ..emulator import generate_fleet
+
+    path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
+    print(f"fleet manifest: {path}")
     return 0
 
 
@@ -79,8 +95,15 @@ def _cmd_generate(args):
 def _cmd_fit(args):
     import hvacfmu as hf
 
+    options = {}
+    if args.heat is not None:
+        if args.model not in ("lumped", "zones"):
+            print(f"hvacfmu: error: --heat applies to Model A (lumped, zones), not {args.model}; the physics model "
+                  "always uses each box's Td_<vav> where measured", file=sys.stderr)
+            return 2
+        options["heat"] = args.heat
     dataset = _load_dataset(args)
-    model = hf.fit(dataset, args.model, progress=not args.quiet)
+    model = hf.fit(dataset, args.model, progress=not args.quiet, **options)
     path = model.save(args.output)
     print(f"saved {args.model} model to {path}")
     summary = getattr(model, "summary", None)
@@ -109,7 +132,7 @@ def _cmd_evaluate(args):
 def _cmd_export(args):
     from ..fmu import export_file
 
-    path = export_file(args.model, args.output, timezone=args.timezone)
+    path = export_file(args.model, args.output, timezone=args.timezone, native=args.native, building=args.building)
     print(f"wrote {path}")
     return 0
 
@@ -146,6 +169,17 @@ def _cmd_demo(args):
     return 1 if result.failed else 0
 
 
+def _cmd_fleet(args):
+    from ..fleet import fleet
+
+    result = fleet(args.source, stages=args.stages, out=args.out, scheduler=args.scheduler,
+                   n_workers=args.workers, kinds=tuple(args.kind or ("lumped", "zones")),
+                   progress=False if args.quiet else None)
+    print(result.summary())
+    print(f"table: {result.out / 'fleet.parquet'} and fleet.csv; report: {result.out / 'report.html'}")
+    return 1 if result.failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..models.registry import fittable_kinds
 
@@ -164,7 +198,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
-    p.add_argument("--weeks", type=int, default=51)
+    p.add_argument("--engine", choices=("emulator", "energyplus"), default="emulator",
+                   help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')")
+    p.add_argument("--weeks", type=int, default=None, help="length [weeks] (emulator default 51, energyplus: a year)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
         "--effect",
@@ -179,14 +215,37 @@ def build_parser() -> argparse.ArgumentParser:
                    help="construction template (default medium: the SDH-like concrete frame)")
     p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
-    p.add_argument("--start", default="2025-09-01", metavar="YYYY-MM-DD", help="local start date (default 2025-09-01)")
+    p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
+                   help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
+    p.add_argument("--hvac", choices=("vav", "reheat", "reheat-dual"), default="vav",
+                   help="vav (default), reheat: real-BMS-like VAV with reheat at constant minimum airflow, two air "
+                        "handlers, Td_/rh_ columns; reheat-dual: the same with dual-maximum boxes")
+    p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
+    p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
+                   help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
+    p.add_argument("--export-step", type=int, default=60, metavar="SECONDS", help="trend-log interval (default 60)")
+    p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
+                   help="real-world export defect (repeatable)")
+    from ..energyplus.cli import add_energyplus_arguments
+
+    add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
+
+    p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
+    p.add_argument("n", type=int, metavar="N")
+    p.add_argument("outdir", metavar="DIR")
+    p.add_argument("--weeks", type=int, default=51, help="length of every dataset (default 51)")
+    p.add_argument("--seed", type=int, default=0, help="draws layouts, constructions, climates, effects, modes")
+    p.set_defaults(func=_cmd_generate_fleet)
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
     p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
                    help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
+    p.add_argument("--heat", choices=("auto", "airflow", "delivered"),
+                   help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
+                   "are measured or an air handler is often off, else the paper's airflow form)")
     p.set_defaults(func=_cmd_fit)
 
     p = sub.add_parser("evaluate", help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
@@ -204,6 +263,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", required=True, help="FMU to write")
     p.add_argument("--timezone", help="IANA time zone of the building (e.g. America/Los_Angeles); lets the FMU of a "
                    "model with calendar terms (holidays) follow the calendar through its start_time parameter")
+    p.add_argument("--building", "-b", help="building file (TOML) the model was fitted on: box airflow bounds "
+                   "(m_max) and zones in the model description")
+    p.add_argument("--native", action="store_true", help="native FMU: the model as generated C code compiled "
+                   "with the system C compiler, no Python at run time (linear/bilinear model kinds)")
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
@@ -229,6 +292,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("fleet", help="run check/fit/evaluate/diagnose/export over many buildings on Dask")
+    p.add_argument("source", help="folder of building folders, a folder with fleet.json, or a manifest (.json/.csv)")
+    p.add_argument("--stages", default="check,fit,evaluate",
+                   help="comma-separated subset of check,fit,evaluate,diagnose,export (default check,fit,evaluate)")
+    p.add_argument("--out", default="hvacfmu-fleet", help="output folder (default ./hvacfmu-fleet)")
+    p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=int, help="local workers (default: the machine's cores)")
+    p.add_argument("--kind", action="append", choices=fittable_kinds(),
+                   help="model kind to fit (repeatable; default lumped and zones)")
+    p.set_defaults(func=_cmd_fleet)
     return parser
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import numbers
 import warnings
 from pathlib import Path
 
@@ -12,8 +13,10 @@ import numpy as np
 import pandas as pd
 
 from ..building import ORIENTATIONS, Building
-from ..errors import DataError, HvacfmuWarning
+from ..errors import DataError, HvacfmuWarning, problems_message
+from ..progress import Progress
 from .loading import LoadReport, as_building, load_measurements
+from .plausibility import check_discharge
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
 from .solar import facade_irradiance
 
@@ -218,7 +221,7 @@ class Dataset:
         warnings_=None,
         coverage=None,
         load_report=None,
-    ) -> "Dataset":
+    ) -> Dataset:
         """A dataset from a frame already on the model step (weeks, split and facade irradiance added).
 
         ``frame`` must have a regular tz-aware index ``step`` apart and
@@ -285,6 +288,8 @@ def primary_supply(frame: pd.DataFrame, building: Building) -> np.ndarray:
     airflow is missing or the total is 0, weighted by the units' summed
     ``m_max`` instead. NaN where any unit's supply temperature is missing.
     """
+    if len(building.ahus) == 1:
+        return frame[building.ahus[0].supply_column].to_numpy(dtype=float, copy=True)
     n = len(frame)
     temps = np.column_stack([frame[c].to_numpy(dtype=float) for c in building.supply_columns()]) if n else np.zeros((0, 0))
     flows = np.zeros((n, len(building.ahus)))
@@ -310,7 +315,7 @@ def _check_step_frame(frame: pd.DataFrame, step: float) -> None:
         raise DataError("a dataset frame needs a tz-aware DatetimeIndex (local time of the building)")
     if len(idx) > 1:
         d = np.diff(idx.as_unit("ns").asi8)
-        bad = np.flatnonzero(d != int(round(step * 1e9)))
+        bad = np.flatnonzero(d != round(step * 1e9))
         if len(bad):
             raise DataError(
                 f"a dataset frame must be regular with the model step {step:g} s; {len(bad)} spacing(s) differ, "
@@ -337,6 +342,7 @@ def prepare(
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
     timezone: str | None = None,
+    progress: bool = False,
 ) -> Dataset:
     """Load, validate, resample and split a measurements file.
 
@@ -359,6 +365,9 @@ def prepare(
     timezone : str, optional
         Zone of the data's naive timestamps (e.g. ``"UTC"``), overriding the
         building's ``data_timezone`` (default: the building's ``timezone``).
+    progress : bool
+        Show the stages (load, gaps, resampling, solar and weeks): a bar on a
+        terminal, log lines otherwise (:mod:`hvacfmu.progress`).
 
     Returns
     -------
@@ -375,44 +384,119 @@ def prepare(
         For each entry of :attr:`Dataset.warnings`.
     """
     building = as_building(building, timezone)
-    dataset = _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage)
+    dataset = _prepare(
+        path, building, step, seed, train_fraction, interpolate_limit, min_coverage, progress=progress
+    )
     for w in dataset.warnings:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     return dataset
 
 
-def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None):
-    building = as_building(building)
-    if loaded is None:
-        raw, report = load_measurements(path, building)
-    else:
-        raw, report = loaded
-    notes = list(report.warnings)
-    column_steps = dict(report.column_steps)
-    if interpolate_limit is not None:
-        before = int(np.isfinite(raw.to_numpy()).sum())
-        raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
-        filled = int(np.isfinite(raw.to_numpy()).sum()) - before
-        notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
-    frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
-    coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
-    if coarse:
-        notes.append(
-            f"column(s) {', '.join(coarse)} sampled more coarsely than the {step:g} s step: "
-            "interpolated linearly to the step midpoints"
-        )
-    return Dataset.from_frame(
-        frame,
-        building,
-        step=step,
-        seed=seed,
-        train_fraction=train_fraction,
-        source=str(Path(path)),
-        sha256=file_sha256(path),
-        warnings_=notes,
-        coverage=coverage,
-        load_report=report,
+#: Columns with a value in fewer model steps than this share are refused by ``check`` (warned by ``prepare``).
+MIN_COLUMN_COVERAGE = 0.5
+
+
+def sparse_columns(frame: pd.DataFrame, threshold: float = MIN_COLUMN_COVERAGE) -> dict:
+    """Measured columns holding a value in fewer than ``threshold`` of the rows -> their coverage [0..1].
+
+    ``excitation`` and computed facade irradiance are not measured columns and are skipped.
+    """
+    out = {}
+    for col in frame.columns:
+        if col == "excitation" or col in FACADE_COLUMNS:
+            continue
+        cov = float(np.isfinite(frame[col].to_numpy(dtype=float)).mean()) if len(frame) else 0.0
+        if cov < threshold:
+            out[col] = cov
+    return out
+
+
+def sparse_message(name: str, canonical: str, coverage: float, threshold: float = MIN_COLUMN_COVERAGE) -> str:
+    """The message naming a column too sparse for the models (see :data:`MIN_COLUMN_COVERAGE`)."""
+    what = "a required column" if canonical.startswith(("T_", "m_")) else "an optional column"
+    return (
+        f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
+        + f": a value in only {100 * coverage:.1f} % of the model steps, below the {100 * threshold:g} % that "
+        f"fitting and evaluation need ({what}); trim the file to the span the sensor covers, fix the export"
+        + ("" if what.startswith("a required") else ", or drop the column")
     )
 
 
-__all__ = ["Dataset", "Week", "make_weeks", "prepare", "primary_supply", "file_sha256"]
+def option_problems(step, train_fraction=0.9, interpolate_limit=None, min_coverage=MIN_COVERAGE) -> list[str]:
+    """Problems of the numeric options of :func:`prepare` (empty if fine), each naming the option and the fix."""
+    problems = []
+    ok_step = isinstance(step, numbers.Real) and np.isfinite(step) and step > 0
+    if not ok_step or abs(step - round(step)) > 1e-9 or 3600 % round(step):
+        problems.append(
+            f"step {step!r} s: the model step must be a positive whole number of seconds dividing one hour "
+            "(e.g. 300, 600, 900, 1800, 3600)"
+        )
+    if not (isinstance(train_fraction, numbers.Real) and 0 < train_fraction <= 1):
+        problems.append(f"train_fraction {train_fraction!r}: must be in (0, 1], e.g. 0.9")
+    if interpolate_limit is not None and not (
+        isinstance(interpolate_limit, numbers.Real) and np.isfinite(interpolate_limit) and interpolate_limit >= 0
+    ):
+        problems.append(f"interpolate gaps {interpolate_limit!r} min: must be a number of minutes >= 0")
+    if not (isinstance(min_coverage, numbers.Real) and 0 < min_coverage <= 1):
+        problems.append(f"min_coverage {min_coverage!r}: must be in (0, 1], e.g. 0.5")
+    return problems
+
+
+def _prepare(
+    path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None, progress=False
+):
+    problems = option_problems(step, train_fraction, interpolate_limit, min_coverage)
+    if problems:
+        raise DataError(problems_message("Cannot prepare the data with these options", problems))
+    building = as_building(building)
+    with Progress(total=4, desc=f"data {Path(path).name}", unit="stage", enabled=progress) as bar:
+        if loaded is None:
+            raw, report = load_measurements(path, building)
+        else:
+            raw, report = loaded
+        bar.update(note="gaps")
+        notes = list(report.warnings)
+        column_steps = dict(report.column_steps)
+        if interpolate_limit is not None:
+            before = int(np.isfinite(raw.to_numpy()).sum())
+            raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
+            filled = int(np.isfinite(raw.to_numpy()).sum()) - before
+            notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
+        bar.update(note="resampling")
+        frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
+        coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
+        if coarse:
+            notes.append(
+                f"column(s) {', '.join(coarse)} sampled more coarsely than the {step:g} s step: "
+                "interpolated linearly to the step midpoints"
+            )
+        sparse = sparse_columns(frame)
+        notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
+        notes += check_discharge(frame, building)
+        bar.update(note="solar and weeks")
+        dataset = Dataset.from_frame(
+            frame,
+            building,
+            step=step,
+            seed=seed,
+            train_fraction=train_fraction,
+            source=str(Path(path)),
+            sha256=file_sha256(path),
+            warnings_=notes,
+            coverage=coverage,
+            load_report=report,
+        )
+        bar.update()
+    return dataset
+
+
+__all__ = [
+    "MIN_COLUMN_COVERAGE",
+    "Dataset",
+    "Week",
+    "file_sha256",
+    "make_weeks",
+    "prepare",
+    "primary_supply",
+    "sparse_columns"
+]

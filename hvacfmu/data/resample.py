@@ -73,7 +73,7 @@ def interpolate_gaps(frame: pd.DataFrame, limit: float, native_step: float | Non
     if native is None:
         return frame.copy()
     # regularise onto the native grid when the data are on one
-    ns = int(round(native * 1e9))
+    ns = round(native * 1e9)
     tns = frame.index.as_unit("ns").asi8
     if ns > 0 and np.all((tns - tns[0]) % ns == 0):
         n_grid = (tns[-1] - tns[0]) // ns + 1
@@ -134,9 +134,9 @@ def bin_grid(index: pd.DatetimeIndex, step: float):
 
 
 def _step_ns(step: float) -> int:
-    if not step > 0 or abs(step - round(step)) > 1e-9 or 3600 % int(round(step)):
+    if not step > 0 or abs(step - round(step)) > 1e-9 or 3600 % round(step):
         raise ValueError(f"model step must be a whole number of seconds dividing one hour, got {step}")
-    return int(round(step)) * 1_000_000_000
+    return round(step) * 1_000_000_000
 
 
 def resample(

@@ -47,7 +47,9 @@ def facade_irradiance(times, ghi, latitude: float, longitude: float, albedo: flo
     -------
     DataFrame
         Columns ``I_N``, ``I_E``, ``I_S``, ``I_W`` [W/m2] on ``times``;
-        non-negative, 0 at night.
+        non-negative, 0 at night. The beam part is capped at the
+        extraterrestrial normal irradiance (about 1361 W/m2), so a ``ghi``
+        inconsistent with the sun position cannot give impossible facade values.
     """
     import pvlib
 
@@ -62,6 +64,9 @@ def facade_irradiance(times, ghi, latitude: float, longitude: float, albedo: flo
     ghi_pos = np.clip(np.nan_to_num(ghi, nan=0.0), 0.0, None)
     parts = pvlib.irradiance.erbs(ghi_pos, zenith, times.day_of_year.to_numpy())
     dni = np.nan_to_num(np.asarray(parts["dni"], dtype=float), nan=0.0)
+    # at grazing sun (ghi inconsistent with the sun position, e.g. a clock offset) Erbs' beam part
+    # (ghi - dhi) / cos(zenith) can exceed what reaches the top of the atmosphere: cap it there
+    dni = np.minimum(dni, np.asarray(pvlib.irradiance.get_extra_radiation(times), dtype=float))
     dhi = np.nan_to_num(np.asarray(parts["dhi"], dtype=float), nan=0.0)
     out = {}
     for o, az in FACADE_AZIMUTH.items():

@@ -54,7 +54,7 @@ _ALIASES = {
 
 def kind_of(canonical: str) -> str:
     """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``, ``fraction``) of a canonical column."""
-    if canonical.startswith("T_") or canonical.startswith("Td_"):
+    if canonical.startswith(("T_", "Td_")):
         return "temperature"
     if canonical.startswith("m_"):
         return "airflow"

@@ -1,4 +1,8 @@
-"""The SDH-like 4th floor: floor plan, VAV boxes and construction tables.
+"""Emulated floors as building files: floor plan, VAV boxes (and air handlers) and construction tables.
+
+The geometry of every layout (``sdh``, ``row4``, ``core9``), the construction
+templates and the climates are tables in :mod:`hvacfmu.emulator.layouts`; this
+module turns them into building-file mappings. The default layout is described here.
 
 The floor is a 64 m x 40 m rectangle (2,560 m2) split into six zones named as
 in the paper (Zhou, Hu, Tomlin, Fig. 1): four perimeter zones with windows,
@@ -26,7 +30,7 @@ import copy
 from ..building import Building, building_from_dict
 from ..errors import problems_message
 from .effects import EmulatorError
-from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, SDH, check_options, get_layout
+from .layouts import BMS_MODES, CLIMATES, CONSTRUCTION_TEMPLATES, HVAC_MODES, SDH, ahu_groups, check_options, get_layout
 
 #: Location of Sutardja Dai Hall, UC Berkeley (the ``mild`` climate).
 LATITUDE = 37.8750
@@ -254,15 +258,16 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
     return {"materials": mats, "constructions": cons, "windows": windows, "elements": elements, "physics": physics}
 
 
-def _check(layout, construction, climate):
-    problems = check_options(layout, construction, climate)
+def _check(layout, construction, climate, hvac="vav"):
+    problems = check_options(layout, construction, climate, hvac)
     if problems:
         raise EmulatorError(problems_message("Invalid emulator building", problems))
 
 
-def building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True) -> dict:
+def building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True,
+                  hvac: str = "vav") -> dict:
     """A floor as a building-file mapping (see :func:`emulated_building`)."""
-    _check(layout, construction, climate)
+    _check(layout, construction, climate, hvac)
     lay = get_layout(layout)
     clim = CLIMATES[climate]
     plan = floor_plan(layout)
@@ -296,14 +301,7 @@ def building_dict(layout: str = "sdh", construction: str = "medium", climate: st
                 "facades": facades,
             }
         )
-    scale, min_scale = float(clim["airflow_scale"]), float(clim["min_airflow_scale"])
-    vavs = []
-    for name in order:
-        n, m_min, m_max = lay.vavs[name]
-        if (scale, min_scale) != (1.0, 1.0):
-            m_min, m_max = round(m_min * scale * min_scale, 3), round(m_max * scale, 2)
-        for i in range(1, n + 1):
-            vavs.append({"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max})
+    vavs = _vavs(lay, clim, hvac)
     title = lay.title
     if (construction, climate) != ("medium", "mild"):
         title = f"{title}, {construction} construction, {climate} climate"
@@ -315,8 +313,34 @@ def building_dict(layout: str = "sdh", construction: str = "medium", climate: st
         "zones": zones,
         "vavs": vavs,
     }
+    if hvac in BMS_MODES:
+        mode = HVAC_MODES[hvac]
+        units = sorted(set(ahu_groups(layout).values()))
+        d["ahus"] = [{"name": a, "T_supply_max": mode["T_discharge_max"]} for a in units]
     d.update(copy.deepcopy(tables))
     return d
+
+
+def _vavs(lay, clim, hvac) -> list[dict]:
+    """Box entries: the layout's sizing scaled for the climate and the HVAC mode."""
+    scale, min_scale = float(clim["airflow_scale"]), float(clim["min_airflow_scale"])
+    cap = 1.0
+    if hvac in BMS_MODES:
+        min_scale *= HVAC_MODES[hvac]["min_airflow_scale"]
+        cap = HVAC_MODES[hvac]["max_min_fraction"]
+        groups = ahu_groups(lay.name)
+    vavs = []
+    for name in lay.zone_order:
+        n, m_min, m_max = lay.vavs[name]
+        if (scale, min_scale) != (1.0, 1.0):
+            m_min, m_max = round(m_min * scale * min_scale, 3), round(m_max * scale, 2)
+            m_min = min(m_min, round(cap * m_max, 3))
+        for i in range(1, n + 1):
+            v = {"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max}
+            if hvac in BMS_MODES:
+                v["ahu"] = groups[name]
+            vavs.append(v)
+    return vavs
 
 
 def sdh_building_dict(nominal: bool = True) -> dict:
@@ -325,7 +349,7 @@ def sdh_building_dict(nominal: bool = True) -> dict:
 
 
 def emulated_building(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
-                      nominal: bool = True) -> Building:
+                      nominal: bool = True, hvac: str = "vav") -> Building:
     """An emulated floor as a :class:`~hvacfmu.building.Building`.
 
     Parameters
@@ -338,12 +362,15 @@ def emulated_building(layout: str = "sdh", construction: str = "medium", climate
         Location (latitude, longitude, time zone) and box sizing of the climate.
     nominal : bool
         Nominal handbook tables (as written to ``building.toml``) or the true ones.
+    hvac : {"vav", "reheat", "reheat-dual"}
+        ``reheat`` and ``reheat-dual`` add the ``[[ahus]]`` (each box's ``ahu``) of the real-BMS-like mode
+        and raises the boxes' minimum airflow (see :data:`.layouts.HVAC_MODES`).
 
     Returns
     -------
     Building
     """
-    return building_from_dict(building_dict(layout, construction, climate, nominal))
+    return building_from_dict(building_dict(layout, construction, climate, nominal, hvac))
 
 
 def sdh_building(nominal: bool = True) -> Building:
@@ -367,14 +394,15 @@ def sdh_building(nominal: bool = True) -> Building:
     return building_from_dict(sdh_building_dict(nominal))
 
 
-def true_building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild") -> dict:
+def true_building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
+                       hvac: str = "vav") -> dict:
     """The emulator's true building: true tables, and slabs facing the floors above and below.
 
     Floor and ceiling slabs are not adiabatic in the truth: their far side faces
     the air of the floor below / above (side ``"adjacent_floor"``, film
     ``"adjacent_floor"``), whose temperature is a boundary input.
     """
-    d = building_dict(layout, construction, climate, nominal=False)
+    d = building_dict(layout, construction, climate, nominal=False, hvac=hvac)
     d["name"] = d["name"].replace("(emulated)", "(emulator truth)")
     for c in d["constructions"]:
         if c["name"] in ("floor_slab", "ceiling_slab"):

@@ -62,6 +62,30 @@ def supply_air_temperature(T_out, rng, params=None, dt=60.0):
     return setpoint + _ar1(rng, len(T_out), 30.0, p["noise_std"])
 
 
+#: Supply-air reset of the two air handlers of the ``reheat`` HVAC mode (perimeter unit AHU1 warmer in
+#: cold weather, interior unit AHU2 nearly constant: the core needs cooling all year).
+REHEAT_MODE_AHUS = {
+    "AHU1": {"T_out": [0.0, 20.0], "T_supply": [15.5, 13.0], "filter_hours": 2.0, "noise_std": 0.2},
+    "AHU2": {"T_out": [10.0, 24.0], "T_supply": [13.8, 12.8], "filter_hours": 4.0, "noise_std": 0.15},
+}
+
+
+def supply_air_temperatures(T_out, seed_stream, params, ahus=()):
+    """Supply-air temperature of every air handler [°C], shape (n,) with one implicit unit or (n, n_ahu).
+
+    ``params["ahus"]`` maps unit names to their own ``supply_reset`` tables; the
+    first unit uses the random stream ``"supply"`` (as the single unit does),
+    the others ``"supply_<name>"``. ``seed_stream(name)`` returns a generator.
+    """
+    if not ahus:
+        return supply_air_temperature(T_out, seed_stream("supply"), params)
+    cols = []
+    for i, name in enumerate(ahus):
+        p = {"supply_reset": params["ahus"][name]}
+        cols.append(supply_air_temperature(T_out, seed_stream("supply" if i == 0 else f"supply_{name}"), p))
+    return np.column_stack(cols)
+
+
 def excitation_schedule(index: pd.DatetimeIndex, rng, n_zones, params=None):
     """Forced-response experiments on some Saturdays.
 
@@ -107,6 +131,12 @@ class VavControllers:
     offsets : array (n_vav,) [K]
         Room-minus-zone temperature of each box.
     params : dict
+        With ``T_discharge_max`` [°C] (``reheat`` mode) the heating loop output
+        sets the discharge temperature between the box's supply temperature and
+        that limit (``step(..., T_supply_box)``); otherwise it scales the fixed
+        coil power ``m_min c_p reheat_rise``. With ``heating_sequence = "dual"``
+        the first half of the heating output raises the discharge air to its
+        limit, the second half the airflow up to ``heating_max_fraction * m_max``.
     """
 
     def __init__(self, m_min, m_max, box_zone, offsets, params=None):
@@ -122,12 +152,18 @@ class VavControllers:
             False: (float(p["heating_setpoint"]["unoccupied"]), float(p["cooling_setpoint"]["unoccupied"])),
         }
         self.rh_max = self.m_min * 1005.0 * float(p["reheat_rise"])  # [W] per box at m_min
+        self.T_discharge_max = p.get("T_discharge_max")
+        self.dual = p.get("heating_sequence", "single") == "dual"
+        self.m_heat = np.maximum(float(p.get("heating_max_fraction", 0.0)) * np.asarray(m_max, dtype=float), self.m_min)
         n = len(self.m_min)
         self.Ic = np.zeros(n)
         self.Ih = np.zeros(n)
 
-    def step(self, T_zone, occupied: bool):
-        """One control interval: zone temperatures [°C] -> (airflow [kg/s], reheat power [W]) per box."""
+    def step(self, T_zone, occupied: bool, T_supply_box=None):
+        """One control interval: zone temperatures [°C] -> (airflow [kg/s], reheat power [W]) per box.
+
+        ``T_supply_box`` [°C] (per box) is needed with ``T_discharge_max``.
+        """
         sph, spc = self.sp[bool(occupied)]
         Tb = T_zone[self.box_zone] + self.offsets
         ec = Tb - spc
@@ -137,7 +173,15 @@ class VavControllers:
         self.Ih = mn(mx(self.Ih + self.ki_dt * eh, 0.0), 1.0)
         yc = mn(mx(self.kp * ec + self.Ic, 0.0), 1.0)
         yh = mn(mx(self.kp * eh + self.Ih, 0.0), 1.0)
-        return self.m_min + yc * self.m_span, yh * self.rh_max
+        if self.T_discharge_max is None:
+            return self.m_min + yc * self.m_span, yh * self.rh_max
+        rise = np.maximum(float(self.T_discharge_max) - np.asarray(T_supply_box, dtype=float), 0.0)
+        if not self.dual:
+            return self.m_min + yc * self.m_span, yh * self.m_min * 1005.0 * rise
+        # dual maximum: first half of the heating output raises the discharge air, second half the airflow
+        stage1, stage2 = mn(2.0 * yh, 1.0), mx(2.0 * yh - 1.0, 0.0)
+        m = mx(self.m_min + yc * self.m_span, self.m_min + stage2 * (self.m_heat - self.m_min))
+        return m, stage1 * m * 1005.0 * rise
 
     def reset(self):
         self.Ic[:] = 0.0

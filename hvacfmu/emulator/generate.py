@@ -13,13 +13,29 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .building import TRUE_PARAMETERS, emulated_building, true_building_dict
+from ..building import building_from_dict
+from .building import TRUE_PARAMETERS, building_dict, true_building_dict
+from .controllers import REHEAT_MODE_AHUS
 from .effects import EmulatorError, parse_effect, resolve_effects
-from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, check_options, get_layout
+from .export import (
+    UNITS_TABLE,
+    apply_faults,
+    convert_units,
+    time_strings,
+    validate_export,
+)
+from .layouts import (
+    BMS_MODES,
+    CLIMATES,
+    CONSTRUCTION_TEMPLATES,
+    HVAC_MODES,
+    check_options,
+    get_layout,
+)
 from .occupancy import DEFAULT_OCCUPANCY
 from .plant import DT, stream
 from .simulate import controller_defaults, simulate
-from .thermal import DEFAULT_EXTRAS
+from .thermal import CP_AIR, DEFAULT_EXTRAS
 
 #: Version of the emulator's physics and data; part of the cache key.
 EMULATOR_VERSION = "1.3"
@@ -31,6 +47,7 @@ NOISE = {
     "T_supply": {"std": 0.05, "quantum": 0.05},
     "T_out": {"std": 0.10, "quantum": 0.1},
     "ghi": {"std": 2.0, "relative_std": 0.03, "quantum": 1.0},  # [W/m2]
+    "Td": {"std": 0.15, "quantum": 0.05},  # [°C] discharge air ("reheat" mode)
 }
 
 
@@ -57,7 +74,7 @@ class GeneratedPaths:
 
 
 def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_START, layout: str = "sdh",
-               construction: str = "medium", climate: str = "mild") -> dict:
+               construction: str = "medium", climate: str = "mild", hvac: str = "vav") -> dict:
     """The truth mapping of a dataset before simulation (structure, parameters, resolved effects).
 
     ``layout``, ``construction`` and ``climate`` name entries of
@@ -68,7 +85,7 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         problems.append(f"weeks must be a positive integer, got {weeks!r}")
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         problems.append(f"seed must be a non-negative integer, got {seed!r}")
-    problems += check_options(layout, construction, climate)
+    problems += check_options(layout, construction, climate, hvac)
     try:
         t0 = pd.Timestamp(start)
         if t0.tzinfo is not None or t0 != t0.normalize():
@@ -80,12 +97,25 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
 
         raise EmulatorError(problems_message("Invalid emulator arguments", problems))
     start = pd.Timestamp(start).strftime("%Y-%m-%dT%H:%M:%S")
-    bld = true_building_dict(layout, construction, climate)
+    bld = true_building_dict(layout, construction, climate, hvac)
     lay = get_layout(layout)
     clim = CLIMATES[climate]
     controllers = controller_defaults(int(seed), len(bld["vavs"]))
     controllers.update(json.loads(json.dumps(clim["controllers"])))
+    if hvac in BMS_MODES:
+        mode = HVAC_MODES[hvac]
+        controllers["ahus"] = {a["name"]: dict(REHEAT_MODE_AHUS[a["name"]]) for a in bld["ahus"]}
+        controllers["T_discharge_max"] = mode["T_discharge_max"]
+        controllers["heating_sequence"] = mode["heating_sequence"]
+        if mode["heating_sequence"] == "dual":
+            controllers["heating_max_fraction"] = mode["heating_max_fraction"]
     resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
+    if any(e.get("kind") == "dst" for e in resolved) and not _has_dst(clim["timezone"], start, int(weeks)):
+        raise EmulatorError(
+            f"Invalid emulator effects: internal_gain_schedule:kind=dst needs daylight saving time, but climate "
+            f"{climate!r} ({clim['timezone']}) has none from {start} for {int(weeks)} weeks; use kind=holiday "
+            "or another climate"
+        )
     occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
     occupancy["peak_gain"] = dict(lay.peak_gain)
     occupancy["meeting_zone"] = lay.meeting_zone
@@ -99,6 +129,7 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         "layout": layout,
         "construction": construction,
         "climate": climate,
+        "hvac": hvac,
         "zones": [z["name"] for z in bld["zones"]],
         "vavs": [v["name"] for v in bld["vavs"]],
         "baseline": {
@@ -114,6 +145,12 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         },
         "effects": resolved,
     }
+
+
+def _has_dst(timezone: str, start: str, weeks: int) -> bool:
+    """True if daylight saving time is in force at some hour of the span in ``timezone``."""
+    hours = pd.date_range(pd.Timestamp(start), periods=weeks * 7 * 24, freq="h", tz="UTC").tz_convert(timezone)
+    return any(bool(t.dst()) for t in hours[::24])
 
 
 def _structure(truth: dict, core) -> dict:
@@ -241,8 +278,70 @@ def _json_clean(obj):
     return obj
 
 
+def _measured_frame(sim: dict, truth: dict) -> pd.DataFrame:
+    """Noisy, quantised one-minute measurements in SI units (``time`` column: ISO with offset)."""
+    index = sim["index"]
+    n = len(index)
+    zones, vavs = truth["zones"], truth["vavs"]
+    rng = stream(truth["seed"], "noise")
+    cols = {"time": _iso_times(index)}
+    nz = NOISE["T_zone"]
+    Tn = sim["T_zone"] + rng.normal(0.0, nz["std"], sim["T_zone"].shape)
+    for i, z in enumerate(zones):
+        cols[f"T_{z}"] = _quantise(Tn[:, i], nz["quantum"])
+    nm = NOISE["m_vav"]
+    m = sim["m_vav"]
+    mn = m * (1.0 + rng.normal(0.0, nm["relative_std"], m.shape)) + rng.normal(0.0, nm["std"], m.shape)
+    mn = np.clip(_quantise(mn, nm["quantum"]), 0.0, None)
+    for j, v in enumerate(vavs):
+        cols[f"m_{v}"] = mn[:, j]
+    ns = NOISE["T_supply"]
+    Ts = sim["T_supply"]
+    if Ts.ndim == 1:
+        cols["T_supply"] = _quantise(Ts + rng.normal(0.0, ns["std"], n), ns["quantum"])
+    else:
+        Tsn = _quantise(Ts + rng.normal(0.0, ns["std"], Ts.shape), ns["quantum"])
+        for i, a in enumerate(sim["ahus"]):
+            cols[f"T_supply_{a}"] = Tsn[:, i]
+    no = NOISE["T_out"]
+    cols["T_out"] = _quantise(sim["T_out"] + rng.normal(0.0, no["std"], n), no["quantum"])
+    ng = NOISE["ghi"]
+    ghi = sim["ghi"] * (1.0 + rng.normal(0.0, ng["relative_std"], n)) + rng.normal(0.0, ng["std"], n)
+    cols["ghi"] = np.clip(_quantise(np.where(sim["ghi"] > 0, ghi, 0.0), ng["quantum"]), 0.0, None)
+    cols["excitation"] = sim["excitation"].astype(np.int8)
+    if truth.get("hvac") in BMS_MODES:
+        cols.update(_discharge_columns(sim, truth))
+    return pd.DataFrame(cols)
+
+
+def _discharge_columns(sim: dict, truth: dict) -> dict:
+    """``Td_<vav>`` (measured discharge air [°C]) and ``rh_<vav>`` (reheat valve command [0..1]) per box."""
+    from .simulate import discharge_temperature
+
+    vavs = truth["vavs"]
+    cp = truth["baseline"]["controllers"]
+    rng = stream(truth["seed"], "noise_discharge")
+    nd = NOISE["Td"]
+    Tdn = discharge_temperature(sim)
+    Tdn += rng.normal(0.0, nd["std"], Tdn.shape)
+    Tdn = _quantise(Tdn, nd["quantum"])
+    per = int(round(cp["control_interval"] / DT))
+    # the valve command of each control interval: power over the coil's power at the discharge limit
+    Ts_ctrl = sim["T_supply"][::per][:, sim["box_ahu"]]  # supply air at each control instant
+    m_cmd = sim["m_vav"][::per]  # commanded airflow (m_min in heating, more with dual-maximum boxes)
+    p_max = np.maximum(m_cmd, 1e-6) * CP_AIR * np.maximum(float(cp["T_discharge_max"]) - Ts_ctrl, 1e-6)
+    rh = np.repeat(np.clip(np.round(sim["reheat_command"][::per] / p_max, 2), 0.0, 1.0), per, axis=0)
+    out = {}
+    for j, v in enumerate(vavs):
+        out[f"Td_{v}"] = Tdn[:, j]
+    for j, v in enumerate(vavs):
+        out[f"rh_{v}"] = rh[:, j]
+    return out
+
+
 def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "parquet", layout: str = "sdh",
-             construction: str = "medium", climate: str = "mild", start: str = DEFAULT_START) -> GeneratedPaths:
+             construction: str = "medium", climate: str = "mild", start: str = DEFAULT_START, hvac: str = "vav",
+             units: str = "si", clock: str = "aware", export_step: int = 60, faults=()) -> GeneratedPaths:
     """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
     Parameters
@@ -250,7 +349,7 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
     outdir : path
         Folder to write (created if needed).
     weeks : int
-        Length [weeks] of one-minute data from 2025-09-01 00:00 local time.
+        Length [weeks] of one-minute data from ``start`` (00:00 local time).
     seed : int
         Every random element (weather, occupancy, controllers, experiments,
         noise, gaps, unspecified effect parameters) derives from it.
@@ -267,53 +366,86 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
         Location and weather statistics (Berkeley, Chicago-like, Phoenix-like).
     start : str
         Local midnight of the first sample, e.g. ``"2025-12-01"``.
+    hvac : {"vav", "reheat", "reheat-dual"}
+        ``reheat``: the real-BMS-like VAV-with-reheat mode (two air handlers
+        ``T_supply_AHU1``/``T_supply_AHU2``, per-box ``Td_<vav>`` and ``rh_<vav>``;
+        see :data:`hvacfmu.emulator.layouts.HVAC_MODES`); ``reheat-dual``: the same with
+        dual-maximum boxes (airflow rises in heating once the discharge air is at its limit).
+    units : {"si", "us"}
+    clock : {"aware", "naive-local", "naive-utc"}
+    export_step : int [s]
+        Trend-log interval (multiple of 60 s).
+    faults : sequence of {"outages", "sparse_box", "stuck_sensor"}
+        Real-world defects of the export (:mod:`hvacfmu.emulator.export`).
 
     Returns
     -------
     GeneratedPaths
         ``measurements.parquet`` (or ``.csv``), ``building.toml`` (nominal
-        physics tables), ``truth.json``.
+        physics tables, declaring the export's units, clock and air handlers), ``truth.json``.
     """
     if fmt not in ("parquet", "csv"):
         raise EmulatorError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
-    truth = make_truth(weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate)
+    faults = tuple(faults)
+    validate_export(units, clock, export_step, faults)
+    truth = make_truth(weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate,
+                       hvac=hvac)
     sim = simulate(truth)
-    index = sim["index"]
-    n = len(index)
-    zones, vavs = truth["zones"], truth["vavs"]
-    rng = stream(seed, "noise")
-    cols = {}
-    cols["time"] = _iso_times(index)
-    nz = NOISE["T_zone"]
-    Tn = sim["T_zone"] + rng.normal(0.0, nz["std"], sim["T_zone"].shape)
-    for i, z in enumerate(zones):
-        cols[f"T_{z}"] = _quantise(Tn[:, i], nz["quantum"])
-    nm = NOISE["m_vav"]
-    m = sim["m_vav"]
-    mn = m * (1.0 + rng.normal(0.0, nm["relative_std"], m.shape)) + rng.normal(0.0, nm["std"], m.shape)
-    mn = np.clip(_quantise(mn, nm["quantum"]), 0.0, None)
-    for j, v in enumerate(vavs):
-        cols[f"m_{v}"] = mn[:, j]
-    ns = NOISE["T_supply"]
-    cols["T_supply"] = _quantise(sim["T_supply"] + rng.normal(0.0, ns["std"], n), ns["quantum"])
-    no = NOISE["T_out"]
-    cols["T_out"] = _quantise(sim["T_out"] + rng.normal(0.0, no["std"], n), no["quantum"])
-    ng = NOISE["ghi"]
-    ghi = sim["ghi"] * (1.0 + rng.normal(0.0, ng["relative_std"], n)) + rng.normal(0.0, ng["std"], n)
-    cols["ghi"] = np.clip(_quantise(np.where(sim["ghi"] > 0, ghi, 0.0), ng["quantum"]), 0.0, None)
-    cols["excitation"] = sim["excitation"].astype(np.int8)
-    frame = pd.DataFrame(cols)
+    frame = _measured_frame(sim, truth)
+    frame, row_gaps, nan_gaps = _standard_gaps(frame, truth, sim, export_step)
+    frame.attrs["step_s"] = float(export_step)
+    frame, fault_records = apply_faults(frame, faults, stream(seed, "faults"), truth["zones"], truth["vavs"])
+    _record(truth, sim, row_gaps, nan_gaps)
+    truth["export"] = {"units": units, "clock": clock, "export_step": int(export_step), "faults": fault_records}
+    k = frame.pop("_k").to_numpy()
+    frame["time"] = time_strings(sim["index"][k], clock)
+    frame = convert_units(frame, units)
 
-    gap_cols = [f"T_{z}" for z in zones] + [f"m_{v}" for v in vavs] + ["T_out", "ghi", "T_supply"]
-    row_gaps, nan_gaps = _gaps(n, weeks, stream(seed, "gaps"), gap_cols)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    if fmt == "parquet":
+        mpath = outdir / "measurements.parquet"
+        frame.to_parquet(mpath, index=False)
+    else:
+        mpath = outdir / "measurements.csv"
+        frame.to_csv(mpath, index=False, float_format="%.6g")
+    bd = building_dict(layout, construction, climate, nominal=True, hvac=hvac)
+    if UNITS_TABLE[units]:
+        bd["units"] = dict(UNITS_TABLE[units])
+    if clock == "naive-utc":
+        bd["data_timezone"] = "UTC"
+    bpath = building_from_dict(bd).save(outdir / "building.toml")
+    tpath = outdir / "truth.json"
+    tpath.write_text(json.dumps(_json_clean(truth), indent=1, allow_nan=False), encoding="utf-8")
+    return GeneratedPaths(mpath, bpath, tpath)
+
+
+def _standard_gaps(frame, truth, sim, export_step):
+    """The emulator's usual gaps (logger outages, one sensor's NaN runs), then the trend-log subsampling.
+
+    Returns the frame with a ``_k`` column (minute index of each kept row) and the gaps.
+    """
+    n = len(frame)
+    zones, vavs = truth["zones"], truth["vavs"]
+    supply = [c for c in frame.columns if c.startswith("T_supply")]
+    gap_cols = [f"T_{z}" for z in zones] + [f"m_{v}" for v in vavs] + ["T_out", "ghi"] + supply
+    row_gaps, nan_gaps = _gaps(n, truth["weeks"], stream(truth["seed"], "gaps"), gap_cols)
     for s, e, col in nan_gaps:
         frame.loc[s: e - 1, col] = np.nan
     keep = np.ones(n, dtype=bool)
     for s, e in row_gaps:
         keep[s:e] = False
-    frame = frame[keep].reset_index(drop=True)
+    keep &= (np.arange(n) % (int(export_step) // 60)) == 0
+    frame["_k"] = np.arange(n)
+    return frame[keep].reset_index(drop=True), row_gaps, nan_gaps
 
-    iso = cols["time"]
+
+def _record(truth, sim, row_gaps, nan_gaps):
+    """Add structure, experiments, gaps, weather and a summary to ``truth['baseline']``."""
+    index = sim["index"]
+    n = len(index)
+    zones = truth["zones"]
+    iso = _iso_times(index)
     base = truth["baseline"]
     base["structure"] = _structure(truth, sim["core"])
     base["excitation"] = [
@@ -325,8 +457,8 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
     ]
     w = sim["weather"]
     base["weather"] = {
-        "model": f"synthetic {CLIMATES[climate]['description']}: monthly normals, AR(1) daily anomaly, clear-sky (pvlib Ineichen) x cloud "
-        "transmittance; facades by Erbs + Perez",
+        "model": f"synthetic {CLIMATES[truth['climate']]['description']}: monthly normals, AR(1) daily anomaly, "
+        "clear-sky (pvlib Ineichen) x cloud transmittance; facades by Erbs + Perez",
         "T_out_mean": float(np.mean(w["T_out"])),
         "T_out_min": float(np.min(w["T_out"])),
         "T_out_max": float(np.max(w["T_out"])),
@@ -339,19 +471,6 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
         "reheat_energy_kWh": float(sim["reheat"].sum() * DT / 3.6e6),
         "internal_gain_mean_W": dict(zip(zones, np.mean(sim["Q_ig"], axis=0))),
     }
-
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    if fmt == "parquet":
-        mpath = outdir / "measurements.parquet"
-        frame.to_parquet(mpath, index=False)
-    else:
-        mpath = outdir / "measurements.csv"
-        frame.to_csv(mpath, index=False, float_format="%.6g")
-    bpath = emulated_building(layout, construction, climate, nominal=True).save(outdir / "building.toml")
-    tpath = outdir / "truth.json"
-    tpath.write_text(json.dumps(_json_clean(truth), indent=1, allow_nan=False), encoding="utf-8")
-    return GeneratedPaths(mpath, bpath, tpath)
 
 
 def _cache_root() -> Path:
@@ -368,13 +487,17 @@ def cache_key(weeks: int, seed: int, effects=(), **options) -> str:
     blob = json.dumps(parsed, sort_keys=True)
     h = hashlib.sha256(blob.encode()).hexdigest()[:12] if parsed else "none"
     key = f"emulator-v{EMULATOR_VERSION}-w{int(weeks)}-s{int(seed)}-{h}"
+    options = {k: (tuple(v) if k == "faults" else v) for k, v in options.items()}
+    if "start" in options:
+        options["start"] = pd.Timestamp(options["start"]).strftime("%Y-%m-%dT%H:%M:%S")
     extra = {k: v for k, v in sorted(options.items()) if v is not None and v != _GENERATE_DEFAULTS.get(k)}
     if extra:
         key += "-" + hashlib.sha256(json.dumps(extra, sort_keys=True).encode()).hexdigest()[:10]
     return key
 
 
-_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START}
+_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START,
+                      "hvac": "vav", "units": "si", "clock": "aware", "export_step": 60, "faults": ()}
 
 
 def cached_dataset(weeks: int = 51, seed: int = 0, effects=(), **options) -> GeneratedPaths:

@@ -52,6 +52,9 @@ class Layout:
         Outline edges that are not facades (party walls, adiabatic).
     meeting_zone : str or None
         Zone with conference rooms (random meetings).
+    ahu_of_zone : dict zone -> air handler name, optional
+        Air handlers of the ``reheat`` HVAC mode; default: perimeter zones on
+        ``AHU1``, zones without facades on ``AHU2``.
     """
 
     name: str
@@ -63,6 +66,7 @@ class Layout:
     window_to_wall: dict = dataclasses.field(default_factory=dict)
     blind: frozenset = frozenset()
     meeting_zone: str | None = None
+    ahu_of_zone: dict = dataclasses.field(default_factory=dict)
 
     @property
     def zone_order(self) -> tuple:
@@ -126,6 +130,7 @@ ROW4 = Layout(
     window_to_wall={("R2", "S"): 0.65, ("R2", "N"): 0.25, ("R3", "S"): 0.40, ("R4", "E"): 0.25,
                     ("R4", "N"): 0.25, ("R4", "S"): 0.30, ("R1", "W"): 0.35},
     blind=frozenset({("R3", "N")}),
+    ahu_of_zone={"R1": "AHU1", "R2": "AHU1", "R3": "AHU2", "R4": "AHU2"},
 )
 
 _CORE9_RECTS = {
@@ -212,6 +217,48 @@ CLIMATES = {
 }
 
 
+#: HVAC modes: ``vav`` (default: one air handler, boxes heat at minimum airflow by reheat; the data
+#: log airflow and one supply temperature), ``reheat`` (a real-BMS-like VAV-with-reheat system:
+#: constant minimum airflow in heating, discharge air modulated up to ``T_discharge_max``, two air
+#: handlers with their own supply temperature reset, discharge temperature and reheat valve logged)
+#: and ``reheat-dual`` (the same with dual-maximum boxes: airflow also rises in heating).
+HVAC_MODES = {
+    "vav": {"description": "one air handler; reheat at minimum airflow, discharge temperature not logged"},
+    "reheat": {
+        "description": "VAV with hot-water reheat: two air handlers with their own supply-air reset, "
+                       "constant minimum airflow in heating, discharge air up to T_discharge_max, "
+                       "per-box Td_<vav> and rh_<vav> logged",
+        "min_airflow_scale": 1.5,  # [-] boxes keep a higher constant minimum (ventilation, heating)
+        "max_min_fraction": 0.45,  # [-] cap of m_min / m_max
+        "T_discharge_max": 35.0,  # [°C] heating limit of the discharge air, declared per air handler
+        "heating_sequence": "single",
+    },
+    "reheat-dual": {
+        "description": "as reheat, with dual-maximum boxes: in heating the discharge air rises first, then the "
+                       "airflow rises from its minimum to heating_max_fraction x m_max at the discharge limit "
+                       "(more air = more heat in winter)",
+        "min_airflow_scale": 1.5,
+        "max_min_fraction": 0.45,
+        "T_discharge_max": 35.0,
+        "heating_sequence": "dual",
+        "heating_max_fraction": 0.6,  # [-] heating maximum airflow / m_max
+    },
+}
+#: HVAC modes with several air handlers and logged discharge air (real-BMS-like).
+BMS_MODES = ("reheat", "reheat-dual")
+
+
+def ahu_groups(layout: str) -> dict:
+    """Air handler of every zone of ``layout`` in the ``reheat`` mode (zone -> unit name)."""
+    from .building import floor_plan
+
+    lay = get_layout(layout)
+    if lay.ahu_of_zone:
+        return dict(lay.ahu_of_zone)
+    plan = floor_plan(layout)
+    return {z: ("AHU1" if plan["zones"][z]["facades"] else "AHU2") for z in lay.zone_order}
+
+
 def get_layout(name: str) -> Layout:
     """The :class:`Layout` called ``name``; unknown names raise :class:`EmulatorError` listing the known ones."""
     if name not in LAYOUTS:
@@ -219,9 +266,11 @@ def get_layout(name: str) -> Layout:
     return LAYOUTS[name]
 
 
-def check_options(layout="sdh", construction="medium", climate="mild") -> list[str]:
-    """Problems (empty if none) with a layout / construction / climate choice."""
+def check_options(layout="sdh", construction="medium", climate="mild", hvac="vav") -> list[str]:
+    """Problems (empty if none) with a layout / construction / climate / HVAC mode choice."""
     problems = []
+    if hvac not in HVAC_MODES:
+        problems.append(f"unknown hvac mode {hvac!r}; known modes: {', '.join(HVAC_MODES)}")
     if layout not in LAYOUTS:
         problems.append(f"unknown layout {layout!r}; known layouts: {', '.join(LAYOUTS)}")
     if construction not in CONSTRUCTION_TEMPLATES:

@@ -72,6 +72,8 @@ class PlantCore:
     delay_minutes: int
     delay_boxes: np.ndarray
     reheat_effect: dict | None
+    ahus: tuple = ()  # air handler names ("reheat" mode); () = one implicit unit
+    box_ahu: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))  # unit index per box
 
     @classmethod
     def from_truth(cls, truth: dict) -> "PlantCore":
@@ -103,6 +105,7 @@ class PlantCore:
                 node_zones.append([zidx[name.rsplit("_", 1)[1]]])
         delay = [e for e in effects if e["name"] == "actuation_delay"]
         dz = zidx[delay[0]["zone"]] if delay else None
+        ahus = tuple(a["name"] for a in bld.get("ahus", []))
         reheat = [e for e in effects if e["name"] == "reheat"]
         rh = None
         if reheat:
@@ -126,6 +129,8 @@ class PlantCore:
             delay_minutes=int(round(delay[0]["minutes"])) if delay else 0,
             delay_boxes=np.flatnonzero(box_zone == dz) if delay else np.zeros(0, dtype=int),
             reheat_effect=rh,
+            ahus=ahus,
+            box_ahu=np.array([ahus.index(v["ahu"]) if ahus else 0 for v in bld["vavs"]], dtype=int),
         )
 
     @property
@@ -277,6 +282,8 @@ class Plant:
                 "ki_dt": kp * float(cp["control_interval"]) / float(cp["integral_time"]),
                 "offsets": np.asarray(cp["box_offsets"], dtype=float),
                 "rh_max": self.core.m_min * CP_AIR * float(cp["reheat_rise"]),
+                "T_discharge_max": cp.get("T_discharge_max"),
+                "dual": cp.get("heating_sequence", "single") == "dual",
             }
         return self._loops
 
@@ -334,7 +341,63 @@ class Plant:
         """Zone air temperatures [°C] of state ``x``."""
         return np.asarray(x)[: len(self.zones)].copy()
 
-    def advance(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat=None, excitation=False):
+    @property
+    def ahus(self) -> tuple:
+        """Air handler names (``reheat`` mode); empty for the single implicit unit."""
+        return self.core.ahus
+
+    def _inputs(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat, T_discharge):
+        """Validate :meth:`advance` inputs; return (k0, nsub, x, m, irr, p, Ts_box) or raise listing every problem."""
+        c = self.core
+        problems = []
+        k0, nsub = t / DT, dt / DT
+        if abs(k0 - round(k0)) > 1e-6 or k0 < 0:
+            problems.append(f"t = {t} s must be a non-negative multiple of {DT:g} s")
+        if abs(nsub - round(nsub)) > 1e-6 or nsub < 1:
+            problems.append(f"dt = {dt} s must be a positive multiple of {DT:g} s")
+        m = np.asarray(m_vav, dtype=float)
+        if m.shape != c.m_min.shape:
+            problems.append(f"m_vav must have {len(c.m_min)} values, got shape {m.shape}")
+        elif not np.all(np.isfinite(m)) or np.any(m < 0):
+            problems.append("m_vav must be finite and >= 0 kg/s")
+        irr = np.asarray(irradiance, dtype=float)
+        per_minute = irr.ndim == 2 and irr.shape == (round(nsub), 4)
+        if irr.shape != (4,) and not per_minute:
+            problems.append(f"irradiance must be [I_N, I_E, I_S, I_W] or one such row per minute, got shape {irr.shape}")
+        Ts = np.asarray(T_supply, dtype=float)
+        n_units = max(len(c.ahus), 1)
+        if Ts.shape not in ((), (n_units,)):
+            names = f" ({', '.join(c.ahus)})" if c.ahus else ""
+            problems.append(f"T_supply must be one value or {n_units} values{names}, got shape {Ts.shape}")
+            Ts = np.zeros(())
+        if not (np.isfinite(T_out) and np.all(np.isfinite(Ts))) or not np.all(np.isfinite(irr)):
+            problems.append("T_out, T_supply and irradiance must be finite")
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.n_states,):
+            problems.append(f"state must have {self.n_states} values, got shape {x.shape}")
+        p = np.zeros_like(c.m_min) if reheat is None else np.asarray(reheat, dtype=float)
+        if p.shape != c.m_min.shape:
+            problems.append(f"reheat must have {len(c.m_min)} values, got shape {p.shape}")
+        Ts_box = np.broadcast_to(Ts, (n_units,))[c.box_ahu] if Ts.ndim else np.full(len(c.m_min), float(Ts))
+        if T_discharge is not None:
+            Td = np.asarray(T_discharge, dtype=float)
+            if reheat is not None or self.local_reheat:
+                problems.append("give either T_discharge or reheat/local reheat loops, not both")
+            elif Td.shape != c.m_min.shape or not np.all(np.isfinite(Td)):
+                problems.append(f"T_discharge must have {len(c.m_min)} finite values [°C], got shape {Td.shape}")
+            elif m.shape == Td.shape:
+                p = m * CP_AIR * (Td - Ts_box)  # the heat the discharge air carries above the supply air
+        if not problems and round(k0) + round(nsub) > len(c.T_fl):
+            problems.append(
+                f"t + dt = {t + dt} s is beyond the emulated span ({self.horizon:g} s); internal gains are only defined there"
+            )
+        if problems:
+            from ..errors import problems_message
+
+            raise EmulatorError(problems_message("Plant.advance", problems))
+        return round(k0), round(nsub), x, m, irr, p, Ts_box
+
+    def advance(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat=None, excitation=False, T_discharge=None):
         """Advance the plant by ``dt`` seconds with inputs held constant.
 
         Parameters
@@ -347,7 +410,9 @@ class Plant:
         m_vav : array (n_vav,) [kg/s]
             Airflow of every box, in the order of :attr:`vavs`.
         T_out : float [°C]
-        T_supply : float [°C]
+        T_supply : float or array (n_ahu,) [°C]
+            Supply air temperature: one value, or one per air handler in the
+            order of :attr:`ahus` (``reheat`` mode; each box gets its unit's).
         irradiance : array (4,) or (dt / 60, 4) [W/m2]
             Facade irradiance ``I_N, I_E, I_S, I_W`` (held, or per minute).
         reheat : array (n_vav,) [W], optional
@@ -356,6 +421,9 @@ class Plant:
         excitation : bool
             A forced-response experiment runs: the local reheat loops are off
             and reset (no effect without local reheat).
+        T_discharge : array (n_vav,) [°C], optional
+            Measured discharge air temperature of every box: the box delivers
+            ``m c_p (T_discharge - T_zone)``. Excludes ``reheat`` and local loops.
 
         Returns
         -------
@@ -364,41 +432,7 @@ class Plant:
             Zone air temperatures at ``t + dt``.
         """
         c = self.core
-        problems = []
-        k0 = t / DT
-        nsub = dt / DT
-        if abs(k0 - round(k0)) > 1e-6 or k0 < 0:
-            problems.append(f"t = {t} s must be a non-negative multiple of {DT:g} s")
-        if abs(nsub - round(nsub)) > 1e-6 or nsub < 1:
-            problems.append(f"dt = {dt} s must be a positive multiple of {DT:g} s")
-        m = np.asarray(m_vav, dtype=float)
-        if m.shape != c.m_min.shape:
-            problems.append(f"m_vav must have {len(c.m_min)} values, got shape {m.shape}")
-        elif not np.all(np.isfinite(m)) or np.any(m < 0):
-            problems.append("m_vav must be finite and >= 0 kg/s")
-        irr = np.asarray(irradiance, dtype=float)
-        per_minute = irr.ndim == 2 and irr.shape == (int(round(nsub)), 4)
-        if irr.shape != (4,) and not per_minute:
-            problems.append(f"irradiance must be [I_N, I_E, I_S, I_W] or one such row per minute, got shape {irr.shape}")
-        if not (np.isfinite(T_out) and np.isfinite(T_supply)) or not np.all(np.isfinite(irr)):
-            problems.append("T_out, T_supply and irradiance must be finite")
-        x = np.asarray(x, dtype=float)
-        if x.shape != (self.n_states,):
-            problems.append(f"state must have {self.n_states} values, got shape {x.shape}")
-        p = np.zeros_like(c.m_min) if reheat is None else np.asarray(reheat, dtype=float)
-        if p.shape != c.m_min.shape:
-            problems.append(f"reheat must have {len(c.m_min)} values, got shape {p.shape}")
-        if not problems:
-            k0, nsub = int(round(k0)), int(round(nsub))
-            if k0 + nsub > len(c.T_fl):
-                problems.append(
-                    f"t + dt = {t + dt} s is beyond the emulated span ({self.horizon:g} s); "
-                    "internal gains are only defined there"
-                )
-        if problems:
-            from ..errors import problems_message
-
-            raise EmulatorError(problems_message("Plant.advance", problems))
+        k0, nsub, x, m, irr, p, Ts_box = self._inputs(x, t, dt, m_vav, T_out, T_supply, irradiance, reheat, T_discharge)
         nth = c.n_thermal
         xt = x[:nth].copy()
         buf = x[nth: nth + c.n_buffer].reshape(c.delay_minutes, len(c.delay_boxes), 2).copy() if c.delay_minutes else None
@@ -410,6 +444,10 @@ class Plant:
             nb = len(self.vavs)
             integ = x[nth + c.n_buffer: nth + c.n_buffer + nb].copy()
             p_loc = x[nth + c.n_buffer + nb:].copy()
+            rh_max = loops["rh_max"] if loops["T_discharge_max"] is None else (
+                c.m_min * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0))
+            if loops["dual"]:  # the discharge stage of a dual-maximum box heats the commanded airflow
+                rh_max = np.maximum(m, c.m_min) * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0)
         for j in range(nsub):
             if self.local_reheat:
                 k = k0 + j
@@ -419,7 +457,8 @@ class Plant:
                 elif k % loops["per"] == 0:  # control interval boundary: the loops act on the room temperatures
                     eh = loops["sp"][bool(loops["occupied"][k])] - (xt[c.box_zone] + loops["offsets"])
                     integ = np.clip(integ + loops["ki_dt"] * eh, 0.0, 1.0)
-                    p_loc = np.clip(loops["kp"] * eh + integ, 0.0, 1.0) * loops["rh_max"]
+                    y = np.clip(loops["kp"] * eh + integ, 0.0, 1.0)
+                    p_loc = (np.minimum(2.0 * y, 1.0) if loops["dual"] else y) * rh_max
                 p = p_cmd + p_loc
             m_app, p_app = m, p
             if buf is not None:
@@ -429,13 +468,12 @@ class Plant:
                 buf = np.roll(buf, -1, axis=0)
                 buf[-1, :, 0] = m[c.delay_boxes]
                 buf[-1, :, 1] = p[c.delay_boxes]
-            mcp_z = c.Mzb @ (CP_AIR * m_app)
-            h_z = c.Mzb @ p_app
+            mcp = CP_AIR * m_app
+            h_z = c.Mzb @ (p_app + mcp * Ts_box)
             rh = c.reheat_effect
             if rh is not None and T_out < rh["below"] and np.all(m_app[rh["boxes"]] <= c.m_min[rh["boxes"]] + 1e-9):
-                h_z = h_z.copy()
                 h_z[rh["zone"]] += rh["power"]
-            Q = mcp_z * (T_supply - xt[:nz]) + h_z
+            Q = h_z - (c.Mzb @ mcp) * xt[:nz]
             xt = c.Ad @ xt + W[j] + c.BQ @ Q
         out = xt if buf is None else np.concatenate([xt, buf.ravel()])
         if self.local_reheat:

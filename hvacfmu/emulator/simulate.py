@@ -13,7 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .controllers import DEFAULT_CONTROLLERS, VavControllers, excitation_schedule, occupied_mode, supply_air_temperature
+from .controllers import (
+    DEFAULT_CONTROLLERS,
+    VavControllers,
+    excitation_schedule,
+    occupied_mode,
+    supply_air_temperatures,
+)
 from .plant import DT, PlantCore, dataset_index, stream
 from .thermal import CP_AIR
 from .weather import synthetic_weather
@@ -36,7 +42,9 @@ def simulate(truth: dict) -> dict:
         ``index`` (DatetimeIndex), ``T_zone`` (n, nz) [°C], ``m_vav`` (n, nb)
         logged airflow [kg/s], ``m_applied`` (n, nb) airflow delivered [kg/s],
         ``reheat`` (n, nb) reheat power delivered [W], ``reheat_command`` (n, nb)
-        reheat power commanded [W], ``T_supply`` (n,),
+        reheat power commanded [W], ``T_supply`` (n,) or, with several air handlers
+        (``reheat`` mode), (n, n_ahu) in the order of ``ahus``, ``ahus`` (tuple of names),
+        ``box_ahu`` (n_vav,) unit index of every box,
         ``T_out`` (n,) [°C], ``ghi`` (n,), ``I`` (n, 4) [W/m2], ``Q_ig`` (n, nz) [W],
         ``T_fl`` (n,) [°C], ``excitation`` (n,) bool, ``segments`` (excitation
         segments), ``x0`` initial state in :class:`Plant` layout, ``weather`` (dict).
@@ -51,7 +59,8 @@ def simulate(truth: dict) -> dict:
         index, stream(seed, "weather"), bld["latitude"], bld["longitude"], base["altitude"], base.get("climate")
     )
     cp = base["controllers"]
-    T_supply = supply_air_temperature(weather["T_out"], stream(seed, "supply"), cp)
+    T_supply = supply_air_temperatures(weather["T_out"], lambda name: stream(seed, name), cp, core.ahus)
+    multi = T_supply.ndim == 2
     irr = np.column_stack([weather[f"I_{o}"] for o in ("N", "E", "S", "W")])
     occupied = occupied_mode(index, cp)
     nz, nb = len(core.zones), len(core.vavs)
@@ -113,7 +122,7 @@ def simulate(truth: dict) -> dict:
                 p = np.zeros(nb)
                 ctrl.reset()
             else:
-                m, p = ctrl.step(Tz, occ_block[b])
+                m, p = ctrl.step(Tz, occ_block[b], T_supply[k0, core.box_ahu] if multi else None)
             m_a, p_a = m, p
             if d_blocks:
                 slot = b % d_blocks
@@ -125,7 +134,11 @@ def simulate(truth: dict) -> dict:
             mcp_z = Mzb_cp @ m_a
             h_z = core.Mzb @ p_a
             np.subtract(Ad_air, BQ * mcp_z, out=A_air)
-            D = W[k0 - w0: k0 - w0 + per] + BQ @ h_z + T_supply[k0: k0 + per, None] * (BQ @ mcp_z)
+            if multi:  # per-box supply temperature: sum_i m_i c_p T_supply,i per zone
+                sup = (T_supply[k0: k0 + per][:, core.box_ahu] * (CP_AIR * m_a)) @ core.Mzb.T
+                D = W[k0 - w0: k0 - w0 + per] + BQ @ h_z + sup @ BQ.T
+            else:
+                D = W[k0 - w0: k0 - w0 + per] + BQ @ h_z + T_supply[k0: k0 + per, None] * (BQ @ mcp_z)
             if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
                 D += np.outer(rh_minute[k0: k0 + per], BQ[:, rh["zone"]])
             X[0] = x
@@ -161,6 +174,8 @@ def simulate(truth: dict) -> dict:
         "reheat": np.repeat(p_app_log, per, axis=0),
         "reheat_command": np.repeat(p_log, per, axis=0),
         "T_supply": T_supply,
+        "ahus": core.ahus,
+        "box_ahu": core.box_ahu,
         "T_out": weather["T_out"],
         "ghi": weather["ghi"],
         "I": irr,
@@ -180,3 +195,14 @@ def controller_defaults(seed: int, n_vav: int) -> dict:
     rng = stream(seed, "controllers")
     p["box_offsets"] = [round(float(v), 4) for v in rng.normal(0.0, p["box_offset_std"], n_vav)]
     return p
+
+
+def discharge_temperature(sim: dict) -> np.ndarray:
+    """Discharge air temperature of every box [°C], (n, n_vav): supply of its unit plus the reheat rise.
+
+    ``Td = T_supply,box + P_delivered / (m_delivered c_p)``, the air the box actually
+    delivers (after an actuation delay).
+    """
+    Ts = sim["T_supply"]
+    Ts_box = Ts[:, sim["box_ahu"]] if Ts.ndim == 2 else Ts[:, None]
+    return Ts_box + sim["reheat"] / (np.maximum(sim["m_applied"], 1e-6) * CP_AIR)

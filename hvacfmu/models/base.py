@@ -127,7 +127,7 @@ class ZoneModel(abc.ABC):
 
     @classmethod
     @abc.abstractmethod
-    def from_dict(cls, d: dict[str, Any]) -> "ZoneModel": ...
+    def from_dict(cls, d: dict[str, Any]) -> ZoneModel: ...
 
     def save(self, path) -> Path:
         path = Path(path)
@@ -149,11 +149,61 @@ def check_shape(M, shape, name) -> np.ndarray:
     return M
 
 
+def check_names(value, key: str, what: str = "model file") -> tuple:
+    """``value`` as a tuple of strings; ModelError naming ``key`` if it is not a list of strings."""
+    if not isinstance(value, (list, tuple)) or not all(isinstance(s, str) for s in value):
+        raise ModelError(f"{what}: '{key}' must be a list of names (strings), got {type(value).__name__} {value!r:.80}")
+    return tuple(value)
+
+
+def check_number(value, key: str, what: str = "model file", positive: bool = True) -> float:
+    """``value`` as a finite float (> 0 when ``positive``); booleans and strings are refused."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise ModelError(f"{what}: '{key}' must be a finite number, got {value!r:.80}")
+    if positive and not value > 0:
+        raise ModelError(f"{what}: '{key}' must be > 0, got {value!r}")
+    return float(value)
+
+
+def check_mapping(value, key: str, what: str = "model file") -> dict:
+    """``value`` as a dict; ModelError naming ``key`` otherwise."""
+    if not isinstance(value, dict):
+        raise ModelError(f"{what}: '{key}' must be a table (JSON object), got {type(value).__name__}")
+    return dict(value)
+
+
+def require_columns(frame: pd.DataFrame, columns, model, what: str) -> None:
+    """Raise ModelError if ``frame`` lacks ``columns`` the model needs, naming the model's and the data's zones.
+
+    Parameters
+    ----------
+    frame : DataFrame
+        Prepared data.
+    columns : sequence of str
+        Columns the model reads.
+    model : ZoneModel
+    what : str
+        What the columns are for ("zone temperatures", "inputs" ...).
+    """
+    missing = [c for c in columns if c not in frame.columns]
+    if not missing:
+        return
+    data_zones = [c[2:] for c in frame.columns if c.startswith("T_") and not c.startswith(("T_out", "T_supply"))]
+    model_zones = list(getattr(model, "measured_zones", None) or model.outputs)
+    raise ModelError(
+        f"the {getattr(model, 'kind', '?')} model does not fit these data: they lack the {what} column(s) "
+        f"{missing}. Model zones: {model_zones}; data zones: {data_zones}. Fit the model on data of this "
+        "building, or use the building file the model was made for"
+    )
+
+
 def gains_to_json(gains: dict) -> dict:
     return {s: np.asarray(g, dtype=float).tolist() for s, g in gains.items()}
 
 
 def gains_from_json(d: dict, n_q: int, step: float) -> dict:
+    if not isinstance(d, dict):
+        raise ModelError(f"'gains' must be a table season -> profile, got {type(d).__name__}")
     n = n_time_of_week(step)
     return {s: check_shape(g, (n, n_q), f"gains[{s!r}]") for s, g in d.items()}
 
@@ -166,7 +216,7 @@ def require_keys(d: dict, keys, what: str):
 
 def check_version(d: dict, what: str = "model file"):
     v = d.get("format_version")
-    if not isinstance(v, int):
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
         raise ModelError(f"{what}: no integer 'format_version'")
     if v > FORMAT_VERSION:
         raise ModelError(

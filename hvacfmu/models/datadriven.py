@@ -62,6 +62,7 @@ import scipy.sparse
 
 from ..errors import DataError, FitError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week, time_of_week
+from .heat import air_handler_off_share, delivered_heat, inlet_columns
 
 log = logging.getLogger(__name__)
 
@@ -572,7 +573,13 @@ DEFAULTS: dict[str, Any] = {
     "use_solar": True,
     "min_rows": 200,
     "min_season_coverage": 0.5,
+    "heat": "auto",
+    "plausibility": True,
 }
+
+#: With option heat="auto", the delivered-heat form is used when an air handler is off in more than this share
+#: of the training steps (its supply temperature is then an idle node temperature).
+OFF_SHARE_DELIVERED = 0.05
 
 
 def _options(opts: dict) -> dict:
@@ -605,39 +612,41 @@ def _jsonable(x):
 
 
 class _Prepared:
-    """Arrays pulled once from a Dataset: series on the regular grid and row masks."""
+    """Arrays pulled once from a Dataset: series on the regular grid, row masks and the boxes' drive.
+
+    The *drive* is what the boxes do to the zones: their airflow [kg/s] in the
+    paper's airflow form, the heat their air delivers ``m c_p (T_in - x)`` [kW]
+    in the delivered-heat form (see :mod:`hvacfmu.models.heat`).
+    """
 
     def __init__(self, dataset, opts):
-        import pandas as pd
-
         self.dataset = dataset
         self.building = b = dataset.building
         self.step = float(dataset.step)
-        frame = dataset.frame
-        idx = frame.index
-        if len(idx) < 3:
-            raise DataError("dataset has fewer than three rows; nothing to fit")
-        # the smoother needs a regular grid: reindex onto it if rows are missing
-        full = pd.date_range(idx[0], idx[-1], freq=pd.Timedelta(seconds=self.step))
-        if len(full) != len(idx) or not full.equals(idx):
-            frame = frame.reindex(full)
-        self.frame = frame
+        self.frame = frame = _regular_frame(dataset.frame, self.step)
         self.index = frame.index
         n = len(frame)
         self.t = np.arange(n) * self.step
         self.T = frame[[f"T_{z}" for z in b.zone_names]].to_numpy(float)
         self.m = frame[[f"m_{v}" for v in b.vav_names]].to_numpy(float)
-        self.solar = bool(dataset.has_solar) and bool(opts["use_solar"])
-        orient = []
-        if self.solar:
-            orient = [o for o in ("N", "E", "S", "W") if any(o in z.orientations for z in b.zones)]
-            orient = [o for o in orient if f"I_{o}" in frame.columns]
-        self.v_names = ("T_out", "T_supply") + tuple(f"I_{o}" for o in orient)
-        self.V = frame[list(self.v_names)].to_numpy(float)
         self.exc = (
             frame["excitation"].to_numpy(float) == 1.0 if "excitation" in frame.columns else np.zeros(n, bool)
         )
-        # training rows and seasons
+        self._split_weeks(dataset)
+        self.warnings: list[str] = []  # fit warnings (the dataset keeps its own)
+        self.min_cov = float(opts["min_season_coverage"])
+        self._choose_heat_form(opts)
+        orient = []
+        self.solar = bool(dataset.has_solar) and bool(opts["use_solar"])
+        if self.solar:
+            orient = [o for o in ("N", "E", "S", "W") if any(o in z.orientations for z in b.zones)]
+            orient = [o for o in orient if f"I_{o}" in frame.columns]
+        temps = ("T_out",) if self.delivered else ("T_out", "T_supply")
+        self.v_names = temps + tuple(f"I_{o}" for o in orient)
+        self.V = frame[list(self.v_names)].to_numpy(float)
+
+    def _split_weeks(self, dataset):
+        n = len(self.index)
         train = np.zeros(n, bool)
         season = np.full(n, None, dtype=object)
         self.train_weeks = {}
@@ -653,8 +662,67 @@ class _Prepared:
         self.n_slots = n_time_of_week(self.step)
         if not train.any():
             raise FitError("the dataset has no training weeks; need at least one full week of data")
-        self.warnings: list[str] = []  # fit warnings (the dataset keeps its own)
-        self.min_cov = float(opts["min_season_coverage"])
+
+    def _choose_heat_form(self, opts):
+        """Airflow or delivered-heat form (option ``heat``); inlet column per box."""
+        b = self.building
+        self.inlets, notes = inlet_columns(b, self.frame, rows=self.train)
+        for note in notes:
+            self.warn(note)
+        self.off_share = air_handler_off_share(b, self.m, self.train)
+        has_td = [c for c in self.inlets if c.startswith("Td_")]
+        form = opts["heat"]
+        if form not in ("auto", "airflow", "delivered"):
+            raise FitError(f"option heat must be 'auto', 'airflow' or 'delivered', got {form!r}")
+        if form == "auto":
+            if has_td:
+                form, why = "delivered", f"discharge air temperatures measured ({len(has_td)} of {len(b.vavs)} boxes)"
+            elif self.off_share > OFF_SHARE_DELIVERED:
+                form, why = "delivered", (f"an air handler is off (no airflow in all its boxes) in "
+                                          f"{100 * self.off_share:.0f} % of the training steps")
+            else:
+                form, why = "airflow", "no discharge air temperatures; air handlers always run"
+        else:
+            why = "option heat"
+        if form == "airflow" and has_td:
+            self.warn(f"heat='airflow' ignores the measured discharge air temperatures {has_td}")
+        if form == "airflow" and self.off_share > OFF_SHARE_DELIVERED:
+            self.warn(f"heat='airflow': the supply temperature enters linearly although an air handler is off in "
+                      f"{100 * self.off_share:.0f} % of the training steps (its idle node temperature is "
+                      "meaningless); heat='delivered' avoids this")
+        self.delivered = form == "delivered"
+        self.heat_form = {"form": form, "reason": why, "inlets": dict(zip(b.vav_names, self.inlets)),
+                          "air_handler_off_share": self.off_share}
+        self.Tin = self.frame[list(self.inlets)].to_numpy(float)
+
+    def box_heat(self, T_box):
+        """Heat delivered by each box [kW] with the zone temperature ``T_box`` (n, n_vav) it sees; 0 at zero flow."""
+        Q = delivered_heat(self.m, self.Tin, T_box)
+        return np.where(self.m == 0.0, 0.0, Q)
+
+    def zone_drive(self):
+        """What each zone's boxes do (n, n_zones): summed airflow [kg/s] or delivered heat [kW]."""
+        zvm = self.building.zone_vav_matrix()
+        if not self.delivered:
+            return self.m @ zvm.T
+        box_zone = np.argmax(zvm, axis=0)
+        return self.box_heat(self.T[:, box_zone]) @ zvm.T
+
+    def floor_drive(self, x_floor):
+        """What all boxes do to the floor (n,): total airflow [kg/s] or delivered heat [kW]."""
+        if not self.delivered:
+            return self.m.sum(axis=1)
+        return self.box_heat(np.repeat(x_floor[:, None], self.m.shape[1], axis=1)).sum(axis=1)
+
+    @property
+    def drive_label(self) -> str:
+        """Prefix of the drive series in smoothing metadata: ``m`` (airflow) or ``Q`` (delivered heat)."""
+        return "Q" if self.delivered else "m"
+
+    @property
+    def drive_bounds(self):
+        """Bounds of the drive coefficient: airflow cools (b <= 0), delivered heat warms (beta >= 0)."""
+        return (0.0, np.inf) if self.delivered else (-np.inf, 0.0)
 
     def warn(self, msg):
         self.warnings.append(msg)
@@ -667,7 +735,9 @@ class _Prepared:
             x = X[self.train, j]
             x = x[np.isfinite(x)]
             if x.size < 2:
-                problems.append(f"{what} {name}: no data in the training weeks")
+                why = [w for w in getattr(self.dataset, "warnings", []) or [] if f"'T_{name}'" in w]
+                problems.append(f"{what} {name}: no data in the training weeks"
+                                + (f" (the data layer said: {why[0]})" if why else ""))
             elif np.ptp(x) < 1e-6:
                 problems.append(
                     f"{what} {name}: constant at {x[0]:g} over all training weeks (stuck sensor?); "
@@ -676,10 +746,22 @@ class _Prepared:
         return problems
 
 
+def _regular_frame(frame, step):
+    """``frame`` on a regular grid of ``step`` seconds (the smoother needs one); rows added as NaN."""
+    import pandas as pd
+
+    idx = frame.index
+    if len(idx) < 3:
+        raise DataError("dataset has fewer than three rows; nothing to fit")
+    full = pd.date_range(idx[0], idx[-1], freq=pd.Timedelta(seconds=step))
+    if len(full) != len(idx) or not full.equals(idx):
+        frame = frame.reindex(full)
+    return frame
+
+
 def _smooth_series(prep: _Prepared, names, X, opts):
     """LOESS smooths of the columns of X on training rows; bandwidths by CV unless given."""
     Xt = np.where(prep.train[:, None], X, np.nan)
-    step = prep.step
     fixed = opts["bandwidth"]
     curves = {}
     if fixed is not None:
@@ -692,18 +774,13 @@ def _smooth_series(prep: _Prepared, names, X, opts):
             bws = np.full(len(names), float(fixed) * 3600.0)
         grid = np.unique(bws)
     else:
-        grid_h = np.asarray(opts["bandwidths"], float)
-        cv = cv_bandwidth(prep.t, Xt, grid_h * 3600.0, folds=int(opts["cv_folds"]),
-                          block=int(opts["cv_block"]), seed=int(opts["seed"]))
+        cv, grid = _cv_extending(prep, Xt, opts)
         bws = cv.bandwidth
-        grid = cv.grid
         for j, nm in enumerate(names):
             curves[nm] = cv.scores[:, j]
         if opts["common_bandwidth"]:
-            common = pooled_bandwidth(cv.scores, grid)
-            bws = np.full(len(names), common)
-        if np.any(bws == grid[-1]) and len(grid) > 1:
-            log.info("CV chose the largest candidate bandwidth %.1f h", grid[-1] / 3600)
+            bws = np.full(len(names), pooled_bandwidth(cv.scores, grid))
+        _warn_grid_edge(prep, names, bws, grid)
     hat = np.full_like(Xt, np.nan)
     for bw in np.unique(bws):
         cols = np.flatnonzero(bws == bw)
@@ -714,6 +791,46 @@ def _smooth_series(prep: _Prepared, names, X, opts):
         "cv_scores": {nm: curves[nm] for nm in curves},
     }
     return hat, info
+
+
+#: The CV grid is extended upwards (by factors of 1.5) up to this half-width [h] when its top candidate wins.
+MAX_BANDWIDTH_H = 48.0
+
+
+def _cv_extending(prep: _Prepared, Xt, opts):
+    """Blocked CV on the option's grid, extended upwards while the pooled choice sits on its top edge."""
+    grid_h = sorted(float(g) for g in opts["bandwidths"])
+    kw = {"folds": int(opts["cv_folds"]), "block": int(opts["cv_block"]), "seed": int(opts["seed"])}
+    while True:
+        cv = cv_bandwidth(prep.t, Xt, np.asarray(grid_h) * 3600.0, **kw)
+        top = pooled_bandwidth(cv.scores, cv.grid) if opts["common_bandwidth"] else float(np.max(cv.bandwidth))
+        if len(grid_h) < 2 or top < cv.grid[-1] or grid_h[-1] * 1.5 > MAX_BANDWIDTH_H:
+            return cv, cv.grid
+        grid_h.append(grid_h[-1] * 1.5)
+        log.info("CV chose the largest candidate bandwidth; grid extended to %.1f h", grid_h[-1])
+
+
+def _warn_grid_edge(prep: _Prepared, names, bws, grid):
+    """Warn (naming series and bandwidth) when CV chose a bandwidth on the edge of its grid.
+
+    At the lower edge the smoother follows nearly every wiggle of the series:
+    on closed-loop data the de-smoothed temperature is mostly the thermostat
+    loop's fast response and the identified dynamics describe the loop, not the
+    building. The lower edge cannot go below the CV block length.
+    """
+    if len(grid) < 2:
+        return
+    for edge, label in ((grid[0], "lower"), (grid[-1], "upper")):
+        at = [nm for nm, bw in zip(names, bws) if bw == edge]
+        if not at:
+            continue
+        what = "every series" if len(at) == len(names) else ", ".join(at)
+        hint = ("(it cannot go lower than the CV block, option cv_block): the de-smoothed series may be dominated "
+                "by fast variations such as a thermostat loop; see the identifiability check, or fix option "
+                "bandwidth to compare" if label == "lower" else
+                f"(extended up to {MAX_BANDWIDTH_H:g} h); the series vary little within a day")
+        prep.warn(f"LOESS bandwidth {edge / 3600:g} h chosen by cross-validation for {what} is on the "
+                  f"{label} edge of its grid ({', '.join(f'{g / 3600:g}' for g in grid)} h) {hint}")
 
 
 def _regression_rows(prep: _Prepared, *arrays_at_k, next_ok):
@@ -787,16 +904,14 @@ def _gains_by_season(prep: _Prepared, q_rows, rows, nq):
 
 def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
     """Smooth, fit without and with priors for the lumped model. Returns a dict of results."""
-    b = prep.building
-    w = b.area_weights()
+    w = prep.building.area_weights()
     x = prep.T @ w
-    u = prep.m.sum(axis=1)
-    names = ["x_floor", "u_total"] + list(prep.v_names)
+    u = prep.floor_drive(x)
+    names = ["x_floor", prep.drive_label + "_total"] + list(prep.v_names)
     X = np.column_stack([x, u, prep.V])
     if smooth_cache is not None and all(nm in smooth_cache["names"] for nm in names):
         cols = [smooth_cache["names"].index(nm) for nm in names]
-        hat = smooth_cache["hat"][:, cols]
-        sinfo = smooth_cache["info"]
+        hat, sinfo = smooth_cache["hat"][:, cols], smooth_cache["info"]
     else:
         hat, sinfo = _smooth_series(prep, names, X, opts)
     D = X - hat
@@ -808,47 +923,20 @@ def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
             "every zone's temperature at the same time)"
         )
     nv = len(prep.v_names)
-    Z = D[rows]
-    y = D[rows + 1, 0]
-    lb = np.r_[A_EPS, -np.inf, np.zeros(nv)]
-    ub = np.r_[1 - A_EPS, 0.0, np.full(nv, np.inf)]
+    Z, y = D[rows], D[rows + 1, 0]
+    lo, hi = prep.drive_bounds
+    lb = np.r_[A_EPS, lo, np.zeros(nv)]
+    ub = np.r_[1 - A_EPS, hi, np.full(nv, np.inf)]
     free = bayes_cls(Z, y, lb=lb, ub=ub)
     if not free.found:
         raise FitError("the constrained least-squares fit without priors failed (Clarabel found no solution)")
     a0, b0 = free.theta[0], free.theta[1]
-    # prior on b from the excitation experiments, eq. (excitation_equation)
     prior_src = {}
-    mu_b = opts["mu_b"]
-    if mu_b is None:
-        ex = np.flatnonzero(prep.train[:-1] & prep.train[1:] & prep.exc[:-1])
-        mu_b = float("nan")
-        if ex.size == 0:
-            prep.warn(
-                "no excitation periods (column 'excitation' == 1) in the training weeks: the prior mean of b "
-                "falls back to the constrained least-squares estimate without priors, so the prior adds no "
-                "information about the airflow response"
-            )
-            prior_src["mu_b"] = "fallback: fit without priors (no excitation periods)"
-        else:
-            mu_b = excitation_prior_b(x[ex + 1] - x[ex], u[ex])
-            prior_src["mu_b"] = f"excitation experiments ({ex.size} steps)"
-            if not (np.isfinite(mu_b) and mu_b < 0):
-                prep.warn(
-                    f"excitation experiments give a non-negative or undefined airflow effect (b = {mu_b:.4g}); "
-                    "the prior mean of b falls back to the fit without priors"
-                )
-                prior_src["mu_b"] = "fallback: fit without priors (excitation estimate not negative)"
-                mu_b = float("nan")
-        if not np.isfinite(mu_b):
-            mu_b = b0
-    else:
-        prior_src["mu_b"] = "option"
+    mu_b = _prior_drive(prep, opts, x, u, b0, prior_src)
     mu_a = opts["mu_a"]
+    prior_src["mu_a"] = "option"
     if mu_a is None:
-        mu_a = a0
-        prior_src["mu_a"] = "fit without priors"
-    else:
-        prior_src["mu_a"] = "option"
+        mu_a, prior_src["mu_a"] = a0, "fit without priors"
     sd_a = float(opts["prior_sd_a"])
     sd_b = float(opts["prior_rel_sd_b"]) * max(abs(mu_b), 1e-6)
     mu = np.r_[mu_a, mu_b, np.zeros(nv)]
@@ -863,19 +951,58 @@ def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
     }
 
 
+def _prior_drive(prep: _Prepared, opts, x, u, b0, prior_src) -> float:
+    """Prior mean of the drive coefficient (b or beta): option, excitation experiments, else the free fit.
+
+    Eq. (excitation_equation) of [1]_: during forced-response experiments
+    ``dx = b u`` (airflow form) or ``dx = beta Q`` (delivered heat).
+    """
+    if opts["mu_b"] is not None:
+        prior_src["mu_b"] = "option"
+        return float(opts["mu_b"])
+    ex = np.flatnonzero(prep.train[:-1] & prep.train[1:] & prep.exc[:-1])
+    sign = "positive" if prep.delivered else "negative"
+    if ex.size == 0:
+        prep.warn(
+            "no excitation periods (column 'excitation' == 1) in the training weeks: the prior mean of b "
+            "falls back to the constrained least-squares estimate without priors, so the prior adds no "
+            "information about the airflow response"
+        )
+        prior_src["mu_b"] = "fallback: fit without priors (no excitation periods)"
+        return float(b0)
+    mu_b = excitation_prior_b(x[ex + 1] - x[ex], u[ex])
+    if np.isfinite(mu_b) and (mu_b > 0 if prep.delivered else mu_b < 0):
+        prior_src["mu_b"] = f"excitation experiments ({ex.size} steps)"
+        return float(mu_b)
+    prep.warn(
+        f"excitation experiments give a non-{sign} or undefined effect of the boxes (b = {mu_b:.4g}); "
+        "the prior mean of b falls back to the fit without priors"
+    )
+    prior_src["mu_b"] = f"fallback: fit without priors (excitation estimate not {sign})"
+    return float(b0)
+
+
 def fit_lumped(dataset, **options):
     """Identify the lumped Model A: the whole floor as one zone.
 
-    x = area-weighted mean zone temperature [°C], u = total airflow [kg/s],
-    v = [T_out, T_supply (°C), I_N, I_E, I_S, I_W (W/m², only if the dataset has solar data)];
-    ``x(k+1) = a x(k) + b u(k) + c^T v(k) + q_IG(k)``.
+    x = area-weighted mean zone temperature [°C]; the boxes' drive ``u`` is the
+    total airflow [kg/s] (airflow form, v = [T_out, T_supply (°C), I_N, I_E,
+    I_S, I_W (W/m², only if the dataset has solar data)]) or the total heat
+    their air delivers ``sum_b m_b c_p (T_in,b - x)`` [kW] (delivered-heat
+    form, v without T_supply); ``x(k+1) = a x(k) + b u(k) + c^T v(k) + q_IG(k)``.
 
     Parameters
     ----------
     dataset : hvacfmu.data.Dataset
         Only its training weeks are used.
+    heat : {"auto", "airflow", "delivered"}
+        Form of the boxes' effect (default "auto": delivered heat when the data
+        have discharge air temperatures ``Td_<vav>`` or an air handler is off in
+        more than 5 % of the training steps, else the paper's airflow form).
     bandwidths : sequence of float [h]
-        LOESS half-width candidates for cross-validation (default 1 .. 12 h).
+        LOESS half-width candidates for cross-validation (default 2 .. 12 h;
+        extended upwards up to 48 h while the largest one wins; a choice on an
+        edge of the grid is warned about).
     bandwidth : float or dict name -> float [h], optional
         Fixed bandwidth(s) instead of cross-validation.
     cv_folds : int
@@ -908,6 +1035,9 @@ def fit_lumped(dataset, **options):
         Minimum number of usable transitions (default 200).
     min_season_coverage : float
         Warn if a season's usable data cover fewer time-of-week slots (default 0.5).
+    plausibility : bool
+        Check the fitted model (:mod:`hvacfmu.models.plausibility`) and refuse an
+        implausible one (default True).
     progress : bool
         Accepted for the CLI; the fit is fast and shows no bar.
 
@@ -915,19 +1045,18 @@ def fit_lumped(dataset, **options):
     -------
     LinearZoneModel
         ``kind="lumped"``, outputs ``("floor",)``; ``meta`` holds provenance,
-        bandwidths, CV curves, priors and coefficient uncertainties.
+        bandwidths, CV curves, priors, coefficient uncertainties and the heat form.
 
     Raises
     ------
     FitError
-        Too little data, constant temperatures, or no season with usable data.
+        Too little data, constant temperatures, no season with usable data, or
+        an implausible fitted model.
 
     References
     ----------
     .. [1] Zhou, Hu, Tomlin, section III-A.
     """
-    from .linear import LinearZoneModel
-
     t0 = time.perf_counter()
     opts = _options(options)
     prep = _Prepared(dataset, opts)
@@ -939,7 +1068,6 @@ def fit_lumped(dataset, **options):
         prep.warn("the total airflow is constant over the training weeks: b is determined by its prior only")
     st = _lumped_stage(prep, opts)
     theta = st["post"].theta
-    nv = len(prep.v_names)
     a, bb, c = theta[0], theta[1], theta[2:]
     hat = st["hat"]
     rows = _regression_rows(prep, hat, next_ok=np.isfinite(hat[:, 0]))
@@ -962,32 +1090,19 @@ def fit_lumped(dataset, **options):
             "residual_sd": float(np.sqrt(st["post"].sigma2)),
             "n_transitions": int(st["rows"].size),
             "gain_coverage": coverage,
-            "warnings": prep.warnings,
         }
     )
-    model = LinearZoneModel(
-        kind="lumped",
-        step=prep.step,
-        outputs=("floor",),
-        measured_zones=b.zone_names,
-        output_weights=st["weights"][None, :],
-        vavs=b.vav_names,
-        input_map=np.ones((1, len(b.vavs))),
-        disturbances=prep.v_names,
-        A=np.array([[a]]),
-        B=np.array([[bb]]),
-        C=c.reshape(1, nv),
-        gains=gains,
-        meta=_jsonable(meta),
-    )
-    return model
+    return _finish(prep, opts, "lumped", np.array([[a]]), np.array([bb]), c.reshape(1, -1), gains, meta,
+                   weights=st["weights"][None, :])
 
 
 def fit_zones(dataset, **options):
     """Identify the six-zone (multi-zone) Model A.
 
-    x, u in R^nz: zone temperatures [°C] and summed airflow of each zone's
-    boxes [kg/s]; ``x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)`` with
+    x, u in R^nz: zone temperatures [°C] and what each zone's boxes do — their
+    summed airflow [kg/s] (airflow form) or the heat their air delivers
+    ``sum_b m_b c_p (T_in,b - x_i)`` [kW] (delivered-heat form, see
+    :func:`fit_lumped` option ``heat``); ``x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)`` with
 
     - ``A`` sparse by adjacency (diagonal + ``building.adjacency_pairs()``),
       elementwise non-negative with row sums ``<= 1 - stability_margin``. A
@@ -996,9 +1111,9 @@ def fit_zones(dataset, **options):
       sign follows from Newton's law of cooling (a warmer neighbour warms the
       zone), and the row-sum bound is the discrete form of the zone losing heat
       to its surroundings.
-    - ``B`` diagonal, ``<= 0``.
-    - ``C >= 0``, sparse: T_out and T_supply for every zone, plus the
-      irradiance of the orientations of each zone's exterior facades.
+    - ``B`` diagonal, ``<= 0`` for airflow (``beta >= 0`` for delivered heat).
+    - ``C >= 0``, sparse: T_out (and T_supply in the airflow form) for every
+      zone, plus the irradiance of the orientations of each zone's exterior facades.
 
     Priors as in the paper (sec. III-B): the lumped priors scaled by thermal
     mass — ``mu_B,ii = mu_b / s_i`` with ``s_i`` the zone's volume share (the
@@ -1028,96 +1143,21 @@ def fit_zones(dataset, **options):
     ----------
     .. [1] Zhou, Hu, Tomlin, section III-B.
     """
-    from .linear import LinearZoneModel
-
     t0 = time.perf_counter()
     opts = _options(options)
     prep = _Prepared(dataset, opts)
-    b = prep.building
-    zn = b.zone_names
-    nz = len(zn)
-    U = prep.m @ b.zone_vav_matrix().T
-    problems = prep.check_constant(zn, prep.T, "zone temperature")
-    if problems:
-        raise FitError(problems_message("Cannot fit the zone model", problems))
-    for j, z in enumerate(zn):
-        uz = U[prep.train, j]
-        uz = uz[np.isfinite(uz)]
-        if uz.size and np.ptp(uz) < 1e-9:
-            prep.warn(f"zone {z}: its airflow is constant over the training weeks; B[{z}] is set by its prior only")
-    # smooth everything once (zone series + the lumped series for the priors)
-    x_floor = prep.T @ b.area_weights()
-    names = [f"T_{z}" for z in zn] + [f"m_{z}" for z in zn] + list(prep.v_names) + ["x_floor", "u_total"]
-    X = np.column_stack([prep.T, U, prep.V, x_floor, prep.m.sum(axis=1)])
-    hat, sinfo = _smooth_series(prep, names, X, opts)
-    cache = {"names": names, "hat": hat, "info": sinfo}
-    D = X - hat
-    nv = len(prep.v_names)
-    vols = np.array([z.volume for z in b.zones], float)
-    share = vols / vols.sum()
-    adj = {z: set() for z in zn}
-    for p, q in b.adjacency_pairs():
-        adj[p].add(q)
-        adj[q].add(p)
-    layout, problems = [], []
-    for i, z in enumerate(zn):
-        nbrs = [j for j, other in enumerate(zn) if other in adj[z]]
-        vcols = [0, 1] + [2 + k for k, vn in enumerate(prep.v_names[2:]) if vn[2:] in b.zones[i].orientations]
-        xcols = [i] + nbrs
-        Zi_full = np.column_stack([D[:, xcols], D[:, nz + i], D[:, 2 * nz + np.array(vcols, int)]])
-        rows = _regression_rows(prep, Zi_full, next_ok=np.isfinite(D[:, i]))
-        if rows.size < int(opts["min_rows"]):
-            problems.append(
-                f"zone {z}: only {rows.size} usable transitions in the training weeks (need >= {opts['min_rows']}); "
-                "too little data (or too many gaps) to identify its dynamics"
-            )
-        layout.append((xcols, vcols, Zi_full, rows))
-    if problems:
-        raise FitError(problems_message("Cannot fit the zone model", problems))
+    U = _zone_drive_checked(prep)
+    hat, sinfo, D, cache = _zone_smooth(prep, U, opts)
+    layout = _zone_layout(prep, D, opts)
     lump = _lumped_stage(prep, opts, smooth_cache=cache)
-    A = np.zeros((nz, nz))
-    B = np.zeros((nz, nz))
-    C = np.zeros((nz, nv))
-    A_sd, B_sd, C_sd = np.zeros((nz, nz)), np.zeros((nz, nz)), np.zeros((nz, nv))
-    priors, free_fits, resid = {}, {}, {}
-    sd_a, sd_off = float(opts["prior_sd_a"]), float(opts["prior_sd_a_offdiag"])
-    mu_off = float(opts["mu_a_offdiag"])
-    rows_all = []
-    for i, z in enumerate(zn):
-        xcols, vcols, Zi_full, rows = layout[i]
-        rows_all.append(rows)
-        Zi, yi = Zi_full[rows], D[rows + 1, i]
-        p = Zi.shape[1]
-        na = len(xcols)
-        lb = np.r_[A_EPS, np.zeros(na - 1), -np.inf, np.zeros(len(vcols))]
-        ub = np.r_[1 - A_EPS, np.ones(na - 1), 0.0, np.full(len(vcols), np.inf)]
-        G = np.zeros((1, p))
-        G[0, :na] = 1.0
-        h = np.array([1.0 - float(opts["stability_margin"])])
-        free = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h)
-        if not free.found:
-            raise FitError(f"zone {z}: the constrained least-squares fit without priors failed (Clarabel)")
-        mu_bi = lump["mu_b"] / share[i]
-        mu = np.r_[lump["mu_a"], np.full(na - 1, mu_off), mu_bi, np.zeros(len(vcols))]
-        sd = np.r_[sd_a, np.full(na - 1, sd_off), float(opts["prior_rel_sd_b"]) * max(abs(mu_bi), 1e-6),
-                   np.full(len(vcols), np.inf)]
-        sigma2 = free.rss / max(free.n - p, 1)
-        post = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h, prior_mean=mu, prior_sd=sd, sigma2=sigma2)
-        if not post.found:
-            raise FitError(f"zone {z}: the Bayesian constrained least-squares fit failed (Clarabel)")
-        th, sdv = post.theta, np.sqrt(np.maximum(np.diag(post.cov), 0.0))
-        A[i, xcols], A_sd[i, xcols] = th[:na], sdv[:na]
-        B[i, i], B_sd[i, i] = th[na], sdv[na]
-        C[i, vcols], C_sd[i, vcols] = th[na + 1:], sdv[na + 1:]
-        priors[z] = {"mu_A_diag": lump["mu_a"], "sd_A_diag": sd_a, "mu_A_offdiag": mu_off, "sd_A_offdiag": sd_off,
-                     "mu_B": mu_bi, "sd_B": sd[na], "volume_share": share[i]}
-        free_fits[z] = free.theta.tolist()
-        resid[z] = float(np.sqrt(post.sigma2))
-    # internal gains from the smooths, eq. (qig_estimation)
+    fits = [_fit_one_zone(prep, opts, D, layout[i], lump, i) for i in range(len(layout))]
+    A, drive, C, coef_sd = _zone_coefficients(prep, layout, fits)
+    nz, nv = A.shape[0], C.shape[1]
     Xh, Uh, Vh = hat[:, :nz], hat[:, nz:2 * nz], hat[:, 2 * nz:2 * nz + nv]
     rows = _regression_rows(prep, Xh, Uh, Vh, next_ok=np.all(np.isfinite(Xh), axis=1))
-    qr = Xh[rows + 1] - (Xh[rows] @ A.T + Uh[rows] @ B.T + Vh[rows] @ C.T)
+    qr = Xh[rows + 1] - (Xh[rows] @ A.T + Uh[rows] * drive + Vh[rows] @ C.T)
     gains, coverage = _gains_by_season(prep, qr, rows, nz)
+    zn = prep.building.zone_names
     meta = _provenance(prep, opts, t0, "zones")
     meta.update(
         {
@@ -1125,33 +1165,147 @@ def fit_zones(dataset, **options):
             "priors": {
                 "lumped": {"mu_a": lump["mu_a"], "mu_b": lump["mu_b"], "sd_a": lump["sd_a"], "sd_b": lump["sd_b"],
                            "source": lump["prior_src"]},
-                "zones": priors,
+                "zones": {z: f["prior"] for z, f in zip(zn, fits)},
             },
-            "fit_without_priors": free_fits,
-            "coef_sd": {"A": A_sd, "B": B_sd, "C": C_sd},
+            "fit_without_priors": {z: f["free"].theta.tolist() for z, f in zip(zn, fits)},
+            "coef_sd": coef_sd,
             "coef_sd_note": "posterior sd of the unconstrained Gaussian problem; ignores residual autocorrelation",
-            "residual_sd": resid,
+            "residual_sd": {z: float(np.sqrt(f["post"].sigma2)) for z, f in zip(zn, fits)},
             "spectral_radius_A": float(np.max(np.abs(np.linalg.eigvals(A)))),
-            "n_transitions": {z: int(r.size) for z, r in zip(zn, rows_all)},
+            "n_transitions": {z: int(lay["rows"].size) for z, lay in zip(zn, layout)},
             "gain_coverage": coverage,
-            "warnings": prep.warnings,
         }
     )
-    return LinearZoneModel(
-        kind="zones",
-        step=prep.step,
-        outputs=zn,
-        measured_zones=zn,
-        output_weights=np.eye(nz),
-        vavs=b.vav_names,
-        input_map=b.zone_vav_matrix(),
-        disturbances=prep.v_names,
-        A=A,
-        B=B,
-        C=C,
-        gains=gains,
-        meta=_jsonable(meta),
-    )
+    return _finish(prep, opts, "zones", A, drive, C, gains, meta, weights=np.eye(nz))
+
+
+def _zone_drive_checked(prep: _Prepared):
+    """Each zone's drive (n, nz); FitError for constant zone temperatures, warnings for constant drives."""
+    zn = prep.building.zone_names
+    problems = prep.check_constant(zn, prep.T, "zone temperature")
+    if problems:
+        raise FitError(problems_message("Cannot fit the zone model", problems))
+    U = prep.zone_drive()
+    for j, z in enumerate(zn):
+        uz = U[prep.train, j]
+        uz = uz[np.isfinite(uz)]
+        if uz.size and np.ptp(uz) < 1e-9:
+            what = "delivered heat" if prep.delivered else "airflow"
+            prep.warn(f"zone {z}: its {what} is constant over the training weeks; B[{z}] is set by its prior only")
+    return U
+
+
+def _zone_smooth(prep: _Prepared, U, opts):
+    """Smooth every zone series and the lumped series (for the priors) once; returns hat, info, D, cache."""
+    b = prep.building
+    zn = b.zone_names
+    x_floor = prep.T @ b.area_weights()
+    d = prep.drive_label
+    names = [f"T_{z}" for z in zn] + [f"{d}_{z}" for z in zn] + list(prep.v_names) + ["x_floor", f"{d}_total"]
+    X = np.column_stack([prep.T, U, prep.V, x_floor, prep.floor_drive(x_floor)])
+    hat, sinfo = _smooth_series(prep, names, X, opts)
+    return hat, sinfo, X - hat, {"names": names, "hat": hat, "info": sinfo}
+
+
+def _zone_layout(prep: _Prepared, D, opts):
+    """Per zone: state columns (itself + neighbours), disturbance columns, regressors, usable rows."""
+    b = prep.building
+    zn = b.zone_names
+    nz = len(zn)
+    adj = {z: set() for z in zn}
+    for p, q in b.adjacency_pairs():
+        adj[p].add(q)
+        adj[q].add(p)
+    n_temps = 1 if prep.delivered else 2
+    layout, problems = [], []
+    for i, z in enumerate(zn):
+        nbrs = [j for j, other in enumerate(zn) if other in adj[z]]
+        vcols = list(range(n_temps)) + [k for k, vn in enumerate(prep.v_names)
+                                        if k >= n_temps and vn[2:] in b.zones[i].orientations]
+        xcols = [i] + nbrs
+        Z = np.column_stack([D[:, xcols], D[:, nz + i], D[:, 2 * nz + np.array(vcols, int)]])
+        rows = _regression_rows(prep, Z, next_ok=np.isfinite(D[:, i]))
+        if rows.size < int(opts["min_rows"]):
+            problems.append(
+                f"zone {z}: only {rows.size} usable transitions in the training weeks (need >= {opts['min_rows']}); "
+                "too little data (or too many gaps) to identify its dynamics"
+            )
+        layout.append({"xcols": xcols, "vcols": vcols, "Z": Z, "rows": rows})
+    if problems:
+        raise FitError(problems_message("Cannot fit the zone model", problems))
+    return layout
+
+
+def _fit_one_zone(prep: _Prepared, opts, D, lay, lump, i):
+    """Constrained LS without priors, then the Bayesian fit of zone ``i``'s row of A, B, C."""
+    z = prep.building.zone_names[i]
+    xcols, vcols, rows = lay["xcols"], lay["vcols"], lay["rows"]
+    Zi, yi = lay["Z"][rows], D[rows + 1, i]
+    p, na = Zi.shape[1], len(xcols)
+    lo, hi = prep.drive_bounds
+    lb = np.r_[A_EPS, np.zeros(na - 1), lo, np.zeros(len(vcols))]
+    ub = np.r_[1 - A_EPS, np.ones(na - 1), hi, np.full(len(vcols), np.inf)]
+    G = np.zeros((1, p))
+    G[0, :na] = 1.0
+    h = np.array([1.0 - float(opts["stability_margin"])])
+    free = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h)
+    if not free.found:
+        raise FitError(f"zone {z}: the constrained least-squares fit without priors failed (Clarabel)")
+    vols = np.array([zz.volume for zz in prep.building.zones], float)
+    share = vols[i] / vols.sum()
+    sd_a, sd_off, mu_off = (float(opts[k]) for k in ("prior_sd_a", "prior_sd_a_offdiag", "mu_a_offdiag"))
+    mu_bi = lump["mu_b"] / share
+    sd_bi = float(opts["prior_rel_sd_b"]) * max(abs(mu_bi), 1e-6)
+    mu = np.r_[lump["mu_a"], np.full(na - 1, mu_off), mu_bi, np.zeros(len(vcols))]
+    sd = np.r_[sd_a, np.full(na - 1, sd_off), sd_bi, np.full(len(vcols), np.inf)]
+    post = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h, prior_mean=mu, prior_sd=sd, sigma2=free.rss / max(free.n - p, 1))
+    if not post.found:
+        raise FitError(f"zone {z}: the Bayesian constrained least-squares fit failed (Clarabel)")
+    prior = {"mu_A_diag": lump["mu_a"], "sd_A_diag": sd_a, "mu_A_offdiag": mu_off, "sd_A_offdiag": sd_off,
+             "mu_B": mu_bi, "sd_B": sd_bi, "volume_share": share}
+    return {"free": free, "post": post, "prior": prior}
+
+
+def _zone_coefficients(prep: _Prepared, layout, fits):
+    """A (nz, nz), drive coefficients (nz,), C (nz, nv) and their posterior sd from the per-zone fits."""
+    nz, nv = len(layout), len(prep.v_names)
+    A, A_sd = np.zeros((nz, nz)), np.zeros((nz, nz))
+    drive, drive_sd = np.zeros(nz), np.zeros(nz)
+    C, C_sd = np.zeros((nz, nv)), np.zeros((nz, nv))
+    for i, (lay, f) in enumerate(zip(layout, fits)):
+        th, sdv = f["post"].theta, np.sqrt(np.maximum(np.diag(f["post"].cov), 0.0))
+        na = len(lay["xcols"])
+        A[i, lay["xcols"]], A_sd[i, lay["xcols"]] = th[:na], sdv[:na]
+        drive[i], drive_sd[i] = th[na], sdv[na]
+        C[i, lay["vcols"]], C_sd[i, lay["vcols"]] = th[na + 1:], sdv[na + 1:]
+    key = "beta" if prep.delivered else "B"
+    return A, drive, C, {"A": A_sd, key: drive_sd if prep.delivered else np.diag(drive_sd), "C": C_sd}
+
+
+def _finish(prep: _Prepared, opts, kind, A, drive, C, gains, meta, weights):
+    """The LinearZoneModel of either form, checked for plausibility (option ``plausibility``)."""
+    from .linear import LinearZoneModel
+    from .plausibility import check_fitted
+
+    b = prep.building
+    nx = A.shape[0]
+    heat_map = np.ones((1, len(b.vavs))) if kind == "lumped" else b.zone_vav_matrix()
+    meta["heat"] = prep.heat_form
+    meta["warnings"] = prep.warnings
+    common = {"kind": kind, "step": prep.step, "outputs": ("floor",) if kind == "lumped" else b.zone_names,
+              "measured_zones": b.zone_names, "output_weights": weights, "vavs": b.vav_names, "A": A, "gains": gains}
+    if not prep.delivered:
+        model = LinearZoneModel(input_map=heat_map, disturbances=prep.v_names, B=np.diag(drive), C=C,
+                                meta=_jsonable(meta), **common)
+    else:
+        extra = tuple(dict.fromkeys(c for c in prep.inlets if c not in prep.v_names))
+        C = np.concatenate([C, np.zeros((nx, len(extra)))], axis=1)
+        model = LinearZoneModel(input_map=np.eye(len(b.vavs)), disturbances=prep.v_names + extra,
+                                B=np.zeros((nx, len(b.vavs))), C=C, beta=drive, inlets=prep.inlets,
+                                heat_map=heat_map, meta=_jsonable(meta), **common)
+    if opts["plausibility"]:
+        model = check_fitted(model, prep.dataset, warn=prep.warn)
+    return model
 
 
 __all__ = [

@@ -1,11 +1,23 @@
 """Model A: the linear data-driven zone model of Zhou, Hu & Tomlin (section III).
 
-    x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)
+    x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)                          (airflow form)
 
 ``kind = "lumped"``: x is the area-weighted mean zone temperature, u the summed
 airflow of all VAV boxes. ``kind = "zones"``: x holds the zone temperatures, u
 the summed airflow of each zone's boxes. ``q_IG`` [°C per step] is a
 time-of-week profile per season.
+
+Delivered-heat form (issue 13): the boxes act through the heat their air
+delivers, ``Q_b = m_b c_p (T_in,b - x_z(b))`` [kW], with ``T_in,b`` the box's
+discharge air temperature ``Td_<vav>`` where measured, else its air handler's
+supply temperature::
+
+    x_i(k+1) = sum_j A_ij x_j(k) + sum_c C_ic v_c(k) + q_IG,i(k) + beta_i sum_{b in i} Q_b(k)
+
+u are then the airflows of the individual boxes (``m_<vav>``), the inlet
+temperatures are disturbances that enter only through ``Q`` (bilinear in u and
+x), and ``beta_i > 0`` [K per step per kW]. The term is zero at zero airflow, so
+the supply temperature of an air handler that is off never enters.
 
 References
 ----------
@@ -25,12 +37,17 @@ from ..errors import ModelError
 from .base import (
     FORMAT_VERSION,
     ZoneModel,
+    check_mapping,
+    check_names,
+    check_number,
     check_shape,
     check_version,
     gains_from_json,
     gains_to_json,
+    require_columns,
     require_keys,
 )
+from .heat import CP_AIR, delivered_heat
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -57,6 +74,14 @@ class LinearZoneModel(ZoneModel):
     gains : dict season -> array (n_time_of_week, nx) [°C per step]
     meta : dict
         Provenance, fit options, uncertainties... (JSON-serialisable).
+    beta : array (nx,) or None [K per step per kW]
+        Delivered-heat form: response of each state to the heat the boxes deliver
+        (None: airflow form). Requires ``input_map`` = identity (u = box airflows).
+    inlets : tuple of str
+        Delivered-heat form: per box (``vavs`` order) the disturbance holding its
+        inlet air temperature [°C] (``Td_<vav>``, ``T_supply_<ahu>`` or ``T_supply``).
+    heat_map : array (nx, n_vavs) or None
+        Delivered-heat form: 1 where box j heats state i (its zone, or the floor).
     """
 
     kind: str
@@ -72,6 +97,9 @@ class LinearZoneModel(ZoneModel):
     C: np.ndarray
     gains: dict
     meta: dict = dataclasses.field(default_factory=dict)
+    beta: np.ndarray | None = None
+    inlets: tuple = ()
+    heat_map: np.ndarray | None = None
 
     KINDS: ClassVar[tuple] = ("lumped", "zones")
 
@@ -90,8 +118,34 @@ class LinearZoneModel(ZoneModel):
         set_("B", check_shape(self.B, (nx, nu), "B"))
         set_("C", check_shape(self.C, (nx, nv), "C"))
         set_("gains", {s: check_shape(g, (np.shape(g)[0], nx), f"gains[{s!r}]") for s, g in self.gains.items()})
-        if float(self.step) <= 0:
+        if not float(self.step) > 0:
             raise ModelError(f"step must be > 0 s, got {self.step}")
+        if self.beta is not None:
+            self._check_delivered(nx, nv)
+
+    def _check_delivered(self, nx, nv):
+        """Normalise and check the delivered-heat fields (beta, inlets, heat_map)."""
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        nb = len(self.vavs)
+        set_("beta", check_shape(self.beta, (nx,), "beta"))
+        set_("inlets", tuple(self.inlets))
+        set_("heat_map", check_shape(self.heat_map, (nx, nb), "heat_map"))
+        if not np.array_equal(self.input_map, np.eye(nb)):
+            raise ModelError("delivered-heat form: input_map must be the identity (one input per VAV box)")
+        if len(self.inlets) != nb:
+            raise ModelError(f"delivered-heat form: {len(self.inlets)} inlet columns for {nb} VAV boxes")
+        unknown = [c for c in self.inlets if c not in self.disturbances]
+        if unknown:
+            raise ModelError(f"delivered-heat form: inlet column(s) {unknown} are not disturbances {list(self.disturbances)}")
+        if not np.all(self.heat_map.sum(axis=0) == 1.0) or not np.all(np.isin(self.heat_map, (0.0, 1.0))):
+            raise ModelError("delivered-heat form: heat_map must assign every box to exactly one state")
+        set_("_inlet_idx", np.array([self.disturbances.index(c) for c in self.inlets], dtype=np.int64))
+        set_("_box_state", np.argmax(self.heat_map, axis=0))
+
+    @property
+    def heat(self) -> str:
+        """``"delivered"`` (boxes act through ``m c_p (T_in - x)``) or ``"airflow"`` (the paper's form)."""
+        return "airflow" if self.beta is None else "delivered"
 
     # --- interface ---------------------------------------------------------
     @property
@@ -100,33 +154,61 @@ class LinearZoneModel(ZoneModel):
 
     @property
     def inputs(self) -> tuple:
+        if self.beta is not None:
+            return tuple(f"m_{b}" for b in self.vavs)
         if self.kind == "lumped":
             return ("m_total",)
         return tuple(f"m_{z}" for z in self.outputs)
 
     def measured_outputs(self, frame: pd.DataFrame) -> np.ndarray:
-        T = frame[[f"T_{z}" for z in self.measured_zones]].to_numpy(dtype=float)
-        return T @ self.output_weights.T
+        cols = [f"T_{z}" for z in self.measured_zones]
+        require_columns(frame, cols, self, "zone temperature")
+        return frame[cols].to_numpy(dtype=float) @ self.output_weights.T
 
     def signals(self, frame: pd.DataFrame):
-        m = frame[[f"m_{b}" for b in self.vavs]].to_numpy(dtype=float)
+        cols = [f"m_{b}" for b in self.vavs]
+        require_columns(frame, cols, self, "VAV airflow")
+        require_columns(frame, self.disturbances, self, "disturbance")
+        m = frame[cols].to_numpy(dtype=float)
         v = frame[list(self.disturbances)].to_numpy(dtype=float)
         return m @ self.input_map.T, v
 
     def step_state(self, x, u, v, q):
-        return x @ self.A.T + u @ self.B.T + v @ self.C.T + q
+        x, u, v = (np.asarray(a, dtype=float) for a in (x, u, v))
+        xn = x @ self.A.T + u @ self.B.T + v @ self.C.T + q
+        if self.beta is None:
+            return xn
+        Q = delivered_heat(u, v[..., self._inlet_idx], x[..., self._box_state])
+        return xn + (Q @ self.heat_map.T) * self.beta
 
     def output(self, x):
         return np.asarray(x)
 
     def equations(self):
-        """The model as :class:`~hvacfmu.models.equations.ModelEquations` (linear: no bilinear terms)."""
+        """The model as :class:`~hvacfmu.models.equations.ModelEquations`.
+
+        Airflow form: linear (no bilinear terms). Delivered-heat form: for box j
+        serving state i, ``Bxu_j = -beta_i c_p/1000 e_i e_i^T`` and
+        ``Bvu_j = beta_i c_p/1000 e_i e_{inlet_j}^T``.
+        """
         from .equations import ModelEquations
 
         nx = self.n_states
+        Bxu, Bvu = (), ()
+        if self.beta is not None:
+            Bxu, Bvu = [], []
+            for j, i in enumerate(self._box_state):
+                g = self.beta[i] * CP_AIR / 1000.0  # [K per step per (kg/s K)]
+                bx = np.zeros((nx, nx))
+                bx[i, i] = -g
+                bv = np.zeros((nx, len(self.disturbances)))
+                bv[i, self._inlet_idx[j]] = g
+                Bxu.append(bx)
+                Bvu.append(bv)
+            Bxu, Bvu = tuple(Bxu), tuple(Bvu)
         return ModelEquations(step=float(self.step), A=self.A, Bu=self.B, Bv=self.C, Bq=np.eye(nx),
                               C=np.eye(nx), inputs=self.inputs, disturbances=tuple(self.disturbances),
-                              outputs=tuple(self.outputs), gains=dict(self.gains))
+                              outputs=tuple(self.outputs), gains=dict(self.gains), Bxu=Bxu, Bvu=Bvu)
 
     def summary(self) -> str:
         """Readable coefficients, stability, internal-gain levels and fit provenance."""
@@ -134,12 +216,21 @@ class LinearZoneModel(ZoneModel):
         w = max(8, *(len(s) for s in self.outputs))
         fmt = lambda v: f"{v: .4g}".rjust(11)  # noqa: E731
         lines = [f"Model A ({self.kind}), step {self.step:g} s, {ny} state(s)"]
-        lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
+        if self.beta is None:
+            lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
+        else:
+            lines.append("x_i(k+1) = A x(k) + C v(k) + q_IG(k) + beta_i sum_b m_b c_p (T_in,b - x_i) [kW]")
         lines.append("A:" + "".ljust(w - 2) + "".join(o.rjust(11) for o in self.outputs))
         lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.A)]
-        lines.append("B [K/step per kg/s]: " + " ".join(f"{o}={v:.4g}" for o, v in zip(self.inputs, np.diag(self.B))))
-        lines.append("C:" + "".ljust(w - 2) + "".join(d.rjust(11) for d in self.disturbances))
-        lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.C)]
+        if self.beta is None:
+            lines.append("B [K/step per kg/s]: " + " ".join(f"{o}={v:.4g}" for o, v in zip(self.inputs, np.diag(self.B))))
+        else:
+            lines.append("delivered heat beta [K/step per kW]: "
+                         + " ".join(f"{o}={v:.4g}" for o, v in zip(self.outputs, self.beta)))
+            lines.append("box inlets: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.vavs, self.inlets)))
+        cols = [j for j, d in enumerate(self.disturbances) if d not in self.inlets]  # inlets act through beta only
+        lines.append("C:" + "".ljust(w - 2) + "".join(self.disturbances[j].rjust(11) for j in cols))
+        lines += [o.ljust(w) + "".join(fmt(row[j]) for j in cols) for o, row in zip(self.outputs, self.C)]
         rho = float(np.max(np.abs(np.linalg.eigvals(self.A))))
         lines.append(f"spectral radius of A: {rho:.4f} ({'stable' if rho < 1 else 'UNSTABLE'})")
         for s, g in self.gains.items():
@@ -157,7 +248,7 @@ class LinearZoneModel(ZoneModel):
 
     # --- persistence ---------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "kind": self.kind,
             "format_version": FORMAT_VERSION,
             "step": float(self.step),
@@ -173,31 +264,33 @@ class LinearZoneModel(ZoneModel):
             "gains": gains_to_json(self.gains),
             "meta": self.meta,
         }
+        if self.beta is not None:
+            d.update(beta=self.beta.tolist(), inlets=list(self.inlets), heat_map=self.heat_map.tolist())
+        return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "LinearZoneModel":
+    def from_dict(cls, d: dict[str, Any]) -> LinearZoneModel:
         check_version(d)
+        what = f"{d.get('kind', '?')} model file"
         keys = ["kind", "step", "outputs", "measured_zones", "output_weights", "vavs", "input_map",
                 "disturbances", "A", "B", "C", "gains"]
-        require_keys(d, keys, f"{d.get('kind', '?')} model file")
+        require_keys(d, keys, what)
+        names = {k: check_names(d[k], k, what) for k in ("outputs", "measured_zones", "vavs", "disturbances")}
+        step = check_number(d["step"], "step", what)
+        delivered = d.get("beta") is not None
         try:
-            nx = len(d["outputs"])
             return cls(
                 kind=d["kind"],
-                step=float(d["step"]),
-                outputs=tuple(d["outputs"]),
-                measured_zones=tuple(d["measured_zones"]),
-                output_weights=np.asarray(d["output_weights"], dtype=float),
-                vavs=tuple(d["vavs"]),
-                input_map=np.asarray(d["input_map"], dtype=float),
-                disturbances=tuple(d["disturbances"]),
-                A=np.asarray(d["A"], dtype=float),
-                B=np.asarray(d["B"], dtype=float),
-                C=np.asarray(d["C"], dtype=float),
-                gains=gains_from_json(d["gains"], nx, float(d["step"])),
-                meta=dict(d.get("meta", {})),
+                step=step,
+                gains=gains_from_json(check_mapping(d["gains"], "gains", what), len(names["outputs"]), step),
+                meta=check_mapping(d.get("meta", {}), "meta", what),
+                beta=np.asarray(d["beta"], dtype=float) if delivered else None,
+                inlets=check_names(d.get("inlets", []), "inlets", what) if delivered else (),
+                heat_map=np.asarray(d.get("heat_map"), dtype=float) if delivered else None,
+                **names,
+                **{k: np.asarray(d[k], dtype=float) for k in ("output_weights", "input_map", "A", "B", "C")},
             )
         except (TypeError, ValueError) as exc:
             if isinstance(exc, ModelError):
                 raise
-            raise ModelError(f"malformed {d.get('kind')} model file: {exc}") from None
+            raise ModelError(f"malformed {what}: {exc}") from None

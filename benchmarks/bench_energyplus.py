@@ -1,0 +1,70 @@
+"""EnergyPlus as the second source of truth: per prototype, model and season, 24-h RMS against the baselines.
+
+Generates (cached) a year of 15-minute BMS-like data of each prototype through
+EnergyPlus's Python API, fits every model kind on the training weeks and
+evaluates it on the test weeks against persistence and the time-of-week mean.
+Also reports the closed-loop identifiability check: the fitted airflow gains of
+the zones model against the smallest physically plausible gain.
+
+Usage::
+
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor]] ... [--kinds lumped,zones,physics] [--weeks N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from hvacfmu.energyplus import cached_export
+from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
+
+DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver",
+                      "ASHRAE901_OfficeSmall_STD2019_Denver")
+
+
+def run(prototype: str, kinds, weeks):
+    from hvacfmu.data import prepare
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.fitting import fit
+
+    name, _, floor = prototype.partition(":")
+    t0 = time.perf_counter()
+    paths = cached_export(name, floor=floor or None, weeks=weeks)  # the slow tests use the same options
+    t_gen = time.perf_counter() - t0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ds = prepare(paths.measurements, paths.building)
+        models, t_fit = {}, {}
+        for k in kinds:
+            t0 = time.perf_counter()
+            models[k] = fit(ds, k, progress=False)
+            t_fit[k] = time.perf_counter() - t0
+        res = evaluate(list(models.values()), ds, names=list(models))
+    print(f"\n=== {prototype}: {len(ds.building.zones)} zones, {len(ds.building.vavs)} boxes, "
+          f"{len(ds.building.ahus)} air handler(s), {len(ds.weeks)} weeks "
+          f"(export {t_gen:.1f} s incl. cache; fit " + ", ".join(f"{k} {t:.1f} s" for k, t in t_fit.items()) + ")")
+    print(margins_table(res).to_string(float_format=lambda x: f"{x:.3f}"))
+    if "zones" in models:
+        for line in airflow_identifiability(models["zones"], ds.building):
+            print("  " + line)
+    return res
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--prototype", action="append", help="prototype[:floor] (repeatable)")
+    ap.add_argument("--kinds", default="lumped,zones,physics")
+    ap.add_argument("--weeks", type=int, default=None, help="weeks from 1 January (default: the whole year)")
+    args = ap.parse_args(argv)
+    for p in args.prototype or DEFAULT_PROTOTYPES:
+        run(p, args.kinds.split(","), args.weeks)
+
+
+if __name__ == "__main__":
+    main()

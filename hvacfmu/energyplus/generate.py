@@ -1,0 +1,277 @@
+"""Export an EnergyPlus building as BMS data plus a building file; cache the result.
+
+Files written to ``outdir``: ``measurements.parquet`` (or ``.csv``),
+``building.toml`` and ``energyplus.json`` (what was run: IDF, weather, period,
+the IDF names behind every zone/box/unit column, the changes made to the IDF,
+the approximations). See :mod:`hvacfmu.energyplus` for the columns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import hashlib
+import json
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .. import building as _building
+from ..errors import DataError
+from . import geometry, hvac, inputs, physics
+from .idf import read_idf
+from .run import Probe, simulate, step_times
+
+log = logging.getLogger(__name__)
+
+#: Version of what the export writes; part of the cache key.
+EXPORT_VERSION = "1.2"
+STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
+APPROXIMATIONS = (
+    "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
+    ("box airflow m_<vav> and discharge temperature Td_<vav> are the zone inlet node's mass flow and temperature, "
+     "time-averaged over the HVAC steps of each 15-minute step (not flow-weighted)"),
+    "T_supply_<ahu> is the air handler's supply outlet node temperature; it holds an idle value when the unit is off",
+    "T_supply is the airflow-weighted mean of the units' supply temperatures (plain mean when no air flows)",
+    "ghi = direct normal x sin(solar altitude) + diffuse horizontal, from EnergyPlus's site variables",
+    "surfaces towards unselected zones (plenums, attics, other floors) are adiabatic in the physics tables",
+    "F-factor ground floors are a 15 cm concrete slab facing the ground at the annual mean ground temperature",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class EnergyPlusPaths:
+    """Files written by :func:`generate`."""
+
+    measurements: Path
+    building: Path
+    info: Path
+
+    @property
+    def outdir(self) -> Path:
+        return self.measurements.parent
+
+    def __str__(self) -> str:
+        return f"measurements: {self.measurements}\nbuilding:     {self.building}\ninfo:         {self.info}"
+
+
+def select_boxes(boxes, floor, zones):
+    """The boxes of the zones whose IDF name contains ``floor`` or is in ``zones`` (all when both are None)."""
+    if zones:
+        want = {z.lower() for z in zones}
+        sel = [b for b in boxes if b.zone.lower() in want or hvac.sanitise(b.zone).lower() in want]
+    elif floor:
+        sel = [b for b in boxes if floor.lower() in b.zone.lower()]
+    else:
+        sel = list(boxes)
+    if not sel:
+        names = sorted({b.zone for b in boxes})
+        raise DataError(f"no conditioned zone matches floor={floor!r} zones={zones!r}; the IDF's conditioned zones are "
+                        f"{names}")
+    return sel
+
+
+def export_probes(boxes, ahus, zones):
+    """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
+    p = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment"),
+         Probe("_dni", "Site Direct Solar Radiation Rate per Area", "Environment"),
+         Probe("_dhi", "Site Diffuse Solar Radiation Rate per Area", "Environment"),
+         Probe("_alt", "Site Solar Altitude Angle", "Environment")]
+    p += [Probe(f"T_{hvac.sanitise(z)}", "Zone Mean Air Temperature", z) for z in zones]
+    for b in boxes:
+        p.append(Probe(f"m_{b.name}", "System Node Mass Flow Rate", b.outlet_node, system=True))
+        p.append(Probe(f"Td_{b.name}", "System Node Temperature", b.outlet_node, system=True))
+    for name, node in ahus.items():
+        p.append(Probe(f"T_supply_{hvac.sanitise(name)}", "System Node Temperature", node, system=True))
+    return p
+
+
+def _frame(values, times, probes, site, boxes, ahus) -> pd.DataFrame:
+    utc = step_times(times, site.tz_hours, STEP_HOURS)
+    df = pd.DataFrame(values, columns=[p.column for p in probes], index=utc.tz_convert(site.timezone))
+    alt = np.radians(df.pop("_alt").to_numpy())
+    ghi = df.pop("_dni").to_numpy() * np.clip(np.sin(alt), 0.0, None) + df.pop("_dhi").to_numpy()
+    df["ghi"] = np.clip(ghi, 0.0, None)
+    flows = np.zeros(len(df))
+    weighted = np.zeros(len(df))
+    for name in ahus:
+        col = f"T_supply_{hvac.sanitise(name)}"
+        m = sum(df[f"m_{b.name}"].to_numpy() for b in boxes if b.ahu == name)
+        flows += m
+        weighted += m * df[col].to_numpy()
+    plain = df[[f"T_supply_{hvac.sanitise(a)}" for a in ahus]].mean(axis=1).to_numpy()
+    df["T_supply"] = np.where(flows > 1e-6, weighted / np.maximum(flows, 1e-12), plain)
+    df.index.name = "time"
+    return df.round(4)
+
+
+def _iso(index: pd.DatetimeIndex) -> list:
+    return [t.isoformat() for t in index]
+
+
+def _sizing_limits(idf, boxes, eio, rho):
+    return hvac.box_limits(idf, boxes, hvac.read_sizing(eio), rho)
+
+
+def _heating_limit(idf, zones):
+    """Highest zone heating design supply air temperature [°C] of ``zones`` (Sizing:Zone), or None."""
+    vals = []
+    for s in idf.all("Sizing:Zone"):
+        if s.get(0).lower() in {z.lower() for z in zones} and s.get(4).lower().startswith("supplyairtemperature"):
+            v = s.number(5)
+            if v is not None:
+                vals.append(v)
+    t = max(vals) if vals else None
+    return t if t is not None and 15.0 <= t <= 80.0 else None
+
+
+def _building_dict(idf, site, boxes, ahus, limits, label):
+    zones = list(dict.fromkeys(b.zone for b in boxes))
+    surfs, wins = geometry.surfaces(idf), geometry.windows(idf)
+    d = {"name": label, "latitude": site.latitude, "longitude": site.longitude, "timezone": site.timezone,
+         "zones": geometry.zone_tables(idf, zones, surfs, wins),
+         "vavs": [{"name": b.name, "zone": hvac.sanitise(b.zone), "m_min": limits[b.name][0],
+                   "m_max": limits[b.name][1], "ahu": hvac.sanitise(b.ahu)} for b in boxes]}
+    d["ahus"] = []
+    for name in ahus:
+        a = {"name": hvac.sanitise(name)}
+        t = _heating_limit(idf, [b.zone for b in boxes if b.ahu == name])
+        if t is not None:
+            a["T_supply_max"] = t
+        d["ahus"].append(a)
+    d.update(physics.physics_tables(idf, zones, surfs, wins))
+    return d
+
+
+
+def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days: int | None = None,
+             start: str = "01-01", year: int = 2017, floor: str | None = None, zones=None,
+             timezone: str | None = None, fmt: str = "parquet") -> EnergyPlusPaths:
+    """Run an EnergyPlus building and write what its BMS would export.
+
+    Parameters
+    ----------
+    outdir : path
+        Folder to write (created if needed).
+    prototype : str or path
+        An IDF file, an example file name (``ASHRAE901_OfficeMedium_STD2019_Denver``) or a
+        ``pyenergyplus.dataset`` key (``office_medium``; ``ref:small_office`` for the DOE reference buildings).
+    weather : str or path, optional
+        EPW file or ``pyenergyplus.dataset.weather_files`` key; default the example building's city.
+    weeks, days : int, optional
+        Length of the run from ``start``; default to the end of ``year``.
+    start : str
+        First day, month-day (``"01-01"``).
+    year : int
+        Calendar year of the run (2017 starts on a Sunday, as the prototypes' run periods).
+    floor : str, optional
+        Keep only conditioned zones whose IDF name contains this text (``"mid"``).
+    zones : sequence of str, optional
+        Keep only these IDF zones.
+    timezone : str, optional
+        IANA time zone of the site; default from the weather file's state.
+    fmt : {"parquet", "csv"}
+
+    Returns
+    -------
+    EnergyPlusPaths
+
+    Raises
+    ------
+    DataError, BuildingError
+        Naming the file, zone or object that could not be used.
+    """
+    if fmt not in ("parquet", "csv"):
+        raise DataError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
+    idf_path = inputs.resolve_prototype(prototype)
+    epw = inputs.resolve_weather(weather, idf_path)
+    site = inputs.read_site(epw, timezone)
+    first, last = inputs.run_dates(year, start, weeks, days)
+    idf = read_idf(idf_path)
+    boxes = select_boxes(hvac.air_boxes(idf), floor, zones)
+    ahus = dict.fromkeys(b.ahu for b in boxes)
+    ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
+    zone_names = list(dict.fromkeys(b.zone for b in boxes))
+    # EnergyPlus days are standard-time days: start a day early so that local midnight (23:00 standard time in
+    # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
+    run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
+    notes = inputs.prepare_idf(idf, run_first, last, site)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
+        run_idf = Path(work) / "in.idf"
+        run_idf.write_text(idf.text(), encoding="latin-1")
+        probes = export_probes(boxes, ahus, zone_names)
+        log.info("EnergyPlus: %s with %s, %s to %s", idf_path.name, epw.name, first, last)
+        values, times, eio = simulate(run_idf, epw, Path(work) / "out", probes)
+    if len(values) == 0:
+        raise DataError(f"EnergyPlus run of {idf_path} produced no weather-period steps")
+    frame = _frame(values, times, probes, site, boxes, ahus)
+    lo = pd.Timestamp(first).tz_localize(site.timezone)
+    hi = pd.Timestamp(last + _dt.timedelta(days=1)).tz_localize(site.timezone)
+    frame = frame[(frame.index >= lo) & (frame.index < hi)]
+    limits = _sizing_limits(read_idf(idf_path), boxes, eio, hvac.std_air_density(site.elevation))
+    label = f"{idf_path.stem} ({site.label})" + (f", zones with {floor!r}" if floor else "")
+    d = _building_dict(read_idf(idf_path), site, boxes, ahus, limits, label)
+    _building.building_from_dict(d)  # validates; raises BuildingError naming every problem
+    return _write(outdir, frame, d, fmt, {
+        "idf": str(idf_path), "weather": str(epw), "site": dataclasses.asdict(site), "start": str(first),
+        "end": str(last), "year": year, "floor": floor, "zones": {hvac.sanitise(z): z for z in zone_names},
+        "boxes": [dataclasses.asdict(b) for b in boxes], "air_density": hvac.std_air_density(site.elevation),
+        "idf_changes": notes, "approximations": list(APPROXIMATIONS), "export_version": EXPORT_VERSION,
+    })
+
+
+def _write(outdir: Path, frame: pd.DataFrame, d: dict, fmt: str, info: dict) -> EnergyPlusPaths:
+    import tomli_w
+
+    out = frame.reset_index(drop=True)
+    out.insert(0, "time", _iso(frame.index))
+    meas = outdir / f"measurements.{fmt}"
+    if fmt == "parquet":
+        out.to_parquet(meas, index=False)
+    else:
+        out.to_csv(meas, index=False)
+    bpath = outdir / "building.toml"
+    bpath.write_text(tomli_w.dumps(d), encoding="utf-8")
+    ipath = outdir / "energyplus.json"
+    ipath.write_text(json.dumps(info, indent=1, default=str), encoding="utf-8")
+    return EnergyPlusPaths(meas, bpath, ipath)
+
+
+def cache_key(prototype, **options) -> str:
+    """Folder name of a cached export: prototype, options, the IDF's and EPW's content and the export version."""
+    idf_path = inputs.resolve_prototype(prototype)
+    epw = inputs.resolve_weather(options.get("weather"), idf_path)
+    h = hashlib.sha256()
+    h.update(json.dumps({k: options[k] for k in sorted(options)}, default=str).encode())
+    h.update(idf_path.read_bytes())
+    h.update(epw.read_bytes())
+    return f"energyplus-v{EXPORT_VERSION}-{idf_path.stem}-{h.hexdigest()[:12]}"
+
+
+def cached_export(prototype, **options) -> EnergyPlusPaths:
+    """:func:`generate` once into ``$HVACFMU_CACHE`` (default ``~/.cache/hvacfmu``) and reuse it (atomic rename)."""
+    root = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu"))
+    final = root / cache_key(prototype, **options)
+    paths = EnergyPlusPaths(final / "measurements.parquet", final / "building.toml", final / "energyplus.json")
+    if all(p.exists() for p in (paths.measurements, paths.building, paths.info)):
+        return paths
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}-", dir=root))
+    try:
+        generate(tmp, prototype, fmt="parquet", **options)
+        try:
+            os.rename(tmp, final)
+        except OSError:
+            if not final.exists():
+                raise
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return paths

@@ -1,0 +1,207 @@
+"""Air-side topology of an IDF (boxes, air handlers, nodes) and its sizing results.
+
+A *box* is one air terminal feeding one conditioned zone through a zone inlet
+node: ``ZoneHVAC:EquipmentConnections`` (zone -> inlet nodes) and
+``ZoneHVAC:AirDistributionUnit`` (outlet node -> terminal). Its air handler is
+the ``AirLoopHVAC`` whose supply path splitter (``AirLoopHVAC:ZoneSplitter``)
+feeds the terminal's inlet node; the unit's supply temperature is its supply
+side outlet node. Zones without an air terminal (plenums, attics, zones with
+only unit heaters) are not conditioned zones of the exported building.
+
+Box limits come from the sizing results EnergyPlus writes to ``eplusout.eio``
+(``Component Sizing Information`` lines: design or user-specified maximum air
+flow [m3/s]), converted to mass flow with the standard air density at the site's
+altitude; ``m_min`` is the terminal's constant minimum flow fraction times that
+maximum (VAV terminals), 0 for constant-volume terminals whose fan cycles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+from ..errors import BuildingError, problems_message
+
+#: Gas constant of dry air [J/(kg K)] and the standard temperature EnergyPlus uses for StdRhoAir [°C].
+R_AIR = 287.042
+STD_T = 20.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Box:
+    """One air terminal: ``name`` (sanitised), ``zone`` (IDF zone name), terminal class and name,
+    ``outlet_node`` (the zone inlet node), ``ahu`` (IDF AirLoopHVAC name) and its ``supply_node``."""
+
+    name: str
+    zone: str
+    terminal_type: str
+    terminal: str
+    outlet_node: str
+    ahu: str
+    supply_node: str
+
+
+def sanitise(name: str) -> str:
+    """A name usable as a zone/box/column suffix: letters, digits and ``_`` only."""
+    s = re.sub(r"[^A-Za-z0-9_]+", "_", name.strip()).strip("_")
+    return s or "x"
+
+
+def _node_list(idf, name: str) -> list:
+    nl = idf.by_name("NodeList").get(name.lower())
+    return [f.strip() for f in nl.fields[1:] if f.strip()] if nl else [name]
+
+
+def _terminals_of_zone(idf, zone_name: str) -> list:
+    """(terminal type, terminal name, outlet node) for each air terminal of a zone."""
+    conns = [c for c in idf.all("ZoneHVAC:EquipmentConnections") if c.get(0).lower() == zone_name.lower()]
+    if not conns:
+        return []
+    inlet_nodes = {n.lower() for n in _node_list(idf, conns[0].get(2))}
+    eq_list = idf.by_name("ZoneHVAC:EquipmentList").get(conns[0].get(1).lower())
+    adus = idf.by_name("ZoneHVAC:AirDistributionUnit")
+    found = []
+    if eq_list is None:
+        return []
+    fields = eq_list.fields[2:]
+    for k in range(0, len(fields) - 1, 6):
+        typ, name = fields[k].strip(), fields[k + 1].strip()
+        if typ.lower() == "zonehvac:airdistributionunit" and name.lower() in adus:
+            adu = adus[name.lower()]
+            if adu.get(1).lower() in inlet_nodes:
+                found.append((adu.get(2), adu.get(3), adu.get(1)))
+        elif typ.lower().startswith("airterminal:"):
+            term = idf.by_name(typ).get(name.lower())
+            nodes = [f.strip() for f in term.fields if f.strip().lower() in inlet_nodes] if term else []
+            if nodes:
+                found.append((typ, name, nodes[0]))
+    return found
+
+
+def _ahu_of_terminal(idf, typ: str, name: str):
+    """(AirLoopHVAC name, supply outlet node) feeding terminal ``name``, or None."""
+    term = idf.by_name(typ).get(name.lower())
+    if term is None:
+        return None
+    term_nodes = {f.strip().lower() for f in term.fields if f.strip()}
+    loops = {lp.get(8).lower(): lp for lp in idf.all("AirLoopHVAC")}  # demand side inlet node -> loop
+    paths = {p.get(1).lower(): p for p in idf.all("AirLoopHVAC:SupplyPath")}
+    for sp in idf.all("AirLoopHVAC:ZoneSplitter"):
+        outlets = {f.strip().lower() for f in sp.fields[2:] if f.strip()}
+        if outlets & term_nodes:
+            inlet = sp.get(1).lower()
+            loop = loops.get(inlet)
+            if loop is None and inlet in paths:
+                loop = loops.get(paths[inlet].get(1).lower())
+            if loop is not None:
+                return loop.get(0), loop.get(9)
+    return None
+
+
+def air_boxes(idf) -> list:
+    """Every air terminal fed by an air handler, in the IDF's zone order.
+
+    Raises
+    ------
+    BuildingError
+        When no zone of the IDF has an air terminal on an ``AirLoopHVAC``.
+    """
+    boxes = []
+    for zone in idf.all("Zone"):
+        terms = _terminals_of_zone(idf, zone.name)
+        for i, (typ, name, node) in enumerate(terms):
+            ahu = _ahu_of_terminal(idf, typ, name)
+            if ahu is None:
+                continue
+            suffix = "" if len(terms) == 1 else f"_{i + 1}"
+            boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1]))
+    if not boxes:
+        raise BuildingError(
+            f"IDF file {idf.source}: no zone has an air terminal fed by an AirLoopHVAC "
+            "(ZoneHVAC:EquipmentConnections -> ZoneHVAC:AirDistributionUnit -> AirTerminal:* -> "
+            "AirLoopHVAC:ZoneSplitter); hvacfmu needs air-side boxes to export airflows"
+        )
+    return boxes
+
+
+def std_air_density(elevation: float) -> float:
+    """Density of dry air at 20 °C and the standard pressure at ``elevation`` [m] -> [kg/m3]."""
+    p = 101325.0 * (1.0 - 2.25577e-5 * elevation) ** 5.2559
+    return p / (R_AIR * (STD_T + 273.15))
+
+
+def read_sizing(eio_text: str) -> dict:
+    """``{(component type lower, name lower): {description: value}}`` from ``eplusout.eio``."""
+    out: dict = {}
+    for line in eio_text.splitlines():
+        if not line.startswith(" Component Sizing Information,"):
+            continue
+        parts = [p.strip() for p in line.split(",")]
+        if len(parts) < 5:
+            continue
+        try:
+            value = float(parts[4])
+        except ValueError:
+            continue
+        out.setdefault((parts[1].lower(), parts[2].lower()), {})[parts[3]] = value
+    return out
+
+
+def _sized(sizing: dict, typ: str, name: str, prefix: str):
+    values = sizing.get((typ.lower(), name.lower()), {})
+    for key in (f"User-Specified {prefix}", f"Design Size {prefix}"):
+        for desc, v in values.items():
+            if desc.startswith(key):
+                return v
+    return None
+
+
+def _schedule_max(idf, name: str) -> float:
+    """Largest value of a ``Schedule:Compact``/``Schedule:Constant`` [-] (0 when unknown): the occupied minimum."""
+    for cls, first in (("Schedule:Compact", 2), ("Schedule:Constant", 2)):
+        sch = idf.by_name(cls).get(name.lower())
+        if sch is None:
+            continue
+        vals = []
+        for f in sch.fields[first:]:
+            try:
+                vals.append(float(f))
+            except ValueError:
+                pass
+        return max(vals) if vals else 0.0
+    return 0.0
+
+
+def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
+    """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs.
+
+    Raises
+    ------
+    BuildingError
+        Naming every box whose maximum flow is neither in the IDF nor in the sizing results.
+    """
+    limits, problems = {}, []
+    for b in boxes:
+        term = idf.by_name(b.terminal_type).get(b.terminal.lower())
+        v_max = _sized(sizing, b.terminal_type, b.terminal, "Maximum Air Flow Rate")
+        if v_max is None:
+            v_max = _sized(sizing, "AirTerminal:SingleDuct:VAV:Reheat", b.terminal, "Maximum Air Flow Rate")
+        if v_max is None or v_max <= 0:
+            problems.append(f"box {b.name} ({b.terminal_type} {b.terminal!r}): no maximum air flow rate in the IDF "
+                            "or in eplusout.eio's sizing results")
+            continue
+        frac = 0.0
+        if b.terminal_type.lower().startswith("airterminal:singleduct:vav") and term is not None:
+            method = term.get(5).lower()
+            if method == "constant":
+                frac = term.number(6)
+                if frac is None:
+                    frac = _sized(sizing, b.terminal_type, b.terminal, "Constant Minimum Air Flow Fraction") or 0.0
+            elif method == "fixedflowrate":
+                frac = (term.number(7) or 0.0) / v_max
+            elif method == "scheduled":
+                frac = _schedule_max(idf, term.get(8))
+        limits[b.name] = (round(frac * v_max * rho, 5), round(v_max * rho, 5))
+    if problems:
+        raise BuildingError(problems_message("Box limits could not be read", problems))
+    return limits

@@ -1,0 +1,230 @@
+"""Plausibility of a fitted linear zone model: refuse what cannot be a building, flag what the data cannot tell.
+
+Checked after every Model A fit (issue 17 p.3, issue 13 p.5):
+
+Refused (:class:`~hvacfmu.errors.FitError`, with the reason):
+- non-finite coefficients;
+- spectral radius of ``A`` >= 1 (an unstable model; its open-loop "RMS" would be
+  a meaningless 1e29 K);
+- a slowest time constant ``-step / ln(rho)`` above ``max_time_constant_h``
+  (default 30 days: no heat loss to speak of, an integrator);
+- wrong signs: negative couplings between zones (a warmer neighbour must warm
+  the zone), negative weather coefficients, airflow that warms (airflow form)
+  or delivered heat that cools (delivered-heat form).
+
+Flagged (a :class:`~hvacfmu.errors.HvacfmuWarning` and ``model.meta["warnings"]``):
+- closed-loop data whose airflow/heat effect is not identifiable: the boxes'
+  drive moves the zone temperature by less than ``min_effect_k`` in steady
+  state over its observed range (5 %..95 %), typically together with time
+  constants of minutes (``a`` of 0.4-0.6 per 15 minutes): the model learned
+  the thermostat loop, not the building.
+
+The numbers go to ``model.meta["plausibility"]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..errors import FitError, problems_message
+
+#: Defaults of the checks (see the module docstring).
+MAX_TIME_CONSTANT_H = 30 * 24.0
+MIN_EFFECT_K = 0.2
+FAST_TIME_CONSTANT_H = 1.0
+
+
+def time_constants_h(A, step) -> np.ndarray:
+    """Time constants [h] of the modes of the discrete ``A`` (step [s]): ``-step / ln|lambda|``, slowest first."""
+    lam = np.abs(np.linalg.eigvals(np.asarray(A, float)))
+    with np.errstate(divide="ignore"):
+        tau = np.where(lam >= 1.0, np.inf, np.where(lam <= 0.0, 0.0, -float(step) / np.log(np.maximum(lam, 1e-300))))
+    return np.sort(tau)[::-1] / 3600.0
+
+
+def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H) -> tuple[list[str], dict]:
+    """Reasons why a :class:`~hvacfmu.models.linear.LinearZoneModel` cannot be a building, and the numbers.
+
+    Returns
+    -------
+    problems : list of str
+        Empty when plausible.
+    numbers : dict
+        ``spectral_radius``, ``time_constants_h`` (slowest first).
+    """
+    problems = []
+    mats = {"A": model.A, "B": model.B, "C": model.C}
+    if model.beta is not None:
+        mats["beta"] = model.beta
+    bad = [k for k, M in mats.items() if not np.all(np.isfinite(M))]
+    if bad:
+        return [f"coefficients {bad} are not finite"], {}
+    rho = float(np.max(np.abs(np.linalg.eigvals(model.A))))
+    tau = time_constants_h(model.A, model.step)
+    numbers = {"spectral_radius": rho, "time_constants_h": tau.tolist()}
+    if rho >= 1.0:
+        problems.append(f"unstable: spectral radius of A is {rho:.6g} >= 1 (temperatures would grow without bound)")
+    elif tau[0] > max_time_constant_h:
+        problems.append(f"slowest time constant {tau[0]:.0f} h exceeds {max_time_constant_h:g} h: the model "
+                        "loses almost no heat (an integrator, not a building)")
+    off = model.A - np.diag(np.diag(model.A))
+    if np.any(off < 0):
+        i, j = np.unravel_index(np.argmin(off), off.shape)
+        problems.append(f"coupling A[{model.outputs[i]}, {model.outputs[j]}] = {off[i, j]:.3g} < 0 "
+                        "(a warmer neighbour would cool the zone)")
+    if np.any(model.C < 0):
+        i, j = np.unravel_index(np.argmin(model.C), model.C.shape)
+        problems.append(f"C[{model.outputs[i]}, {model.disturbances[j]}] = {model.C[i, j]:.3g} < 0 "
+                        "(warmer weather or more sun would cool the zone)")
+    if model.beta is None and np.any(model.B > 0):
+        problems.append(f"airflow warms the zone (B up to {np.max(model.B):.3g} > 0); in the airflow form the "
+                        "supply air must cool (use the delivered-heat form for heating with reheat)")
+    if model.beta is not None and np.any(model.beta < 0):
+        problems.append(f"delivered heat cools the zone (beta down to {np.min(model.beta):.3g} < 0)")
+    return problems, numbers
+
+
+def drive_effect_k(model, frame) -> dict:
+    """Steady-state effect [K] of each state's drive over its observed 5-95 % range.
+
+    ``|b_i| / (1 - a_ii) * (p95 - p5 of drive_i)`` with the drive the zone's
+    airflow [kg/s] (airflow form) or the heat its boxes deliver [kW]
+    (delivered-heat form, with the measured zone temperatures).
+    """
+    u, v = model.signals(frame)
+    if model.beta is None:
+        drive, coef = u, np.diag(model.B)
+    else:
+        from .heat import delivered_heat
+
+        x = model.measured_outputs(frame)
+        Q = delivered_heat(u, v[:, model._inlet_idx], x[:, model._box_state])
+        drive, coef = np.where(u == 0.0, 0.0, Q) @ model.heat_map.T, model.beta
+    out = {}
+    for i, name in enumerate(model.outputs):
+        d = drive[:, i]
+        d = d[np.isfinite(d)]
+        if d.size < 10:
+            continue
+        spread = float(np.percentile(d, 95) - np.percentile(d, 5))
+        a = float(model.A[i, i])
+        out[name] = abs(float(coef[i])) / max(1.0 - a, 1e-9) * spread
+    return out
+
+
+def check_fitted(model, dataset=None, warn=None, *, max_time_constant_h: float = MAX_TIME_CONSTANT_H,
+                 min_effect_k: float = MIN_EFFECT_K):
+    """Refuse an implausible fitted Model A; flag a non-identifiable one. Returns the model with ``meta`` updated.
+
+    Parameters
+    ----------
+    model : LinearZoneModel
+    dataset : hvacfmu.data.Dataset, optional
+        The fit's data (training weeks are used for the drive's range).
+    warn : callable(str), optional
+        Receives each warning (default: :func:`warnings.warn` with HvacfmuWarning).
+    max_time_constant_h : float [h]
+    min_effect_k : float [K]
+
+    Raises
+    ------
+    FitError
+        With every reason, for a model that cannot be a building.
+    """
+    import warnings
+
+    from ..errors import HvacfmuWarning
+
+    problems, numbers = linear_problems(model, max_time_constant_h)
+    if problems:
+        raise FitError(problems_message(f"The fitted {model.kind} model is implausible and was refused", problems))
+    notes = []
+    if dataset is not None:
+        frame = dataset.frame
+        if getattr(dataset, "weeks", None):
+            keep = np.zeros(len(frame), bool)
+            for w in dataset.weeks:
+                if w.train:
+                    keep |= (frame.index >= w.start) & (frame.index < w.end)
+            frame = frame[keep] if keep.any() else frame
+        effect = drive_effect_k(model, frame)
+        numbers["drive_effect_k"] = effect
+        weak = {z: e for z, e in effect.items() if e < min_effect_k}
+        if weak:
+            a = np.clip(np.abs(np.diag(model.A)), 1e-300, 1 - 1e-15)
+            tau_diag = -float(model.step) / np.log(a) / 3600.0  # [h] per state, from its own decay
+            fast = [z for z in weak if tau_diag[model.outputs.index(z)] < FAST_TIME_CONSTANT_H]
+            what = "delivered heat" if model.beta is not None else "airflow"
+            msg = (f"the {what} of the boxes is not identifiable from these data: over its observed range it moves "
+                   f"the temperature by less than {min_effect_k:g} K in steady state in "
+                   + ", ".join(f"{z} ({e:.2g} K)" for z, e in weak.items()))
+            if fast:
+                msg += (f"; with time constants under {FAST_TIME_CONSTANT_H:g} h in {', '.join(fast)}, the model "
+                        "learned the thermostat loop (closed-loop data without excitation), not the building")
+            msg += ". Add excitation experiments (column 'excitation') or discharge air temperatures (Td_<vav>)"
+            notes.append(msg)
+    numbers["identifiable"] = not notes
+    for msg in notes:
+        (warn or (lambda m: warnings.warn(m, HvacfmuWarning, stacklevel=3)))(msg)
+    meta = dict(model.meta)
+    meta["plausibility"] = _plain(numbers)
+    meta["warnings"] = list(meta.get("warnings") or []) + [m for m in notes if m not in (meta.get("warnings") or [])]
+    return dataclasses.replace(model, meta=meta)
+
+
+def check_physics(model) -> dict:
+    """Refuse an implausible fitted Model B: non-finite or non-positive parameters or gains, unstable dynamics.
+
+    The discrete dynamics are checked at the state estimator's airflow
+    (``options.kalman.airflow``, the training mean): ``A_d - c_p Gd diag(m)``
+    must have spectral radius < 1.
+
+    Returns
+    -------
+    dict
+        ``spectral_radius``, ``time_constants_h`` (five slowest) for ``model.meta``.
+
+    Raises
+    ------
+    FitError
+    """
+    from .heat import CP_AIR
+
+    problems = []
+    bad = {k: v for k, v in model.params.items() if not (np.isfinite(v) and v > 0)}
+    if bad:
+        problems.append(f"parameters {bad} are not finite and positive")
+    if not np.all(np.isfinite(model.f_ig_const)):
+        problems.append("constant internal gains are not finite")
+    if any(not np.all(np.isfinite(g)) for g in model.gains.values()):
+        problems.append("internal-gain profiles contain non-finite values")
+    numbers = {}
+    if not problems:
+        d = model.discrete
+        A = d.Ad.copy()
+        nz = d.Vz.shape[0]
+        A[:, :nz] -= CP_AIR * d.physical_inputs[2] * np.asarray(model.options["kalman"]["airflow"], float)[None, :]
+        rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+        numbers = {"spectral_radius": rho, "time_constants_h": time_constants_h(A, model.step)[:5].tolist()}
+        if not rho < 1.0:
+            problems.append(f"unstable: spectral radius {rho:.6g} >= 1 at the training mean airflow")
+    if problems:
+        raise FitError(problems_message("The fitted physics model is implausible and was refused", problems))
+    return _plain(numbers)
+
+
+def _plain(x):
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        return float(x) if np.isfinite(x) else None
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+__all__ = ["check_fitted", "check_physics", "drive_effect_k", "linear_problems", "time_constants_h"]

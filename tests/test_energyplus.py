@@ -1,0 +1,217 @@
+"""EnergyPlus as a data source (fast tier): a few simulated days of the ASHRAE 90.1 small office."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("pyenergyplus")
+
+from hvacfmu.building import load_building
+from hvacfmu.data import prepare
+from hvacfmu.energyplus import cached_export, generate
+from hvacfmu.energyplus.geometry import orientation, polygon_area
+from hvacfmu.energyplus.idf import parse_idf
+from hvacfmu.energyplus.run import CallbackError, Probe, simulate
+from hvacfmu.errors import BuildingError, DataError
+
+PROTOTYPE = "ASHRAE901_OfficeSmall_STD2019_Denver"
+ZONES = ("Core_ZN", "Perimeter_ZN_1", "Perimeter_ZN_2", "Perimeter_ZN_3", "Perimeter_ZN_4")
+
+
+@pytest.fixture(scope="module")
+def export():
+    # 2017-03-06 .. 03-13 local: one full week plus a day, across the start of daylight saving time (03-12)
+    return cached_export(PROTOTYPE, days=8, start="03-06")
+
+
+@pytest.fixture(scope="module")
+def frame(export):
+    df = pd.read_parquet(export.measurements)
+    t = pd.to_datetime(df.pop("time"), utc=True)
+    df.index = pd.DatetimeIndex(t).tz_convert("America/Denver")
+    return df
+
+
+def test_columns_units_and_no_gaps(export, frame):
+    b = load_building(export.building)
+    assert b.zone_names == ZONES
+    expected = {f"T_{z}" for z in ZONES} | {f"m_VAV_{z}" for z in ZONES} | {f"Td_VAV_{z}" for z in ZONES}
+    expected |= {f"T_supply_PSZ_AC_{i}" for i in range(1, 6)} | {"T_supply", "T_out", "ghi"}
+    assert set(frame.columns) == expected
+    assert not frame.isna().any().any()
+    step = frame.index.to_series().diff().dropna().dt.total_seconds().to_numpy()
+    assert np.all(step == 900.0)  # [s], no gap, no repeated step
+    # whole local days: 8 days of 96 steps minus the hour skipped when daylight saving time starts
+    assert len(frame) == 8 * 96 - 4
+    assert frame.index[0] == pd.Timestamp("2017-03-06 00:00", tz="America/Denver")
+    temps = frame[[c for c in frame.columns if c.startswith("T")]]
+    assert temps.to_numpy().min() > -30 and temps.to_numpy().max() < 60  # [°C]
+    assert frame[[f"T_{z}" for z in ZONES]].stack().between(10, 35).all()
+    m_max = {v.name: v.m_max for v in b.vavs}
+    for v, mx in m_max.items():
+        assert frame[f"m_{v}"].min() >= 0 and frame[f"m_{v}"].max() <= 1.05 * mx  # [kg/s]
+        assert frame[f"m_{v}"].max() > 0.3 * mx
+    assert frame["ghi"].min() >= 0 and 500 < frame["ghi"].max() < 1200  # [W/m2]
+
+
+def _centroid_hour(day: pd.Series) -> float:
+    h = day.index.hour + day.index.minute / 60 + 7.5 / 60  # middle of the 15-minute step
+    return float(np.sum(h * day.to_numpy()) / day.sum())
+
+
+def test_local_time_and_daylight_saving(frame):
+    """Solar noon at about 12:05 before DST starts (2017-03-12) and 13:05 after; outdoor minimum near sunrise."""
+    by_day = {d: g for d, g in frame.groupby(frame.index.date)}
+    for d, g in by_day.items():
+        noon = _centroid_hour(g["ghi"])
+        # Denver: longitude -104.75 vs the -105 meridian (-1 min), equation of time in March about +10 min
+        expected = 12.15 if d < pd.Timestamp("2017-03-12").date() else 13.15
+        assert abs(noon - expected) < 0.35, (d, noon)
+    profile = frame["T_out"].groupby(frame.index.hour).mean()  # mean daily cycle on the local clock
+    assert 3 <= profile.idxmin() <= 9 and 12 <= profile.idxmax() <= 18, profile
+
+
+def test_building_file_read_from_idf(export):
+    b = load_building(export.building)
+    assert b.timezone == "America/Denver" and abs(b.latitude - 39.72) < 0.01
+    # the small office: 511 m2 conditioned, core of 150 m2, 4 perimeter zones each facing one direction
+    assert sum(z.area for z in b.zones) == pytest.approx(511.2, abs=1.0)
+    assert b.zone("Core_ZN").area == pytest.approx(149.66, abs=0.5)
+    facing = {z.name: [f.orientation for f in z.facades] for z in b.zones}
+    assert facing == {"Core_ZN": [], "Perimeter_ZN_1": ["S"], "Perimeter_ZN_2": ["E"], "Perimeter_ZN_3": ["N"],
+                      "Perimeter_ZN_4": ["W"]}
+    assert all(f.window_area > 0 and f.wall_area > 0 for z in b.zones for f in z.facades)
+    assert set(b.zone("Core_ZN").adjacent) == set(ZONES[1:])
+    assert all(v.m_max > 0.2 for v in b.vavs)  # [kg/s], autosized
+    info = json.loads(export.info.read_text())
+    assert info["air_density"] == pytest.approx(0.98, abs=0.01)  # [kg/m3] at 1726 m
+    phys = b.physics
+    assert {w["zone"] for w in phys["windows"]} == set(ZONES[1:])
+    assert any(e["side1"] == "ground" for e in phys["elements"])
+
+
+def test_prepare_loads_the_export(export):
+    ds = prepare(export.measurements, export.building)
+    assert len(ds.weeks) == 1
+    assert {f"T_{z}" for z in ZONES} <= set(ds.frame.columns)
+    assert ds.frame[[f"T_{z}" for z in ZONES]].notna().all().all()
+    assert ds.has_solar
+    # several air handlers (one packaged unit per zone) with their own supply temperature; discharge temperatures
+    b = ds.building
+    assert [a.name for a in b.ahus] == [f"PSZ_AC_{i}" for i in range(1, 6)]
+    assert {b.supply_column(f"VAV_{z}") for z in ZONES} == {f"T_supply_{a.name}" for a in b.ahus}
+    assert {f"Td_VAV_{z}" for z in ZONES} | {f"T_supply_PSZ_AC_{i}" for i in range(1, 6)} <= set(ds.frame.columns)
+    assert not any("unknown column" in w for w in ds.warnings)
+
+
+def test_idf_parser_and_geometry():
+    idf = parse_idf("Zone, A, 0; ! comment\n  Timestep,4;\nBuilding, B, 30.0, City;")
+    assert [o.cls for o in idf.objects] == ["Zone", "Timestep", "Building"]
+    assert idf.one("Timestep").number(0) == 4
+    with pytest.raises(BuildingError, match="missing"):
+        parse_idf("Zone, A, 0")
+    square = np.array([[0, 0, 3], [0, 0, 0], [2, 0, 0], [2, 0, 3]], dtype=float)  # wall facing -y (south)
+    assert polygon_area(square) == pytest.approx(6.0)
+    from hvacfmu.energyplus.geometry import _newell
+
+    assert orientation(_newell(square)) == "S"
+    assert orientation(_newell(square), rotation_deg=90.0) == "W"
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, match",
+    [
+        ({"prototype": "no_such_building"}, BuildingError, "unknown EnergyPlus prototype"),
+        ({"prototype": PROTOTYPE, "floor": "nope"}, DataError, "no conditioned zone matches"),
+        ({"prototype": PROTOTYPE, "start": "12-20", "weeks": 2}, DataError, "one calendar year"),
+        ({"prototype": PROTOTYPE, "weather": "mars.epw"}, DataError, "weather file 'mars.epw' not found"),
+    ],
+)
+def test_bad_requests(tmp_path, kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        generate(tmp_path, **kwargs)
+
+
+def test_callback_exception_stops_the_run(tmp_path):
+    """An exception in a callback stops EnergyPlus and is re-raised after the run, not swallowed."""
+    import datetime as dt
+
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import (
+        prepare_idf,
+        read_site,
+        resolve_prototype,
+        resolve_weather,
+    )
+
+    idf_path = resolve_prototype(PROTOTYPE)
+    epw = resolve_weather(None, idf_path)
+    idf = read_idf(idf_path)
+    prepare_idf(idf, dt.date(2017, 1, 2), dt.date(2017, 1, 3), read_site(epw))
+    (tmp_path / "in.idf").write_text(idf.text(), encoding="latin-1")
+    calls = []
+
+    def on_step(state, api, k, row):
+        calls.append(k)
+        if k == 5:
+            raise ZeroDivisionError("boom in step 5")
+
+    probes = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment")]
+    with pytest.raises(CallbackError, match="ZeroDivisionError: boom in step 5") as info:
+        simulate(tmp_path / "in.idf", epw, tmp_path / "out", probes, on_step=on_step)
+    assert calls == [0, 1, 2, 3, 4, 5]
+    assert isinstance(info.value.__cause__, ZeroDivisionError)
+    assert info.value.steps_after_error == 0  # EnergyPlus stopped at once (2 days = 192 steps otherwise)
+
+
+def test_cli_generate_energyplus(tmp_path):
+    out = tmp_path / "ep"
+    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus",
+                        "--prototype", "restaurant_fast_food", "--days", "1", "--start", "2017-01-02", "--format", "csv"],
+                       check=False, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    df = pd.read_csv(out / "measurements.csv")
+    assert len(df) == 96 and {"T_Dining", "T_Kitchen", "m_VAV_Dining", "Td_VAV_Kitchen"} <= set(df.columns)
+    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus"],
+                       check=False, capture_output=True, text=True, timeout=60)
+    assert r.returncode != 0 and "--prototype" in r.stderr
+
+
+def test_airflow_identifiability_check_flags_tiny_gains():
+    import types
+
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.energyplus.checks import airflow_identifiability
+
+    b = building_from_dict({"name": "t", "latitude": 40, "longitude": -105, "timezone": "America/Denver",
+                            "zones": [{"name": "A", "area": 100, "volume": 300}, {"name": "B", "area": 100, "volume": 300}],
+                            "vavs": [{"name": "VA", "zone": "A"}, {"name": "VB", "zone": "B"}]})
+    # smallest plausible gain for 300 m3: 1005 * 2 * 900 / (30 * 1.2 * 1005 * 300) = 0.167 K/(kg/s)/step
+    model = types.SimpleNamespace(B=np.array([[-1e-6, 0.0], [0.0, -0.9]]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(model, b)
+    assert lines[0] == "airflow identifiability: 1 of 2 zone gains below the physical minimum (A)"
+    assert "NOT IDENTIFIED" in lines[1] and "NOT IDENTIFIED" not in lines[2]
+    # delivered-heat form: beta [K/step per kW] against 1000 * 900 / (30 * 1.2 * 1005 * 300) = 0.0829
+    delivered = types.SimpleNamespace(B=np.zeros((2, 2)), beta=np.array([0.5, 1e-4]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(delivered, b)
+    assert lines[0].endswith("1 of 2 zone gains below the physical minimum (B)") and "delivered-heat" in lines[1]
+    lumped = types.SimpleNamespace(B=np.array([[-1e-6]]), outputs=("floor",), step=900.0)
+    assert "not checked" in airflow_identifiability(lumped, b)[0]
+
+
+def test_step_times_standard_time_end_of_step():
+    from hvacfmu.energyplus.run import step_times
+
+    # Denver (UTC-7): the first step of 2 January ends at 00:15 standard time; the last step of the year ends at
+    # 24:00 on day 365 and EnergyPlus already reports calendar year 2018 for it
+    idx = step_times([(2017, 2, 0.25), (2017, 365, 23.75), (2018, 365, 24.0)], -7.0, 0.25)
+    local = idx.tz_convert("America/Denver")
+    assert list(local.strftime("%Y-%m-%d %H:%M")) == ["2017-01-02 00:00", "2017-12-31 23:30", "2017-12-31 23:45"]
+    summer = step_times([(2017, 191, 12.25)], -7.0, 0.25).tz_convert("America/Denver")  # 10 July, DST
+    assert summer[0].strftime("%H:%M %z") == "13:00 -0600"
