@@ -204,7 +204,7 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
-    if hasattr(t, "T_threshold"):
+    if hasattr(t, "T_threshold") and getattr(t, "variant", "switch") == "switch":
         c.location = {**c.location}
         c.evidence["T_threshold"] = float(t.T_threshold)
     if _is_dst(t):
