@@ -28,13 +28,6 @@ from .errors import FMUError, ModelError, problems_message
 
 logger = logging.getLogger(__name__)
 
-#: model kind -> slave script (and class) name in ``fmus/``
-SLAVES = {
-    "lumped": "HvacfmuLumped",
-    "zones": "HvacfmuZones",
-    "physics": "HvacfmuPhysics",
-    "extended": "HvacfmuExtended",
-}
 #: slave for model kinds without a dedicated script
 GENERIC_SLAVE = "HvacfmuModel"
 #: slave of the emulated plant
@@ -48,17 +41,35 @@ BUILD_OPTIONS = {
 }
 
 
-#: slave script name -> (what it serves, base class, resource file); the scripts in ``fmus/`` are
-#: exactly :func:`slave_source` of these (tests/test_fmu.py checks it)
-SLAVE_SPECS = {
-    "HvacfmuLumped": ("models of kind 'lumped'", "ZoneModelSlave", "lumped, resources/model.json"),
-    "HvacfmuZones": ("models of kind 'zones'", "ZoneModelSlave", "zones, resources/model.json"),
-    "HvacfmuPhysics": ("models of kind 'physics'", "ZoneModelSlave", "physics, resources/model.json"),
-    "HvacfmuExtended": ("models of kind 'extended'", "ZoneModelSlave", "extended, resources/model.json"),
-    GENERIC_SLAVE: ("models of a kind without a dedicated slave", "ZoneModelSlave",
-                    "kinds without a dedicated slave, resources/model.json"),
-    PLANT_SLAVE: ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json"),
-}
+def slave_specs() -> dict:
+    """Slave script name -> (what it serves, base class, doc) for every slave: one per registered model kind
+    (:func:`hvacfmu.models.registry.kinds`, ``ModelKind.fmu_slave``), the generic one and the plant's.
+
+    The scripts in ``fmus/`` are exactly :func:`slave_source` of these (``tests/test_fmu.py`` checks it).
+    """
+    from .models.registry import kinds
+
+    specs = {}
+    for k in kinds():
+        if k.fmu_slave != GENERIC_SLAVE:
+            specs.setdefault(k.fmu_slave, (f"models of kind '{k.name}'", "ZoneModelSlave",
+                                           f"{k.name}, resources/model.json"))
+    specs[GENERIC_SLAVE] = ("models of a kind without a dedicated slave", "ZoneModelSlave",
+                            "kinds without a dedicated slave, resources/model.json")
+    specs[PLANT_SLAVE] = ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json")
+    return specs
+
+
+def slave_name(kind: str) -> str:
+    """Slave script (and class) name serving model ``kind``: the registry's ``fmu_slave``, else the generic one."""
+    from .errors import ModelError as _ModelError
+    from .models.registry import get_kind
+
+    try:
+        return get_kind(kind).fmu_slave
+    except _ModelError:
+        return GENERIC_SLAVE
+
 
 _SLAVE_TEMPLATE = '''"""pythonfmu slave of the hvacfmu FMUs for {what}.
 
@@ -122,8 +133,8 @@ class {name}({base}):  # noqa: F821 - defined by the exec above
 
 
 def slave_source(name: str) -> str:
-    """Text of the slave script ``name`` (a key of :data:`SLAVE_SPECS`)."""
-    what, base, doc = SLAVE_SPECS[name]
+    """Text of the slave script ``name`` (a key of :func:`slave_specs`)."""
+    what, base, doc = slave_specs()[name]
     return _SLAVE_TEMPLATE.format(what=what, base=base, name=name, doc=doc)
 
 
@@ -132,7 +143,7 @@ def write_slaves(folder) -> list:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name in SLAVE_SPECS:
+    for name in slave_specs():
         path = folder / f"{name}.py"
         path.write_text(slave_source(name), encoding="utf-8")
         paths.append(path)
@@ -158,7 +169,7 @@ def slave_dir() -> Path:
 
     cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
     if not all((cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n)
-               for n in SLAVE_SPECS):
+               for n in slave_specs()):
         write_slaves(cache)
     return cache
 
@@ -166,8 +177,15 @@ def slave_dir() -> Path:
 def slave_script(kind: str) -> Path:
     """The slave script used for model ``kind``."""
     d = slave_dir()
-    name = SLAVES.get(kind, GENERIC_SLAVE)
+    name = slave_name(kind)
     path = d / f"{name}.py"
+    if not path.is_file() and name in slave_specs():  # a kind registered by a plugin: write its stub
+        from . import __version__
+
+        cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
+        cache.mkdir(parents=True, exist_ok=True)
+        path = cache / f"{name}.py"
+        path.write_text(slave_source(name), encoding="utf-8")
     if not path.is_file():
         raise FMUError(f"slave script {path} for model kind {kind!r} is missing")
     return path
@@ -417,4 +435,5 @@ def validate(path, native: bool | None = None) -> list[str]:
     return problems
 
 
-__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
+__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_name", "slave_script", "slave_specs",
+           "validate"]

@@ -14,9 +14,11 @@ the generator's truth afterwards.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -27,6 +29,7 @@ from hvacfmu.data.dataset import Dataset
 from hvacfmu.diagnosis import CAUSES, SCHEMA, diagnose
 from hvacfmu.diagnosis.residuals import acf, cumulated_periodogram, whiteness
 from hvacfmu.diagnosis.truth import compare_with_truth
+from hvacfmu.models.causes import Candidate, Term, register_cause, unregister_cause
 from hvacfmu.models.extended import (
     ActuationDelay,
     ExtendedModel,
@@ -260,6 +263,146 @@ def test_two_synthetic_effects_are_both_found():
     assert _found(rep, "actuation_delay", zone="C", delay=2)
     assert sorted(rep.causes) == ["actuation_delay", "solar_gain"]
     assert rep.heldout["gain_percent"]["A"] > 0 and rep.heldout["gain_percent"]["C"] > 0
+
+
+# ---------------------------------------------------------------------------------------------
+# a cause is a plugin: a toy cause registered from this file is screened, fitted and exported
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class OutdoorSquared(Term):
+    """Toy cause: ``coef · ((T_out − 15) / 10)²`` into a zone [K/step] (no such physics in Model A)."""
+
+    cause: ClassVar[str] = "toy_outdoor_squared"
+    zone: str = ""
+    coef: float = 0.0
+
+    def columns(self):
+        return ("T_out",)
+
+    def zones(self):
+        return (self.zone,)
+
+    def location(self):
+        return {"zone": self.zone}
+
+    def coefficients(self):
+        return {"coef": float(self.coef)}
+
+    @classmethod
+    def from_dict(cls, d, zone_names, problems, std):
+        return cls(zone=d["zone"], coef=float(d["coef"]), std=std)
+
+    @staticmethod
+    def _f(T_out):
+        return ((np.asarray(T_out) - 15.0) / 10.0) ** 2
+
+    def features(self, sig, U_eff):
+        return [(sig.zones.index(self.zone), "coef", self._f(sig.V["T_out"]), 0.0, np.inf)]
+
+    def contribute(self, c):
+        c.Tn[..., c.zi[self.zone]] += self.coef * self._f(c.v[..., c.vi["T_out"]])
+
+    @classmethod
+    def screen(cls, sig, terms, W, resid, options):
+        have = {t.zone for t in terms if isinstance(t, cls)}
+        return [Candidate(cls.cause, {"zone": z}, [cls(zone=z)], 0, evidence={"toy": True})
+                for z in sig.zones if z not in have]
+
+
+@pytest.fixture
+def toy_cause():
+    register_cause(OutdoorSquared)
+    yield OutdoorSquared
+    unregister_cause(OutdoorSquared.cause)
+
+
+@pytest.mark.slow
+def test_toy_cause_plugin_is_screened_fitted_and_exported(toy_cause, tmp_path):
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    from hvacfmu.fmu import export_fmu
+    from hvacfmu.timeutil import seconds_of_week
+
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(OutdoorSquared(zone="B", coef=0.08),)), weeks=12, seed=2)
+    rep = diagnose(ds, model=base, progress=False)
+    assert [f["cause"] for f in rep.findings] == ["toy_outdoor_squared"], rep.summary()
+    assert rep.findings[0]["location"] == {"zone": "B"}
+    est = rep.findings[0]["parameters"]["coef"]
+    assert abs(est["value"] - 0.08) <= max(4 * est["std"], 0.016)
+    # the saved model reloads through the registry and runs as an FMU like the built-in causes
+    path = rep.model.save(tmp_path / "toy.json")
+    fmu = export_fmu(path, tmp_path / "toy.fmu")
+    assert validate_fmu(str(fmu)) == []
+    model = rep.model
+    week = ds.test_weeks()[0]
+    f = ds.week_frame(week).interpolate(method="time", limit_direction="both").iloc[:96]
+    u, v = model.signals(f)
+    y0 = model.measured_outputs(f.iloc[:1])[0]
+    q = model.gains_at(f.index, week.season)
+    _, Y = model.simulate(model.initial_state(f, 0), u, v, q)
+    names = [f"m_{b}" for b in model.base.vavs] + list(model.disturbances)
+    t = np.arange(len(f)) * 900.0
+    sig = np.zeros(len(f), dtype=[("time", float)] + [(n, float) for n in names])
+    sig["time"] = t
+    for n in names:
+        sig[n] = f[n].to_numpy(float)
+    sv = {f"T_{z}_start": float(y) for z, y in zip(model.outputs, y0)}
+    sv["season"] = list(model.gains).index(week.season) + 1
+    sv["start_time_of_week"] = float(seconds_of_week(f.index[:1])[0])
+    res = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t[-1], output_interval=900.0, input=sig,
+                            start_values=sv, output=[f"T_{z}" for z in model.outputs])
+    Y_fmu = np.column_stack([res[f"T_{z}"] for z in model.outputs])
+    n = min(len(Y), len(Y_fmu))
+    np.testing.assert_allclose(Y_fmu[:n], Y[:n], rtol=0, atol=1e-6)  # [K]
+
+
+def closed_loop_dataset(model, weeks=12, seed=0, gain=0.25, noise=0.02) -> Dataset:
+    """Model A data where every box answers its zone's temperature at once (P control, no delay)."""
+    rng = np.random.default_rng(seed)
+    ds0 = simulate_dataset(model, weeks=weeks, seed=seed, noise=noise)
+    frame = ds0.frame.copy()
+    n = len(frame)
+    u, v = model.signals(frame)
+    q = np.zeros((n, 3))
+    for s in np.unique(ds0.season_of_row):
+        m = ds0.season_of_row == s
+        q[m] = model.gains_at(frame.index[m], s)
+    x = np.full(3, 21.0)
+    Y, M = np.empty((n, 3)), np.empty((n, 3))
+    for k in range(n):
+        Y[k] = x
+        uk = np.clip(0.2 + gain * (x - 21.5) + rng.normal(0, 0.03, 3), 0.05, 0.6)  # feedback, same step
+        M[k] = uk
+        x = model.step_state(x, uk, v[k], q[k]) + rng.normal(0, noise, 3)
+    for j, z in enumerate("ABC"):
+        frame[f"T_{z}"] = Y[:, j]
+        frame[f"m_V{j + 1}"] = M[:, j]
+    return Dataset.from_frame(frame, ds0.building, step=900.0, seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_feedback_is_not_delay(seed):
+    """Closed-loop data without any delay: the residual leads the airflow (the controller answers the
+    error), which must not be read as an actuation delay."""
+    rep = diagnose(closed_loop_dataset(row_model(), seed=seed), model=row_model(), progress=False)
+    assert not [f for f in rep.findings if f["cause"] == "actuation_delay"], rep.summary()
+    assert rep.findings == [], rep.summary()
+
+
+@pytest.mark.parametrize("past, future, causal", [
+    ({"0": -0.3, "1": 0.05, "2": 0.25}, {"1": 0.1, "2": 0.05}, True),    # residual follows u(k-2): a delay
+    ({"0": -0.3, "1": 0.05, "2": 0.10}, {"1": 0.35, "2": 0.2}, False),   # residual leads u: feedback
+])
+def test_delay_gate_compares_past_and_future_airflow(past, future, causal):
+    from hvacfmu.diagnosis.selection import _delay_is_causal
+
+    c = Candidate("actuation_delay", {"zone": "A"}, evidence={"xcorr_resid_airflow_by_lag": past,
+                                                              "xcorr_resid_future_airflow_by_lag": future})
+    c.term = ActuationDelay(zone="A", delay=2)
+    assert _delay_is_causal(c) is causal
+    assert set(c.evidence["delay_past_vs_future"]) == {"past_at_delay", "future_max"}
 
 
 @pytest.mark.parametrize("seed", [10, 11, 12])

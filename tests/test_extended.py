@@ -19,6 +19,7 @@ from hvacfmu.models.extended import (
     SolarGain,
     SupplyAirBilinear,
     ThermalMass,
+    UnusedInput,
     ZoneCoupling,
     dst_active,
     ema_series,
@@ -243,3 +244,68 @@ def test_evaluate_accepts_extended_model():
     sc = res.scores[1]
     assert sc.kind == "extended"
     assert len(sc.starts) > 0 and np.all(np.isfinite(sc.rms))
+
+
+# ----------------------------------------------------------------------------- equations (matrix form)
+EQ_TERMS = [
+    ThermalMass(zone="A", alpha=0.02, beta=0.05),
+    ActuationDelay(zone="B", delay=2),
+    ActuationDelay(zone="A", delay=1),
+    SolarGain(zone="B", facade="W", coef=0.001),
+    Reheat(zone="B", coef=0.05, u_min=0.4, T_threshold=15.0),
+    Reheat(zone="A", coef=0.03, variant="discharge"),
+    ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01, coef_ba=0.02),
+    SupplyAirBilinear(zone="A", coef=0.05),
+    UnusedInput(zone="B", column="rh_V3", coef=0.2),
+]
+
+
+@pytest.mark.parametrize("term", EQ_TERMS, ids=lambda t: f"{t.cause}-{getattr(t, 'zone', '')}")
+def test_equations_of_each_term_match_step_state(term):
+    from hvacfmu.models.equations import check_equations
+
+    m = ExtendedModel(base=_base(), terms=(term,))
+    eq = m.equations()
+    assert eq.n_states == m.n_states
+    assert check_equations(m, eq, n=50, atol=1e-10) <= 1e-10
+
+
+def test_equations_of_all_terms_together():
+    from hvacfmu.models.equations import check_equations
+
+    terms = (ThermalMass(zone="A", alpha=0.02, beta=0.05), ActuationDelay(zone="B", delay=3),
+             SolarGain(zone="B", facade="W", coef=0.001), ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01,
+                                                                       coef_ba=0.02),
+             SupplyAirBilinear(zone="A", coef=0.05), Reheat(zone="A", coef=0.05, u_min=0.4, T_threshold=15.0))
+    m = ExtendedModel(base=_base(), terms=terms)
+    eq = m.equations()
+    assert eq.bilinear and len(eq.switches) == 1
+    check_equations(m, eq, n=80, atol=1e-10)
+
+
+@pytest.mark.parametrize("terms, message", [
+    ((InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(1.0, 0.5), dates=("2025-09-03",)),),
+     "calendar"),
+    ((InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4),), "calendar"),
+    ((ActuationDelay(zone="A", delay=2), SupplyAirBilinear(zone="A", coef=0.05)), "quadratic in the state"),
+    ((ActuationDelay(zone="B", delay=1), Reheat(zone="B", coef=0.05, u_min=0.4, T_threshold=15.0)), "delayed"),
+])
+def test_terms_without_time_invariant_equations_say_so(terms, message):
+    m = ExtendedModel(base=_base(), terms=terms)
+    with pytest.raises(ModelError, match=message):
+        m.equations()
+
+
+def test_discharge_reheat_reads_td_columns():
+    """``Qrh_<zone>`` = Σ m cp (Td − T_supply)⁺ [kW] is derived from the frame's Td_ columns."""
+    f = _frame()
+    f["Td_V1"], f["Td_V2"] = 30.0, 14.0
+    m = ExtendedModel(base=_base(), terms=(Reheat(zone="A", coef=0.03, variant="discharge"),))
+    u, v = m.signals(f)
+    q = v[:, m.disturbances.index("Qrh_A")]
+    ts = f["T_supply"].to_numpy()
+    expect = (f["m_V1"].to_numpy() * 1005.0 * (30.0 - ts)
+              + f["m_V2"].to_numpy() * 1005.0 * np.maximum(14.0 - ts, 0.0)) / 1000.0
+    assert_allclose(q, expect, rtol=1e-12, atol=0)
+    with pytest.raises(ModelError, match="Td_"):
+        m.signals(_frame())

@@ -65,12 +65,19 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         say("fitting the six-zone Model A (v = T_out, T_supply, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False, use_solar=False)
+            # the airflow form: the cause terms assume zone airflow inputs (delivered heat: issue 13, open)
+            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow")
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):
         from ..models import load_model
 
         model = load_model(model)
+    if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
+        from ..errors import ModelError
+
+        raise ModelError("diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
+                         "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
+                         "diagnose fit its own base model")
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)
@@ -124,12 +131,9 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
                                 "ljung_box_p": w["ljung_box"]["p_value"], "acf_lag1": w["acf_lag1"]})
 
     # --- held-out comparison (the evaluation protocol) ---------------------------------------
-    heldout = _heldout_table(base_model, final, dataset, opts["horizon"], notes)
-    ref = sel.heldout_reference
-    if heldout and ref is not None and len(ref["rms"]):
-        # the base structure refitted by the diagnosis' least squares, without extension terms
-        heldout["refit_base"] = {z: float(np.mean(ref["rms"][:, j])) for j, z in enumerate(ref["outputs"])}
-        heldout["mean_refit_base"] = float(np.mean(ref["rms"]))
+    # headline: the base structure refitted by the same least squares -> extended (same fitting method);
+    # the given base model -> refit is shown separately (a change of fitting method, not a cause)
+    heldout = _heldout_table(base_model, sel.reference_fit.model, final, dataset, opts["horizon"], notes)
 
     verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
     fdicts = []
@@ -177,7 +181,8 @@ def _params_of(model: ExtendedModel, term) -> dict:
     return _params(term)
 
 
-def _heldout_table(base_model, final, dataset, horizon, notes) -> dict:
+def _heldout_table(base_model, refit, final, dataset, horizon, notes) -> dict:
+    """Held-out RMS of the refit base (headline ``base``), the extended model, and the given base model."""
     from ..evaluation import evaluate
 
     if not dataset.test_weeks():
@@ -186,22 +191,29 @@ def _heldout_table(base_model, final, dataset, horizon, notes) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = evaluate([base_model, final], dataset, horizon=horizon, names=["base", "extended"])
+            res = evaluate([refit, final, base_model], dataset, horizon=horizon,
+                           names=["base", "extended", "original"])
         except DataError as exc:
             notes.append(f"held-out RMS not available: {exc}")
             return {}
-    tb = res.table("base")
-    te = res.table("extended")
-    zones = [z for z in final.outputs]
-    out = {"zones": zones, "base": {}, "extended": {}, "gain_percent": {}, "n_windows": res.score("base").n_windows()}
+    tb, te, to = res.table("base"), res.table("extended"), res.table("original")
+    zones = list(final.outputs)
+    out = {"zones": zones, "base": {}, "extended": {}, "original_base": {}, "gain_percent": {},
+           "n_windows": res.score("base").n_windows()}
     for s in tb.index:
         out["base"][s] = {z: float(tb.loc[s, z]) for z in zones}
         out["extended"][s] = {z: float(te.loc[s, z]) for z in zones}
+        out["original_base"][s] = {z: float(to.loc[s, z]) for z in zones}
     if "all" in tb.index:
         for z in zones:
             b, a = tb.loc["all", z], te.loc["all", z]
             out["gain_percent"][z] = float(100 * (b - a) / b) if b > 0 else None
         out["mean_base"] = float(tb.loc["all", "mean"])
         out["mean_extended"] = float(te.loc["all", "mean"])
+        out["mean_original_base"] = float(to.loc["all", "mean"])
         out["gain_percent_mean"] = float(100 * (out["mean_base"] - out["mean_extended"]) / out["mean_base"])
+        out["refit_gain_percent_mean"] = float(100 * (out["mean_original_base"] - out["mean_base"])
+                                               / out["mean_original_base"])
+        out["refit_base"] = out["base"]["all"]
+        out["mean_refit_base"] = out["mean_base"]
     return out

@@ -140,7 +140,7 @@ class DiagnosisReport:
              "", f"Verdict: {self.verdict} — {self.summary()}", ""]
         ho = self.heldout
         if ho.get("zones"):
-            L.append("Held-out 24-hour RMS [K] per zone (base -> extended, gain):")
+            L.append("Held-out 24-hour RMS [K] per zone (base structure refitted -> extended, gain):")
             for z in ho["zones"]:
                 b, a, g = ho["base"]["all"].get(z), ho["extended"]["all"].get(z), ho["gain_percent"].get(z)
                 if b is None or a is None:
@@ -148,9 +148,10 @@ class DiagnosisReport:
                 L.append(f"  {z:>6}: {b:.3f} -> {a:.3f}  ({g:+.1f} %)")
             L.append(f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  "
                      f"({ho['gain_percent_mean']:+.1f} %)")
-            if "mean_refit_base" in ho:
-                L.append(f"  (base structure refitted without extensions: mean {ho['mean_refit_base']:.3f}; "
-                         f"each finding's gain below is measured against the model before it)")
+            if "mean_original_base" in ho:
+                L.append(f"  (the given base model: mean {ho['mean_original_base']:.3f} -> refitted "
+                         f"{ho['mean_base']:.3f}, {ho['refit_gain_percent_mean']:+.1f} %: a change of fitting "
+                         f"method, not a cause)")
             L.append("")
         if self.findings:
             L.append("Findings (in order of selection):")
@@ -164,14 +165,27 @@ class DiagnosisReport:
                     L.append(f"    evidence: {ev}")
                 if f.get("parameters"):
                     L.append(f"    parameters: {_fmt_params(f['parameters'])}")
+                cv = f.get("cv") or {}
+                if cv.get("gain_percent") is not None:
+                    L.append(f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
+                             f"({cv['n_weeks']} weeks, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
+                             f"affected zones open loop, others measured)")
+                rv = (f.get("evidence") or {}).get("rival")
+                if rv:
+                    t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
+                    L.append(f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
+                             f"(cross-validated paired t {t}); the data favour {rv['favoured']}")
+                for o in f.get("competitors") or []:
+                    L.append(f"    also significant here: {o['cause']} at {_loc(o['location'])} "
+                             f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})")
                 h = f.get("heldout") or {}
                 if h.get("zones"):
                     zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
                     L.append(f"    held-out RMS [K]: {zz}; gain {h['gain_percent']:.1f} %")
             L.append("")
-        rej = [c for c in self.candidates if c["status"] == "no held-out gain"]
+        rej = [c for c in self.candidates if c["status"] in ("no cross-validated gain", "no evidence")]
         if rej:
-            L.append("Significant on training data but no held-out gain (not added):")
+            L.append("Significant on training data but not confirmed (not added):")
             for c in rej:
                 L.append(f"  - {c['cause']} at {_loc(c['location'])}: {c['reason']}")
             L.append("")

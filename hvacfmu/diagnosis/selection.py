@@ -42,6 +42,7 @@ from scipy import stats
 from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
+from .crossval import fold_fits, fold_scores, make_plan, paired_test
 from .design import (
     Signals,
     Within,
@@ -70,6 +71,9 @@ DEFAULT_OPTIONS = {
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
     "horizon": 96,
+    "cv_folds": 10,
+    "cv_min_gain_percent": 1.0,
+    "cv_min_t": 2.0,
 }
 
 
@@ -101,9 +105,7 @@ def ess_factor(rho: float) -> float:
 
 
 def _affected(sig: Signals, term) -> list:
-    if isinstance(term, InternalGainSchedule):
-        return list(range(sig.nz))
-    return [sig.zones.index(z) for z in term.zones()]
+    return [sig.zones.index(z) for z in term.affected(sig.zones)]
 
 
 def _is_dst(t) -> bool:
@@ -132,7 +134,7 @@ def _zone_cache(cache, sig, W, terms, z, target):
     return cache[z]
 
 
-def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: "cand.Candidate", options,
+def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Candidate, options,
                     cache=None) -> None:
     """Fill ``c.test`` (and ``c.term``: best variant, with its fitted coefficients) in place.
 
@@ -304,7 +306,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     ----------
     sig : Signals
     dataset : hvacfmu.data.Dataset
-        For the held-out evaluation.
+        For the held-out evaluation (reported, not used for acceptance).
     initial_terms : sequence of Term
         Terms already in the base model (kept).
     options : dict
@@ -317,124 +319,260 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     W = Within(sig.group, rows)
     ref_fit = fit_structure(sig, terms, rows)
     cur = ref_fit
-    have_test = any(not w.train for w in dataset.weeks)
-    cur_ho = None
-    if have_test:
-        try:
-            cur_ho = heldout_rms(cur.model, dataset, opts["horizon"])
-        except DataError:  # no evaluable test window (missing data)
-            have_test = False
-    ref_ho = cur_ho
-    findings, rounds = [], []
-    last_cands = []
+    plan = make_plan(sig, int(opts["cv_folds"]), int(opts["horizon"]))
+    ho = _Heldout(dataset, opts["horizon"])
+    ref_ho = cur_ho = ho.rms(cur.model)
+    findings, rounds, last_cands = [], [], []
     sig0 = sig
     fixed_profiles = None
     while len(findings) < opts["max_terms"]:
         # gain-profile features (holidays, daylight saving) use the current model's profiles; once
-        # a daylight-saving shift is in, the profile of the clock the gains follow, on which the
-        # current fit was made, stays (the refit's slot means are a blend of both clocks)
+        # a daylight-saving shift is in, the profile of the clock the gains follow stays
         sig = dataclasses.replace(sig0, base_profiles=fixed_profiles or {
             s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
             or sig0.base_profiles)
-        resid = cur.resid
-        cur_rss = [ls.rss for ls in cur.zone_ls]
-        factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
-        resid_all = one_step_residuals(sig, cur.model)
-        cands = cand.generate(sig, terms, W, resid, {**opts, "_resid_all": resid_all})
-        U_cur = effective_inputs(sig, terms)
-        cache = {"U_eff": U_cur, "feats": [term_features(sig, tt, U_cur) for tt in terms]}
-        for c in cands:
-            if c.variants and c.status == "not tested":
-                score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache)
-                if c.test["delta_bic"] <= opts["bic_margin"]:
-                    c.status = "not significant"
-                    c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
-                                f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
-                                f"penalty {c.test['bic_penalty']:.1f})")
-                elif c.cause == "zone_coupling" and not (1.0 / opts["coupling_max_asymmetry"]
-                                                         <= c.evidence["symmetry_ratio"]
-                                                         <= opts["coupling_max_asymmetry"]):
-                    c.status = "not significant"
-                    c.reason = (f"asymmetric: the zones' own coefficients differ by a factor "
-                                f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
-                                f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
-                                f"not a heat exchange between them")
-                elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
-                    c.status = "not significant"
-                    c.reason = (f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
-                                f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
-                                f"daily effect correlates with it)")
+        cands = _score_round(sig, W, terms, cur, opts)
         ranked = sorted([c for c in cands if c.variants and c.status == "not tested"],
                         key=lambda c: -c.test["delta_bic"])
-        accepted, used = [], set()
-        tried = 0
-        for c in ranked:
-            zs = set(_affected(sig, c.term))
-            if zs & used:
-                c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
-                continue
-            if tried >= opts["max_tries"]:
-                c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
-                continue
-            tried += 1
-            if progress:
-                progress(f"testing {c.key} on held-out weeks (ΔBIC {c.test['delta_bic']:.1f})")
-            new = fit_structure(sig_for(sig, c, c.term), terms + [c.term], rows)
-            c.term = new.model.terms[len(terms)]
-            if not have_test or not _active_on(sig, c.term, "test"):
-                why = ("no held-out test week" if not have_test else
-                       "the term is inactive in every held-out week")
-                c.heldout = {"measurable": False, "reason": why}
-                if c.test["delta_bic"] > 2 * opts["bic_margin"]:
-                    c.status = "found"
-                    c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g}; held-out gain not "
-                                f"measurable ({why})")
-                    accepted.append((c, None))
-                    used |= zs
-                else:
-                    c.status = "not significant"
-                    c.reason = f"ΔBIC {c.test['delta_bic']:.1f} ≤ 2 × {opts['bic_margin']:g} without held-out check ({why})"
-                continue
-            ho = heldout_rms(new.model, dataset, opts["horizon"])
-            cmp = compare_heldout(cur_ho, ho, _affected(sig, c.term))
-            c.heldout = cmp
-            g = cmp.get("gain_percent")
-            every = all(v["after"] < v["before"] for v in cmp["zones"].values())
-            need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["min_gain_percent"]
-            if (g is not None and g >= need and cmp["gain_abs"] >= opts["min_gain_abs"]
-                    and (every or len(zs) == sig.nz)):
-                c.status = "found"
-                c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g} and held-out gain "
-                            f"{g:.1f} % ({cmp['gain_abs']:.3f} K)")
-                accepted.append((c, ho))
-                used |= zs
-                continue
-            c.status = "no held-out gain"
-            c.reason = ("held-out gain " + ("n/a" if g is None else f"{g:.2f} % ({cmp['gain_abs']:.4f} K)")
-                        + f" below {need:g} % / {opts['min_gain_abs']:g} K"
-                        + ("" if every else " or not positive in every affected zone"))
-        rounds.append({"round": len(rounds) + 1,
-                       "scored": len([c for c in cands if c.test]),
-                       "significant": [c.key for c in ranked],
-                       "accepted": [c.key for c, _ in accepted]})
+        accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows)
+        _name_competitors(cands, accepted)
+        rounds.append({"round": len(rounds) + 1, "scored": len([c for c in cands if c.test]),
+                       "significant": [c.key for c in ranked], "accepted": [c.key for c in accepted]})
         last_cands = cands
         if not accepted:
             break
         sig_fit = sig
-        for c, _ in accepted:
+        for c in accepted:
             findings.append(c)
             terms = terms + [c.term]
             sig_fit = sig_for(sig_fit, c, c.term)
         if sig_fit is not sig:
             fixed_profiles = sig_fit.base_profiles
-        cur = fit_structure(sig_fit, terms, rows)
-        if have_test:
-            cur_ho = (accepted[0][1] if len(accepted) == 1 and accepted[0][1] is not None
-                      else heldout_rms(cur.model, dataset, opts["horizon"]))
-        if len(findings) >= opts["max_terms"]:
-            break
+        prev_ho = cur_ho
+        cur = fit_consistent(sig_fit, terms, rows, fixed_profiles is None)
+        cur_ho = ho.rms(cur.model)
+        for c in accepted:
+            c.heldout = ho.compare(prev_ho, cur_ho, _affected(sig, c.term), c.term, sig)
+            c.term = next((t for t in cur.model.terms if t.cause == c.term.cause
+                           and t.location() == c.term.location()), c.term)
     others = [c for c in last_cands if c not in findings]
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
+
+
+def fit_consistent(sig: Signals, terms, rows, refresh_profiles: bool = True):
+    """Refit ``terms``; calendar terms are refitted once more on the profile the refit produced.
+
+    A holiday term's regressor is built from the gain profile; the model applies its
+    coefficients to the profile of the same fit, so the features are rebuilt from the
+    refitted profile and the structure refitted (one fixed-point step).
+    """
+    fit = fit_structure(sig, terms, rows)
+    if refresh_profiles and any(isinstance(t, InternalGainSchedule) for t in terms):
+        sig2 = dataclasses.replace(sig, base_profiles={s: np.asarray(fit.model.base.gains[s]) for s in sig.seasons
+                                                       if s in fit.model.base.gains})
+        fit = fit_structure(sig2, terms, rows)
+    return fit
+
+
+def _score_round(sig: Signals, W: Within, terms, cur, opts) -> list:
+    """Candidates of every registered cause, each scored by the training-rows LR test and its gates."""
+    resid = cur.resid
+    cur_rss = [ls.rss for ls in cur.zone_ls]
+    factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
+    resid_all = one_step_residuals(sig, cur.model)
+    resid_all[~sig.train] = np.nan  # screens see the training folds only
+    cands = cand.generate(sig, terms, W, resid, {**opts, "_resid_all": resid_all})
+    U_cur = effective_inputs(sig, terms)
+    cache = {"U_eff": U_cur, "feats": [term_features(sig, tt, U_cur) for tt in terms]}
+    for c in cands:
+        if c.variants and c.status == "not tested":
+            score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache)
+            _gate(c, opts)
+    return cands
+
+
+def _gate(c, opts) -> None:
+    """Information-criterion and cause-specific gates after the training-rows fit."""
+    if c.test["delta_bic"] <= opts["bic_margin"]:
+        c.status = "not significant"
+        c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
+                    f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
+                    f"penalty {c.test['bic_penalty']:.1f})")
+    elif c.cause == "zone_coupling" and not (1.0 / opts["coupling_max_asymmetry"] <= c.evidence["symmetry_ratio"]
+                                             <= opts["coupling_max_asymmetry"]):
+        c.status = "no evidence"
+        c.reason = (f"asymmetric: the zones' own coefficients differ by a factor "
+                    f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
+                    f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
+                    f"not a heat exchange between them")
+    elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
+        c.status = "not significant"
+        c.reason = (f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
+                    f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
+                    f"daily effect correlates with it)")
+    elif c.cause == "actuation_delay" and not _delay_is_causal(c):
+        c.status = "no evidence"
+        c.reason = ("the residual follows the future airflow at least as strongly as the delayed one: feedback "
+                    "(the controller answering the error), not an actuation delay")
+
+
+def _delay_is_causal(c) -> bool:
+    """A delay shows in the past airflow: |xcorr| at the fitted lag exceeds every future-lag |xcorr|."""
+    ev = c.evidence
+    past = ev.get("xcorr_resid_airflow_by_lag", {})
+    fut = ev.get("xcorr_resid_future_airflow_by_lag", {})
+    d = str(getattr(c.term, "delay", 1))
+    p = abs(past.get(d, 0.0) or 0.0)
+    f = max((abs(v) for v in fut.values() if v is not None and np.isfinite(v)), default=0.0)
+    ev["delay_past_vs_future"] = {"past_at_delay": p, "future_max": f}
+    return p > f
+
+
+def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
+    """Cross-validate the significant candidates (best ΔBIC first); accept at most one per zone."""
+    accepted, used = [], set()
+    base_models = None
+    base_scores: dict = {}
+    tried = 0
+    for c in ranked:
+        zs = set(_affected(sig, c.term))
+        if zs & used:
+            c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
+            continue
+        if tried >= opts["max_tries"]:
+            c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
+            continue
+        tried += 1
+        if progress:
+            progress(f"cross-validating {c.key} (ΔBIC {c.test['delta_bic']:.1f})")
+        if plan is None:
+            c.cv = {"n_weeks": 0, "reason": "fewer than 4 training weeks: no cross-validation"}
+            ok = c.test["delta_bic"] > 2 * opts["bic_margin"]
+        else:
+            key = tuple(sorted(zs))
+            if key not in base_scores:
+                base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
+            sig_c = sig_for(sig, c, c.term)
+            models = fold_fits(sig_c, plan, list(terms) + [c.term], key)
+            c.cv = paired_test(plan, base_scores[key], fold_scores(sig_c, plan, models, key))
+            ok = _cv_accepts(c, opts)
+        if ok:
+            c.status = "found"
+            c.reason = _found_reason(c, opts)
+            accepted.append(c)
+            used |= zs
+        else:
+            c.status = "no cross-validated gain"
+            c.reason = _rejected_reason(c, opts)
+    if plan is not None:
+        for i, c in enumerate(list(accepted)):
+            o = _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores)
+            if o is not None and c.evidence["rival"]["favoured"] == o.cause and _cv_accepts(o, opts) \
+                    and not (set(_affected(sig, o.term)) - set(_affected(sig, c.term))) & used:
+                # the rival explains the same gain better on the same folds: it is the finding
+                o.status, o.reason = "found", _found_reason(o, opts)
+                o.evidence["rival"] = {"cause": c.cause, "location": c.location, "cv_gain_percent":
+                                       c.cv.get("gain_percent"), "cv_t": c.cv.get("t"), "favoured": o.cause}
+                c.status = "no evidence"
+                c.reason = (f"a {o.cause} at {o.location} explains the same gain better on the same folds "
+                            f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})")
+                accepted[i] = o
+    return accepted
+
+
+def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
+    """Cross-validate the strongest significant candidate of another cause at the same zones.
+
+    Two causes can explain one gain (a coupling and a slow mass, solar and a schedule): both
+    are scored on the same folds, and ``c.evidence["rival"]`` says which the data favour.
+    """
+    zs = set(_affected(sig, c.term))
+    rivals = [o for o in ranked if o is not c and o.cause != c.cause and o.term is not None
+              and zs & set(_affected(sig, o.term))]
+    if not rivals:
+        return None
+    o = rivals[0]
+    if o.cv is None:
+        key = tuple(sorted(set(_affected(sig, o.term))))
+        if key not in base_scores:
+            base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
+        sig_o = sig_for(sig, o, o.term)
+        o.cv = paired_test(plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan,
+                                                                                     list(terms) + [o.term], key),
+                                                               key))
+    ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
+    c.evidence["rival"] = {"cause": o.cause, "location": o.location, "cv_gain_percent": o.cv.get("gain_percent"),
+                           "cv_t": o.cv.get("t"), "favoured": c.cause if ct >= ot else o.cause}
+    return o
+
+
+def _cv_accepts(c, opts) -> bool:
+    cv = c.cv
+    if cv.get("gain_percent") is None:
+        return False
+    need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
+    return cv["gain_percent"] >= need and cv["gain_abs"] >= opts["min_gain_abs"] and cv["t"] >= opts["cv_min_t"]
+
+
+def _found_reason(c, opts) -> str:
+    if not c.cv or c.cv.get("gain_percent") is None:
+        return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
+    cv = c.cv
+    return (f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
+            f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {cv['n_weeks']} weeks, paired t = {cv['t']:.1f}")
+
+
+def _rejected_reason(c, opts) -> str:
+    cv = c.cv or {}
+    if cv.get("gain_percent") is None:
+        return cv.get("reason", "cross-validation not possible")
+    need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
+    return (f"cross-validated gain {cv['gain_percent']:.2f} ± {cv['se_percent']:.2f} % (t = {cv['t']:.2f}) "
+            f"below {need:g} % with t ≥ {opts['cv_min_t']:g}")
+
+
+def _name_competitors(cands, accepted) -> None:
+    """Candidates of other causes at an accepted candidate's zones that were also significant.
+
+    Two causes can take one gain (a coupling and a slow mass, solar and an internal-gain
+    schedule); the accepted one is the one the cross-validation and the evidence favour.
+    """
+    for c in accepted:
+        zs = set(c.term.zones()) if c.term is not None else set()
+        for o in cands:
+            if o is c or o.cause == c.cause or not o.test or o.test.get("delta_bic", 0) <= 0:
+                continue
+            oz = set(o.term.zones()) if o.term is not None else set()
+            if zs & oz:
+                c.competitors.append({"cause": o.cause, "location": o.location, "delta_bic": o.test["delta_bic"],
+                                      "status": o.status,
+                                      "cv_gain_percent": (o.cv or {}).get("gain_percent")})
+        c.competitors.sort(key=lambda d: -d["delta_bic"])
+        del c.competitors[4:]
+
+
+class _Heldout:
+    """Held-out 24-hour RMS of the test weeks through :func:`hvacfmu.evaluation.evaluate` (reported)."""
+
+    def __init__(self, dataset, horizon):
+        self.dataset, self.horizon = dataset, horizon
+        self.ok = any(not w.train for w in dataset.weeks)
+
+    def rms(self, model):
+        if not self.ok:
+            return None
+        try:
+            return heldout_rms(model, self.dataset, self.horizon)
+        except DataError:  # no evaluable test window (missing data)
+            self.ok = False
+            return None
+
+    def compare(self, before, after, zones_idx, term, sig):
+        if before is None or after is None:
+            return {"measurable": False, "reason": "no held-out test week"}
+        if not _active_on(sig, term, "test"):
+            return {"measurable": False, "reason": "the term is inactive in every held-out week"}
+        return compare_heldout(before, after, zones_idx)
 
 
 def one_step_residuals(sig: Signals, model) -> np.ndarray:
@@ -470,23 +608,7 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
 
 
 def _teacher_forced(sig: Signals, model) -> np.ndarray:
-    from ..models.extended import ActuationDelay as _AD, ThermalMass as _TM, ema_series
-    from .design import shifted
-
-    n = len(sig.Y)
-    X = np.empty((n, model.n_states))
-    X[:, : sig.nz] = sig.Y
-    off = sig.nz
-    for t in model.terms:
-        if isinstance(t, _TM):
-            X[:, off] = ema_series(sig.Y[:, sig.zones.index(t.zone)], t.alpha)
-            off += 1
-        elif isinstance(t, _AD):
-            u = sig.U[:, sig.zones.index(t.zone)]
-            for j in range(t.delay):
-                X[:, off + j] = shifted(u, t.delay - j)
-            off += t.delay
-    return X
+    return model.teacher_forced(sig.Y, sig.U)
 
 
 __all__ = ["DEFAULT_OPTIONS", "SelectionResult", "compare_heldout", "forward_select", "heldout_rms",

@@ -182,7 +182,7 @@ register_kind(ModelKind(
     equations=True, fmu_slave="HvacfmuPhysics"))
 register_kind(ModelKind(
     "extended", "Model A plus the extension terms of diagnosed causes",
-    "hvacfmu.models.extended:ExtendedModel", fit=None, equations=False, fmu_slave="HvacfmuExtended",
+    "hvacfmu.models.extended:ExtendedModel", fit=None, equations=True, fmu_slave="HvacfmuExtended",
     fit_note="it is the result of the diagnosis (hvacfmu diagnose ... -o model.json, or hf.diagnose(data).model)"))
 
 

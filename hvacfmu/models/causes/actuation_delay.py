@@ -1,0 +1,104 @@
+"""Cause ``actuation_delay``: a zone's airflow acts ``delay`` steps late.
+
+Term: ``u_z(k)`` is replaced by ``u_z(k − delay)`` everywhere in the model; the last
+``delay`` airflows are hidden states. Screen: one candidate per zone, delays 1 ..
+:data:`~hvacfmu.models.causes.signals.MAX_DELAY`; evidence: cross-correlation of the residual
+with the airflow by lag, past (``u(k − lag)``) and future (``u(k + lag)``, what a feedback
+loop produces: the controller answers the temperature error), and the best past lag.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
+
+import numpy as np
+
+from .base import Candidate, EquationParts, StepContext, Term, corr, zone_of
+from .signals import MAX_DELAY, shifted
+
+
+@dataclasses.dataclass(frozen=True)
+class ActuationDelay(Term):
+    """The airflow of ``zone`` acts ``delay`` steps late."""
+
+    cause: ClassVar[str] = "actuation_delay"
+    description: ClassVar[str] = "airflow acting late (zone, delay in steps)"
+    zone: str = ""
+    delay: int = 1
+
+    def zones(self):
+        return (self.zone,)
+
+    def location(self):
+        return {"zone": self.zone, "delay": int(self.delay)}
+
+    @classmethod
+    def from_dict(cls, d, zone_names, problems, std):
+        what = f"extension term {cls.cause}"
+        dl = d.get("delay")
+        if not (isinstance(dl, int) and 1 <= dl <= 96):
+            problems.append(f"{what}: delay must be an integer number of steps in 1..96, got {dl!r}")
+            dl = 1
+        return cls(zone=zone_of(d, "zone", zone_names, what, problems), delay=dl, std=std)
+
+    def delayed_input(self):
+        return (self.zone, int(self.delay))
+
+    def n_hidden(self):
+        return int(self.delay)
+
+    def hidden_names(self):
+        return [f"u_{self.zone}_lag{self.delay - j}" for j in range(self.delay)]
+
+    def hidden_history(self, Y, U, zi):
+        u = U[:, zi[self.zone]]
+        return np.column_stack([shifted(u, self.delay - j) for j in range(self.delay)])
+
+    def with_fit(self, sig, coefs, stds):
+        return self
+
+    def shift_input(self, c: StepContext) -> None:
+        """Replace the zone's airflow by the oldest buffered one and push the current one."""
+        zi, n, off = c.zi[self.zone], int(self.delay), c.off
+        buf = c.x[..., off : off + n]
+        c.u_eff[..., zi] = buf[..., 0]
+        c.x_new[..., off : off + n - 1] = buf[..., 1:]
+        c.x_new[..., off + n - 1] = c.u[..., zi]
+
+    def add_equations(self, e: EquationParts) -> None:
+        zi, n, off = e.zi[self.zone], int(self.delay), e.off
+        for j in range(n - 1):
+            e.A[off + j, off + j + 1] = 1.0
+        e.Bu[off + n - 1, zi] = 1.0
+        # the airflow acts through the oldest buffered value
+        e.A[:, off] += e.Bu[:, zi] * (np.arange(e.A.shape[0]) < len(e.zi))
+        e.Bu[: len(e.zi), zi] = 0.0
+        e.u_state[zi] = off
+
+    @classmethod
+    def screen(cls, sig, terms, W, resid, options):
+        have = {t.zone for t in terms if isinstance(t, ActuationDelay)}
+        out = []
+        for zi, z in enumerate(sig.zones):
+            if z in have:
+                continue
+            ev = delay_evidence(sig, W, resid[:, zi], sig.U[:, zi])
+            out.append(Candidate(cls.cause, {"zone": z}, [cls(zone=z, delay=d) for d in range(1, MAX_DELAY + 1)], 0,
+                                 evidence=ev))
+        return out
+
+
+def delay_evidence(sig, W, r, u) -> dict:
+    """Cross-correlation of the residual with past and future airflow, by lag [steps]."""
+    fill = float(np.nanmean(u))
+    past, future = {}, {}
+    for lag in range(MAX_DELAY + 3):
+        past[str(lag)] = corr(r, W(np.nan_to_num(shifted(u, lag), nan=fill)))
+        if lag:
+            fu = np.full(len(u), np.nan)
+            fu[:-lag] = u[lag:]
+            future[str(lag)] = corr(r, W(np.nan_to_num(fu, nan=fill)))
+    best = max((k for k in past if k != "0" and np.isfinite(past[k])), key=lambda k: abs(past[k]), default=None)
+    return {"xcorr_resid_airflow_by_lag": past, "xcorr_resid_future_airflow_by_lag": future,
+            "best_past_lag": None if best is None else int(best)}

@@ -1,0 +1,425 @@
+"""Cause ``internal_gain_schedule``: internal gains that depart from the seasonal time-of-week profile.
+
+``variant="holiday"``: on listed dates the profile of ``ref_weekday`` (default Sunday)
+replaces the day's profile, scaled by ``coef`` per zone. Screened on the training rows only
+(weekdays whose one-step residual departs toward the weekend profile, single days or
+whole weeks); the dates of the term are those training dates (a calendar seen in held-out
+weeks would be a leak).
+
+``variant="dst_shift"``: while daylight-saving time is in effect the profile is read
+``shift`` steps later (negative: earlier), scaled by ``coef`` per zone; screened from the jump
+of the weekday-minus-weekend morning gain profile at the change.
+
+Both are calendar terms: they have no time-invariant matrix form (``add_equations`` raises).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+from typing import ClassVar
+
+import numpy as np
+import pandas as pd
+import scipy.ndimage
+
+from ...errors import ModelError
+from ...timeutil import time_of_week
+from .base import Candidate, EquationParts, Term, num
+from .signals import dst_active
+
+
+@dataclasses.dataclass(frozen=True)
+class InternalGainSchedule(Term):
+    """Departures of the internal gains from the seasonal time-of-week profile.
+
+    ``variant="holiday"``: on ``dates`` (ISO ``YYYY-MM-DD``, local) the profile of
+    ``ref_weekday`` (0 = Monday ... 6 = Sunday) replaces the day's profile, scaled by
+    ``coef`` (one value per zone, 1 = fully replaced).
+    ``variant="dst_shift"``: while daylight-saving time is in effect the profile is
+    read ``shift`` steps later (negative: earlier), scaled by ``coef`` per zone.
+    """
+
+    cause: ClassVar[str] = "internal_gain_schedule"
+    description: ClassVar[str] = "holiday dates or a daylight-saving shift of the internal-gain schedule"
+    variant: str = "holiday"
+    zone_names: tuple = ()
+    coef: tuple = ()
+    dates: tuple = ()
+    ref_weekday: int = 6
+    shift: int = 0
+
+    def zones(self):
+        return tuple(z for z, c in zip(self.zone_names, self.coef) if c != 0.0) or tuple(self.zone_names)
+
+    def affected(self, zones):
+        return tuple(zones)
+
+    def location(self):
+        loc = {"variant": self.variant, "zones": list(self.zones())}
+        if self.variant == "holiday":
+            loc["dates"] = list(self.dates)
+            loc["ref_weekday"] = int(self.ref_weekday)
+        else:
+            loc["shift"] = int(self.shift)
+        return loc
+
+    def coefficients(self):
+        return {"coef": dict(zip(self.zone_names, (float(c) for c in self.coef)))}
+
+    def adjustment(self, index: pd.DatetimeIndex, profile: np.ndarray, step: float) -> np.ndarray:
+        """Gain adjustment (n, n_zones) [K per step] from the season's ``profile`` (n_tow, n_zones)."""
+        index = pd.DatetimeIndex(index)
+        n_tow = profile.shape[0]
+        tow = time_of_week(index, step) % n_tow
+        coef = np.asarray(self.coef, dtype=float)
+        out = np.zeros((len(index), profile.shape[1]))
+        if self.variant == "holiday":
+            days = np.array([d.isoformat() for d in index.date]) if len(index) else np.array([], dtype=str)
+            on = np.isin(days, np.asarray(self.dates, dtype=str))
+            if on.any():
+                per_day = n_tow // 7
+                ref = self.ref_weekday * per_day + tow[on] % per_day
+                out[on] = (profile[ref] - profile[tow[on]]) * coef
+        else:
+            on = dst_active(index)
+            if on.any():
+                out[on] = (profile[(tow[on] + self.shift) % n_tow] - profile[tow[on]]) * coef
+        return out
+
+    def gain_adjustment(self, index, profile, step):
+        return self.adjustment(index, profile, step)
+
+    def add_equations(self, e: EquationParts) -> None:
+        raise ModelError(f"internal_gain_schedule ({self.variant}) depends on the calendar (dates, daylight "
+                         "saving): it has no time-invariant equations; use the model's gains_at with a start time")
+
+    def features(self, sig, U_eff):
+        unit = dataclasses.replace(self, coef=tuple(1.0 for _ in sig.zones), zone_names=sig.zones)
+        adj = np.zeros((len(sig.Y), sig.nz))
+        for s in sig.seasons:
+            m = sig.season == s
+            if m.any():
+                adj[m] = unit.adjustment(sig.index[m], sig.base_profiles[s], sig.step)
+        return [(i, f"coef[{z}]", adj[:, i], 0.0, 2.0) for i, z in enumerate(sig.zones)]
+
+    def with_fit(self, sig, coefs, stds):
+        zones = sig.zones
+        c = tuple(float(coefs.get(f"coef[{z}]", 0.0)) for z in zones)
+        return dataclasses.replace(self, zone_names=tuple(zones), coef=c,
+                                   std={"coef": {z: float(stds.get(f"coef[{z}]", 0.0)) for z in zones}})
+
+    @classmethod
+    def from_dict(cls, d, zone_names, problems, std):
+        what = f"extension term {cls.cause}"
+        variant = d.get("variant")
+        coef = d.get("coef", {})
+        if variant not in ("holiday", "dst_shift"):
+            problems.append(f"{what}: variant must be 'holiday' or 'dst_shift', got {variant!r}")
+        if not isinstance(coef, dict) or any(z not in zone_names for z in coef):
+            problems.append(f"{what}: 'coef' must map zone names of {list(zone_names)} to numbers")
+            coef = {}
+        c = [num(coef, z, f"{what} coef", problems, default=0.0) for z in zone_names]
+        dates = tuple(d.get("dates", ()))
+        for s in dates:
+            try:
+                _dt.date.fromisoformat(s)
+            except (TypeError, ValueError):
+                problems.append(f"{what}: date {s!r} is not ISO YYYY-MM-DD")
+        rw, sh = d.get("ref_weekday", 6), d.get("shift", 0)
+        if not (isinstance(rw, int) and 0 <= rw <= 6):
+            problems.append(f"{what}: ref_weekday must be an integer 0..6, got {rw!r}")
+        if not isinstance(sh, int):
+            problems.append(f"{what}: shift must be an integer number of steps, got {sh!r}")
+        return cls(variant=variant, zone_names=tuple(zone_names), coef=tuple(c), dates=dates,
+                   ref_weekday=rw, shift=sh, std=std)
+
+    @classmethod
+    def screen(cls, sig, terms, W, resid, options):
+        out = []
+        if not any(isinstance(t, cls) and t.variant == "holiday" for t in terms):
+            out.append(holiday_candidate(sig, W, options))
+        if not any(isinstance(t, cls) and t.variant == "dst_shift" for t in terms):
+            out.append(dst_candidate(sig, W, options))
+        return out
+
+
+def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None) -> list:
+    """Per weekday date: the scale ``gamma`` of the departure of the residual toward ``ref_weekday``'s profile.
+
+    For each weekday (Monday–Friday) with data, the one-step residuals of all zones over
+    the day are regressed on ``q_ref − q_day`` (the reference day's gain profile minus
+    the day's own, from the season's profile): ``gamma ≈ 1`` means the day's gains
+    looked like the reference day (a holiday), ``gamma ≈ 0`` an ordinary day.
+
+    Returns
+    -------
+    list of dict with ``date``, ``gamma``, ``t``, ``n``.
+    """
+    idx = sig.index
+    per_day = sig.n_tow // 7
+    tow = np.zeros(len(idx), dtype=int)
+
+
+    tow = time_of_week(idx, sig.step) % sig.n_tow
+    dates = np.array(idx.date)
+    wd = idx.day_of_week.to_numpy()
+    out = []
+    ok_rows = np.isfinite(resid_all).all(axis=1) & (sig.week >= 0)
+    if rows is not None:  # screens see the training folds only
+        keep = np.zeros(len(ok_rows), bool)
+        keep[rows] = True
+        ok_rows &= keep
+    h_all = np.zeros_like(resid_all)
+    for s in sig.seasons:
+        m = sig.season == s
+        prof = sig.base_profiles[s]
+        h_all[m] = prof[ref_weekday * per_day + tow[m] % per_day] - prof[tow[m]]
+    for d in np.unique(dates[ok_rows & (wd < 5)]):
+        m = ok_rows & (dates == d)
+        if m.sum() < per_day // 2:
+            continue
+        h = h_all[m].ravel()
+        r = resid_all[m].ravel()
+        hh = h @ h
+        if hh <= 0:
+            continue
+        g = (h @ r) / hh
+        e = r - g * h
+        s2 = (e @ e) / max(len(r) - 1, 1)
+        out.append({"date": d.isoformat(), "gamma": float(g), "t": float(g / np.sqrt(s2 / hh)), "n": int(m.sum())})
+    return out
+
+
+def holiday_candidate(sig, W, options) -> Candidate:
+    """Weekdays whose gains looked like a weekend day: single days and whole weeks.
+
+    A weekday is picked when its departure scale ``gamma`` (see :func:`day_departures`)
+    reaches ``holiday_gamma`` and lies ``holiday_z`` robust standard deviations above the
+    median of all weekdays; the weekdays of a week are picked together when the week's
+    mean ``gamma`` reaches ``holiday_week_gamma`` (holiday weeks: the building's mass
+    makes the first days of a quiet week look less quiet). Only the training rows ``W.rows``
+    are screened: dates in held-out weeks are not looked at (that would be a leak).
+    """
+    resid_all = options.get("_resid_all")
+    if resid_all is None or sig.n_tow % 7:
+        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable",
+                         reason="no one-step residuals")
+    deps = day_departures(sig, resid_all, rows=W.rows)
+    gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
+    med = float(np.median(gam)) if len(gam) else 0.0
+    mad = float(1.4826 * np.median(np.abs(gam - med))) if len(gam) else 0.0
+    scale = max(mad, 0.05)
+    for d in deps:
+        d["z"] = (d["gamma"] - med) / scale
+    g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
+    picked = {d["date"] for d in deps if d["gamma"] >= g_min and d["z"] >= z_min}
+    by_week = {}
+    for d in deps:
+        wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
+        by_week.setdefault(wk, []).append(d)
+    weeks = []
+    for wk, ds in by_week.items():
+        g = float(np.mean([d["gamma"] for d in ds]))
+        if len(ds) >= 3 and g >= gw_min and (g - med) / scale >= z_min / 2:
+            weeks.append({"week": wk, "gamma": g})
+            picked |= {d["date"] for d in ds}
+    ev = {"weekdays_checked": len(deps), "gamma_median": med, "gamma_robust_std": mad,
+          "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
+          "weeks": weeks,
+          "rule": f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g}"}
+    if len(deps) < 10:
+        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", evidence=ev,
+                         reason=f"only {len(deps)} weekdays with data")
+    if not picked:
+        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="not significant", evidence=ev,
+                         reason="no weekday departs from the seasonal profile toward a weekend day")
+    dates = tuple(sorted(picked))
+    term = InternalGainSchedule(variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
+                                dates=dates, ref_weekday=6)
+    n_choices = len(weeks) + len([d for d in dates if not any(d in {x["date"] for x in by_week[w["week"]]}
+                                                              for w in weeks)])
+    return Candidate(InternalGainSchedule.cause, {"variant": "holiday", "dates": list(dates)}, [term],
+                     max(n_choices, 1), evidence=ev)
+
+
+#: Lags [steps] searched when aligning the daylight-saving and standard-time weekday gain profiles.
+DST_MAX_LAG_H = 2.0
+#: Minimum weekdays with data on each side (daylight saving on / off) within a season.
+DST_MIN_DAYS = 5
+#: Local hours [h] of the morning occupancy ramp-up compared (the afternoon ramp-down moves with
+#: the season's weather, cooling vs heating, and is left out).
+DST_WINDOW_H = (6.0, 12.0)
+#: Minimum weekend days with data on each side.
+DST_MIN_WEEKEND_DAYS = 4
+
+
+def apparent_gains(sig, resid_all: np.ndarray) -> np.ndarray:
+    """One-step residual plus the current gain profile (n, nz) [K/step]: the gains the data imply."""
+    q = np.full_like(resid_all, np.nan)
+    for s in sig.seasons:
+        m = sig.season == s
+        if m.any() and s in sig.base_profiles:
+            q[m] = np.asarray(sig.base_profiles[s])[sig.tow[m]]
+    return resid_all + q
+
+
+def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
+    """Lag between the weekday gain profiles of daylight-saving and standard-time days of a season.
+
+    Within each season whose ``rows`` contain at least :data:`DST_MIN_DAYS` weekdays and
+    :data:`DST_MIN_WEEKEND_DAYS` weekend days on each side of a daylight-saving change, the
+    floor-total apparent gain is averaged by time of day over weekdays minus weekend days
+    (weather and sun are the same on both and cancel; occupancy stays), separately for
+    daylight-saving and standard-time days, and smoothed by a 75-min running median (the
+    short spikes of the HVAC schedule follow the local clock on both sides). On the morning
+    ramp-up (:data:`DST_WINDOW_H`), the difference of the two profiles is regressed on the
+    standard-time profile shifted by ``L`` steps minus itself; the lag ``L`` with the
+    largest R² (``|L| ≤`` :data:`DST_MAX_LAG_H`, positive coefficient) is the shift: the
+    daylight-saving profile is the standard-time one ``L`` steps later (``L > 0``: gains
+    one hour late on the local clock because they stay on standard time). The regression
+    coefficient (``scale_at_lag``) is the shifted share: ~1 when the whole occupancy jumps
+    by an hour at the change. (Per-zone profiles were tried: too noisy.)
+
+    Returns
+    -------
+    dict
+        ``lag_steps``, ``lag_h``, ``r2_at_lag``, ``scale_at_lag``, ``r2_by_lag``,
+        ``seasons`` (day counts) — or only ``seasons`` (empty) when no season has both sides.
+    """
+    per_day = sig.n_tow // 7
+    wd = sig.index.day_of_week.to_numpy()
+    dates = np.array(sig.index.date)
+    total = np.nansum(gains, axis=1)
+    ok = np.zeros(len(total), bool)
+    ok[rows] = True
+    ok &= np.isfinite(gains).all(axis=1)
+    max_lag = int(round(DST_MAX_LAG_H * 3600 / sig.step))
+    lags = np.arange(-max_lag, max_lag + 1)
+    num, den, dd = np.zeros(len(lags)), np.zeros(len(lags)), np.zeros(len(lags))
+    seasons = {}
+    slot = sig.tow % per_day
+    weekday = wd < 5
+
+    def day_profile(sel):
+        cnt = np.bincount(slot[sel], minlength=per_day)
+        val = np.bincount(slot[sel], weights=total[sel], minlength=per_day)
+        return None if (cnt == 0).any() else val / cnt
+
+    for s in sig.seasons:
+        m = ok & (sig.season == s)
+        prof, counts = [], []
+        for side in (sig.dst, ~sig.dst):
+            wk, we = m & side & weekday, m & side & ~weekday
+            counts.append((len(np.unique(dates[wk])), len(np.unique(dates[we]))))
+            if counts[-1][0] < DST_MIN_DAYS or counts[-1][1] < DST_MIN_WEEKEND_DAYS:
+                break
+            p_wk, p_we = day_profile(wk), day_profile(we)
+            if p_wk is None or p_we is None:
+                break
+            # weekday minus weekend: occupancy stays, weather and sun (the same on every day) cancel
+            prof.append(p_wk - p_we)
+        if len(prof) < 2:
+            continue
+        (n_on, n_on_we), (n_off, n_off_we) = counts
+        # a 75-min running median removes the short spikes of the HVAC schedule (which follows the
+        # local clock on both sides) and keeps the occupancy ramps
+        prof = [scipy.ndimage.median_filter(p, size=5, mode="wrap") for p in prof]
+        hours = np.arange(per_day) * sig.step / 3600.0
+        win = (hours >= DST_WINDOW_H[0]) & (hours < DST_WINDOW_H[1])
+        delta = (prof[0] - prof[1])[win]
+        delta = delta - delta.mean()
+        w = min(n_on, n_off)
+        for i, L in enumerate(lags):
+            x = (np.roll(prof[1], L) - prof[1])[win]
+            x = x - x.mean()
+            num[i] += w * float(delta @ x)
+            den[i] += w * float(x @ x)
+            dd[i] += w * float(delta @ delta)
+        seasons[s] = {"weekdays_dst": int(n_on), "weekdays_standard": int(n_off),
+                      "weekend_days_dst": int(n_on_we), "weekend_days_standard": int(n_off_we)}
+    if not seasons:
+        return {"seasons": {}}
+    gamma = num / np.maximum(den, 1e-300)
+    r2 = np.where(gamma > 0, gamma * num / np.maximum(dd, 1e-300), 0.0)
+    i = int(np.argmax(r2))
+    return {"lag_steps": int(lags[i]), "lag_h": float(lags[i] * sig.step / 3600.0),
+            "r2_at_lag": float(r2[i]), "scale_at_lag": float(gamma[i]),
+            "r2_by_lag": {str(int(L)): round(float(c), 4) for L, c in zip(lags, r2)}, "seasons": seasons}
+
+
+def shifted_clock_profiles(sig, gains: np.ndarray, rows: np.ndarray, shift: int) -> dict:
+    """Season profiles (n_tow, nz) of the apparent gains on a clock read ``shift`` steps later under DST.
+
+    Slot ``(tow + shift) mod n_tow`` on daylight-saving rows, ``tow`` otherwise: with
+    ``shift = −L`` the profile of the standard-time clock the gains really follow, which
+    the ``dst_shift`` term then reads ``shift`` steps later while daylight saving is on.
+    Slots without data keep the current profile.
+    """
+    out = {}
+    ok = np.zeros(len(gains), bool)
+    ok[rows] = True
+    ok &= np.isfinite(gains).all(axis=1)
+    clock = np.where(sig.dst, (sig.tow + shift) % sig.n_tow, sig.tow)
+    for s in sig.seasons:
+        prof = np.array(sig.base_profiles[s], dtype=float, copy=True)
+        m = ok & (sig.season == s)
+        cnt = np.bincount(clock[m], minlength=sig.n_tow)
+        for j in range(sig.nz):
+            val = np.bincount(clock[m], weights=gains[m, j], minlength=sig.n_tow)
+            has = cnt > 0
+            prof[has, j] = val[has] / cnt[has]
+        out[s] = prof
+    return out
+
+
+def dst_candidate(sig, W, options: dict) -> Candidate:
+    """Daylight-saving shift of the gain schedule: a one-hour jump of the weekday profile at the change.
+
+    Evidence: the lag aligning the weekday gain profiles of daylight-saving and
+    standard-time weekdays of the same season (:func:`dst_profile_lag`). A lag of at
+    least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read one
+    hour earlier while daylight saving is on for ``L > 0``, later for ``L < 0``), with the
+    profile re-estimated on the clock the gains follow.
+    """
+    on = dst_active(sig.index)
+    onw = W(on.astype(float))
+    loc = {"variant": "dst_shift"}
+    if np.var(onw) < 1e-3:
+        return Candidate(InternalGainSchedule.cause, loc, status="untestable",
+                         reason="daylight-saving time does not change within any season's training weeks")
+    resid_all = options.get("_resid_all")
+    ev = {"dst_fraction_of_training_rows": float(on[W.rows].mean())}
+    if resid_all is None:
+        return Candidate(InternalGainSchedule.cause, loc, status="untestable", evidence=ev,
+                         reason="no one-step residuals")
+    gains = apparent_gains(sig, resid_all)
+    ev.update(dst_profile_lag(sig, gains, W.rows))
+    if not ev["seasons"]:
+        return Candidate(InternalGainSchedule.cause, loc, status="untestable", evidence=ev,
+                         reason=f"no season has {DST_MIN_DAYS} training weekdays both with and without daylight "
+                                f"saving")
+    steps = int(round(3600 / sig.step))
+    L = ev["lag_steps"]
+    if 2 * abs(L) < steps:
+        return Candidate(InternalGainSchedule.cause, loc, status="not significant", evidence=ev,
+                         reason=f"the weekday gain profiles with and without daylight saving align at lag "
+                                f"{L * sig.step / 60:+.0f} min (under half an hour)")
+    r2_min, g_min = options["dst_min_r2"], options["dst_min_scale"]
+    if ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min:
+        return Candidate(InternalGainSchedule.cause, loc, status="not significant", evidence=ev,
+                         reason=f"a {L * sig.step / 60:+.0f}-min shift explains {100 * ev['r2_at_lag']:.0f} % of the "
+                                f"morning difference between daylight-saving and standard-time weekdays at scale "
+                                f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
+                                f"schedule jump at the change")
+    # the clock moves by the legal hour; the estimated lag (often 60-90 min: the ramp of a
+    # partly shifted profile looks wider) gives the direction and is reported as evidence
+    shifts = [-int(np.sign(L)) * steps]
+    variants = []
+    for sh in shifts:
+        t = InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
+                                 shift=sh)
+        variants.append(t)
+    c = Candidate(InternalGainSchedule.cause, loc, variants, 1, evidence=ev)
+    c.profiles = {sh: shifted_clock_profiles(sig, gains, W.rows, sh) for sh in shifts}
+    return c

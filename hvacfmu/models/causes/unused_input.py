@@ -1,0 +1,82 @@
+"""Cause ``unused_input``: a measured column the model does not use explains a zone's residuals.
+
+Term ``coef · c(k)`` into a zone, ``c`` a frame column the base model ignores: a reheat
+command ``rh_<vav>`` [0..1], a discharge air temperature ``Td_<vav>`` [°C] (when the zone's
+delivered heat cannot be formed: see the ``reheat`` cause's ``discharge`` variant), an air
+handler's own supply temperature ``T_supply_<ahu>`` [°C], global horizontal irradiance
+``ghi`` [W/m²] when no facade irradiance is formed. The finding names the column.
+
+Screen: the columns of the zone's own boxes and air handler and the building-wide ones
+(:attr:`Signals.extra`), each with its correlation with the residual (within-transformed)
+and its coverage on the training rows.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
+
+import numpy as np
+
+from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
+
+
+@dataclasses.dataclass(frozen=True)
+class UnusedInput(Term):
+    """``coef · column`` into ``zone`` (``coef`` in K/step per unit of the column)."""
+
+    cause: ClassVar[str] = "unused_input"
+    description: ClassVar[str] = "a measured column the model ignores (zone, column)"
+    zone: str = ""
+    column: str = ""
+    coef: float = 0.0
+
+    def columns(self):
+        return (self.column,)
+
+    def zones(self):
+        return (self.zone,)
+
+    def location(self):
+        return {"zone": self.zone, "column": self.column}
+
+    def coefficients(self):
+        return {"coef": float(self.coef)}
+
+    @classmethod
+    def from_dict(cls, d, zone_names, problems, std):
+        what = f"extension term {cls.cause}"
+        col = d.get("column")
+        if not isinstance(col, str) or not col:
+            problems.append(f"{what}: 'column' must name a measured column, got {col!r}")
+        return cls(zone=zone_of(d, "zone", zone_names, what, problems), column=col,
+                   coef=num(d, "coef", what, problems), std=std)
+
+    def features(self, sig, U_eff):
+        return [(sig.zones.index(self.zone), "coef", sig.extra[self.column], -np.inf, np.inf)]
+
+    def contribute(self, c: StepContext) -> None:
+        c.Tn[..., c.zi[self.zone]] += self.coef * c.v[..., c.vi[self.column]]
+
+    def add_equations(self, e: EquationParts) -> None:
+        e.Bv[e.zi[self.zone], e.vi[self.column]] += self.coef
+
+    @classmethod
+    def screen(cls, sig, terms, W, resid, options):
+        have = {(t.zone, t.column) for t in terms if isinstance(t, UnusedInput)}
+        used = {c for t in terms for c in t.columns()}
+        out = []
+        for col, zones in sig.extra_zones.items():
+            if col in used:
+                continue
+            x = sig.extra[col]
+            for zi, z in enumerate(sig.zones):
+                if (zones and z not in zones) or (z, col) in have:
+                    continue
+                xr = x[W.rows]
+                if np.nanstd(xr) <= 0:
+                    continue
+                ev = {"column": col, "corr": corr(resid[:, zi], W(x)), "coverage": sig.extra_coverage.get(col)}
+                out.append(Candidate(cls.cause, {"zone": z, "column": col}, [cls(zone=z, column=col)], 0,
+                                     evidence=ev))
+        return out
