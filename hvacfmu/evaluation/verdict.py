@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models.plausibility import MIN_EFFECT_K
+
 #: ASHRAE Guideline 14 calibration thresholds for hourly data [%]
 G14_NMBE_MAX = 10.0
 G14_CVRMSE_MAX = 30.0
@@ -294,9 +296,6 @@ def _sparse_columns(model, score, dataset) -> list[str]:
             out.append(f"sparse column {c!r}: {100 * share:.0f} % of the test-week steps have a value "
                        f"({sum(score.skipped.values())} windows skipped)")
     return out
-
-
-from ..models.plausibility import MIN_EFFECT_K  # noqa: E402 - next to its only use
 
 
 def _airflow_gain(model, dataset) -> list[str]:
