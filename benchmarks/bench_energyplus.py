@@ -24,7 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from hvacfmu.energyplus import cached_export
 from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
 
-DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver")
+DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver",
+                      "ASHRAE901_OfficeSmall_STD2019_Denver")
 
 
 def run(prototype: str, kinds, weeks):
@@ -34,7 +35,7 @@ def run(prototype: str, kinds, weeks):
 
     name, _, floor = prototype.partition(":")
     t0 = time.perf_counter()
-    paths = cached_export(name, floor=floor or None, weeks=weeks)
+    paths = cached_export(name, floor=floor or None, weeks=weeks)  # the slow tests use the same options
     t_gen = time.perf_counter() - t0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

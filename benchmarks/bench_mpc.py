@@ -123,6 +123,7 @@ def run(label, model, u_min, u_max, settings, V, Q, x0, steps, repeat, paper_s=P
         res = closed_loop(c, model, x0, V, Q, steps)
         walls.append(time.perf_counter() - t0)
     s = res.summary()
+    st = c.stats()
     wall = statistics.median(walls)
     extra = ""
     if c.reduced:
@@ -132,6 +133,13 @@ def run(label, model, u_min, u_max, settings, V, Q, x0, steps, repeat, paper_s=P
           f"max {1e3 * s['step_time_max_s']:7.1f} ms  failures {s['failures']}  iters {s['iterations_mean']:.2f}  "
           f"cost {s['cost']:9.2f}  Σu² {s['energy_sum_u2']:8.2f}  air {s['airflow_kg'] / 1e3:7.1f} t  "
           f"viol {s['comfort_violation_Kh']:6.2f} K·h  paper/ours {paper_s / wall:7.0f}x{extra}", flush=True)
+    if c.bilinear:
+        n = max(st["steps"], 1)
+        print(f"   SCP converged (max |Δu| < {settings.tol:g} kg/s within {settings.max_iter} iterations) on "
+              f"{n - st['not_converged']}/{n} steps ({100 * (1 - st['not_converged'] / n):.1f} %); "
+              f"the rest applied the best iterate by merit", flush=True)
+    print(f"   limits: {st['projected_steps']} steps projected onto [u_min, u_max] "
+          f"(largest {st['projected_max']:.3g} kg/s); applied excess {s['input_excess_max']:.1e} kg/s", flush=True)
     return wall, s
 
 

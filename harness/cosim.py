@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 
 from hvacfmu.errors import DataError, FMUError, HvacfmuError, problems_message
+from hvacfmu.progress import progress as progress_iter
 from hvacfmu.timeutil import seconds_of_week
 
 from .controllers import ControlContext, ReplayController, RuleController
@@ -64,6 +65,8 @@ STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 CONTROLLERS = ("replay", "rule", "mpc")
 #: FMU inputs left at their default when the data has no such column
 OPTIONAL_INPUTS = ("ghi", "excitation")
+#: facade irradiance inputs: kept at their start value (with a warning) when the data have no solar columns
+SOLAR_INPUTS = ("I_N", "I_E", "I_S", "I_W")
 #: warm-up of the plant FMU before the span [s] (its slab and walls settle within days)
 PLANT_WARMUP = 7 * 86400.0
 DEFAULT_BAND = (20.0, 22.0)
@@ -194,13 +197,35 @@ def _callbacks(sink: list):
     cb.logger = fmi2CallbackLoggerTYPE(log_message)
     cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    try:
-        from fmpy.logging import addLoggerProxy
-
-        addLoggerProxy(ctypes.byref(cb))  # formats the variadic messages
-    except Exception:  # pragma: no cover - older FMPy
-        pass
+    # No fmpy.logging.addLoggerProxy here: the proxy keeps ONE process-wide pointer to the last logger
+    # registered, so two instances would log into each other's sink and, once this instance's callback is
+    # freed, any later FMU using FMPy's default callbacks (fmpy.simulate_fmu) calls a dangling pointer and
+    # segfaults (measured). Our FMUs pass preformatted messages; a foreign FMU's printf-style arguments
+    # are not substituted.
     return cb, log_message
+
+
+def _restore_fmpy_logger():
+    """Point FMPy's process-wide logger proxy back to its default printer (see :func:`_callbacks`).
+
+    ``fmpy.simulate_fmu(logger=f)`` registers ``f``'s ctypes wrapper in the proxy and frees it on return; a
+    later FMU on FMPy's default callbacks would then call freed memory.
+    """
+    global _DEFAULT_LOGGER
+    try:
+        from fmpy.fmi1 import printLogMessage
+        from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.logging import addLoggerProxy
+    except Exception:  # pragma: no cover - FMPy without the proxy
+        return
+    if _DEFAULT_LOGGER is None:
+        _DEFAULT_LOGGER = fmi2CallbackLoggerTYPE(printLogMessage)  # kept for the life of the process
+    tmp = fmi2CallbackFunctions()
+    tmp.logger = _DEFAULT_LOGGER
+    addLoggerProxy(ctypes.byref(tmp))
+
+
+_DEFAULT_LOGGER = None
 
 
 class FMUInstance:
@@ -293,13 +318,20 @@ def _select_span(dataset, week=None, start=None, stop=None):
 
 
 def _default_mapping(inst: FMUInstance, frame, building):
-    """Inputs by name (box airflows, disturbances) and outputs T_<zone>/T_floor for our FMUs."""
+    """Inputs by name (box airflows, disturbances) and outputs T_<zone>/T_floor for our FMUs.
+
+    Returns ``(inputs, controls, outputs, problems, defaulted)``; ``defaulted`` lists the facade
+    irradiance inputs the data cannot feed (no solar columns): they keep their start value (0 W/m2).
+    """
     boxes = {f"m_{v}": v for v in building.vav_names}
-    inputs, controls, outputs, problems = {}, {}, {}, []
+    inputs, controls, outputs, problems, defaulted = {}, {}, {}, [], []
     for name, var in inst.vars.items():
         if var.causality == "input":
             if name in OPTIONAL_INPUTS and name not in frame.columns:
                 continue  # keeps its default (e.g. the plant's ghi: use I_N..I_W)
+            if name in SOLAR_INPUTS and name not in frame.columns and var.start is not None:
+                defaulted.append(name)
+                continue
             if name in boxes:
                 controls[name] = boxes[name]
             elif name in frame.columns:
@@ -313,7 +345,7 @@ def _default_mapping(inst: FMUInstance, frame, building):
                 outputs[name] = (name[2:],)
             else:
                 problems.append(f"FMU output {name!r} is not T_<zone> of a zone of the building")
-    return inputs, controls, outputs, problems
+    return inputs, controls, outputs, problems, defaulted
 
 
 def _mapping_from_file(inst: FMUInstance, mapping: dict, frame, building):
@@ -460,243 +492,404 @@ def run_cosim(
     ------
     FMUError
         The FMU cannot be loaded, initialised, or stopped before the end of the
-        span (the partial result is ``exc.result``).
+        span: the message names the time, the FMI call and its status (the
+        partial result is ``exc.result``).
     DataError
         The data cannot feed the FMU (missing columns, empty span).
     """
-    frame, week_season = _select_span(dataset, week, start, stop)
-    if len(frame) == 0:
-        raise DataError("the co-simulation span holds no data")
-    # local time of week of every step: our FMUs take it as the optional input `time_of_week`,
-    # which makes their gain profile follow daylight-saving time as the Python models do
-    frame = frame.assign(time_of_week=seconds_of_week(frame.index).astype(float))
-    building = dataset.building
-    step = float(dataset.step)
-    season = season or week_season or dataset.season_of_row[dataset.frame.index.get_loc(frame.index[0])]
-    t_start = frame.index[0]
-    n = len(frame)
-
+    run = _Run.for_span(dataset, week, start, stop, season, band)
     with FMUInstance(fmu_path) as inst:
-        kind = (inst.interface or {}).get("kind")
-        if mapping is None:
-            inputs, controls, outputs, problems = _default_mapping(inst, frame, building)
-        else:
-            inputs, controls, outputs, problems = _mapping_from_file(inst, mapping, frame, building)
-        if not outputs:
-            problems.append("no FMU output is mapped to a zone temperature")
-        if problems:
-            raise FMUError(problems_message(f"cannot connect {inst.path.name} to the data and building", problems))
-        vavs = tuple(controls.values())
-        out_names = tuple(outputs)
-        # --- disturbances, gap-filled
-        filled = {}
-        V = {}
-        for fmu_name, col in inputs.items():
-            s, k = _fill(frame[col])
-            V[fmu_name] = s.to_numpy(dtype=float)
-            if k:
-                filled[col] = k
-        cframe = frame.copy()
-        for fmu_name, col in inputs.items():
-            cframe[col] = V[fmu_name]
-        # --- time axis
-        origin = t_start
-        if kind == "plant" and inst.interface.get("start"):
-            origin = pd.Timestamp(inst.interface["start"])
-            origin = origin.tz_localize(inst.interface.get("timezone")) if origin.tzinfo is None else origin
-        if mapping is not None and mapping.get("time_origin"):
-            origin = pd.Timestamp(mapping["time_origin"])
-        t0 = (t_start - origin).total_seconds()
-        # --- warm-up rows before the span
-        if warmup is None:
-            warmup = PLANT_WARMUP if kind == "plant" else 0.0
-        wframe, Mw, Vw = _warmup_rows(dataset, t_start, float(warmup), t0 if kind == "plant" else math.inf,
-                                      inputs, controls, outputs, V, building)
-        nw = len(wframe)
-        sframe = wframe if nw else frame
-        # --- start values
-        sv = {}
-        if inst.interface is not None:
-            for e in inst.interface["variables"]:
-                if e.get("role") == "y0":
-                    out = e["name"][: -len("_start")]
-                    if out in outputs:
-                        sv[e["name"]] = _measured_start(out, outputs[out], sframe, building, model)
-                elif e.get("role") == "season":
-                    seasons = inst.interface["seasons"]
-                    if season not in seasons:
-                        raise FMUError(f"the FMU has no internal-gain profile for season {season!r}; it has {seasons}")
-                    sv["season"] = seasons.index(season) + 1
-                elif e.get("role") == "tow":
-                    sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_start]))[0]) - t0
-                elif e.get("role") == "t_abs":  # calendar-dependent model: Unix epoch [s] of FMU time 0
-                    sv[e["name"]] = (t_start - pd.Timedelta(seconds=t0)).timestamp()
-        wanted = getattr(controller, "fmu_start_values", None) or {}
-        sv.update({k: val for k, val in wanted.items() if k in inst.vars})
-        if mapping is not None:
-            sv.update(mapping.get("start_values") or {})
-        sv.update(start_values or {})
-        unknown = [k for k in sv if k not in inst.vars]
-        if unknown:
-            raise FMUError(f"start values for unknown FMU variables: {unknown}")
-        if "start_time_of_week" in sv:
-            sv["start_time_of_week"] %= 7 * 86400.0
-
-        context = ControlContext(
-            frame=cframe, building=building, vavs=vavs, outputs=out_names,
-            output_zones=tuple(outputs[o] for o in out_names), step=step, band=tuple(band), season=season,
-            model=model,
-        )
-        controller.reset(context)
-
-        fmu = inst.fmu
-        K = 273.15
-
-        def offset(name):
-            return K if inst.vars[name].unit == "K" else 0.0
-
-        in_names = list(controls) + list(inputs)
-        in_vr = (ctypes.c_uint32 * len(in_names))(*[inst.vars[k].vr for k in in_names])
-        in_val = (ctypes.c_double * len(in_names))()
-        in_np = np.frombuffer(in_val, dtype=float)
-        in_off = np.array([offset(k) if k in inputs and inputs[k].startswith("T_") else 0.0 for k in in_names])
-        out_vr = (ctypes.c_uint32 * len(out_names))(*[inst.vars[k].vr for k in out_names])
-        out_val = (ctypes.c_double * len(out_names))()
-        out_np = np.frombuffer(out_val, dtype=float)
-        out_off = np.array([offset(k) for k in out_names])
-        Vmat = np.column_stack([V[k] for k in inputs]) if inputs else np.zeros((n, 0))
-        nc = len(controls)
-        by_name = {b.name: b for b in building.vavs}
-        m_init = np.array([frame[f"m_{b}"].iloc[0] if f"m_{b}" in frame else np.nan for b in vavs], dtype=float)
-        m_init = np.where(np.isfinite(m_init), m_init, [by_name[b].m_min for b in vavs])
-        if nw:
-            m_init = Mw[0]
-
-        try:
-            fmu.setupExperiment(startTime=t0 - nw * step)
-            fmu.enterInitializationMode()
-            for name, value in sv.items():
-                var = inst.vars[name]
-                if var.type == "Integer":
-                    fmu.setInteger([var.vr], [int(value)])
-                else:
-                    fmu.setReal([var.vr], [float(value)])
-            # first inputs before leaving initialisation (as FMPy does): row 0's disturbances and the
-            # measured airflows of row 0 (box minimum where missing); they set the FMU's unobserved states
-            in_np[:nc] = m_init
-            in_np[nc:] = (Vw[0] if nw else Vmat[0]) + in_off[nc:]
-            fmu.fmi2SetReal(fmu.component, in_vr, len(in_names), in_val)
-            fmu.exitInitializationMode()
-            for j in range(nw):  # warm-up: the measured airflows and disturbances before the span
-                in_np[:nc] = Mw[j]
-                in_np[nc:] = Vw[j] + in_off[nc:]
-                fmu.fmi2SetReal(fmu.component, in_vr, len(in_names), in_val)
-                fmu.fmi2DoStep(fmu.component, t0 - (nw - j) * step, step, 1)
-            fmu.fmi2GetReal(fmu.component, out_vr, len(out_names), out_val)
-        except Exception as exc:  # noqa: BLE001
-            raise FMUError(f"initialising {inst.path.name} failed: {exc}; FMU log: {inst.errors()}") from None
-        if inst.errors():
-            raise FMUError(problems_message(f"{inst.path.name} reported errors at initialisation", inst.errors()))
-
-        Y = np.full((n + 1, len(out_names)), np.nan)
-        M = np.full((n + 1, nc), np.nan)
-        t_ctrl = np.full(n, np.nan)
-        t_fmu = np.full(n, np.nan)
-        Y[0] = out_np - out_off
-        stopped = None
-        v_names = list(inputs.values())
-        iterator = range(n)
-        if progress:
-            from tqdm import tqdm
-
-            iterator = tqdm(iterator, desc="cosim", unit="step")
-        completed = 0
-        for k in iterator:
-            t = t0 + k * step
-            v_row = dict(zip(v_names, Vmat[k]))
-            c0 = time.perf_counter()
-            try:
-                m = np.asarray(controller(k, frame.index[k], Y[k].copy(), v_row), dtype=float)
-            except Exception as exc:  # noqa: BLE001 - the run stops, the result says why
-                stopped = f"controller raised {type(exc).__name__}: {exc}"
-                break
-            c1 = time.perf_counter()
-            if m.shape != (nc,) or not np.all(np.isfinite(m)):
-                stopped = f"controller returned {m!r} at step {k} (need {nc} finite airflows)"
-                break
-            M[k] = m
-            in_np[:nc] = m
-            in_np[nc:] = Vmat[k] + in_off[nc:]
-            try:
-                fmu.fmi2SetReal(fmu.component, in_vr, len(in_names), in_val)
-                fmu.fmi2DoStep(fmu.component, t, step, 1)
-                fmu.fmi2GetReal(fmu.component, out_vr, len(out_names), out_val)
-            except Exception as exc:  # noqa: BLE001 - FMICallException
-                errs = inst.errors()
-                stopped = f"{exc}" + (f"; FMU log: {errs[-1]}" if errs else "")
-                break
-            c2 = time.perf_counter()
-            Y[k + 1] = out_np - out_off
-            t_ctrl[k], t_fmu[k] = c1 - c0, c2 - c1
-            completed = k + 1
-
-    index = frame.index.append(pd.DatetimeIndex([frame.index[-1] + pd.Timedelta(seconds=step)]))
-    index.name = "time"
-    table = pd.DataFrame(Y, index=index, columns=list(out_names))
-    for j, b in enumerate(vavs):
-        table[f"m_{b}"] = M[:, j]
-    for fmu_name, col in inputs.items():
-        table[col] = np.append(V[fmu_name], np.nan)
-    for o in out_names:
-        zones = outputs[o]
-        if len(zones) == 1 and f"T_{zones[0]}" in frame:
-            table[f"{o}_measured"] = np.append(frame[f"T_{zones[0]}"].to_numpy(dtype=float), np.nan)
-    table["controller_time"] = np.append(t_ctrl, np.nan)
-    table["fmu_time"] = np.append(t_fmu, np.nan)
-    if completed < n:
-        table = table.iloc[: completed + 1]
-
-    Mc = M[:completed]
-    Yc = Y[1 : completed + 1]
-    lo, hi = band
-    viol = np.clip(lo - Yc, 0, None) + np.clip(Yc - hi, 0, None)
-    st = (t_ctrl + t_fmu)[:completed]
-    stats = getattr(controller, "stats", None)
-    summary = {
-        "fmu": str(Path(fmu_path).name),
-        "controller": getattr(controller, "name", type(controller).__name__),
-        "start": str(frame.index[0]),
-        "end": str(index[-1]),
-        "step": step,
-        "season": season,
-        "steps_requested": n,
-        "steps_completed": completed,
-        "covered": completed == n,
-        "stopped_because": stopped,
-        "energy_proxy": float(np.sum(Mc ** 2)),
-        "total_airflow_kg": float(np.sum(Mc) * step),
-        "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if completed else math.nan,
-        "comfort_violation_Kh": float(np.sum(viol) * step / 3600.0),
-        "band": [float(lo), float(hi)],
-        "step_time_median": float(np.median(st)) if completed else math.nan,
-        "step_time_max": float(np.max(st)) if completed else math.nan,
-        "controller_time_median": float(np.median(t_ctrl[:completed])) if completed else math.nan,
-        "fmu_time_median": float(np.median(t_fmu[:completed])) if completed else math.nan,
-        "filled_inputs": filled,
-        "controller_stats": stats() if callable(stats) else {},
-        "start_values": sv,
-        "warmup_steps": nw,
-    }
-    result = CosimResult(table=table, summary=summary, log=list(inst.log))
+        _connect(run, inst, mapping)
+        _locate_in_time(run, inst, mapping, warmup)
+        sv = _start_values(run, inst, model, controller, mapping, start_values)
+        controller.reset(ControlContext(
+            frame=run.cframe, building=run.building, vavs=run.vavs, outputs=run.out_names,
+            output_zones=tuple(run.outputs[o] for o in run.out_names), step=run.step, band=tuple(band),
+            season=run.season, model=model))
+        io = _FmuIO(inst, run)
+        _initialise(run, inst, io, sv)
+        trace = _step_loop(run, inst, io, controller, progress)
+        log = list(inst.log)
+    result = CosimResult(table=_result_table(run, trace), summary=_summary(run, trace, fmu_path, controller, sv),
+                         log=log)
     if not result.covered:
-        msg = (f"co-simulation stopped early: {completed} of {n} steps "
-               f"({frame.index[0]} .. {index[-1]} requested, reached {table.index[-1]}): {stopped}")
+        msg = (f"co-simulation stopped early: {trace.completed} of {run.n} steps "
+               f"({run.frame.index[0]} .. {run.end} requested, reached {result.table.index[-1]}): {trace.stopped}")
         logger.error(msg)
         if not allow_partial:
             err = FMUError(msg)
             err.result = result
             raise err
     return result
+
+
+@dataclasses.dataclass
+class _Run:
+    """What one run works on: the span, the connection to the FMU and its time axis (filled step by step)."""
+
+    frame: pd.DataFrame
+    dataset: object
+    season: str | None
+    band: tuple
+    step: float
+    inputs: dict = dataclasses.field(default_factory=dict)  # FMU input -> data column
+    controls: dict = dataclasses.field(default_factory=dict)  # FMU input -> box
+    outputs: dict = dataclasses.field(default_factory=dict)  # FMU output -> zones
+    defaulted: list = dataclasses.field(default_factory=list)  # FMU inputs left at their start value
+    V: dict = dataclasses.field(default_factory=dict)
+    filled: dict = dataclasses.field(default_factory=dict)
+    cframe: pd.DataFrame | None = None
+    kind: str | None = None
+    t0: float = 0.0  # FMU time of the span's first row [s]
+    wframe: pd.DataFrame | None = None
+    Mw: np.ndarray | None = None
+    Vw: np.ndarray | None = None
+
+    @classmethod
+    def for_span(cls, dataset, week, start, stop, season, band):
+        frame, week_season = _select_span(dataset, week, start, stop)
+        if len(frame) == 0:
+            raise DataError("the co-simulation span holds no data")
+        # local time of week of every step: our FMUs take it as the optional input `time_of_week`,
+        # which makes their gain profile follow daylight-saving time as the Python models do
+        frame = frame.assign(time_of_week=seconds_of_week(frame.index).astype(float))
+        season = season or week_season or dataset.season_of_row[dataset.frame.index.get_loc(frame.index[0])]
+        return cls(frame=frame, dataset=dataset, season=season, band=tuple(band), step=float(dataset.step))
+
+    @property
+    def building(self):
+        return self.dataset.building
+
+    @property
+    def n(self) -> int:
+        return len(self.frame)
+
+    @property
+    def nw(self) -> int:
+        return 0 if self.wframe is None else len(self.wframe)
+
+    @property
+    def vavs(self) -> tuple:
+        return tuple(self.controls.values())
+
+    @property
+    def out_names(self) -> tuple:
+        return tuple(self.outputs)
+
+    @property
+    def end(self):
+        return self.frame.index[-1] + pd.Timedelta(seconds=self.step)
+
+
+def _connect(run: _Run, inst: FMUInstance, mapping) -> None:
+    """Map FMU inputs/outputs to boxes, data columns and zones; gap-fill the disturbances."""
+    if mapping is None:
+        found = _default_mapping(inst, run.frame, run.building)
+    else:
+        found = _mapping_from_file(inst, mapping, run.frame, run.building)
+    run.inputs, run.controls, run.outputs, problems = found[:4]
+    run.defaulted = list(found[4]) if len(found) > 4 else []
+    if not run.outputs:
+        problems.append("no FMU output is mapped to a zone temperature")
+    if problems:
+        raise FMUError(problems_message(f"cannot connect {inst.path.name} to the data and building", problems))
+    if run.defaulted:
+        import warnings
+
+        from hvacfmu.errors import HvacfmuWarning
+
+        warnings.warn(f"{inst.path.name}: the data have no column for the FMU input(s) {run.defaulted}; they stay "
+                      "at their start values (e.g. no sun on the facades)", HvacfmuWarning, stacklevel=3)
+    for fmu_name, col in run.inputs.items():
+        series, k = _fill(run.frame[col])
+        run.V[fmu_name] = series.to_numpy(dtype=float)
+        if k:
+            run.filled[col] = k
+    run.cframe = run.frame.copy()
+    for fmu_name, col in run.inputs.items():
+        run.cframe[col] = run.V[fmu_name]
+
+
+def _locate_in_time(run: _Run, inst: FMUInstance, mapping, warmup) -> None:
+    """FMU time of the span's start (plant: since the dataset start; foreign: its time origin) and warm-up rows."""
+    run.kind = (inst.interface or {}).get("kind")
+    t_start = run.frame.index[0]
+    origin = t_start
+    if run.kind == "plant" and inst.interface.get("start"):
+        origin = pd.Timestamp(inst.interface["start"])
+        origin = origin.tz_localize(inst.interface.get("timezone")) if origin.tzinfo is None else origin
+    if mapping is not None and mapping.get("time_origin"):
+        origin = pd.Timestamp(mapping["time_origin"])
+    run.t0 = (t_start - origin).total_seconds()
+    if warmup is None:
+        warmup = PLANT_WARMUP if run.kind == "plant" else 0.0
+    run.wframe, run.Mw, run.Vw = _warmup_rows(
+        run.dataset, t_start, float(warmup), run.t0 if run.kind == "plant" else math.inf,
+        run.inputs, run.controls, run.outputs, run.V, run.building)
+
+
+def _start_values(run: _Run, inst: FMUInstance, model, controller, mapping, start_values) -> dict:
+    """Start values: measured zone temperatures, season, time of week, calendar start, then the overrides."""
+    sv = {}
+    t_start = run.frame.index[0]
+    sframe = run.wframe if run.nw else run.frame
+    for e in (inst.interface or {}).get("variables", ()):
+        if e.get("role") == "y0":
+            out = e["name"][: -len("_start")]
+            if out in run.outputs:
+                sv[e["name"]] = _measured_start(out, run.outputs[out], sframe, run.building, model)
+        elif e.get("role") == "season":
+            seasons = inst.interface["seasons"]
+            if run.season not in seasons:
+                raise FMUError(f"the FMU has no internal-gain profile for season {run.season!r}; it has {seasons}")
+            sv["season"] = seasons.index(run.season) + 1
+        elif e.get("role") == "tow":
+            sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_start]))[0]) - run.t0
+        elif e.get("role") == "t_abs":  # calendar-dependent model: Unix epoch [s] of FMU time 0
+            sv[e["name"]] = (t_start - pd.Timedelta(seconds=run.t0)).timestamp()
+    wanted = getattr(controller, "fmu_start_values", None) or {}
+    sv.update({k: val for k, val in wanted.items() if k in inst.vars})
+    if mapping is not None:
+        sv.update(mapping.get("start_values") or {})
+    sv.update(start_values or {})
+    unknown = [k for k in sv if k not in inst.vars]
+    if unknown:
+        raise FMUError(f"start values for unknown FMU variables: {unknown}")
+    if "start_time_of_week" in sv:
+        sv["start_time_of_week"] %= 7 * 86400.0
+    return sv
+
+
+class _FmuIO:
+    """Preallocated ctypes buffers for setting all inputs and getting all outputs per step (°C <-> K offsets)."""
+
+    K = 273.15
+
+    def __init__(self, inst: FMUInstance, run: _Run):
+        def offset(name):
+            return self.K if inst.vars[name].unit == "K" else 0.0
+
+        self.fmu = inst.fmu
+        names = list(run.controls) + list(run.inputs)
+        self.nc, self.nin, self.nout = len(run.controls), len(names), len(run.out_names)
+        self.in_vr = (ctypes.c_uint32 * self.nin)(*[inst.vars[k].vr for k in names])
+        self.in_val = (ctypes.c_double * self.nin)()
+        self.inp = np.frombuffer(self.in_val, dtype=float)
+        self.in_off = np.array([offset(k) if k in run.inputs and run.inputs[k].startswith("T_") else 0.0
+                                for k in names])
+        self.out_vr = (ctypes.c_uint32 * self.nout)(*[inst.vars[k].vr for k in run.out_names])
+        self.out_val = (ctypes.c_double * self.nout)()
+        self.out = np.frombuffer(self.out_val, dtype=float)
+        self.out_off = np.array([offset(k) for k in run.out_names])
+        self.Vmat = np.column_stack([run.V[k] for k in run.inputs]) if run.inputs else np.zeros((run.n, 0))
+
+    def set_inputs(self, m, v):
+        self.inp[: self.nc] = m
+        self.inp[self.nc:] = v + self.in_off[self.nc:]
+        self.fmu.fmi2SetReal(self.fmu.component, self.in_vr, self.nin, self.in_val)
+
+    def outputs(self) -> np.ndarray:
+        self.fmu.fmi2GetReal(self.fmu.component, self.out_vr, self.nout, self.out_val)
+        return self.out - self.out_off
+
+
+def _call_failure(exc, what: str, t: float, when, inst: FMUInstance) -> str:
+    """'fmi2DoStep at t=... s (time) returned discard: <the FMU's last message>'."""
+    status = getattr(exc, "status", None)
+    name = STATUS[status] if isinstance(status, int) and 0 <= status < len(STATUS) else None
+    errs = inst.errors()
+    head = f"{what} at t={t:g} s ({when}) returned {name}" if name else f"{what} at t={t:g} s ({when}) failed: {exc}"
+    return head + (f"; FMU log: {errs[-1]}" if errs else "; the FMU logged no reason")
+
+
+def _initial_airflows(run: _Run) -> np.ndarray:
+    """Box airflows set before leaving initialisation: the first warm-up row, else row 0 (box minimum if missing)."""
+    if run.nw:
+        return run.Mw[0]
+    by_name = {b.name: b for b in run.building.vavs}
+    m = np.array([run.frame[f"m_{b}"].iloc[0] if f"m_{b}" in run.frame else np.nan for b in run.vavs], dtype=float)
+    return np.where(np.isfinite(m), m, [by_name[b].m_min for b in run.vavs])
+
+
+def _initialise(run: _Run, inst: FMUInstance, io: _FmuIO, sv: dict) -> None:
+    """Set up, set start values and the first inputs, leave initialisation, replay the warm-up rows."""
+    fmu = inst.fmu
+    t_setup = run.t0 - run.nw * run.step
+    try:
+        fmu.setupExperiment(startTime=t_setup)
+        fmu.enterInitializationMode()
+        for name, value in sv.items():
+            var = inst.vars[name]
+            if var.type == "Integer":
+                fmu.setInteger([var.vr], [int(value)])
+            else:
+                fmu.setReal([var.vr], [float(value)])
+        # first inputs before leaving initialisation (as FMPy does): they set the FMU's unobserved states
+        io.set_inputs(_initial_airflows(run), run.Vw[0] if run.nw else io.Vmat[0])
+        fmu.exitInitializationMode()
+    except Exception as exc:  # noqa: BLE001
+        raise FMUError(f"initialising {inst.path.name} failed: "
+                       f"{_call_failure(exc, 'initialisation', t_setup, 'before the span', inst)}") from None
+    for j in range(run.nw):  # warm-up: the measured airflows and disturbances before the span
+        t = run.t0 - (run.nw - j) * run.step
+        try:
+            io.set_inputs(run.Mw[j], run.Vw[j])
+            fmu.fmi2DoStep(fmu.component, t, run.step, 1)
+        except Exception as exc:  # noqa: BLE001
+            raise FMUError(f"warm-up of {inst.path.name} failed: "
+                           f"{_call_failure(exc, 'fmi2DoStep', t, run.wframe.index[j], inst)}") from None
+    if inst.errors():
+        raise FMUError(problems_message(f"{inst.path.name} reported errors at initialisation", inst.errors()))
+
+
+@dataclasses.dataclass
+class _Trace:
+    """Per-step record of a run."""
+
+    Y: np.ndarray
+    M: np.ndarray
+    t_ctrl: np.ndarray
+    t_fmu: np.ndarray
+    completed: int = 0
+    stopped: str | None = None
+
+
+def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -> _Trace:
+    """One controller call and one FMU step per row; stops (with the reason) at the first failure."""
+    n, nc = run.n, io.nc
+    tr = _Trace(Y=np.full((n + 1, io.nout), np.nan), M=np.full((n + 1, nc), np.nan),
+                t_ctrl=np.full(n, np.nan), t_fmu=np.full(n, np.nan))
+    tr.Y[0] = io.outputs()
+    v_names = list(run.inputs.values())
+    # a bar on a terminal, plain log lines otherwise (hvacfmu.progress)
+    iterator = progress_iter(range(n), desc="cosim", unit="step", enabled=bool(progress))
+    fmu, index = inst.fmu, run.frame.index
+    for k in iterator:
+        t = run.t0 + k * run.step
+        c0 = time.perf_counter()
+        try:
+            m = np.asarray(controller(k, index[k], tr.Y[k].copy(), dict(zip(v_names, io.Vmat[k]))), dtype=float)
+        except Exception as exc:  # noqa: BLE001 - the run stops, the result says why
+            tr.stopped = f"controller raised {type(exc).__name__} at step {k} ({index[k]}): {exc}"
+            break
+        c1 = time.perf_counter()
+        if m.shape != (nc,) or not np.all(np.isfinite(m)):
+            tr.stopped = f"controller returned {m!r} at step {k} ({index[k]}; need {nc} finite airflows)"
+            break
+        tr.M[k] = m
+        try:
+            io.set_inputs(m, io.Vmat[k])
+            fmu.fmi2DoStep(fmu.component, t, run.step, 1)
+            y = io.outputs()
+        except Exception as exc:  # noqa: BLE001 - FMICallException: discard, error or fatal
+            tr.stopped = _call_failure(exc, "fmi2DoStep", t, index[k], inst)
+            break
+        c2 = time.perf_counter()
+        if not np.all(np.isfinite(y)):
+            tr.stopped = f"the FMU returned non-finite outputs {y!r} after the step at t={t:g} s ({index[k]})"
+            break
+        tr.Y[k + 1] = y
+        tr.t_ctrl[k], tr.t_fmu[k] = c1 - c0, c2 - c1
+        tr.completed = k + 1
+    return tr
+
+
+def _result_table(run: _Run, tr: _Trace) -> pd.DataFrame:
+    """The run's table: outputs, commands, disturbances, measurements, timings (cut at the last step taken)."""
+    frame, step = run.frame, run.step
+    index = frame.index.append(pd.DatetimeIndex([run.end]))
+    index.name = "time"
+    table = pd.DataFrame(tr.Y, index=index, columns=list(run.out_names))
+    for j, b in enumerate(run.vavs):
+        table[f"m_{b}"] = tr.M[:, j]
+    for fmu_name, col in run.inputs.items():
+        table[col] = np.append(run.V[fmu_name], np.nan)
+    for o in run.out_names:
+        zones = run.outputs[o]
+        if len(zones) == 1 and f"T_{zones[0]}" in frame:
+            table[f"{o}_measured"] = np.append(frame[f"T_{zones[0]}"].to_numpy(dtype=float), np.nan)
+    table["controller_time"] = np.append(tr.t_ctrl, np.nan)
+    table["fmu_time"] = np.append(tr.t_fmu, np.nan)
+    return table.iloc[: tr.completed + 1] if tr.completed < run.n else table
+
+
+def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
+    c = tr.completed
+    Mc, Yc = tr.M[:c], tr.Y[1 : c + 1]
+    lo, hi = run.band
+    viol = np.clip(lo - Yc, 0, None) + np.clip(Yc - hi, 0, None)
+    st = (tr.t_ctrl + tr.t_fmu)[:c]
+    stats = getattr(controller, "stats", None)
+
+    def med(a):
+        return float(np.median(a)) if c else math.nan
+
+    return {
+        "fmu": str(Path(fmu_path).name),
+        "controller": getattr(controller, "name", type(controller).__name__),
+        "start": str(run.frame.index[0]), "end": str(run.end), "step": run.step, "season": run.season,
+        "steps_requested": run.n, "steps_completed": c, "covered": c == run.n, "stopped_because": tr.stopped,
+        "energy_proxy": float(np.sum(Mc ** 2)),
+        "total_airflow_kg": float(np.sum(Mc) * run.step),
+        "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if c else math.nan,
+        "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
+        "band": [float(lo), float(hi)],
+        "step_time_median": med(st), "step_time_max": float(np.max(st)) if c else math.nan,
+        "controller_time_median": med(tr.t_ctrl[:c]), "fmu_time_median": med(tr.t_fmu[:c]),
+        "filled_inputs": run.filled, "defaulted_inputs": run.defaulted,
+        "controller_stats": stats() if callable(stats) else {},
+        "start_values": sv, "warmup_steps": run.nw,
+    }
+
+
+# =============================================================================
+# fmpy.simulate_fmu, checked
+# =============================================================================
+def simulate_fmu_checked(path, *, stop_time: float, output_interval: float, start_time: float = 0.0, **kwargs):
+    """``fmpy.simulate_fmu`` that never returns a silently truncated result.
+
+    FMPy stops without an exception when an FMU answers ``fmi2Discard`` and
+    returns the rows up to there. This wrapper captures the FMU's log and raises
+    :class:`~hvacfmu.errors.FMUError` naming the time reached, the requested end
+    and the FMU's last message when the result does not reach ``stop_time``.
+
+    Parameters
+    ----------
+    path : path
+        The FMU.
+    stop_time, output_interval, start_time : float [s]
+        As for ``fmpy.simulate_fmu`` (``output_interval`` is required: FMPy does
+        not take the step from the FMU).
+    **kwargs
+        Passed on (``input``, ``start_values``, ``output`` ...).
+
+    Returns
+    -------
+    numpy structured array
+        FMPy's result, covering ``start_time .. stop_time``.
+    """
+    from fmpy import simulate_fmu
+
+    messages = []
+
+    def log(component, instance, status, category, message):
+        text = message.decode("utf-8", errors="replace") if isinstance(message, bytes) else str(message)
+        messages.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), text))
+
+    try:
+        res = simulate_fmu(str(path), start_time=start_time, stop_time=stop_time, output_interval=output_interval,
+                           logger=log, debug_logging=False, **kwargs)
+    except Exception as exc:  # noqa: BLE001 - FMPy raises plain exceptions
+        last = next((m for st, m in reversed(messages) if st != "ok"), None)
+        raise FMUError(f"simulating {Path(path).name} failed: {exc}" + (f"; FMU log: {last}" if last else "")) from None
+    finally:
+        _restore_fmpy_logger()
+    reached = float(res["time"][-1]) if len(res) else start_time
+    if reached < stop_time - 1e-6 * max(1.0, abs(stop_time)):
+        last = next((f"[{st}] {m}" for st, m in reversed(messages) if st != "ok"), "the FMU logged no reason")
+        raise FMUError(f"simulating {Path(path).name} stopped early at t={reached:g} s of {stop_time:g} s "
+                       f"({len(res)} rows): {last}")
+    return res
 
 
 # =============================================================================
@@ -811,4 +1004,5 @@ def main_cosim(args) -> int:
     return 0
 
 
-__all__ = ["CosimResult", "FMUInstance", "add_cosim_arguments", "main_cosim", "make_controller", "run_cosim"]
+__all__ = ["CosimResult", "FMUInstance", "add_cosim_arguments", "main_cosim", "make_controller", "run_cosim",
+           "simulate_fmu_checked"]

@@ -35,9 +35,9 @@ import numpy as np
 import pandas as pd
 
 from hvacfmu.energyplus import hvac, inputs
-from hvacfmu.energyplus.generate import STEP_HOURS, _probes, _select_boxes
+from hvacfmu.energyplus.generate import STEP_HOURS, export_probes, select_boxes
 from hvacfmu.energyplus.idf import read_idf
-from hvacfmu.energyplus.run import Probe, simulate
+from hvacfmu.energyplus.run import Probe, simulate, step_start
 from hvacfmu.errors import FMUError, HvacfmuError
 from hvacfmu.timeutil import seconds_of_week
 
@@ -171,10 +171,9 @@ class _Loop:
 
     def step_start(self, api, state) -> pd.Timestamp:
         x = api.exchange
-        end = _dt.datetime(x.calendar_year(state), 1, 1) + _dt.timedelta(
-            days=x.day_of_year(state) - 1, hours=x.current_time(state))
-        utc = pd.Timestamp(end - _dt.timedelta(hours=STEP_HOURS + self.site.tz_hours), tz="UTC")
-        return utc.round("1s").tz_convert(self.site.timezone)
+        start = step_start(x.calendar_year(state), x.day_of_year(state), x.current_time(state), self.site.tz_hours,
+                           STEP_HOURS)
+        return pd.Timestamp(start, tz="UTC").round("1s").tz_convert(self.site.timezone)
 
     def __call__(self, state, api, k, row):
         if self.act is None:
@@ -264,10 +263,10 @@ def run_host(prototype, building, frame, *, floor=None, weather=None, fmu=None, 
     epw = inputs.resolve_weather(weather, idf_path)
     site = inputs.read_site(epw, building.timezone)
     idf = read_idf(idf_path)
-    boxes = _select_boxes(hvac.air_boxes(idf), floor, None)
+    boxes = select_boxes(hvac.air_boxes(idf), floor, None)
     zones = {hvac.sanitise(b.zone): b.zone for b in boxes}
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in dict.fromkeys(b.ahu for b in boxes)}
-    probes = _probes(boxes, ahus, list(zones.values()))
+    probes = export_probes(boxes, ahus, list(zones.values()))
     probes += [Probe(f"spc_{z}", "Zone Thermostat Cooling Setpoint Temperature", name) for z, name in zones.items()]
     lo, hi = frame.index[0], frame.index[-1] + pd.Timedelta(minutes=15)
     first = max(lo.date() - _dt.timedelta(days=1), _dt.date(lo.year, 1, 1))

@@ -12,7 +12,7 @@ The Python API, in the order of the work (``import hvacfmu as hf``)::
     import harness; harness.cosim("zones.fmu", data, "rule")   # co-simulation (FMPy)
 
 Also ``hf.load_measurements(path, building) -> (frame, report)``, ``hf.generate(outdir, weeks=8)``
-(an emulated dataset), ``hf.load_model(path)``. Names are imported on first use (PEP 562), so
+(an emulated dataset), ``hf.generate_fleet(n, outdir)`` (n varied emulated buildings and ``fleet.json``), ``hf.load_model(path)``. Names are imported on first use (PEP 562), so
 ``import hvacfmu`` stays fast; the exception classes are imported eagerly.
 """
 
@@ -41,6 +41,7 @@ _LAZY = {
     "prepare": ("hvacfmu.data", "prepare"),
     "check": ("hvacfmu.data", "check"),
     "generate": ("hvacfmu.emulator", "generate"),
+    "generate_fleet": ("hvacfmu.emulator", "generate_fleet"),
     "fit": ("hvacfmu.fitting", "fit"),
     "load_model": ("hvacfmu.models", "load_model"),
     "diagnose": ("hvacfmu.diagnosis", "diagnose"),
@@ -54,7 +55,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .building import load_building
     from .data import Dataset, check, load_measurements, prepare
     from .diagnosis import diagnose
-    from .emulator import generate
+    from .emulator import generate, generate_fleet
     from .evaluation import EvaluationResult
     from .fitting import fit
     from .models import load_model
@@ -159,6 +160,7 @@ __all__ = [
     "fit",
     "fleet",
     "generate",
+    "generate_fleet",
     "load_building",
     "load_measurements",
     "load_model",

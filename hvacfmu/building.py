@@ -389,7 +389,7 @@ class Building:
 
 
 #: Top-level keys of a building file that belong to the physics model.
-PHYSICS_KEYS = ("materials", "constructions", "windows", "elements", "physics")
+PHYSICS_KEYS = ("materials", "constructions", "windows", "elements", "physics", "construction_template")
 
 
 def _as_float(value, what, problems, default=None):

@@ -28,13 +28,6 @@ from .errors import FMUError, ModelError, problems_message
 
 logger = logging.getLogger(__name__)
 
-#: model kind -> slave script (and class) name in ``fmus/``
-SLAVES = {
-    "lumped": "HvacfmuLumped",
-    "zones": "HvacfmuZones",
-    "physics": "HvacfmuPhysics",
-    "extended": "HvacfmuExtended",
-}
 #: slave for model kinds without a dedicated script
 GENERIC_SLAVE = "HvacfmuModel"
 #: slave of the emulated plant
@@ -48,17 +41,35 @@ BUILD_OPTIONS = {
 }
 
 
-#: slave script name -> (what it serves, base class, resource file); the scripts in ``fmus/`` are
-#: exactly :func:`slave_source` of these (tests/test_fmu.py checks it)
-SLAVE_SPECS = {
-    "HvacfmuLumped": ("models of kind 'lumped'", "ZoneModelSlave", "lumped, resources/model.json"),
-    "HvacfmuZones": ("models of kind 'zones'", "ZoneModelSlave", "zones, resources/model.json"),
-    "HvacfmuPhysics": ("models of kind 'physics'", "ZoneModelSlave", "physics, resources/model.json"),
-    "HvacfmuExtended": ("models of kind 'extended'", "ZoneModelSlave", "extended, resources/model.json"),
-    GENERIC_SLAVE: ("models of a kind without a dedicated slave", "ZoneModelSlave",
-                    "kinds without a dedicated slave, resources/model.json"),
-    PLANT_SLAVE: ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json"),
-}
+def slave_specs() -> dict:
+    """Slave script name -> (what it serves, base class, doc) for every slave: one per registered model kind
+    (:func:`hvacfmu.models.registry.kinds`, ``ModelKind.fmu_slave``), the generic one and the plant's.
+
+    The scripts in ``fmus/`` are exactly :func:`slave_source` of these (``tests/test_fmu.py`` checks it).
+    """
+    from .models.registry import kinds
+
+    specs = {}
+    for k in kinds():
+        if k.fmu_slave != GENERIC_SLAVE:
+            specs.setdefault(k.fmu_slave, (f"models of kind '{k.name}'", "ZoneModelSlave",
+                                           f"{k.name}, resources/model.json"))
+    specs[GENERIC_SLAVE] = ("models of a kind without a dedicated slave", "ZoneModelSlave",
+                            "kinds without a dedicated slave, resources/model.json")
+    specs[PLANT_SLAVE] = ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json")
+    return specs
+
+
+def slave_name(kind: str) -> str:
+    """Slave script (and class) name serving model ``kind``: the registry's ``fmu_slave``, else the generic one."""
+    from .errors import ModelError as _ModelError
+    from .models.registry import get_kind
+
+    try:
+        return get_kind(kind).fmu_slave
+    except _ModelError:
+        return GENERIC_SLAVE
+
 
 _SLAVE_TEMPLATE = '''"""pythonfmu slave of the hvacfmu FMUs for {what}.
 
@@ -71,59 +82,75 @@ is executed in this module's namespace instead of being imported, because the
 pythonfmu 0.7.0 binary corrupts the interpreter when it frees an instance whose
 class or methods were defined in another module (measured: the slave module's
 dictionary is cleared and the next instance crashes the host).
+
+pythonfmu 0.7.0 also executes this script again for every new instance (its
+``findClass`` runs the file in this module's namespace with fresh locals) and
+then releases a reference to this module's ``__dict__`` that it never took
+(``Py_DECREF`` of the borrowed ``PyModule_GetDict``): after enough instances the
+dictionary is freed while still in use, which corrupts the heap ("corrupted
+double-linked list" at exit). The first branch below gives that reference
+back and hands over the class defined at import instead of defining new
+copies (each copy stayed alive through an MRO list pythonfmu never frees).
 """
 
-try:
-    import hvacfmu.fmu_slave as _impl
-except ImportError as _exc:  # the host lacks hvacfmu or one of its packages: say so, do not crash
-    _impl, _missing = None, f"{{type(_exc).__name__}}: {{_exc}}"
+if "_hvacfmu_slave_class" in globals():  # executed again by pythonfmu for a new instance
+    import ctypes as _ctypes
 
-if _impl is not None:
-    exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines {base} and its bases here
+    _ctypes.pythonapi.Py_IncRef(_ctypes.py_object(globals()))  # the reference pythonfmu will drop
+    {name} = _hvacfmu_slave_class  # noqa: F821 - the class made at import
 else:
-    from pythonfmu import Fmi2Slave
-    from pythonfmu.enums import Fmi2Status
+    try:
+        import hvacfmu.fmu_slave as _impl
+    except ImportError as _exc:  # the host lacks hvacfmu or one of its packages: say so, do not crash
+        _impl, _missing = None, f"{{type(_exc).__name__}}: {{_exc}}"
 
-    class {base}(Fmi2Slave):
-        """Stand-in when the host cannot import the FMU's Python packages: logs why, refuses every step."""
+    if _impl is not None:
+        exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines {base} and its bases here
+    else:
+        from pythonfmu import Fmi2Slave
+        from pythonfmu.enums import Fmi2Status
 
-        def __init__(self, **kwargs):
-            super().__init__(**kwargs)
-            self._why = (
-                "this FMU runs in the host's Python interpreter and needs the Python packages hvacfmu, numpy, "
-                "scipy and pandas importable there (versions: the FMU's documentation/index.html); importing "
-                "them failed: " + _missing + ". Install hvacfmu in that interpreter (pip install hvacfmu) or use "
-                "a native FMU (hvacfmu export --native), which needs no Python")
-            self.log(self._why, Fmi2Status.error)
+        class {base}(Fmi2Slave):
+            """Stand-in when the host cannot import the FMU's Python packages: logs why, refuses every step."""
 
-        def exit_initialization_mode(self):
-            self.log(self._why, Fmi2Status.error)
+            def __init__(self, **kwargs):
+                super().__init__(**kwargs)
+                self._why = (
+                    "this FMU runs in the host's Python interpreter and needs the Python packages hvacfmu, "
+                    "numpy, scipy and pandas importable there (versions: the FMU's documentation/index.html); "
+                    "importing them failed: " + _missing + ". Install hvacfmu in that interpreter (pip install "
+                    "hvacfmu) or use a native FMU (hvacfmu export --native), which needs no Python")
+                self.log(self._why, Fmi2Status.error)
 
-        def do_step(self, current_time, step_size):
-            self.log(self._why, Fmi2Status.error)
-            return False
+            def exit_initialization_mode(self):
+                self.log(self._why, Fmi2Status.error)
 
-        def get_real(self, vrs):
-            return [float("nan")] * len(vrs)
+            def do_step(self, current_time, step_size):
+                self.log(self._why, Fmi2Status.error)
+                return False
 
-        def get_integer(self, vrs):
-            return [0] * len(vrs)
+            def get_real(self, vrs):
+                return [float("nan")] * len(vrs)
 
-        def set_real(self, vrs, values):
-            pass
+            def get_integer(self, vrs):
+                return [0] * len(vrs)
 
-        def set_integer(self, vrs, values):
-            pass
+            def set_real(self, vrs, values):
+                pass
 
+            def set_integer(self, vrs, values):
+                pass
 
-class {name}({base}):  # noqa: F821 - defined by the exec above
-    """FMI 2.0 co-simulation slave ({doc})."""
+    class {name}({base}):  # noqa: F821 - defined by the exec above
+        """FMI 2.0 co-simulation slave ({doc})."""
+
+    _hvacfmu_slave_class = {name}
 '''
 
 
 def slave_source(name: str) -> str:
-    """Text of the slave script ``name`` (a key of :data:`SLAVE_SPECS`)."""
-    what, base, doc = SLAVE_SPECS[name]
+    """Text of the slave script ``name`` (a key of :func:`slave_specs`)."""
+    what, base, doc = slave_specs()[name]
     return _SLAVE_TEMPLATE.format(what=what, base=base, name=name, doc=doc)
 
 
@@ -132,7 +159,7 @@ def write_slaves(folder) -> list:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name in SLAVE_SPECS:
+    for name in slave_specs():
         path = folder / f"{name}.py"
         path.write_text(slave_source(name), encoding="utf-8")
         paths.append(path)
@@ -158,7 +185,7 @@ def slave_dir() -> Path:
 
     cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
     if not all((cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n)
-               for n in SLAVE_SPECS):
+               for n in slave_specs()):
         write_slaves(cache)
     return cache
 
@@ -166,8 +193,15 @@ def slave_dir() -> Path:
 def slave_script(kind: str) -> Path:
     """The slave script used for model ``kind``."""
     d = slave_dir()
-    name = SLAVES.get(kind, GENERIC_SLAVE)
+    name = slave_name(kind)
     path = d / f"{name}.py"
+    if not path.is_file() and name in slave_specs():  # a kind registered by a plugin: write its stub
+        from . import __version__
+
+        cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
+        cache.mkdir(parents=True, exist_ok=True)
+        path = cache / f"{name}.py"
+        path.write_text(slave_source(name), encoding="utf-8")
     if not path.is_file():
         raise FMUError(f"slave script {path} for model kind {kind!r} is missing")
     return path
@@ -417,4 +451,5 @@ def validate(path, native: bool | None = None) -> list[str]:
     return problems
 
 
-__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_script", "validate", "SLAVES"]
+__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_name", "slave_script", "slave_specs",
+           "validate"]

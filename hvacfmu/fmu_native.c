@@ -665,7 +665,12 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component comp, const fmi2StatusKind s, fmi2
 }
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Boolean *value) {
-    (void)s, (void)value;
+    if (s == fmi2Terminated) {
+        /* asked by FMPy after a discard: true ends its run at fmi2LastSuccessfulTime (false makes FMPy
+         * retry the same step forever); the instance itself stays usable */
+        *value = fmi2True;
+        return fmi2OK;
+    }
     return no_status(comp, "fmi2GetBooleanStatus");
 }
 

@@ -653,7 +653,20 @@ def test_check_report_contents(tmp_path, small_building):
     assert "week #1 (2024-09-09, fall, test): only 57 % of its steps have every zone temperature" in text
     assert "Excitation periods: 2 (4 h 30 min in total)" in text
     assert "2024-09-07 Sat 10:00 .. 14:00" in text
+    assert "Plausibility: 3 airflow column(s) against their box's m_min..m_max" in text and "nothing masked" in text
+    assert "Clock: measured solar noon (ghi-weighted mean time)" in text
     assert text.rstrip().endswith("OK: the data can be used for fitting")
+
+
+def test_check_counts_masked_samples(tmp_path, small_building):
+    frame = make_measurements(small_building, start="2024-09-02", periods=8 * 1440)
+    frame.iloc[[10, 5000], frame.columns.get_loc("m_V3")] = 50.0
+    frame.iloc[1440 : 4 * 1440, frame.columns.get_loc("T_B")] = 22.25
+    report = check(write(frame, tmp_path / "m.csv"), small_building)
+    text = str(report)
+    assert report.ok
+    assert "  2 sample(s) of m_V3 masked (airflow spike)" in text
+    assert "  4320 sample(s) of T_B masked (stuck sensor)" in text
 
 
 def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
@@ -919,3 +932,73 @@ def test_unit_column_named_T_supply_is_that_units_not_the_primary(tmp_path, smal
     ds = prepare(write(f, tmp_path / "m.csv"), building)
     assert_allclose(ds.frame["T_supply_AHU1"], f["T_supply"].resample("15min").mean().to_numpy(), atol=1e-9)
     assert (ds.frame["T_supply"] > ds.frame["T_supply_AHU1"]).all()  # the weighted mean with AHU2 at 16 °C
+
+
+# --------------------------------------------------------------------------- the emulator's BMS-like export (issue 13)
+@pytest.fixture(scope="module")
+def bms_export():
+    """Three winter weeks as a real BMS exports them: °F, CFM, %, naive UTC, 15-minute trend log, faults."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(
+        weeks=3, seed=1, start="2025-12-01", hvac="reheat", units="us", clock="naive-utc", export_step=900,
+        faults=("outages", "sparse_box", "stuck_sensor"),
+    )
+
+
+def test_bms_like_export_sparse_box_refused_stuck_sensor_masked(bms_export):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, bms_export.building)
+    b = report.dataset.building
+    assert b.ahu_names == ("AHU1", "AHU2") and b.data_timezone == "UTC"
+    frame = report.dataset.frame
+    for c in ("T_supply_AHU1", "T_supply_AHU2", "Td_VAV_NW_1", "rh_VAV_NW_1"):
+        assert c in frame.columns
+    assert 10 < np.nanmedian(frame["T_supply_AHU1"]) < 20 and 0 <= np.nanmax(frame["rh_VAV_NW_1"]) <= 1
+    assert not report.ok
+    sparse = [p for p in report.problems if "a value in only" in p]
+    assert sparse and all("%" in p and "below the 50 %" in p for p in sparse)
+    cov = [float(p.split("a value in only ")[1].split(" %")[0]) for p in sparse]
+    assert max(cov) < 10  # the ~6 % box is not inflated by interpolation between its rare samples
+    assert any("stuck sensor" in w and "masked" in w for w in report.warnings)
+    assert abs(report.clock.offset) < 0.5 and not any("clock:" in w for w in report.warnings)
+
+
+def test_bms_like_export_naive_utc_without_declaration_looks_8_hours_late(tmp_path, bms_export):
+    from hvacfmu.building import load_building
+
+    d = load_building(bms_export.building).to_dict()
+    d.pop("data_timezone")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        report = check(bms_export.measurements, building_from_dict(d))
+    (msg,) = [w for w in report.warnings if "clock:" in w]
+    assert "the data look 8 h late" in msg and "naive timestamps in UTC? use --timezone UTC" in msg
+
+
+def test_discharge_colder_than_supply_is_flagged(tmp_path, small_building_dict):
+    d = _two_ahu_dict(small_building_dict)
+    d["units"], d["columns"] = {}, {}
+    d["ahus"][0]["T_supply_max"] = 30.0
+    building = building_from_dict(d)
+    f = make_measurements(building, periods=1440).drop(columns=["T_supply"])
+    f["T_supply_AHU1"], f["AHU-2 SAT"] = 13.0, 14.0
+    f["Td_V1"] = 8.0  # colder than the supply air: impossible
+    f["Td_V2"] = 40.0  # 10 K above the heating limit
+    f["Td_V3"] = 25.0  # fine
+    with pytest.warns(HvacfmuWarning) as record:
+        prepare(write(f, tmp_path / "m.csv"), building)
+    text = "\n".join(str(r.message) for r in record)
+    assert "column 'Td_V1': discharge air below its unit's supply air T_supply_AHU1 - 3 K in 100 %" in text
+    assert "column 'Td_V2': discharge air above T_supply_max = 30 °C of AHU1 + 5 K in 100 %" in text
+    assert "Td_V3" not in text
+
+
+def test_check_says_why_a_stuck_column_is_empty(tmp_path, small_building):
+    f = _quarter_hourly(small_building, days=8)
+    f["T_B"] = 22.0
+    report = check(write(f, tmp_path / "m.csv"), small_building)
+    assert not report.ok
+    (msg,) = [p for p in report.problems if "'T_B'" in p]
+    assert "no model step of 900 s has enough samples" in msg and "(768 sample(s) masked as stuck sensor" in msg

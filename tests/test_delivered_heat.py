@@ -228,3 +228,50 @@ def test_bad_model_files_are_refused(truth, tmp_path, edit, message):
     path.write_text(json.dumps(d).replace("NaN", "NaN"))
     with pytest.raises(ModelError, match=message):
         load_model(path)
+
+
+def test_air_handler_off_switches_to_delivered_heat(building, tmp_path):
+    """Without Td, an air handler off (all boxes at zero flow) in >5 % of the steps selects the delivered form,
+    so the idle supply temperature never enters; forcing the airflow form warns about it."""
+    from tests.test_datadriven import true_zone_model
+
+    frame = simulate_frame(true_zone_model(building), building, seed=7, weeks=6)
+    night = np.asarray(frame.index.hour < 5)  # 21 % of the steps: unit off, supply node drifts to 30 °C
+    frame.loc[night, [c for c in frame.columns if c.startswith("m_")]] = 0.0
+    frame.loc[night, "T_supply"] = 30.0
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        m = fit_zones(ds)
+    assert m.heat == "delivered" and "air handler is off" in m.meta["heat"]["reason"]
+    assert "T_supply" not in m.disturbances or "T_supply" in m.inlets
+    assert set(m.inlets) == {"T_supply"}
+    with pytest.warns(HvacfmuWarning, match="enters linearly although an air handler is off in 21 %"):
+        fit_zones(ds, heat="airflow")
+
+
+def test_diagnosis_refuses_a_delivered_model_and_fits_the_airflow_form(fit, dataset):
+    """The diagnosis cause terms assume zone airflow inputs: a delivered-heat model is refused with the fix."""
+    from hvacfmu.diagnosis import diagnose
+
+    with pytest.raises(ModelError, match="airflow form .* --heat airflow"):
+        diagnose(dataset, model=fit, progress=False)
+
+
+def test_cli_fit_heat_option(dataset, tmp_path):
+    """`hvacfmu fit --heat airflow|delivered` forces the form of Model A; the physics model refuses the option."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    data = Path(dataset.source)
+    bld = data.parent / "data_building.toml"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    run = lambda *a: subprocess.run([sys.executable, "-m", "hvacfmu.cli", "-q", "fit", str(data), "-b", str(bld),  # noqa: E731
+                                     *a], capture_output=True, text=True, env=env, timeout=300)
+    r = run("--model", "zones", "--heat", "airflow", "-o", str(tmp_path / "a.json"))
+    assert r.returncode == 0, r.stderr
+    assert load_model(tmp_path / "a.json").heat == "airflow"
+    r = run("--model", "physics", "--heat", "airflow", "-o", str(tmp_path / "p.json"))
+    assert r.returncode == 2 and "--heat applies to Model A" in r.stderr and "Traceback" not in r.stderr

@@ -594,6 +594,9 @@ def test_constructions_and_climates_differ():
         ({"layout": "core9", "effects": ["zone_coupling:zones=N+C"]}, "declared adjacent"),
         ({"layout": "row4", "effects": ["reheat:zone=C"]}, "zone 'C' is not one of R1"),
         ({"start": "2025-09-01T06:00"}, "start must be a local midnight"),
+        ({"climate": "hot", "effects": ["internal_gain_schedule:kind=dst"]}, r"needs daylight saving .*America/Phoenix"),
+        ({"layout": "core9", "effects": ["thermal_mass:zone=NE", "solar_gain:zone=X"], "hvac": "steam"},
+         r"(?s)unknown hvac mode 'steam'.*"),
     ],
 )
 def test_bad_layout_options(kwargs, match):
@@ -601,6 +604,27 @@ def test_bad_layout_options(kwargs, match):
     effects = kwargs.pop("effects", ())
     with pytest.raises(EmulatorError, match=match):
         make_truth(weeks, 0, effects, **kwargs)
+
+
+@pytest.mark.parametrize("layout", sorted(LAYOUT_ZONES))
+@pytest.mark.parametrize("seed", [0, 7])
+def test_random_effects_resolve_on_every_layout(layout, seed):
+    """Unspecified effect locations are drawn from the layout's own zones, facades and non-adjacent pairs."""
+    from hvacfmu.emulator import emulated_building
+
+    b = emulated_building(layout)
+    truth = make_truth(4, seed, list(EFFECT_NAMES), layout=layout)
+    assert truth["zones"] == list(LAYOUT_ZONES[layout])
+    for e in truth["effects"]:
+        if e["name"] in ("solar_gain", "reheat"):
+            assert b.zone(e["zone"]).facades, e  # a perimeter zone
+        if e["name"] == "solar_gain":
+            assert e["facade"] in [f.orientation for f in b.zone(e["zone"]).facades]
+        if e["name"] == "zone_coupling":
+            assert tuple(e["zones"]) not in b.adjacency_pairs() and tuple(e["zones"][::-1]) not in b.adjacency_pairs()
+        if e["name"] in ("actuation_delay", "thermal_mass"):
+            assert e["zone"] in LAYOUT_ZONES[layout]
+    assert truth == make_truth(4, seed, list(EFFECT_NAMES), layout=layout)  # seeded
 
 
 LAYOUT_CASES = [
@@ -876,7 +900,7 @@ def test_real_world_faults(tmp_path):
         ({"clock": "utc"}, "clock must be one of aware, naive-local, naive-utc"),
         ({"export_step": 90}, "export_step must be a positive multiple of 60 s"),
         ({"faults": ["gremlins"]}, "unknown fault 'gremlins'"),
-        ({"hvac": "radiators"}, "unknown hvac mode 'radiators'; known modes: vav, reheat"),
+        ({"hvac": "radiators"}, "unknown hvac mode 'radiators'; known modes: vav, reheat, reheat-dual"),
     ],
 )
 def test_bad_export_options(tmp_path, kwargs, match):
@@ -910,15 +934,17 @@ def test_fleet_parameters_are_varied_and_seeded():
     assert many == fleet_parameters(30, seed=0, weeks=51)
     assert many != fleet_parameters(30, seed=1, weeks=51)
     for key, values in [("layout", {"sdh", "row4", "core9"}), ("climate", {"mild", "cold", "hot"}),
-                        ("construction", {"light", "medium", "heavy"}), ("hvac", {"vav", "reheat"})]:
+                        ("construction", {"light", "medium", "heavy"}),
+                        ("hvac", {"vav", "reheat", "reheat-dual"})]:
         assert {p[key] for p in many} == values, key
     assert {e for p in many for e in p["effects"]} == set(EFFECT_NAMES)
     assert any(not p["effects"] for p in many)  # clean buildings too
     assert len({p["seed"] for p in many}) == 30
-    assert all(p["units"] == "us" for p in many if p["hvac"] == "reheat")
+    assert all(p["units"] == "us" for p in many if p["hvac"] != "vav")
     assert len({p["start"] for p in fleet_parameters(30, seed=0, weeks=4)}) > 2  # short datasets: several seasons
 
 
+@pytest.mark.slow
 def test_generate_fleet(tmp_path):
     """Three 2-week buildings: manifest with relative paths, each building prepares, truth matches its parameters."""
     import warnings
@@ -955,3 +981,61 @@ def test_cli_generate_fleet(tmp_path):
     m = json.loads((tmp_path / "f" / "fleet.json").read_text())
     assert [b["name"] for b in m["buildings"]] == ["b000", "b001"]
     assert "fleet: 2/2 b001" in r.stderr
+
+
+def test_dual_maximum_boxes_heat_with_more_air():
+    """reheat-dual: in heating the discharge air reaches its limit first, then the airflow rises (more air = more heat)."""
+    from hvacfmu.emulator.simulate import discharge_temperature
+
+    truth = make_truth(1, 2, [], start="2026-01-12", layout="row4", climate="cold", hvac="reheat-dual")
+    sim = simulate(truth)
+    vavs = truth["baseline"]["building"]["vavs"]
+    m_min = np.array([v["m_min"] for v in vavs])
+    m_max = np.array([v["m_max"] for v in vavs])
+    Td = discharge_temperature(sim)
+    heating = sim["reheat"] > 0
+    more_air = heating & (sim["m_applied"] > m_min + 1e-9)
+    assert more_air.mean() > 0.05
+    assert np.all(Td[more_air] > 35.0 - 0.6)  # the airflow stage only runs at the discharge limit
+    assert np.all(sim["m_applied"][more_air] <= 0.6 * m_max[np.nonzero(more_air)[1]] + 1e-12)
+    # more air is more heat: boxes heating above minimum airflow deliver more than those at minimum
+    assert sim["reheat"][more_air].mean() > 1.3 * sim["reheat"][heating & ~more_air].mean()
+    plant = Plant.from_truth(truth)
+    x, T = sim["x0"], []
+    for k in range(0, 600):
+        x, Tz = plant.advance(x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+                              T_discharge=Td[k])
+        T.append(Tz)
+    assert_allclose(np.array(T)[:-1], sim["T_zone"][1:600], rtol=0, atol=1e-9)  # [K]
+
+
+@pytest.mark.slow
+def test_dual_maximum_winter_data_need_the_discharge_temperatures():
+    """Issue 13's trap, reproduced: on dual-maximum reheat data in a cold winter the six-zone model beats
+    persistence with the Td columns and loses to it without them (more air looks like more cooling).
+
+    Measured (10 weeks from 2025-11-03, cold climate, seed 0): with Td 0.17-0.30 K against persistence
+    0.57-0.95 K in every zone; without Td 1.38-1.58 K, worse than persistence in 6/6 zones.
+    Bounds: with Td below 0.7 x persistence in every zone; without Td worse than persistence in >= 4 zones.
+    """
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.data.dataset import Dataset
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.fitting import fit
+
+    paths = cached_dataset(weeks=10, seed=0, hvac="reheat-dual", climate="cold", start="2025-11-03")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = prepare(paths.measurements, paths.building)
+        dropped = [c for c in ds.frame.columns if c.startswith(("Td_", "rh_"))]
+        no_td = Dataset.from_frame(ds.frame.drop(columns=dropped), ds.building)
+        ratios = {}
+        for name, d in (("with", ds), ("without", no_td)):
+            rows = evaluate(fit(d, "zones", progress=False), d).verdict.to_dict()["zones"]
+            assert [r["output"] for r in rows] == list(ds.building.zone_names)
+            ratios[name] = np.array([r["rms"] / r["persistence"] for r in rows])
+    assert np.all(ratios["with"] < 0.7), ratios
+    assert np.sum(ratios["without"] > 1.0) >= 4, ratios

@@ -163,9 +163,11 @@ def test_callback_exception_stops_the_run(tmp_path):
             raise ZeroDivisionError("boom in step 5")
 
     probes = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment")]
-    with pytest.raises(CallbackError, match="ZeroDivisionError: boom in step 5"):
+    with pytest.raises(CallbackError, match="ZeroDivisionError: boom in step 5") as info:
         simulate(tmp_path / "in.idf", epw, tmp_path / "out", probes, on_step=on_step)
-    assert calls == [0, 1, 2, 3, 4, 5]  # stopped at once: no further step reached the callback
+    assert calls == [0, 1, 2, 3, 4, 5]
+    assert isinstance(info.value.__cause__, ZeroDivisionError)
+    assert info.value.steps_after_error == 0  # EnergyPlus stopped at once (2 days = 192 steps otherwise)
 
 
 def test_cli_generate_energyplus(tmp_path):
@@ -179,3 +181,37 @@ def test_cli_generate_energyplus(tmp_path):
     r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus"],
                        check=False, capture_output=True, text=True, timeout=60)
     assert r.returncode != 0 and "--prototype" in r.stderr
+
+
+def test_airflow_identifiability_check_flags_tiny_gains():
+    import types
+
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.energyplus.checks import airflow_identifiability
+
+    b = building_from_dict({"name": "t", "latitude": 40, "longitude": -105, "timezone": "America/Denver",
+                            "zones": [{"name": "A", "area": 100, "volume": 300}, {"name": "B", "area": 100, "volume": 300}],
+                            "vavs": [{"name": "VA", "zone": "A"}, {"name": "VB", "zone": "B"}]})
+    # smallest plausible gain for 300 m3: 1005 * 2 * 900 / (30 * 1.2 * 1005 * 300) = 0.167 K/(kg/s)/step
+    model = types.SimpleNamespace(B=np.array([[-1e-6, 0.0], [0.0, -0.9]]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(model, b)
+    assert lines[0] == "airflow identifiability: 1 of 2 zone gains below the physical minimum (A)"
+    assert "NOT IDENTIFIED" in lines[1] and "NOT IDENTIFIED" not in lines[2]
+    # delivered-heat form: beta [K/step per kW] against 1000 * 900 / (30 * 1.2 * 1005 * 300) = 0.0829
+    delivered = types.SimpleNamespace(B=np.zeros((2, 2)), beta=np.array([0.5, 1e-4]), outputs=("A", "B"), step=900.0)
+    lines = airflow_identifiability(delivered, b)
+    assert lines[0].endswith("1 of 2 zone gains below the physical minimum (B)") and "delivered-heat" in lines[1]
+    lumped = types.SimpleNamespace(B=np.array([[-1e-6]]), outputs=("floor",), step=900.0)
+    assert "not checked" in airflow_identifiability(lumped, b)[0]
+
+
+def test_step_times_standard_time_end_of_step():
+    from hvacfmu.energyplus.run import step_times
+
+    # Denver (UTC-7): the first step of 2 January ends at 00:15 standard time; the last step of the year ends at
+    # 24:00 on day 365 and EnergyPlus already reports calendar year 2018 for it
+    idx = step_times([(2017, 2, 0.25), (2017, 365, 23.75), (2018, 365, 24.0)], -7.0, 0.25)
+    local = idx.tz_convert("America/Denver")
+    assert list(local.strftime("%Y-%m-%d %H:%M")) == ["2017-01-02 00:00", "2017-12-31 23:30", "2017-12-31 23:45"]
+    summer = step_times([(2017, 191, 12.25)], -7.0, 0.25).tz_convert("America/Denver")  # 10 July, DST
+    assert summer[0].strftime("%H:%M %z") == "13:00 -0600"

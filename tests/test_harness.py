@@ -111,6 +111,11 @@ def test_early_stop_is_an_error_with_partial_result(zones, data, bad, message):
     res = info.value.result
     assert res.summary["steps_completed"] == 10 and not res.covered
     assert message in res.summary["stopped_because"]
+    week = {w.number: w for w in data.weeks}[1]
+    when = str(week.start + pd.Timedelta(minutes=150))
+    assert when in res.summary["stopped_because"]  # the time of the failed step is named
+    if bad < 0:
+        assert "fmi2DoStep at t=" in str(info.value) and "returned discard" in str(info.value)
     assert len(res.table) == 11
     partial = run_cosim(path, data, Scripted(10, bad), week=1, model=model, allow_partial=True)
     assert not partial.covered
@@ -204,3 +209,55 @@ def test_cli_reports_plant_stopping_early(tmp_path, short_paths):
     tab = pd.read_csv(out)
     assert len(tab) == 49  # 12 h of steps, then the refusal
     assert json.loads(out.with_suffix(".json").read_text())["covered"] is False
+
+
+@pytest.fixture(scope="module")
+def native_zones(tmp_path_factory, data):
+    from hvacfmu.fmu_native import export_native_fmu
+
+    model = zones_model(data.building)
+    return model, export_native_fmu(model, tmp_path_factory.mktemp("native") / "ZonesNative.fmu")
+
+
+def test_native_fmu_refusing_a_step_stops_the_run_and_names_time_and_status(native_zones, data, tmp_path):
+    """A non-Python FMU refuses an out-of-range airflow: FMUError with time, call and status; CLI exit 1."""
+    model, path = native_zones
+    with pytest.raises(FMUError) as info:
+        run_cosim(path, data, Scripted(30, 99.0), week=1, model=model)
+    msg = str(info.value)
+    assert "stopped early: 30 of 672 steps" in msg and "fmi2DoStep at t=" in msg and "returned discard" in msg
+    assert "invalid input value(s)" in msg and "=99" in msg
+    full = run_cosim(path, data, ReplayController(), week=1, model=model)  # the same FMU runs a whole week
+    assert full.covered and len(full.table) == 673
+
+
+def test_checked_simulate_raises_instead_of_truncating(native_zones, tmp_path):
+    """fmpy.simulate_fmu returns 2 rows when the FMU refuses a step; simulate_fmu_checked raises."""
+    from fmpy import simulate_fmu
+
+    from harness.cosim import simulate_fmu_checked
+
+    model, path = native_zones
+    n = 20
+    sig = np.zeros(n, dtype=[("time", float), ("T_out", float)])
+    sig["time"] = np.arange(n) * 900.0
+    sig["T_out"] = np.where(np.arange(n) < 5, 10.0, 95.0)  # out of range from step 5
+    res = simulate_fmu(str(path), stop_time=(n - 1) * 900.0, output_interval=900.0, input=sig)
+    assert res["time"][-1] < (n - 1) * 900.0  # FMPy's silent truncation, for the record
+    with pytest.raises(FMUError, match=r"stopped early at t=\d+ s of 17100 s.*T_out=95"):
+        simulate_fmu_checked(path, stop_time=(n - 1) * 900.0, output_interval=900.0, input=sig)
+    ok = simulate_fmu_checked(path, stop_time=(n - 1) * 900.0, output_interval=900.0)
+    assert len(ok) == n
+
+
+def test_data_without_solar_keeps_facade_inputs_at_their_start(zones, data):
+    """A model FMU with facade irradiance inputs on data without solar columns: warning, inputs at 0 W/m2."""
+    from hvacfmu.data.dataset import Dataset
+
+    model, _, path = zones
+    frame = data.frame.drop(columns=[c for c in data.frame.columns if c.startswith("I_") or c == "ghi"])
+    dark = Dataset.from_frame(frame, data.building)
+    assert not any(c.startswith("I_") for c in dark.frame.columns)
+    with pytest.warns(HvacfmuWarning, match=r"no column for the FMU input\(s\) \['I_N', 'I_E', 'I_S', 'I_W'\]"):
+        r = run_cosim(path, dark, ReplayController(), week=1, model=model)
+    assert r.covered and r.summary["defaulted_inputs"] == ["I_N", "I_E", "I_S", "I_W"]

@@ -8,6 +8,7 @@ PhysicsModel is exercised when its module imports.
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest

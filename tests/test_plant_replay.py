@@ -187,3 +187,56 @@ def test_replay_on_other_layouts(tmp_path, layout, climate, start):
     rms, bias = _errors(r, zones)
     assert len(rms) == len(zones) and np.all(rms < RMS_BOUND), dict(zip(zones, rms.round(3)))
     assert np.all(np.abs(bias) < 2 * BIAS_BOUND), dict(zip(zones, bias.round(3)))
+
+
+def _replay_plant(plant, frame, use_discharge, warmup_rows, irradiance):
+    """Step ``plant`` through a prepared 15-minute frame with the measured inputs; zone temperatures per row."""
+    zones, vavs = plant.zones, plant.vavs
+    f = frame.ffill().bfill()
+    T_meas = f[[f"T_{z}" for z in zones]].to_numpy()
+    Ts = f[[f"T_supply_{a}" for a in plant.ahus]].to_numpy()
+    Td = f[[f"Td_{v}" for v in vavs]].to_numpy()
+    m = f[[f"m_{v}" for v in vavs]].to_numpy()
+    T_out = f["T_out"].to_numpy()
+    x = plant.initial_state(T_meas[0])
+    out = np.full_like(T_meas, np.nan)
+    for k in range(len(f)):
+        x, _ = plant.advance(x, 900.0 * k, 900.0, m[k], T_out[k], Ts[k], irradiance[k],
+                             T_discharge=Td[k] if use_discharge else None)
+        if k + 1 < len(f):
+            out[k + 1] = plant.zone_temperatures(x)
+    return out[warmup_rows:], T_meas[warmup_rows:]
+
+
+def test_reheat_mode_replay_needs_discharge_temperatures():
+    """Real-BMS mode: replaying airflows, per-unit supply and the measured discharge air reproduces the zones.
+
+    Without the discharge temperatures (only airflow at the supply temperature, as a model that drops
+    the ``Td_`` columns sees it) the same replay runs several kelvin too cold in winter.
+    Bounds: 0.3 K RMS per zone with ``Td`` (15-minute means of ``m`` and ``Td`` instead of their
+    product, flat initial walls after a one-week warm-up); at least 1 K too cold without.
+    """
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.errors import HvacfmuWarning
+
+    paths = cached_dataset(weeks=2, seed=3, layout="row4", climate="cold", start="2026-01-05", hvac="reheat")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        data = prepare(paths.measurements, paths.building)
+    plant = Plant.from_truth(json.loads(paths.truth.read_text()))
+    assert plant.ahus == ("AHU1", "AHU2")
+    frame = data.frame
+    assert frame.index[0] == frame.index[0].normalize()  # t = 0 is the dataset start
+    ghi = frame["ghi"].ffill().bfill().to_numpy()
+    irradiance = [plant.facades_from_ghi(900.0 * k, 900.0, ghi[k]) for k in range(len(frame))]
+    warm = 7 * 96
+    sim, meas = _replay_plant(plant, frame, True, warm, irradiance)
+    err = sim - meas
+    rms = np.sqrt(np.nanmean(err ** 2, axis=0))
+    assert np.all(rms < 0.3), dict(zip(plant.zones, rms.round(3)))
+    cold, meas = _replay_plant(plant, frame, False, warm, irradiance)
+    bias = np.nanmean(cold - meas, axis=0)
+    assert np.all(bias < -1.0), dict(zip(plant.zones, bias.round(2)))

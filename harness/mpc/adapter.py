@@ -17,7 +17,6 @@ import pandas as pd
 from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
-
 from .controller import MPCController, input_limits, input_mapping
 from .predict import state_from_outputs
 from .problem import MPCSettings

@@ -237,7 +237,7 @@ class MPCController:
         shifted = self._shifted_plan()
         Ubar = _blocked(shifted, self.lengths) if shifted is not None else np.tile(self.u_min, (self.N, 1))
         Xbar = self.pred.simulate(x0, Ubar, V, Qg)
-        solve_time, best, converged, it = 0.0, None, False, 0
+        solve_time, best, converged, it, last_delta, last_step = 0.0, None, False, 0, np.inf, None
         for it in range(1, s.max_iter + 1):
             if self.reduced:
                 y0, beta, theta = self.pred.reduced_prediction(x0, V, Qg, Xbar=Xbar, Ubar=Ubar,
@@ -265,10 +265,18 @@ class MPCController:
             merit = self.merit(sol.U, X)
             if best is None or merit <= best[2] or delta < s.tol:
                 best = (sol, X, merit)
-            Ubar, Xbar = sol.U, X
             if delta < s.tol:
                 converged = True
                 break
+            step = sol.U - Ubar
+            # oscillating (the change reverses) or not contracting: the next reference halfway
+            if delta >= 0.9 * last_delta or (last_step is not None and float(np.sum(step * last_step)) < 0.0):
+                Ubar = Ubar + 0.5 * step
+                Xbar = self.pred.simulate(x0, Ubar, V, Qg)
+                step = 0.5 * step
+            else:
+                Ubar, Xbar = sol.U, X
+            last_delta, last_step = delta, step
         if best is None:
             return self._failed_plan(sol, it, solve_time)
         sol, X, merit = best

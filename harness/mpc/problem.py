@@ -18,8 +18,8 @@ Two formulations are assembled from the same rows:
     solved with clarabel's own API (problem data are updated in place between
     steps when only the right-hand side changes).
 ``"qp"``
-    the exact-penalty QP ``ρ ||eps||_1`` (``eps >= 0``), solved through
-    qpsolvers with the clarabel backend.
+    the exact-penalty QP ``ρ ||eps||_1`` (``eps >= 0``), with clarabel's own
+    API too (data updated in place; qpsolvers rebuilt the solver every step).
 
 Both have the same minimiser when the input limits are not violated: if the
 SOCP optimum has ``eps = 0``, the hard-limit problem's input-limit multipliers
@@ -78,7 +78,7 @@ class MPCSettings:
         Penalty on the input-limit slack ``eps`` [1/(kg/s)] (paper: 100).
     formulation : {"socp", "qp"}
         ``"socp"``: ``ρ ||eps||_2`` as a second-order cone (clarabel API);
-        ``"qp"``: exact penalty ``ρ ||eps||_1`` through qpsolvers + clarabel.
+        ``"qp"``: exact penalty ``ρ ||eps||_1`` (clarabel API).
     comfort_penalty : float or None
         ℓ1 penalty on band violation [1/K per output and step]; ``None`` keeps
         the band hard (a step may then be infeasible and fall back).
@@ -92,9 +92,14 @@ class MPCSettings:
         linearisation around the previous iterate (its fixed points are KKT
         points of the bilinear problem).
     max_iter : int
-        Sequential convex iterations per step (bilinear models).
+        Sequential convex iterations per step (bilinear models). When an
+        iteration reverses the previous change of the plan (an oscillation
+        between active sets) or does not contract it, the next reference is
+        halfway between the last two plans (same fixed points, damped cycle). A step that meets no ``tol`` within ``max_iter`` applies the
+        iterate with the lowest merit and is counted (``not_converged``).
     tol : float [kg/s]
-        Stop iterating when the largest change of a planned airflow is below it.
+        Converged when the largest change of a planned airflow between two
+        iterations is below it.
     solver_tol : float
         clarabel feasibility and gap tolerances.
     u_floor : float or None [kg/s]
@@ -124,7 +129,7 @@ class MPCSettings:
     comfort_penalty: float | None = 1.0e4
     blocks: tuple | str | None = None
     linearisation: str = "frozen"
-    max_iter: int = 3
+    max_iter: int = 10
     tol: float = 1.0e-4
     solver_tol: float = 1.0e-8
     u_floor: float | None = 0.0
@@ -383,9 +388,7 @@ class _MPCProblem:
     def solve(self, y0) -> QPSolution:
         """Solve for the free response ``y0`` (N*ny,) [°C]; never raises on solver failure."""
         b = self.rhs(y0)
-        if self.socp:
-            return self._solve_clarabel(b)
-        return self._solve_qpsolvers(b)
+        return self._solve_clarabel(b)
 
     def _solve_clarabel(self, b) -> QPSolution:
         import clarabel
@@ -411,25 +414,6 @@ class _MPCProblem:
         dt = time.perf_counter() - t0
         found = status in ("Solved", "AlmostSolved") and bool(np.all(np.isfinite(z)))
         return self._solution(found, status, z, dt)
-
-    def _solve_qpsolvers(self, b) -> QPSolution:
-        import qpsolvers
-
-        t0 = time.perf_counter()
-        st = self.settings.solver_tol
-        try:
-            ne = self.n_eq
-            prob = qpsolvers.Problem(self.P, self.q, self.A[ne:], b[ne:], self.A[:ne], b[:ne])
-            sol = qpsolvers.solve_problem(prob, solver="clarabel", verbose=False, tol_feas=st,
-                                          tol_gap_abs=st, tol_gap_rel=st, direct_solve_method="qdldl")
-            found = bool(sol.found) and sol.x is not None and bool(np.all(np.isfinite(sol.x)))
-            z = np.asarray(sol.x, dtype=float) if sol.x is not None else np.full(self.nz, np.nan)
-            status = "Solved" if found else str(getattr(sol.extras, "get", lambda *_: "failed")("status", "failed"))
-        except BaseException as exc:  # noqa: BLE001 - a failed step must not stop the week
-            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
-                raise
-            found, status, z = False, f"exception: {exc}", np.full(self.nz, np.nan)
-        return self._solution(found, status, z, time.perf_counter() - t0)
 
     def _solution(self, found, status, z, dt) -> QPSolution:
         nU, nu = self.nb * self.nu, self.nu

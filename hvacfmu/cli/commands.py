@@ -47,6 +47,7 @@ def _load_dataset(args):
         seed=args.seed,
         interpolate_limit=args.interpolate_gaps,
         timezone=args.timezone,
+        progress=not args.quiet,
     )
 
 
@@ -55,7 +56,7 @@ def _cmd_check(args):
     import hvacfmu as hf
 
     report = hf.check(args.data, args.building, step=args.step, seed=args.seed,
-                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone)
+                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone, progress=not args.quiet)
     print(report)
     return 0 if report.ok else 1
 
@@ -83,7 +84,7 @@ def _cmd_generate(args):
 
 
 def _cmd_generate_fleet(args):
-    from .emulator import generate_fleet
+    from ..emulator import generate_fleet
 
     path = generate_fleet(args.n, args.outdir, seed=args.seed, weeks=args.weeks, progress=True)
     print(f"fleet manifest: {path}")
@@ -94,8 +95,15 @@ def _cmd_generate_fleet(args):
 def _cmd_fit(args):
     import hvacfmu as hf
 
+    options = {}
+    if args.heat is not None:
+        if args.model not in ("lumped", "zones"):
+            print(f"hvacfmu: error: --heat applies to Model A (lumped, zones), not {args.model}; the physics model "
+                  "always uses each box's Td_<vav> where measured", file=sys.stderr)
+            return 2
+        options["heat"] = args.heat
     dataset = _load_dataset(args)
-    model = hf.fit(dataset, args.model, progress=not args.quiet)
+    model = hf.fit(dataset, args.model, progress=not args.quiet, **options)
     path = model.save(args.output)
     print(f"saved {args.model} model to {path}")
     summary = getattr(model, "summary", None)
@@ -209,8 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
     p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
                    help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
-    p.add_argument("--hvac", choices=("vav", "reheat"), default="vav",
-                   help="vav (default) or reheat: real-BMS-like VAV with reheat, two air handlers, Td_/rh_ columns")
+    p.add_argument("--hvac", choices=("vav", "reheat", "reheat-dual"), default="vav",
+                   help="vav (default), reheat: real-BMS-like VAV with reheat at constant minimum airflow, two air "
+                        "handlers, Td_/rh_ columns; reheat-dual: the same with dual-maximum boxes")
     p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
     p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
                    help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
@@ -234,6 +243,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
                    help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
+    p.add_argument("--heat", choices=("auto", "airflow", "delivered"),
+                   help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
+                   "are measured or an air handler is often off, else the paper's airflow form)")
     p.set_defaults(func=_cmd_fit)
 
     p = sub.add_parser("evaluate", help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "

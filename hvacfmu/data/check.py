@@ -9,9 +9,11 @@ import numpy as np
 import pandas as pd
 
 from ..errors import BuildingError, DataError
+from ..progress import Progress
 from .clock import ClockCheck, clock_check
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
+from .plausibility import SPIKE_FACTOR, SPIKE_SHARE_MAX, STUCK_DAYS
 from .resample import MIN_COVERAGE
 
 #: Weeks with fewer steps than this holding every zone temperature are flagged.
@@ -96,6 +98,23 @@ class CheckReport:
     def __str__(self) -> str:
         return self.format()
 
+    def _plausibility_lines(self) -> list:
+        """What the physical checks covered and what they masked, with counts."""
+        lr, b = self.load_report, self.dataset.building
+        n_m = sum(1 for c in lr.columns if c.startswith("m_"))
+        n_t = sum(1 for c in lr.columns if c.startswith(("T_", "Td_")))
+        lines = [
+            f"Plausibility: {n_m} airflow column(s) against their box's m_min..m_max (spikes above "
+            f"{SPIKE_FACTOR:g} x m_max masked up to {100 * SPIKE_SHARE_MAX:g} %), {n_t} temperature column(s) "
+            f"against their unit and -50..80 °C, T_out against the climate at latitude {b.latitude:g}°, "
+            f"stuck temperature sensors ({STUCK_DAYS:g} days)"
+        ]
+        if not lr.masked:
+            lines.append("  nothing masked")
+        for (col, why), count in lr.masked.items():
+            lines.append(f"  {count} sample(s) of {col} masked ({why})")
+        return lines
+
     def format(self) -> str:
         """The human-readable report printed by ``hvacfmu check``."""
         lines = [f"Measurements: {self.path}"]
@@ -109,7 +128,10 @@ class CheckReport:
             if lr.native_step:
                 expected = span / lr.native_step + 1
                 native += f", {100 * min(lr.rows / expected, 1.0):.2f} % of the rows expected at that spacing"
-            lines.append(f"Native resolution: {native}; times {'with UTC offsets' if lr.has_offsets else 'naive local'}")
+            clock = "with UTC offsets" if lr.has_offsets or self.dataset is None else (
+                f"naive, read in {self.dataset.building.clock_timezone}"
+            )
+            lines.append(f"Native resolution: {native}; times {clock}")
             coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
             if coarse:
                 lines.append("  coarser columns: " + ", ".join(f"{c} {s:g} s" for c, s in coarse.items()))
@@ -121,6 +143,7 @@ class CheckReport:
                 lines.append(f"Solar: facade irradiance I_N, I_E, I_S, I_W {how}")
             else:
                 lines.append("Solar: none (no ghi and no facade columns)")
+            lines += self._plausibility_lines()
             lines.append("Coverage on the model step (steps with a value, gaps, longest gap):")
             groups: dict = {}
             for g in self.gaps:  # columns with identical coverage share one line
@@ -170,10 +193,11 @@ def check(
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
     timezone: str | None = None,
+    progress: bool = False,
 ) -> CheckReport:
     """Load and validate a dataset; never raises for bad data or a bad building file.
 
-    Parameters are those of :func:`hvacfmu.data.prepare`.
+    Parameters are those of :func:`hvacfmu.data.prepare` (``timezone``, ``progress`` included).
 
     Returns
     -------
@@ -196,19 +220,56 @@ def check(
     except BuildingError as exc:
         return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
     about = f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"
-    frame, report, problems = _load(path, building)
+    with Progress(total=1, desc=f"reading {path.name}", unit="file", enabled=progress) as bar:
+        frame, report, problems = _load(path, building)
+        bar.update()
     if problems:
         return CheckReport(
             ok=False, problems=problems, warnings=list(report.warnings), path=str(path), building=about, load_report=report
         )
     try:
         dataset = _prepare(
-            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report)
+            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report),
+            progress=progress,
         )
     except (DataError, ValueError) as exc:
         return CheckReport(
             ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), building=about, load_report=report
         )
+    gaps, problems, sparse = _coverage(dataset, building, path.name, min_coverage)
+    step_s = dataset.step
+    if not dataset.weeks:
+        span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
+        problems.append(
+            f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
+            "fitting needs at least one"
+        )
+    exc = dataset.frame["excitation"].to_numpy() == 1
+    periods = [
+        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
+    ]
+    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
+    if not periods:
+        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    if clock.warning:
+        notes.insert(0, f"{path.name}: clock: {clock.warning}")
+    return CheckReport(
+        ok=not problems,
+        problems=problems,
+        warnings=notes,
+        path=str(path),
+        building=about,
+        dataset=dataset,
+        load_report=report,
+        gaps=gaps,
+        excitation_periods=periods,
+        clock=clock,
+    )
+
+
+def _coverage(dataset, building, label, min_coverage):
+    """Gaps per column, the coverage problems, and the sparse-column messages (also in the dataset's warnings)."""
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
     gaps = []
@@ -228,50 +289,37 @@ def check(
             )
         )
         missing_all[col] = bool(len(missing) and missing.all())
-        if col in required and len(missing) and missing.all():
+        if col in required and missing_all[col]:
             problems.append(
-                f"{path.name}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
-                f"(at least {100 * min_coverage:g} % of the step)"
+                f"{label}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
+                f"(at least {100 * min_coverage:g} % of the step){_masked_note(dataset, col)}"
             )
     sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
     for msg, col in sparse.items():
         if not (col in required and missing_all.get(col)):
-            problems.append(f"{path.name}: {msg}")
-    if not dataset.weeks:
-        span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
-        problems.append(
-            f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
-            "fitting needs at least one"
-        )
-    exc = dataset.frame["excitation"].to_numpy() == 1
-    periods = [
-        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
-    ]
-    notes = [w for w in dataset.warnings if w not in sparse]
-    zone_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in dataset.frame.columns]
+            problems.append(f"{label}: {msg}{_masked_note(dataset, col)}")
+    return gaps, problems, sparse
+
+
+def _week_notes(dataset) -> list:
+    """Weeks with fewer than :data:`WEEK_COVERAGE_WARNING` of their steps holding every zone temperature."""
+    notes = []
+    b = dataset.building
+    zone_cols = [f"T_{z}" for z in b.zone_names if f"T_{z}" in dataset.frame.columns]
     all_zones = np.isfinite(dataset.frame[zone_cols].to_numpy()).all(axis=1)
     for w in dataset.weeks:
-        a, b = dataset.frame.index.searchsorted(w.start), dataset.frame.index.searchsorted(w.end)
-        share = float(all_zones[a:b].mean()) if b > a else 0.0
+        a, e = dataset.frame.index.searchsorted(w.start), dataset.frame.index.searchsorted(w.end)
+        share = float(all_zones[a:e].mean()) if e > a else 0.0
         if share < WEEK_COVERAGE_WARNING:
             notes.append(
                 f"week #{w.number} ({w.start.date()}, {w.season}, {'train' if w.train else 'test'}): only "
                 f"{100 * share:.0f} % of its steps have every zone temperature"
             )
-    if not periods:
-        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
-    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
-    if clock.warning:
-        notes.insert(0, f"{path.name}: clock: {clock.warning}")
-    return CheckReport(
-        ok=not problems,
-        problems=problems,
-        warnings=notes,
-        path=str(path),
-        building=about,
-        dataset=dataset,
-        load_report=report,
-        gaps=gaps,
-        excitation_periods=periods,
-        clock=clock,
-    )
+    return notes
+
+
+def _masked_note(dataset, col) -> str:
+    """'' or a note that plausibility checks masked samples of ``col`` (why a column may look empty)."""
+    masked = dataset.load_report.masked if dataset.load_report is not None else {}
+    parts = [f"{n} sample(s) masked as {why}" for (c, why), n in masked.items() if c == col]
+    return f" ({', '.join(parts)}: see the warnings)" if parts else ""

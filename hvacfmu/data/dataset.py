@@ -14,7 +14,9 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building
 from ..errors import DataError, HvacfmuWarning, problems_message
+from ..progress import Progress
 from .loading import LoadReport, as_building, load_measurements
+from .plausibility import check_discharge
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
 from .solar import facade_irradiance
 
@@ -340,6 +342,7 @@ def prepare(
     interpolate_limit: float | None = None,
     min_coverage: float = MIN_COVERAGE,
     timezone: str | None = None,
+    progress: bool = False,
 ) -> Dataset:
     """Load, validate, resample and split a measurements file.
 
@@ -362,6 +365,9 @@ def prepare(
     timezone : str, optional
         Zone of the data's naive timestamps (e.g. ``"UTC"``), overriding the
         building's ``data_timezone`` (default: the building's ``timezone``).
+    progress : bool
+        Show the stages (load, gaps, resampling, solar and weeks): a bar on a
+        terminal, log lines otherwise (:mod:`hvacfmu.progress`).
 
     Returns
     -------
@@ -378,7 +384,9 @@ def prepare(
         For each entry of :attr:`Dataset.warnings`.
     """
     building = as_building(building, timezone)
-    dataset = _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage)
+    dataset = _prepare(
+        path, building, step, seed, train_fraction, interpolate_limit, min_coverage, progress=progress
+    )
     for w in dataset.warnings:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     return dataset
@@ -434,43 +442,52 @@ def option_problems(step, train_fraction=0.9, interpolate_limit=None, min_covera
     return problems
 
 
-def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None):
+def _prepare(
+    path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None, progress=False
+):
     problems = option_problems(step, train_fraction, interpolate_limit, min_coverage)
     if problems:
         raise DataError(problems_message("Cannot prepare the data with these options", problems))
     building = as_building(building)
-    if loaded is None:
-        raw, report = load_measurements(path, building)
-    else:
-        raw, report = loaded
-    notes = list(report.warnings)
-    column_steps = dict(report.column_steps)
-    if interpolate_limit is not None:
-        before = int(np.isfinite(raw.to_numpy()).sum())
-        raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
-        filled = int(np.isfinite(raw.to_numpy()).sum()) - before
-        notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
-    frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
-    coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
-    if coarse:
-        notes.append(
-            f"column(s) {', '.join(coarse)} sampled more coarsely than the {step:g} s step: "
-            "interpolated linearly to the step midpoints"
+    with Progress(total=4, desc=f"data {Path(path).name}", unit="stage", enabled=progress) as bar:
+        if loaded is None:
+            raw, report = load_measurements(path, building)
+        else:
+            raw, report = loaded
+        bar.update(note="gaps")
+        notes = list(report.warnings)
+        column_steps = dict(report.column_steps)
+        if interpolate_limit is not None:
+            before = int(np.isfinite(raw.to_numpy()).sum())
+            raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
+            filled = int(np.isfinite(raw.to_numpy()).sum()) - before
+            notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
+        bar.update(note="resampling")
+        frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
+        coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
+        if coarse:
+            notes.append(
+                f"column(s) {', '.join(coarse)} sampled more coarsely than the {step:g} s step: "
+                "interpolated linearly to the step midpoints"
+            )
+        sparse = sparse_columns(frame)
+        notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
+        notes += check_discharge(frame, building)
+        bar.update(note="solar and weeks")
+        dataset = Dataset.from_frame(
+            frame,
+            building,
+            step=step,
+            seed=seed,
+            train_fraction=train_fraction,
+            source=str(Path(path)),
+            sha256=file_sha256(path),
+            warnings_=notes,
+            coverage=coverage,
+            load_report=report,
         )
-    sparse = sparse_columns(frame)
-    notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
-    return Dataset.from_frame(
-        frame,
-        building,
-        step=step,
-        seed=seed,
-        train_fraction=train_fraction,
-        source=str(Path(path)),
-        sha256=file_sha256(path),
-        warnings_=notes,
-        coverage=coverage,
-        load_report=report,
-    )
+        bar.update()
+    return dataset
 
 
 __all__ = [

@@ -57,6 +57,9 @@ class LoadReport:
         File columns that map to no canonical quantity (ignored).
     has_offsets : bool
         True if the times carry UTC offsets (no daylight-saving ambiguity).
+    masked : dict
+        ``(canonical column, reason) -> samples`` set missing by a plausibility
+        check (reasons ``"airflow spike"``, ``"stuck sensor"``).
     warnings : list of str
         Usable but noteworthy findings (unknown columns, clipped sensor noise ...).
     """
@@ -71,6 +74,7 @@ class LoadReport:
     units: dict = dataclasses.field(default_factory=dict)
     unknown_columns: tuple = ()
     has_offsets: bool = False
+    masked: dict = dataclasses.field(default_factory=dict)
     warnings: list = dataclasses.field(default_factory=list)
 
 
@@ -350,6 +354,29 @@ def _median_step(t_ns: np.ndarray, max_samples: int = 20_000) -> float | None:
     return float(np.median(d)) / 1e9
 
 
+#: A column whose samples are spaced more coarsely than the file is "coarse" (interpolated to the model
+#: step) only if at least this share of its sample spacings equal its median spacing; otherwise it is
+#: a sparse column at the file's resolution (its missing steps stay missing).
+REGULAR_SHARE = 0.8
+
+
+def _column_step(t_ns: np.ndarray, report: LoadReport, desc: str, n_rows: int) -> float | None:
+    """Native spacing [s] of one column's valid samples (see :data:`REGULAR_SHARE`)."""
+    step = _median_step(t_ns) or report.native_step
+    native = report.native_step
+    if not step or not native or step <= 1.5 * native:
+        return step
+    d = np.diff(t_ns) / 1e9
+    regular = float(np.mean(np.abs(d - step) <= 0.01 * step)) if len(d) else 0.0
+    if regular >= REGULAR_SHARE:
+        return step
+    report.warnings.append(
+        f"{desc}: values in only {100 * len(t_ns) / max(n_rows, 1):.1f} % of the rows, at irregular times "
+        f"(median spacing {step:g} s, the file's {native:g} s): kept at the file's resolution, not interpolated"
+    )
+    return native
+
+
 def load_measurements(path, building, timezone: str | None = None) -> tuple[pd.DataFrame, LoadReport]:
     """Read, validate and convert a measurements file.
 
@@ -407,12 +434,27 @@ def _load(path: Path, building: Building):
     report.rows = n = len(raw)
     if n == 0:
         problems.append(f"{label}: no data rows")
-    tz = building.timezone
+    raw.columns = [str(c).strip() for c in raw.columns]
+    present = _map_columns(raw, building, label, time_name, problems, report)
+    utc, ok, local = _load_times(raw, building, label, time_name, problems, report)
+    ctx = _Column(label, building, _Where(local), problems, report, utc, ok, local, n)
+    out = {}
+    for canonical, name in present.items():
+        si = _column_values(ctx, canonical, name, raw[name])
+        if si is not None:
+            out[canonical] = si
+    if problems or utc is None:
+        return None, report, problems
+    order = [c for c in building.expected_columns() if c in out]
+    index = pd.DatetimeIndex(utc.view("M8[ns]")).tz_localize("UTC").tz_convert(building.timezone)
+    index.name = "time"
+    frame = _frame_from_columns(out, order, index)
+    return frame, report, problems
 
-    # --- columns ------------------------------------------------------
+
+def _map_columns(raw, building, label, time_name, problems, report) -> dict:
+    """Canonical column -> file column of the columns present; missing required ones are problems."""
     expected = building.expected_columns()
-    file_cols = [str(c).strip() for c in raw.columns]
-    raw.columns = file_cols
     present = {}
     for canonical, required in expected.items():
         name = building.column_for(canonical)
@@ -430,7 +472,7 @@ def _load(path: Path, building: Building):
     ):
         del present["T_supply"]  # the file's T_supply is a unit's own column; the primary supply is derived
     used = set(present.values()) | {time_name}
-    unknown = tuple(c for c in file_cols if c not in used and not c.startswith("Unnamed: "))
+    unknown = tuple(c for c in raw.columns if c not in used and not c.startswith("Unnamed: "))
     report.unknown_columns = unknown
     report.columns = dict(present)
     n_missing = sum(1 for c, req in expected.items() if req and c not in present)
@@ -452,111 +494,130 @@ def _load(path: Path, building: Building):
             f"{label}: facade irradiance given for {', '.join(facades)} but not for {', '.join(missing)}, "
             "and no 'ghi' column to compute them from"
         )
+    return present
 
-    # --- time -----------------------------------------------------------
+
+def _load_times(raw, building, label, time_name, problems, report):
+    """(UTC ns, valid mask, local DatetimeIndex) of the time column, or (None, None, None) without one."""
     if time_name not in raw.columns:
         mapped = " (mapped from time)" if time_name != "time" else ""
         problems.append(f"{label}: missing time column {time_name!r}{mapped}")
-        utc = None
-        local = None
+        return None, None, None
+    utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
+    report.has_offsets = has_offsets
+    local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
+    local = local.tz_localize("UTC").tz_convert(building.timezone)
+    valid_pos = np.flatnonzero(ok)
+    tv = utc[valid_pos]
+    if len(tv) > 1:
+        d = np.diff(tv)
+        where = _Where(local)
+        dup = valid_pos[1:][d == 0]
+        if len(dup):
+            problems.append(f"{label}: column {time_name!r}: {len(dup)} duplicate timestamps at {where.rows(dup)}")
+        back = np.flatnonzero(d < 0)
+        if len(back):
+            parts = ", ".join(
+                f"row {valid_pos[i + 1] + 1} ({_fmt_time(local[valid_pos[i + 1]])}) after row {valid_pos[i] + 1} "
+                f"({_fmt_time(local[valid_pos[i]])})"
+                for i in back[:N_EXAMPLES]
+            )
+            more = f" and {len(back) - N_EXAMPLES} more" if len(back) > N_EXAMPLES else ""
+            problems.append(
+                f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
+                "rows must be sorted by time"
+            )
+    if len(tv):
+        report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
+        report.native_step = _median_step(tv)
+    return utc, ok, local
+
+
+@dataclasses.dataclass
+class _Column:
+    """What checking one column needs to know about the file."""
+
+    label: str
+    building: Building
+    where: _Where
+    problems: list
+    report: LoadReport
+    utc: np.ndarray | None
+    ok: np.ndarray | None
+    local: pd.DatetimeIndex | None
+    n: int
+
+    def rows(self, positions, values):
+        return self.where.rows(positions, values=values)
+
+
+def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
+    """One column converted to SI and checked (problems, warnings and masks recorded in ``ctx``), or None."""
+    label, problems, report = ctx.label, ctx.problems, ctx.report
+    desc = f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
+    kind = kind_of(canonical)
+    try:
+        unit = normalize_unit(ctx.building.unit_for(canonical), kind)
+    except ValueError as exc:
+        problems.append(f"{label}: {desc}: {exc} (declared in the building's [units])")
+        return None
+    report.units[canonical] = unit
+    values, bad = _numeric(column)
+    if len(bad):
+        problems.append(f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}")
+    infinite = np.flatnonzero(np.isinf(values))
+    if len(infinite):
+        problems.append(
+            f"{label}: {desc}: {len(infinite)} infinite value(s), e.g. {ctx.rows(infinite, values)}; "
+            "a missing value must be an empty cell"
+        )
+        values = np.where(np.isinf(values), np.nan, values)
+    finite = values[np.isfinite(values)]
+    if not len(finite):
+        if ctx.building.expected_columns().get(canonical, False) and ctx.n:
+            problems.append(f"{label}: {desc}: no values at all (every row is empty)")
+        elif ctx.n:
+            report.warnings.append(f"{label}: optional {desc} has no values at all: ignored")
+            del report.units[canonical]
+            report.columns.pop(canonical, None)
+        return None
+    si = _checked_si(ctx, canonical, desc, kind, unit, values, finite)
+    kept = int(np.isfinite(si).sum())
+    si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings)
+    if kept > np.isfinite(si).sum():
+        report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
+    if ctx.utc is not None:
+        sel = np.isfinite(si) & ctx.ok
+        report.column_steps[canonical] = _column_step(ctx.utc[sel], report, f"{label}: {desc}", ctx.n)
+    return si
+
+
+def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
+    """Values converted to SI and checked by the rules of their physical kind."""
+    label, problems, report, where = ctx.label, ctx.problems, ctx.report, ctx.where
+    si = to_si(values, unit)
+    if kind == "temperature":
+        n_before = len(problems)
+        si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
+        if canonical == "T_out" and len(problems) == n_before:
+            check_outdoor(si, unit, ctx.local, ctx.building.latitude, f"{label}: {desc}", problems)
+    elif kind == "airflow":
+        box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
+        kept = int(np.isfinite(si).sum())
+        si = _check_airflow(canonical, desc, label, unit, finite, si, box, where, problems, report)
+        if kept > np.isfinite(si).sum():
+            report.masked[(canonical, "airflow spike")] = kept - int(np.isfinite(si).sum())
+    elif kind == "irradiance":
+        si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+    elif kind == "fraction":
+        si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
     else:
-        utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
-        report.has_offsets = has_offsets
-        local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
-        local = local.tz_localize("UTC").tz_convert(tz)
-        valid_pos = np.flatnonzero(ok)
-        tv = utc[valid_pos]
-        if len(tv) > 1:
-            d = np.diff(tv)
-            where = _Where(local)
-            dup = valid_pos[1:][d == 0]
-            if len(dup):
-                problems.append(f"{label}: column {time_name!r}: {len(dup)} duplicate timestamps at {where.rows(dup)}")
-            back = np.flatnonzero(d < 0)
-            if len(back):
-                parts = ", ".join(
-                    f"row {valid_pos[i + 1] + 1} ({_fmt_time(local[valid_pos[i + 1]])}) after row {valid_pos[i] + 1} "
-                    f"({_fmt_time(local[valid_pos[i]])})"
-                    for i in back[:N_EXAMPLES]
-                )
-                more = f" and {len(back) - N_EXAMPLES} more" if len(back) > N_EXAMPLES else ""
-                problems.append(
-                    f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
-                    "rows must be sorted by time"
-                )
-        if len(tv):
-            report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
-            report.native_step = _median_step(tv)
-    where = _Where(local)
-
-    # --- values -----------------------------------------------------------
-    out = {}
-    boxes = {f"m_{v.name}": v for v in building.vavs}
-
-    def rows_of(positions, values):
-        return where.rows(positions, values=values)
-
-    for canonical, name in present.items():
-        desc = f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
-        kind = kind_of(canonical)
-        try:
-            unit = normalize_unit(building.unit_for(canonical), kind)
-        except ValueError as exc:
-            problems.append(f"{label}: {desc}: {exc} (declared in the building's [units])")
-            continue
-        report.units[canonical] = unit
-        values, bad = _numeric(raw[name])
-        if len(bad):
+        flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
+        if len(flag_bad):
             problems.append(
-                f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {where.rows(bad, values=raw[name].to_numpy())}"
+                f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
             )
-        infinite = np.flatnonzero(np.isinf(values))
-        if len(infinite):
-            problems.append(
-                f"{label}: {desc}: {len(infinite)} infinite value(s), e.g. {where.rows(infinite, values=values)}; "
-                "a missing value must be an empty cell"
-            )
-            values = np.where(np.isinf(values), np.nan, values)
-        finite = values[np.isfinite(values)]
-        if not len(finite):
-            if expected.get(canonical, False) and n:
-                problems.append(f"{label}: {desc}: no values at all (every row is empty)")
-            elif n:
-                report.warnings.append(f"{label}: optional {desc} has no values at all: ignored")
-                del report.units[canonical]
-                report.columns.pop(canonical, None)
-            continue
-        si = to_si(values, unit)
-        if kind == "temperature":
-            n_before = len(problems)
-            si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
-            if canonical == "T_out" and len(problems) == n_before:
-                check_outdoor(si, unit, local, building.latitude, f"{label}: {desc}", problems)
-        elif kind == "airflow":
-            si = _check_airflow(canonical, desc, label, unit, finite, si, boxes.get(canonical), where, problems, report)
-        elif kind == "irradiance":
-            si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
-        elif kind == "fraction":
-            si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
-        else:
-            flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
-            if len(flag_bad):
-                problems.append(
-                    f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
-                )
-        si = check_stuck(canonical, si, utc if utc is not None else None, f"{label}: {desc}", rows_of, report.warnings)
-        out[canonical] = si
-        if utc is not None:
-            sel = np.isfinite(si) & ok
-            report.column_steps[canonical] = _median_step(utc[sel]) or report.native_step
-
-    if problems or utc is None:
-        return None, report, problems
-    order = [c for c in expected if c in out]
-    index = pd.DatetimeIndex(utc.view("M8[ns]")).tz_localize("UTC").tz_convert(tz)
-    index.name = "time"
-    frame = _frame_from_columns(out, order, index)
-    return frame, report, problems
+    return si
 
 
 def _frame_from_columns(columns: dict, order: list, index) -> pd.DataFrame:

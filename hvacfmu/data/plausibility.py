@@ -218,3 +218,50 @@ def check_stuck(canonical, si, times_ns, desc, where, warnings):
         f"{'; '.join(parts[:3])}{more}; {total} sample(s) masked as missing (fix or drop the sensor)"
     )
     return si
+
+
+#: Discharge air colder than its unit's supply air by more than this [K] is impossible (reheat only heats).
+DISCHARGE_MARGIN = 3.0
+#: Share of a box's running steps that may break a discharge rule before it is flagged.
+DISCHARGE_SHARE = 0.1
+
+
+def check_discharge(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings where a box's discharge air ``Td_<vav>`` [°C] contradicts its air handler.
+
+    While the box runs (airflow above half its ``m_min``), its discharge air
+    cannot be colder than the unit's supply air by more than
+    :data:`DISCHARGE_MARGIN` (a reheat coil only heats), nor hotter than the
+    unit's ``T_supply_max`` by more than 5 K; each rule broken in more than
+    :data:`DISCHARGE_SHARE` of those steps is a warning naming the box, the
+    column, the share and the likely mapping mistake.
+    """
+    notes = []
+    for v in building.vavs:
+        td_col, m_col, s_col = f"Td_{v.name}", f"m_{v.name}", building.supply_column(v.name)
+        if td_col not in frame.columns or m_col not in frame.columns or s_col not in frame.columns:
+            continue
+        td, m, ts = (frame[c].to_numpy(dtype=float) for c in (td_col, m_col, s_col))
+        running = np.isfinite(td) & np.isfinite(ts) & (m > max(0.005, 0.5 * v.m_min))
+        n = int(running.sum())
+        if n == 0:
+            continue
+        name = building.column_for(td_col)
+        desc = f"column {name!r}" + (f" ({td_col})" if name != td_col else "")
+        cold = float(np.mean(td[running] < ts[running] - DISCHARGE_MARGIN))
+        if cold > DISCHARGE_SHARE:
+            notes.append(
+                f"{desc}: discharge air below its unit's supply air "
+                f"{s_col} - {DISCHARGE_MARGIN:g} K in {100 * cold:.0f} % of the {n} steps where box {v.name} runs; "
+                "a reheat coil only heats: is the column mapped to the right box and unit?"
+            )
+        ahu = building.ahu_of(v.name)
+        if ahu is not None and ahu.T_supply_max is not None:
+            hot = float(np.mean(td[running] > ahu.T_supply_max + 5.0))
+            if hot > DISCHARGE_SHARE:
+                notes.append(
+                    f"{desc}: discharge air above T_supply_max = "
+                    f"{ahu.T_supply_max:g} °C of {ahu.name} + 5 K in {100 * hot:.0f} % of the {n} steps where box "
+                    f"{v.name} runs: is T_supply_max (or the unit of the column) right?"
+                )
+    return notes

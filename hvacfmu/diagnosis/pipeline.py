@@ -72,6 +72,12 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         from ..models import load_model
 
         model = load_model(model)
+    if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
+        from ..errors import ModelError
+
+        raise ModelError("diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
+                         "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
+                         "diagnose fit its own base model")
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)

@@ -5,7 +5,11 @@ Public API (see DEVELOPING.md):
 - :func:`generate` writes ``measurements.parquet`` (or ``.csv``), ``building.toml``
   and ``truth.json``; :func:`cached_dataset` caches it in ``$HVACFMU_CACHE``;
 - :func:`parse_effect` parses ``--effect NAME[:key=value,...]``;
-- :func:`sdh_building` is the default floor with nominal physics tables;
+- ``layout=`` / ``construction=`` / ``climate=`` / ``hvac=`` and the export options of
+  :func:`generate` vary the building and the file (:mod:`.layouts`, :mod:`.export`);
+  :func:`generate_fleet` writes many varied buildings and a ``fleet.json`` manifest;
+- :func:`sdh_building` is the default floor with nominal physics tables
+  (:func:`emulated_building` any layout);
 - :class:`Plant` is the same building, steppable from outside.
 
 The emulator is deliberately richer than the models identified from its data

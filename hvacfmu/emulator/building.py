@@ -1,4 +1,8 @@
-"""The SDH-like 4th floor: floor plan, VAV boxes and construction tables.
+"""Emulated floors as building files: floor plan, VAV boxes (and air handlers) and construction tables.
+
+The geometry of every layout (``sdh``, ``row4``, ``core9``), the construction
+templates and the climates are tables in :mod:`hvacfmu.emulator.layouts`; this
+module turns them into building-file mappings. The default layout is described here.
 
 The floor is a 64 m x 40 m rectangle (2,560 m2) split into six zones named as
 in the paper (Zhou, Hu, Tomlin, Fig. 1): four perimeter zones with windows,
@@ -26,7 +30,7 @@ import copy
 from ..building import Building, building_from_dict
 from ..errors import problems_message
 from .effects import EmulatorError
-from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, HVAC_MODES, SDH, ahu_groups, check_options, get_layout
+from .layouts import BMS_MODES, CLIMATES, CONSTRUCTION_TEMPLATES, HVAC_MODES, SDH, ahu_groups, check_options, get_layout
 
 #: Location of Sutardja Dai Hall, UC Berkeley (the ``mild`` climate).
 LATITUDE = 37.8750
@@ -309,7 +313,7 @@ def building_dict(layout: str = "sdh", construction: str = "medium", climate: st
         "zones": zones,
         "vavs": vavs,
     }
-    if hvac == "reheat":
+    if hvac in BMS_MODES:
         mode = HVAC_MODES[hvac]
         units = sorted(set(ahu_groups(layout).values()))
         d["ahus"] = [{"name": a, "T_supply_max": mode["T_discharge_max"]} for a in units]
@@ -321,7 +325,7 @@ def _vavs(lay, clim, hvac) -> list[dict]:
     """Box entries: the layout's sizing scaled for the climate and the HVAC mode."""
     scale, min_scale = float(clim["airflow_scale"]), float(clim["min_airflow_scale"])
     cap = 1.0
-    if hvac == "reheat":
+    if hvac in BMS_MODES:
         min_scale *= HVAC_MODES[hvac]["min_airflow_scale"]
         cap = HVAC_MODES[hvac]["max_min_fraction"]
         groups = ahu_groups(lay.name)
@@ -333,7 +337,7 @@ def _vavs(lay, clim, hvac) -> list[dict]:
             m_min = min(m_min, round(cap * m_max, 3))
         for i in range(1, n + 1):
             v = {"name": f"VAV_{name}_{i}", "zone": name, "m_min": m_min, "m_max": m_max}
-            if hvac == "reheat":
+            if hvac in BMS_MODES:
                 v["ahu"] = groups[name]
             vavs.append(v)
     return vavs
@@ -358,8 +362,8 @@ def emulated_building(layout: str = "sdh", construction: str = "medium", climate
         Location (latitude, longitude, time zone) and box sizing of the climate.
     nominal : bool
         Nominal handbook tables (as written to ``building.toml``) or the true ones.
-    hvac : {"vav", "reheat"}
-        ``reheat`` adds the ``[[ahus]]`` (each box's ``ahu``) of the real-BMS-like mode
+    hvac : {"vav", "reheat", "reheat-dual"}
+        ``reheat`` and ``reheat-dual`` add the ``[[ahus]]`` (each box's ``ahu``) of the real-BMS-like mode
         and raises the boxes' minimum airflow (see :data:`.layouts.HVAC_MODES`).
 
     Returns

@@ -134,7 +134,9 @@ class VavControllers:
         With ``T_discharge_max`` [°C] (``reheat`` mode) the heating loop output
         sets the discharge temperature between the box's supply temperature and
         that limit (``step(..., T_supply_box)``); otherwise it scales the fixed
-        coil power ``m_min c_p reheat_rise``.
+        coil power ``m_min c_p reheat_rise``. With ``heating_sequence = "dual"``
+        the first half of the heating output raises the discharge air to its
+        limit, the second half the airflow up to ``heating_max_fraction * m_max``.
     """
 
     def __init__(self, m_min, m_max, box_zone, offsets, params=None):
@@ -151,6 +153,8 @@ class VavControllers:
         }
         self.rh_max = self.m_min * 1005.0 * float(p["reheat_rise"])  # [W] per box at m_min
         self.T_discharge_max = p.get("T_discharge_max")
+        self.dual = p.get("heating_sequence", "single") == "dual"
+        self.m_heat = np.maximum(float(p.get("heating_max_fraction", 0.0)) * np.asarray(m_max, dtype=float), self.m_min)
         n = len(self.m_min)
         self.Ic = np.zeros(n)
         self.Ih = np.zeros(n)
@@ -172,7 +176,12 @@ class VavControllers:
         if self.T_discharge_max is None:
             return self.m_min + yc * self.m_span, yh * self.rh_max
         rise = np.maximum(float(self.T_discharge_max) - np.asarray(T_supply_box, dtype=float), 0.0)
-        return self.m_min + yc * self.m_span, yh * self.m_min * 1005.0 * rise
+        if not self.dual:
+            return self.m_min + yc * self.m_span, yh * self.m_min * 1005.0 * rise
+        # dual maximum: first half of the heating output raises the discharge air, second half the airflow
+        stage1, stage2 = mn(2.0 * yh, 1.0), mx(2.0 * yh - 1.0, 0.0)
+        m = mx(self.m_min + yc * self.m_span, self.m_min + stage2 * (self.m_heat - self.m_min))
+        return m, stage1 * m * 1005.0 * rise
 
     def reset(self):
         self.Ic[:] = 0.0

@@ -39,10 +39,10 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
     """The :func:`~hvacfmu.emulator.generate` keywords of every building of a fleet (drawn from ``seed``)."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(b"fleet")]))
     out = []
-    for i in range(int(n)):
+    for _ in range(int(n)):
         layout = str(rng.choice(list(LAYOUTS)))
         climate = str(rng.choice(list(CLIMATES)))
-        hvac = "reheat" if rng.random() < REHEAT_SHARE else "vav"
+        hvac = str(rng.choice(["reheat", "reheat-dual"])) if rng.random() < REHEAT_SHARE else "vav"
         n_eff = int(rng.choice([0, 1, 2], p=[0.3, 0.45, 0.25]))
         names = [str(e) for e in rng.choice(EFFECT_NAMES, size=n_eff, replace=False)]
         if weeks < 2:
@@ -56,7 +56,7 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
             "effects": names,
             "start": "2025-09-01" if weeks >= 40 else str(rng.choice(SEASON_STARTS)),
         }
-        if hvac == "reheat":
+        if hvac != "vav":
             p.update(units="us", clock=str(rng.choice(["naive-local", "naive-utc"])), export_step=900,
                      faults=["outages"])
         out.append(p)

@@ -25,6 +25,7 @@ from .export import (
     validate_export,
 )
 from .layouts import (
+    BMS_MODES,
     CLIMATES,
     CONSTRUCTION_TEMPLATES,
     HVAC_MODES,
@@ -101,10 +102,20 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
     clim = CLIMATES[climate]
     controllers = controller_defaults(int(seed), len(bld["vavs"]))
     controllers.update(json.loads(json.dumps(clim["controllers"])))
-    if hvac == "reheat":
+    if hvac in BMS_MODES:
+        mode = HVAC_MODES[hvac]
         controllers["ahus"] = {a["name"]: dict(REHEAT_MODE_AHUS[a["name"]]) for a in bld["ahus"]}
-        controllers["T_discharge_max"] = HVAC_MODES["reheat"]["T_discharge_max"]
+        controllers["T_discharge_max"] = mode["T_discharge_max"]
+        controllers["heating_sequence"] = mode["heating_sequence"]
+        if mode["heating_sequence"] == "dual":
+            controllers["heating_max_fraction"] = mode["heating_max_fraction"]
     resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
+    if any(e.get("kind") == "dst" for e in resolved) and not _has_dst(clim["timezone"], start, int(weeks)):
+        raise EmulatorError(
+            f"Invalid emulator effects: internal_gain_schedule:kind=dst needs daylight saving time, but climate "
+            f"{climate!r} ({clim['timezone']}) has none from {start} for {int(weeks)} weeks; use kind=holiday "
+            "or another climate"
+        )
     occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
     occupancy["peak_gain"] = dict(lay.peak_gain)
     occupancy["meeting_zone"] = lay.meeting_zone
@@ -134,6 +145,12 @@ def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_
         },
         "effects": resolved,
     }
+
+
+def _has_dst(timezone: str, start: str, weeks: int) -> bool:
+    """True if daylight saving time is in force at some hour of the span in ``timezone``."""
+    hours = pd.date_range(pd.Timestamp(start), periods=weeks * 7 * 24, freq="h", tz="UTC").tz_convert(timezone)
+    return any(bool(t.dst()) for t in hours[::24])
 
 
 def _structure(truth: dict, core) -> dict:
@@ -292,7 +309,7 @@ def _measured_frame(sim: dict, truth: dict) -> pd.DataFrame:
     ghi = sim["ghi"] * (1.0 + rng.normal(0.0, ng["relative_std"], n)) + rng.normal(0.0, ng["std"], n)
     cols["ghi"] = np.clip(_quantise(np.where(sim["ghi"] > 0, ghi, 0.0), ng["quantum"]), 0.0, None)
     cols["excitation"] = sim["excitation"].astype(np.int8)
-    if truth.get("hvac") == "reheat":
+    if truth.get("hvac") in BMS_MODES:
         cols.update(_discharge_columns(sim, truth))
     return pd.DataFrame(cols)
 
@@ -305,13 +322,15 @@ def _discharge_columns(sim: dict, truth: dict) -> dict:
     cp = truth["baseline"]["controllers"]
     rng = stream(truth["seed"], "noise_discharge")
     nd = NOISE["Td"]
-    Td = discharge_temperature(sim)
-    Tdn = _quantise(Td + rng.normal(0.0, nd["std"], Td.shape), nd["quantum"])
+    Tdn = discharge_temperature(sim)
+    Tdn += rng.normal(0.0, nd["std"], Tdn.shape)
+    Tdn = _quantise(Tdn, nd["quantum"])
     per = int(round(cp["control_interval"] / DT))
-    Ts_ctrl = np.repeat(sim["T_supply"][::per], per, axis=0)[:, sim["box_ahu"]]  # held at each control instant
-    m_min = np.array([v["m_min"] for v in truth["baseline"]["building"]["vavs"]])
-    p_max = m_min * CP_AIR * np.maximum(float(cp["T_discharge_max"]) - Ts_ctrl, 1e-6)
-    rh = np.clip(np.round(sim["reheat_command"] / p_max, 2), 0.0, 1.0)
+    # the valve command of each control interval: power over the coil's power at the discharge limit
+    Ts_ctrl = sim["T_supply"][::per][:, sim["box_ahu"]]  # supply air at each control instant
+    m_cmd = sim["m_vav"][::per]  # commanded airflow (m_min in heating, more with dual-maximum boxes)
+    p_max = np.maximum(m_cmd, 1e-6) * CP_AIR * np.maximum(float(cp["T_discharge_max"]) - Ts_ctrl, 1e-6)
+    rh = np.repeat(np.clip(np.round(sim["reheat_command"][::per] / p_max, 2), 0.0, 1.0), per, axis=0)
     out = {}
     for j, v in enumerate(vavs):
         out[f"Td_{v}"] = Tdn[:, j]
@@ -347,10 +366,11 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
         Location and weather statistics (Berkeley, Chicago-like, Phoenix-like).
     start : str
         Local midnight of the first sample, e.g. ``"2025-12-01"``.
-    hvac : {"vav", "reheat"}
+    hvac : {"vav", "reheat", "reheat-dual"}
         ``reheat``: the real-BMS-like VAV-with-reheat mode (two air handlers
         ``T_supply_AHU1``/``T_supply_AHU2``, per-box ``Td_<vav>`` and ``rh_<vav>``;
-        see :data:`hvacfmu.emulator.layouts.HVAC_MODES`).
+        see :data:`hvacfmu.emulator.layouts.HVAC_MODES`); ``reheat-dual``: the same with
+        dual-maximum boxes (airflow rises in heating once the discharge air is at its limit).
     units : {"si", "us"}
     clock : {"aware", "naive-local", "naive-utc"}
     export_step : int [s]

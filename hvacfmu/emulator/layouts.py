@@ -218,9 +218,10 @@ CLIMATES = {
 
 
 #: HVAC modes: ``vav`` (default: one air handler, boxes heat at minimum airflow by reheat; the data
-#: log airflow and one supply temperature) and ``reheat`` (a real-BMS-like VAV-with-reheat system:
+#: log airflow and one supply temperature), ``reheat`` (a real-BMS-like VAV-with-reheat system:
 #: constant minimum airflow in heating, discharge air modulated up to ``T_discharge_max``, two air
-#: handlers with their own supply temperature reset, discharge temperature and reheat valve logged).
+#: handlers with their own supply temperature reset, discharge temperature and reheat valve logged)
+#: and ``reheat-dual`` (the same with dual-maximum boxes: airflow also rises in heating).
 HVAC_MODES = {
     "vav": {"description": "one air handler; reheat at minimum airflow, discharge temperature not logged"},
     "reheat": {
@@ -230,8 +231,21 @@ HVAC_MODES = {
         "min_airflow_scale": 1.5,  # [-] boxes keep a higher constant minimum (ventilation, heating)
         "max_min_fraction": 0.45,  # [-] cap of m_min / m_max
         "T_discharge_max": 35.0,  # [°C] heating limit of the discharge air, declared per air handler
+        "heating_sequence": "single",
+    },
+    "reheat-dual": {
+        "description": "as reheat, with dual-maximum boxes: in heating the discharge air rises first, then the "
+                       "airflow rises from its minimum to heating_max_fraction x m_max at the discharge limit "
+                       "(more air = more heat in winter)",
+        "min_airflow_scale": 1.5,
+        "max_min_fraction": 0.45,
+        "T_discharge_max": 35.0,
+        "heating_sequence": "dual",
+        "heating_max_fraction": 0.6,  # [-] heating maximum airflow / m_max
     },
 }
+#: HVAC modes with several air handlers and logged discharge air (real-BMS-like).
+BMS_MODES = ("reheat", "reheat-dual")
 
 
 def ahu_groups(layout: str) -> dict:

@@ -283,6 +283,7 @@ class Plant:
                 "offsets": np.asarray(cp["box_offsets"], dtype=float),
                 "rh_max": self.core.m_min * CP_AIR * float(cp["reheat_rise"]),
                 "T_discharge_max": cp.get("T_discharge_max"),
+                "dual": cp.get("heating_sequence", "single") == "dual",
             }
         return self._loops
 
@@ -445,6 +446,8 @@ class Plant:
             p_loc = x[nth + c.n_buffer + nb:].copy()
             rh_max = loops["rh_max"] if loops["T_discharge_max"] is None else (
                 c.m_min * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0))
+            if loops["dual"]:  # the discharge stage of a dual-maximum box heats the commanded airflow
+                rh_max = np.maximum(m, c.m_min) * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0)
         for j in range(nsub):
             if self.local_reheat:
                 k = k0 + j
@@ -454,7 +457,8 @@ class Plant:
                 elif k % loops["per"] == 0:  # control interval boundary: the loops act on the room temperatures
                     eh = loops["sp"][bool(loops["occupied"][k])] - (xt[c.box_zone] + loops["offsets"])
                     integ = np.clip(integ + loops["ki_dt"] * eh, 0.0, 1.0)
-                    p_loc = np.clip(loops["kp"] * eh + integ, 0.0, 1.0) * rh_max
+                    y = np.clip(loops["kp"] * eh + integ, 0.0, 1.0)
+                    p_loc = (np.minimum(2.0 * y, 1.0) if loops["dual"] else y) * rh_max
                 p = p_cmd + p_loc
             m_app, p_app = m, p
             if buf is not None:

@@ -13,7 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .controllers import DEFAULT_CONTROLLERS, VavControllers, excitation_schedule, occupied_mode, supply_air_temperatures
+from .controllers import (
+    DEFAULT_CONTROLLERS,
+    VavControllers,
+    excitation_schedule,
+    occupied_mode,
+    supply_air_temperatures,
+)
 from .plant import DT, PlantCore, dataset_index, stream
 from .thermal import CP_AIR
 from .weather import synthetic_weather

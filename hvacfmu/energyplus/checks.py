@@ -48,30 +48,32 @@ def margins_table(result) -> pd.DataFrame:
 
 
 def airflow_identifiability(model, building, step: float | None = None) -> list:
-    """Lines reporting, per zone, the fitted airflow gain of a linear zones model against the smallest plausible one.
+    """Lines reporting, per zone, the fitted effect of the boxes' air against the smallest plausible one.
 
-    The smallest plausible gain [K per (kg/s) per step] of zone i is ``cp · ΔT_min · step / C_max`` with ``C_max``
-    ``MAX_CAPACITY_FACTOR`` times the zone air's heat capacity and ``ΔT_min = 2 K``. A fitted gain below it means the
-    airflow's effect was not identified: closed-loop data without excitation let the thermostat loop (airflow
-    follows temperature) explain the response instead.
+    Airflow form (``x+ = ... + B u``): the gain ``B_ii`` [K per (kg/s) per step] against ``cp · ΔT_min · step /
+    C_max``; delivered-heat form (``beta_i · m cp (T_in - x)``): ``beta_i`` [K per step per kW] against
+    ``1000 · step / C_max``. ``C_max`` is ``MAX_CAPACITY_FACTOR`` times the zone air's heat capacity and
+    ``ΔT_min = 2 K``. A fitted value below the minimum means the air's effect was not identified: closed-loop data
+    without excitation let the thermostat loop (airflow follows temperature) explain the response instead.
     """
-    B = getattr(model, "B", None)
     outputs = tuple(getattr(model, "outputs", ()))
-    if B is None or not outputs or outputs == ("floor",):
+    beta = getattr(model, "beta", None)
+    B = getattr(model, "B", None)
+    if (B is None and beta is None) or not outputs or outputs == ("floor",):
         return ["airflow identifiability: not a zones model, not checked"]
     step = float(step if step is not None else model.step)
-    B = np.asarray(B, dtype=float)
+    if beta is not None:
+        values, unit, what = np.asarray(beta, dtype=float), "K/step per kW", "delivered-heat gain"
+    else:
+        values, unit, what = np.diag(np.asarray(B, dtype=float)), "K/(kg/s)/step", "airflow gain"
     lines, flagged = [], []
-    for i, zone in enumerate(outputs):
-        if i >= B.shape[1]:
-            break
-        vol = building.zone(zone).volume
-        g_min = CP_AIR * MIN_DELTA_T * step / (MAX_CAPACITY_FACTOR * RHO_AIR * CP_AIR * vol)
-        gain = abs(B[i, i])
-        ok = gain >= g_min
+    for i, zone in enumerate(outputs[: len(values)]):
+        c_max = MAX_CAPACITY_FACTOR * RHO_AIR * CP_AIR * building.zone(zone).volume
+        g_min = (1000.0 if beta is not None else CP_AIR * MIN_DELTA_T) * step / c_max
+        ok = abs(values[i]) >= g_min
         if not ok:
             flagged.append(zone)
-        lines.append(f"{zone}: airflow gain {B[i, i]:+.3g} K/(kg/s)/step, smallest plausible {g_min:.3g}"
+        lines.append(f"{zone}: {what} {values[i]:+.3g} {unit}, smallest plausible {g_min:.3g}"
                      + ("" if ok else "  -> NOT IDENTIFIED (closed loop, no excitation)"))
     head = (f"airflow identifiability: {len(flagged)} of {len(outputs)} zone gains below the physical minimum"
             + (f" ({', '.join(flagged)})" if flagged else ""))

@@ -30,7 +30,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.1"
+EXPORT_VERSION = "1.2"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -60,7 +60,8 @@ class EnergyPlusPaths:
         return f"measurements: {self.measurements}\nbuilding:     {self.building}\ninfo:         {self.info}"
 
 
-def _select_boxes(boxes, floor, zones):
+def select_boxes(boxes, floor, zones):
+    """The boxes of the zones whose IDF name contains ``floor`` or is in ``zones`` (all when both are None)."""
     if zones:
         want = {z.lower() for z in zones}
         sel = [b for b in boxes if b.zone.lower() in want or hvac.sanitise(b.zone).lower() in want]
@@ -75,7 +76,8 @@ def _select_boxes(boxes, floor, zones):
     return sel
 
 
-def _probes(boxes, ahus, zones):
+def export_probes(boxes, ahus, zones):
+    """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
     p = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment"),
          Probe("_dni", "Site Direct Solar Radiation Rate per Area", "Environment"),
          Probe("_dhi", "Site Diffuse Solar Radiation Rate per Area", "Environment"),
@@ -191,7 +193,7 @@ def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days:
     site = inputs.read_site(epw, timezone)
     first, last = inputs.run_dates(year, start, weeks, days)
     idf = read_idf(idf_path)
-    boxes = _select_boxes(hvac.air_boxes(idf), floor, zones)
+    boxes = select_boxes(hvac.air_boxes(idf), floor, zones)
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))
@@ -204,7 +206,7 @@ def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days:
     with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
         run_idf = Path(work) / "in.idf"
         run_idf.write_text(idf.text(), encoding="latin-1")
-        probes = _probes(boxes, ahus, zone_names)
+        probes = export_probes(boxes, ahus, zone_names)
         log.info("EnergyPlus: %s with %s, %s to %s", idf_path.name, epw.name, first, last)
         values, times, eio = simulate(run_idf, epw, Path(work) / "out", probes)
     if len(values) == 0:

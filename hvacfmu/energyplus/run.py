@@ -15,6 +15,7 @@ after ``run_energyplus`` returns.
 
 from __future__ import annotations
 
+import calendar
 import dataclasses
 import datetime as _dt
 import logging
@@ -51,7 +52,11 @@ def load_api():
 
 
 class CallbackError(RuntimeError):
-    """Raised after a run whose callback failed; ``__cause__`` is the original exception."""
+    """Raised after a run whose callback failed; ``__cause__`` is the original exception.
+
+    ``steps_after_error``: zone steps EnergyPlus still ran after the failure (0 when it stopped at once)."""
+
+    steps_after_error = 0
 
 
 class _Recorder:
@@ -64,6 +69,7 @@ class _Recorder:
         self.sys_sum = np.zeros(len(probes))
         self.sys_dt = 0.0
         self.error = None
+        self.steps_after_error = 0
 
     def _ready(self, state) -> bool:
         x = self.api.exchange
@@ -101,6 +107,8 @@ class _Recorder:
         self.sys_dt += dt
 
     def zone_step(self, state):
+        if self.error is not None:
+            self.steps_after_error += 1
         self._guard(state, self._zone_step)
 
     def _zone_step(self, state):
@@ -164,8 +172,10 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     code = api.runtime.run_energyplus(state, ["-d", str(workdir), "-w", str(epw_path), str(idf_path)])
     api.state_manager.delete_state(state)
     if rec.error is not None:
-        raise CallbackError(f"EnergyPlus run of {idf_path} stopped: a callback raised "
-                            f"{type(rec.error).__name__}: {rec.error}") from rec.error
+        err = CallbackError(f"EnergyPlus run of {idf_path} stopped: a callback raised "
+                            f"{type(rec.error).__name__}: {rec.error}")
+        err.steps_after_error = rec.steps_after_error
+        raise err from rec.error
     if code != 0:
         err = workdir / "eplusout.err"
         tail = err.read_text(errors="replace").splitlines()[-15:] if err.exists() else []
@@ -174,8 +184,19 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     return np.array(rec.rows), rec.times, eio.read_text(errors="replace") if eio.exists() else ""
 
 
+def step_start(year: int, doy: int, hour: float, tz_hours: float, step_hours: float) -> _dt.datetime:
+    """Naive UTC start of an EnergyPlus step from (calendar year, day of year, end hour [h, standard time]).
+
+    At the last step of 31 December (end hour 24) EnergyPlus already reports the next calendar year.
+    """
+    if hour >= 24.0 - 1e-9 and doy == (366 if calendar.isleap(year - 1) else 365):
+        year -= 1
+    end = _dt.datetime(int(year), 1, 1) + _dt.timedelta(days=int(doy) - 1, hours=float(hour))
+    return end - _dt.timedelta(hours=step_hours + tz_hours)
+
+
 def step_times(times, tz_hours: float, step_hours: float) -> pd.DatetimeIndex:
-    """UTC start of each step from EnergyPlus's (year, day of year, end hour in standard time).
+    """UTC start of each step from EnergyPlus's (calendar year, day of year, end hour in standard time).
 
     Parameters
     ----------
@@ -184,10 +205,5 @@ def step_times(times, tz_hours: float, step_hours: float) -> pd.DatetimeIndex:
     step_hours : float [h]
         Zone time step.
     """
-    starts = []
-    for year, doy, hour in times:
-        end = _dt.datetime(int(year), 1, 1) + _dt.timedelta(days=int(doy) - 1, hours=float(hour))
-        starts.append(end - _dt.timedelta(hours=step_hours + tz_hours))
-    idx = pd.DatetimeIndex(starts).round("1s").tz_localize("UTC")
-    return idx
-
+    starts = [step_start(y, d, h, tz_hours, step_hours) for y, d, h in times]
+    return pd.DatetimeIndex(starts).round("1s").tz_localize("UTC")

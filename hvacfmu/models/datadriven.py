@@ -715,6 +715,11 @@ class _Prepared:
         return self.box_heat(np.repeat(x_floor[:, None], self.m.shape[1], axis=1)).sum(axis=1)
 
     @property
+    def drive_label(self) -> str:
+        """Prefix of the drive series in smoothing metadata: ``m`` (airflow) or ``Q`` (delivered heat)."""
+        return "Q" if self.delivered else "m"
+
+    @property
     def drive_bounds(self):
         """Bounds of the drive coefficient: airflow cools (b <= 0), delivered heat warms (beta >= 0)."""
         return (0.0, np.inf) if self.delivered else (-np.inf, 0.0)
@@ -730,7 +735,9 @@ class _Prepared:
             x = X[self.train, j]
             x = x[np.isfinite(x)]
             if x.size < 2:
-                problems.append(f"{what} {name}: no data in the training weeks")
+                why = [w for w in getattr(self.dataset, "warnings", []) or [] if f"'T_{name}'" in w]
+                problems.append(f"{what} {name}: no data in the training weeks"
+                                + (f" (the data layer said: {why[0]})" if why else ""))
             elif np.ptp(x) < 1e-6:
                 problems.append(
                     f"{what} {name}: constant at {x[0]:g} over all training weeks (stuck sensor?); "
@@ -900,7 +907,7 @@ def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
     w = prep.building.area_weights()
     x = prep.T @ w
     u = prep.floor_drive(x)
-    names = ["x_floor", "u_total"] + list(prep.v_names)
+    names = ["x_floor", prep.drive_label + "_total"] + list(prep.v_names)
     X = np.column_stack([x, u, prep.V])
     if smooth_cache is not None and all(nm in smooth_cache["names"] for nm in names):
         cols = [smooth_cache["names"].index(nm) for nm in names]
@@ -1193,7 +1200,8 @@ def _zone_smooth(prep: _Prepared, U, opts):
     b = prep.building
     zn = b.zone_names
     x_floor = prep.T @ b.area_weights()
-    names = [f"T_{z}" for z in zn] + [f"m_{z}" for z in zn] + list(prep.v_names) + ["x_floor", "u_total"]
+    d = prep.drive_label
+    names = [f"T_{z}" for z in zn] + [f"{d}_{z}" for z in zn] + list(prep.v_names) + ["x_floor", f"{d}_total"]
     X = np.column_stack([prep.T, U, prep.V, x_floor, prep.floor_drive(x_floor)])
     hat, sinfo = _smooth_series(prep, names, X, opts)
     return hat, sinfo, X - hat, {"names": names, "hat": hat, "info": sinfo}

@@ -107,7 +107,7 @@ class LinearZoneModel(ZoneModel):
         if self.kind not in self.KINDS:
             raise ModelError(f"LinearZoneModel kind must be one of {self.KINDS}, got {self.kind!r}")
         nx, nu, nv = len(self.outputs), self.input_map.shape[0] if np.ndim(self.input_map) == 2 else -1, len(self.disturbances)
-        set_ = lambda k, v: object.__setattr__(self, k, v)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass normalisation
         set_("outputs", tuple(self.outputs))
         set_("measured_zones", tuple(self.measured_zones))
         set_("vavs", tuple(self.vavs))
@@ -125,7 +125,7 @@ class LinearZoneModel(ZoneModel):
 
     def _check_delivered(self, nx, nv):
         """Normalise and check the delivered-heat fields (beta, inlets, heat_map)."""
-        set_ = lambda k, v: object.__setattr__(self, k, v)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         nb = len(self.vavs)
         set_("beta", check_shape(self.beta, (nx,), "beta"))
         set_("inlets", tuple(self.inlets))
@@ -214,9 +214,12 @@ class LinearZoneModel(ZoneModel):
         """Readable coefficients, stability, internal-gain levels and fit provenance."""
         ny = len(self.outputs)
         w = max(8, *(len(s) for s in self.outputs))
-        fmt = lambda v: f"{v: .4g}".rjust(11)
+        fmt = lambda v: f"{v: .4g}".rjust(11)  # noqa: E731
         lines = [f"Model A ({self.kind}), step {self.step:g} s, {ny} state(s)"]
-        lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
+        if self.beta is None:
+            lines.append("x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)")
+        else:
+            lines.append("x_i(k+1) = A x(k) + C v(k) + q_IG(k) + beta_i sum_b m_b c_p (T_in,b - x_i) [kW]")
         lines.append("A:" + "".ljust(w - 2) + "".join(o.rjust(11) for o in self.outputs))
         lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.A)]
         if self.beta is None:
@@ -225,8 +228,9 @@ class LinearZoneModel(ZoneModel):
             lines.append("delivered heat beta [K/step per kW]: "
                          + " ".join(f"{o}={v:.4g}" for o, v in zip(self.outputs, self.beta)))
             lines.append("box inlets: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.vavs, self.inlets)))
-        lines.append("C:" + "".ljust(w - 2) + "".join(d.rjust(11) for d in self.disturbances))
-        lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.C)]
+        cols = [j for j, d in enumerate(self.disturbances) if d not in self.inlets]  # inlets act through beta only
+        lines.append("C:" + "".ljust(w - 2) + "".join(self.disturbances[j].rjust(11) for j in cols))
+        lines += [o.ljust(w) + "".join(fmt(row[j]) for j in cols) for o, row in zip(self.outputs, self.C)]
         rho = float(np.max(np.abs(np.linalg.eigvals(self.A))))
         lines.append(f"spectral radius of A: {rho:.4f} ({'stable' if rho < 1 else 'UNSTABLE'})")
         for s, g in self.gains.items():

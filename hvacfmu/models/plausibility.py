@@ -174,6 +174,47 @@ def check_fitted(model, dataset=None, warn=None, *, max_time_constant_h: float =
     return dataclasses.replace(model, meta=meta)
 
 
+def check_physics(model) -> dict:
+    """Refuse an implausible fitted Model B: non-finite or non-positive parameters or gains, unstable dynamics.
+
+    The discrete dynamics are checked at the state estimator's airflow
+    (``options.kalman.airflow``, the training mean): ``A_d - c_p Gd diag(m)``
+    must have spectral radius < 1.
+
+    Returns
+    -------
+    dict
+        ``spectral_radius``, ``time_constants_h`` (five slowest) for ``model.meta``.
+
+    Raises
+    ------
+    FitError
+    """
+    from .heat import CP_AIR
+
+    problems = []
+    bad = {k: v for k, v in model.params.items() if not (np.isfinite(v) and v > 0)}
+    if bad:
+        problems.append(f"parameters {bad} are not finite and positive")
+    if not np.all(np.isfinite(model.f_ig_const)):
+        problems.append("constant internal gains are not finite")
+    if any(not np.all(np.isfinite(g)) for g in model.gains.values()):
+        problems.append("internal-gain profiles contain non-finite values")
+    numbers = {}
+    if not problems:
+        d = model.discrete
+        A = d.Ad.copy()
+        nz = d.Vz.shape[0]
+        A[:, :nz] -= CP_AIR * d.physical_inputs[2] * np.asarray(model.options["kalman"]["airflow"], float)[None, :]
+        rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+        numbers = {"spectral_radius": rho, "time_constants_h": time_constants_h(A, model.step)[:5].tolist()}
+        if not rho < 1.0:
+            problems.append(f"unstable: spectral radius {rho:.6g} >= 1 at the training mean airflow")
+    if problems:
+        raise FitError(problems_message("The fitted physics model is implausible and was refused", problems))
+    return _plain(numbers)
+
+
 def _plain(x):
     if isinstance(x, dict):
         return {str(k): _plain(v) for k, v in x.items()}
@@ -186,4 +227,4 @@ def _plain(x):
     return x
 
 
-__all__ = ["check_fitted", "drive_effect_k", "linear_problems", "time_constants_h"]
+__all__ = ["check_fitted", "check_physics", "drive_effect_k", "linear_problems", "time_constants_h"]

@@ -6,6 +6,11 @@ are kept as a raw mapping in :attr:`hvacfmu.building.Building.physics` and
 checked here; :func:`parse_physics` reports every problem at once as a
 :class:`~hvacfmu.errors.BuildingError`.
 
+Instead of the four tables, a building file may name a construction template
+(top-level ``construction_template = "..."``, see
+:mod:`hvacfmu.models.physics.templates`); ``[physics]`` then overrides the
+template's values.
+
 Schema extensions (optional keys, backwards compatible), all in ``[physics]``:
 
 - ``furniture_capacity`` [J/(K m2)]: heat capacity per floor area lumped into
@@ -235,12 +240,17 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         elements, VAV boxes without a zone, ...).
     """
     phys = dict(building.physics or {})
+    if "construction_template" in phys:
+        from .templates import expand_template
+
+        phys = expand_template(building, phys)
     problems: list[str] = []
     where_b = f"building {building.source or building.name!r}"
     if not phys.get("elements") or not phys.get("constructions"):
         problems.append(
             "no [[elements]] or [[constructions]] tables: the physics model needs the building's "
-            "materials, constructions and elements (see README, 'Building file')"
+            "materials, constructions and elements (see README, 'Building file'), or a top-level "
+            "construction_template = one of concrete_slab_office_1990s, light_steel_frame, heavy_masonry"
         )
     zones = building.zone_names
     zone_set = set(zones)

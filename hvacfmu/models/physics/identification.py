@@ -45,8 +45,11 @@ import numpy as np
 import pandas as pd
 import scipy.optimize as so
 
-from ...errors import FitError
+from ...errors import FitError, HvacfmuWarning
+from ...progress import Progress
 from ...timeutil import n_time_of_week, time_of_week
+from ..heat import inlet_columns
+from ..plausibility import check_physics
 from .geometry import PARAM_NAMES, parse_physics
 from .model import PhysicsModel, fill_signals, kalman_gain
 from .network import single_threaded
@@ -159,11 +162,12 @@ def _simulate_segments(template, theta, step, segs, K, free_modes=0):
     qc[np.arange(1, ncopy), 0, 0, np.arange(nz)] = 1.0
     q = segs.q0[None] + qc
     m = segs.u @ disc.zone_vav.T
+    mt = disc.inlet_flux(segs.u, segs.v)
     if isinstance(K, str) and K == "gain_injection":
         Kz = disc.Pq[:, :nz] @ np.linalg.inv(disc.Vz @ disc.Pq[:, :nz])
     else:
         Kz = disc.W @ K
-    Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1)
+    Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1, mt=mt[None])
     Yf = Y[:, :, nw + 1:]
     Phi = None
     if free_modes:
@@ -363,6 +367,9 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
             train_rows |= (frame.index >= w.start) & (frame.index < w.end)
     if not train_rows.any():
         raise FitError("the dataset has no training weeks")
+    inlets, notes = inlet_columns(building, frame, rows=train_rows)
+    for note in notes:
+        warnings.warn(note, HvacfmuWarning, stacklevel=2)
     zones = building.zone_names
     m_zone = frame[[f"m_{v}" for v in building.vav_names]].to_numpy(float)[train_rows] @ building.zone_vav_matrix().T
     airflow = np.nan_to_num(np.nanmean(m_zone, axis=0), nan=0.0)
@@ -386,7 +393,7 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         zero_gains[s] = np.zeros((n_tow, nq))
         if spec.has_ground:
             zero_gains[s][:, nz] = spec.ground_temperature
-    model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options)
+    model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options, inlets=inlets)
     template = model._template
     if solar:
         missing = [c for c in model.disturbances if c not in frame.columns]
@@ -402,12 +409,7 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
     lo = np.log(template.params_vector(nominal) / bound_factor)
     hi = np.log(template.params_vector(nominal) * bound_factor)
     theta0 = np.clip(theta0, lo + 1e-9, hi - 1e-9)
-    try:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(desc="Model B step 1", unit="eval", disable=not progress, leave=False)
-    except ImportError:  # pragma: no cover
-        bar = None
+    bar = Progress(total=None, desc="Model B step 1", unit="eval", enabled=progress)
     observer = segment_observer
     state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
 
@@ -445,7 +447,7 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
 
     # --- step 2: seasonal time-of-week gains --------------------------------------
     fitted = PhysicsModel(building, params, zero_gains, step=step, solar=solar, options=model.options,
-                          f_ig_const=f_c)
+                          f_ig_const=f_c, inlets=inlets)
     gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
     meta = {
         "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
@@ -471,9 +473,12 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
                       "rounds": len(results), "cost": float(res.cost)},
         "gains": gain_info,
         "n_states": model.n_states,
+        "inlets": dict(zip(building.vav_names, inlets)),
+        "inlet_notes": notes,
     }
     final = PhysicsModel(building, params, gains, step=step, solar=solar, options=fitted.options,
-                         f_ig_const=f_c, meta=meta)
+                         f_ig_const=f_c, meta=meta, inlets=inlets)
+    meta["plausibility"] = check_physics(final)
     meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
     log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
     return final
@@ -585,7 +590,8 @@ def _seasonal_gains(dataset, model, f_c, nw):
         x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
         x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
         m = u @ disc.zone_vav.T
-        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=len(rows), record_pred=True)
+        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=len(rows), record_pred=True,
+                               mt=disc.inlet_flux(u, v))
         innov = y[w + 1:] - Yp[w + 1:]  # rows r0+1 .. : innovation of y(k+1) -> f(k)
         # bad inputs give meaningless innovations
         bad = np.isnan(u_all[rows[w:-1]]).any(axis=1) | np.isnan(v_all[rows[w:-1]]).any(axis=1)

@@ -5,7 +5,9 @@
 
 ``u`` are the airflows of the VAV boxes [kg/s], ``v = [T_out, T_supply]``
 [°C] (plus facade irradiance ``I_N..I_W`` [W/m2] when solar gains are
-modelled), ``q`` the internal heat gain of each zone ``f_IG`` [W] (plus a
+modelled, plus the boxes' own inlet air temperatures ``Td_<vav>`` or
+``T_supply_<ahu>`` [°C] when ``inlets`` names them: a box then delivers
+``m c_p (T_in - T_zone)`` with its own inlet), ``q`` the internal heat gain of each zone ``f_IG`` [W] (plus a
 constant ground temperature [°C] when elements face the ground) and ``y`` the
 zone air temperatures [°C].
 
@@ -31,10 +33,13 @@ from ...timeutil import n_time_of_week, time_of_week
 from ..base import (
     FORMAT_VERSION,
     ZoneModel,
+    check_mapping,
+    check_names,
     check_shape,
     check_version,
     gains_from_json,
     gains_to_json,
+    require_columns,
     require_keys,
 )
 from .geometry import PARAM_NAMES, parse_physics
@@ -139,6 +144,11 @@ class PhysicsModel(ZoneModel):
         The constant internal gain ``f_IG^c`` (already included in ``gains``).
     meta : dict
         Provenance, parameter uncertainty and identifiability flags.
+    inlets : tuple of str
+        Per VAV box (``building.vav_names`` order) the column of its inlet air
+        temperature [°C]: ``Td_<vav>`` (measured discharge air), ``T_supply_<ahu>``
+        or ``T_supply``; empty: ``T_supply`` for every box
+        (:func:`hvacfmu.models.heat.inlet_columns` chooses them for a dataset).
     """
 
     building: Building
@@ -149,6 +159,7 @@ class PhysicsModel(ZoneModel):
     options: dict = dataclasses.field(default_factory=dict)
     f_ig_const: np.ndarray | None = None
     meta: dict = dataclasses.field(default_factory=dict)
+    inlets: tuple = ()
 
     kind: ClassVar[str] = "physics"
 
@@ -166,7 +177,10 @@ class PhysicsModel(ZoneModel):
             spec = parse_physics(self.building, **{k: opts[k] for k in opts if k != "kalman"})
         except BuildingError as exc:
             raise ModelError(str(exc)) from None
-        template = NetworkTemplate(spec, solar=self.solar)
+        set_("inlets", tuple(self.inlets))
+        if self.inlets and len(self.inlets) != len(self.building.vavs):
+            raise ModelError(f"inlets: {len(self.inlets)} inlet columns for {len(self.building.vavs)} VAV boxes")
+        template = NetworkTemplate(spec, solar=self.solar, inlets=self.inlets or None)
         network = template.build(self.params)
         set_("params", network.param_dict)
         nz = len(spec.zones)
@@ -251,13 +265,14 @@ class PhysicsModel(ZoneModel):
 
     # --- data -> signals -----------------------------------------------------------
     def measured_outputs(self, frame: pd.DataFrame) -> np.ndarray:
-        return frame[[f"T_{z}" for z in self.outputs]].to_numpy(dtype=float)
+        cols = [f"T_{z}" for z in self.outputs]
+        require_columns(frame, cols, self, "zone temperature")
+        return frame[cols].to_numpy(dtype=float)
 
     def signals(self, frame: pd.DataFrame):
+        require_columns(frame, self.inputs, self, "VAV airflow")
+        require_columns(frame, self.disturbances, self, "disturbance")
         u = frame[list(self.inputs)].to_numpy(dtype=float)
-        missing = [c for c in self.disturbances if c not in frame.columns]
-        if missing:
-            raise ModelError(f"data lack the disturbance column(s) {missing} this physics model needs")
         return u, frame[list(self.disturbances)].to_numpy(dtype=float)
 
     def gains_for_rows(self, index: pd.DatetimeIndex) -> np.ndarray:
@@ -304,7 +319,7 @@ class PhysicsModel(ZoneModel):
         x0 = np.asarray(x0, dtype=float)
         u, v, q = (np.asarray(a, dtype=float) for a in (u, v, q))
         m = u @ d.zone_vav.T
-        _, Z, _, _ = d.run(x0 @ d.W.T, m, v, q, record_states=True)
+        _, Z, _, _ = d.run(x0 @ d.W.T, m, v, q, record_states=True, mt=d.inlet_flux(u, v))
         with single_threaded():
             X = Z @ d.V.T
         return X, self.output(X)
@@ -392,6 +407,7 @@ class PhysicsModel(ZoneModel):
             "f_ig_const": self.f_ig_const.tolist(),
             "gains": gains_to_json(self.gains),
             "meta": self.meta,
+            "inlets": list(self.inlets),
         }
 
     @classmethod
@@ -417,7 +433,8 @@ class PhysicsModel(ZoneModel):
                 solar=bool(d.get("solar", False)),
                 options=dict(d.get("options", {})),
                 f_ig_const=np.asarray(d.get("f_ig_const"), dtype=float) if d.get("f_ig_const") is not None else None,
-                meta=dict(d.get("meta", {})),
+                meta=check_mapping(d.get("meta", {}), "meta", "physics model file"),
+                inlets=check_names(d.get("inlets", []), "inlets", "physics model file"),
             )
         except (TypeError, ValueError, IndexError) as exc:
             if isinstance(exc, ModelError):
@@ -451,6 +468,8 @@ class PhysicsModel(ZoneModel):
             if e.get("flags"):
                 s += "   [" + "; ".join(e["flags"]) + "]"
             lines.append(s)
+        if self.inlets and set(self.inlets) != {"T_supply"}:
+            lines.append("  box inlet air: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.inputs, self.inlets)))
         flagged = self.meta.get("unidentifiable", [])
         if flagged:
             lines.append("  not identifiable from these data: " + ", ".join(flagged))
@@ -494,9 +513,10 @@ def filter_windows(disc, K, y, u, v, q):
     ymean = np.where(np.isnan(ymean), other, ymean)
     ymean = np.where(np.isnan(ymean), 20.0, ymean)
     y0 = np.where(np.isnan(y[:, 0]), ymean, y[:, 0])
+    temps = np.r_[0, 1, disc.network.template.inlet_idx]
     for b in np.flatnonzero(np.isnan(v).any(axis=(1, 2)) | np.isnan(u).any(axis=(1, 2))):
         dv = np.zeros(v.shape[-1])
-        dv[:2] = ymean[b].mean()  # no T_out / T_supply at all: assume no temperature difference
+        dv[temps] = ymean[b].mean()  # no outdoor / inlet temperature at all: assume no temperature difference
         v[b] = fill_signals(v[b], dv)
         u[b] = fill_signals(u[b], 0.0)
     if n1 > 1:
@@ -507,5 +527,5 @@ def filter_windows(disc, K, y, u, v, q):
     x0[:, :nz] = y0
     m = u @ disc.zone_vav.T
     Kz = disc.W @ K
-    *_, z = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=n1)
+    *_, z = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=n1, mt=disc.inlet_flux(u, v))
     return z @ disc.V.T

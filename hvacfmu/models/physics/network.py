@@ -13,10 +13,13 @@ Continuous-time model (per second), with nodal capacities ``c`` [J/K] and
 conductance matrix ``L`` [W/K]::
 
     c * dx/dt = -L x + g_amb T_out + g_gnd T_ground + E f_IG + S I
-                + sum_i m_i c_p (T_supply - x_zone(i))
+                + sum_i m_i c_p (T_in,i - x_zone(i))
 
 so ``A = -diag(1/c) L`` and the VAV box terms are bilinear:
-``Bxu_i = -c_p/c_z e_z e_z^T`` and ``Bvu_i = c_p/c_z e_z e_{T_supply}^T``.
+``Bxu_i = -c_p/c_z e_z e_z^T`` and ``Bvu_i = c_p/c_z e_z e_{T_in,i}^T``. The inlet
+air temperature ``T_in,i`` of box i is a disturbance: ``T_supply`` by default,
+or per box its discharge air ``Td_<vav>`` or its air handler's ``T_supply_<ahu>``
+(``inlets``; see :mod:`hvacfmu.models.heat`).
 
 Discretisation (step ``h``): exact for the linear part, ``A_d = expm(A h)``, and
 zero-order hold for *every* input including the bilinear products ``m_i x`` and
@@ -115,9 +118,14 @@ class NetworkTemplate:
     spec : PhysicsSpec
     solar : bool
         Model solar gains through windows (disturbances ``I_N..I_W`` [W/m2]).
+    inlets : sequence of str, optional
+        Per VAV box (``spec.vav_zone`` order) the disturbance column of its inlet
+        air temperature [°C]. Default: ``T_supply`` for every box. Columns other
+        than ``T_supply`` are appended to the disturbances
+        ``("T_out", "T_supply", [I_N, I_E, I_S, I_W])``, which keep their positions.
     """
 
-    def __init__(self, spec: PhysicsSpec, solar: bool = False):
+    def __init__(self, spec: PhysicsSpec, solar: bool = False, inlets=None):
         self.spec = spec
         self.solar = bool(solar)
         zones = spec.zones
@@ -227,7 +235,13 @@ class NetworkTemplate:
         self.floor_share = area / zone_floor_area[fz] if len(fz) else area
         self.vav_zone = np.asarray([zidx[z] for z in spec.vav_zone], dtype=np.int64)
         self.has_ground = spec.has_ground
-        self.disturbances = ("T_out", "T_supply") + (tuple(f"I_{o}" for o in ORIENTATIONS) if self.solar else ())
+        base = ("T_out", "T_supply") + (tuple(f"I_{o}" for o in ORIENTATIONS) if self.solar else ())
+        inlets = ("T_supply",) * len(self.vav_zone) if inlets is None or len(inlets) == 0 else tuple(inlets)
+        if len(inlets) != len(self.vav_zone):
+            raise ModelError(f"inlets: {len(inlets)} inlet columns for {len(self.vav_zone)} VAV boxes")
+        self.inlets = inlets
+        self.disturbances = base + tuple(dict.fromkeys(c for c in inlets if c not in base))
+        self.inlet_idx = np.array([self.disturbances.index(c) for c in inlets], dtype=np.int64)
         self.q_names = tuple(f"f_ig_{z}" for z in zones) + (("T_ground",) if self.has_ground else ())
         # sparsity pattern of L: internal edges give 4 entries, boundary edges 1
         internal = self.edge_b >= 0
@@ -351,7 +365,7 @@ class RCNetwork:
         Bv = np.zeros((nx, len(t.disturbances)))
         Bv[:, 0] = self.g_amb / c
         if t.solar:
-            Bv[:, 2:] = self.solar / c[:, None]
+            Bv[:, 2:2 + len(ORIENTATIONS)] = self.solar / c[:, None]
         Bq = np.zeros((nx, len(t.q_names)))
         Bq[np.arange(nz), np.arange(nz)] = 1.0 / c[:nz]
         if t.has_ground:
@@ -369,9 +383,9 @@ class RCNetwork:
         Bv, Bq, _ = self.input_matrices()
         nv = len(t.disturbances)
         Bxu, Bvu = [], []
-        for z in t.vav_zone:
+        for z, j in zip(t.vav_zone, t.inlet_idx):
             Bxu.append(sp.csr_matrix(([-CP_AIR / c[z]], ([z], [z])), shape=(nx, nx)))
-            Bvu.append(sp.csr_matrix(([CP_AIR / c[z]], ([z], [1])), shape=(nx, nv)))
+            Bvu.append(sp.csr_matrix(([CP_AIR / c[z]], ([z], [j])), shape=(nx, nv)))
         C = sp.csr_matrix((np.ones(nz), (np.arange(nz), np.arange(nz))), shape=(nz, nx))
         return BilinearMatrices(A, sp.csr_matrix(Bv), sp.csr_matrix(Bq), Bxu, Bvu, C)
 
@@ -442,8 +456,9 @@ class DiscreteBilinear:
     """The discretised bilinear model, in physical and modal coordinates.
 
     ``x+ = Ad x + Bv v + Bq q + Gd h`` with the zone heat of the VAV boxes
-    ``h_z = c_p * m_z * (T_supply - x_z)`` [W] (``m_z`` the summed airflow of
-    zone z's boxes [kg/s]), which equals ``sum_i u_i (Bxu_i x + Bvu_i v)``.
+    ``h_z = c_p * (mt_z - m_z x_z)`` [W] (``m_z`` the summed airflow of zone
+    z's boxes [kg/s], ``mt_z = sum_{i in z} u_i T_in,i`` their inlet flux
+    [kg/s K], :meth:`inlet_flux`), which equals ``sum_i u_i (Bxu_i x + Bvu_i v)``.
 
     Modal coordinates ``z = W x``: ``z+ = ed * z + Pv v + Pq q + Ph h``,
     ``x_zone = Vz z``.
@@ -491,20 +506,26 @@ class DiscreteBilinear:
         t = self.network.template
         nx, nz, nv = self.n_states, self.network.n_zones, Bv.shape[1]
         Bxu, Bvu = [], []
-        for z in t.vav_zone:
+        for z, j in zip(t.vav_zone, t.inlet_idx):
             col = Gd[:, z] * CP_AIR
             nzr = np.flatnonzero(col)
             Bxu.append(sp.csc_matrix((-col[nzr], (nzr, np.full(nzr.size, z))), shape=(nx, nx)))
-            Bvu.append(sp.csc_matrix((col[nzr], (nzr, np.ones(nzr.size, dtype=np.int64))), shape=(nx, nv)))
+            Bvu.append(sp.csc_matrix((col[nzr], (nzr, np.full(nzr.size, j, dtype=np.int64))), shape=(nx, nv)))
         C = np.zeros((nz, nx))
         C[np.arange(nz), np.arange(nz)] = 1.0
         return BilinearMatrices(self.Ad.copy(), Bv.copy(), Bq.copy(), Bxu, Bvu, C)
 
     # --- stepping -------------------------------------------------------------
+    def inlet_flux(self, u, v):
+        """``mt_z = sum_{i in z} u_i T_in,i`` [kg/s K] per zone from box airflows u and disturbances v; batched."""
+        u = np.asarray(u, dtype=float)
+        T_in = np.asarray(v, dtype=float)[..., self.network.template.inlet_idx]
+        return np.where(u == 0.0, 0.0, u * T_in) @ self.zone_vav.T
+
     def zone_heat(self, x_zone, u, v):
-        """VAV heat into each zone ``c_p m_z (T_supply - x_z)`` [W]; batched."""
+        """VAV heat into each zone ``c_p sum_{i in z} u_i (T_in,i - x_z)`` [W]; batched."""
         m = np.asarray(u, dtype=float) @ self.zone_vav.T
-        return CP_AIR * m * (np.asarray(v, dtype=float)[..., 1:2] - x_zone)
+        return CP_AIR * (self.inlet_flux(u, v) - m * x_zone)
 
     def step_state(self, x, u, v, q):
         """One step in physical coordinates; batched over leading dimensions."""
@@ -514,7 +535,7 @@ class DiscreteBilinear:
         h = self.zone_heat(x[..., :nz], u, v)
         return x @ self.Ad.T + np.asarray(v, float) @ Bv.T + np.asarray(q, float) @ Bq.T + h @ Gd.T
 
-    def run(self, z0, m, v, q, y=None, Kz=None, n_correct=0, record_states=False, record_pred=False):
+    def run(self, z0, m, v, q, y=None, Kz=None, n_correct=0, record_states=False, record_pred=False, mt=None):
         """Simulate (and optionally filter) in modal coordinates, batched.
 
         Parameters
@@ -536,6 +557,8 @@ class DiscreteBilinear:
             Also return the modal states (..., n+1, nx).
         record_pred : bool
             Also return the outputs before correction (one-step predictions).
+        mt : array (..., n, n_zones) [kg/s K], optional
+            Inlet flux per zone (:meth:`inlet_flux`); default ``m * T_supply`` (every box fed at ``v[1]``).
 
         Returns
         -------
@@ -547,9 +570,9 @@ class DiscreteBilinear:
             The final modal state (after the correction at row n, if any).
         """
         with single_threaded():
-            return self._run(z0, m, v, q, y, Kz, n_correct, record_states, record_pred)
+            return self._run(z0, m, v, q, y, Kz, n_correct, record_states, record_pred, mt)
 
-    def _run(self, z0, m, v, q, y, Kz, n_correct, record_states, record_pred):
+    def _run(self, z0, m, v, q, y, Kz, n_correct, record_states, record_pred, mt):
         z = np.array(z0, dtype=float)
         n = m.shape[-2]
         batch = np.broadcast_shapes(z.shape[:-1], m.shape[:-2], v.shape[:-2], q.shape[:-2],
@@ -577,6 +600,9 @@ class DiscreteBilinear:
             if k == n:
                 break
             vk = v[..., k, :]
-            h = CP_AIR * m[..., k, :] * (vk[..., 1:2] - xz)
+            if mt is None:
+                h = CP_AIR * m[..., k, :] * (vk[..., 1:2] - xz)
+            else:
+                h = CP_AIR * (mt[..., k, :] - m[..., k, :] * xz)
             z = ed * z + vk @ PvT + q[..., k, :] @ PqT + h @ PhT
         return Y, Z, Yp, z

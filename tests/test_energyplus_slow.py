@@ -1,0 +1,185 @@
+"""EnergyPlus, slow tier: a year of two prototypes through the whole pipeline, and EnergyPlus hosting FMU + MPC."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("pyenergyplus")
+
+from hvacfmu.data import prepare
+from hvacfmu.energyplus import cached_export
+from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
+from hvacfmu.energyplus.run import CallbackError
+
+pytestmark = pytest.mark.slow
+
+VAV_OFFICE = ("ASHRAE901_OfficeMedium_STD2019_Denver", "mid")  # VAV with electric reheat, one floor of five zones
+PACKAGED = ("ASHRAE901_RestaurantFastFood_STD2019_Denver", None)  # two packaged single-zone units
+SMALL_OFFICE = "ASHRAE901_OfficeSmall_STD2019_Denver"
+
+
+def _fit_evaluate(prototype, floor, kinds):
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.fitting import fit
+
+    paths = cached_export(prototype, floor=floor, weeks=None)  # the options of bench_energyplus.py (one cache)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ds = prepare(paths.measurements, paths.building)
+        models = {k: fit(ds, k, progress=False) for k in kinds}
+        res = evaluate(list(models.values()), ds, names=list(models))
+    return ds, models, res
+
+
+@pytest.fixture(scope="module")
+def vav_office():
+    return _fit_evaluate(*VAV_OFFICE, ("lumped", "zones", "physics"))
+
+
+@pytest.fixture(scope="module")
+def packaged():
+    return _fit_evaluate(*PACKAGED, ("lumped", "zones", "physics"))
+
+
+def _report(name, res):
+    table = margins_table(res)
+    print(f"\n{name}\n{table.to_string(float_format=lambda x: f'{x:.3f}')}")
+    return table
+
+
+@pytest.mark.parametrize("which", ["vav_office", "packaged"])
+def test_pipeline_runs_end_to_end(which, request):
+    ds, _models, res = request.getfixturevalue(which)
+    assert len(ds.weeks) >= 50 and len(ds.test_weeks()) >= 4
+    assert {s.name for s in res.scores} == {"lumped", "zones", "physics"}
+    table = _report(which, res)
+    assert np.isfinite(table["rms"]).all()
+
+
+_LOSES = pytest.mark.xfail(strict=True, reason=(
+    "measured on this branch: in the VAV office's winter and spring, reheat at nearly constant airflow heats the "
+    "zones and Model A (lumped, zones) loses to persistence (issue 13: delivered heat m cp (Td - T_zone)); "
+    "remove this mark when it passes"))
+
+
+@pytest.mark.parametrize("which, kind", [
+    pytest.param("vav_office", "lumped", marks=_LOSES), pytest.param("vav_office", "zones", marks=_LOSES),
+    ("vav_office", "physics"),
+    ("packaged", "lumped"), ("packaged", "zones"),
+    ("packaged", "physics"),
+])
+def test_every_model_beats_persistence_and_time_of_week(which, kind, request):
+    """Issue 13 p.8: every model kind beats both baselines in every season (mean over zones)."""
+    _, _, res = request.getfixturevalue(which)
+    table = margins_table(res).loc[kind]
+    losing = table[(table["margin_pers_%"] <= 0) | (table["margin_tow_%"] <= 0)]
+    assert losing.empty, f"{which}/{kind} loses in: \n{losing.to_string()}"
+
+
+def test_closed_loop_airflow_gains_are_detected(vav_office):
+    """The zones model fitted on closed-loop EnergyPlus data: its airflow gains are checked against physics."""
+    ds, models, _ = vav_office
+    lines = airflow_identifiability(models["zones"], ds.building)
+    print("\n".join(lines))
+    assert lines[0].startswith("airflow identifiability:")
+    assert len(lines) == 1 + len(ds.building.zones)
+    m = models["zones"]
+    # the report agrees with the fitted numbers: flagged exactly where the gain is below step / C_max
+    cap = np.array([30 * 1.2 * 1005.0 * ds.building.zone(z).volume for z in m.outputs])  # [J/K]
+    if getattr(m, "beta", None) is not None:  # delivered heat [K/step per kW]
+        gains, g_min = np.abs(m.beta), 1000.0 * 900.0 / cap
+    else:  # airflow [K/(kg/s)/step] with a 2 K supply-to-zone difference
+        gains, g_min = np.abs(np.diag(m.B)), 1005.0 * 2.0 * 900.0 / cap
+    expected = {z for z, g, lo in zip(m.outputs, gains, g_min) if g < lo}
+    flagged = {line.split(":")[0] for line in lines[1:] if "NOT IDENTIFIED" in line}
+    assert flagged == expected
+    assert f"{len(expected)} of {len(m.outputs)}" in lines[0]
+
+
+# --------------------------------------------------------------------------- EnergyPlus as host
+@pytest.fixture(scope="module")
+def host_setup(tmp_path_factory):
+    from hvacfmu.fitting import fit
+    from hvacfmu.fmu import export_fmu
+
+    paths = cached_export(SMALL_OFFICE, start="05-01", weeks=12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ds = prepare(paths.measurements, paths.building)
+        model = fit(ds, "zones", progress=False)
+    out = tmp_path_factory.mktemp("host")
+    fmu = export_fmu(model.save(out / "zones.json"), out / "zones.fmu", timezone=ds.building.timezone)
+    lo = pd.Timestamp("2017-07-10").tz_localize(ds.building.timezone)  # a Monday
+    frame = ds.frame[(ds.frame.index >= lo) & (ds.frame.index < lo + pd.Timedelta(days=2))]
+    return ds, model, fmu, frame
+
+
+def test_energyplus_hosts_fmu_and_mpc(host_setup):
+    from harness.energyplus_host import HostSettings, compare, run_host
+    from harness.mpc import cosim_controller
+
+    ds, model, fmu, frame = host_setup
+    ref = run_host(SMALL_OFFICE, ds.building, frame, fmu=fmu)
+    ctl = run_host(SMALL_OFFICE, ds.building, frame, fmu=fmu, model=model,
+                   controller=cosim_controller(model, ds.building, horizon=16))
+    print("\n" + compare(ref, ctl))
+    for r in (ref, ctl):
+        assert len(r.table) == len(frame) == 192
+        assert (r.table.index == frame.index).all()
+        zones = ds.building.zone_names
+        assert np.isfinite(r.table[[f"fmu_T_{z}" for z in zones]].to_numpy()).all()
+        assert r.summary["energy_kWh"] > 0
+    # the reference run writes nothing; the MPC run writes every occupied step, and EnergyPlus used each value
+    assert ref.summary["setpoints_sent"] == 0
+    settings = HostSettings()
+    n_occ = sum(settings.is_occupied(t + pd.Timedelta(minutes=15)) for t in frame.index[:-1])
+    assert ctl.summary["setpoints_sent"] == n_occ * len(ds.building.zones)
+    assert ctl.mismatches == []
+    sent = ctl.table[[c for c in ctl.table.columns if c.startswith("sp_cool_sent_")]]
+    seen = ctl.table[[c.replace("sent", "seen") for c in sent.columns]]
+    pairs = np.column_stack([sent.to_numpy()[:-1].ravel(), seen.to_numpy()[1:].ravel()])
+    pairs = pairs[np.isfinite(pairs[:, 0])]
+    assert len(pairs) == ctl.summary["setpoints_sent"] - int(np.isfinite(sent.to_numpy()[-1]).sum())
+    np.testing.assert_allclose(pairs[:, 1], pairs[:, 0], rtol=0, atol=1e-6)  # [K] step by step
+    lo, hi = settings.band
+    assert np.nanmin(sent.to_numpy()) >= lo + 0.5 - 1e-9 and np.nanmax(sent.to_numpy()) <= hi + 1e-9
+    # the MPC keeps the band better than EnergyPlus's own thermostats on this building
+    assert ctl.summary["violation_Kh"] < ref.summary["violation_Kh"]
+
+
+def test_exception_in_the_loop_stops_energyplus(host_setup):
+    from harness.energyplus_host import run_host
+
+    ds, _model, _fmu, frame = host_setup
+
+    class Broken:
+        name = "broken"
+        model = None
+
+        def __init__(self):
+            self.calls = 0
+
+        def reset(self, context):
+            pass
+
+        def __call__(self, k, t, y, v):
+            self.calls += 1
+            raise RuntimeError(f"controller failed at step {k}")
+
+    broken = Broken()
+    with pytest.raises(CallbackError, match="RuntimeError: controller failed at step 1") as info:
+        run_host(SMALL_OFFICE, ds.building, frame, controller=broken)
+    assert broken.calls == 1 and info.value.steps_after_error == 0
+
+
+def test_export_is_deterministic(tmp_path):
+    from hvacfmu.energyplus import generate
+
+    a = generate(tmp_path / "a", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
+    b = generate(tmp_path / "b", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
+    assert a.measurements.read_bytes() == b.measurements.read_bytes()
+    assert a.building.read_bytes() == b.building.read_bytes()
