@@ -337,8 +337,8 @@ def _airflow_gain(model, dataset) -> list[str]:
     """Airflow gains of a linear model too small to matter: not identifiable from closed-loop data."""
     base = getattr(model, "base", model)
     B = getattr(base, "B", None)
-    if B is None:
-        return []
+    if B is None or getattr(base, "heat", "airflow") == "delivered":
+        return []  # a delivered-heat model drives by beta * Q, not B (its B is empty): fit-time check
     B = np.atleast_2d(np.asarray(B, float))
     try:
         u, _ = base.signals(dataset.frame)
