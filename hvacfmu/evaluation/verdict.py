@@ -151,7 +151,11 @@ class Verdict:
         for z in self.losing():
             lines.append(f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
                          f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)")
-        lines += [t for t in map(self.thin, names) if t]
+        thin: dict = {}  # models with the same windows share one line
+        for m in names:
+            if self.thin(m):
+                thin.setdefault(self.thin(m).split(": ", 1)[1], []).append(m)
+        lines += [f"!! {', '.join(ms)}: {text}" for text, ms in thin.items()]
         for model, causes in self.causes.items():
             if causes:
                 lines.append(f"   likely causes for {model} (what the data can test):")
