@@ -591,6 +591,8 @@ def _options(opts: dict) -> dict:
         raise TypeError(f"unknown fit option(s) {unknown}; known: {sorted(DEFAULTS)}")
     out = dict(DEFAULTS)
     out.update(opts)
+    if out["open_loop"] not in ("auto", True, False):
+        raise FitError(f"option open_loop must be 'auto', True or False, got {out['open_loop']!r}")
     return out
 
 
@@ -1328,8 +1330,6 @@ def _refined(prep: _Prepared, opts, model):
     from .openloop import refine_open_loop
 
     form = opts["open_loop"]
-    if form not in ("auto", True, False):
-        raise FitError(f"option open_loop must be 'auto', True or False, got {form!r}")
     excited = bool(np.any(prep.exc & prep.train))
     if form is False or (form == "auto" and excited):
         why = "option open_loop=False" if form is False else "excitation periods in the training weeks"
