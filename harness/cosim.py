@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 
 from hvacfmu.errors import DataError, FMUError, HvacfmuError, problems_message
+from hvacfmu.progress import progress as progress_iter
 from hvacfmu.timeutil import seconds_of_week
 
 from .controllers import ControlContext, ReplayController, RuleController
@@ -760,11 +761,8 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
                 t_ctrl=np.full(n, np.nan), t_fmu=np.full(n, np.nan))
     tr.Y[0] = io.outputs()
     v_names = list(run.inputs.values())
-    iterator = range(n)
-    if progress:
-        from tqdm import tqdm
-
-        iterator = tqdm(iterator, desc="cosim", unit="step")
+    # a bar on a terminal, plain log lines otherwise (hvacfmu.progress)
+    iterator = progress_iter(range(n), desc="cosim", unit="step", enabled=bool(progress))
     fmu, index = inst.fmu, run.frame.index
     for k in iterator:
         t = run.t0 + k * run.step

@@ -66,7 +66,9 @@ def facade_irradiance(times, ghi, latitude: float, longitude: float, albedo: flo
     dni = np.nan_to_num(np.asarray(parts["dni"], dtype=float), nan=0.0)
     # at grazing sun (ghi inconsistent with the sun position, e.g. a clock offset) Erbs' beam part
     # (ghi - dhi) / cos(zenith) can exceed what reaches the top of the atmosphere: cap it there
-    dni = np.minimum(dni, np.asarray(pvlib.irradiance.get_extra_radiation(times), dtype=float))
+    # by the UTC day of year, as pvlib does for a DatetimeIndex (without its deprecated .dayofyear)
+    utc_doy = (times.tz_convert("UTC") if times.tz is not None else times).day_of_year.to_numpy()
+    dni = np.minimum(dni, np.asarray(pvlib.irradiance.get_extra_radiation(utc_doy), dtype=float))
     dhi = np.nan_to_num(np.asarray(parts["dhi"], dtype=float), nan=0.0)
     out = {}
     for o, az in FACADE_AZIMUTH.items():

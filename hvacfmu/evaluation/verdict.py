@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models.plausibility import MIN_EFFECT_K
+
 #: ASHRAE Guideline 14 calibration thresholds for hourly data [%]
 G14_NMBE_MAX = 10.0
 G14_CVRMSE_MAX = 30.0
@@ -214,6 +216,9 @@ def _used_columns(model) -> set:
     used = set(getattr(model, "disturbances", ()))
     used |= {f"T_{z}" for z in getattr(model, "outputs", ())}
     used |= {f"T_{z}" for z in getattr(model, "measured_zones", ())}
+    base = getattr(model, "base", model)
+    used |= {str(c) for c in (getattr(base, "inlets", None) or ()) if c}  # delivered heat / physics inlets
+    used |= {str(c) for c in getattr(base, "inputs", ())}
     if any(str(c).startswith("I_") for c in used):
         used.add("ghi")  # facade irradiance is computed from it
     return used | {"excitation"}
@@ -231,13 +236,28 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
         if c in used or c.startswith("m_") or c.startswith("T_") and c[2:] in dataset.building.zone_names:
             continue
         x = frame[c].to_numpy(float)
-        for z in losing:
-            r = _best_correlation(x, res[z].to_numpy(float))
-            if np.isfinite(r) and abs(r) >= CORRELATION_MIN:
-                hint = _column_hint(c)
-                found.append(f"unused measured column {c!r} correlates with the residuals of {z} "
-                             f"(r = {r:+.2f}): the model does not see it{hint}")
-    return found
+        hits = {z: _best_correlation(x, res[z].to_numpy(float)) for z in losing}
+        hits = {z: r for z, r in hits.items() if np.isfinite(r) and abs(r) >= CORRELATION_MIN}
+        if hits:  # one line per column, naming every zone it explains
+            rs = sorted(hits.values())
+            r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
+            found.append(f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
+                         f"({r_txt}): the model does not see it{_column_hint(c)}")
+    return found + _missing_discharge(model, dataset)
+
+
+def _missing_discharge(model, dataset) -> list[str]:
+    """Boxes whose reheat is measured (``rh_<vav>``) but whose discharge air temperature is not."""
+    if any(str(c).startswith("Td_") for c in _used_columns(model)):
+        return []
+    columns = set(dataset.frame.columns)
+    boxes = [v for v in dataset.building.vav_names if f"rh_{v}" in columns and f"Td_{v}" not in columns]
+    if not boxes:
+        return []
+    names = ", ".join(f"Td_{v}" for v in boxes[:4]) + (f" and {len(boxes) - 4} more" if len(boxes) > 4 else "")
+    return [f"missing input: the boxes reheat (rh_ columns) but the data hold no discharge air temperature "
+            f"({names}): the heat a box delivers is m·cp·(Td − T_zone), and without Td more air looks like "
+            f"more cooling while it heats; export the Td_<vav> columns and refit (the delivered-heat form)"]
 
 
 def _best_correlation(x, r) -> float:
@@ -281,6 +301,16 @@ def _sparse_columns(model, score, dataset) -> list[str]:
 def _airflow_gain(model, dataset) -> list[str]:
     """Airflow gains of a linear model too small to matter: not identifiable from closed-loop data."""
     base = getattr(model, "base", model)
+    if getattr(base, "heat", "airflow") == "delivered":
+        # the delivered-heat form has B = 0 by construction: its identifiability was judged at fit time
+        plaus = (getattr(base, "meta", None) or {}).get("plausibility") or {}
+        if plaus.get("identifiable", True):
+            return []
+        weak = {z: e for z, e in (plaus.get("drive_effect_k") or {}).items() if e is not None and e < MIN_EFFECT_K}
+        return ["delivered heat not identifiable (flagged at fit time): over its observed range it moves "
+                + ", ".join(f"{z} by {e:.2g} K" for z, e in weak.items())
+                + "; the fit learned the thermostat loop, not the building (add forced-response weeks, or use the "
+                "physics model)"]
     B = getattr(base, "B", None)
     if B is None:
         return []

@@ -46,6 +46,7 @@ import pandas as pd
 import scipy.optimize as so
 
 from ...errors import FitError, HvacfmuWarning
+from ...progress import Progress
 from ...timeutil import n_time_of_week, time_of_week
 from ..heat import inlet_columns
 from ..plausibility import check_physics
@@ -408,12 +409,7 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
     lo = np.log(template.params_vector(nominal) / bound_factor)
     hi = np.log(template.params_vector(nominal) * bound_factor)
     theta0 = np.clip(theta0, lo + 1e-9, hi - 1e-9)
-    try:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(desc="Model B step 1", unit="eval", disable=not progress, leave=False)
-    except ImportError:  # pragma: no cover
-        bar = None
+    bar = Progress(total=None, desc="Model B step 1", unit="eval", enabled=progress)
     observer = segment_observer
     state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
 
