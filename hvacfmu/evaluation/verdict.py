@@ -356,8 +356,8 @@ def _airflow_gain(model, dataset) -> list[str]:
                 + "; the fit learned the thermostat loop, not the building (add forced-response weeks, or use the "
                 "physics model)"]
     B = getattr(base, "B", None)
-    if B is None or getattr(base, "heat", "airflow") == "delivered":
-        return []  # a delivered-heat model drives by beta * Q, not B (its B is empty): fit-time check
+    if B is None:
+        return []
     B = np.atleast_2d(np.asarray(B, float))
     try:
         u, _ = base.signals(dataset.frame)
