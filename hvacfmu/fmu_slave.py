@@ -574,6 +574,29 @@ class HvacfmuSlaveBase(Fmi2Slave):
         raise NotImplementedError
 
 
+#: (kind, digest of the resource files) -> what ``_setup`` built from them; models and plants are immutable,
+#: so instances of one FMU share them instead of loading (and, for physics, discretising) them again
+_SETUP_CACHE: dict = {}
+_SETUP_CACHE_SIZE = 8
+
+
+def _cached_setup(kind: str, resources, names, build):
+    """``build()`` for the resource files ``names``, reused while their bytes are unchanged (errors not cached)."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for name in names:
+        path = Path(resources or ".") / name
+        digest.update(name.encode() + b"\0" + (path.read_bytes() if path.is_file() else b"<missing>") + b"\0")
+    key = (kind, digest.hexdigest())
+    if key not in _SETUP_CACHE:
+        value = build()
+        while len(_SETUP_CACHE) >= _SETUP_CACHE_SIZE:
+            _SETUP_CACHE.pop(next(iter(_SETUP_CACHE)))
+        _SETUP_CACHE[key] = value
+    return _SETUP_CACHE[key]
+
+
 def _contiguous(vrs) -> bool:
     return bool(vrs) and list(vrs) == list(range(vrs[0], vrs[0] + len(vrs)))
 
@@ -882,10 +905,15 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self.model = None
         problem = None
         try:
-            from hvacfmu.models import load_model  # host environment
+            def build():
+                from hvacfmu.models import load_model  # host environment
 
-            model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
-            layout, M = zone_model_layout(model, _stored_timezone(self.resources), _stored_boxes(self.resources))
+                model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
+                return (model,) + zone_model_layout(model, _stored_timezone(self.resources),
+                                                    _stored_boxes(self.resources))
+
+            model, layout, M = _cached_setup("model", self.resources, (self.MODEL_FILE, INTERFACE_FILE), build)
+            layout = json.loads(json.dumps(layout, default=float))  # each instance its own copy
         except Exception as exc:  # noqa: BLE001 - reported, never raised
             model, layout, M = None, None, None
             from hvacfmu.errors import HvacfmuError
@@ -1137,11 +1165,15 @@ class PlantSlave(HvacfmuSlaveBase):
         self.plant = None
         problem = None
         try:
-            from hvacfmu.emulator import Plant  # host environment
+            def build():
+                from hvacfmu.emulator import Plant  # host environment
 
-            truth = json.loads((Path(self.resources or ".") / self.TRUTH_FILE).read_text(encoding="utf-8"))
-            plant = Plant.from_truth(truth)
-            layout = plant_layout(plant, truth)
+                truth = json.loads((Path(self.resources or ".") / self.TRUTH_FILE).read_text(encoding="utf-8"))
+                plant = Plant.from_truth(truth)
+                return plant, plant_layout(plant, truth)
+
+            plant, layout = _cached_setup("plant", self.resources, (self.TRUTH_FILE, INTERFACE_FILE), build)
+            layout = json.loads(json.dumps(layout, default=float))  # each instance its own copy
         except Exception as exc:  # noqa: BLE001 - reported, never raised
             plant, layout = None, None
             problem = f"cannot use the FMU's plant file resources/{self.TRUTH_FILE}: {type(exc).__name__}: {exc}"

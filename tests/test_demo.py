@@ -12,6 +12,9 @@ from numpy.testing import assert_allclose
 
 WEEKS = 12  # a short run of the whole demo (all fall): every stage, a fraction of the time
 
+# the whole demo runs once for this module (about 70 s on the idle 2-core machine)
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def demo_out(tmp_path_factory):

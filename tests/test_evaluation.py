@@ -226,7 +226,12 @@ def test_cli_fit_and_evaluate(data, tmp_path):
             "--json", str(out), "--plots", str(tmp_path / "plots"))
     assert r.returncode == 0, r.stderr
     assert "time-of-week mean" in r.stdout and "== lumped" in r.stdout and "== zones" in r.stdout
-    assert [m["kind"] for m in json.loads(out.read_text())["models"]] == ["zones", "lumped"]
+    # the verdict opens the output and the JSON
+    assert r.stdout.splitlines()[0].startswith("zones: beats persistence in 6/6 zones"), r.stdout[:400]
+    assert r.stdout.splitlines()[1].startswith("lumped: beats persistence in 1/1 zones"), r.stdout[:400]
+    saved = json.loads(out.read_text())
+    assert list(saved)[0] == "verdict" and len(saved["verdict"]["zones"]) == 7
+    assert [m["kind"] for m in saved["models"]] == ["zones", "lumped"]
     assert len(list((tmp_path / "plots").glob("*.png"))) == 3
     r = run("evaluate", src, "--building", str(bpath), "--model", str(tmp_path / "missing.json"))
     assert r.returncode == 2 and "does not exist" in r.stderr

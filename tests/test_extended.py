@@ -309,3 +309,23 @@ def test_discharge_reheat_reads_td_columns():
     assert_allclose(q, expect, rtol=1e-12, atol=0)
     with pytest.raises(ModelError, match="Td_"):
         m.signals(_frame())
+
+
+def test_delivered_heat_base_keeps_its_form_in_the_extended_model():
+    """A base in the delivered-heat form (Td inlets): the extended model steps it through the base's
+    own equations, and its matrix form carries the base's bilinear terms."""
+    from hvacfmu.models.equations import check_equations
+
+    base = LinearZoneModel(
+        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
+        vavs=("V1", "V2"), input_map=np.eye(2), disturbances=("T_out", "T_supply", "Td_V1"),
+        A=np.array([[0.9, 0.02], [0.03, 0.88]]), B=np.zeros((2, 2)), C=np.array([[0.02, 0.0, 0.0], [0.02, 0.0, 0.0]]),
+        gains={"fall": np.zeros((672, 2))}, beta=np.array([0.05, 0.04]), inlets=("Td_V1", "T_supply"),
+        heat_map=np.eye(2))
+    x, u, v, q = np.array([21.0, 22.0]), np.array([0.3, 0.2]), np.array([5.0, 14.0, 30.0]), np.zeros(2)
+    assert_allclose(ExtendedModel(base=base).step_state(x, u, v, q), base.step_state(x, u, v, q), rtol=0, atol=1e-12)
+    m = ExtendedModel(base=base, terms=(ThermalMass(zone="A", alpha=0.02, beta=0.05),
+                                        ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01, coef_ba=0.01)))
+    check_equations(m, m.equations(), n=40, atol=1e-10)
+    with pytest.raises(ModelError, match="quadratic"):
+        ExtendedModel(base=base, terms=(ActuationDelay(zone="A", delay=1),)).equations()

@@ -41,10 +41,15 @@ from ..models.linear import LinearZoneModel
 
 def base_linear(model) -> LinearZoneModel:
     """The linear part of a base model (a LinearZoneModel, or an ExtendedModel's base)."""
-    if isinstance(model, LinearZoneModel):
-        return model
     if isinstance(model, ExtendedModel):
-        return model.base
+        model = model.base
+    if isinstance(model, LinearZoneModel):
+        if model.beta is not None:
+            raise FitError("diagnosis refits Model A in its airflow form; this model uses the delivered-heat form "
+                           "(Td_/inlet columns): let diagnose fit its own base (default) or fit the base with "
+                           "heat='airflow' — measured discharge temperatures are then tested as the reheat / "
+                           "unused_input causes")
+        return model
     raise FitError(
         f"diagnosis needs a Model A base (kinds 'zones' or 'lumped', or 'extended'), got kind {model.kind!r}"
     )

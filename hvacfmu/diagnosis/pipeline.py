@@ -40,7 +40,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
-        ``coupling_min_gain_percent`` (3.0), ``horizon`` (96 steps).
+        ``coupling_min_gain_percent`` (3.0), ``horizon`` (96 steps), ``cv_folds`` (10 blocks of whole
+        training weeks), ``cv_min_gain_percent`` (1.0) and ``cv_min_t`` (2.0, week-clustered paired t).
 
     Returns
     -------
@@ -62,10 +63,9 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     if model is None:
         from ..fitting import fit
 
-        say("fitting the six-zone Model A (v = T_out, T_supply, as in the paper) on the training weeks")
+        say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            # the airflow form: the cause terms assume zone airflow inputs (delivered heat: issue 13, open)
             model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow")
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):

@@ -226,9 +226,11 @@ class DiagnosisReport:
                      f"{a.get('cpgram_departure', float('nan')):.3f}")
         o = self.options
         L.append("")
-        L.append(f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, and held-out gain "
-                 f">= {o['min_gain_percent']:g} % (zone_coupling {o['coupling_min_gain_percent']:g} %) and "
-                 f">= {o['min_gain_abs']:g} K, positive in every affected zone.")
+        L.append(f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, then blocked "
+                 f"cross-validation over {o.get('cv_folds', 10)} folds of whole training weeks: gain "
+                 f">= {o.get('cv_min_gain_percent', 1.0):g} % (zone_coupling {o['coupling_min_gain_percent']:g} %) "
+                 f"and >= {o['min_gain_abs']:g} K with week-clustered paired t >= {o.get('cv_min_t', 2.0):g}; "
+                 f"held-out weeks are reported, not used to accept.")
         for n in self.notes:
             L.append(f"note: {n}")
         return "\n".join(L)
@@ -272,8 +274,13 @@ def _short_evidence(f: dict) -> str:
     c = f["cause"]
     if c == "solar_gain":
         s, cl = ev.get("resid_sunny", {}), ev.get("resid_cloudy", {})
+        ph = ("" if ev.get("resid_peak_hour") is None or ev.get("facade_peak_hour") is None else
+              f"; residual peaks at {ev['resid_peak_hour']:.1f} h, facade irradiance at {ev['facade_peak_hour']:.1f} h")
         return (f"corr(residual, I) {ev.get('corr', float('nan')):+.2f}; mean one-step residual sunny "
-                f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K")
+                f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K" + ph)
+    if c == "unused_input":
+        return (f"column {ev.get('column')} (coverage {100 * (ev.get('coverage') or 0):.0f} %): corr(residual, column) "
+                f"{ev.get('corr', float('nan')):+.2f}")
     if c == "supply_air_bilinear":
         return f"corr(residual, u·(T_supply−T)) {ev.get('corr', float('nan')):+.2f}"
     if c == "zone_coupling":
@@ -282,7 +289,12 @@ def _short_evidence(f: dict) -> str:
         return f"time constant {ev.get('time_constant_h', float('nan')):.1f} h (alpha {ev.get('alpha', float('nan')):g})"
     if c == "actuation_delay":
         xc = ev.get("xcorr_resid_airflow_by_lag", {})
-        return "corr(residual, airflow lagged): " + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
+        fu = ev.get("xcorr_resid_future_airflow_by_lag", {})
+        return ("corr(residual, airflow lagged): " + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
+                + "; future airflow: " + ", ".join(f"{k}:{v:+.2f}" for k, v in fu.items() if v is not None))
+    if c == "reheat" and "corr_reheat_heat" in ev:
+        return (f"corr(residual, Σ m·cp·(Td − T_supply)) {ev['corr_reheat_heat']:+.2f}; coils heating in "
+                f"{100 * ev.get('share_of_rows_heating', 0):.0f} % of training rows")
     if c == "reheat":
         return f"T_out threshold {ev.get('T_threshold', float('nan')):g} °C at minimum airflow {ev.get('u_min', 0):.3f} kg/s"
     if c == "internal_gain_schedule":

@@ -1,28 +1,24 @@
 """Confirmation and forward selection of extension terms.
 
-A candidate is *confirmed* when both hold:
+Each round, every registered cause screens the current model's training residuals
+(:func:`hvacfmu.diagnosis.candidates.generate`) and a candidate is *confirmed* when all hold:
 
-1. **Training data** — the likelihood-ratio statistic of the joint refit with the
-   term against the refit without it, per affected zone equation
-   ``LR_z = N ln(RSS_0 / RSS_1)`` (Gaussian one-step errors), summed over the
-   affected zones and deflated for serially correlated residuals by the factor
-   ``(1 − ρ_z) / (1 + ρ_z)`` (``ρ_z`` the lag-1 autocorrelation of the zone's
-   current residuals, an effective-sample-size correction), exceeds the BIC
-   penalty ``k ln N`` by at least ``bic_margin`` (default 10, "very strong"
-   evidence on the Kass–Raftery scale). ``k`` counts the fitted coefficients
-   plus the searched hyper-parameters (time constant, delay, thresholds, dates).
-2. **Held-out weeks** — the 24-hour open-loop RMS of :func:`hvacfmu.evaluation.evaluate`
-   on the test weeks, averaged over the affected zones, improves by at least
-   ``min_gain_percent`` (default 1 %) and ``min_gain_abs`` (default 0.003 K), and in
-   every affected zone. A ``zone_coupling`` needs ``coupling_min_gain_percent``
-   (default 3 %) and a symmetric exchange (the two zones' own coefficients, scaled by
-   their volumes, within a factor ``coupling_max_asymmetry`` = 4): a path between two
-   zones can trade their common-mode errors (floors above and below, weather, the
-   day's occupancy) for a small spurious gain.
+1. **Screen on the training rows** — the likelihood-ratio statistic of the joint refit with the
+   term against the refit without it, per affected zone equation ``LR_z = N ln(RSS_0 / RSS_1)``,
+   deflated by ``(1 − ρ_z) / (1 + ρ_z)`` for serially correlated residuals, exceeds the BIC
+   penalty ``k ln N`` by ``bic_margin`` (10); cause-specific gates (a symmetric coupling, a
+   schedule change of scale ≥ 0.5, a delay seen in the past rather than the future airflow).
+2. **Blocked cross-validation** (:mod:`hvacfmu.diagnosis.crossval`) — over ``cv_folds`` (10)
+   blocks of whole training weeks, the affected zones predicted open loop for 24 h with every
+   other zone measured: cross-validated gain ≥ ``cv_min_gain_percent`` (1 %; coupling
+   ``coupling_min_gain_percent`` 3 %) and ≥ ``min_gain_abs`` (0.003 K), and week-clustered paired
+   t ≥ ``cv_min_t`` (2).
 
-Forward selection (in the spirit of Bacher & Madsen, 2011): score every
-candidate, try the confirmed ones in order of BIC evidence, add the first that
-also gains on held-out weeks, refit, repeat until nothing is left.
+The held-out test weeks are only reported (per finding, per affected zone). Candidates are
+tried in order of ΔBIC; at most one per zone per round; the strongest rival cause at the same
+zones is cross-validated on the same folds and wins when the data favour it. After a round the
+structure is refitted with every accepted term (the next round's baseline), calendar terms on
+the gain profile of that refit.
 
 References
 ----------
@@ -208,7 +204,7 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
-    if hasattr(t, "T_threshold"):
+    if hasattr(t, "T_threshold") and getattr(t, "variant", "switch") == "switch":
         c.location = {**c.location}
         c.evidence["T_threshold"] = float(t.T_threshold)
     if _is_dst(t):

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models.plausibility import MIN_EFFECT_K
+
 #: ASHRAE Guideline 14 calibration thresholds for hourly data [%]
 G14_NMBE_MAX = 10.0
 G14_CVRMSE_MAX = 30.0
@@ -258,6 +260,9 @@ def _used_columns(model) -> set:
     used = set(getattr(model, "disturbances", ()))
     used |= {f"T_{z}" for z in getattr(model, "outputs", ())}
     used |= {f"T_{z}" for z in getattr(model, "measured_zones", ())}
+    base = getattr(model, "base", model)
+    used |= {str(c) for c in (getattr(base, "inlets", None) or ()) if c}  # delivered heat / physics inlets
+    used |= {str(c) for c in getattr(base, "inputs", ())}
     if any(str(c).startswith("I_") for c in used):
         used.add("ghi")  # facade irradiance is computed from it
     return used | {"excitation"}
@@ -340,9 +345,19 @@ def _sparse_columns(model, score, dataset) -> list[str]:
 def _airflow_gain(model, dataset) -> list[str]:
     """Airflow gains of a linear model too small to matter: not identifiable from closed-loop data."""
     base = getattr(model, "base", model)
+    if getattr(base, "heat", "airflow") == "delivered":
+        # the delivered-heat form has B = 0 by construction: its identifiability was judged at fit time
+        plaus = (getattr(base, "meta", None) or {}).get("plausibility") or {}
+        if plaus.get("identifiable", True):
+            return []
+        weak = {z: e for z, e in (plaus.get("drive_effect_k") or {}).items() if e is not None and e < MIN_EFFECT_K}
+        return ["delivered heat not identifiable (flagged at fit time): over its observed range it moves "
+                + ", ".join(f"{z} by {e:.2g} K" for z, e in weak.items())
+                + "; the fit learned the thermostat loop, not the building (add forced-response weeks, or use the "
+                "physics model)"]
     B = getattr(base, "B", None)
-    if B is None or getattr(base, "heat", "airflow") == "delivered":
-        return []  # a delivered-heat model drives by beta * Q, not B (its B is empty): fit-time check
+    if B is None:
+        return []
     B = np.atleast_2d(np.asarray(B, float))
     try:
         u, _ = base.signals(dataset.frame)

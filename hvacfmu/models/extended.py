@@ -269,7 +269,7 @@ class ExtendedModel(ZoneModel):
                 c.off = off
                 t.shift_input(c)
         nvb = len(b.disturbances)
-        Tn = c.T @ b.A.T + c.u_eff @ b.B.T + v[..., :nvb] @ b.C.T + q
+        Tn = b.step_state(c.T, c.u_eff, v[..., :nvb], q)  # airflow or delivered-heat form
         c.Tn = np.array(np.broadcast_to(Tn, shape + (nz,)))
         for t, (off, _) in zip(self.terms, self._layout):
             c.off = off
@@ -297,9 +297,15 @@ class ExtendedModel(ZoneModel):
         e = EquationParts(A=np.zeros((nx, nx)), Bu=np.zeros((nx, nu)), Bv=np.zeros((nx, nv)),
                           Bxu=[np.zeros((nx, nx)) for _ in range(nu)], Bvu=[np.zeros((nx, nv)) for _ in range(nu)],
                           switches=[], zi=self._zi, vi=self._vi, u_state={})
-        e.A[:nz, :nz] = b.A
-        e.Bu[:nz] = b.B
-        e.Bv[:nz, : len(b.disturbances)] = b.C
+        beq = b.equations()
+        nvb = len(b.disturbances)
+        e.A[:nz, :nz] = beq.A
+        e.Bu[:nz] = beq.Bu
+        e.Bv[:nz, :nvb] = beq.Bv
+        for j in range(len(beq.Bxu)):
+            e.Bxu[j][:nz, :nz] += beq.Bxu[j]
+        for j in range(len(beq.Bvu)):
+            e.Bvu[j][:nz, :nvb] += beq.Bvu[j]
         order = sorted(range(len(self.terms)), key=lambda i: self.terms[i].delayed_input() is None)
         for i in order:  # delays first: later terms see which airflows are states
             e.off = self._layout[i][0]

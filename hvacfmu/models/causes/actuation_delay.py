@@ -14,6 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ...errors import ModelError
 from .base import Candidate, EquationParts, StepContext, Term, corr, zone_of
 from .signals import MAX_DELAY, shifted
 
@@ -68,6 +69,9 @@ class ActuationDelay(Term):
 
     def add_equations(self, e: EquationParts) -> None:
         zi, n, off = e.zi[self.zone], int(self.delay), e.off
+        if np.any(e.Bxu[zi]) or np.any(e.Bvu[zi]):
+            raise ModelError(f"actuation_delay in zone {self.zone!r} of a model bilinear in that airflow (delivered "
+                             "heat): the delayed airflow times the state is quadratic, no bilinear equations")
         for j in range(n - 1):
             e.A[off + j, off + j + 1] = 1.0
         e.Bu[off + n - 1, zi] = 1.0
