@@ -524,3 +524,27 @@ def test_common_bandwidth_is_the_better_choice(lumped_dataset, lumped_truth, lum
     assert len(set(lumped_fit.meta["smoothing"]["bandwidth_h"].values())) == 1
     b_true = lumped_truth.B[0, 0]
     assert abs(lumped_fit.B[0, 0] - b_true) < 0.5 * abs(per_series.B[0, 0] - b_true)
+
+
+# ============================================================================= open-loop refinement
+def test_open_loop_refinement_only_on_closed_loop_data_by_default(lumped_dataset, lumped_truth, lumped_fit):
+    """Option open_loop: kept off with excitation experiments ("auto"), and when forced it lowers the training
+    windows' 24-h error, keeps the fit's constraints and predicts the held-out weeks as well as the paper's fit."""
+    from hvacfmu.evaluation import evaluate
+
+    assert lumped_fit.meta["open_loop"] == {"used": False, "reason": "excitation periods in the training weeks"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        refined = fit_lumped(lumped_dataset, open_loop=True)
+    ol = refined.meta["open_loop"]
+    assert ol["used"] and ol["why"] == "option open_loop=True" and ol["windows"] >= 7 * 8
+    assert ol["rms_after"] < ol["rms_before"]
+    assert ol["one_step"]["A_diag"] == [lumped_fit.A[0, 0]]
+    assert 0 < refined.A[0, 0] < 1 and refined.B[0, 0] <= 0 and np.all(refined.C >= 0)
+    assert np.all((refined.C != 0) <= (lumped_fit.C != 0))  # no new terms
+    assert abs(refined.A[0, 0] - lumped_truth.A[0, 0]) < 0.02 and abs(refined.B[0, 0] / lumped_truth.B[0, 0] - 1) < 0.1
+    res = evaluate([lumped_fit, refined], lumped_dataset, names=["one_step", "open_loop"])
+    one, ref = (res.table(n).loc["all", "mean"] for n in ("one_step", "open_loop"))
+    assert ref < 1.2 * one + 0.01, (one, ref)
+    with pytest.raises(FitError, match="open_loop"):
+        fit_lumped(lumped_dataset, open_loop="yes")

@@ -132,3 +132,18 @@ def test_sparse_column_is_named(truth, offset_data, building):
     res = evaluate(truth, offset_data)
     causes = likely_causes(truth, res.scores[0], data, ["NW"])
     assert any(c.startswith("sparse column 'T_out': 50 %") for c in causes), causes
+
+
+def test_delivered_heat_model_is_judged_by_its_fit_time_identifiability():
+    """The delivered-heat form has B = 0 by construction; the verdict reads the fit's own flag instead."""
+    import types
+
+    from hvacfmu.evaluation.verdict import _airflow_gain
+
+    ok = types.SimpleNamespace(heat="delivered", B=[[0.0]], meta={"plausibility": {"identifiable": True}})
+    assert _airflow_gain(ok, dataset=None) == []
+    weak = types.SimpleNamespace(heat="delivered", B=[[0.0]], meta={"plausibility": {
+        "identifiable": False, "drive_effect_k": {"E": 0.05, "W": 0.9}}})
+    lines = _airflow_gain(weak, dataset=None)
+    assert len(lines) == 1 and "delivered heat not identifiable" in lines[0] and "E by 0.05 K" in lines[0]
+    assert "W by" not in lines[0]

@@ -575,6 +575,7 @@ DEFAULTS: dict[str, Any] = {
     "min_season_coverage": 0.5,
     "heat": "auto",
     "plausibility": True,
+    "open_loop": "auto",
 }
 
 #: With option heat="auto", the delivered-heat form is used when an air handler is off in more than this share
@@ -590,6 +591,8 @@ def _options(opts: dict) -> dict:
         raise TypeError(f"unknown fit option(s) {unknown}; known: {sorted(DEFAULTS)}")
     out = dict(DEFAULTS)
     out.update(opts)
+    if out["open_loop"] not in ("auto", True, False):
+        raise FitError(f"option open_loop must be 'auto', True or False, got {out['open_loop']!r}")
     return out
 
 
@@ -1038,6 +1041,17 @@ def fit_lumped(dataset, **options):
     plausibility : bool
         Check the fitted model (:mod:`hvacfmu.models.plausibility`) and refuse an
         implausible one (default True).
+    open_loop : {"auto", True, False}
+        After the paper's one-step fit, re-fit the diagonal of A, the drive
+        coefficient(s) and the non-zero entries of C for 24-hour open-loop
+        prediction on the training weeks, with the gain profiles re-estimated
+        alongside (:mod:`hvacfmu.models.openloop`). On closed-loop data the
+        one-step fit identifies the thermostat loop's fast mode; this keeps
+        the building's slow one. Default "auto": only when the training weeks
+        have no excitation periods (closed-loop data only; with excitation
+        experiments the paper's estimate is kept, it recovers the parameters
+        better). ``meta["open_loop"]`` says whether and why, with the one-step
+        values and the training errors before and after.
     progress : bool
         Accepted for the CLI; the fit is fast and shows no bar.
 
@@ -1303,9 +1317,28 @@ def _finish(prep: _Prepared, opts, kind, A, drive, C, gains, meta, weights):
         model = LinearZoneModel(input_map=np.eye(len(b.vavs)), disturbances=prep.v_names + extra,
                                 B=np.zeros((nx, len(b.vavs))), C=C, beta=drive, inlets=prep.inlets,
                                 heat_map=heat_map, meta=_jsonable(meta), **common)
+    model = _refined(prep, opts, model)
     if opts["plausibility"]:
         model = check_fitted(model, prep.dataset, warn=prep.warn)
     return model
+
+
+def _refined(prep: _Prepared, opts, model):
+    """The model re-fitted for 24-h open-loop prediction (option ``open_loop``, :mod:`.openloop`); meta records it."""
+    import dataclasses
+
+    from .openloop import refine_open_loop
+
+    form = opts["open_loop"]
+    excited = bool(np.any(prep.exc & prep.train))
+    if form is False or (form == "auto" and excited):
+        why = "option open_loop=False" if form is False else "excitation periods in the training weeks"
+        return dataclasses.replace(model, meta=_jsonable({**model.meta, "open_loop": {"used": False, "reason": why}}))
+    new, info = refine_open_loop(model, prep)
+    info["why"] = "option open_loop=True" if form is True else "closed-loop data: no excitation periods"
+    info["one_step"] = {"A_diag": np.diag(model.A), "drive": model.beta if model.beta is not None else np.diag(model.B),
+                        "C": model.C}
+    return dataclasses.replace(new, meta=_jsonable({**model.meta, "open_loop": info}))
 
 
 __all__ = [
