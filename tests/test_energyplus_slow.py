@@ -60,15 +60,8 @@ def test_pipeline_runs_end_to_end(which, request):
     assert np.isfinite(table["rms"]).all()
 
 
-_LOSES = pytest.mark.xfail(strict=True, reason=(
-    "measured on this branch: in the VAV office's winter and spring, reheat at nearly constant airflow heats the "
-    "zones and Model A (lumped, zones) loses to persistence (issue 13: delivered heat m cp (Td - T_zone)); "
-    "remove this mark when it passes"))
-
-
 @pytest.mark.parametrize("which, kind", [
-    pytest.param("vav_office", "lumped", marks=_LOSES), pytest.param("vav_office", "zones", marks=_LOSES),
-    ("vav_office", "physics"),
+    ("vav_office", "lumped"), ("vav_office", "zones"), ("vav_office", "physics"),
     ("packaged", "lumped"), ("packaged", "zones"),
     ("packaged", "physics"),
 ])

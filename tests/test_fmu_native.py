@@ -17,14 +17,13 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
+from test_fmu import calendar_model, extended_model, lumped_model, physics_model, zones_model
 
 from hvacfmu.errors import FMUError
 from hvacfmu.fmu import validate
 from hvacfmu.fmu_native import export_native_fmu, native_identifier
 from hvacfmu.fmu_slave import box_names, state_from_outputs
 from hvacfmu.models.linear import LinearZoneModel
-
-from test_fmu import calendar_model, extended_model, lumped_model, physics_model, zones_model
 
 EXACT = 1e-9  # [K] native FMU vs Python model
 STEP = 900.0  # [s]
