@@ -97,6 +97,11 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     assert cov["skipped"]["missing data"] > 0 and sum(cov["windows"].values()) < cov["total"], cov
     assert f"on {sum(cov['windows'].values())} of {cov['total']} test windows" in ev.stdout.splitlines()[1]
 
+    diag = hvacfmu("diagnose", data, "-b", bld, "--json", export / "diag.json")
+    head = diag.stdout.split("Verdict:")[0]  # the verdict against the baselines comes before the causes
+    assert "Held-out verdict against persistence" in head and "extended: beats persistence in" in head, head
+    assert "verdict" in json.loads((export / "diag.json").read_text())["heldout"]
+
     fmu = export / "zones.fmu"
     hvacfmu("export", export / "zones.json", "-o", fmu)
     with zipfile.ZipFile(fmu) as z:  # the discharge temperature inputs carry their unit
