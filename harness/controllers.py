@@ -215,10 +215,21 @@ class RuleController:
         self.dt = float(context.step)
         self.T_set = float(np.mean(context.band)) if self.setpoint is None else float(self.setpoint)
         self.integral = np.zeros(len(context.vavs))
+        # a delivered-heat model's FMU has no T_supply input (its boxes take Td_<vav> or T_supply_<ahu>):
+        # the heating/cooling sign then comes from the prepared data's supply temperature
+        frame = context.frame
+        self.supply = frame["T_supply"].to_numpy(float) if "T_supply" in frame.columns else None
 
     def __call__(self, k, t, y, v):
         T = np.asarray(y, dtype=float)[self.out_of_box]
-        sign = np.where(float(v["T_supply"]) <= T, 1.0, -1.0)
+        if "T_supply" in v:
+            T_supply = float(v["T_supply"])
+        elif self.supply is not None:
+            T_supply = float(self.supply[min(k, len(self.supply) - 1)])
+        else:
+            raise KeyError("the rule controller needs the supply air temperature: neither the FMU's inputs "
+                           "nor the data hold a 'T_supply' column")
+        sign = np.where(T_supply <= T, 1.0, -1.0)
         e = sign * (T - self.T_set)
         f_unsat = self.kp * e + self.integral
         f = np.clip(f_unsat, 0.0, 1.0)

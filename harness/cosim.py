@@ -796,7 +796,7 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
 
 def _result_table(run: _Run, tr: _Trace) -> pd.DataFrame:
     """The run's table: outputs, commands, disturbances, measurements, timings (cut at the last step taken)."""
-    frame, step = run.frame, run.step
+    frame = run.frame
     index = frame.index.append(pd.DatetimeIndex([run.end]))
     index.name = "time"
     table = pd.DataFrame(tr.Y, index=index, columns=list(run.out_names))

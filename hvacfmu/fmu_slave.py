@@ -72,7 +72,7 @@ import math
 import operator
 import traceback
 from pathlib import Path
-from xml.etree.ElementTree import Element, SubElement
+from xml.etree.ElementTree import SubElement
 
 import numpy as np
 from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -118,7 +118,7 @@ def sanitize_name(name: str) -> str:
 
 def signal_unit(name: str) -> str | None:
     """Unit of a frame column / signal name (README nomenclature)."""
-    if name.startswith("T_"):
+    if name.startswith(("T_", "Td_")):  # zone, outdoor, supply and discharge air temperatures
         return "degC"
     if name.startswith("m_"):
         return "kg/s"

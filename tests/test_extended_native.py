@@ -9,6 +9,7 @@ import shutil
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from test_fmu_native import simulate_year, zones_model
 
 from hvacfmu.fmu_native import export_native_fmu
 from hvacfmu.models.extended import (
@@ -20,8 +21,6 @@ from hvacfmu.models.extended import (
     ThermalMass,
     ZoneCoupling,
 )
-
-from test_fmu_native import simulate_year, zones_model
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler gcc")
 

@@ -813,3 +813,29 @@ def test_pythonfmu_fmu_without_its_python_packages_says_so(built, tmp_path):
     assert run.returncode == 0, run.stderr[-2000:]
     assert "needs the Python packages hvacfmu, numpy" in run.stdout, run.stdout + run.stderr
     assert "hvacfmu export --native" in run.stdout
+
+
+@pytest.mark.parametrize("kind", ["zones", "physics"])
+def test_fmpy_simulate_without_solar_inputs(built, fmu_data, tmp_path, kind):
+    """`fmpy simulate` with an input file that has no facade irradiance columns: those inputs keep their
+    start value (0 W/m2, no sun) and the run covers the requested time, as the README documents."""
+    model, _, path = built[kind]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    n = 48
+    keep = [c for c in names_in if not c.startswith("I_")]
+    inp = pd.DataFrame(U[:n], columns=names_in)[keep]
+    inp.insert(0, "time", np.arange(n) * 900.0)
+    inp.to_csv(tmp_path / "in.csv", index=False)
+    cmd = ["fmpy", "simulate", str(path), "--input-file", str(tmp_path / "in.csv"), "--output-interval", "900",
+           "--stop-time", str((n - 1) * 900.0), "--output-file", str(tmp_path / "out.csv"), "--start-values"]
+    for k, val in sv.items():
+        cmd += [k, str(val)]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr + run.stdout
+    out = pd.read_csv(tmp_path / "out.csv")
+    assert len(out) == n and out["time"].iloc[-1] == (n - 1) * 900.0
+    dark = v.copy()
+    dark[:, [list(model.disturbances).index(d) for d in model.disturbances if d.startswith("I_")]] = 0.0
+    Yref = reference(model, idx[:n], m[:n], dark[:n], y0, week.season)
+    assert_allclose(out[names_out].to_numpy(), Yref[:n], rtol=0, atol=1e-9)

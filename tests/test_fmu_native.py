@@ -17,14 +17,13 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
+from test_fmu import calendar_model, extended_model, lumped_model, physics_model, zones_model
 
 from hvacfmu.errors import FMUError
 from hvacfmu.fmu import validate
 from hvacfmu.fmu_native import export_native_fmu, native_identifier
 from hvacfmu.fmu_slave import box_names, state_from_outputs
 from hvacfmu.models.linear import LinearZoneModel
-
-from test_fmu import calendar_model, lumped_model, physics_model, zones_model
 
 EXACT = 1e-9  # [K] native FMU vs Python model
 STEP = 900.0  # [s]
@@ -44,7 +43,8 @@ def sdh():
 def native(tmp_path_factory, sdh):
     """kind -> (model, native FMU path), each built once."""
     d = tmp_path_factory.mktemp("native")
-    models = {"lumped": lumped_model(sdh), "zones": zones_model(sdh), "physics": physics_model(sdh)}
+    models = {"lumped": lumped_model(sdh), "zones": zones_model(sdh), "physics": physics_model(sdh),
+              "extended": extended_model(sdh)}
     return {k: (m, export_native_fmu(m, d / f"{k}.fmu")) for k, m in models.items()}
 
 
@@ -99,7 +99,7 @@ def simulate_year(model, path, n):
 
 
 # ----------------------------------------------------------------------------- exactness
-@pytest.mark.parametrize("kind", ["lumped", "zones", pytest.param("physics", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", ["lumped", "zones", "extended", pytest.param("physics", marks=pytest.mark.slow)])
 def test_year_in_fmpy_matches_python_model(native, kind):
     """A year (35,040 steps) through fmpy.simulate_fmu equals the Python model to 1e-9 K."""
     model, path = native[kind]
@@ -119,7 +119,7 @@ def test_physics_week_in_fmpy_matches_python_model(native):
 
 
 # ----------------------------------------------------------------------------- model description
-@pytest.mark.parametrize("kind", ["lumped", "zones", "physics"])
+@pytest.mark.parametrize("kind", ["lumped", "zones", "physics", "extended"])
 def test_validate_description_and_contents(native, kind):
     from fmpy import read_model_description
 

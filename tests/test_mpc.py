@@ -841,3 +841,23 @@ def test_extended_model_equations_by_probing(tmp_path):
     assert c.bilinear and c.estimated
     with pytest.raises(ModelError, match="reheat"):
         probe_equations(ExtendedModel(base=base, terms=(Reheat(zone="A", coef=0.3, u_min=0.1),)))
+
+
+def test_extended_model_own_equations_drive_the_mpc():
+    """ExtendedModel.equations() (delay states, bilinear supply air, reheat switch) is what the MPC
+    predicts with; reheat on a delayed airflow is refused with the reasons, never silently wrong."""
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, Reheat, SupplyAirBilinear
+
+    base = linear_model()
+    ext = ExtendedModel(base=base, terms=(ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="A", coef=0.02),
+                                          Reheat(zone="C", coef=0.3, u_min=0.06)))
+    pred = make_predictor(ext)
+    assert pred.switches and not pred.linear and pred.nx == 5
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        x, u = 20 + rng.normal(size=5), rng.uniform(0.0, 0.3, 3)
+        v = np.array([rng.uniform(5, 20), 13.0])
+        assert_allclose(pred.step(x, u, v, np.full(3, 0.4)), ext.step_state(x, u, v, np.full(3, 0.4)), rtol=0, atol=1e-12)
+    bad = ExtendedModel(base=base, terms=(ActuationDelay(zone="A", delay=1), Reheat(zone="A", coef=0.3, u_min=0.1)))
+    with pytest.raises(ModelError, match="delayed airflow.*probing"):
+        MPCController(bad, LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3))

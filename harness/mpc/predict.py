@@ -491,17 +491,29 @@ class KalmanFilter:
 def model_equations(model):
     """The model's :class:`~hvacfmu.models.equations.ModelEquations`, or None if it cannot give one.
 
-    ``model.equations()`` when the kind implements it; otherwise, for zone
-    models with ``step_state`` and ``gains``, the equations found by probing
-    (:func:`probe_equations`, exact or refused).
+    ``model.equations()`` when the kind implements it; otherwise (or when it
+    refuses, e.g. an extended model's calendar terms, which act through
+    ``gains_at`` and leave the step time-invariant), for zone models with
+    ``step_state`` and ``gains``, the equations found by probing
+    (:func:`probe_equations`, exact or refused with both reasons).
     """
+    refused = None
     if hasattr(model, "equations"):
         try:
             return model.equations()
         except NotImplementedError:
             pass
+        except ModelError as exc:  # e.g. calendar terms: no time-invariant equations, but a probed step may be
+            refused = exc
     if hasattr(model, "step_state") and hasattr(model, "gains") and hasattr(model, "n_states"):
-        return probe_equations(model)
+        try:
+            return probe_equations(model)
+        except ModelError as exc:
+            if refused is None:
+                raise
+            raise ModelError(f"{refused}; probing its step instead: {exc}") from None
+    if refused is not None:
+        raise refused
     return None
 
 
@@ -540,9 +552,9 @@ def probe_equations(model):
     try:
         check_equations(model, eq, atol=1e-8)
     except ModelError as exc:
-        raise ModelError(f"MPC needs the equations of the {getattr(model, 'kind', '?')} model: it has no "
-                         f"equations() and is not bilinear in its inputs when probed ({exc}); piecewise "
-                         "terms such as reheat need the kind's own equations()") from None
+        raise ModelError(f"MPC needs the equations of the {getattr(model, 'kind', '?')} model: its step is not "
+                         f"bilinear in its inputs when probed ({exc}); piecewise terms such as reheat need the "
+                         "kind's own equations()") from None
     return eq
 
 

@@ -312,6 +312,20 @@ def _version():
     return __version__
 
 
+_default_showwarning = warnings.showwarning
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """hvacfmu's own warnings as one line ``HvacfmuWarning: ...`` (they name file, column and fix
+    themselves; the library's source line means nothing to a user), others as Python shows them."""
+    from ..errors import HvacfmuWarning
+
+    if issubclass(category, HvacfmuWarning):
+        print(f"{category.__name__}: {message}", file=file or sys.stderr)
+    else:
+        _default_showwarning(message, category, filename, lineno, file, line)
+
+
 def main(argv=None) -> int:
     from ..errors import HvacfmuError
 
@@ -323,6 +337,7 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     warnings.simplefilter("default")
+    warnings.showwarning = _show_warning
     try:
         return int(args.func(args) or 0)
     except HvacfmuError as exc:

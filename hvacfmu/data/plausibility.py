@@ -190,11 +190,9 @@ def stuck_runs(values, times_ns, min_seconds):
     change = np.flatnonzero(np.diff(v) != 0) + 1
     starts = np.concatenate(([0], change))
     stops = np.concatenate((change, [len(v)]))
-    out = []
-    for a, b in zip(starts, stops):
-        if b - a >= 2 and (times_ns[pos[b - 1]] - times_ns[pos[a]]) / 1e9 >= min_seconds:
-            out.append((int(pos[a]), int(pos[b - 1]) + 1))
-    return out
+    t = times_ns[pos]
+    long = ((stops - starts) >= 2) & ((t[stops - 1] - t[starts]) / 1e9 >= min_seconds)  # vectorised: noisy data
+    return [(int(pos[a]), int(pos[b - 1]) + 1) for a, b in zip(starts[long], stops[long])]
 
 
 def check_stuck(canonical, si, times_ns, desc, where, warnings):

@@ -81,10 +81,14 @@ def _disturbances(sig: Signals, model) -> np.ndarray:
 
 def _gains(sig: Signals, model) -> np.ndarray:
     q = np.zeros((len(sig.Y), sig.nz))
+    calendar = any(t.gain_adjustment(sig.index[:1], np.zeros((sig.n_tow, sig.nz)), sig.step) is not None
+                   for t in model.terms)
     for s in sig.seasons:
         m = sig.season == s
         if m.any():
-            q[m] = model.gains_at(sig.index[m], s if s in model.gains else next(iter(model.gains)))
+            ss = s if s in model.gains else next(iter(model.gains))
+            # the slot table read at the rows' time of week (the calendar terms need gains_at)
+            q[m] = model.gains_at(sig.index[m], ss) if calendar else np.asarray(model.gains[ss])[sig.tow[m]]
     return q
 
 

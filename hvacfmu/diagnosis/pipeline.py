@@ -216,4 +216,10 @@ def _heldout_table(base_model, refit, final, dataset, horizon, notes) -> dict:
                                                / out["mean_original_base"])
         out["refit_base"] = out["base"]["all"]
         out["mean_refit_base"] = out["mean_base"]
+    # issue 13 p.5: the verdict against persistence / time-of-week / Guideline 14 on the same windows
+    v = res.verdict
+    out["verdict"] = v.to_dict()
+    out["verdict_lines"] = [v.summary(m) for m in ("base", "extended")] + [
+        f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against {z.persistence:.3f} K"
+        for z in v.losing() if z.model in ("base", "extended")] + [t for t in map(v.thin, ("extended",)) if t]
     return out

@@ -137,8 +137,12 @@ class DiagnosisReport:
         L = [f"Diagnosis of the {self.base_model.kind} model on {self.data.get('source') or 'the dataset'}",
              f"  {self.data.get('n_train_weeks')} training / {self.data.get('n_test_weeks')} held-out weeks, "
              f"solar data: {'yes' if self.data.get('has_solar') else 'no'}",
-             "", f"Verdict: {self.verdict} — {self.summary()}", ""]
+             ""]
         ho = self.heldout
+        if ho.get("verdict_lines"):  # against the baselines first (issue 13 p.5), then the causes
+            L += ["Held-out verdict against persistence and the time-of-week mean (base refitted, extended):"]
+            L += [f"  {line}" for line in ho["verdict_lines"]] + [""]
+        L += [f"Verdict: {self.verdict} — {self.summary()}", ""]
         if ho.get("zones"):
             L.append("Held-out 24-hour RMS [K] per zone (base structure refitted -> extended, gain):")
             for z in ho["zones"]:

@@ -38,7 +38,8 @@ def open_loop_residuals(model, frame: pd.DataFrame, starts, seasons, horizon: in
     model : ZoneModel
     frame : DataFrame
     starts : array of int
-        Start rows k0 (state taken from ``model.initial_state(frame, k0)``).
+        Start rows k0 (state: measured outputs at k0 and, for extended models, hidden states
+        along the measured history, ``teacher_forced_states``; else ``model.initial_state``).
     seasons : sequence of str
         Season of each start (internal-gain profile).
     horizon : int [steps]
@@ -55,18 +56,27 @@ def open_loop_residuals(model, frame: pd.DataFrame, starts, seasons, horizon: in
     out = np.full((n, Y.shape[1]), np.nan)
     keep, x0, qs = [], [], []
     idx = frame.index
+    # hidden states along the measured history (one pass), gains once per season: not per window
+    if hasattr(model, "teacher_forced_states"):
+        X = np.asarray(model.teacher_forced_states(frame), float)
+    else:  # a state per measured output: the measured outputs are the state
+        X = Y if getattr(model, "n_states", -1) == Y.shape[1] else None
+    q_by_season = {s: np.asarray(model.gains_at(idx, s), float) for s in set(seasons) if s in model.gains}
     for k0, s in zip(starts, seasons):
         if k0 + horizon >= n or s not in model.gains:
             continue
         r = np.arange(k0, k0 + horizon)
         if not (np.isfinite(u[r]).all() and np.isfinite(v[r]).all()):
             continue
-        x = np.asarray(model.initial_state(frame, int(k0)), float)
+        if X is not None and np.isfinite(X[k0]).all():
+            x = X[k0]
+        else:
+            x = np.asarray(model.initial_state(frame, int(k0)), float)
         if not np.isfinite(x).all():
             continue
         keep.append(r)
         x0.append(x)
-        qs.append(model.gains_at(idx[r], s))
+        qs.append(q_by_season[s][r])
     if not keep:
         return out
     R = np.stack(keep)

@@ -108,6 +108,8 @@ class Verdict:
 
     zones: tuple
     causes: dict
+    #: model -> what the verdict stands on: scored windows per season, skipped windows, unscored test seasons
+    coverage: dict = dataclasses.field(default_factory=dict)
 
     def losing(self, model: str | None = None) -> list:
         """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
@@ -121,15 +123,41 @@ class Verdict:
         t = sum(z.beats_time_of_week for z in mine)
         c = sum(z.calibrated for z in mine)
         flag = "!! " if p < n else ""
+        cov = self.coverage.get(model)
+        on = ""
+        if cov and cov["skipped"]:  # say what the verdict stands on when windows were skipped
+            per = ", ".join(f"{s} {k}" for s, k in cov["windows"].items())
+            on = f"; on {sum(cov['windows'].values())} of {cov['total']} test windows ({per})"
         return (f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
-                f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}")
+                f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}")
+
+    def thin(self, model: str) -> str:
+        """A warning when most test windows were skipped or a test season has none scored, else ''."""
+        cov = self.coverage.get(model)
+        if not cov or not cov["skipped"]:
+            return ""
+        scored = sum(cov["windows"].values())
+        if not cov["unscored_seasons"] and 2 * scored >= cov["total"]:
+            return ""
+        why = ", ".join(f"{v} {k}" for k, v in cov["skipped"].items())
+        none = (f"; none in {', '.join(cov['unscored_seasons'])}: this verdict says nothing about "
+                f"{'that season' if len(cov['unscored_seasons']) == 1 else 'those seasons'}"
+                if cov["unscored_seasons"] else "")
+        return (f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}){none}; "
+                f"`--interpolate-gaps MINUTES` fills short logger gaps (prepare(..., interpolate_limit=...))")
 
     def format(self) -> str:
         """Text, the losing zones and their likely causes first."""
-        lines = [self.summary(m) for m in dict.fromkeys(z.model for z in self.zones)]
+        names = list(dict.fromkeys(z.model for z in self.zones))
+        lines = [self.summary(m) for m in names]
         for z in self.losing():
             lines.append(f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
                          f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)")
+        thin: dict = {}  # models with the same windows share one line
+        for m in names:
+            if self.thin(m):
+                thin.setdefault(self.thin(m).split(": ", 1)[1], []).append(m)
+        lines += [f"!! {', '.join(ms)}: {text}" for text, ms in thin.items()]
         for model, causes in self.causes.items():
             if causes:
                 lines.append(f"   likely causes for {model} (what the data can test):")
@@ -149,6 +177,7 @@ class Verdict:
     def to_dict(self) -> dict:
         return {"zones": [z.to_dict() for z in self.zones],
                 "likely_causes": {k: list(v) for k, v in self.causes.items()},
+                "coverage": {k: dict(v) for k, v in self.coverage.items()},
                 "thresholds": {"nmbe_percent": G14_NMBE_MAX, "cvrmse_percent": G14_CVRMSE_MAX,
                                "correlation": CORRELATION_MIN}}
 
@@ -176,7 +205,7 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
 def make_verdict(scores, models, dataset) -> Verdict:
     """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
     zones = []
-    causes = {}
+    causes, coverage = {}, {}
     for sc, model in zip(scores, models):
         if not sc.starts:
             continue
@@ -188,15 +217,30 @@ def make_verdict(scores, models, dataset) -> Verdict:
         mine = [ZoneVerdict(sc.name, o, float(r[j]), float(p[j]), float(t[j]), float(nmbe[j]), float(cv[j]),
                             int(sc.hourly["n"]) if sc.hourly else 0) for j, o in enumerate(sc.outputs)]
         zones += mine
+        coverage[sc.name] = _coverage(sc, dataset)
         losing = [z.output for z in mine if not z.beats_persistence]
         if losing:
             causes[sc.name] = likely_causes(model, sc, dataset, losing)
-    return Verdict(zones=tuple(zones), causes=causes)
+    return Verdict(zones=tuple(zones), causes=causes, coverage=coverage)
+
+
+def _coverage(sc, dataset) -> dict:
+    """Scored windows per season, skipped windows by reason, test seasons without a scored window."""
+    windows = sc.n_windows()
+    skipped = {k: int(v) for k, v in sc.skipped.items() if v}
+    tested = dict.fromkeys(w.season for w in dataset.test_weeks())
+    return {"windows": windows, "total": sum(windows.values()) + sum(skipped.values()), "skipped": skipped,
+            "unscored_seasons": [s for s in tested if s not in windows]}
 
 
 # =============================================================================
 # likely causes
 # =============================================================================
+#: words of loading warnings that can explain a losing model (clock offsets, unit mix-ups); not the bare
+#: "unit", which also matches the air-handling units of the T_supply weighting note
+_LOADING_CAUSES = ("clock", "offset", "its unit", "the unit", "look like", "timezone", "time zone")
+
+
 def likely_causes(model, score, dataset, losing) -> list[str]:
     """Causes the data can test for a model worse than persistence in the outputs ``losing``."""
     out = []
@@ -205,7 +249,7 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
     out += _airflow_gain(model, dataset)
     out += _bandwidth_edge(model)
     out += [f"loading warned: {w}" for w in getattr(dataset, "warnings", []) or []
-            if any(k in str(w).lower() for k in ("clock", "offset", "unit", "timezone", "time zone"))]
+            if any(k in str(w).lower() for k in _LOADING_CAUSES)]
     if not out:
         out.append("none of the cheap checks fired (unused columns, sparse columns, airflow gain, LOESS "
                    "bandwidth, clock/units); run `hvacfmu diagnose` for the structural causes")
