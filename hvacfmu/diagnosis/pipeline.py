@@ -66,7 +66,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow")
+            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):
         from ..models import load_model
