@@ -84,7 +84,9 @@ def main():
         print(f"generated {len(frame)} rows x {frame.shape[1]} columns (Parquet) in {time.perf_counter() - t0:.1f} s")
         # the emulator's layout: ISO 8601 text with offsets in the time column
         paths.append(Path(tmp) / "measurements_isotext.parquet")
-        frame.assign(time=pd.DatetimeIndex(frame["time"]).strftime("%Y-%m-%dT%H:%M:%S%z")).to_parquet(paths[1], index=False)
+        frame.assign(time=pd.DatetimeIndex(frame["time"]).strftime("%Y-%m-%dT%H:%M:%S%z")).to_parquet(
+            paths[1], index=False
+        )
         if args.csv:
             paths.append(Path(tmp) / "measurements.csv")
             frame.to_csv(paths[-1], index=False)

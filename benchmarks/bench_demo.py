@@ -43,8 +43,10 @@ def main(argv=None):
             stage_times.setdefault(s.name, []).append(s.seconds)
         failed = f"  FAILED: {', '.join(result.failed)}" if result.failed else ""
         print(f"run {i + 1}: {total:.1f} s{failed}")
-    print(f"\nhvacfmu demo ({args.weeks} weeks{', cold cache' if args.cold else ''}), "
-          f"median of {args.repeat} on {os.cpu_count()} cores:")
+    print(
+        f"\nhvacfmu demo ({args.weeks} weeks{', cold cache' if args.cold else ''}), "
+        f"median of {args.repeat} on {os.cpu_count()} cores:"
+    )
     for name, ts in stage_times.items():
         print(f"  {name:<10} {statistics.median(ts):7.1f} s")
     med = statistics.median(totals)

@@ -35,15 +35,21 @@ def main():
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
     print(f"dataset: {args.weeks} weeks, seed {args.seed} (prepare {t_prep:.1f} s)")
-    print(f"diagnose: median {statistics.median(times):.1f} s over {len(times)} runs "
-          f"(min {min(times):.1f} s, max {max(times):.1f} s); target < 60 s")
-    print(f"diagnose CPU time of this process: median {statistics.median(cpu):.1f} s (all threads; independent of "
-          f"the other users of the machine; load average now {os.getloadavg()[0]:.1f})")
+    print(
+        f"diagnose: median {statistics.median(times):.1f} s over {len(times)} runs "
+        f"(min {min(times):.1f} s, max {max(times):.1f} s); target < 60 s"
+    )
+    print(
+        f"diagnose CPU time of this process: median {statistics.median(cpu):.1f} s (all threads; independent of "
+        f"the other users of the machine; load average now {os.getloadavg()[0]:.1f})"
+    )
     print(report.summary())
     ho = report.heldout
     if ho.get("zones"):
-        print(f"held-out mean 24-h RMS: base {ho['mean_base']:.3f} K -> extended {ho['mean_extended']:.3f} K "
-              f"({ho['gain_percent_mean']:+.1f} %)")
+        print(
+            f"held-out mean 24-h RMS: base {ho['mean_base']:.3f} K -> extended {ho['mean_extended']:.3f} K "
+            f"({ho['gain_percent_mean']:+.1f} %)"
+        )
 
 
 if __name__ == "__main__":

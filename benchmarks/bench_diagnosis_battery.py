@@ -54,7 +54,7 @@ def random_effect(rng, layout, cause):
         zz, o = cand[rng.integers(len(cand))]
         return f"solar_gain:zone={zz},facade={o},shgc={rng.uniform(0.15, 0.3):.2f}"
     if cause == "zone_coupling":
-        pairs = [(a, b) for i, a in enumerate(zones) for b in zones[i + 1:] if not _adjacent(layout, a, b)]
+        pairs = [(a, b) for i, a in enumerate(zones) for b in zones[i + 1 :] if not _adjacent(layout, a, b)]
         a, b = pairs[rng.integers(len(pairs))]
         return f"zone_coupling:zones={a}+{b},ua={rng.uniform(800, 1600):.0f}"
     if cause == "actuation_delay":
@@ -114,7 +114,7 @@ def main():
     ap.add_argument("--weeks", type=int, default=16)
     ap.add_argument("--list", action="store_true", help="print the cases and stop")
     args = ap.parse_args()
-    cases = make_cases(args.cases, args.seed)[args.start:args.stop]
+    cases = make_cases(args.cases, args.seed)[args.start : args.stop]
     if args.list:
         for c in cases:
             print(c)
@@ -136,9 +136,12 @@ def main():
         n_eff += len(cmp["found"]) + len(cmp["missed"])
         n_found += len(cmp["found"])
         n_false += len(cmp["unsupported"])
-        print(f"case {c['id']:3d} {c['layout']:5s} {c['step'] / 60:.0f} min seed {c['seed']:2d} {row:40s} "
-              f"found {len(cmp['found'])} missed {[e['name'] for e in cmp['missed']]} "
-              f"false {[(f['cause'], f['location']) for f in cmp['unsupported']]} ({dt:.0f} s)", flush=True)
+        print(
+            f"case {c['id']:3d} {c['layout']:5s} {c['step'] / 60:.0f} min seed {c['seed']:2d} {row:40s} "
+            f"found {len(cmp['found'])} missed {[e['name'] for e in cmp['missed']]} "
+            f"false {[(f['cause'], f['location']) for f in cmp['unsupported']]} ({dt:.0f} s)",
+            flush=True,
+        )
     print("\nconfusion matrix by cause (rows: injected cause; columns: outcome)")
     cols = sorted({k for r in conf.values() for k in r})
     print(f"{'':24s}" + "".join(f"{k:>22s}" for k in cols))

@@ -41,8 +41,16 @@ VARIANTS = [
     {"layout": "sdh"},
     {"layout": "row4", "construction": "light", "climate": "hot", "start": "2026-06-01"},
     {"layout": "core9", "construction": "heavy", "climate": "cold", "start": "2026-01-05"},
-    {"layout": "core9", "climate": "cold", "start": "2026-01-05", "hvac": "reheat", "units": "us",
-     "clock": "naive-local", "export_step": 900, "faults": ["outages", "sparse_box", "stuck_sensor"]},
+    {
+        "layout": "core9",
+        "climate": "cold",
+        "start": "2026-01-05",
+        "hvac": "reheat",
+        "units": "us",
+        "clock": "naive-local",
+        "export_step": 900,
+        "faults": ["outages", "sparse_box", "stuck_sensor"],
+    },
 ]
 
 
@@ -56,9 +64,11 @@ def _variants(weeks, seed):
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             truth = json.loads(paths.truth.read_text())
             label = ", ".join(f"{k}={v}" for k, v in kw.items() if k in ("layout", "construction", "climate", "hvac"))
-            print(f"variant {label}: {len(truth['zones'])} zones, {len(truth['vavs'])} boxes, "
-                  f"{truth['baseline']['structure']['n_states']} states; {weeks} weeks in {wall:.2f} s wall, "
-                  f"{cpu / (weeks + 1):.2f} s CPU per simulated week (incl. one week spin-up)")
+            print(
+                f"variant {label}: {len(truth['zones'])} zones, {len(truth['vavs'])} boxes, "
+                f"{truth['baseline']['structure']['n_states']} states; {weeks} weeks in {wall:.2f} s wall, "
+                f"{cpu / (weeks + 1):.2f} s CPU per simulated week (incl. one week spin-up)"
+            )
 
 
 def _fleet(n, weeks, seed):
@@ -84,8 +94,10 @@ def _default(args):
     sim = simulate(make_truth(args.weeks, args.seed))
     t_sim = time.perf_counter() - t0
     print(f"emulator: {args.weeks} weeks, {rows} rows, {sim['core'].n_thermal} thermal states")
-    print(f"generate (incl. Parquet): median {statistics.median(walls):.2f} s wall, "
-          f"{statistics.median(cpus):.2f} s CPU over {args.runs} runs (target < 20 s)")
+    print(
+        f"generate (incl. Parquet): median {statistics.median(walls):.2f} s wall, "
+        f"{statistics.median(cpus):.2f} s CPU over {args.runs} runs (target < 20 s)"
+    )
     print(f"  of which closed-loop simulation (one run): {t_sim:.2f} s wall")
 
 

@@ -24,8 +24,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from hvacfmu.energyplus import cached_export
 from hvacfmu.energyplus.checks import airflow_identifiability, margins_table
 
-DEFAULT_PROTOTYPES = ("ASHRAE901_OfficeMedium_STD2019_Denver:mid", "ASHRAE901_RestaurantFastFood_STD2019_Denver",
-                      "ASHRAE901_OfficeSmall_STD2019_Denver")
+DEFAULT_PROTOTYPES = (
+    "ASHRAE901_OfficeMedium_STD2019_Denver:mid",
+    "ASHRAE901_RestaurantFastFood_STD2019_Denver",
+    "ASHRAE901_OfficeSmall_STD2019_Denver",
+)
 
 
 def run(prototype: str, kinds, weeks):
@@ -46,9 +49,11 @@ def run(prototype: str, kinds, weeks):
             models[k] = fit(ds, k, progress=False)
             t_fit[k] = time.perf_counter() - t0
         res = evaluate(list(models.values()), ds, names=list(models))
-    print(f"\n=== {prototype}: {len(ds.building.zones)} zones, {len(ds.building.vavs)} boxes, "
-          f"{len(ds.building.ahus)} air handler(s), {len(ds.weeks)} weeks "
-          f"(export {t_gen:.1f} s incl. cache; fit " + ", ".join(f"{k} {t:.1f} s" for k, t in t_fit.items()) + ")")
+    print(
+        f"\n=== {prototype}: {len(ds.building.zones)} zones, {len(ds.building.vavs)} boxes, "
+        f"{len(ds.building.ahus)} air handler(s), {len(ds.weeks)} weeks "
+        f"(export {t_gen:.1f} s incl. cache; fit " + ", ".join(f"{k} {t:.1f} s" for k, t in t_fit.items()) + ")"
+    )
     print(margins_table(res).to_string(float_format=lambda x: f"{x:.3f}"))
     if "zones" in models:
         for line in airflow_identifiability(models["zones"], ds.building):

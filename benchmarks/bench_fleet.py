@@ -51,8 +51,15 @@ def main() -> None:
         manifest = make_manifest(n, args.weeks, tmp)
         out = tmp / f"out_{n}"
         t0 = time.perf_counter()
-        res = fleet(manifest, stages=args.stages, out=out, n_workers=min(args.workers, n), kinds=("zones",),
-                    progress=False, report=False)
+        res = fleet(
+            manifest,
+            stages=args.stages,
+            out=out,
+            n_workers=min(args.workers, n),
+            kinds=("zones",),
+            progress=False,
+            report=False,
+        )
         wall = time.perf_counter() - t0
         busy = sum(sum(b["seconds"].values()) for b in res.buildings)
         peak = max(b.get("peak_rss_mb") or 0 for b in res.buildings)
@@ -60,29 +67,40 @@ def main() -> None:
         shutil.rmtree(out, ignore_errors=True)
     base = rows[0][3] / rows[0][1]
     print(f"\nstages {args.stages}, {args.weeks}-week buildings, LocalCluster, 1 thread per worker")
-    print(f"{'n':>3} {'workers':>7} {'wall [s]':>9} {'bldg/min':>9} {'task [s]':>9} {'efficiency':>10} "
-          f"{'peak RSS [MB]':>13} {'failed':>6}")
+    print(
+        f"{'n':>3} {'workers':>7} {'wall [s]':>9} {'bldg/min':>9} {'task [s]':>9} {'efficiency':>10} "
+        f"{'peak RSS [MB]':>13} {'failed':>6}"
+    )
     for n, w, wall, thr, task, peak, failed in rows:
-        print(f"{n:>3} {w:>7} {wall:>9.1f} {thr:>9.2f} {task:>9.1f} {thr / w / base:>10.2f} {peak:>13.0f} "
-              f"{failed:>6}")
+        print(f"{n:>3} {w:>7} {wall:>9.1f} {thr:>9.2f} {task:>9.1f} {thr / w / base:>10.2f} {peak:>13.0f} {failed:>6}")
     n, w, wall, thr, task, *_ = rows[-1]
     per_worker = thr / w
     for cluster in (2, 32, 128):
-        print(f"estimate: 1,000 buildings on {cluster} single-thread workers: "
-              f"{1000 / (per_worker * cluster):.0f} min (at {per_worker:.2f} buildings/min per worker, "
-              f"the {n}-building efficiency; scheduler overhead per task is ~ms)")
+        print(
+            f"estimate: 1,000 buildings on {cluster} single-thread workers: "
+            f"{1000 / (per_worker * cluster):.0f} min (at {per_worker:.2f} buildings/min per worker, "
+            f"the {n}-building efficiency; scheduler overhead per task is ~ms)"
+        )
     if args.peak_51:
         from hvacfmu.emulator import cached_dataset
 
         p = cached_dataset(weeks=51, seed=0)
         m = tmp / "peak.json"
-        m.write_text(json.dumps([{"name": "sdh51", "measurements": str(p.measurements),
-                                  "building": str(p.building)}]))
-        res = fleet(m, stages="check,fit,evaluate,diagnose,export", out=tmp / "peak", n_workers=1,
-                    kinds=("lumped", "zones", "physics"), progress=False, report=False)
+        m.write_text(json.dumps([{"name": "sdh51", "measurements": str(p.measurements), "building": str(p.building)}]))
+        res = fleet(
+            m,
+            stages="check,fit,evaluate,diagnose,export",
+            out=tmp / "peak",
+            n_workers=1,
+            kinds=("lumped", "zones", "physics"),
+            progress=False,
+            report=False,
+        )
         b = res.buildings[0]
-        print(f"\n51-week six-zone building, all stages, kinds lumped/zones/physics: status {b['status']}, "
-              f"{sum(b['seconds'].values()):.1f} s, peak RSS of the worker process {b['peak_rss_mb']:.0f} MB")
+        print(
+            f"\n51-week six-zone building, all stages, kinds lumped/zones/physics: status {b['status']}, "
+            f"{sum(b['seconds'].values()):.1f} s, peak RSS of the worker process {b['peak_rss_mb']:.0f} MB"
+        )
     shutil.rmtree(tmp, ignore_errors=True)
 
 

@@ -46,22 +46,43 @@ def make_models(building):
     rng = np.random.default_rng(0)
     nz = len(building.zone_names)
     zones = LinearZoneModel(
-        kind="zones", step=900.0, outputs=building.zone_names, measured_zones=building.zone_names,
-        output_weights=np.eye(nz), vavs=building.vav_names, input_map=building.zone_vav_matrix(),
-        disturbances=DIST, A=0.9 * np.eye(nz) + rng.uniform(0, 0.012, (nz, nz)), B=-np.diag(rng.uniform(0.5, 1, nz)),
+        kind="zones",
+        step=900.0,
+        outputs=building.zone_names,
+        measured_zones=building.zone_names,
+        output_weights=np.eye(nz),
+        vavs=building.vav_names,
+        input_map=building.zone_vav_matrix(),
+        disturbances=DIST,
+        A=0.9 * np.eye(nz) + rng.uniform(0, 0.012, (nz, nz)),
+        B=-np.diag(rng.uniform(0.5, 1, nz)),
         C=np.column_stack([rng.uniform(0.02, 0.04, (nz, 2)), rng.uniform(0, 2e-4, (nz, 4))]),
-        gains={s: rng.uniform(0.6, 1.2, (672, nz)) for s in building.season_names})
+        gains={s: rng.uniform(0.6, 1.2, (672, nz)) for s in building.season_names},
+    )
     lumped = LinearZoneModel(
-        kind="lumped", step=900.0, outputs=("floor",), measured_zones=building.zone_names,
-        output_weights=building.area_weights()[None, :], vavs=building.vav_names,
-        input_map=np.ones((1, len(building.vav_names))), disturbances=DIST[:2], A=[[0.94]], B=[[-0.12]],
-        C=[[0.02, 0.02]], gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names})
+        kind="lumped",
+        step=900.0,
+        outputs=("floor",),
+        measured_zones=building.zone_names,
+        output_weights=building.area_weights()[None, :],
+        vavs=building.vav_names,
+        input_map=np.ones((1, len(building.vav_names))),
+        disturbances=DIST[:2],
+        A=[[0.94]],
+        B=[[-0.12]],
+        C=[[0.02, 0.02]],
+        gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names},
+    )
     from hvacfmu.models.physics import PhysicsModel
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
-        physics = PhysicsModel(building=building, params=dict(building.physics["physics"]["nominal"]), solar=True,
-                               gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names})
+        physics = PhysicsModel(
+            building=building,
+            params=dict(building.physics["physics"]["nominal"]),
+            solar=True,
+            gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names},
+        )
     return {"lumped": lumped, "zones": zones, "physics": physics}
 
 
@@ -94,8 +115,9 @@ def open_fmu(path, model, y0, instance, first_inputs):
     md = read_model_description(str(path))
     d = extract(str(path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName=instance)
+    fmu = FMU2Slave(
+        guid=md.guid, unzipDirectory=d, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance
+    )
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
@@ -177,9 +199,14 @@ def c_master_us_per_step(path, model, building, m, v, tmp):
     outs = [f"T_{z}" for z in model.outputs]
     lib = unz / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
     stdin = "\n".join(" ".join(repr(float(x)) for x in row) for row in np.column_stack([m, v]))
-    run = subprocess.run([str(exe), str(lib), md.guid, str(len(m)), "900", str(len(names_in)), str(len(outs))]
-                         + [str(vr[x]) for x in names_in + outs], input=stdin, capture_output=True, text=True,
-                         check=True)
+    run = subprocess.run(
+        [str(exe), str(lib), md.guid, str(len(m)), "900", str(len(names_in)), str(len(outs))]
+        + [str(vr[x]) for x in names_in + outs],
+        input=stdin,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return float(run.stderr.split("us_per_step")[1].split()[0])
 
 
@@ -191,10 +218,14 @@ def compare_native(kinds, models, building, n, repeats, tmp):
 
     index = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")
     print(f"\nnative vs pythonfmu FMU, {n} steps, raw ctypes loop, medians of {repeats} runs (process CPU time)")
-    print("(loop: setReal + doStep + getReal from Python; doStep: the fmi2DoStep call alone, wall clock; "
-          "C master: process CPU time per step in tests/data/fmi2_master.c)")
-    print(f"{'model':8s} {'loop pythonfmu':>14s} {'loop native':>12s} {'ratio':>6s} {'doStep pythonfmu':>17s} "
-          f"{'doStep native':>14s} {'ratio':>6s} {'C master':>9s} {'max |dT| [K]':>13s} {'export [s]':>10s}  [us/step]")
+    print(
+        "(loop: setReal + doStep + getReal from Python; doStep: the fmi2DoStep call alone, wall clock; "
+        "C master: process CPU time per step in tests/data/fmi2_master.c)"
+    )
+    print(
+        f"{'model':8s} {'loop pythonfmu':>14s} {'loop native':>12s} {'ratio':>6s} {'doStep pythonfmu':>17s} "
+        f"{'doStep native':>14s} {'ratio':>6s} {'C master':>9s} {'max |dT| [K]':>13s} {'export [s]':>10s}  [us/step]"
+    )
     for kind in kinds:
         model = models[kind]
         t0 = time.perf_counter()
@@ -220,9 +251,11 @@ def compare_native(kinds, models, building, n, repeats, tmp):
         err = float(np.max(np.abs(Y - Yref[1:])))
         c_us = c_master_us_per_step(native, model, building, m, v, tmp)
         c_txt = f"{c_us:9.2f}" if c_us is not None else f"{'(no gcc)':>9s}"
-        print(f"{kind:8s} {1e6 * statistics.median(py) / n:14.2f} {1e6 * statistics.median(nat) / n:12.2f} "
-              f"{statistics.median(ratios):6.1f} {1e6 * statistics.median(py_step) / n:17.2f} "
-              f"{1e6 * statistics.median(nat_step) / n:14.2f} {step_ratio:6.1f} {c_txt} {err:13.2e} {build:10.2f}")
+        print(
+            f"{kind:8s} {1e6 * statistics.median(py) / n:14.2f} {1e6 * statistics.median(nat) / n:12.2f} "
+            f"{statistics.median(ratios):6.1f} {1e6 * statistics.median(py_step) / n:17.2f} "
+            f"{1e6 * statistics.median(nat_step) / n:14.2f} {step_ratio:6.1f} {c_txt} {err:13.2e} {build:10.2f}"
+        )
 
 
 def main():
@@ -243,8 +276,10 @@ def main():
             compare_native(args.kinds, models, building, n, args.repeats, tmp)
         return
     print(f"{n} steps of 900 s, medians of {args.repeats} runs\n")
-    print(f"{'model':8s} {'python [s]':>11s} {'loop [s]':>9s} {'FMU2Slave [s]':>14s} {'raw [s]':>8s} "
-          f"{'us/step py':>11s} {'us/step FMU':>12s} {'ratio':>6s} {'ratio raw':>10s} {'max |dT| [K]':>13s}")
+    print(
+        f"{'model':8s} {'python [s]':>11s} {'loop [s]':>9s} {'FMU2Slave [s]':>14s} {'raw [s]':>8s} "
+        f"{'us/step py':>11s} {'us/step FMU':>12s} {'ratio':>6s} {'ratio raw':>10s} {'max |dT| [K]':>13s}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for kind in args.kinds:
             model = models[kind]
@@ -277,8 +312,10 @@ def main():
             _, Yref = model.simulate(x0, u, v, q)
             err = float(np.max(np.abs(Yr - Yref[1:])))
             p, lp, f, r = (statistics.median(a) for a in (py, loop, fm, raw))
-            print(f"{kind:8s} {p:11.3f} {lp:9.3f} {f:14.3f} {r:8.3f} {1e6 * p / n:11.2f} {1e6 * f / n:12.2f} "
-                  f"{ratio:6.2f} {ratio_raw:10.2f} {err:13.2e}   (build {build_time:.2f} s)")
+            print(
+                f"{kind:8s} {p:11.3f} {lp:9.3f} {f:14.3f} {r:8.3f} {1e6 * p / n:11.2f} {1e6 * f / n:12.2f} "
+                f"{ratio:6.2f} {ratio_raw:10.2f} {err:13.2e}   (build {build_time:.2f} s)"
+            )
         compare_native(args.kinds, models, building, n, args.repeats, tmp)
 
 

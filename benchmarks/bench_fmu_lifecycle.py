@@ -69,8 +69,9 @@ def cycles(path, n: int, steps: int) -> dict:
     unz = extract(str(path))
 
     def one(i):
-        s = FMU2Slave(guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName=f"cycle{i}")
+        s = FMU2Slave(
+            guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=f"cycle{i}"
+        )
         s.instantiate()
         s.setupExperiment(startTime=0.0)
         s.enterInitializationMode()
@@ -105,14 +106,18 @@ def processes(path, n: int, jobs: int) -> dict:
     """Exit codes of ``n`` fresh processes that each simulate the FMU for a day."""
 
     def run(_):
-        return subprocess.run([sys.executable, "-c", PROCESS_SCRIPT, str(path)], capture_output=True,
-                              text=True, timeout=600)
+        return subprocess.run(
+            [sys.executable, "-c", PROCESS_SCRIPT, str(path)], capture_output=True, text=True, timeout=600
+        )
 
     with ThreadPoolExecutor(jobs) as pool:
         runs = list(pool.map(run, range(n)))
     bad = [r for r in runs if r.returncode != 0]
-    return {"ok": n - len(bad), "codes": sorted({r.returncode for r in bad}),
-            "first_error": (bad[0].stderr.strip().splitlines() or ["?"])[-1] if bad else ""}
+    return {
+        "ok": n - len(bad),
+        "codes": sorted({r.returncode for r in bad}),
+        "first_error": (bad[0].stderr.strip().splitlines() or ["?"])[-1] if bad else "",
+    }
 
 
 def main():

@@ -129,17 +129,26 @@ def run(label, model, u_min, u_max, settings, V, Q, x0, steps, repeat, paper_s=P
     if c.reduced:
         rom = c.pred.reduced_model(settings.rom_tol)
         extra = f"  ROM order {rom['order']}, Markov error {c.pred.reduced_error(c.N, settings.rom_tol):.1e}"
-    print(f"{label:<34} week {wall:7.2f} s  step median {1e3 * s['step_time_median_s']:7.1f} ms "
-          f"max {1e3 * s['step_time_max_s']:7.1f} ms  failures {s['failures']}  iters {s['iterations_mean']:.2f}  "
-          f"cost {s['cost']:9.2f}  Σu² {s['energy_sum_u2']:8.2f}  air {s['airflow_kg'] / 1e3:7.1f} t  "
-          f"viol {s['comfort_violation_Kh']:6.2f} K·h  paper/ours {paper_s / wall:7.0f}x{extra}", flush=True)
+    print(
+        f"{label:<34} week {wall:7.2f} s  step median {1e3 * s['step_time_median_s']:7.1f} ms "
+        f"max {1e3 * s['step_time_max_s']:7.1f} ms  failures {s['failures']}  iters {s['iterations_mean']:.2f}  "
+        f"cost {s['cost']:9.2f}  Σu² {s['energy_sum_u2']:8.2f}  air {s['airflow_kg'] / 1e3:7.1f} t  "
+        f"viol {s['comfort_violation_Kh']:6.2f} K·h  paper/ours {paper_s / wall:7.0f}x{extra}",
+        flush=True,
+    )
     if c.bilinear:
         n = max(st["steps"], 1)
-        print(f"   SCP converged (max |Δu| < {settings.tol:g} kg/s within {settings.max_iter} iterations) on "
-              f"{n - st['not_converged']}/{n} steps ({100 * (1 - st['not_converged'] / n):.1f} %); "
-              f"the rest applied the best iterate by merit", flush=True)
-    print(f"   limits: {st['projected_steps']} steps projected onto [u_min, u_max] "
-          f"(largest {st['projected_max']:.3g} kg/s); applied excess {s['input_excess_max']:.1e} kg/s", flush=True)
+        print(
+            f"   SCP converged (max |Δu| < {settings.tol:g} kg/s within {settings.max_iter} iterations) on "
+            f"{n - st['not_converged']}/{n} steps ({100 * (1 - st['not_converged'] / n):.1f} %); "
+            f"the rest applied the best iterate by merit",
+            flush=True,
+        )
+    print(
+        f"   limits: {st['projected_steps']} steps projected onto [u_min, u_max] "
+        f"(largest {st['projected_max']:.3g} kg/s); applied excess {s['input_excess_max']:.1e} kg/s",
+        flush=True,
+    )
     return wall, s
 
 
@@ -170,8 +179,10 @@ def main(argv=None):
     ap.add_argument("--only", choices=["A", "B3", "B12", "B96"], action="append")
     args = ap.parse_args(argv)
     only = set(args.only or ["A", "B3", "B12", "B96"])
-    print(f"closed-loop week of MPC, {args.steps} steps, median of {args.repeat} run(s); "
-          f"2-core machine load {os.getloadavg()[0]:.1f}")
+    print(
+        f"closed-loop week of MPC, {args.steps} steps, median of {args.repeat} run(s); "
+        f"2-core machine load {os.getloadavg()[0]:.1f}"
+    )
     dataset = None if (args.synthetic and only == {"B3", "B12", "B96"}) else load_dataset()
     if "A" in only:
         model, how = fitted("zones", dataset)
@@ -179,15 +190,28 @@ def main(argv=None):
         V, Q, x0, week = week_signals(model, dataset, 3)
         print(f"Model A: six-zone LinearZoneModel ({how}), held-out week {week.number} ({week.season})")
         for form in ("socp", "qp"):
-            run(f"A  N=3   {form}", model, u_min, u_max, MPCSettings(horizon=3, formulation=form),
-                V, Q, x0, args.steps, args.repeat, paper_s=PAPER_WEEK_A_S)
+            run(
+                f"A  N=3   {form}",
+                model,
+                u_min,
+                u_max,
+                MPCSettings(horizon=3, formulation=form),
+                V,
+                Q,
+                x0,
+                args.steps,
+                args.repeat,
+                paper_s=PAPER_WEEK_A_S,
+            )
     # Long horizons: move blocking; per-step slack (a shared slack lets one future step that needs it open
     # the limits for every step); the exact ℓ1 penalty (ρ‖ε‖₂ over n steps costs only ρ e √n for a slack e
     # at every step, so the SOCP spreads slack over long horizons: 2x the cost at N = 96);
     # N = 96: reduced-order prediction and one convex iteration per step (real-time iteration).
-    cases = [("B3", 3, dict()),
-             ("B12", 12, dict(blocks="auto", linearisation="newton", slack="per_step", formulation="qp")),
-             ("B96", 96, dict(blocks="auto", max_iter=1, slack="per_step", formulation="qp"))]
+    cases = [
+        ("B3", 3, dict()),
+        ("B12", 12, dict(blocks="auto", linearisation="newton", slack="per_step", formulation="qp")),
+        ("B96", 96, dict(blocks="auto", max_iter=1, slack="per_step", formulation="qp")),
+    ]
     cases = [c for c in cases if c[0] in only]
     if not cases:
         return 0
@@ -210,9 +234,12 @@ def main(argv=None):
     print(f"Model B: {desc}")
     for key, N, kw in cases:
         s = MPCSettings(horizon=N, **kw)
-        tag = f"B  N={N:<3} {s.linearisation}/{'reduced' if (N > 24) else 'condensed'}" + (
-            f" blocks {len(s.block_lengths)}" if s.blocks else "") + (" eps/step" if s.slack == "per_step" else "") + (
-            f" {s.formulation}")
+        tag = (
+            f"B  N={N:<3} {s.linearisation}/{'reduced' if (N > 24) else 'condensed'}"
+            + (f" blocks {len(s.block_lengths)}" if s.blocks else "")
+            + (" eps/step" if s.slack == "per_step" else "")
+            + (f" {s.formulation}")
+        )
         run(tag, model, u_min, u_max, s, V, Q, x0, args.steps, args.repeat)
         if N == 96:
             err = rom_prediction_error(model, u_min, u_max, V, Q, x0)

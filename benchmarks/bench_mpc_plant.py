@@ -41,8 +41,9 @@ def pick_weeks(dataset, seasons):
     out = {}
     for name in seasons:
         wanted = ("spring", "fall") if name == "shoulder" else (name,)
-        weeks = [w for w in dataset.test_weeks() if w.season in wanted] or \
-                [w for w in dataset.weeks if w.season in wanted]
+        weeks = [w for w in dataset.test_weeks() if w.season in wanted] or [
+            w for w in dataset.weeks if w.season in wanted
+        ]
         if weeks:
             out[name] = weeks[0]
     return out
@@ -53,8 +54,14 @@ def run(fmu, dataset, controller, week, model=None):
     r = run_cosim(fmu, dataset, controller, week=week.number, model=model, progress=False)
     wall = time.perf_counter() - t0
     s = r.summary
-    return {"energy": s["energy_proxy"], "air_t": s["total_airflow_kg"] / 1e3, "viol": s["comfort_violation_Kh"],
-            "wall": wall, "covered": s["covered"], "stats": s.get("controller_stats") or {}}
+    return {
+        "energy": s["energy_proxy"],
+        "air_t": s["total_airflow_kg"] / 1e3,
+        "viol": s["comfort_violation_Kh"],
+        "wall": wall,
+        "covered": s["covered"],
+        "stats": s.get("controller_stats") or {},
+    }
 
 
 def main(argv=None) -> int:
@@ -82,18 +89,28 @@ def main(argv=None) -> int:
                     opts.update(blocks="auto", slack="per_step")
                 if key == "B" and N > 3:
                     opts["linearisation"] = "newton"
-                rows.append((f"MPC {key} N={N}", run(fmu, dataset, make_controller("mpc", model, dataset.building, opts),
-                                                    week, model)))
+                rows.append(
+                    (
+                        f"MPC {key} N={N}",
+                        run(fmu, dataset, make_controller("mpc", model, dataset.building, opts), week, model),
+                    )
+                )
         for name, r in rows:
             st = r["stats"]
-            extra = ", ".join(f"{k} {st[k]}" for k in ("failures", "not_converged", "projected_steps",
-                                                       "clipped_box_steps") if k in st)
-            print(f"  {name:<12} Σu² {r['energy']:8.1f}  air {r['air_t']:7.1f} t  outside band {r['viol']:6.1f} K·h  "
-                  f"week {r['wall']:6.1f} s  {'' if r['covered'] else 'NOT COVERED '}{extra}", flush=True)
+            extra = ", ".join(
+                f"{k} {st[k]}" for k in ("failures", "not_converged", "projected_steps", "clipped_box_steps") if k in st
+            )
+            print(
+                f"  {name:<12} Σu² {r['energy']:8.1f}  air {r['air_t']:7.1f} t  outside band {r['viol']:6.1f} K·h  "
+                f"week {r['wall']:6.1f} s  {'' if r['covered'] else 'NOT COVERED '}{extra}",
+                flush=True,
+            )
             if name != "rule":
                 ok = r["energy"] < rule["energy"] and r["viol"] <= rule["viol"]
                 better.append(ok)
-                print(f"  {'':<12} -> {'less energy, no more violation than the rule' if ok else 'NOT better than the rule'}")
+                print(
+                    f"  {'':<12} -> {'less energy, no more violation than the rule' if ok else 'NOT better than the rule'}"
+                )
     print(f"MPC better than the rule in {sum(better)} of {len(better)} runs")
     return 0
 

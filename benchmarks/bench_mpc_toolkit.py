@@ -87,19 +87,29 @@ class CasadiMPC:
         cost = cost + s.rho * ca.dot(ca.DM(w_eps), eps) + s.comfort_penalty * ca.sum1(sl)
         E = eps if per_step else ca.repmat(eps, nb, 1)
         g = ca.vertcat(Y - sl, Y + sl, Ub - E, Ub + E)
-        self.lbg = np.concatenate([np.full(N * ny, -np.inf), np.full(N * ny, s.T_min),
-                                   np.full(nb * nu, -np.inf), np.tile(u_min, nb)])
-        self.ubg = np.concatenate([np.full(N * ny, s.T_max), np.full(N * ny, np.inf),
-                                   np.tile(u_max, nb), np.full(nb * nu, np.inf)])
+        self.lbg = np.concatenate(
+            [np.full(N * ny, -np.inf), np.full(N * ny, s.T_min), np.full(nb * nu, -np.inf), np.tile(u_min, nb)]
+        )
+        self.ubg = np.concatenate(
+            [np.full(N * ny, s.T_max), np.full(N * ny, np.inf), np.tile(u_max, nb), np.full(nb * nu, np.inf)]
+        )
         nz = nb * nu + ne + N * ny
         self.lbx = np.zeros(nz)  # U >= 0 (u_floor), eps >= 0, s >= 0
         self.ubx = np.full(nz, np.inf)
-        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-9, "ipopt.sb": "yes",
-                "ipopt.constr_viol_tol": 1e-9,
-                "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-9,
-                "ipopt.warm_start_mult_bound_push": 1e-9, "ipopt.mu_init": 1e-6}
-        self.solver = ca.nlpsol("mpc", "ipopt", {"x": ca.vertcat(Ub, eps, sl), "p": ca.vertcat(x0, Vp, Qp),
-                                                 "f": cost, "g": g}, opts)
+        opts = {
+            "ipopt.print_level": 0,
+            "print_time": False,
+            "ipopt.tol": 1e-9,
+            "ipopt.sb": "yes",
+            "ipopt.constr_viol_tol": 1e-9,
+            "ipopt.warm_start_init_point": "yes",
+            "ipopt.warm_start_bound_push": 1e-9,
+            "ipopt.warm_start_mult_bound_push": 1e-9,
+            "ipopt.mu_init": 1e-6,
+        }
+        self.solver = ca.nlpsol(
+            "mpc", "ipopt", {"x": ca.vertcat(Ub, eps, sl), "p": ca.vertcat(x0, Vp, Qp), "f": cost, "g": g}, opts
+        )
         self.N, self.nb, self.nu, self.lengths = N, nb, nu, lengths
         self.z0 = np.concatenate([np.tile(u_min, nb), np.zeros(ne + N * ny)])
         self.lam_x = self.lam_g = None
@@ -154,11 +164,17 @@ def compare(label, model, u_min, u_max, settings, V, Q, x0, steps, ipopt_steps, 
     dm = max(dmove, default=float("nan"))
     dc = max(dcost, key=abs, default=float("nan"))
     agree = dm <= move_tol and abs(dc) <= cost_tol and fails_tk == 0 and fails_ours == 0
-    print(f"{label:<10} ours {week_ours:8.2f} s/week  CasADi+IPOPT {week_tk:9.2f} s/week{extrap}  "
-          f"ratio {week_tk / week_ours:6.1f}x  (IPOPT build {build:.1f} s)", flush=True)
-    print(f"{'':<10} first moves max |Δu| {dm:.1e} kg/s (tol {move_tol:g}), cost (ours - IPOPT)/IPOPT "
-          f"{dc:+.1e} (tol {cost_tol:g}) on {len(dmove)} steps; failures ours {fails_ours}, IPOPT {fails_tk}  "
-          f"{'AGREE' if agree else 'DISAGREE'}", flush=True)
+    print(
+        f"{label:<10} ours {week_ours:8.2f} s/week  CasADi+IPOPT {week_tk:9.2f} s/week{extrap}  "
+        f"ratio {week_tk / week_ours:6.1f}x  (IPOPT build {build:.1f} s)",
+        flush=True,
+    )
+    print(
+        f"{'':<10} first moves max |Δu| {dm:.1e} kg/s (tol {move_tol:g}), cost (ours - IPOPT)/IPOPT "
+        f"{dc:+.1e} (tol {cost_tol:g}) on {len(dmove)} steps; failures ours {fails_ours}, IPOPT {fails_tk}  "
+        f"{'AGREE' if agree else 'DISAGREE'}",
+        flush=True,
+    )
     return agree
 
 
@@ -168,11 +184,17 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="+", choices=["A3", "A12", "B12"], default=["A3", "A12", "B12"])
     ap.add_argument("--b-steps", type=int, default=12, help="steps IPOPT solves for Model B (extrapolated)")
     ap.add_argument("--move-tol", type=float, default=5e-4, help="[kg/s] first-move agreement")
-    ap.add_argument("--cost-tol", type=float, default=1e-4,
-                    help="relative objective agreement (the 1e4 comfort penalty turns 1e-8 K of band tolerance into ~1e-4)")
+    ap.add_argument(
+        "--cost-tol",
+        type=float,
+        default=1e-4,
+        help="relative objective agreement (the 1e4 comfort penalty turns 1e-8 K of band tolerance into ~1e-4)",
+    )
     args = ap.parse_args(argv)
-    print(f"our MPC vs CasADi + IPOPT, identical per-step problem (qp form), {args.steps} steps; "
-          f"machine load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(
+        f"our MPC vs CasADi + IPOPT, identical per-step problem (qp form), {args.steps} steps; "
+        f"machine load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+    )
     dataset = load_dataset()
     ok = True
     for key in args.only:
@@ -185,11 +207,24 @@ def main(argv=None) -> int:
             settings = MPCSettings(horizon=N, formulation="qp")
             idx = np.arange(args.steps)
         else:
-            settings = MPCSettings(horizon=N, formulation="qp", blocks="auto", linearisation="newton",
-                                   slack="per_step", tol=1e-6)
+            settings = MPCSettings(
+                horizon=N, formulation="qp", blocks="auto", linearisation="newton", slack="per_step", tol=1e-6
+            )
             idx = np.linspace(0, args.steps - 1, args.b_steps).round().astype(int)
-        ok &= compare(f"{'Model ' + key[0]} N={N}", model, u_min, u_max, settings, V, Q, x0, args.steps, idx,
-                      args.move_tol, args.cost_tol)
+        ok &= compare(
+            f"{'Model ' + key[0]} N={N}",
+            model,
+            u_min,
+            u_max,
+            settings,
+            V,
+            Q,
+            x0,
+            args.steps,
+            idx,
+            args.move_tol,
+            args.cost_tol,
+        )
     return 0 if ok else 1
 
 

@@ -61,8 +61,11 @@ def main(argv=None) -> int:
         failed, passed, wall = run_round(args.files, args.k, args.threads)
         bad_rounds += bool(failed)
         counts.update(failed)
-        print(f"round {r:2d}/{args.rounds}: {passed} passed, {len(failed)} failed ({wall:.0f} s)"
-              + "".join(f"\n    FAILED {f}" for f in failed), flush=True)
+        print(
+            f"round {r:2d}/{args.rounds}: {passed} passed, {len(failed)} failed ({wall:.0f} s)"
+            + "".join(f"\n    FAILED {f}" for f in failed),
+            flush=True,
+        )
     print(f"{args.rounds} rounds of {' '.join(args.files)}: {bad_rounds} with failures")
     for test, n in counts.most_common():
         print(f"  {n:2d}x {test}")

@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     folder = Path(args.data) if args.data else hf.generate(out / "data", weeks=args.weeks).measurements.parent
     data = hf.prepare(folder / "measurements.parquet", folder / "building.toml")
 
-    report = hf.diagnose(data, progress=False)               # causes, extended model, held-out gain
+    report = hf.diagnose(data, progress=False)  # causes, extended model, held-out gain
     print(report.format())
     model = report.model
 

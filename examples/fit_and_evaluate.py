@@ -25,15 +25,15 @@ def main(argv=None) -> int:
     folder = Path(args.data) if args.data else hf.generate(out / "data", weeks=args.weeks).measurements.parent
 
     building = hf.load_building(folder / "building.toml")
-    print(hf.check(folder / "measurements.parquet", building))          # span, coverage, gaps, split
-    data = hf.prepare(folder / "measurements.parquet", building)        # the model step, weeks, seasons
+    print(hf.check(folder / "measurements.parquet", building))  # span, coverage, gaps, split
+    data = hf.prepare(folder / "measurements.parquet", building)  # the model step, weeks, seasons
 
     print("model kinds:", ", ".join(hf.model_kinds()))
-    model = hf.fit(data, "zones", progress=False)                       # Model A, one state per zone
+    model = hf.fit(data, "zones", progress=False)  # Model A, one state per zone
     model.save(out / "zones.json")
 
     result = hf.evaluate([model, out / "zones.json"], data, names=["fitted", "reloaded"])
-    print(result.format())                                              # the verdict first, then Table I
+    print(result.format())  # the verdict first, then Table I
     print(result.to_pandas().groupby("output")[["rms", "persistence"]].mean().round(3))
     for path in result.plot(out / "figures", dataset=data):
         print("figure:", path)

@@ -20,8 +20,9 @@ make_controller = _cosim_module.make_controller
 CosimResult = _cosim_module.CosimResult
 
 
-def cosim(fmu: Any, data: Any, controller: Any = "rule", *, model: Any = None, options: dict | None = None,
-          **kwargs: Any) -> Any:
+def cosim(
+    fmu: Any, data: Any, controller: Any = "rule", *, model: Any = None, options: dict | None = None, **kwargs: Any
+) -> Any:
     """Co-simulate an FMU with a controller in the loop over a span of measured data (FMPy).
 
     Parameters

@@ -83,8 +83,10 @@ class ControlContext:
     def box_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """``m_min``, ``m_max`` [kg/s] of the boxes in :attr:`vavs` order."""
         by_name = {b.name: b for b in self.building.vavs}
-        return (np.array([by_name[v].m_min for v in self.vavs], dtype=float),
-                np.array([by_name[v].m_max for v in self.vavs], dtype=float))
+        return (
+            np.array([by_name[v].m_min for v in self.vavs], dtype=float),
+            np.array([by_name[v].m_max for v in self.vavs], dtype=float),
+        )
 
     def box_output(self) -> np.ndarray:
         """Index into ``y`` of the output measuring each box's zone."""
@@ -146,10 +148,12 @@ class BoxLimiter:
 
     def stats(self) -> dict:
         """``clipped_box_steps`` (total), ``clipped_max`` [kg/s], ``clipped_boxes`` {box: box-steps}."""
-        per_box = {(self.vavs[i] if i < len(self.vavs) else str(i)): int(n)
-                   for i, n in enumerate(self.n_clipped) if n}
-        return {"clipped_box_steps": int(self.n_clipped.sum()), "clipped_max": self.max_clipped,
-                "clipped_boxes": per_box}
+        per_box = {(self.vavs[i] if i < len(self.vavs) else str(i)): int(n) for i, n in enumerate(self.n_clipped) if n}
+        return {
+            "clipped_box_steps": int(self.n_clipped.sum()),
+            "clipped_max": self.max_clipped,
+            "clipped_boxes": per_box,
+        }
 
 
 class ReplayController:
@@ -227,8 +231,10 @@ class RuleController:
         elif self.supply is not None:
             T_supply = float(self.supply[min(k, len(self.supply) - 1)])
         else:
-            raise KeyError("the rule controller needs the supply air temperature: neither the FMU's inputs "
-                           "nor the data hold a 'T_supply' column")
+            raise KeyError(
+                "the rule controller needs the supply air temperature: neither the FMU's inputs "
+                "nor the data hold a 'T_supply' column"
+            )
         sign = np.where(T_supply <= T, 1.0, -1.0)
         e = sign * (T - self.T_set)
         f_unsat = self.kp * e + self.integral

@@ -161,7 +161,9 @@ class _Var:
 def _fmu_variables(md) -> dict:
     out = {}
     for v in md.modelVariables:
-        unit = v.unit if getattr(v, "unit", None) else (v.declaredType.unit if getattr(v, "declaredType", None) else None)
+        unit = (
+            v.unit if getattr(v, "unit", None) else (v.declaredType.unit if getattr(v, "declaredType", None) else None)
+        )
         out[v.name] = _Var(v.name, v.valueReference, v.causality, v.type, unit, v.start)
     return out
 
@@ -190,8 +192,12 @@ def _callbacks(sink: list):
         text = message.decode("utf-8", errors="replace") if message else ""
         cat = category.decode("utf-8", errors="replace") if category else ""
         sink.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), cat, text))
-        logger.log(logging.ERROR if status >= 3 else logging.WARNING if status >= 1 else logging.DEBUG,
-                   "FMU [%s] %s", STATUS[status] if 0 <= status < len(STATUS) else status, text)
+        logger.log(
+            logging.ERROR if status >= 3 else logging.WARNING if status >= 1 else logging.DEBUG,
+            "FMU [%s] %s",
+            STATUS[status] if 0 <= status < len(STATUS) else status,
+            text,
+        )
 
     cb = fmi2CallbackFunctions()
     cb.logger = fmi2CallbackLoggerTYPE(log_message)
@@ -256,8 +262,12 @@ class FMUInstance:
         self.interface = _read_interface(self.unzipdir)
         self.log: list = []
         self._cb, self._cb_fn = _callbacks(self.log)
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance_name)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=self.unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=instance_name,
+        )
         try:
             self.fmu.instantiate(callbacks=self._cb, loggingOn=True)
         except Exception as exc:  # noqa: BLE001
@@ -502,19 +512,31 @@ def run_cosim(
         _connect(run, inst, mapping)
         _locate_in_time(run, inst, mapping, warmup)
         sv = _start_values(run, inst, model, controller, mapping, start_values)
-        controller.reset(ControlContext(
-            frame=run.cframe, building=run.building, vavs=run.vavs, outputs=run.out_names,
-            output_zones=tuple(run.outputs[o] for o in run.out_names), step=run.step, band=tuple(band),
-            season=run.season, model=model))
+        controller.reset(
+            ControlContext(
+                frame=run.cframe,
+                building=run.building,
+                vavs=run.vavs,
+                outputs=run.out_names,
+                output_zones=tuple(run.outputs[o] for o in run.out_names),
+                step=run.step,
+                band=tuple(band),
+                season=run.season,
+                model=model,
+            )
+        )
         io = _FmuIO(inst, run)
         _initialise(run, inst, io, sv)
         trace = _step_loop(run, inst, io, controller, progress)
         log = list(inst.log)
-    result = CosimResult(table=_result_table(run, trace), summary=_summary(run, trace, fmu_path, controller, sv),
-                         log=log)
+    result = CosimResult(
+        table=_result_table(run, trace), summary=_summary(run, trace, fmu_path, controller, sv), log=log
+    )
     if not result.covered:
-        msg = (f"co-simulation stopped early: {trace.completed} of {run.n} steps "
-               f"({run.frame.index[0]} .. {run.end} requested, reached {result.table.index[-1]}): {trace.stopped}")
+        msg = (
+            f"co-simulation stopped early: {trace.completed} of {run.n} steps "
+            f"({run.frame.index[0]} .. {run.end} requested, reached {result.table.index[-1]}): {trace.stopped}"
+        )
         logger.error(msg)
         if not allow_partial:
             err = FMUError(msg)
@@ -598,8 +620,12 @@ def _connect(run: _Run, inst: FMUInstance, mapping) -> None:
 
         from hvacfmu.errors import HvacfmuWarning
 
-        warnings.warn(f"{inst.path.name}: the data have no column for the FMU input(s) {run.defaulted}; they stay "
-                      "at their start values (e.g. no sun on the facades)", HvacfmuWarning, stacklevel=3)
+        warnings.warn(
+            f"{inst.path.name}: the data have no column for the FMU input(s) {run.defaulted}; they stay "
+            "at their start values (e.g. no sun on the facades)",
+            HvacfmuWarning,
+            stacklevel=3,
+        )
     for fmu_name, col in run.inputs.items():
         series, k = _fill(run.frame[col])
         run.V[fmu_name] = series.to_numpy(dtype=float)
@@ -624,8 +650,16 @@ def _locate_in_time(run: _Run, inst: FMUInstance, mapping, warmup) -> None:
     if warmup is None:
         warmup = PLANT_WARMUP if run.kind == "plant" else 0.0
     run.wframe, run.Mw, run.Vw = _warmup_rows(
-        run.dataset, t_start, float(warmup), run.t0 if run.kind == "plant" else math.inf,
-        run.inputs, run.controls, run.outputs, run.V, run.building)
+        run.dataset,
+        t_start,
+        float(warmup),
+        run.t0 if run.kind == "plant" else math.inf,
+        run.inputs,
+        run.controls,
+        run.outputs,
+        run.V,
+        run.building,
+    )
 
 
 def _start_values(run: _Run, inst: FMUInstance, model, controller, mapping, start_values) -> dict:
@@ -675,8 +709,9 @@ class _FmuIO:
         self.in_vr = (ctypes.c_uint32 * self.nin)(*[inst.vars[k].vr for k in names])
         self.in_val = (ctypes.c_double * self.nin)()
         self.inp = np.frombuffer(self.in_val, dtype=float)
-        self.in_off = np.array([offset(k) if k in run.inputs and run.inputs[k].startswith("T_") else 0.0
-                                for k in names])
+        self.in_off = np.array(
+            [offset(k) if k in run.inputs and run.inputs[k].startswith("T_") else 0.0 for k in names]
+        )
         self.out_vr = (ctypes.c_uint32 * self.nout)(*[inst.vars[k].vr for k in run.out_names])
         self.out_val = (ctypes.c_double * self.nout)()
         self.out = np.frombuffer(self.out_val, dtype=float)
@@ -685,7 +720,7 @@ class _FmuIO:
 
     def set_inputs(self, m, v):
         self.inp[: self.nc] = m
-        self.inp[self.nc:] = v + self.in_off[self.nc:]
+        self.inp[self.nc :] = v + self.in_off[self.nc :]
         self.fmu.fmi2SetReal(self.fmu.component, self.in_vr, self.nin, self.in_val)
 
     def outputs(self) -> np.ndarray:
@@ -728,16 +763,19 @@ def _initialise(run: _Run, inst: FMUInstance, io: _FmuIO, sv: dict) -> None:
         io.set_inputs(_initial_airflows(run), run.Vw[0] if run.nw else io.Vmat[0])
         fmu.exitInitializationMode()
     except Exception as exc:  # noqa: BLE001
-        raise FMUError(f"initialising {inst.path.name} failed: "
-                       f"{_call_failure(exc, 'initialisation', t_setup, 'before the span', inst)}") from None
+        raise FMUError(
+            f"initialising {inst.path.name} failed: "
+            f"{_call_failure(exc, 'initialisation', t_setup, 'before the span', inst)}"
+        ) from None
     for j in range(run.nw):  # warm-up: the measured airflows and disturbances before the span
         t = run.t0 - (run.nw - j) * run.step
         try:
             io.set_inputs(run.Mw[j], run.Vw[j])
             fmu.fmi2DoStep(fmu.component, t, run.step, 1)
         except Exception as exc:  # noqa: BLE001
-            raise FMUError(f"warm-up of {inst.path.name} failed: "
-                           f"{_call_failure(exc, 'fmi2DoStep', t, run.wframe.index[j], inst)}") from None
+            raise FMUError(
+                f"warm-up of {inst.path.name} failed: {_call_failure(exc, 'fmi2DoStep', t, run.wframe.index[j], inst)}"
+            ) from None
     if inst.errors():
         raise FMUError(problems_message(f"{inst.path.name} reported errors at initialisation", inst.errors()))
 
@@ -757,8 +795,12 @@ class _Trace:
 def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -> _Trace:
     """One controller call and one FMU step per row; stops (with the reason) at the first failure."""
     n, nc = run.n, io.nc
-    tr = _Trace(Y=np.full((n + 1, io.nout), np.nan), M=np.full((n + 1, nc), np.nan),
-                t_ctrl=np.full(n, np.nan), t_fmu=np.full(n, np.nan))
+    tr = _Trace(
+        Y=np.full((n + 1, io.nout), np.nan),
+        M=np.full((n + 1, nc), np.nan),
+        t_ctrl=np.full(n, np.nan),
+        t_fmu=np.full(n, np.nan),
+    )
     tr.Y[0] = io.outputs()
     v_names = list(run.inputs.values())
     # a bar on a terminal, plain log lines otherwise (hvacfmu.progress)
@@ -827,18 +869,28 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
     return {
         "fmu": str(Path(fmu_path).name),
         "controller": getattr(controller, "name", type(controller).__name__),
-        "start": str(run.frame.index[0]), "end": str(run.end), "step": run.step, "season": run.season,
-        "steps_requested": run.n, "steps_completed": c, "covered": c == run.n, "stopped_because": tr.stopped,
-        "energy_proxy": float(np.sum(Mc ** 2)),
+        "start": str(run.frame.index[0]),
+        "end": str(run.end),
+        "step": run.step,
+        "season": run.season,
+        "steps_requested": run.n,
+        "steps_completed": c,
+        "covered": c == run.n,
+        "stopped_because": tr.stopped,
+        "energy_proxy": float(np.sum(Mc**2)),
         "total_airflow_kg": float(np.sum(Mc) * run.step),
         "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if c else math.nan,
         "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
         "band": [float(lo), float(hi)],
-        "step_time_median": med(st), "step_time_max": float(np.max(st)) if c else math.nan,
-        "controller_time_median": med(tr.t_ctrl[:c]), "fmu_time_median": med(tr.t_fmu[:c]),
-        "filled_inputs": run.filled, "defaulted_inputs": run.defaulted,
+        "step_time_median": med(st),
+        "step_time_max": float(np.max(st)) if c else math.nan,
+        "controller_time_median": med(tr.t_ctrl[:c]),
+        "fmu_time_median": med(tr.t_fmu[:c]),
+        "filled_inputs": run.filled,
+        "defaulted_inputs": run.defaulted,
         "controller_stats": stats() if callable(stats) else {},
-        "start_values": sv, "warmup_steps": run.nw,
+        "start_values": sv,
+        "warmup_steps": run.nw,
     }
 
 
@@ -877,8 +929,15 @@ def simulate_fmu_checked(path, *, stop_time: float, output_interval: float, star
         messages.append((STATUS[status] if 0 <= status < len(STATUS) else str(status), text))
 
     try:
-        res = simulate_fmu(str(path), start_time=start_time, stop_time=stop_time, output_interval=output_interval,
-                           logger=log, debug_logging=False, **kwargs)
+        res = simulate_fmu(
+            str(path),
+            start_time=start_time,
+            stop_time=stop_time,
+            output_interval=output_interval,
+            logger=log,
+            debug_logging=False,
+            **kwargs,
+        )
     except Exception as exc:  # noqa: BLE001 - FMPy raises plain exceptions
         last = next((m for st, m in reversed(messages) if st != "ok"), None)
         raise FMUError(f"simulating {Path(path).name} failed: {exc}" + (f"; FMU log: {last}" if last else "")) from None
@@ -887,8 +946,10 @@ def simulate_fmu_checked(path, *, stop_time: float, output_interval: float, star
     reached = float(res["time"][-1]) if len(res) else start_time
     if reached < stop_time - 1e-6 * max(1.0, abs(stop_time)):
         last = next((f"[{st}] {m}" for st, m in reversed(messages) if st != "ok"), "the FMU logged no reason")
-        raise FMUError(f"simulating {Path(path).name} stopped early at t={reached:g} s of {stop_time:g} s "
-                       f"({len(res)} rows): {last}")
+        raise FMUError(
+            f"simulating {Path(path).name} stopped early at t={reached:g} s of {stop_time:g} s "
+            f"({len(res)} rows): {last}"
+        )
     return res
 
 
@@ -940,12 +1001,18 @@ def make_controller(name, model=None, building=None, options=None):
 # =============================================================================
 def add_cosim_arguments(parser):
     """Arguments of ``hvacfmu cosim``."""
-    parser.add_argument("--fmu", "--plant", dest="fmu", required=True,
-                        help="co-simulation FMU to run (a model FMU or the plant FMU)")
+    parser.add_argument(
+        "--fmu", "--plant", dest="fmu", required=True, help="co-simulation FMU to run (a model FMU or the plant FMU)"
+    )
     parser.add_argument("--data", "-d", required=True, help="measurements file (CSV or Parquet)")
     parser.add_argument("--building", "-b", required=True, help="building file (TOML)")
-    parser.add_argument("--controller", "-c", choices=CONTROLLERS, default="replay",
-                        help="replay measured airflows, rule-based PI, or MPC (default replay)")
+    parser.add_argument(
+        "--controller",
+        "-c",
+        choices=CONTROLLERS,
+        default="replay",
+        help="replay measured airflows, rule-based PI, or MPC (default replay)",
+    )
     parser.add_argument("--model", "-m", help="model file (JSON): the MPC's model; maps measured outputs")
     parser.add_argument("--week", type=int, help="week number to run (default: the first held-out week)")
     parser.add_argument("--start", help="start of the span instead of --week (local time)")
@@ -953,21 +1020,41 @@ def add_cosim_arguments(parser):
     parser.add_argument("--out", "-o", help="results table (.csv or .parquet); summary beside it (.json)")
     parser.add_argument("--plot", help="figure of the run (.png, .pdf, .svg)")
     parser.add_argument("--mapping", help="JSON mapping of a foreign FMU's variables (see harness.cosim)")
-    parser.add_argument("--band", type=float, nargs=2, default=DEFAULT_BAND, metavar=("T_MIN", "T_MAX"),
-                        help="comfort band [degC] (default 20 22)")
+    parser.add_argument(
+        "--band",
+        type=float,
+        nargs=2,
+        default=DEFAULT_BAND,
+        metavar=("T_MIN", "T_MAX"),
+        help="comfort band [degC] (default 20 22)",
+    )
     parser.add_argument("--season", help="season of the gains profile (default: the week's)")
     parser.add_argument("--horizon", type=int, help="MPC horizon in steps (passed to harness.mpc)")
-    parser.add_argument("--option", action="append", metavar="KEY=VALUE",
-                        help="controller option (repeatable), e.g. kp=0.8 for rule, rho=100 for mpc")
-    parser.add_argument("--warmup", type=float, metavar="HOURS",
-                        help="replay the measured data this long before the span first (default: 168 h for "
-                             "the plant FMU, 0 for model FMUs)")
+    parser.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        help="controller option (repeatable), e.g. kp=0.8 for rule, rho=100 for mpc",
+    )
+    parser.add_argument(
+        "--warmup",
+        type=float,
+        metavar="HOURS",
+        help="replay the measured data this long before the span first (default: 168 h for "
+        "the plant FMU, 0 for model FMUs)",
+    )
     parser.add_argument("--step", type=float, default=900.0, help="model/communication step [s] (default 900)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the train/test week split (default 0)")
-    parser.add_argument("--interpolate-gaps", type=float, default=None, metavar="MINUTES",
-                        help="interpolate data gaps up to this length when preparing the data")
-    parser.add_argument("--allow-partial", action="store_true",
-                        help="exit 0 even if the FMU stopped early (the error is still printed)")
+    parser.add_argument(
+        "--interpolate-gaps",
+        type=float,
+        default=None,
+        metavar="MINUTES",
+        help="interpolate data gaps up to this length when preparing the data",
+    )
+    parser.add_argument(
+        "--allow-partial", action="store_true", help="exit 0 even if the FMU stopped early (the error is still printed)"
+    )
 
 
 def main_cosim(args) -> int:
@@ -975,8 +1062,7 @@ def main_cosim(args) -> int:
     from hvacfmu.data import prepare
     from hvacfmu.models import load_model
 
-    dataset = prepare(args.data, args.building, step=args.step, seed=args.seed,
-                      interpolate_limit=args.interpolate_gaps)
+    dataset = prepare(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
     model = load_model(args.model) if args.model else None
     options = _parse_options(args.option)
     if args.horizon is not None:
@@ -988,21 +1074,38 @@ def main_cosim(args) -> int:
             mapping = json.loads(Path(args.mapping).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as exc:
             raise HvacfmuError(f"cannot read mapping file {args.mapping}: {exc}") from None
-    result = run_cosim(args.fmu, dataset, controller, week=args.week, start=args.start, stop=args.stop,
-                       model=model, mapping=mapping, band=tuple(args.band), season=args.season,
-                       allow_partial=True, progress=not getattr(args, "quiet", True),
-                       warmup=None if getattr(args, "warmup", None) is None else args.warmup * 3600.0)
+    result = run_cosim(
+        args.fmu,
+        dataset,
+        controller,
+        week=args.week,
+        start=args.start,
+        stop=args.stop,
+        model=model,
+        mapping=mapping,
+        band=tuple(args.band),
+        season=args.season,
+        allow_partial=True,
+        progress=not getattr(args, "quiet", True),
+        warmup=None if getattr(args, "warmup", None) is None else args.warmup * 3600.0,
+    )
     print(result.format_summary())
     if args.out:
         print(f"wrote {result.save(args.out)}")
     if args.plot:
         print(f"wrote {result.plot(args.plot)}")
     if not result.covered:
-        print(f"hvacfmu cosim: error: the FMU stopped early: {result.summary['stopped_because']}",
-              file=sys.stderr)
+        print(f"hvacfmu cosim: error: the FMU stopped early: {result.summary['stopped_because']}", file=sys.stderr)
         return 0 if args.allow_partial else 1
     return 0
 
 
-__all__ = ["CosimResult", "FMUInstance", "add_cosim_arguments", "main_cosim", "make_controller", "run_cosim",
-           "simulate_fmu_checked"]
+__all__ = [
+    "CosimResult",
+    "FMUInstance",
+    "add_cosim_arguments",
+    "main_cosim",
+    "make_controller",
+    "run_cosim",
+    "simulate_fmu_checked",
+]

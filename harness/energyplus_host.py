@@ -42,8 +42,14 @@ from hvacfmu.errors import FMUError, HvacfmuError
 from hvacfmu.timeutil import seconds_of_week
 
 #: EnergyPlus meters recorded per step [J] (those the building has).
-METERS = ("Electricity:HVAC", "NaturalGas:HVAC", "Heating:Electricity", "Heating:NaturalGas", "Cooling:Electricity",
-          "Fans:Electricity")
+METERS = (
+    "Electricity:HVAC",
+    "NaturalGas:HVAC",
+    "Heating:Electricity",
+    "Heating:NaturalGas",
+    "Cooling:Electricity",
+    "Fans:Electricity",
+)
 SETPOINT_TOL = 1e-6  # [K] written vs. read back
 
 
@@ -70,15 +76,23 @@ class HostResult:
 
     def format_summary(self) -> str:
         s = self.summary
-        lines = [(f"{self.controller}: {s['steps']} steps, HVAC energy {s['energy_kWh']:.1f} kWh "
-                 f"({', '.join(f'{k} {v:.1f}' for k, v in s['meters_kWh'].items())}), "
-                 f"comfort violation {s['violation_Kh']:.2f} Kh over occupied hours")]
+        lines = [
+            (
+                f"{self.controller}: {s['steps']} steps, HVAC energy {s['energy_kWh']:.1f} kWh "
+                f"({', '.join(f'{k} {v:.1f}' for k, v in s['meters_kWh'].items())}), "
+                f"comfort violation {s['violation_Kh']:.2f} Kh over occupied hours"
+            )
+        ]
         if "fmu_rms_K" in s:
-            lines.append(f"  FMU in the loop (open loop from the run's start, fed the measured airflows): RMS "
-                         f"{s['fmu_rms_K']:.3f} K against EnergyPlus's zone temperatures")
+            lines.append(
+                f"  FMU in the loop (open loop from the run's start, fed the measured airflows): RMS "
+                f"{s['fmu_rms_K']:.3f} K against EnergyPlus's zone temperatures"
+            )
         if s.get("setpoints_sent"):
-            lines.append(f"  setpoints sent {s['setpoints_sent']}, read back by EnergyPlus identical: "
-                         f"{s['setpoints_sent'] - len(self.mismatches)}")
+            lines.append(
+                f"  setpoints sent {s['setpoints_sent']}, read back by EnergyPlus identical: "
+                f"{s['setpoints_sent'] - len(self.mismatches)}"
+            )
         return "\n".join(lines)
 
 
@@ -136,8 +150,9 @@ class _FMUStepper:
             self.inst.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=dt)
             vals = self.inst.fmu.getReal([self.inst.vars[n].vr for n in self.outputs])
         except Exception as exc:
-            raise FMUError(f"FMU {self.inst.path.name} failed at {t_local}: {exc}; FMU log: {self.inst.errors()}") \
-                from exc
+            raise FMUError(
+                f"FMU {self.inst.path.name} failed at {t_local}: {exc}; FMU log: {self.inst.errors()}"
+            ) from exc
         off = [273.15 if self.inst.vars[n].unit == "K" else 0.0 for n in self.outputs]
         return {n: v - o for n, v, o in zip(self.outputs, vals, off)}
 
@@ -163,16 +178,18 @@ class _Loop:
             for kind in ("Cooling Setpoint", "Heating Setpoint"):
                 h = x.get_actuator_handle(state, "Zone Temperature Control", kind, self.zones[z])
                 if h < 0:
-                    raise HvacfmuError(f"EnergyPlus has no actuator Zone Temperature Control/{kind} for zone "
-                                       f"{self.zones[z]!r}")
+                    raise HvacfmuError(
+                        f"EnergyPlus has no actuator Zone Temperature Control/{kind} for zone {self.zones[z]!r}"
+                    )
                 self.act[(z, kind)] = h
         self.meters = {m: x.get_meter_handle(state, m) for m in METERS}
         self.meters = {m: h for m, h in self.meters.items() if h >= 0}
 
     def step_start(self, api, state) -> pd.Timestamp:
         x = api.exchange
-        start = step_start(x.calendar_year(state), x.day_of_year(state), x.current_time(state), self.site.tz_hours,
-                           STEP_HOURS)
+        start = step_start(
+            x.calendar_year(state), x.day_of_year(state), x.current_time(state), self.site.tz_hours, STEP_HOURS
+        )
         return pd.Timestamp(start, tz="UTC").round("1s").tz_convert(self.site.timezone)
 
     def __call__(self, state, api, k, row):
@@ -228,8 +245,20 @@ class _Loop:
                 api.exchange.reset_actuator(state, self.act[(z, "Heating Setpoint")])
 
 
-def run_host(prototype, building, frame, *, floor=None, weather=None, fmu=None, controller=None, season=None,
-             settings: HostSettings | None = None, model=None, workdir=None) -> HostResult:
+def run_host(
+    prototype,
+    building,
+    frame,
+    *,
+    floor=None,
+    weather=None,
+    fmu=None,
+    controller=None,
+    season=None,
+    settings: HostSettings | None = None,
+    model=None,
+    workdir=None,
+) -> HostResult:
     """Run an EnergyPlus building over ``frame``'s span with an FMU and a controller in the loop.
 
     Parameters
@@ -291,9 +320,17 @@ def run_host(prototype, building, frame, *, floor=None, weather=None, fmu=None, 
 def _reset_controller(controller, building, frame, settings, season, model, zones):
     from harness.controllers import ControlContext
 
-    ctx = ControlContext(frame=frame, building=building, vavs=building.vav_names,
-                         outputs=tuple(f"T_{z}" for z in zones), output_zones=tuple((z,) for z in zones), step=900.0,
-                         band=tuple(settings.band), season=season, model=model or getattr(controller, "model", None))
+    ctx = ControlContext(
+        frame=frame,
+        building=building,
+        vavs=building.vav_names,
+        outputs=tuple(f"T_{z}" for z in zones),
+        output_zones=tuple((z,) for z in zones),
+        step=900.0,
+        band=tuple(settings.band),
+        season=season,
+        model=model or getattr(controller, "model", None),
+    )
     controller.reset(ctx)
 
 
@@ -305,13 +342,22 @@ def _result(loop, settings, controller) -> HostResult:
     lo, hi = settings.band
     excess = np.clip(lo - T, 0, None) + np.clip(T - hi, 0, None)
     meters = {m[2:]: float(table[m].sum()) / 3.6e6 for m in table.columns if m.startswith("J_")}
-    summary = {"steps": len(table), "energy_kWh": meters.get("Electricity:HVAC", 0.0) + meters.get("NaturalGas:HVAC", 0.0),
-               "meters_kWh": meters, "violation_Kh": float(excess[occ].sum() * 0.25),
-               "setpoints_sent": loop.n_sent, "mismatches": len(loop.mismatches)}
+    summary = {
+        "steps": len(table),
+        "energy_kWh": meters.get("Electricity:HVAC", 0.0) + meters.get("NaturalGas:HVAC", 0.0),
+        "meters_kWh": meters,
+        "violation_Kh": float(excess[occ].sum() * 0.25),
+        "setpoints_sent": loop.n_sent,
+        "mismatches": len(loop.mismatches),
+    }
     if loop.fmu is not None:
         P = table[[f"fmu_T_{z}" for z in zones if f"fmu_T_{z}" in table]].to_numpy()
         summary["fmu_rms_K"] = float(np.sqrt(np.mean((P[:-1] - T[1:, : P.shape[1]]) ** 2)))
-    name = "EnergyPlus own control" if controller is None else f"{getattr(controller, 'name', 'controller')} (supervisory setpoints)"
+    name = (
+        "EnergyPlus own control"
+        if controller is None
+        else f"{getattr(controller, 'name', 'controller')} (supervisory setpoints)"
+    )
     return HostResult(table, summary, list(loop.mismatches), name)
 
 
@@ -319,6 +365,13 @@ def compare(reference: HostResult, other: HostResult) -> str:
     """Energy and comfort of ``other`` against ``reference`` (EnergyPlus's own control), as text."""
     e0, e1 = reference.summary["energy_kWh"], other.summary["energy_kWh"]
     d = 100.0 * (e1 - e0) / e0 if e0 else float("nan")
-    return "\n".join([reference.format_summary(), other.format_summary(),
-                      (f"energy {e1:.1f} vs {e0:.1f} kWh ({d:+.1f} %), comfort violation "
-                      f"{other.summary['violation_Kh']:.2f} vs {reference.summary['violation_Kh']:.2f} Kh")])
+    return "\n".join(
+        [
+            reference.format_summary(),
+            other.format_summary(),
+            (
+                f"energy {e1:.1f} vs {e0:.1f} kWh ({d:+.1f} %), comfort violation "
+                f"{other.summary['violation_Kh']:.2f} vs {reference.summary['violation_Kh']:.2f} Kh"
+            ),
+        ]
+    )

@@ -439,7 +439,7 @@ def _str_list(value, what, problems) -> tuple:
     if value is None:
         return ()
     if not isinstance(value, list) or not all(isinstance(x, str) for x in value):
-        problems.append(f"{what}: expected a list of names such as [\"B\", \"C\"], got {value!r}")
+        problems.append(f'{what}: expected a list of names such as ["B", "C"], got {value!r}')
         return ()
     return tuple(value)
 
@@ -448,7 +448,7 @@ def _str_map(value, what, problems) -> dict:
     if value is None:
         return {}
     if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(x, str) for k, x in value.items()):
-        problems.append(f"{what}: expected a table of text values (name = \"text\"), got {value!r}")
+        problems.append(f'{what}: expected a table of text values (name = "text"), got {value!r}')
         return {}
     return dict(value)
 
@@ -529,8 +529,19 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
     problems: list[str] = []
     if not isinstance(d, dict):
         raise BuildingError(f"building {source or ''}: expected a table of keys, got {type(d).__name__}")
-    known = {"name", "latitude", "longitude", "timezone", "data_timezone", "zones", "vavs", "ahus", "seasons",
-             "columns", "units"}
+    known = {
+        "name",
+        "latitude",
+        "longitude",
+        "timezone",
+        "data_timezone",
+        "zones",
+        "vavs",
+        "ahus",
+        "seasons",
+        "columns",
+        "units",
+    }
     known |= set(PHYSICS_KEYS)
     for key in d:
         if key not in known:
@@ -559,8 +570,14 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
     if problems:
         raise BuildingError(problems_message(f"Invalid building file {source or ''}".strip(), problems))
     return Building(
-        zones=tuple(zones), vavs=tuple(vavs), ahus=tuple(ahus), seasons=seasons, physics=physics,
-        source=source, sha256=sha256, **fields,
+        zones=tuple(zones),
+        vavs=tuple(vavs),
+        ahus=tuple(ahus),
+        seasons=seasons,
+        physics=physics,
+        source=source,
+        sha256=sha256,
+        **fields,
     )
 
 
@@ -626,7 +643,7 @@ def _validate_ahus(b: Building) -> list[str]:
                 "supply/discharge air (15..80 °C); is it in °F?"
             )
         if not any(v.ahu == a.name for v in b.vavs):
-            problems.append(f"air handler {a.name}: no VAV box names it (set ahu = \"{a.name}\" on its [[vavs]])")
+            problems.append(f'air handler {a.name}: no VAV box names it (set ahu = "{a.name}" on its [[vavs]])')
     for v in b.vavs:
         if v.ahu is None and b.ahus:
             problems.append(

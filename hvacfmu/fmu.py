@@ -52,10 +52,14 @@ def slave_specs() -> dict:
     specs = {}
     for k in kinds():
         if k.fmu_slave != GENERIC_SLAVE:
-            specs.setdefault(k.fmu_slave, (f"models of kind '{k.name}'", "ZoneModelSlave",
-                                           f"{k.name}, resources/model.json"))
-    specs[GENERIC_SLAVE] = ("models of a kind without a dedicated slave", "ZoneModelSlave",
-                            "kinds without a dedicated slave, resources/model.json")
+            specs.setdefault(
+                k.fmu_slave, (f"models of kind '{k.name}'", "ZoneModelSlave", f"{k.name}, resources/model.json")
+            )
+    specs[GENERIC_SLAVE] = (
+        "models of a kind without a dedicated slave",
+        "ZoneModelSlave",
+        "kinds without a dedicated slave, resources/model.json",
+    )
     specs[PLANT_SLAVE] = ("the emulated building (plant)", "PlantSlave", "emulated plant, resources/truth.json")
     return specs
 
@@ -184,8 +188,9 @@ def slave_dir() -> Path:
     from . import __version__
 
     cache = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu")) / f"fmu-slaves-{__version__}"
-    if not all((cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n)
-               for n in slave_specs()):
+    if not all(
+        (cache / f"{n}.py").is_file() and (cache / f"{n}.py").read_text() == slave_source(n) for n in slave_specs()
+    ):
         write_slaves(cache)
     return cache
 
@@ -302,7 +307,9 @@ def _warn_calendar_gains(model, model_path):
         "without a time zone the FMU uses the seasonal time-of-week profile and will differ from the Python "
         "model on those days: export with timezone=... (hvacfmu export --timezone) to give the FMU the "
         "parameter start_time",
-        HvacfmuWarning, stacklevel=3)
+        HvacfmuWarning,
+        stacklevel=3,
+    )
 
 
 def _check_timezone(timezone, model_path):
@@ -372,13 +379,16 @@ def export_file(path, out_path, *, timezone: str | None = None, native: bool = F
     plant = isinstance(d, dict) and "kind" not in d and "baseline" in d and "zones" in d
     if native:
         if plant:
-            raise FMUError(f"{path} is an emulated plant (truth.json): it has no linear equations and cannot be "
-                           "exported as a native FMU; export it without --native")
+            raise FMUError(
+                f"{path} is an emulated plant (truth.json): it has no linear equations and cannot be "
+                "exported as a native FMU; export it without --native"
+            )
         from .fmu_native import export_native_fmu
         from .models import load_model
 
-        return export_native_fmu(load_model(path), out_path, model_name=path.name,
-                                 building=_resolve_building(building, path))
+        return export_native_fmu(
+            load_model(path), out_path, model_name=path.name, building=_resolve_building(building, path)
+        )
     if plant:
         return export_plant_fmu(path, out_path)
     return export_fmu(path, out_path, timezone=timezone, building=building)
@@ -407,8 +417,13 @@ def _build(script: Path, out_path, resources, documentation=None) -> Path:
     had_module = module in sys.modules
     t0 = time.perf_counter()
     try:
-        path = FmuBuilder.build_FMU(script, dest=out_path, project_files=[Path(r) for r in resources],
-                                    documentation_folder=documentation, **BUILD_OPTIONS)
+        path = FmuBuilder.build_FMU(
+            script,
+            dest=out_path,
+            project_files=[Path(r) for r in resources],
+            documentation_folder=documentation,
+            **BUILD_OPTIONS,
+        )
     except ModelError:
         raise
     except Exception as exc:  # noqa: BLE001 - pythonfmu raises plain exceptions
@@ -451,5 +466,14 @@ def validate(path, native: bool | None = None) -> list[str]:
     return problems
 
 
-__all__ = ["export_file", "export_fmu", "export_native_fmu", "export_plant_fmu", "slave_dir", "slave_name", "slave_script", "slave_specs",
-           "validate"]
+__all__ = [
+    "export_file",
+    "export_fmu",
+    "export_native_fmu",
+    "export_plant_fmu",
+    "slave_dir",
+    "slave_name",
+    "slave_script",
+    "slave_specs",
+    "validate",
+]

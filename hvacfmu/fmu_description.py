@@ -91,8 +91,14 @@ def unit_definitions(variables) -> Element | None:
 def scalar_variable(parent: Element, vr: int, e: dict) -> Element:
     """One ``<ScalarVariable>`` of layout entry ``e`` (value reference ``vr``)."""
     causality = e["causality"]
-    sv = SubElement(parent, "ScalarVariable", name=e["name"], valueReference=str(vr),
-                    description=e.get("description") or e["name"], causality=causality)
+    sv = SubElement(
+        parent,
+        "ScalarVariable",
+        name=e["name"],
+        valueReference=str(vr),
+        description=e.get("description") or e["name"],
+        causality=causality,
+    )
     if causality == "input":
         sv.set("variability", "continuous" if e["type"] == "Real" else "discrete")
     elif causality == "output":
@@ -127,23 +133,48 @@ def model_structure(parent: Element, variables) -> Element:
     return structure
 
 
-def model_description_xml(layout: dict, *, identifier: str, guid: str, native: bool, source_files=(),
-                          model_name: str | None = None, version: str | None = None) -> bytes:
+def model_description_xml(
+    layout: dict,
+    *,
+    identifier: str,
+    guid: str,
+    native: bool,
+    source_files=(),
+    model_name: str | None = None,
+    version: str | None = None,
+) -> bytes:
     """The complete ``modelDescription.xml`` (FMI 2.0 co-simulation) of a layout, as UTF-8 bytes."""
     from . import __version__
 
     variables = layout["variables"]
-    root = Element("fmiModelDescription", fmiVersion="2.0", modelName=model_name or identifier, guid=guid,
-                   description=layout["description"], author="hvacfmu", version=version or f"hvacfmu {__version__}",
-                   generationTool=f"hvacfmu {__version__}",
-                   generationDateAndTime=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                   variableNamingConvention="flat", numberOfEventIndicators="0")
-    cs = SubElement(root, "CoSimulation", modelIdentifier=identifier, needsExecutionTool="false",
-                    canHandleVariableCommunicationStepSize="false", canInterpolateInputs="false",
-                    maxOutputDerivativeOrder="0", canRunAsynchronuously="false",
-                    canBeInstantiatedOnlyOncePerProcess="false", canNotUseMemoryManagementFunctions="true",
-                    canGetAndSetFMUstate="true", canSerializeFMUstate="true",
-                    providesDirectionalDerivative="false")
+    root = Element(
+        "fmiModelDescription",
+        fmiVersion="2.0",
+        modelName=model_name or identifier,
+        guid=guid,
+        description=layout["description"],
+        author="hvacfmu",
+        version=version or f"hvacfmu {__version__}",
+        generationTool=f"hvacfmu {__version__}",
+        generationDateAndTime=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        variableNamingConvention="flat",
+        numberOfEventIndicators="0",
+    )
+    cs = SubElement(
+        root,
+        "CoSimulation",
+        modelIdentifier=identifier,
+        needsExecutionTool="false",
+        canHandleVariableCommunicationStepSize="false",
+        canInterpolateInputs="false",
+        maxOutputDerivativeOrder="0",
+        canRunAsynchronuously="false",
+        canBeInstantiatedOnlyOncePerProcess="false",
+        canNotUseMemoryManagementFunctions="true",
+        canGetAndSetFMUstate="true",
+        canSerializeFMUstate="true",
+        providesDirectionalDerivative="false",
+    )
     if source_files:
         files = SubElement(cs, "SourceFiles")
         for f in source_files:
@@ -155,8 +186,9 @@ def model_description_xml(layout: dict, *, identifier: str, guid: str, native: b
     cats = SubElement(root, "LogCategories")
     for name, desc in LOG_CATEGORIES.items():
         SubElement(cats, "Category", name=name, description=desc)
-    SubElement(root, "DefaultExperiment", startTime="0.0", stopTime=repr(7 * 86400.0),
-               stepSize=repr(float(layout["step"])))
+    SubElement(
+        root, "DefaultExperiment", startTime="0.0", stopTime=repr(7 * 86400.0), stepSize=repr(float(layout["step"]))
+    )
     mv = SubElement(root, "ModelVariables")
     for vr, e in enumerate(variables):
         scalar_variable(mv, vr, e)
@@ -168,14 +200,18 @@ def model_description_xml(layout: dict, *, identifier: str, guid: str, native: b
 def runtime_requirements(native: bool) -> list[str]:
     """What an FMU needs at run time, one line each."""
     if native:
-        return ["Nothing but the operating system's C library: the model is compiled C code "
-                "(binaries/linux64); no Python, no hvacfmu.",
-                "Other platforms: compile sources/ (C99 and the FMI 2.0 headers), e.g. `fmpy compile FMU`."]
+        return [
+            "Nothing but the operating system's C library: the model is compiled C code "
+            "(binaries/linux64); no Python, no hvacfmu.",
+            "Other platforms: compile sources/ (C99 and the FMI 2.0 headers), e.g. `fmpy compile FMU`.",
+        ]
     import platform
     from importlib.metadata import PackageNotFoundError, version
 
-    lines = [f"A Python {platform.python_version()} host process (the FMU's binary calls into the importer's "
-             "Python interpreter; C/C++ importers need libpython preloaded and PYTHONPATH set)."]
+    lines = [
+        f"A Python {platform.python_version()} host process (the FMU's binary calls into the importer's "
+        "Python interpreter; C/C++ importers need libpython preloaded and PYTHONPATH set)."
+    ]
     for pkg in ("hvacfmu", "numpy", "scipy", "pandas", "pythonfmu"):
         try:
             lines.append(f"Python package {pkg} {version(pkg)} (or compatible) importable in that interpreter")
@@ -191,10 +227,13 @@ def documentation_html(layout: dict, *, native: bool) -> str:
         f"<td>{html.escape(str(e.get('min', '')) if e.get('min') is not None else '')}</td>"
         f"<td>{html.escape(str(e.get('max', '')) if e.get('max') is not None else '')}</td>"
         f"<td>{html.escape(e.get('description') or '')}</td></tr>"
-        for e in layout["variables"])
+        for e in layout["variables"]
+    )
     needs = "\n".join(f"<li>{html.escape(line)}</li>" for line in runtime_requirements(native))
-    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>hvacfmu FMU</title></head><body>\n"
-            f"<h1>hvacfmu {html.escape(str(layout['kind']))} FMU</h1>\n<p>{html.escape(layout['description'])}</p>\n"
-            f"<h2>Needed at run time</h2>\n<ul>\n{needs}\n</ul>\n"
-            f"<h2>Variables</h2>\n<table>\n<tr><th>name</th><th>causality</th><th>unit</th><th>min</th><th>max</th>"
-            f"<th>description</th></tr>\n{rows}\n</table>\n</body></html>\n")
+    return (
+        f'<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>hvacfmu FMU</title></head><body>\n'
+        f"<h1>hvacfmu {html.escape(str(layout['kind']))} FMU</h1>\n<p>{html.escape(layout['description'])}</p>\n"
+        f"<h2>Needed at run time</h2>\n<ul>\n{needs}\n</ul>\n"
+        f"<h2>Variables</h2>\n<table>\n<tr><th>name</th><th>causality</th><th>unit</th><th>min</th><th>max</th>"
+        f"<th>description</th></tr>\n{rows}\n</table>\n</body></html>\n"
+    )

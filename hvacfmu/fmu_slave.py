@@ -164,13 +164,29 @@ def box_limits(model, building=None) -> dict:
 def box_entry(b: str, limits: dict | None) -> dict:
     """Layout entry of the airflow input of box ``b``; bounds and nominal from its ``limits`` when known."""
     if not limits:
-        return _entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
-                      f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"])
+        return _entry(
+            "m",
+            sanitize_name(f"m_{b}"),
+            "Real",
+            "input",
+            0.0,
+            "kg/s",
+            f"Supply air mass flow rate of VAV box {b} [kg/s]",
+            BOUNDS["kg/s"],
+        )
     hi = round(M_MAX_MARGIN * limits["m_max"], 12)
-    e = _entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
-               f"Supply air mass flow rate of VAV box {b} serving zone {limits['zone']} [kg/s]; design range "
-               f"m_min={limits['m_min']:g} to m_max={limits['m_max']:g} kg/s (building file), accepted up to "
-               f"{M_MAX_MARGIN:g} x m_max", (0.0, hi))
+    e = _entry(
+        "m",
+        sanitize_name(f"m_{b}"),
+        "Real",
+        "input",
+        0.0,
+        "kg/s",
+        f"Supply air mass flow rate of VAV box {b} serving zone {limits['zone']} [kg/s]; design range "
+        f"m_min={limits['m_min']:g} to m_max={limits['m_max']:g} kg/s (building file), accepted up to "
+        f"{M_MAX_MARGIN:g} x m_max",
+        (0.0, hi),
+    )
     e["nominal"] = limits["m_max"]
     return e
 
@@ -182,7 +198,7 @@ def signal_description(name: str) -> str:
     if name == "T_supply":
         return "Supply (discharge) air temperature of the VAV boxes [degC]"
     if name.startswith("T_supply_"):
-        return f"Supply air temperature of air handler {name[len('T_supply_'):]} [degC]"
+        return f"Supply air temperature of air handler {name[len('T_supply_') :]} [degC]"
     if name.startswith("Td_"):
         return f"Discharge air temperature of VAV box {name[3:]} [degC] (after its reheat coil)"
     if name == "ghi":
@@ -275,13 +291,23 @@ class HvacfmuSlaveBase(Fmi2Slave):
             var = Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous, **kw)
             self._input_vrs.append(vr)
         elif causality == "output":
-            var = Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.discrete,
-                       initial=Fmi2Initial.calculated, **kw)
+            var = Real(
+                name,
+                causality=Fmi2Causality.output,
+                variability=Fmi2Variability.discrete,
+                initial=Fmi2Initial.calculated,
+                **kw,
+            )
             self._output_vrs.append(vr)
         else:
             cls = Real if vtype == "Real" else Integer
-            var = cls(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
-                      initial=Fmi2Initial.exact, **kw)
+            var = cls(
+                name,
+                causality=Fmi2Causality.parameter,
+                variability=Fmi2Variability.fixed,
+                initial=Fmi2Initial.exact,
+                **kw,
+            )
             self._fixed_vrs.append(vr)
         var.setter = lambda value, vr=vr: self._values.__setitem__(vr, value)
         self.register_variable(var, nested=False)
@@ -418,9 +444,13 @@ class HvacfmuSlaveBase(Fmi2Slave):
                 msg, self._pending = self._pending, None
                 return self._refuse(f"step refused after an earlier error: {msg}")
             if not self._initialized:
-                return self._refuse(self._failed or (
-                    "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
-                    "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"))
+                return self._refuse(
+                    self._failed
+                    or (
+                        "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
+                        "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"
+                    )
+                )
             if self._unchecked:
                 self._check_inputs()
             if self._bad:
@@ -602,8 +632,17 @@ def _contiguous(vrs) -> bool:
 
 
 def _entry(role, name, vtype, causality, start, unit=None, description="", bounds=(None, None)):
-    return {"role": role, "name": name, "type": vtype, "causality": causality, "start": start,
-            "unit": unit, "description": description, "min": bounds[0], "max": bounds[1]}
+    return {
+        "role": role,
+        "name": name,
+        "type": vtype,
+        "causality": causality,
+        "start": start,
+        "unit": unit,
+        "description": description,
+        "min": bounds[0],
+        "max": bounds[1],
+    }
 
 
 def _stored_timezone(resources) -> str | None:
@@ -637,8 +676,11 @@ def read_layout(resources, model_layout, resource_name):
     if model_layout is None:
         return (stored, None)
     if stored is not None and _normalise(stored) != _normalise(model_layout):
-        return (stored, f"resources/{resource_name} does not match the FMU's variables ({INTERFACE_FILE}); "
-                        "was the file replaced? Export the FMU again")
+        return (
+            stored,
+            f"resources/{resource_name} does not match the FMU's variables ({INTERFACE_FILE}); "
+            "was the file replaced? Export the FMU again",
+        )
     return (model_layout, None)
 
 
@@ -818,36 +860,109 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
             var.append(box_entry(b, boxes.get(b)))
     else:
         for name in model.inputs:
-            var.append(box_entry(name[2:], boxes.get(name[2:])) if name.startswith("m_") and name[2:] in boxes
-                       else _entry("m", sanitize_name(name), "Real", "input", 0.0, "kg/s",
-                                   signal_description(name), BOUNDS["kg/s"]))
+            var.append(
+                box_entry(name[2:], boxes.get(name[2:]))
+                if name.startswith("m_") and name[2:] in boxes
+                else _entry(
+                    "m", sanitize_name(name), "Real", "input", 0.0, "kg/s", signal_description(name), BOUNDS["kg/s"]
+                )
+            )
     for name in model.disturbances:
-        var.append(_entry("v", sanitize_name(name), "Real", "input", _signal_start(name), signal_unit(name),
-                          signal_description(name), signal_bounds(name)))
-    var.append(_entry("tow_in", "time_of_week", "Real", "input", -1.0, "s",
-                      "Optional: local time of week at the start of the step [s since Monday 00:00]; when >= 0 it "
-                      "places the internal-gain profile instead of the FMU clock (follow daylight-saving time); "
-                      "-1 (default): use start_time_of_week + time", (-1.0, 7 * 86400.0)))
+        var.append(
+            _entry(
+                "v",
+                sanitize_name(name),
+                "Real",
+                "input",
+                _signal_start(name),
+                signal_unit(name),
+                signal_description(name),
+                signal_bounds(name),
+            )
+        )
+    var.append(
+        _entry(
+            "tow_in",
+            "time_of_week",
+            "Real",
+            "input",
+            -1.0,
+            "s",
+            "Optional: local time of week at the start of the step [s since Monday 00:00]; when >= 0 it "
+            "places the internal-gain profile instead of the FMU clock (follow daylight-saving time); "
+            "-1 (default): use start_time_of_week + time",
+            (-1.0, 7 * 86400.0),
+        )
+    )
     label = "the floor (area-weighted mean)" if model.kind == "lumped" else "zone"
     for z in model.outputs:
-        var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
-                          f"Air temperature of {label} {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
+        var.append(
+            _entry(
+                "y",
+                sanitize_name(f"T_{z}"),
+                "Real",
+                "output",
+                21.0,
+                "degC",
+                f"Air temperature of {label} {z} [degC] (EnergyPlus: Zone Mean Air Temperature)",
+            )
+        )
     for z in model.outputs:
-        var.append(_entry("y0", sanitize_name(f"T_{z}_start"), "Real", "parameter", 21.0, "degC",
-                          f"Initial air temperature of {z} [degC]", BOUNDS["degC"]))
+        var.append(
+            _entry(
+                "y0",
+                sanitize_name(f"T_{z}_start"),
+                "Real",
+                "parameter",
+                21.0,
+                "degC",
+                f"Initial air temperature of {z} [degC]",
+                BOUNDS["degC"],
+            )
+        )
     mapping = ", ".join(f"{i + 1} = {s}" for i, s in enumerate(seasons))
-    var.append(_entry("season", "season", "Integer", "parameter", 1, None,
-                      f"Season of the internal-gain profile: {mapping}", (1, len(seasons))))
-    var.append(_entry("tow", "start_time_of_week", "Real", "parameter", 0.0, "s",
-                      "Local time of week at FMU time 0 [s since Monday 00:00]; places the internal-gain "
-                      "profile: slot = floor((start_time_of_week + time)/step) mod slots", (0.0, 7 * 86400.0)))
+    var.append(
+        _entry(
+            "season",
+            "season",
+            "Integer",
+            "parameter",
+            1,
+            None,
+            f"Season of the internal-gain profile: {mapping}",
+            (1, len(seasons)),
+        )
+    )
+    var.append(
+        _entry(
+            "tow",
+            "start_time_of_week",
+            "Real",
+            "parameter",
+            0.0,
+            "s",
+            "Local time of week at FMU time 0 [s since Monday 00:00]; places the internal-gain "
+            "profile: slot = floor((start_time_of_week + time)/step) mod slots",
+            (0.0, 7 * 86400.0),
+        )
+    )
     calendar = timezone is not None and calendar_dependent(model)
     if calendar:
-        var.append(_entry("t_abs", "start_time", "Real", "parameter", -1.0, "s",
-                          "Absolute time at FMU time 0 [s since 1970-01-01T00:00:00Z, Unix epoch]; when >= 0 the "
-                          f"internal gains follow the model's calendar (holidays, daylight saving time in {timezone}) "
-                          "at start_time + time, and start_time_of_week and the time_of_week input are ignored; "
-                          "-1 (default): time-of-week profile without the calendar", (-1.0, None)))
+        var.append(
+            _entry(
+                "t_abs",
+                "start_time",
+                "Real",
+                "parameter",
+                -1.0,
+                "s",
+                "Absolute time at FMU time 0 [s since 1970-01-01T00:00:00Z, Unix epoch]; when >= 0 the "
+                f"internal gains follow the model's calendar (holidays, daylight saving time in {timezone}) "
+                "at start_time + time, and start_time_of_week and the time_of_week input are ignored; "
+                "-1 (default): time-of-week profile without the calendar",
+                (-1.0, None),
+            )
+        )
     names = [v["name"] for v in var]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -905,12 +1020,14 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self.model = None
         problem = None
         try:
+
             def build():
                 from hvacfmu.models import load_model  # host environment
 
                 model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
-                return (model,) + zone_model_layout(model, _stored_timezone(self.resources),
-                                                    _stored_boxes(self.resources))
+                return (model,) + zone_model_layout(
+                    model, _stored_timezone(self.resources), _stored_boxes(self.resources)
+                )
 
             model, layout, M = _cached_setup("model", self.resources, (self.MODEL_FILE, INTERFACE_FILE), build)
             layout = json.loads(json.dumps(layout, default=float))  # each instance its own copy
@@ -971,7 +1088,8 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         season = v[season_vr]
         if not (isinstance(season, int) and 1 <= season <= len(self.seasons)):
             problems.append(
-                f"season={season!r} is not one of " + ", ".join(f"{i + 1} ({s})" for i, s in enumerate(self.seasons)))
+                f"season={season!r} is not one of " + ", ".join(f"{i + 1} ({s})" for i, s in enumerate(self.seasons))
+            )
         tow = v[tow_vr]
         if not (0.0 <= tow <= 7 * 86400.0):
             problems.append(f"start_time_of_week={tow!r} s is outside [0, 604800]")
@@ -981,9 +1099,12 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         if abs_vrs:
             t_abs = v[abs_vrs[0]]
             if t_abs == -1.0:
-                self.log("start_time is not set (-1): the internal gains follow the time-of-week profile "
-                         "without the model's calendar (holidays, daylight saving time); set start_time "
-                         "[s, Unix epoch] to the absolute time at FMU time 0", Fmi2Status.warning)
+                self.log(
+                    "start_time is not set (-1): the internal gains follow the time-of-week profile "
+                    "without the model's calendar (holidays, daylight saving time); set start_time "
+                    "[s, Unix epoch] to the absolute time at FMU time 0",
+                    Fmi2Status.warning,
+                )
             elif not (math.isfinite(t_abs) and t_abs >= 0.0):
                 problems.append(f"start_time={t_abs!r} s is neither -1 (unset) nor a Unix epoch time >= 0")
             else:
@@ -1072,7 +1193,8 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         y = np.asarray(model.output(x), dtype=float).tolist()
         if not math.isfinite(sum(y)):
             return self._refuse(
-                f"the zone temperatures became non-finite in the step from t={current_time} s; step refused")
+                f"the zone temperatures became non-finite in the step from t={current_time} s; step refused"
+            )
         self._x = x
         self._k += n
         self._t = self._t_start + self._k * self._step
@@ -1080,8 +1202,13 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         return True
 
     def _get_internal_state(self):
-        return {"x": None if self._x is None else self._x.tolist(), "k": self._k, "slot0": self._slot0,
-                "season": getattr(self, "_season", None), "abs0": self._abs0}
+        return {
+            "x": None if self._x is None else self._x.tolist(),
+            "k": self._k,
+            "slot0": self._slot0,
+            "season": getattr(self, "_season", None),
+            "abs0": self._abs0,
+        }
 
     def _set_internal_state(self, state):
         x = None if state["x"] is None else np.array(state["x"], dtype=float)
@@ -1107,27 +1234,86 @@ def plant_layout(plant, truth: dict) -> dict:
     """Variable layout of the plant FMU (:class:`hvacfmu.emulator.Plant`)."""
     var = []
     for b in plant.vavs:
-        var.append(_entry("m", sanitize_name(f"m_{b}"), "Real", "input", 0.0, "kg/s",
-                          f"Supply air mass flow rate of VAV box {b} [kg/s]", BOUNDS["kg/s"]))
+        var.append(
+            _entry(
+                "m",
+                sanitize_name(f"m_{b}"),
+                "Real",
+                "input",
+                0.0,
+                "kg/s",
+                f"Supply air mass flow rate of VAV box {b} [kg/s]",
+                BOUNDS["kg/s"],
+            )
+        )
     for name, start in (("T_out", 15.0), ("T_supply", 14.0)) + tuple((i, 0.0) for i in FACADE_INPUTS):
         unit = signal_unit(name)
         var.append(_entry("v", name, "Real", "input", start, unit, signal_description(name), BOUNDS[unit]))
-    var.append(_entry("ghi", "ghi", "Real", "input", -1.0, "W/m2",
-                      "Global horizontal irradiance [W/m2]; when >= 0 the facade irradiance is computed from it "
-                      "with the emulator's own model (Erbs + Perez) and I_N..I_W are ignored; "
-                      "-1 (default): use I_N..I_W", (-1.0, BOUNDS["W/m2"][1])))
-    var.append(_entry("exc", "excitation", "Real", "input", 0.0, None,
-                      "1 while a forced-response experiment overrides the boxes (their local reheat loops are "
-                      "off and reset), 0 otherwise (default)", (0.0, 1.0)))
+    var.append(
+        _entry(
+            "ghi",
+            "ghi",
+            "Real",
+            "input",
+            -1.0,
+            "W/m2",
+            "Global horizontal irradiance [W/m2]; when >= 0 the facade irradiance is computed from it "
+            "with the emulator's own model (Erbs + Perez) and I_N..I_W are ignored; "
+            "-1 (default): use I_N..I_W",
+            (-1.0, BOUNDS["W/m2"][1]),
+        )
+    )
+    var.append(
+        _entry(
+            "exc",
+            "excitation",
+            "Real",
+            "input",
+            0.0,
+            None,
+            "1 while a forced-response experiment overrides the boxes (their local reheat loops are "
+            "off and reset), 0 otherwise (default)",
+            (0.0, 1.0),
+        )
+    )
     for z in plant.zones:
-        var.append(_entry("y", sanitize_name(f"T_{z}"), "Real", "output", 21.0, "degC",
-                          f"Air temperature of zone {z} [degC] (EnergyPlus: Zone Mean Air Temperature)"))
+        var.append(
+            _entry(
+                "y",
+                sanitize_name(f"T_{z}"),
+                "Real",
+                "output",
+                21.0,
+                "degC",
+                f"Air temperature of zone {z} [degC] (EnergyPlus: Zone Mean Air Temperature)",
+            )
+        )
     for z in plant.zones:
-        var.append(_entry("y0", sanitize_name(f"T_{z}_start"), "Real", "parameter", 21.0, "degC",
-                          f"Initial air temperature of zone {z} (all its nodes) [degC]", BOUNDS["degC"]))
-    var.append(_entry("local_reheat", "local_reheat", "Integer", "parameter", 0, None,
-                      "1: the boxes keep their local reheat loops (the building's own heating sequence; the "
-                      "commanded airflows replace only the airflow loops); 0 (default): no reheat", (0, 1)))
+        var.append(
+            _entry(
+                "y0",
+                sanitize_name(f"T_{z}_start"),
+                "Real",
+                "parameter",
+                21.0,
+                "degC",
+                f"Initial air temperature of zone {z} (all its nodes) [degC]",
+                BOUNDS["degC"],
+            )
+        )
+    var.append(
+        _entry(
+            "local_reheat",
+            "local_reheat",
+            "Integer",
+            "parameter",
+            0,
+            None,
+            "1: the boxes keep their local reheat loops (the building's own heating sequence; the "
+            "commanded airflows replace only the airflow loops); 0 (default): no reheat",
+            (0, 1),
+        )
+    )
     start = truth.get("start", "?")
     return {
         "slave_api": SLAVE_API_VERSION,
@@ -1165,6 +1351,7 @@ class PlantSlave(HvacfmuSlaveBase):
         self.plant = None
         problem = None
         try:
+
             def build():
                 from hvacfmu.emulator import Plant  # host environment
 
@@ -1198,8 +1385,11 @@ class PlantSlave(HvacfmuSlaveBase):
         self._get_v = tuple_getter(v_vrs)
         y0 = [v[vr] for vr in self.vrs_with_role("y0")]
         lo, hi = BOUNDS["degC"]
-        problems = [f"{self._spec[vr]['name']}={val!r} degC is outside [{lo}, {hi}]"
-                    for vr, val in zip(self.vrs_with_role("y0"), y0) if not (lo <= val <= hi)]
+        problems = [
+            f"{self._spec[vr]['name']}={val!r} degC is outside [{lo}, {hi}]"
+            for vr, val in zip(self.vrs_with_role("y0"), y0)
+            if not (lo <= val <= hi)
+        ]
         k0 = self._t_start / PLANT_STEP
         if abs(k0 - round(k0)) > 1e-9 * max(1.0, k0) or self._t_start < 0:
             problems.append(f"start time {self._t_start} s must be a non-negative multiple of {PLANT_STEP:g} s")
@@ -1222,18 +1412,28 @@ class PlantSlave(HvacfmuSlaveBase):
         if n < 1 - 1e-9 or abs(n - round(n)) > _STEP_RTOL * max(1.0, n):
             return self._refuse(
                 f"communication step {step_size!r} s at t={current_time} s is not a whole multiple of the "
-                f"plant step {PLANT_STEP:g} s; step refused")
+                f"plant step {PLANT_STEP:g} s; step refused"
+            )
         if current_time + step_size > self.plant.horizon + 1e-6:
             return self._refuse(
                 f"the step to t={current_time + step_size} s goes beyond the emulated span "
-                f"({self.plant.horizon:g} s from the dataset start); step refused")
+                f"({self.plant.horizon:g} s from the dataset start); step refused"
+            )
         values = self._values
         w = self._get_v(values)
         t, dt = round(current_time / PLANT_STEP) * PLANT_STEP, round(n) * PLANT_STEP
         ghi = values[self._ghi_vr]
         irr = self._run.facades_from_ghi(t, dt, ghi) if ghi >= 0 else np.array(w[2:6], dtype=float)
-        x, T = self._run.advance(self._x, t, dt, np.array(self._get_m(values), dtype=float), w[0], w[1], irr,
-                                 excitation=values[self._exc_vr] >= 0.5)
+        x, T = self._run.advance(
+            self._x,
+            t,
+            dt,
+            np.array(self._get_m(values), dtype=float),
+            w[0],
+            w[1],
+            irr,
+            excitation=values[self._exc_vr] >= 0.5,
+        )
         self._x = x
         self._t = current_time + step_size
         for vr, val in zip(self._y_vrs, T.tolist()):

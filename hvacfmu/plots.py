@@ -30,8 +30,9 @@ def panel_grid(n, ncols, panel_size, **kwargs):
     plt = pyplot()
     ncols = max(1, min(ncols, n))
     nrows = int(np.ceil(n / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(panel_size[0] * ncols, panel_size[1] * nrows),
-                             squeeze=False, **kwargs)
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(panel_size[0] * ncols, panel_size[1] * nrows), squeeze=False, **kwargs
+    )
     flat = list(axes.ravel())
     for ax in flat[n:]:
         ax.axis("off")

@@ -13,10 +13,20 @@ SMALL_BUILDING = {
     "longitude": -122.259,
     "timezone": "America/Los_Angeles",
     "zones": [
-        {"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
-         "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}]},
-        {"name": "B", "area": 50.0, "volume": 150.0, "adjacent": ["A"],
-         "facades": [{"orientation": "N", "window_area": 5.0, "wall_area": 10.0}]},
+        {
+            "name": "A",
+            "area": 100.0,
+            "volume": 300.0,
+            "adjacent": ["B"],
+            "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}],
+        },
+        {
+            "name": "B",
+            "area": 50.0,
+            "volume": 150.0,
+            "adjacent": ["A"],
+            "facades": [{"orientation": "N", "window_area": 5.0, "wall_area": 10.0}],
+        },
     ],
     "vavs": [
         {"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.6},

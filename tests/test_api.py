@@ -11,8 +11,10 @@ import pytest
 
 def test_import_is_light():
     """``import hvacfmu`` loads neither numpy nor pandas nor any layer module (lazy PEP 562 names)."""
-    code = ("import sys, hvacfmu; heavy = [m for m in ('numpy', 'pandas', 'hvacfmu.data', 'hvacfmu.models', "
-            "'harness') if m in sys.modules]; print(heavy)")
+    code = (
+        "import sys, hvacfmu; heavy = [m for m in ('numpy', 'pandas', 'hvacfmu.data', 'hvacfmu.models', "
+        "'harness') if m in sys.modules]; print(heavy)"
+    )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "[]"
@@ -47,10 +49,19 @@ def test_export_fmu_accepts_a_model_or_its_file(tmp_path, small_building):
     b = small_building
     nz = len(b.zone_names)
     model = LinearZoneModel(
-        kind="zones", step=900.0, outputs=b.zone_names, measured_zones=b.zone_names, output_weights=np.eye(nz),
-        vavs=b.vav_names, input_map=b.zone_vav_matrix(), disturbances=("T_out", "T_supply"),
-        A=0.9 * np.eye(nz), B=-0.5 * np.eye(nz), C=np.full((nz, 2), 0.02),
-        gains={s: np.full((672, nz), 1.0) for s in b.season_names})
+        kind="zones",
+        step=900.0,
+        outputs=b.zone_names,
+        measured_zones=b.zone_names,
+        output_weights=np.eye(nz),
+        vavs=b.vav_names,
+        input_map=b.zone_vav_matrix(),
+        disturbances=("T_out", "T_supply"),
+        A=0.9 * np.eye(nz),
+        B=-0.5 * np.eye(nz),
+        C=np.full((nz, 2), 0.02),
+        gains={s: np.full((672, nz), 1.0) for s in b.season_names},
+    )
     from_object = hf.export_fmu(model, tmp_path / "a.fmu")
     from_file = hf.export_fmu(model.save(tmp_path / "m.json"), tmp_path / "b.fmu")
     assert validate(from_object) == [] and validate(from_file) == []

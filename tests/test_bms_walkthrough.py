@@ -29,17 +29,41 @@ import pytest
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[1]
-EXPORT = ["--hvac", "reheat-dual", "--climate", "cold", "--units", "us", "--fault", "outages",
-          "--start", "2025-11-03", "--weeks", "8", "--export-step", "900", "--seed", "0"]
+EXPORT = [
+    "--hvac",
+    "reheat-dual",
+    "--climate",
+    "cold",
+    "--units",
+    "us",
+    "--fault",
+    "outages",
+    "--start",
+    "2025-11-03",
+    "--weeks",
+    "8",
+    "--export-step",
+    "900",
+    "--seed",
+    "0",
+]
 
 
 def hvacfmu(*args, ok=True, timeout=900):
     """Run ``python3 -m hvacfmu.cli ARGS`` with this tree first on the path; returns the process."""
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.run([sys.executable, "-m", "hvacfmu.cli", *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout, env=env, cwd=REPO)
+    proc = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+        cwd=REPO,
+    )
     if ok:
-        assert proc.returncode == 0, f"hvacfmu {' '.join(map(str, args))}:\n{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+        assert proc.returncode == 0, (
+            f"hvacfmu {' '.join(map(str, args))}:\n{proc.stdout[-2000:]}\n{proc.stderr[-3000:]}"
+        )
     assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
     return proc
 
@@ -108,8 +132,21 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
         md = ElementTree.fromstring(z.read("modelDescription.xml"))
     td = [sv for sv in md.iter("ScalarVariable") if sv.get("name", "").startswith("Td_")]
     assert len(td) == 21 and all(sv[0].get("unit") == "degC" and sv.get("causality") == "input" for sv in td)
-    run = hvacfmu("cosim", "--fmu", fmu, "-d", data, "-b", bld, "--model", export / "zones.json",
-                  "-c", "rule", "-o", export / "cosim.csv")
+    run = hvacfmu(
+        "cosim",
+        "--fmu",
+        fmu,
+        "-d",
+        data,
+        "-b",
+        bld,
+        "--model",
+        export / "zones.json",
+        "-c",
+        "rule",
+        "-o",
+        export / "cosim.csv",
+    )
     assert "completed       672 / 672 steps" in run.stdout, run.stdout
     assert "\r" not in run.stderr
 

@@ -17,8 +17,16 @@ def test_roundtrip_toml(tmp_path, small_building):
 
 @pytest.mark.parametrize(
     "day, season",
-    [("2025-09-01", "fall"), ("2025-12-15", "fall"), ("2025-12-16", "winter"), ("2026-01-25", "winter"),
-     ("2026-01-26", "spring"), ("2026-05-15", "spring"), ("2026-05-16", "summer"), ("2026-08-31", "summer")],
+    [
+        ("2025-09-01", "fall"),
+        ("2025-12-15", "fall"),
+        ("2025-12-16", "winter"),
+        ("2026-01-25", "winter"),
+        ("2026-01-26", "spring"),
+        ("2026-05-15", "spring"),
+        ("2026-05-16", "summer"),
+        ("2026-08-31", "summer"),
+    ],
 )
 def test_default_seasons(small_building, day, season):
     assert small_building.season_of(pd.Timestamp(day)) == season
@@ -100,12 +108,18 @@ def test_without_air_handlers_one_implicit_unit(small_building):
 @pytest.mark.parametrize(
     "mutate, message",
     [
-        (lambda d: d["vavs"][0].update(ahu="AHU9"), r"VAV V1: ahu 'AHU9' is not a declared air handler \(declared units are AHU1, AHU2\)"),
+        (
+            lambda d: d["vavs"][0].update(ahu="AHU9"),
+            r"VAV V1: ahu 'AHU9' is not a declared air handler \(declared units are AHU1, AHU2\)",
+        ),
         (lambda d: d["vavs"][0].pop("ahu"), r"VAV V1: no 'ahu' although \[\[ahus\]\] are declared"),
         (lambda d: d["vavs"][2].update(ahu="AHU1"), r"air handler AHU2: no VAV box names it"),
         (lambda d: d["ahus"].append({"name": "AHU1"}), r"air handler name 'AHU1' is used more than once"),
         (lambda d: d["ahus"][0].update(T_supply_max=95.0), r"T_supply_max = 95 °C is not a plausible .* °F"),
-        (lambda d: d["ahus"][0].update(T_supply_max=True), r"ahus\[0\] \(AHU1\)\.T_supply_max \[°C\]: expected a number, got True"),
+        (
+            lambda d: d["ahus"][0].update(T_supply_max=True),
+            r"ahus\[0\] \(AHU1\)\.T_supply_max \[°C\]: expected a number, got True",
+        ),
         (lambda d: d["ahus"][1].update(columns={"T_mixed": "x"}), r"unknown quantity 'T_mixed'"),
         (lambda d: d.pop("ahus"), r"VAV V1: ahu 'AHU1' is not a declared air handler \(no \[\[ahus\]\] are declared\)"),
     ],
@@ -122,8 +136,14 @@ def test_bad_air_handlers(small_building_dict, mutate, message):
     "mutate, message",
     [
         (lambda d: d["zones"][0].update(area=True), r"zones\[0\] \(A\)\.area: expected a number, got True \(bool\)"),
-        (lambda d: d["zones"][0].update(volume="300"), r"zones\[0\] \(A\)\.volume: expected a number, got '300' \(str\)"),
-        (lambda d: d["vavs"][0].update(m_max=float("inf")), r"vavs\[0\] \(V1\)\.m_max \[kg/s\]: expected a finite number"),
+        (
+            lambda d: d["zones"][0].update(volume="300"),
+            r"zones\[0\] \(A\)\.volume: expected a number, got '300' \(str\)",
+        ),
+        (
+            lambda d: d["vavs"][0].update(m_max=float("inf")),
+            r"vavs\[0\] \(V1\)\.m_max \[kg/s\]: expected a finite number",
+        ),
         (lambda d: d.update(zones=["A", "B"]), r"zones\[0\]: expected a table .* got 'A' \(str\)"),
         (lambda d: d.update(vavs="V1"), r"vavs: expected an array of tables"),
         (lambda d: d["zones"][0].update(adjacent="B"), r"zones\[0\] \(A\)\.adjacent: expected a list of names"),

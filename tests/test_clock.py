@@ -103,7 +103,10 @@ def test_check_cli_timezone_option(tmp_path, emulated):
     def run(*extra):
         return subprocess.run(
             [sys.executable, "-m", "hvacfmu.cli", "check", str(path), "-b", str(b), *extra],
-            check=False, capture_output=True, text=True, timeout=300,
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=300,
         )
 
     fixed = run("--timezone", "UTC")  # without the option: the 7 h warning (test_naive_utc_read_as_local...)

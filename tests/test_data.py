@@ -149,7 +149,9 @@ def test_naive_times_across_both_dst_changes_are_inferred(tmp_path, small_buildi
     assert (np.diff(utc.asi8)[np.r_[: len(spring) - 1, len(spring) : len(frame) - 1]] == 60 * 10**9).all()
     assert_allclose(loaded.to_numpy(), frame.to_numpy(), rtol=0, atol=1e-9)
     # hourly data with gaps: the repeated hour is a repeated time, still inferred from the order
-    hourly = make_measurements(small_building, start="2024-11-02 20:00", periods=12, freq="1h").iloc[[0, 1, 4, 5, 6, 7, 9]]
+    hourly = make_measurements(small_building, start="2024-11-02 20:00", periods=12, freq="1h").iloc[
+        [0, 1, 4, 5, 6, 7, 9]
+    ]
     loaded, _ = load_measurements(write(hourly, tmp_path / "hourly.csv", "naive"), small_building)
     assert loaded.index.equals(hourly.index)
 
@@ -172,7 +174,9 @@ def test_naive_times_that_cannot_be_inferred_are_reported(tmp_path, small_buildi
     rows = pd.read_csv(path)
     order = np.r_[0:60, np.ravel(np.column_stack([np.arange(60, 120), np.arange(120, 180)])), 180:240]
     rows.iloc[order].to_csv(path, index=False)
-    with pytest.raises(DataError, match=r"120 naive local times are ambiguous.*\(rows 61-180\): times step back 60 times"):
+    with pytest.raises(
+        DataError, match=r"120 naive local times are ambiguous.*\(rows 61-180\): times step back 60 times"
+    ):
         load_measurements(path, small_building)
     # a naive logger writing every wall-clock minute from 00:00: 02:00..02:59 do not exist locally
     spring = make_measurements(small_building, start="2024-03-09 00:00", periods=4 * 60).reset_index(drop=True)
@@ -244,10 +248,26 @@ BAD_INPUTS = [
     ),
     ("duplicate time", _frame_only(_dup_time), r"column 'time': 1 duplicate timestamps at row 11"),
     ("time backwards", _frame_only(_swap_times), r"times go backwards at 1 place\(s\): row 22 .* after row 21"),
-    ("unparseable time", _frame_only(_bad_time_text), r"1 values are not ISO 8601 times, e\.g\. 'yesterday noon' at row 5"),
-    ("mixed offsets", _frame_only(_mixed_offsets), r"mixes times with and without UTC offset; 1 without offset at .*row 8"),
-    ("negative airflow", _frame_only(lambda f: _set(f, "m_V2", 30, -0.4)), r"column 'm_V2': 1 negative airflow .* -0\.4 at row 31"),
-    ("hot room", _frame_only(lambda f: _set(f, "T_B", 40, 95.0)), r"column 'T_B': 1 value\(s\) outside -50\.\.80 °C .* 95 at row 41"),
+    (
+        "unparseable time",
+        _frame_only(_bad_time_text),
+        r"1 values are not ISO 8601 times, e\.g\. 'yesterday noon' at row 5",
+    ),
+    (
+        "mixed offsets",
+        _frame_only(_mixed_offsets),
+        r"mixes times with and without UTC offset; 1 without offset at .*row 8",
+    ),
+    (
+        "negative airflow",
+        _frame_only(lambda f: _set(f, "m_V2", 30, -0.4)),
+        r"column 'm_V2': 1 negative airflow .* -0\.4 at row 31",
+    ),
+    (
+        "hot room",
+        _frame_only(lambda f: _set(f, "T_B", 40, 95.0)),
+        r"column 'T_B': 1 value\(s\) outside -50\.\.80 °C .* 95 at row 41",
+    ),
     (
         "degF declared as degC",
         _frame_only(lambda f: f.assign(T_A=f["T_A"] * 1.8 + 32)),
@@ -261,8 +281,10 @@ BAD_INPUTS = [
     (
         "cfm declared as kg/s",
         _frame_only(lambda f: f.assign(m_V3=f["m_V3"] / 1.2 / 0.000471947)),
-        (r"column 'm_V3': the 99th percentile of the airflow is \d+(\.\d+)? kg/s \(declared kg/s\), above "
-        r"1\.5 x m_max = 0\.6 kg/s of box V3.*the data look like L/s or cfm"),
+        (
+            r"column 'm_V3': the 99th percentile of the airflow is \d+(\.\d+)? kg/s \(declared kg/s\), above "
+            r"1\.5 x m_max = 0\.6 kg/s of box V3.*the data look like L/s or cfm"
+        ),
     ),
     (
         "cfm declared as L/s",
@@ -272,25 +294,49 @@ BAD_INPUTS = [
     (
         "L/s declared as cfm",
         lambda f, b: (f.assign(m_V1=0.055 / 1.2e-3), {**b, "units": {"m_*": "cfm"}}),
-        (r"column 'm_V1': while the box runs, its median airflow is 0\.0259\d* kg/s \(declared cfm\), below "
-        r"0\.6 x m_min = 0\.03 kg/s of box V1.*look like L/s"),
+        (
+            r"column 'm_V1': while the box runs, its median airflow is 0\.0259\d* kg/s \(declared cfm\), below "
+            r"0\.6 x m_min = 0\.03 kg/s of box V1.*look like L/s"
+        ),
     ),
     (
         "airflow spikes in 5 % of rows",
         _frame_only(lambda f: f.assign(m_V2=np.where(np.arange(len(f)) % 20 == 3, 50.0, f["m_V2"]))),
-        (r"column 'm_V2': 75 value\(s\) \(5 % of its samples, more than the 1 % that are masked as spikes\) "
-        r"above 2 x m_max = 1\.2 kg/s of box V2, e\.g\. 50 at row 4"),
+        (
+            r"column 'm_V2': 75 value\(s\) \(5 % of its samples, more than the 1 % that are masked as spikes\) "
+            r"above 2 x m_max = 1\.2 kg/s of box V2, e\.g\. 50 at row 4"
+        ),
     ),
-    ("+inf airflow", _frame_only(lambda f: _set(f, "m_V1", 9, np.inf)), r"column 'm_V1': 1 infinite value\(s\), e\.g\. inf at row 10"),
-    ("-inf temperature", _frame_only(lambda f: _set(f, "T_A", 2, -np.inf)), r"column 'T_A': 1 infinite value\(s\), e\.g\. -inf at row 3"),
-    ("negative irradiance", _frame_only(lambda f: _set(f, "ghi", 3, -50.0)), r"column 'ghi': 1 negative irradiance .* -50 at row 4"),
-    ("excessive irradiance", _frame_only(lambda f: _set(f, "ghi", 700, 5000.0)), r"column 'ghi': 1 value\(s\) above 1500 W/m²"),
+    (
+        "+inf airflow",
+        _frame_only(lambda f: _set(f, "m_V1", 9, np.inf)),
+        r"column 'm_V1': 1 infinite value\(s\), e\.g\. inf at row 10",
+    ),
+    (
+        "-inf temperature",
+        _frame_only(lambda f: _set(f, "T_A", 2, -np.inf)),
+        r"column 'T_A': 1 infinite value\(s\), e\.g\. -inf at row 3",
+    ),
+    (
+        "negative irradiance",
+        _frame_only(lambda f: _set(f, "ghi", 3, -50.0)),
+        r"column 'ghi': 1 negative irradiance .* -50 at row 4",
+    ),
+    (
+        "excessive irradiance",
+        _frame_only(lambda f: _set(f, "ghi", 700, 5000.0)),
+        r"column 'ghi': 1 value\(s\) above 1500 W/m²",
+    ),
     (
         "kW/m2 declared as W/m2",
         _frame_only(lambda f: f.assign(ghi=f["ghi"] / 1000)),
         r"column 'ghi': the largest value over 1 day\(s\) is 0\.8 W/m² \(declared W/m2\).*look like kW/m²",
     ),
-    ("excitation not 0/1", _frame_only(lambda f: _set(f, "excitation", 2, 2.0)), r"column 'excitation': 1 value\(s\) other than 0 or 1"),
+    (
+        "excitation not 0/1",
+        _frame_only(lambda f: _set(f, "excitation", 2, 2.0)),
+        r"column 'excitation': 1 value\(s\) other than 0 or 1",
+    ),
     ("unknown unit", _units(**{"T_*": "furlongs"}), r"column 'T_A'.*unit 'furlongs' is not a temperature unit"),
     ("empty column", _frame_only(lambda f: f.assign(T_supply=np.nan)), r"column 'T_supply': no values at all"),
     (
@@ -340,7 +386,13 @@ def test_all_problems_reported_at_once(tmp_path, small_building):
         load_measurements(path, small_building)
     msg = str(info.value)
     assert "(5 problems)" in msg
-    for part in ("missing required column 'T_out'", "duplicate timestamps", "'abc'", "negative airflow", "outside -50..80"):
+    for part in (
+        "missing required column 'T_out'",
+        "duplicate timestamps",
+        "'abc'",
+        "negative airflow",
+        "outside -50..80",
+    ):
         assert part in msg
 
 
@@ -541,7 +593,9 @@ def test_week_split_per_season(small_building):
     assert 0.05 <= sum(not w.train for w in weeks) / len(weeks) <= 0.15
     again, _ = _weeks("2024-09-02 00:00", 51 * 7, building=small_building)
     assert [w.train for w in again] == [w.train for w in weeks]  # deterministic
-    splits = {tuple(w.train for w in _weeks("2024-09-02", 51 * 7, seed=s, building=small_building)[0]) for s in range(5)}
+    splits = {
+        tuple(w.train for w in _weeks("2024-09-02", 51 * 7, seed=s, building=small_building)[0]) for s in range(5)
+    }
     assert len(splits) > 1  # the seed matters
 
 
@@ -603,7 +657,9 @@ def test_prepare_dataset(tmp_path, small_building):
     assert len(ds.frame) == 3 * 7 * 96
     assert ds.frame.index.name == "time" and str(ds.frame.index.tz) == TZ
     assert (np.diff(ds.frame.index.asi8) == 900 * 10**9).all()
-    assert_allclose(ds.frame["T_B"].iloc[:4], frame["T_B"].iloc[:60].to_numpy().reshape(4, 15).mean(axis=1), rtol=0, atol=1e-12)
+    assert_allclose(
+        ds.frame["T_B"].iloc[:4], frame["T_B"].iloc[:60].to_numpy().reshape(4, 15).mean(axis=1), rtol=0, atol=1e-12
+    )
     assert np.isnan(ds.frame["T_A"].iloc[200:220]).all()  # rows 3000..3300 of 1-min data = steps 200..219
     assert ds.frame["excitation"].sum() == 8
     # weeks: 12-09 (fall, midpoint 12-12), 12-16 and 12-23 (winter)
@@ -681,7 +737,12 @@ def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
 
 def _cli(*args, cwd):
     return subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)], cwd=cwd, check=False, capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)],
+        cwd=cwd,
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
 
 
@@ -721,7 +782,9 @@ def test_season_of_row_follows_week_season(small_building):
 def test_from_frame_rejects_irregular_frame(small_building):
     index = pd.date_range(pd.Timestamp("2024-09-02", tz=TZ), periods=10, freq="15min", name="time")
     frame = pd.DataFrame({"T_A": 21.0}, index=index.delete(4))
-    with pytest.raises(DataError, match=r"regular with the model step 900 s; 1 spacing\(s\) differ, first after 2024-09-02T00:45"):
+    with pytest.raises(
+        DataError, match=r"regular with the model step 900 s; 1 spacing\(s\) differ, first after 2024-09-02T00:45"
+    ):
         Dataset.from_frame(frame, small_building)
     with pytest.raises(DataError, match="tz-aware"):
         Dataset.from_frame(frame.tz_localize(None), small_building)
@@ -755,7 +818,10 @@ def test_parquet_with_unnamed_datetime_index(tmp_path, small_building):
 
 def test_missing_columns_hint_lists_unmapped_columns(tmp_path, small_building):
     frame = make_measurements(small_building, periods=120).rename(columns={"T_A": "RM-A ZN-T"})
-    with pytest.raises(DataError, match=r"missing required column 'T_A' \(the file has 1 column\(s\) that map to nothing: 'RM-A ZN-T'.*\[columns\]"):
+    with pytest.raises(
+        DataError,
+        match=r"missing required column 'T_A' \(the file has 1 column\(s\) that map to nothing: 'RM-A ZN-T'.*\[columns\]",
+    ):
         load_measurements(write(frame, tmp_path / "m.csv"), small_building)
 
 
@@ -868,8 +934,11 @@ def test_outdoor_celsius_declared_as_fahrenheit_is_refused(tmp_path, small_build
     small_building_dict["units"] = {"T_out": "degF"}
     building = building_from_dict(small_building_dict)
     f = _quarter_hourly(building)
-    with pytest.raises(DataError, match=r"column 'T_out': monthly mean outdoor temperature \(Sep -9\.4 °C; declared degF\) "
-                       r"is outside 0\.\.40 °C.*latitude 37\.875.*read as degC it would be 15\.0 °C.*look like degC"):
+    with pytest.raises(
+        DataError,
+        match=r"column 'T_out': monthly mean outdoor temperature \(Sep -9\.4 °C; declared degF\) "
+        r"is outside 0\.\.40 °C.*latitude 37\.875.*read as degC it would be 15\.0 °C.*look like degC",
+    ):
         load_measurements(write(f, tmp_path / "m.csv"), building)
 
 
@@ -941,7 +1010,13 @@ def bms_export():
     from hvacfmu.emulator import cached_dataset
 
     return cached_dataset(
-        weeks=3, seed=1, start="2025-12-01", hvac="reheat", units="us", clock="naive-utc", export_step=900,
+        weeks=3,
+        seed=1,
+        start="2025-12-01",
+        hvac="reheat",
+        units="us",
+        clock="naive-utc",
+        export_step=900,
         faults=("outages", "sparse_box", "stuck_sensor"),
     )
 

@@ -35,24 +35,41 @@ TZ = "America/Los_Angeles"
 
 # ----------------------------------------------------------------------------- synthetic building and truth
 ZONES6 = ("NW", "W", "S", "E", "NE", "C")
-ADJ6 = {"NW": ["W", "NE", "C"], "W": ["NW", "S", "C"], "S": ["W", "E", "C"], "E": ["S", "NE", "C"],
-        "NE": ["NW", "E", "C"], "C": ["NW", "W", "S", "E", "NE"]}
+ADJ6 = {
+    "NW": ["W", "NE", "C"],
+    "W": ["NW", "S", "C"],
+    "S": ["W", "E", "C"],
+    "E": ["S", "NE", "C"],
+    "NE": ["NW", "E", "C"],
+    "C": ["NW", "W", "S", "E", "NE"],
+}
 FAC6 = {"NW": ["N", "W"], "W": ["W"], "S": ["S"], "E": ["E"], "NE": ["N", "E"], "C": []}
 VOL6 = {"NW": 900.0, "W": 700.0, "S": 1100.0, "E": 800.0, "NE": 600.0, "C": 1500.0}
 
 
 def six_zone_building_dict():
     zones = [
-        {"name": z, "area": VOL6[z] / 3.0, "volume": VOL6[z], "adjacent": list(ADJ6[z]),
-         "facades": [{"orientation": o, "window_area": 30.0, "wall_area": 40.0} for o in FAC6[z]]}
+        {
+            "name": z,
+            "area": VOL6[z] / 3.0,
+            "volume": VOL6[z],
+            "adjacent": list(ADJ6[z]),
+            "facades": [{"orientation": o, "window_area": 30.0, "wall_area": 40.0} for o in FAC6[z]],
+        }
         for z in ZONES6
     ]
     vavs = []
     for z in ZONES6:
         for k in range(2):
             vavs.append({"name": f"V_{z}_{k}", "zone": z, "m_min": 0.05, "m_max": 0.6})
-    return {"name": "synthetic six zones", "latitude": 37.875, "longitude": -122.259, "timezone": TZ,
-            "zones": zones, "vavs": vavs}
+    return {
+        "name": "synthetic six zones",
+        "latitude": 37.875,
+        "longitude": -122.259,
+        "timezone": TZ,
+        "zones": zones,
+        "vavs": vavs,
+    }
 
 
 def true_zone_model(building):
@@ -76,9 +93,18 @@ def true_zone_model(building):
         for o in FAC6[z]:
             C[i, 2 + orient.index(o)] = 4e-4
     return LinearZoneModel(
-        kind="zones", step=STEP, outputs=zn, measured_zones=zn, output_weights=np.eye(nz),
-        vavs=building.vav_names, input_map=building.zone_vav_matrix(), disturbances=dist,
-        A=A, B=B, C=C, gains={s: true_gain_profile(s, nz) for s in ("fall", "winter", "spring")},
+        kind="zones",
+        step=STEP,
+        outputs=zn,
+        measured_zones=zn,
+        output_weights=np.eye(nz),
+        vavs=building.vav_names,
+        input_map=building.zone_vav_matrix(),
+        disturbances=dist,
+        A=A,
+        B=B,
+        C=C,
+        gains={s: true_gain_profile(s, nz) for s in ("fall", "winter", "spring")},
     )
 
 
@@ -86,9 +112,16 @@ def true_lumped_model(building):
     w = building.area_weights()
     dist = ("T_out", "T_supply", "I_N", "I_E", "I_S", "I_W")
     return LinearZoneModel(
-        kind="lumped", step=STEP, outputs=("floor",), measured_zones=building.zone_names,
-        output_weights=w[None, :], vavs=building.vav_names, input_map=np.ones((1, len(building.vavs))),
-        disturbances=dist, A=np.array([[0.88]]), B=np.array([[-0.05]]),
+        kind="lumped",
+        step=STEP,
+        outputs=("floor",),
+        measured_zones=building.zone_names,
+        output_weights=w[None, :],
+        vavs=building.vav_names,
+        input_map=np.ones((1, len(building.vavs))),
+        disturbances=dist,
+        A=np.array([[0.88]]),
+        B=np.array([[-0.05]]),
         C=np.array([[0.02, 0.04, 1e-4, 2e-4, 3e-4, 2e-4]]),
         gains={s: true_gain_profile(s, 1) for s in ("fall", "winter", "spring")},
     )
@@ -124,7 +157,7 @@ def simulate_frame(model, building, weeks=14, start="2025-11-03", seed=0, noise=
         k = 0
         while k < n:
             hold = int(rng.integers(4, 25))
-            m[k:k + hold, j] = rng.uniform(0.1, 0.55)
+            m[k : k + hold, j] = rng.uniform(0.1, 0.55)
             k += hold
     sat = idx.day_of_week == 5
     exc = np.zeros(n)
@@ -254,7 +287,7 @@ def test_loess_matches_weighted_least_squares(rng):
     h = 3 * 3600.0
     s = loess_smooth(t, y, h)
     for i in (0, 1, 499, 520, 540, 541, 1500, 2999):
-        if i in range(500, 540) and np.all(np.isnan(y[max(0, i - 12): i + 13])):
+        if i in range(500, 540) and np.all(np.isnan(y[max(0, i - 12) : i + 13])):
             continue
         assert_allclose(s[i], _brute_loess(t, y, h, i), rtol=0, atol=1e-9)
     # columns are smoothed independently and identically
@@ -468,7 +501,7 @@ def test_constant_zone_temperature_is_an_error(tmp_path, six_building, zone_trut
 
 def test_too_little_data_is_an_error(tmp_path, six_building, zone_truth):
     frame = simulate_frame(zone_truth, six_building, weeks=3, start="2025-09-08", seed=6)
-    frame.iloc[96 * 2:, frame.columns.get_loc("T_S")] = np.nan  # zone S: only two days of data
+    frame.iloc[96 * 2 :, frame.columns.get_loc("T_S")] = np.nan  # zone S: only two days of data
     ds = write_dataset(tmp_path, frame, six_zone_building_dict())
     with pytest.raises(FitError, match=r"zone S: only \d+ usable transitions"):
         fit_zones(ds)

@@ -77,8 +77,9 @@ def test_delivered_forms_export_to_fmu(kind, tmp_path):
     fmu = export_fmu(path, tmp_path / f"{kind}.fmu", timezone=ds.building.timezone)
     assert validate(fmu) == []
     week, frame = _two_days(ds, loaded)
-    assert_allclose(_fmu_run(fmu, loaded, frame, week.season), _reference(loaded, frame, week.season),
-                    rtol=0, atol=EXACT)  # [K]
+    assert_allclose(
+        _fmu_run(fmu, loaded, frame, week.season), _reference(loaded, frame, week.season), rtol=0, atol=EXACT
+    )  # [K]
 
 
 @pytest.mark.slow

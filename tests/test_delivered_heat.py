@@ -48,9 +48,20 @@ def delivered_truth(building):
     dist = tuple(base.disturbances[i] for i in keep) + inlets
     C = np.concatenate([base.C[:, keep], np.zeros((base.n_states, len(inlets)))], axis=1)
     return LinearZoneModel(
-        kind="zones", step=STEP, outputs=base.outputs, measured_zones=base.outputs, output_weights=np.eye(6),
-        vavs=building.vav_names, input_map=np.eye(len(building.vavs)), disturbances=dist, A=base.A,
-        B=np.zeros((6, len(building.vavs))), C=C, gains=base.gains, beta=beta, inlets=inlets,
+        kind="zones",
+        step=STEP,
+        outputs=base.outputs,
+        measured_zones=base.outputs,
+        output_weights=np.eye(6),
+        vavs=building.vav_names,
+        input_map=np.eye(len(building.vavs)),
+        disturbances=dist,
+        A=base.A,
+        B=np.zeros((6, len(building.vavs))),
+        C=C,
+        gains=base.gains,
+        beta=beta,
+        inlets=inlets,
         heat_map=building.zone_vav_matrix(),
     )
 
@@ -268,8 +279,23 @@ def test_cli_fit_heat_option(dataset, tmp_path):
     data = Path(dataset.source)
     bld = data.parent / "data_building.toml"
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    run = lambda *a: subprocess.run([sys.executable, "-m", "hvacfmu.cli", "-q", "fit", str(data), "-b", str(bld),  # noqa: E731
-                                     *a], capture_output=True, text=True, env=env, timeout=300)
+    run = lambda *a: subprocess.run(  # noqa: E731
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "-q",
+            "fit",
+            str(data),
+            "-b",
+            str(bld),
+            *a,
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     r = run("--model", "zones", "--heat", "airflow", "-o", str(tmp_path / "a.json"))
     assert r.returncode == 0, r.stderr
     assert load_model(tmp_path / "a.json").heat == "airflow"

@@ -21,7 +21,9 @@ def demo_out(tmp_path_factory):
     out = tmp_path_factory.mktemp("demo")
     proc = subprocess.run(
         [sys.executable, "-m", "hvacfmu.cli", "-q", "demo", "--out", str(out), "--weeks", str(WEEKS)],
-        capture_output=True, text=True, timeout=900,
+        capture_output=True,
+        text=True,
+        timeout=900,
     )
     return out, proc
 
@@ -41,12 +43,29 @@ def test_demo_runs_every_stage(demo_out):
 
 def test_demo_files(demo_out):
     out, _ = demo_out
-    for f in ("report.html", "report.md", "report_numbers.json", "models/lumped.json", "models/zones.json",
-              "models/physics.json", "models/extended.json", "fmus/lumped.fmu", "fmus/zones.fmu", "fmus/physics.fmu",
-              "fmus/extended.fmu", "fmus/plant.fmu", "results/evaluation_zones.json", "results/diagnosis.json",
-              "figures/gains_lumped.png", "figures/gains_zones.png", "figures/gains_physics.png",
-              "figures/mpc_own_temperature.png", "figures/mpc_own_airflow.png",
-              "figures/mpc_plant_temperature.png", "figures/mpc_plant_airflow.png"):
+    for f in (
+        "report.html",
+        "report.md",
+        "report_numbers.json",
+        "models/lumped.json",
+        "models/zones.json",
+        "models/physics.json",
+        "models/extended.json",
+        "fmus/lumped.fmu",
+        "fmus/zones.fmu",
+        "fmus/physics.fmu",
+        "fmus/extended.fmu",
+        "fmus/plant.fmu",
+        "results/evaluation_zones.json",
+        "results/diagnosis.json",
+        "figures/gains_lumped.png",
+        "figures/gains_zones.png",
+        "figures/gains_physics.png",
+        "figures/mpc_own_temperature.png",
+        "figures/mpc_own_airflow.png",
+        "figures/mpc_plant_temperature.png",
+        "figures/mpc_plant_airflow.png",
+    ):
         assert (out / f).is_file(), f
         assert (out / f).stat().st_size > 0, f
     html = (out / "report.html").read_text()

@@ -44,13 +44,26 @@ from hvacfmu.models.linear import LinearZoneModel
 TZ = "America/Los_Angeles"
 
 ROW = {
-    "name": "three rooms in a row", "latitude": 37.875, "longitude": -122.259, "timezone": TZ,
+    "name": "three rooms in a row",
+    "latitude": 37.875,
+    "longitude": -122.259,
+    "timezone": TZ,
     "zones": [
-        {"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
-         "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}]},
+        {
+            "name": "A",
+            "area": 100.0,
+            "volume": 300.0,
+            "adjacent": ["B"],
+            "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}],
+        },
         {"name": "B", "area": 100.0, "volume": 300.0, "adjacent": ["A", "C"], "facades": []},
-        {"name": "C", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
-         "facades": [{"orientation": "W", "window_area": 8.0, "wall_area": 20.0}]},
+        {
+            "name": "C",
+            "area": 100.0,
+            "volume": 300.0,
+            "adjacent": ["B"],
+            "facades": [{"orientation": "W", "window_area": 8.0, "wall_area": 20.0}],
+        },
     ],
     "vavs": [
         {"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.6},
@@ -66,18 +79,29 @@ def row_model() -> LinearZoneModel:
     hour, day = (tow % 96) / 4.0, tow // 96
     occ = ((hour > 8) & (hour < 18) & (day < 5)).astype(float)
     prof = 0.05 + 0.25 * occ
-    gains = {s: np.column_stack([prof * f for f in (1.0, 1.1, 0.9)]) * (0.6 if s == "winter" else 1.0)
-             for s in ("fall", "winter", "spring", "summer")}
+    gains = {
+        s: np.column_stack([prof * f for f in (1.0, 1.1, 0.9)]) * (0.6 if s == "winter" else 1.0)
+        for s in ("fall", "winter", "spring", "summer")
+    }
     return LinearZoneModel(
-        kind="zones", step=900.0, outputs=("A", "B", "C"), measured_zones=("A", "B", "C"),
-        output_weights=np.eye(3), vavs=("V1", "V2", "V3"), input_map=np.eye(3),
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B", "C"),
+        measured_zones=("A", "B", "C"),
+        output_weights=np.eye(3),
+        vavs=("V1", "V2", "V3"),
+        input_map=np.eye(3),
         disturbances=("T_out", "T_supply"),
         A=np.array([[0.90, 0.03, 0.0], [0.03, 0.89, 0.03], [0.0, 0.03, 0.90]]),
-        B=np.diag([-0.30, -0.35, -0.33]), C=np.array([[0.04, 0.03]] * 3), gains=gains)
+        B=np.diag([-0.30, -0.35, -0.33]),
+        C=np.array([[0.04, 0.03]] * 3),
+        gains=gains,
+    )
 
 
-def simulate_dataset(model, weeks=12, seed=0, noise=0.02, ghi=True, gaps=False, start="2025-09-01",
-                     at_min=0.0) -> Dataset:
+def simulate_dataset(
+    model, weeks=12, seed=0, noise=0.02, ghi=True, gaps=False, start="2025-09-01", at_min=0.0
+) -> Dataset:
     """Inputs and weather drawn at random, temperatures simulated from ``model`` with process noise [K].
 
     ``at_min``: fraction of hours whose airflow sits at the boxes' minimum (reheat regime).
@@ -176,8 +200,15 @@ def _dst_signals(standard_time_occupancy: bool, seed: int):
         e[k] = 0.7 * e[k - 1] + rng.normal(0.0, 0.004, 3)
     gains = 0.05 * occ[:, None] * np.array([1.0, 0.8, 1.2]) + 0.04 * solar[:, None] + e
     n_tow = n_time_of_week(900.0)
-    sig = SimpleNamespace(index=idx, n_tow=n_tow, step=900.0, tow=time_of_week(idx, 900.0) % n_tow,
-                          season=np.full(len(idx), "fall", dtype=object), seasons=("fall",), dst=dst)
+    sig = SimpleNamespace(
+        index=idx,
+        n_tow=n_tow,
+        step=900.0,
+        tow=time_of_week(idx, 900.0) % n_tow,
+        season=np.full(len(idx), "fall", dtype=object),
+        seasons=("fall",),
+        dst=dst,
+    )
     return sig, gains
 
 
@@ -305,8 +336,11 @@ class OutdoorSquared(Term):
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
         have = {t.zone for t in terms if isinstance(t, cls)}
-        return [Candidate(cls.cause, {"zone": z}, [cls(zone=z)], 0, evidence={"toy": True})
-                for z in sig.zones if z not in have]
+        return [
+            Candidate(cls.cause, {"zone": z}, [cls(zone=z)], 0, evidence={"toy": True})
+            for z in sig.zones
+            if z not in have
+        ]
 
 
 @pytest.fixture
@@ -351,8 +385,15 @@ def test_toy_cause_plugin_is_screened_fitted_and_exported(toy_cause, tmp_path):
     sv = {f"T_{z}_start": float(y) for z, y in zip(model.outputs, y0)}
     sv["season"] = list(model.gains).index(week.season) + 1
     sv["start_time_of_week"] = float(seconds_of_week(f.index[:1])[0])
-    res = fmpy.simulate_fmu(str(fmu), start_time=0.0, stop_time=t[-1], output_interval=900.0, input=sig,
-                            start_values=sv, output=[f"T_{z}" for z in model.outputs])
+    res = fmpy.simulate_fmu(
+        str(fmu),
+        start_time=0.0,
+        stop_time=t[-1],
+        output_interval=900.0,
+        input=sig,
+        start_values=sv,
+        output=[f"T_{z}" for z in model.outputs],
+    )
     Y_fmu = np.column_stack([res[f"T_{z}"] for z in model.outputs])
     n = min(len(Y), len(Y_fmu))
     np.testing.assert_allclose(Y_fmu[:n], Y[:n], rtol=0, atol=1e-6)  # [K]
@@ -391,15 +432,21 @@ def test_feedback_is_not_delay(seed):
     assert rep.findings == [], rep.summary()
 
 
-@pytest.mark.parametrize("past, future, causal", [
-    ({"0": -0.3, "1": 0.05, "2": 0.25}, {"1": 0.1, "2": 0.05}, True),    # residual follows u(k-2): a delay
-    ({"0": -0.3, "1": 0.05, "2": 0.10}, {"1": 0.35, "2": 0.2}, False),   # residual leads u: feedback
-])
+@pytest.mark.parametrize(
+    "past, future, causal",
+    [
+        ({"0": -0.3, "1": 0.05, "2": 0.25}, {"1": 0.1, "2": 0.05}, True),  # residual follows u(k-2): a delay
+        ({"0": -0.3, "1": 0.05, "2": 0.10}, {"1": 0.35, "2": 0.2}, False),  # residual leads u: feedback
+    ],
+)
 def test_delay_gate_compares_past_and_future_airflow(past, future, causal):
     from hvacfmu.diagnosis.selection import _delay_is_causal
 
-    c = Candidate("actuation_delay", {"zone": "A"}, evidence={"xcorr_resid_airflow_by_lag": past,
-                                                              "xcorr_resid_future_airflow_by_lag": future})
+    c = Candidate(
+        "actuation_delay",
+        {"zone": "A"},
+        evidence={"xcorr_resid_airflow_by_lag": past, "xcorr_resid_future_airflow_by_lag": future},
+    )
     c.term = ActuationDelay(zone="A", delay=2)
     assert _delay_is_causal(c) is causal
     assert set(c.evidence["delay_past_vs_future"]) == {"past_at_delay", "future_max"}
@@ -431,8 +478,9 @@ def test_missing_ghi_makes_solar_untestable_not_absent():
 
 def test_gaps_do_not_break_it():
     base = row_model()
-    ds = simulate_dataset(ExtendedModel(base=base, terms=(ThermalMass(zone="B", alpha=0.02, beta=0.05),)),
-                          weeks=10, seed=5, gaps=True)
+    ds = simulate_dataset(
+        ExtendedModel(base=base, terms=(ThermalMass(zone="B", alpha=0.02, beta=0.05),)), weeks=10, seed=5, gaps=True
+    )
     assert ds.frame["T_A"].isna().sum() >= 100
     rep = diagnose(ds, model=base, progress=False)
     assert _found(rep, "thermal_mass", zone="B")
@@ -444,8 +492,9 @@ def test_gaps_do_not_break_it():
 @pytest.fixture(scope="module")
 def solar_case(tmp_path_factory):
     base = row_model()
-    ds = simulate_dataset(ExtendedModel(base=base, terms=(SolarGain(zone="A", facade="S", coef=0.0008),)),
-                          weeks=8, seed=6)
+    ds = simulate_dataset(
+        ExtendedModel(base=base, terms=(SolarGain(zone="A", facade="S", coef=0.0008),)), weeks=8, seed=6
+    )
     folder = tmp_path_factory.mktemp("solar")
     frame = ds.frame.drop(columns=[c for c in ds.frame.columns if c.startswith("I_") or c == "excitation"])
     frame.reset_index().to_csv(folder / "data.csv", index=False)
@@ -459,8 +508,23 @@ def test_report_json_schema(solar_case, tmp_path):
     rep = diagnose(ds, model=base, progress=False, plots=tmp_path / "figs")
     d = json.loads(rep.save_json(tmp_path / "r.json").read_text())
     assert d["schema"] == SCHEMA
-    for key in ("verdict", "summary", "data", "base_model", "options", "findings", "candidates", "untestable",
-                "unexplained", "whiteness", "errors", "heldout", "rounds", "notes", "model"):
+    for key in (
+        "verdict",
+        "summary",
+        "data",
+        "base_model",
+        "options",
+        "findings",
+        "candidates",
+        "untestable",
+        "unexplained",
+        "whiteness",
+        "errors",
+        "heldout",
+        "rounds",
+        "notes",
+        "model",
+    ):
         assert key in d, key
     f = d["findings"][0]
     assert set(f) >= {"cause", "location", "status", "evidence", "test", "parameters", "heldout"}
@@ -474,24 +538,56 @@ def test_report_json_schema(solar_case, tmp_path):
     assert set(d["whiteness"]["before"]["A"]) >= {"acf_lag1", "ljung_box", "cpgram_departure", "peak_period_h"}
     assert d["heldout"]["zones"] == ["A", "B", "C"]
     figs = sorted(p.name for p in (tmp_path / "figs").iterdir())
-    assert figs == ["acf.png", "cumulated_periodogram.png", "heldout_before_after.png",
-                    "residuals_by_hour_weekday.png", "residuals_by_zone.png"]
+    assert figs == [
+        "acf.png",
+        "cumulated_periodogram.png",
+        "heldout_before_after.png",
+        "residuals_by_hour_weekday.png",
+        "residuals_by_zone.png",
+    ]
 
 
 def test_cli_diagnose_then_evaluate(solar_case, tmp_path):
     _, _, folder = solar_case
     out = tmp_path / "ext.json"
-    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "diagnose", str(folder / "data.csv"), "-b",
-           str(folder / "building.toml"), "-m", str(folder / "base.json"), "--json", str(tmp_path / "r.json"),
-           "-o", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "hvacfmu.cli",
+        "-q",
+        "diagnose",
+        str(folder / "data.csv"),
+        "-b",
+        str(folder / "building.toml"),
+        "-m",
+        str(folder / "base.json"),
+        "--json",
+        str(tmp_path / "r.json"),
+        "-o",
+        str(out),
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "solar_gain" in r.stdout and "Verdict: found" in r.stdout
     assert json.loads((tmp_path / "r.json").read_text())["findings"][0]["location"] == {"zone": "A", "facade": "S"}
     saved = json.loads(out.read_text())
     assert saved["kind"] == "extended" and saved["terms"][0]["cause"] == "solar_gain"
-    r2 = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "evaluate", str(folder / "data.csv"), "-b",
-                         str(folder / "building.toml"), "-m", str(out)], capture_output=True, text=True, timeout=300)
+    r2 = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "evaluate",
+            str(folder / "data.csv"),
+            "-b",
+            str(folder / "building.toml"),
+            "-m",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r2.returncode == 0, r2.stderr
     assert "extended" in r2.stdout
 
@@ -571,9 +667,15 @@ def _effect_finding(rep, truth, name):
 EFFECT_CASES = [
     ("solar_gain:zone=NE,facade=E", 0),
     ("solar_gain:zone=W,facade=S", 1),
-    pytest.param("zone_coupling:ua=1200", 0, marks=pytest.mark.xfail(
-        strict=True, reason="known miss of the cross-validated rule: ΔBIC significant but CV gain -1.0 ± 1.0 % "
-                            "(README, Battery and speed)")),
+    pytest.param(
+        "zone_coupling:ua=1200",
+        0,
+        marks=pytest.mark.xfail(
+            strict=True,
+            reason="known miss of the cross-validated rule: ΔBIC significant but CV gain -1.0 ± 1.0 % "
+            "(README, Battery and speed)",
+        ),
+    ),
     ("zone_coupling:ua=1200", 1),
     ("reheat", 0),
     ("reheat:power=4000", 1),
@@ -616,10 +718,13 @@ def test_emulator_effect_is_found(effect, seed):
         assert top["location"] == f["location"]
 
 
-@pytest.mark.parametrize("seed, effects", [
-    (0, ("reheat", "actuation_delay")),
-    (1, ("internal_gain_schedule:kind=dst", "reheat:power=4000")),
-])
+@pytest.mark.parametrize(
+    "seed, effects",
+    [
+        (0, ("reheat", "actuation_delay")),
+        (1, ("internal_gain_schedule:kind=dst", "reheat:power=4000")),
+    ],
+)
 def test_emulator_two_effects_are_both_found(seed, effects):
     rep, truth, _ = _diagnosed(seed, effects)
     cmp = _assert_truthful(rep, truth)

@@ -141,7 +141,13 @@ def test_plant_reproduces_simulation(base_sim):
     T = [plant.zone_temperatures(x)]
     for k in range(k0, k0 + 1440):
         x, Tz = plant.advance(
-            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+            x,
+            60.0 * k,
+            60.0,
+            sim["m_vav"][k],
+            sim["T_out"][k],
+            sim["T_supply"][k],
+            sim["I"][k],
             reheat=sim["reheat_command"][k],
         )
         T.append(Tz)
@@ -149,7 +155,12 @@ def test_plant_reproduces_simulation(base_sim):
 
 
 def test_plant_with_delay_and_effects_reproduces_simulation():
-    effects = ["actuation_delay:zone=S,minutes=15", "reheat:zone=W,below=18", "zone_coupling:zones=W+E", "thermal_mass:zone=C"]
+    effects = [
+        "actuation_delay:zone=S,minutes=15",
+        "reheat:zone=W,below=18",
+        "zone_coupling:zones=W+E",
+        "thermal_mass:zone=C",
+    ]
     truth = make_truth(1, 2, effects)
     sim = simulate(truth)
     plant = Plant.from_truth(truth)
@@ -159,7 +170,13 @@ def test_plant_with_delay_and_effects_reproduces_simulation():
     for k in range(2000):
         T.append(plant.zone_temperatures(x))
         x, _ = plant.advance(
-            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
+            x,
+            60.0 * k,
+            60.0,
+            sim["m_vav"][k],
+            sim["T_out"][k],
+            sim["T_supply"][k],
+            sim["I"][k],
             reheat=sim["reheat_command"][k],
         )
     assert_allclose(np.array(T), sim["T_zone"][:2000], rtol=0, atol=1e-9)  # [K]
@@ -192,7 +209,10 @@ def test_plant_step_splitting_and_state_roundtrip():
         (lambda p, x: p.advance(x, 0.0, 900.0, np.full(21, 0.2), np.nan, 14, [0, 0, 0, 0]), "finite"),
         (lambda p, x: p.advance(x, 0.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0]), "irradiance"),
         (lambda p, x: p.advance(x[:-1], 0.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]), "state must have"),
-        (lambda p, x: p.advance(x, 7 * 86400.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]), "beyond the emulated span"),
+        (
+            lambda p, x: p.advance(x, 7 * 86400.0, 900.0, np.full(21, 0.2), 10, 14, [0, 0, 0, 0]),
+            "beyond the emulated span",
+        ),
         (lambda p, x: p.initial_state([20.0] * 5), "T_zones must have 6"),
     ],
 )
@@ -245,7 +265,9 @@ def test_occupancy_differs_by_season_and_weekday():
     weekend = noon[noon.index.day_of_week >= 5]
     assert weekday.mean() > 1.5 * weekend.mean()
     fall = weekday[(weekday.index.month == 10)]
-    winter = weekday[(weekday.index.month == 12) & (weekday.index.day > 20) | (weekday.index.month == 1) & (weekday.index.day < 10)]
+    winter = weekday[
+        (weekday.index.month == 12) & (weekday.index.day > 20) | (weekday.index.month == 1) & (weekday.index.day < 10)
+    ]
     assert fall.mean() > 1.2 * winter.mean()
     daily = weekday.resample("D").mean().dropna()
     assert daily[daily.index.month == 10].std() > 0.02 * daily.mean()  # day-to-day randomness
@@ -299,10 +321,10 @@ def test_effect_internal_gain_schedule_holiday(base_sim, effect_sims):
     s = effect_sims["holiday"]
     week = 7 * 1440
     assert_allclose(s["T_zone"][:week], base_sim["T_zone"][:week], rtol=0, atol=0)  # before the holiday
-    q_base = base_sim["Q_ig"][week: 2 * week].sum(axis=1)
-    q_hol = s["Q_ig"][week: 2 * week].sum(axis=1)
+    q_base = base_sim["Q_ig"][week : 2 * week].sum(axis=1)
+    q_hol = s["Q_ig"][week : 2 * week].sum(axis=1)
     assert q_hol.mean() < 0.75 * q_base.mean()
-    assert (s["T_zone"][week: 2 * week] - base_sim["T_zone"][week: 2 * week]).mean() < -0.2  # [K]
+    assert (s["T_zone"][week : 2 * week] - base_sim["T_zone"][week : 2 * week]).mean() < -0.2  # [K]
 
 
 def test_effect_internal_gain_schedule_dst(base_sim, effect_sims):
@@ -355,7 +377,10 @@ def test_effects_random_zone_is_seeded_and_recorded():
         ("solar_gain", {"name": "solar_gain"}),
         ("solar_gain:zone=S,facade=S,shgc=0.3", {"name": "solar_gain", "zone": "S", "facade": "S", "shgc": 0.3}),
         ("zone_coupling:zones=NW+S,ua=250", {"name": "zone_coupling", "zones": ["NW", "S"], "ua": 250.0}),
-        ("internal_gain_schedule:kind=holiday,weeks=3+9", {"name": "internal_gain_schedule", "kind": "holiday", "weeks": [3, 9]}),
+        (
+            "internal_gain_schedule:kind=holiday,weeks=3+9",
+            {"name": "internal_gain_schedule", "kind": "holiday", "weeks": [3, 9]},
+        ),
         ("actuation_delay:zone=E,minutes=45", {"name": "actuation_delay", "zone": "E", "minutes": 45.0}),
         ({"name": "zone_coupling", "zones": "W+E"}, {"name": "zone_coupling", "zones": ["W", "E"]}),
     ],
@@ -424,6 +449,7 @@ def test_generate_files(small_files):
     causes = base["structure"]["causes"]
     assert causes["zone_coupling"] == [] and causes["actuation_delay"] == [] and causes["internal_gain_schedule"] == []
     assert {"zone": "S", "facade": "S"} in causes["solar_gain"]
+
     def no_constants(name):
         raise AssertionError(f"truth.json contains {name}")
 
@@ -493,9 +519,24 @@ def test_cached_dataset_concurrent(tmp_path, monkeypatch):
 def test_cli_generate(tmp_path):
     out = tmp_path / "cli"
     proc = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--weeks", "1", "--seed", "2",
-         "--effect", "zone_coupling:zones=W+E,ua=300", "--format", "csv"],
-        capture_output=True, text=True, timeout=300,
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "generate",
+            str(out),
+            "--weeks",
+            "1",
+            "--seed",
+            "2",
+            "--effect",
+            "zone_coupling:zones=W+E,ua=300",
+            "--format",
+            "csv",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     assert "measurements:" in proc.stdout
@@ -504,8 +545,20 @@ def test_cli_generate(tmp_path):
     assert (out / "measurements.csv").exists()
     load_building(out / "building.toml")
     bad = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "generate", str(tmp_path / "bad"), "--weeks", "1", "--effect", "nonsense"],
-        capture_output=True, text=True, timeout=300,
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "generate",
+            str(tmp_path / "bad"),
+            "--weeks",
+            "1",
+            "--effect",
+            "nonsense",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert bad.returncode == 2
     assert "unknown effect 'nonsense'" in bad.stderr
@@ -594,9 +647,14 @@ def test_constructions_and_climates_differ():
         ({"layout": "core9", "effects": ["zone_coupling:zones=N+C"]}, "declared adjacent"),
         ({"layout": "row4", "effects": ["reheat:zone=C"]}, "zone 'C' is not one of R1"),
         ({"start": "2025-09-01T06:00"}, "start must be a local midnight"),
-        ({"climate": "hot", "effects": ["internal_gain_schedule:kind=dst"]}, r"needs daylight saving .*America/Phoenix"),
-        ({"layout": "core9", "effects": ["thermal_mass:zone=NE", "solar_gain:zone=X"], "hvac": "steam"},
-         r"(?s)unknown hvac mode 'steam'.*"),
+        (
+            {"climate": "hot", "effects": ["internal_gain_schedule:kind=dst"]},
+            r"needs daylight saving .*America/Phoenix",
+        ),
+        (
+            {"layout": "core9", "effects": ["thermal_mass:zone=NE", "solar_gain:zone=X"], "hvac": "steam"},
+            r"(?s)unknown hvac mode 'steam'.*",
+        ),
     ],
 )
 def test_bad_layout_options(kwargs, match):
@@ -639,8 +697,9 @@ LAYOUT_CASES = [
 def layout_sims():
     out = {}
     for layout, construction, climate, start, seed in LAYOUT_CASES:
-        truth = make_truth(1, seed, list(EFFECT_NAMES), start=start, layout=layout, construction=construction,
-                           climate=climate)
+        truth = make_truth(
+            1, seed, list(EFFECT_NAMES), start=start, layout=layout, construction=construction, climate=climate
+        )
         out[(layout, construction, climate)] = (truth, simulate(truth))
     return out
 
@@ -683,8 +742,14 @@ def test_plant_reproduces_simulation_on_other_layouts(layout_sims):
         T = []
         for k in range(720):
             x, Tz = plant.advance(
-                x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k],
-                sim["T_supply"][k], sim["I"][k], reheat=sim["reheat_command"][k],
+                x,
+                60.0 * k,
+                60.0,
+                sim["m_vav"][k],
+                sim["T_out"][k],
+                sim["T_supply"][k],
+                sim["I"][k],
+                reheat=sim["reheat_command"][k],
             )
             T.append(Tz)
         assert_allclose(np.array(T)[:-1], sim["T_zone"][1:720], rtol=0, atol=1e-9)  # [K]
@@ -693,8 +758,15 @@ def test_plant_reproduces_simulation_on_other_layouts(layout_sims):
 def test_layout_dataset_prepares_at_5_and_15_minutes(tmp_path):
     from hvacfmu.data import prepare
 
-    paths = generate(tmp_path / "row4", weeks=2, seed=4, layout="row4", climate="cold", start="2025-12-01",
-                     effects=["thermal_mass:zone=R2"])
+    paths = generate(
+        tmp_path / "row4",
+        weeks=2,
+        seed=4,
+        layout="row4",
+        climate="cold",
+        start="2025-12-01",
+        effects=["thermal_mass:zone=R2"],
+    )
     truth = json.loads(paths.truth.read_text())
     assert truth["layout"] == "row4" and truth["climate"] == "cold" and truth["timezone"] == "America/Chicago"
     for step in (300, 900):
@@ -758,14 +830,23 @@ def test_reheat_mode_plant_replays_with_discharge_temperature(reheat_sim):
     x = sim["x0"]
     k0 = 2 * 1440 + 5 * 60  # Wednesday 05:00: set-back to occupied, heavy reheat
     for k in range(0, k0):  # the state at k0 from the reheat power replay
-        x, _ = plant.advance(x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
-                             reheat=sim["reheat_command"][k])
+        x, _ = plant.advance(
+            x,
+            60.0 * k,
+            60.0,
+            sim["m_vav"][k],
+            sim["T_out"][k],
+            sim["T_supply"][k],
+            sim["I"][k],
+            reheat=sim["reheat_command"][k],
+        )
     T = []
     for k in range(k0, k0 + 240):
-        x, Tz = plant.advance(x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
-                              T_discharge=Td[k])
+        x, Tz = plant.advance(
+            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k], T_discharge=Td[k]
+        )
         T.append(Tz)
-    assert_allclose(np.array(T)[:-1], sim["T_zone"][k0 + 1: k0 + 240], rtol=0, atol=1e-9)  # [K]
+    assert_allclose(np.array(T)[:-1], sim["T_zone"][k0 + 1 : k0 + 240], rtol=0, atol=1e-9)  # [K]
     with pytest.raises(EmulatorError, match=r"T_supply must be one value or 2 values \(AHU1, AHU2\)"):
         plant.advance(x, 0.0, 60.0, sim["m_vav"][0], 0.0, [14.0, 14.0, 14.0], [0.0] * 4)
     with pytest.raises(EmulatorError, match="either T_discharge or reheat"):
@@ -832,8 +913,12 @@ def test_reheat_mode_files(bms_exports):
     assert rise[valve > 0.5].min() > 5.0
     assert rise[valve == 0].abs().median() < 0.3
     truth = json.loads(paths.truth.read_text())
-    assert truth["hvac"] == "reheat" and truth["export"] == {"units": "si", "clock": "aware", "export_step": 60,
-                                                            "faults": []}
+    assert truth["hvac"] == "reheat" and truth["export"] == {
+        "units": "si",
+        "clock": "aware",
+        "export_step": 60,
+        "faults": [],
+    }
 
 
 def test_us_units_and_naive_clocks_load_back_to_the_same_si_values(bms_exports):
@@ -873,8 +958,16 @@ def test_us_units_and_naive_clocks_load_back_to_the_same_si_values(bms_exports):
 
 def test_real_world_faults(tmp_path):
     """Outages, a sparse box at ~6 % coverage and a stuck sensor, each recorded in truth.json."""
-    paths = generate(tmp_path / "f", weeks=1, seed=4, hvac="reheat", climate="cold", start="2026-01-05",
-                     export_step=900, faults=["outages", "sparse_box", "stuck_sensor"])
+    paths = generate(
+        tmp_path / "f",
+        weeks=1,
+        seed=4,
+        hvac="reheat",
+        climate="cold",
+        start="2026-01-05",
+        export_step=900,
+        faults=["outages", "sparse_box", "stuck_sensor"],
+    )
     df = pd.read_parquet(paths.measurements)
     truth = json.loads(paths.truth.read_text())
     rec = {r["kind"]: r for r in truth["export"]["faults"]}
@@ -911,9 +1004,35 @@ def test_bad_export_options(tmp_path, kwargs, match):
 @pytest.mark.slow
 def test_cli_generate_real_bms_options(tmp_path):
     out = tmp_path / "cli"
-    cmd = [sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--weeks", "1", "--seed", "1", "--layout", "row4",
-           "--climate", "cold", "--start", "2026-01-05", "--hvac", "reheat", "--units", "us", "--clock", "naive-utc",
-           "--export-step", "900", "--fault", "outages", "--format", "csv"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "hvacfmu.cli",
+        "generate",
+        str(out),
+        "--weeks",
+        "1",
+        "--seed",
+        "1",
+        "--layout",
+        "row4",
+        "--climate",
+        "cold",
+        "--start",
+        "2026-01-05",
+        "--hvac",
+        "reheat",
+        "--units",
+        "us",
+        "--clock",
+        "naive-utc",
+        "--export-step",
+        "900",
+        "--fault",
+        "outages",
+        "--format",
+        "csv",
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True, check=False)
     assert r.returncode == 0, r.stderr
     df = pd.read_csv(out / "measurements.csv")
@@ -933,9 +1052,12 @@ def test_fleet_parameters_are_varied_and_seeded():
     many = fleet_parameters(30, seed=0, weeks=51)
     assert many == fleet_parameters(30, seed=0, weeks=51)
     assert many != fleet_parameters(30, seed=1, weeks=51)
-    for key, values in [("layout", {"sdh", "row4", "core9"}), ("climate", {"mild", "cold", "hot"}),
-                        ("construction", {"light", "medium", "heavy"}),
-                        ("hvac", {"vav", "reheat", "reheat-dual"})]:
+    for key, values in [
+        ("layout", {"sdh", "row4", "core9"}),
+        ("climate", {"mild", "cold", "hot"}),
+        ("construction", {"light", "medium", "heavy"}),
+        ("hvac", {"vav", "reheat", "reheat-dual"}),
+    ]:
         assert {p[key] for p in many} == values, key
     assert {e for p in many for e in p["effects"]} == set(EFFECT_NAMES)
     assert any(not p["effects"] for p in many)  # clean buildings too
@@ -962,7 +1084,12 @@ def test_generate_fleet(tmp_path):
         truth = json.loads((manifest.parent / row["truth"]).read_text())
         p = row["parameters"]
         assert (truth["layout"], truth["climate"], truth["construction"], truth["hvac"], truth["seed"]) == (
-            p["layout"], p["climate"], p["construction"], p["hvac"], p["seed"])
+            p["layout"],
+            p["climate"],
+            p["construction"],
+            p["hvac"],
+            p["seed"],
+        )
         assert [e["name"] for e in truth["effects"]] == p["effects"]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", HvacfmuWarning)
@@ -975,8 +1102,23 @@ def test_generate_fleet(tmp_path):
 
 @pytest.mark.slow
 def test_cli_generate_fleet(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate-fleet", "2", str(tmp_path / "f"), "--weeks", "1",
-                        "--seed", "3"], capture_output=True, text=True, check=False)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "generate-fleet",
+            "2",
+            str(tmp_path / "f"),
+            "--weeks",
+            "1",
+            "--seed",
+            "3",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert r.returncode == 0, r.stderr
     m = json.loads((tmp_path / "f" / "fleet.json").read_text())
     assert [b["name"] for b in m["buildings"]] == ["b000", "b001"]
@@ -1003,8 +1145,9 @@ def test_dual_maximum_boxes_heat_with_more_air():
     plant = Plant.from_truth(truth)
     x, T = sim["x0"], []
     for k in range(0, 600):
-        x, Tz = plant.advance(x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k],
-                              T_discharge=Td[k])
+        x, Tz = plant.advance(
+            x, 60.0 * k, 60.0, sim["m_vav"][k], sim["T_out"][k], sim["T_supply"][k], sim["I"][k], T_discharge=Td[k]
+        )
         T.append(Tz)
     assert_allclose(np.array(T)[:-1], sim["T_zone"][1:600], rtol=0, atol=1e-9)  # [K]
 

@@ -84,8 +84,13 @@ def test_building_file_read_from_idf(export):
     assert sum(z.area for z in b.zones) == pytest.approx(511.2, abs=1.0)
     assert b.zone("Core_ZN").area == pytest.approx(149.66, abs=0.5)
     facing = {z.name: [f.orientation for f in z.facades] for z in b.zones}
-    assert facing == {"Core_ZN": [], "Perimeter_ZN_1": ["S"], "Perimeter_ZN_2": ["E"], "Perimeter_ZN_3": ["N"],
-                      "Perimeter_ZN_4": ["W"]}
+    assert facing == {
+        "Core_ZN": [],
+        "Perimeter_ZN_1": ["S"],
+        "Perimeter_ZN_2": ["E"],
+        "Perimeter_ZN_3": ["N"],
+        "Perimeter_ZN_4": ["W"],
+    }
     assert all(f.window_area > 0 and f.wall_area > 0 for z in b.zones for f in z.facades)
     assert set(b.zone("Core_ZN").adjacent) == set(ZONES[1:])
     assert all(v.m_max > 0.2 for v in b.vavs)  # [kg/s], autosized
@@ -172,14 +177,39 @@ def test_callback_exception_stops_the_run(tmp_path):
 
 def test_cli_generate_energyplus(tmp_path):
     out = tmp_path / "ep"
-    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus",
-                        "--prototype", "restaurant_fast_food", "--days", "1", "--start", "2017-01-02", "--format", "csv"],
-                       check=False, capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "generate",
+            str(out),
+            "--engine",
+            "energyplus",
+            "--prototype",
+            "restaurant_fast_food",
+            "--days",
+            "1",
+            "--start",
+            "2017-01-02",
+            "--format",
+            "csv",
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr
     df = pd.read_csv(out / "measurements.csv")
     assert len(df) == 96 and {"T_Dining", "T_Kitchen", "m_VAV_Dining", "Td_VAV_Kitchen"} <= set(df.columns)
-    r = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus"],
-                       check=False, capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "generate", str(out), "--engine", "energyplus"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode != 0 and "--prototype" in r.stderr
 
 
@@ -189,9 +219,16 @@ def test_airflow_identifiability_check_flags_tiny_gains():
     from hvacfmu.building import building_from_dict
     from hvacfmu.energyplus.checks import airflow_identifiability
 
-    b = building_from_dict({"name": "t", "latitude": 40, "longitude": -105, "timezone": "America/Denver",
-                            "zones": [{"name": "A", "area": 100, "volume": 300}, {"name": "B", "area": 100, "volume": 300}],
-                            "vavs": [{"name": "VA", "zone": "A"}, {"name": "VB", "zone": "B"}]})
+    b = building_from_dict(
+        {
+            "name": "t",
+            "latitude": 40,
+            "longitude": -105,
+            "timezone": "America/Denver",
+            "zones": [{"name": "A", "area": 100, "volume": 300}, {"name": "B", "area": 100, "volume": 300}],
+            "vavs": [{"name": "VA", "zone": "A"}, {"name": "VB", "zone": "B"}],
+        }
+    )
     # smallest plausible gain for 300 m3: 1005 * 2 * 900 / (30 * 1.2 * 1005 * 300) = 0.167 K/(kg/s)/step
     model = types.SimpleNamespace(B=np.array([[-1e-6, 0.0], [0.0, -0.9]]), outputs=("A", "B"), step=900.0)
     lines = airflow_identifiability(model, b)

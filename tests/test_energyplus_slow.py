@@ -60,11 +60,17 @@ def test_pipeline_runs_end_to_end(which, request):
     assert np.isfinite(table["rms"]).all()
 
 
-@pytest.mark.parametrize("which, kind", [
-    ("vav_office", "lumped"), ("vav_office", "zones"), ("vav_office", "physics"),
-    ("packaged", "lumped"), ("packaged", "zones"),
-    ("packaged", "physics"),
-])
+@pytest.mark.parametrize(
+    "which, kind",
+    [
+        ("vav_office", "lumped"),
+        ("vav_office", "zones"),
+        ("vav_office", "physics"),
+        ("packaged", "lumped"),
+        ("packaged", "zones"),
+        ("packaged", "physics"),
+    ],
+)
 def test_every_model_beats_persistence_and_time_of_week(which, kind, request):
     """Issue 13 p.8: every model kind beats both baselines in every season (mean over zones)."""
     _, _, res = request.getfixturevalue(which)
@@ -117,8 +123,14 @@ def test_energyplus_hosts_fmu_and_mpc(host_setup):
 
     ds, model, fmu, frame = host_setup
     ref = run_host(SMALL_OFFICE, ds.building, frame, fmu=fmu)
-    ctl = run_host(SMALL_OFFICE, ds.building, frame, fmu=fmu, model=model,
-                   controller=cosim_controller(model, ds.building, horizon=16))
+    ctl = run_host(
+        SMALL_OFFICE,
+        ds.building,
+        frame,
+        fmu=fmu,
+        model=model,
+        controller=cosim_controller(model, ds.building, horizon=16),
+    )
     print("\n" + compare(ref, ctl))
     for r in (ref, ctl):
         assert len(r.table) == len(frame) == 192

@@ -28,8 +28,18 @@ def test_equations_detect_a_wrong_matrix():
     eq = model.equations()
     A = eq.A.copy()
     A[0, 0] += 1e-3
-    wrong = ModelEquations(step=eq.step, A=A, Bu=eq.Bu, Bv=eq.Bv, Bq=eq.Bq, C=eq.C, inputs=eq.inputs,
-                           disturbances=eq.disturbances, outputs=eq.outputs, gains=eq.gains)
+    wrong = ModelEquations(
+        step=eq.step,
+        A=A,
+        Bu=eq.Bu,
+        Bv=eq.Bv,
+        Bq=eq.Bq,
+        C=eq.C,
+        inputs=eq.inputs,
+        disturbances=eq.disturbances,
+        outputs=eq.outputs,
+        gains=eq.gains,
+    )
     with pytest.raises(ModelError, match="differ from its step_state"):
         check_equations(model, wrong)
 
@@ -38,16 +48,37 @@ def test_shapes_are_checked():
     model = _linear()
     eq = model.equations()
     with pytest.raises(ModelError, match="Bu has shape"):
-        ModelEquations(step=eq.step, A=eq.A, Bu=eq.Bu[:, :0], Bv=eq.Bv, Bq=eq.Bq, C=eq.C, inputs=eq.inputs,
-                       disturbances=eq.disturbances, outputs=eq.outputs, gains=eq.gains)
+        ModelEquations(
+            step=eq.step,
+            A=eq.A,
+            Bu=eq.Bu[:, :0],
+            Bv=eq.Bv,
+            Bq=eq.Bq,
+            C=eq.C,
+            inputs=eq.inputs,
+            disturbances=eq.disturbances,
+            outputs=eq.outputs,
+            gains=eq.gains,
+        )
 
 
 def test_switch_adds_gain_only_when_active():
     model = _linear(1)
     eq = model.equations()
     sw = Switch(gain=np.array([0.5]), input_index=0, input_below=0.1, disturbance_index=0, disturbance_below=10.0)
-    eq2 = ModelEquations(step=eq.step, A=eq.A, Bu=eq.Bu, Bv=eq.Bv, Bq=eq.Bq, C=eq.C, inputs=eq.inputs,
-                         disturbances=eq.disturbances, outputs=eq.outputs, gains=eq.gains, switches=(sw,))
+    eq2 = ModelEquations(
+        step=eq.step,
+        A=eq.A,
+        Bu=eq.Bu,
+        Bv=eq.Bv,
+        Bq=eq.Bq,
+        C=eq.C,
+        inputs=eq.inputs,
+        disturbances=eq.disturbances,
+        outputs=eq.outputs,
+        gains=eq.gains,
+        switches=(sw,),
+    )
     x, q = np.array([20.0]), np.zeros(eq.Bq.shape[1])
     v = np.full(len(eq.disturbances), 5.0)
     on = eq2.step_state(x, np.zeros(len(eq.inputs)), v, q) - eq.step_state(x, np.zeros(len(eq.inputs)), v, q)

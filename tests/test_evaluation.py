@@ -41,7 +41,7 @@ def truth(building):
 def data(tmp_path_factory, building, truth):
     """Eleven weeks (fall and winter) simulated from the true model; one day with a gap."""
     frame = simulate_frame(truth, building, weeks=11, start="2025-10-20", seed=11)
-    frame.iloc[3 * 672 + 200: 3 * 672 + 210, frame.columns.get_loc("T_NW")] = np.nan
+    frame.iloc[3 * 672 + 200 : 3 * 672 + 210, frame.columns.get_loc("T_NW")] = np.nan
     return write_dataset(tmp_path_factory.mktemp("eval"), frame, six_zone_building_dict(), "eval")
 
 
@@ -81,7 +81,7 @@ class AugmentedModel(ZoneModel):
         return np.concatenate([inner, 0.5 * x[..., nx:]], axis=-1)
 
     def output(self, x):
-        return np.asarray(x)[..., : self.inner.n_states] + np.asarray(x)[..., self.inner.n_states:]
+        return np.asarray(x)[..., : self.inner.n_states] + np.asarray(x)[..., self.inner.n_states :]
 
     def to_dict(self):
         return {"kind": "augmented", "format_version": 1}
@@ -142,7 +142,7 @@ def test_lumped_baselines_on_the_floor_output(data, building):
     assert sc.outputs == ("floor",)
     floor = data.frame[[f"T_{z}" for z in building.zone_names]].to_numpy() @ building.area_weights()
     k0 = data.frame.index.get_indexer([sc.starts[0]])[0]
-    expected = np.sqrt(np.mean((floor[k0 + 1: k0 + 97] - floor[k0]) ** 2))
+    expected = np.sqrt(np.mean((floor[k0 + 1 : k0 + 97] - floor[k0]) ** 2))
     assert_allclose(sc.baselines["persistence"][0, 0], expected, rtol=0, atol=1e-12)
 
 
@@ -159,8 +159,12 @@ def test_result_outputs(data, truth, tmp_path):
     assert len(m["windows"]) == len(res.scores[0].starts)
     df = res.to_pandas()
     assert len(df) == len(res.scores[0].starts) * len(truth.outputs)
-    assert_allclose(df.groupby("output")["rms"].mean()[list(truth.outputs)].to_numpy(),
-                    res.table().loc["all", list(truth.outputs)].to_numpy(float), rtol=0, atol=1e-12)
+    assert_allclose(
+        df.groupby("output")["rms"].mean()[list(truth.outputs)].to_numpy(),
+        res.table().loc["all", list(truth.outputs)].to_numpy(float),
+        rtol=0,
+        atol=1e-12,
+    )
     files = res.plot(tmp_path / "plots", dataset=data)
     assert len(files) == 2 and all(f.exists() and f.stat().st_size > 10_000 for f in files)
 
@@ -222,8 +226,20 @@ def test_cli_fit_and_evaluate(data, tmp_path):
     r = run("-q", "fit", src, "--building", str(bpath), "--model", "lumped", "-o", str(lumped))
     assert r.returncode == 0, r.stderr
     out = tmp_path / "r.json"
-    r = run("evaluate", src, "--building", str(bpath), "--model", str(model), "--model", str(lumped),
-            "--json", str(out), "--plots", str(tmp_path / "plots"))
+    r = run(
+        "evaluate",
+        src,
+        "--building",
+        str(bpath),
+        "--model",
+        str(model),
+        "--model",
+        str(lumped),
+        "--json",
+        str(out),
+        "--plots",
+        str(tmp_path / "plots"),
+    )
     assert r.returncode == 0, r.stderr
     assert "time-of-week mean" in r.stdout and "== lumped" in r.stdout and "== zones" in r.stdout
     # the verdict opens the output and the JSON

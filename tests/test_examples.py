@@ -14,8 +14,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _run(script, folder, out):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    return subprocess.run([sys.executable, str(ROOT / "examples" / script), "--data", str(folder), "--out", str(out)],
-                          capture_output=True, text=True, timeout=600, env=env)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "examples" / script), "--data", str(folder), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+    )
 
 
 @pytest.mark.slow

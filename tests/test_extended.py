@@ -33,10 +33,18 @@ def _base(nv=3):
     dist = ("T_out", "T_supply", "I_S")[:nv]
     gains = {"fall": np.tile(np.linspace(0.0, 0.3, 672)[:, None], (1, 2))}
     return LinearZoneModel(
-        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
-        vavs=("V1", "V2", "V3"), input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), disturbances=dist,
-        A=np.array([[0.9, 0.02], [0.03, 0.88]]), B=np.diag([-0.2, -0.3]),
-        C=np.array([[0.02, 0.03, 0.0005], [0.02, 0.03, 0.0]])[:, :nv], gains=gains,
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=("V1", "V2", "V3"),
+        input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        disturbances=dist,
+        A=np.array([[0.9, 0.02], [0.03, 0.88]]),
+        B=np.diag([-0.2, -0.3]),
+        C=np.array([[0.02, 0.03, 0.0005], [0.02, 0.03, 0.0]])[:, :nv],
+        gains=gains,
     )
 
 
@@ -54,12 +62,20 @@ ALL_TERMS = (
 def _frame(n=400, seed=0):
     rng = np.random.default_rng(seed)
     idx = pd.date_range("2025-09-01", periods=n, freq="15min", tz=TZ, name="time")
-    return pd.DataFrame({
-        "T_A": 21 + rng.normal(0, 0.3, n), "T_B": 22 + rng.normal(0, 0.3, n),
-        "m_V1": rng.uniform(0.05, 0.3, n), "m_V2": rng.uniform(0.05, 0.3, n), "m_V3": rng.uniform(0.04, 0.4, n),
-        "T_out": 12 + rng.normal(0, 3, n), "T_supply": 14 + rng.normal(0, 0.2, n),
-        "I_S": rng.uniform(0, 500, n), "I_W": rng.uniform(0, 400, n),
-    }, index=idx)
+    return pd.DataFrame(
+        {
+            "T_A": 21 + rng.normal(0, 0.3, n),
+            "T_B": 22 + rng.normal(0, 0.3, n),
+            "m_V1": rng.uniform(0.05, 0.3, n),
+            "m_V2": rng.uniform(0.05, 0.3, n),
+            "m_V3": rng.uniform(0.04, 0.4, n),
+            "T_out": 12 + rng.normal(0, 3, n),
+            "T_supply": 14 + rng.normal(0, 0.2, n),
+            "I_S": rng.uniform(0, 500, n),
+            "I_W": rng.uniform(0, 400, n),
+        },
+        index=idx,
+    )
 
 
 def test_without_terms_equals_the_linear_model():
@@ -134,7 +150,9 @@ def test_batched_simulation_matches_single():
 
 
 def test_initial_state_reads_history():
-    m = ExtendedModel(base=_base(), terms=(ThermalMass(zone="A", alpha=0.05, beta=0.1), ActuationDelay(zone="B", delay=3)))
+    m = ExtendedModel(
+        base=_base(), terms=(ThermalMass(zone="A", alpha=0.05, beta=0.1), ActuationDelay(zone="B", delay=3))
+    )
     f = _frame()
     x = m.initial_state(f, 150)
     assert_allclose(x[:2], f[["T_A", "T_B"]].iloc[150].to_numpy(), rtol=0, atol=0)
@@ -227,14 +245,31 @@ def test_evaluate_accepts_extended_model():
     from hvacfmu.data.dataset import Dataset
     from hvacfmu.evaluation import evaluate
 
-    b = building_from_dict({
-        "name": "two", "latitude": 37.9, "longitude": -122.3, "timezone": TZ,
-        "zones": [{"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
-                   "facades": [{"orientation": "S", "window_area": 10.0}]},
-                  {"name": "B", "area": 80.0, "volume": 240.0, "adjacent": ["A"],
-                   "facades": [{"orientation": "W", "window_area": 10.0}]}],
-        "vavs": [{"name": "V1", "zone": "A"}, {"name": "V2", "zone": "A"}, {"name": "V3", "zone": "B"}],
-    })
+    b = building_from_dict(
+        {
+            "name": "two",
+            "latitude": 37.9,
+            "longitude": -122.3,
+            "timezone": TZ,
+            "zones": [
+                {
+                    "name": "A",
+                    "area": 100.0,
+                    "volume": 300.0,
+                    "adjacent": ["B"],
+                    "facades": [{"orientation": "S", "window_area": 10.0}],
+                },
+                {
+                    "name": "B",
+                    "area": 80.0,
+                    "volume": 240.0,
+                    "adjacent": ["A"],
+                    "facades": [{"orientation": "W", "window_area": 10.0}],
+                },
+            ],
+            "vavs": [{"name": "V1", "zone": "A"}, {"name": "V2", "zone": "A"}, {"name": "V3", "zone": "B"}],
+        }
+    )
     n = 3 * 672
     f = _frame(n)
     f = f.drop(columns=["I_S", "I_W"]).assign(ghi=np.clip(np.sin(np.arange(n) / 96 * 2 * np.pi) * 600, 0, None))
@@ -273,23 +308,32 @@ def test_equations_of_each_term_match_step_state(term):
 def test_equations_of_all_terms_together():
     from hvacfmu.models.equations import check_equations
 
-    terms = (ThermalMass(zone="A", alpha=0.02, beta=0.05), ActuationDelay(zone="B", delay=3),
-             SolarGain(zone="B", facade="W", coef=0.001), ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01,
-                                                                       coef_ba=0.02),
-             SupplyAirBilinear(zone="A", coef=0.05), Reheat(zone="A", coef=0.05, u_min=0.4, T_threshold=15.0))
+    terms = (
+        ThermalMass(zone="A", alpha=0.02, beta=0.05),
+        ActuationDelay(zone="B", delay=3),
+        SolarGain(zone="B", facade="W", coef=0.001),
+        ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01, coef_ba=0.02),
+        SupplyAirBilinear(zone="A", coef=0.05),
+        Reheat(zone="A", coef=0.05, u_min=0.4, T_threshold=15.0),
+    )
     m = ExtendedModel(base=_base(), terms=terms)
     eq = m.equations()
     assert eq.bilinear and len(eq.switches) == 1
     check_equations(m, eq, n=80, atol=1e-10)
 
 
-@pytest.mark.parametrize("terms, message", [
-    ((InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(1.0, 0.5), dates=("2025-09-03",)),),
-     "calendar"),
-    ((InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4),), "calendar"),
-    ((ActuationDelay(zone="A", delay=2), SupplyAirBilinear(zone="A", coef=0.05)), "quadratic in the state"),
-    ((ActuationDelay(zone="B", delay=1), Reheat(zone="B", coef=0.05, u_min=0.4, T_threshold=15.0)), "delayed"),
-])
+@pytest.mark.parametrize(
+    "terms, message",
+    [
+        (
+            (InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(1.0, 0.5), dates=("2025-09-03",)),),
+            "calendar",
+        ),
+        ((InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4),), "calendar"),
+        ((ActuationDelay(zone="A", delay=2), SupplyAirBilinear(zone="A", coef=0.05)), "quadratic in the state"),
+        ((ActuationDelay(zone="B", delay=1), Reheat(zone="B", coef=0.05, u_min=0.4, T_threshold=15.0)), "delayed"),
+    ],
+)
 def test_terms_without_time_invariant_equations_say_so(terms, message):
     m = ExtendedModel(base=_base(), terms=terms)
     with pytest.raises(ModelError, match=message):
@@ -304,8 +348,9 @@ def test_discharge_reheat_reads_td_columns():
     u, v = m.signals(f)
     q = v[:, m.disturbances.index("Qrh_A")]
     ts = f["T_supply"].to_numpy()
-    expect = (f["m_V1"].to_numpy() * 1005.0 * (30.0 - ts)
-              + f["m_V2"].to_numpy() * 1005.0 * np.maximum(14.0 - ts, 0.0)) / 1000.0
+    expect = (
+        f["m_V1"].to_numpy() * 1005.0 * (30.0 - ts) + f["m_V2"].to_numpy() * 1005.0 * np.maximum(14.0 - ts, 0.0)
+    ) / 1000.0
     assert_allclose(q, expect, rtol=1e-12, atol=0)
     with pytest.raises(ModelError, match="Td_"):
         m.signals(_frame())
@@ -317,15 +362,31 @@ def test_delivered_heat_base_keeps_its_form_in_the_extended_model():
     from hvacfmu.models.equations import check_equations
 
     base = LinearZoneModel(
-        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
-        vavs=("V1", "V2"), input_map=np.eye(2), disturbances=("T_out", "T_supply", "Td_V1"),
-        A=np.array([[0.9, 0.02], [0.03, 0.88]]), B=np.zeros((2, 2)), C=np.array([[0.02, 0.0, 0.0], [0.02, 0.0, 0.0]]),
-        gains={"fall": np.zeros((672, 2))}, beta=np.array([0.05, 0.04]), inlets=("Td_V1", "T_supply"),
-        heat_map=np.eye(2))
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=("V1", "V2"),
+        input_map=np.eye(2),
+        disturbances=("T_out", "T_supply", "Td_V1"),
+        A=np.array([[0.9, 0.02], [0.03, 0.88]]),
+        B=np.zeros((2, 2)),
+        C=np.array([[0.02, 0.0, 0.0], [0.02, 0.0, 0.0]]),
+        gains={"fall": np.zeros((672, 2))},
+        beta=np.array([0.05, 0.04]),
+        inlets=("Td_V1", "T_supply"),
+        heat_map=np.eye(2),
+    )
     x, u, v, q = np.array([21.0, 22.0]), np.array([0.3, 0.2]), np.array([5.0, 14.0, 30.0]), np.zeros(2)
     assert_allclose(ExtendedModel(base=base).step_state(x, u, v, q), base.step_state(x, u, v, q), rtol=0, atol=1e-12)
-    m = ExtendedModel(base=base, terms=(ThermalMass(zone="A", alpha=0.02, beta=0.05),
-                                        ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01, coef_ba=0.01)))
+    m = ExtendedModel(
+        base=base,
+        terms=(
+            ThermalMass(zone="A", alpha=0.02, beta=0.05),
+            ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.01, coef_ba=0.01),
+        ),
+    )
     check_equations(m, m.equations(), n=40, atol=1e-10)
     with pytest.raises(ModelError, match="quadratic"):
         ExtendedModel(base=base, terms=(ActuationDelay(zone="A", delay=1),)).equations()

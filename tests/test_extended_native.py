@@ -30,14 +30,17 @@ def test_extended_model_native_fmu_matches_python(tmp_path):
 
     base = zones_model(sdh_building(nominal=True))
     z = base.outputs
-    model = ExtendedModel(base=base, terms=(
-        ActuationDelay(zone=z[0], delay=2),
-        ThermalMass(zone=z[1], alpha=0.02, beta=0.05),
-        SupplyAirBilinear(zone=z[2], coef=0.02),
-        ZoneCoupling(zone_a=z[0], zone_b=z[3], coef_ab=0.01, coef_ba=0.015),
-        SolarGain(zone=z[4], facade="W", coef=4e-4),
-        Reheat(zone=z[5], coef=0.05, u_min=0.25, T_threshold=14.0),
-    ))
+    model = ExtendedModel(
+        base=base,
+        terms=(
+            ActuationDelay(zone=z[0], delay=2),
+            ThermalMass(zone=z[1], alpha=0.02, beta=0.05),
+            SupplyAirBilinear(zone=z[2], coef=0.02),
+            ZoneCoupling(zone_a=z[0], zone_b=z[3], coef_ab=0.01, coef_ba=0.015),
+            SolarGain(zone=z[4], facade="W", coef=4e-4),
+            Reheat(zone=z[5], coef=0.05, u_min=0.25, T_threshold=14.0),
+        ),
+    )
     path = export_native_fmu(model, tmp_path / "extended.fmu")
     Y, Yref = simulate_year(model, path, 2 * 672)
     assert_allclose(Y, Yref[: len(Y)], rtol=0, atol=1e-9)  # [K]

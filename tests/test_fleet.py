@@ -81,8 +81,7 @@ def test_fleet_on_local_dask_cluster(small_fleet, tmp_path):
     from hvacfmu.fleet import fleet
 
     out = tmp_path / "out"
-    res = fleet(small_fleet, stages="check,fit,evaluate,export", out=out, n_workers=2, kinds=("zones",),
-                progress=False)
+    res = fleet(small_fleet, stages="check,fit,evaluate,export", out=out, n_workers=2, kinds=("zones",), progress=False)
     assert res.failed == ["bad"]
     t = pd.read_parquet(out / "fleet.parquet")
     assert set(t["building"]) == {"sdh", "row", "bad"}
@@ -90,8 +89,9 @@ def test_fleet_on_local_dask_cluster(small_fleet, tmp_path):
     assert len(ok) == 6 + 4  # one row per zone of each building
     assert ok["rms_all"].gt(0).all() and ok["fmu_zones"].str.endswith(".fmu").all()
     assert (out / "fleet.csv").exists() and "Portfolio report" in (out / "report.html").read_text()
-    again = fleet(small_fleet, stages="check,fit,evaluate,export", out=out, n_workers=2, kinds=("zones",),
-                  progress=False)
+    again = fleet(
+        small_fleet, stages="check,fit,evaluate,export", out=out, n_workers=2, kinds=("zones",), progress=False
+    )
     assert all(b.get("cached") for b in again.buildings if b["status"] == "ok")
 
 
@@ -101,8 +101,25 @@ def test_cli_fleet_subprocess(small_fleet, tmp_path):
     import sys
 
     out = tmp_path / "cli"
-    p = subprocess.run([sys.executable, "-m", "hvacfmu", "-q", "fleet", str(small_fleet), "--stages", "check",
-                        "--out", str(out), "--workers", "1"], capture_output=True, text=True, timeout=600)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu",
+            "-q",
+            "fleet",
+            str(small_fleet),
+            "--stages",
+            "check",
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert p.returncode == 1, p.stderr  # one building fails its check
     assert "bad: check failed" in p.stdout
     assert "Traceback" not in p.stderr

@@ -38,9 +38,17 @@ def zones_model(building, seed=0):
     C = np.column_stack([rng.uniform(0.02, 0.04, nz), rng.uniform(0.02, 0.04, nz), rng.uniform(0, 2e-4, (nz, 4))])
     # steady state ~21 degC at typical inputs: put the balance into the gains
     return LinearZoneModel(
-        kind="zones", step=900.0, outputs=building.zone_names, measured_zones=building.zone_names,
-        output_weights=np.eye(nz), vavs=building.vav_names, input_map=building.zone_vav_matrix(),
-        disturbances=DIST, A=A, B=B, C=C,
+        kind="zones",
+        step=900.0,
+        outputs=building.zone_names,
+        measured_zones=building.zone_names,
+        output_weights=np.eye(nz),
+        vavs=building.vav_names,
+        input_map=building.zone_vav_matrix(),
+        disturbances=DIST,
+        A=A,
+        B=B,
+        C=C,
         gains={s: rng.uniform(0.6, 1.2, (672, nz)) for s in building.season_names},
         meta={"note": "hand-written for tests"},
     )
@@ -49,10 +57,17 @@ def zones_model(building, seed=0):
 def lumped_model(building, seed=1):
     rng = np.random.default_rng(seed)
     return LinearZoneModel(
-        kind="lumped", step=900.0, outputs=("floor",), measured_zones=building.zone_names,
-        output_weights=building.area_weights()[None, :], vavs=building.vav_names,
-        input_map=np.ones((1, len(building.vav_names))), disturbances=DIST[:2],
-        A=[[0.94]], B=[[-0.12]], C=[[0.02, 0.02]],
+        kind="lumped",
+        step=900.0,
+        outputs=("floor",),
+        measured_zones=building.zone_names,
+        output_weights=building.area_weights()[None, :],
+        vavs=building.vav_names,
+        input_map=np.ones((1, len(building.vav_names))),
+        disturbances=DIST[:2],
+        A=[[0.94]],
+        B=[[-0.12]],
+        C=[[0.02, 0.02]],
         gains={s: rng.uniform(0.6, 1.0, (672, 1)) for s in building.season_names},
     )
 
@@ -62,12 +77,15 @@ def extended_model(building, seed=3):
     from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain, SupplyAirBilinear, ThermalMass
 
     base = zones_model(building, seed=seed)
-    return ExtendedModel(base=base, terms=(
-        SolarGain(zone="S", facade="S", coef=4e-4),
-        SupplyAirBilinear(zone="NW", coef=0.02),
-        ThermalMass(zone="C", alpha=0.02, beta=0.05),
-        ActuationDelay(zone="E", delay=2),
-    ))
+    return ExtendedModel(
+        base=base,
+        terms=(
+            SolarGain(zone="S", facade="S", coef=4e-4),
+            SupplyAirBilinear(zone="NW", coef=0.02),
+            ThermalMass(zone="C", alpha=0.02, beta=0.05),
+            ActuationDelay(zone="E", delay=2),
+        ),
+    )
 
 
 def physics_model(building, seed=2):
@@ -78,8 +96,12 @@ def physics_model(building, seed=2):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         nz = len(building.zone_names)
-        return PhysicsModel(building=building, params=params, solar=True,
-                            gains={s: rng.uniform(500.0, 3000.0, (672, nz)) for s in building.season_names})
+        return PhysicsModel(
+            building=building,
+            params=params,
+            solar=True,
+            gains={s: rng.uniform(500.0, 3000.0, (672, nz)) for s in building.season_names},
+        )
 
 
 # ----------------------------------------------------------------------------- fixtures
@@ -103,8 +125,12 @@ def sdh_building():
 def built(tmp_path_factory, fmu_data, sdh_building):
     """kind -> (model, model path, FMU path), each FMU built once."""
     d = tmp_path_factory.mktemp("fmus")
-    models = {"lumped": lumped_model(fmu_data.building), "zones": zones_model(fmu_data.building),
-              "physics": physics_model(sdh_building), "extended": extended_model(fmu_data.building)}
+    models = {
+        "lumped": lumped_model(fmu_data.building),
+        "zones": zones_model(fmu_data.building),
+        "physics": physics_model(sdh_building),
+        "extended": extended_model(fmu_data.building),
+    }
     out = {}
     for kind, model in models.items():
         mp = model.save(d / f"{kind}.json")
@@ -178,9 +204,15 @@ def fmu_setup(model, building, dataset, week):
 
 
 def reference(model, idx, m, v, y0, season):
-    u, _ = model.signals(pd.DataFrame(
-        {**{f"m_{b}": m[:, j] for j, b in enumerate(box_names(model))},
-         **{d: v[:, j] for j, d in enumerate(model.disturbances)}}, index=idx))
+    u, _ = model.signals(
+        pd.DataFrame(
+            {
+                **{f"m_{b}": m[:, j] for j, b in enumerate(box_names(model))},
+                **{d: v[:, j] for j, d in enumerate(model.disturbances)},
+            },
+            index=idx,
+        )
+    )
     q = model.gains_at(idx, season)
     _, Y = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
     return Y
@@ -196,8 +228,15 @@ def test_validate_and_description(built, kind):
     md = read_model_description(str(path))
     assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
     assert md.coSimulation.canHandleVariableCommunicationStepSize is False
-    assert md.coSimulation.modelIdentifier == {"lumped": "HvacfmuLumped", "zones": "HvacfmuZones",
-                                                "physics": "HvacfmuPhysics", "extended": "HvacfmuExtended"}[kind]
+    assert (
+        md.coSimulation.modelIdentifier
+        == {
+            "lumped": "HvacfmuLumped",
+            "zones": "HvacfmuZones",
+            "physics": "HvacfmuPhysics",
+            "extended": "HvacfmuExtended",
+        }[kind]
+    )
     names = {v.name: v for v in md.modelVariables}
     assert not [n for n in names if any(c in n for c in ".[]")]
     for v in md.modelVariables:
@@ -426,8 +465,10 @@ def test_two_fmus_of_one_kind_in_one_process(built, fmu_data, tmp_path):
             s = Slave(path, name)
             slaves.append(s)
             s.init(sv, inputs=(names_in, U[0]))
-            results[name] = (run_fmu(s, names_in, U[:96], names_out), reference(model, idx[:96], m[:96], v[:96], y0,
-                                                                                  week.season))
+            results[name] = (
+                run_fmu(s, names_in, U[:96], names_out),
+                reference(model, idx[:96], m[:96], v[:96], y0, week.season),
+            )
     finally:
         for s in slaves:
             s.close()
@@ -456,8 +497,13 @@ def test_plant_fmu_matches_plant(plant_fmu, short_paths, fmu_data):
     s = Slave(plant_fmu)
     try:
         s.init({f"T_{z}_start": float(y) for z, y in zip(plant.zones, y0)}, t0=t0)
-        Y = run_fmu(s, [f"m_{b}" for b in plant.vavs] + ["T_out", "T_supply", "I_N", "I_E", "I_S", "I_W"],
-                    np.hstack([m, w]), [f"T_{z}" for z in plant.zones], t0=t0)
+        Y = run_fmu(
+            s,
+            [f"m_{b}" for b in plant.vavs] + ["T_out", "T_supply", "I_N", "I_E", "I_S", "I_W"],
+            np.hstack([m, w]),
+            [f"T_{z}" for z in plant.zones],
+            t0=t0,
+        )
         with pytest.raises(Exception, match="discard"):
             s.fmu.doStep(t0 + 96 * 900.0, 30.0)  # not a multiple of the plant's 60 s
     finally:
@@ -477,9 +523,22 @@ def test_fmpy_command_line(built, fmu_data, tmp_path):
     inp = pd.DataFrame(U[:n], columns=names_in)
     inp.insert(0, "time", np.arange(n) * 900.0)
     inp.to_csv(tmp_path / "in.csv", index=False)
-    cmd = ["fmpy", "simulate", str(path), "--input-file", str(tmp_path / "in.csv"), "--output-interval", "900",
-           "--stop-time", str((n - 1) * 900.0), "--output-file", str(tmp_path / "out.csv"),
-           "--output-variables", *names_out, "--start-values"]
+    cmd = [
+        "fmpy",
+        "simulate",
+        str(path),
+        "--input-file",
+        str(tmp_path / "in.csv"),
+        "--output-interval",
+        "900",
+        "--stop-time",
+        str((n - 1) * 900.0),
+        "--output-file",
+        str(tmp_path / "out.csv"),
+        "--output-variables",
+        *names_out,
+        "--start-values",
+    ]
     for k, val in sv.items():
         cmd += [k, str(val)]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
@@ -492,14 +551,22 @@ def test_fmpy_command_line(built, fmu_data, tmp_path):
 
 def test_export_command_line_and_errors(built, tmp_path):
     _, mp, _ = built["lumped"]
-    ok = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "L.fmu")],
-                        capture_output=True, text=True, timeout=300)
+    ok = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "L.fmu")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert ok.returncode == 0, ok.stderr
     assert validate(tmp_path / "L.fmu") == []
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
-    run = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(bad), "-o", str(tmp_path / "B.fmu")],
-                         capture_output=True, text=True, timeout=300)
+    run = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "export", str(bad), "-o", str(tmp_path / "B.fmu")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert run.returncode == 2 and "not valid JSON" in run.stderr
     with pytest.raises(ModelError, match="newer than this hvacfmu"):
         d = json.loads(Path(mp).read_text())
@@ -601,13 +668,18 @@ def calendar_model(building, seed=4, dates=("2025-10-29",)):
     from hvacfmu.models.extended import ExtendedModel, InternalGainSchedule, ThermalMass
 
     nz = len(building.zone_names)
-    return ExtendedModel(base=zones_model(building, seed=seed), terms=(
-        InternalGainSchedule(variant="holiday", zone_names=building.zone_names, coef=(1.0,) * nz,
-                             dates=tuple(dates), ref_weekday=6),
-        InternalGainSchedule(variant="dst_shift", zone_names=building.zone_names,
-                             coef=tuple(np.linspace(0.5, 1.0, nz)), shift=4),
-        ThermalMass(zone="C", alpha=0.02, beta=0.05),
-    ))
+    return ExtendedModel(
+        base=zones_model(building, seed=seed),
+        terms=(
+            InternalGainSchedule(
+                variant="holiday", zone_names=building.zone_names, coef=(1.0,) * nz, dates=tuple(dates), ref_weekday=6
+            ),
+            InternalGainSchedule(
+                variant="dst_shift", zone_names=building.zone_names, coef=tuple(np.linspace(0.5, 1.0, nz)), shift=4
+            ),
+            ThermalMass(zone="C", alpha=0.02, beta=0.05),
+        ),
+    )
 
 
 def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
@@ -628,8 +700,12 @@ def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
         plain = export_fmu(mp, tmp_path / "plain.fmu")
     with pytest.raises(FMUError, match="unknown time zone 'Mars/Olympus'"):
         export_fmu(mp, tmp_path / "bad.fmu", timezone="Mars/Olympus")
-    cli = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "cli.fmu"),
-                          "--timezone", tz], capture_output=True, text=True, timeout=300)
+    cli = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "cli.fmu"), "--timezone", tz],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert cli.returncode == 0, cli.stderr
     with zipfile.ZipFile(tmp_path / "cli.fmu") as z:
         assert json.loads(z.read("resources/interface.json"))["timezone"] == tz
@@ -645,11 +721,17 @@ def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
     names_out = [f"T_{z}" for z in model.outputs]
     U = np.hstack([m, v])
     Yref = reference(model, idx, m, v, y0, season)
-    sv = {"season": list(model.gains).index(season) + 1, "start_time_of_week": 0.0,  # ignored with start_time
-          "start_time": idx[0].timestamp()}
+    sv = {
+        "season": list(model.gains).index(season) + 1,
+        "start_time_of_week": 0.0,  # ignored with start_time
+        "start_time": idx[0].timestamp(),
+    }
     runs = {}
-    for name, fmu, values in (("calendar", path, sv), ("unset", path, {**sv, "start_time": -1.0}),
-                              ("plain", plain, {k: x for k, x in sv.items() if k != "start_time"})):
+    for name, fmu, values in (
+        ("calendar", path, sv),
+        ("unset", path, {**sv, "start_time": -1.0}),
+        ("plain", plain, {k: x for k, x in sv.items() if k != "start_time"}),
+    ):
         s = Slave(fmu, name)
         try:
             if name != "calendar":
@@ -696,8 +778,9 @@ def test_cosim_sets_start_time_of_calendar_fmu(fmu_data, tmp_path):
     week = fmu_data.test_weeks()[0]
     holiday = (week.start + pd.Timedelta(days=2)).date().isoformat()
     model = calendar_model(fmu_data.building, dates=(holiday,))
-    path = export_fmu(model.save(tmp_path / "calendar.json"), tmp_path / "calendar.fmu",
-                      timezone=fmu_data.building.timezone)
+    path = export_fmu(
+        model.save(tmp_path / "calendar.json"), tmp_path / "calendar.fmu", timezone=fmu_data.building.timezone
+    )
     r = run_cosim(path, fmu_data, ReplayController(), week=week.number, model=model)
     rows = r.table.iloc[:-1]
     u, v = model.signals(rows)
@@ -808,7 +891,8 @@ def test_pythonfmu_fmu_without_its_python_packages_says_so(built, tmp_path):
         "                 debug_logging=True)\n"
         "except Exception as exc:\n"
         "    print('EXC', exc)\n"
-        "print('\\n'.join(msgs))\n")
+        "print('\\n'.join(msgs))\n"
+    )
     run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "needs the Python packages hvacfmu, numpy" in run.stdout, run.stdout + run.stderr
@@ -827,8 +911,20 @@ def test_fmpy_simulate_without_solar_inputs(built, fmu_data, tmp_path, kind):
     inp = pd.DataFrame(U[:n], columns=names_in)[keep]
     inp.insert(0, "time", np.arange(n) * 900.0)
     inp.to_csv(tmp_path / "in.csv", index=False)
-    cmd = ["fmpy", "simulate", str(path), "--input-file", str(tmp_path / "in.csv"), "--output-interval", "900",
-           "--stop-time", str((n - 1) * 900.0), "--output-file", str(tmp_path / "out.csv"), "--start-values"]
+    cmd = [
+        "fmpy",
+        "simulate",
+        str(path),
+        "--input-file",
+        str(tmp_path / "in.csv"),
+        "--output-interval",
+        "900",
+        "--stop-time",
+        str((n - 1) * 900.0),
+        "--output-file",
+        str(tmp_path / "out.csv"),
+        "--start-values",
+    ]
     for k, val in sv.items():
         cmd += [k, str(val)]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)

@@ -47,8 +47,9 @@ def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):
     md = read_model_description(str(path))
     unz = extract(str(path))
     for i in range(3):
-        s = FMU2Slave(guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName=f"i{i}")
+        s = FMU2Slave(
+            guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=f"i{i}"
+        )
         s.instantiate()
         s.setupExperiment(startTime=0.0)
         s.enterInitializationMode()

@@ -43,8 +43,12 @@ def sdh():
 def native(tmp_path_factory, sdh):
     """kind -> (model, native FMU path), each built once."""
     d = tmp_path_factory.mktemp("native")
-    models = {"lumped": lumped_model(sdh), "zones": zones_model(sdh), "physics": physics_model(sdh),
-              "extended": extended_model(sdh)}
+    models = {
+        "lumped": lumped_model(sdh),
+        "zones": zones_model(sdh),
+        "physics": physics_model(sdh),
+        "extended": extended_model(sdh),
+    }
     return {k: (m, export_native_fmu(m, d / f"{k}.fmu")) for k, m in models.items()}
 
 
@@ -55,8 +59,9 @@ def signals(model, n, seed=5):
     t = np.arange(n) * STEP
     vavs = box_names(model)
     day = 2 * np.pi * t / 86400.0
-    m = np.clip(0.25 + 0.1 * np.sin(day[:, None] + np.arange(len(vavs))) + 0.05 * rng.standard_normal((n, len(vavs))),
-                0.0, 0.5)
+    m = np.clip(
+        0.25 + 0.1 * np.sin(day[:, None] + np.arange(len(vavs))) + 0.05 * rng.standard_normal((n, len(vavs))), 0.0, 0.5
+    )
     cols = {}
     for d in model.disturbances:
         if d == "T_out":
@@ -91,8 +96,15 @@ def simulate_year(model, path, n):
     sig["time"] = np.arange(n) * STEP
     for c, x in cols.items():
         sig[c] = x
-    res = simulate_fmu(str(path), start_time=0.0, stop_time=(n - 1) * STEP, output_interval=STEP, input=sig,
-                       start_values=start_values(model), output=[f"T_{z}" for z in model.outputs])
+    res = simulate_fmu(
+        str(path),
+        start_time=0.0,
+        stop_time=(n - 1) * STEP,
+        output_interval=STEP,
+        input=sig,
+        start_values=start_values(model),
+        output=[f"T_{z}" for z in model.outputs],
+    )
     Y = np.column_stack([res[f"T_{z}"] for z in model.outputs])
     Yref = reference(model, idx, cols, list(model.gains)[1], np.full(len(model.outputs), 21.0))
     return Y, Yref
@@ -145,8 +157,12 @@ def test_validate_description_and_contents(native, kind):
     with zipfile.ZipFile(path) as z:
         files = set(z.namelist())
         doc = z.read("documentation/index.html").decode()
-    assert {"sources/hvacfmu_native.c", "sources/hvacfmu_model.h", f"binaries/linux64/{cs.modelIdentifier}.so",
-            "documentation/index.html"} <= files
+    assert {
+        "sources/hvacfmu_native.c",
+        "sources/hvacfmu_model.h",
+        f"binaries/linux64/{cs.modelIdentifier}.so",
+        "documentation/index.html",
+    } <= files
     assert not any(f.startswith("resources/") for f in files)
     assert "no Python" in doc
 
@@ -179,8 +195,18 @@ def run_c_master(tmp_path, path, model, n, U, names_in):
     outs = [f"T_{z}" for z in model.outputs]
     lib = unz / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
     stdin = "\n".join(" ".join(repr(float(x)) for x in row) for row in U)
-    cmd = ["env", "-i", "PATH=/usr/bin:/bin", str(exe), str(lib), md.guid, str(n), str(STEP), str(len(names_in)),
-           str(len(outs))] + [str(vr[x]) for x in names_in + outs]
+    cmd = [
+        "env",
+        "-i",
+        "PATH=/usr/bin:/bin",
+        str(exe),
+        str(lib),
+        md.guid,
+        str(n),
+        str(STEP),
+        str(len(names_in)),
+        str(len(outs)),
+    ] + [str(vr[x]) for x in names_in + outs]
     run = subprocess.run(cmd, input=stdin, capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     return np.array([[float(x) for x in line.split()] for line in run.stdout.splitlines()]), run.stderr
@@ -358,17 +384,41 @@ def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
     mp = model.save(tmp_path / "zones.json")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     out = tmp_path / "Z.fmu"
-    run = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(out), "--native"],
-                         capture_output=True, text=True, timeout=300, env=env)
+    run = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(out), "--native"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert run.returncode == 0, run.stderr
     assert validate(out) == []
-    sim = subprocess.run(["fmpy", "simulate", str(out), "--output-interval", "900", "--stop-time", "86400",
-                          "--output-file", str(tmp_path / "out.csv")], capture_output=True, text=True, timeout=300)
+    sim = subprocess.run(
+        [
+            "fmpy",
+            "simulate",
+            str(out),
+            "--output-interval",
+            "900",
+            "--stop-time",
+            "86400",
+            "--output-file",
+            str(tmp_path / "out.csv"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert sim.returncode == 0, sim.stderr + sim.stdout
     res = pd.read_csv(tmp_path / "out.csv")
     assert len(res) == 97 and np.isfinite(res[[f"T_{z}" for z in model.outputs]].to_numpy()).all()
     plant = tmp_path / "truth.json"
     plant.write_text('{"baseline": {}, "zones": []}')
-    bad = subprocess.run([sys.executable, "-m", "hvacfmu.cli", "export", str(plant), "-o", str(tmp_path / "P.fmu"),
-                          "--native"], capture_output=True, text=True, timeout=300, env=env)
+    bad = subprocess.run(
+        [sys.executable, "-m", "hvacfmu.cli", "export", str(plant), "-o", str(tmp_path / "P.fmu"), "--native"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert bad.returncode != 0 and "cannot be exported as a native FMU" in bad.stderr

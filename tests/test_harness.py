@@ -90,7 +90,7 @@ def test_summary_figures(zones, data, tmp_path):
     tab, s = r.table, r.summary
     M = tab[[f"m_{b}" for b in data.building.vav_names]].iloc[:-1].to_numpy()
     T = tab[[f"T_{z}" for z in model.outputs]].iloc[1:].to_numpy()
-    assert_allclose(s["energy_proxy"], np.sum(M ** 2), rtol=1e-12, atol=0)
+    assert_allclose(s["energy_proxy"], np.sum(M**2), rtol=1e-12, atol=0)
     assert_allclose(s["total_airflow_kg"], np.sum(M) * 900.0, rtol=1e-12, atol=0)
     viol = np.where(T < 20.5, 20.5 - T, 0) + np.where(T > 21.5, T - 21.5, 0)
     assert_allclose(s["comfort_violation_Kh"], viol.sum() * 0.25, rtol=1e-12, atol=0)
@@ -124,8 +124,14 @@ def test_early_stop_is_an_error_with_partial_result(zones, data, bad, message):
 def test_rule_controller_pi_logic(data):
     frame = data.week_frame(data.weeks[0])
     b = data.building
-    ctx = ControlContext(frame=frame, building=b, vavs=b.vav_names, outputs=tuple(f"T_{z}" for z in b.zone_names),
-                         output_zones=tuple((z,) for z in b.zone_names), step=900.0)
+    ctx = ControlContext(
+        frame=frame,
+        building=b,
+        vavs=b.vav_names,
+        outputs=tuple(f"T_{z}" for z in b.zone_names),
+        output_zones=tuple((z,) for z in b.zone_names),
+        step=900.0,
+    )
     c = RuleController(kp=0.5, ti=3600.0)
     c.reset(ctx)
     m_min, m_max = ctx.box_limits()
@@ -170,9 +176,10 @@ def test_make_controller_errors():
 def test_foreign_mapping(zones, data, tmp_path):
     """A mapping file connects an FMU by explicit names; unmapped or wrong names are listed."""
     model, _, path = zones
-    mapping = {"inputs": {f"m_{b}": f"m_{b}" for b in data.building.vav_names}
-               | {d: d for d in model.disturbances},
-               "outputs": {f"T_{z}": z for z in model.outputs}}
+    mapping = {
+        "inputs": {f"m_{b}": f"m_{b}" for b in data.building.vav_names} | {d: d for d in model.disturbances},
+        "outputs": {f"T_{z}": z for z in model.outputs},
+    }
     r = run_cosim(path, data, ReplayController(), week=1, mapping=mapping)
     assert r.covered
     with pytest.raises(FMUError, match="is not an output of the FMU"):
@@ -182,9 +189,29 @@ def test_foreign_mapping(zones, data, tmp_path):
 def test_cosim_command_line(zones, short_paths, tmp_path):
     _, mp, path = zones
     out = tmp_path / "res.csv"
-    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "cosim", "--fmu", str(path), "--data", str(short_paths.measurements),
-           "--building", str(short_paths.building), "--controller", "rule", "--model", str(mp), "--week", "2",
-           "--out", str(out), "--plot", str(tmp_path / "run.png")]
+    cmd = [
+        sys.executable,
+        "-m",
+        "hvacfmu.cli",
+        "-q",
+        "cosim",
+        "--fmu",
+        str(path),
+        "--data",
+        str(short_paths.measurements),
+        "--building",
+        str(short_paths.building),
+        "--controller",
+        "rule",
+        "--model",
+        str(mp),
+        "--week",
+        "2",
+        "--out",
+        str(out),
+        "--plot",
+        str(tmp_path / "run.png"),
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "run.png").stat().st_size > 10_000
@@ -200,9 +227,27 @@ def test_cli_reports_plant_stopping_early(tmp_path, short_paths):
     short = cached_dataset(weeks=3, seed=0)
     plant = export_plant_fmu(short.truth, tmp_path / "Plant3w.fmu")
     out = tmp_path / "partial.csv"
-    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "cosim", "--plant", str(plant),
-           "--data", str(short_paths.measurements), "--building", str(short_paths.building), "--controller", "rule",
-           "--start", "2025-09-21T12:00", "--stop", "2025-09-22T12:00", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "hvacfmu.cli",
+        "-q",
+        "cosim",
+        "--plant",
+        str(plant),
+        "--data",
+        str(short_paths.measurements),
+        "--building",
+        str(short_paths.building),
+        "--controller",
+        "rule",
+        "--start",
+        "2025-09-21T12:00",
+        "--stop",
+        "2025-09-22T12:00",
+        "--out",
+        str(out),
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 1
     assert "STOPPED EARLY" in run.stdout and "beyond the emulated span" in run.stderr

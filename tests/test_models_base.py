@@ -50,7 +50,7 @@ def test_json_roundtrip(tmp_path):
     assert_allclose(m2.A, m.A, rtol=0, atol=0)
     assert_allclose(m2.gains["fall"], m.gains["fall"], rtol=0, atol=0)
     idx = pd.date_range("2025-09-01", periods=5, freq="15min", tz="America/Los_Angeles")
-    assert_allclose(m2.gains_at(idx, "fall"), m.gains[ "fall"][:5], rtol=0, atol=0)
+    assert_allclose(m2.gains_at(idx, "fall"), m.gains["fall"][:5], rtol=0, atol=0)
 
 
 @pytest.mark.parametrize(

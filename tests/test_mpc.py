@@ -119,9 +119,17 @@ def test_bad_limits_and_model():
 
 def test_input_limits_from_building(small_building):
     m = LinearZoneModel(
-        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
-        vavs=("V1", "V2", "V3"), input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
-        disturbances=("T_out",), A=np.eye(2) * 0.9, B=-np.eye(2), C=np.ones((2, 1)) * 0.1,
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=("V1", "V2", "V3"),
+        input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        disturbances=("T_out",),
+        A=np.eye(2) * 0.9,
+        B=-np.eye(2),
+        C=np.ones((2, 1)) * 0.1,
         gains={"fall": np.zeros((672, 2))},
     )
     lo, hi = input_limits(m, small_building)
@@ -190,8 +198,12 @@ def test_bilinear_newton_sensitivity_is_the_jacobian(rc_medium):
 # one-step problems: residuals, optimality, formulations
 # ---------------------------------------------------------------------------
 def solve_linear(formulation, x0, V, Q, comfort_penalty=None, N=3, **kw):
-    c = MPCController(linear_model(), LIN_UMIN, LIN_UMAX,
-                      MPCSettings(horizon=N, formulation=formulation, comfort_penalty=comfort_penalty, **kw))
+    c = MPCController(
+        linear_model(),
+        LIN_UMIN,
+        LIN_UMAX,
+        MPCSettings(horizon=N, formulation=formulation, comfort_penalty=comfort_penalty, **kw),
+    )
     return c.plan(np.asarray(x0, float), V[:N], Q[:N]), c
 
 
@@ -396,8 +408,9 @@ def certify_bilinear_plan(model, plan, x0, V, Q, u_min, u_max, T_max=22.0, tol=1
 def test_bilinear_newton_scp_matches_nonlinear_optimum(rc_small, N):
     m = rc_small
     x0, V, Q = bilinear_case(m, N, seed=2)
-    c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
-                                                       comfort_penalty=None))
+    c = MPCController(
+        m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9, comfort_penalty=None)
+    )
     plan = c.plan(x0, V, Q)
     assert plan.found and plan.converged and plan.iterations <= 10
     X, Y = m.simulate(x0, plan.U, V, Q)
@@ -416,14 +429,16 @@ def test_bilinear_frozen_scp_is_feasible_and_near_optimal(rc_small):
     m = rc_small
     N = 5
     x0, V, Q = bilinear_case(m, N, seed=2)
-    c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="frozen", max_iter=30, tol=1e-8,
-                                                       comfort_penalty=None))
+    c = MPCController(
+        m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="frozen", max_iter=30, tol=1e-8, comfort_penalty=None)
+    )
     plan = c.plan(x0, V, Q)
     assert plan.found and plan.converged
     X, Y = m.simulate(x0, plan.U, V, Q)
     assert band_residual(Y[1:]) <= FEAS_TOL
-    ref = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
-                                                         comfort_penalty=None)).plan(x0, V, Q)
+    ref = MPCController(
+        m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9, comfort_penalty=None)
+    ).plan(x0, V, Q)
     certify_bilinear_plan(m, ref, x0, V, Q, m.m_min, m.m_max)
     f_ref = ref.obj
     assert f_ref - 1e-9 <= plan.obj <= 1.02 * f_ref
@@ -493,8 +508,9 @@ def test_closed_loop_bilinear_keeps_feasible_plant_in_band(rc_medium, N, lineari
     V, Q = synthetic_week(m, 200 + N, seed=9)
     x0 = steady_state_at(m, V[0], Q[0], target=21.0)
     assert band_residual(m.output(x0)) <= 0.0
-    c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation=linearisation,
-                                                       blocks="auto" if N > 3 else None))
+    c = MPCController(
+        m, m.m_min, m.m_max, MPCSettings(horizon=N, linearisation=linearisation, blocks="auto" if N > 3 else None)
+    )
     c.reset(x0=x0)  # exact initial estimate; then the Kalman filter runs on the zone temperatures
     r = closed_loop(c, m, x0, V, Q, 200)
     s = r.summary()
@@ -514,11 +530,14 @@ def test_reduced_prediction_matches_condensed(rc_medium, linearisation):
     N = 24
     x0, V, Q = bilinear_case(m, N, seed=5)
     plans = {}
-    for name, kw in {"condensed": dict(prediction="condensed"),
-                     "full": dict(prediction="reduced", rom_tol=1e-12),
-                     "reduced": dict(prediction="reduced", rom_tol=1e-3)}.items():
-        c = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=N, blocks="auto", linearisation=linearisation,
-                                                           max_iter=1, **kw))
+    for name, kw in {
+        "condensed": dict(prediction="condensed"),
+        "full": dict(prediction="reduced", rom_tol=1e-12),
+        "reduced": dict(prediction="reduced", rom_tol=1e-3),
+    }.items():
+        c = MPCController(
+            m, m.m_min, m.m_max, MPCSettings(horizon=N, blocks="auto", linearisation=linearisation, max_iter=1, **kw)
+        )
         assert c.reduced == (name != "condensed")
         plans[name] = c.plan(x0, V, Q)
         assert plans[name].found
@@ -555,19 +574,45 @@ def test_cosim_adapter_runs_model_a_in_band(small_building):
     from harness.mpc import cosim_controller
 
     model = LinearZoneModel(
-        kind="zones", step=900.0, outputs=("A", "B"), measured_zones=("A", "B"), output_weights=np.eye(2),
-        vavs=("V1", "V2", "V3"), input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
-        disturbances=("T_out", "T_supply"), A=np.array([[0.9, 0.02], [0.03, 0.88]]), B=-np.diag([0.9, 1.2]),
-        C=np.array([[0.05, 0.02], [0.06, 0.03]]), gains={"fall": np.full((672, 2), 0.9)},
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=("V1", "V2", "V3"),
+        input_map=np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        disturbances=("T_out", "T_supply"),
+        A=np.array([[0.9, 0.02], [0.03, 0.88]]),
+        B=-np.diag([0.9, 1.2]),
+        C=np.array([[0.05, 0.02], [0.06, 0.03]]),
+        gains={"fall": np.full((672, 2), 0.9)},
     )
     n = 96
     idx = pd.date_range("2025-10-06", periods=n, freq="15min", tz="America/Los_Angeles")
     rng = np.random.default_rng(0)
-    frame = pd.DataFrame({"T_A": 21.0, "T_B": 21.0, "m_V1": 0.1, "m_V2": 0.1, "m_V3": 0.05,
-                          "T_out": 16.0 + 4 * np.sin(np.arange(n) / 15), "T_supply": 13.0 + rng.normal(0, 0.1, n)},
-                         index=idx)
-    ctx = ControlContext(frame=frame, building=small_building, vavs=("V3", "V1", "V2"), outputs=("T_B", "T_A"),
-                         output_zones=(("B",), ("A",)), step=900.0, band=(20.0, 22.0), season="fall", model=model)
+    frame = pd.DataFrame(
+        {
+            "T_A": 21.0,
+            "T_B": 21.0,
+            "m_V1": 0.1,
+            "m_V2": 0.1,
+            "m_V3": 0.05,
+            "T_out": 16.0 + 4 * np.sin(np.arange(n) / 15),
+            "T_supply": 13.0 + rng.normal(0, 0.1, n),
+        },
+        index=idx,
+    )
+    ctx = ControlContext(
+        frame=frame,
+        building=small_building,
+        vavs=("V3", "V1", "V2"),
+        outputs=("T_B", "T_A"),
+        output_zones=(("B",), ("A",)),
+        step=900.0,
+        band=(20.0, 22.0),
+        season="fall",
+        model=model,
+    )
     ctrl = cosim_controller(model, small_building, horizon=3, rho=100, comfort_penalty="none")
     assert isinstance(ctrl, Controller)
     ctrl.reset(ctx)
@@ -600,38 +645,77 @@ def physics_two_rooms():
     from hvacfmu.building import building_from_dict
     from hvacfmu.models.physics import PhysicsModel
 
-    nominal = {"U_win": 2.6, "gamma_interior_wall": 3.0, "gamma_exterior_wall": 3.0, "gamma_floor": 3.0,
-               "gamma_ceiling": 3.0}
+    nominal = {
+        "U_win": 2.6,
+        "gamma_interior_wall": 3.0,
+        "gamma_exterior_wall": 3.0,
+        "gamma_floor": 3.0,
+        "gamma_ceiling": 3.0,
+    }
     d = {
-        "name": "two rooms", "latitude": 37.875, "longitude": -122.259, "timezone": "America/Los_Angeles",
-        "zones": [{"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"]},
-                  {"name": "B", "area": 60.0, "volume": 180.0, "adjacent": ["A"]}],
-        "vavs": [{"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.5},
-                 {"name": "V2", "zone": "A", "m_min": 0.05, "m_max": 0.5},
-                 {"name": "V3", "zone": "B", "m_min": 0.04, "m_max": 0.4}],
-        "materials": [{"name": "concrete", "conductivity": 1.4, "density": 2300.0, "specific_heat": 880.0},
-                      {"name": "insulation", "conductivity": 0.04, "density": 30.0, "specific_heat": 1400.0},
-                      {"name": "gypsum", "conductivity": 0.25, "density": 800.0, "specific_heat": 1090.0}],
+        "name": "two rooms",
+        "latitude": 37.875,
+        "longitude": -122.259,
+        "timezone": "America/Los_Angeles",
+        "zones": [
+            {"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"]},
+            {"name": "B", "area": 60.0, "volume": 180.0, "adjacent": ["A"]},
+        ],
+        "vavs": [
+            {"name": "V1", "zone": "A", "m_min": 0.05, "m_max": 0.5},
+            {"name": "V2", "zone": "A", "m_min": 0.05, "m_max": 0.5},
+            {"name": "V3", "zone": "B", "m_min": 0.04, "m_max": 0.4},
+        ],
+        "materials": [
+            {"name": "concrete", "conductivity": 1.4, "density": 2300.0, "specific_heat": 880.0},
+            {"name": "insulation", "conductivity": 0.04, "density": 30.0, "specific_heat": 1400.0},
+            {"name": "gypsum", "conductivity": 0.25, "density": 800.0, "specific_heat": 1090.0},
+        ],
         "constructions": [
-            {"name": "exterior_wall", "films": ["ambient", "exterior_wall"],
-             "layers": [{"material": "concrete", "thickness": 0.15}, {"material": "insulation", "thickness": 0.08}]},
-            {"name": "partition", "films": ["interior_wall", "interior_wall"],
-             "layers": [{"material": "gypsum", "thickness": 0.05}]},
+            {
+                "name": "exterior_wall",
+                "films": ["ambient", "exterior_wall"],
+                "layers": [{"material": "concrete", "thickness": 0.15}, {"material": "insulation", "thickness": 0.08}],
+            },
+            {
+                "name": "partition",
+                "films": ["interior_wall", "interior_wall"],
+                "layers": [{"material": "gypsum", "thickness": 0.05}],
+            },
             {"name": "floor", "films": ["floor", "none"], "layers": [{"material": "concrete", "thickness": 0.12}]},
         ],
-        "windows": [{"name": "A_S", "zone": "A", "orientation": "S", "area": 15.0, "u_value": 2.6, "shgc": 0.4},
-                    {"name": "B_N", "zone": "B", "orientation": "N", "area": 8.0, "u_value": 2.6, "shgc": 0.4}],
+        "windows": [
+            {"name": "A_S", "zone": "A", "orientation": "S", "area": 15.0, "u_value": 2.6, "shgc": 0.4},
+            {"name": "B_N", "zone": "B", "orientation": "N", "area": 8.0, "u_value": 2.6, "shgc": 0.4},
+        ],
         "elements": [
-            {"name": "A_S_wall", "construction": "exterior_wall", "area": 25.0, "side1": "ambient", "side2": "A",
-             "orientation": "S"},
-            {"name": "B_N_wall", "construction": "exterior_wall", "area": 15.0, "side1": "ambient", "side2": "B",
-             "orientation": "N"},
+            {
+                "name": "A_S_wall",
+                "construction": "exterior_wall",
+                "area": 25.0,
+                "side1": "ambient",
+                "side2": "A",
+                "orientation": "S",
+            },
+            {
+                "name": "B_N_wall",
+                "construction": "exterior_wall",
+                "area": 15.0,
+                "side1": "ambient",
+                "side2": "B",
+                "orientation": "N",
+            },
             {"name": "A_B", "construction": "partition", "area": 30.0, "side1": "A", "side2": "B"},
             {"name": "A_floor", "construction": "floor", "area": 100.0, "side1": "A", "side2": "ground"},
             {"name": "B_floor", "construction": "floor", "area": 60.0, "side1": "B", "side2": "ground"},
         ],
-        "physics": {"ambient_film": 25.0, "ground_temperature": 14.0, "internal_mass": 8000.0,
-                    "max_layer_thickness": 0.04, "nominal": nominal},
+        "physics": {
+            "ambient_film": 25.0,
+            "ground_temperature": 14.0,
+            "internal_mass": 8000.0,
+            "max_layer_thickness": 0.04,
+            "nominal": nominal,
+        },
     }
     b = building_from_dict(d)
     probe = PhysicsModel(b, nominal, {"fall": np.zeros((672, 3))})
@@ -656,8 +740,19 @@ def test_physics_model_scp_matches_nonlinear_optimum_and_holds_band():
     x0 = model.simulate(np.full(model.n_states, 21.0), U_hold, np.tile(V[0], (200, 1)), np.tile(Q[0], (200, 1)))[0][-1]
     # one step: the Newton SCP plan is a KKT point of the bilinear problem (the model's own simulate)
     N = 3
-    c = MPCController(model, u_min, u_max, MPCSettings(horizon=N, linearisation="newton", max_iter=30, tol=1e-9,
-                                                       comfort_penalty=None, T_max=float(model.output(x0).max()) - 0.3))
+    c = MPCController(
+        model,
+        u_min,
+        u_max,
+        MPCSettings(
+            horizon=N,
+            linearisation="newton",
+            max_iter=30,
+            tol=1e-9,
+            comfort_penalty=None,
+            T_max=float(model.output(x0).max()) - 0.3,
+        ),
+    )
     plan = c.plan(x0, V[:N], Q[:N])
     assert plan.found and plan.converged
     X, Y = model.simulate(x0, plan.U, V[:N], Q[:N])
@@ -729,8 +824,13 @@ def test_mpc_in_harness_on_its_own_fmu_and_on_the_plant(tmp_path, short_paths, s
     assert np.max(np.maximum(T - 22.0, 20.0 - T)[no_slack]) <= 1e-4
     # the day is too warm for the boxes' m_max at times: the plan's excess is projected and reported
     assert stats["projected_steps"] == int(np.sum(~no_slack)) > 0 and stats["clipped_box_steps"] == 0
-    plant = run_cosim(export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu"), short_data,
-                      make_controller("mpc", model, short_data.building, {"horizon": 3}), model=model, **span)
+    plant = run_cosim(
+        export_plant_fmu(short_paths.truth, tmp_path / "Plant.fmu"),
+        short_data,
+        make_controller("mpc", model, short_data.building, {"horizon": 3}),
+        model=model,
+        **span,
+    )
     assert plant.covered and plant.summary["steps_completed"] == 96
     assert plant.summary["controller_stats"]["failures"] == 0
     M = plant.table[[f"m_{b}" for b in short_data.building.vav_names]].iloc[:-1].to_numpy()
@@ -740,8 +840,9 @@ def test_mpc_in_harness_on_its_own_fmu_and_on_the_plant(tmp_path, short_paths, s
 def test_settings_from_harness_options():
     from harness.mpc import settings_from_options
 
-    s, rest = settings_from_options(band=(20.5, 21.5), horizon=12, blocks="1/1/2/4/4", comfort_penalty="none",
-                                    formulation="qp", failure_dir="x")
+    s, rest = settings_from_options(
+        band=(20.5, 21.5), horizon=12, blocks="1/1/2/4/4", comfort_penalty="none", formulation="qp", failure_dir="x"
+    )
     assert (s.horizon, s.block_lengths, s.comfort_penalty, s.formulation) == (12, (1, 1, 2, 4, 4), None, "qp")
     assert (s.T_min, s.T_max) == (20.5, 21.5) and rest == {"failure_dir": "x"}
     s, _ = settings_from_options(band=(20.0, 22.0), T_max=21.0)  # an explicit option beats the run's band
@@ -832,8 +933,14 @@ def test_extended_model_equations_by_probing(tmp_path):
     from hvacfmu.models.extended import ActuationDelay, ExtendedModel, Reheat, SupplyAirBilinear, ThermalMass
 
     base = linear_model()
-    ext = ExtendedModel(base=base, terms=(ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="A", coef=0.02),
-                                          ThermalMass(zone="C", alpha=0.05, beta=0.1)))
+    ext = ExtendedModel(
+        base=base,
+        terms=(
+            ActuationDelay(zone="B", delay=2),
+            SupplyAirBilinear(zone="A", coef=0.02),
+            ThermalMass(zone="C", alpha=0.05, beta=0.1),
+        ),
+    )
     eq = probe_equations(ext)
     assert eq.bilinear and eq.n_states == 6
     assert check_equations(ext, eq, n=50, seed=3) <= 1e-12
@@ -849,15 +956,23 @@ def test_extended_model_own_equations_drive_the_mpc():
     from hvacfmu.models.extended import ActuationDelay, ExtendedModel, Reheat, SupplyAirBilinear
 
     base = linear_model()
-    ext = ExtendedModel(base=base, terms=(ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="A", coef=0.02),
-                                          Reheat(zone="C", coef=0.3, u_min=0.06)))
+    ext = ExtendedModel(
+        base=base,
+        terms=(
+            ActuationDelay(zone="B", delay=2),
+            SupplyAirBilinear(zone="A", coef=0.02),
+            Reheat(zone="C", coef=0.3, u_min=0.06),
+        ),
+    )
     pred = make_predictor(ext)
     assert pred.switches and not pred.linear and pred.nx == 5
     rng = np.random.default_rng(1)
     for _ in range(30):
         x, u = 20 + rng.normal(size=5), rng.uniform(0.0, 0.3, 3)
         v = np.array([rng.uniform(5, 20), 13.0])
-        assert_allclose(pred.step(x, u, v, np.full(3, 0.4)), ext.step_state(x, u, v, np.full(3, 0.4)), rtol=0, atol=1e-12)
+        assert_allclose(
+            pred.step(x, u, v, np.full(3, 0.4)), ext.step_state(x, u, v, np.full(3, 0.4)), rtol=0, atol=1e-12
+        )
     bad = ExtendedModel(base=base, terms=(ActuationDelay(zone="A", delay=1), Reheat(zone="A", coef=0.3, u_min=0.1)))
     with pytest.raises(ModelError, match="delayed airflow.*probing"):
         MPCController(bad, LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3))

@@ -18,8 +18,13 @@ from hvacfmu.models import load_model, model_from_dict
 from hvacfmu.models.physics import PARAM_NAMES, PhysicsModel, assemble, fit_physics
 from hvacfmu.models.physics.geometry import CP_AIR, RHO_AIR
 
-NOMINAL = {"U_win": 2.6, "gamma_interior_wall": 3.0, "gamma_exterior_wall": 3.0, "gamma_floor": 3.0,
-           "gamma_ceiling": 3.0}
+NOMINAL = {
+    "U_win": 2.6,
+    "gamma_interior_wall": 3.0,
+    "gamma_exterior_wall": 3.0,
+    "gamma_floor": 3.0,
+    "gamma_ceiling": 3.0,
+}
 LOCATION = {"latitude": 37.875, "longitude": -122.259, "timezone": "America/Los_Angeles"}
 
 
@@ -44,41 +49,78 @@ def two_zone_dict():
             {"name": "cavity", "r_value": 0.17},
         ],
         "constructions": [
-            {"name": "exterior_wall", "films": ["ambient", "exterior_wall"],
-             "layers": [{"material": "concrete", "thickness": 0.15}, {"material": "insulation", "thickness": 0.08},
-                        {"material": "gypsum", "thickness": 0.016}]},
-            {"name": "partition", "films": ["interior_wall", "interior_wall"],
-             "layers": [{"material": "gypsum", "thickness": 0.016}, {"material": "cavity"},
-                        {"material": "gypsum", "thickness": 0.016}]},
-            {"name": "floor", "films": ["floor", "none"],
-             "layers": [{"material": "concrete", "thickness": 0.12}, {"material": "insulation", "thickness": 0.05}]},
-            {"name": "ceiling", "films": ["ceiling", "none"],
-             "layers": [{"material": "gypsum", "thickness": 0.02}, {"material": "cavity"},
-                        {"material": "concrete", "thickness": 0.1}]},
+            {
+                "name": "exterior_wall",
+                "films": ["ambient", "exterior_wall"],
+                "layers": [
+                    {"material": "concrete", "thickness": 0.15},
+                    {"material": "insulation", "thickness": 0.08},
+                    {"material": "gypsum", "thickness": 0.016},
+                ],
+            },
+            {
+                "name": "partition",
+                "films": ["interior_wall", "interior_wall"],
+                "layers": [
+                    {"material": "gypsum", "thickness": 0.016},
+                    {"material": "cavity"},
+                    {"material": "gypsum", "thickness": 0.016},
+                ],
+            },
+            {
+                "name": "floor",
+                "films": ["floor", "none"],
+                "layers": [{"material": "concrete", "thickness": 0.12}, {"material": "insulation", "thickness": 0.05}],
+            },
+            {
+                "name": "ceiling",
+                "films": ["ceiling", "none"],
+                "layers": [
+                    {"material": "gypsum", "thickness": 0.02},
+                    {"material": "cavity"},
+                    {"material": "concrete", "thickness": 0.1},
+                ],
+            },
         ],
         "windows": [
             {"name": "A_S", "zone": "A", "orientation": "S", "area": 15.0, "u_value": 2.6, "shgc": 0.4},
             {"name": "B_N", "zone": "B", "orientation": "N", "area": 8.0, "u_value": 2.6, "shgc": 0.4},
         ],
         "elements": [
-            {"name": "A_S_wall", "construction": "exterior_wall", "area": 25.0, "side1": "ambient", "side2": "A",
-             "orientation": "S"},
-            {"name": "B_N_wall", "construction": "exterior_wall", "area": 15.0, "side1": "ambient", "side2": "B",
-             "orientation": "N"},
+            {
+                "name": "A_S_wall",
+                "construction": "exterior_wall",
+                "area": 25.0,
+                "side1": "ambient",
+                "side2": "A",
+                "orientation": "S",
+            },
+            {
+                "name": "B_N_wall",
+                "construction": "exterior_wall",
+                "area": 15.0,
+                "side1": "ambient",
+                "side2": "B",
+                "orientation": "N",
+            },
             {"name": "A_B", "construction": "partition", "area": 30.0, "side1": "A", "side2": "B"},
             {"name": "A_floor", "construction": "floor", "area": 100.0, "side1": "A", "side2": "ground"},
             {"name": "B_floor", "construction": "floor", "area": 60.0, "side1": "B", "side2": "ground"},
             {"name": "A_ceiling", "construction": "ceiling", "area": 100.0, "side1": "A", "side2": "adiabatic"},
             {"name": "B_ceiling", "construction": "ceiling", "area": 60.0, "side1": "B", "side2": "adiabatic"},
         ],
-        "physics": {"ambient_film": 25.0, "ground_temperature": 14.0, "internal_mass": 8000.0,
-                    "max_layer_thickness": 0.04, "nominal": dict(NOMINAL)},
+        "physics": {
+            "ambient_film": 25.0,
+            "ground_temperature": 14.0,
+            "internal_mass": 8000.0,
+            "max_layer_thickness": 0.04,
+            "nominal": dict(NOMINAL),
+        },
     }
 
 
 def one_zone_dict(elements, constructions, materials, windows=(), physics_extra=None):
-    physics = {"ambient_film": 25.0, "ground_temperature": 10.0, "nominal": dict(NOMINAL),
-               "furniture_capacity": 0.0}
+    physics = {"ambient_film": 25.0, "ground_temperature": 10.0, "nominal": dict(NOMINAL), "furniture_capacity": 0.0}
     physics.update(physics_extra or {})
     return {
         "name": "one room",
@@ -108,15 +150,27 @@ def zero_gains(nq, seasons=("fall", "winter", "spring", "summer"), value=None, s
 # --------------------------------------------------------------------------- assembly
 def test_single_wall_steady_state_heat_flow():
     """A wall between ambient (30 °C) and the ground (10 °C) through a zone: analytic series heat flow."""
-    mats = [{"name": "brick", "conductivity": 0.8, "density": 1800.0, "specific_heat": 840.0},
-            {"name": "wool", "conductivity": 0.035, "density": 25.0, "specific_heat": 1000.0},
-            {"name": "gap", "r_value": 0.2}]
-    cons = [{"name": "wall", "films": ["ambient", "exterior_wall"],
-             "layers": [{"material": "brick", "thickness": 0.24}, {"material": "gap"},
-                        {"material": "wool", "thickness": 0.1}]},
-            {"name": "slab", "films": ["floor", "none"], "layers": [{"material": "brick", "thickness": 0.1}]}]
-    els = [{"name": "wall", "construction": "wall", "area": 12.0, "side1": "ambient", "side2": "Z"},
-           {"name": "slab", "construction": "slab", "area": 20.0, "side1": "Z", "side2": "ground"}]
+    mats = [
+        {"name": "brick", "conductivity": 0.8, "density": 1800.0, "specific_heat": 840.0},
+        {"name": "wool", "conductivity": 0.035, "density": 25.0, "specific_heat": 1000.0},
+        {"name": "gap", "r_value": 0.2},
+    ]
+    cons = [
+        {
+            "name": "wall",
+            "films": ["ambient", "exterior_wall"],
+            "layers": [
+                {"material": "brick", "thickness": 0.24},
+                {"material": "gap"},
+                {"material": "wool", "thickness": 0.1},
+            ],
+        },
+        {"name": "slab", "films": ["floor", "none"], "layers": [{"material": "brick", "thickness": 0.1}]},
+    ]
+    els = [
+        {"name": "wall", "construction": "wall", "area": 12.0, "side1": "ambient", "side2": "Z"},
+        {"name": "slab", "construction": "slab", "area": 20.0, "side1": "Z", "side2": "ground"},
+    ]
     b = building_from_dict(one_zone_dict(els, cons, mats, physics_extra={"max_layer_thickness": 0.05}))
     p = dict(NOMINAL, gamma_exterior_wall=2.5, gamma_floor=4.0)
     net = assemble(b, p)
@@ -184,7 +238,8 @@ def test_energy_balance_relaxes_to_boundary_temperature(two_zone):
     x0 = 17.0 + rng.uniform(-5, 5, net.n_states)
     n = 4000
     X, _ = PhysicsModel(b, NOMINAL, zero_gains(3, step=86400.0), step=86400.0).simulate(
-        x0, np.zeros((n, 3)), np.tile(v, (n, 1)), np.tile(q, (n, 1)))
+        x0, np.zeros((n, 3)), np.tile(v, (n, 1)), np.tile(q, (n, 1))
+    )
     assert_allclose(X[-1], 17.0, rtol=0, atol=1e-6)
     dev = np.abs(X - 17.0).max(axis=1)
     assert dev[-1] < 1e-3 * dev[0]
@@ -245,7 +300,12 @@ def test_discretisation_exact_and_bilinear_zoh(two_zone):
     xm = x.copy()
     for k in range(n):
         xs = model.step_state(xm, u[k], v[k], q[k])
-        xm = dm.A @ xm + dm.Bv @ v[k] + dm.Bq @ q[k] + sum(u[k, i] * (dm.Bxu[i] @ xm + dm.Bvu[i] @ v[k]) for i in range(3))
+        xm = (
+            dm.A @ xm
+            + dm.Bv @ v[k]
+            + dm.Bq @ q[k]
+            + sum(u[k, i] * (dm.Bxu[i] @ xm + dm.Bvu[i] @ v[k]) for i in range(3))
+        )
         assert_allclose(xs, xm, rtol=0, atol=1e-10)
         assert_allclose(X[k + 1], xm, rtol=0, atol=1e-10)
     assert_allclose(Y, X[:, :2], rtol=0, atol=0)
@@ -286,19 +346,28 @@ def _bad(mutate):
 BAD_CASES = [
     (lambda d: d["elements"][0].update(side2="Q"), r"element A_S_wall: side2 'Q' is neither a zone"),
     (lambda d: d["elements"][2].update(construction="brick_wall"), r"element A_B: unknown construction 'brick_wall'"),
-    (lambda d: d["constructions"][0]["layers"][0].update(thickness=0.0),
-     r"construction exterior_wall: layers\[0\]: thickness \[m\]: must be > 0"),
-    (lambda d: d["constructions"][2]["layers"][1].update(thickness=-0.05),
-     r"construction floor: layers\[1\]: thickness \[m\]: must be > 0"),
-    (lambda d: d["materials"][0].update(conductivity=0.0), r"material concrete: conductivity \[W/\(m K\)\]: must be > 0"),
+    (
+        lambda d: d["constructions"][0]["layers"][0].update(thickness=0.0),
+        r"construction exterior_wall: layers\[0\]: thickness \[m\]: must be > 0",
+    ),
+    (
+        lambda d: d["constructions"][2]["layers"][1].update(thickness=-0.05),
+        r"construction floor: layers\[1\]: thickness \[m\]: must be > 0",
+    ),
+    (
+        lambda d: d["materials"][0].update(conductivity=0.0),
+        r"material concrete: conductivity \[W/\(m K\)\]: must be > 0",
+    ),
     (lambda d: d["materials"][1].update(conductivity=-1.0), r"material insulation: conductivity"),
     (lambda d: d["constructions"][1]["layers"][0].update(material="unobtainium"), r"unknown material 'unobtainium'"),
     (lambda d: d["windows"][0].update(zone="C"), r"window A_S: unknown zone 'C'"),
     (lambda d: d["constructions"][0].update(films=["ambient", "wallpaper"]), r"film 'wallpaper' is not one of"),
     (lambda d: d["physics"]["nominal"].pop("gamma_floor"), r"\[physics\].nominal: missing 'gamma_floor'"),
     (lambda d: d["physics"].pop("ground_temperature"), r"faces the ground but \[physics\].ground_temperature"),
-    (lambda d: d.update(elements=[e for e in d["elements"] if "B" not in e["name"] and e["name"] != "A_B"]),
-     r"zone B: no building element touches it"),
+    (
+        lambda d: d.update(elements=[e for e in d["elements"] if "B" not in e["name"] and e["name"] != "A_B"]),
+        r"zone B: no building element touches it",
+    ),
 ]
 
 
@@ -321,8 +390,13 @@ def test_bad_input_lists_every_problem():
     with pytest.raises(BuildingError) as info:
         assemble(b)
     msg = str(info.value)
-    for part in ("side2 'Q'", "unknown construction 'nope'", "thickness [m]: must be > 0",
-                 "conductivity [W/(m K)]: must be > 0", "zone B: no building element touches it"):
+    for part in (
+        "side2 'Q'",
+        "unknown construction 'nope'",
+        "thickness [m]: must be > 0",
+        "conductivity [W/(m K)]: must be > 0",
+        "zone B: no building element touches it",
+    ):
         assert part in msg
     assert "(5 problems)" in msg
 
@@ -358,8 +432,7 @@ def test_duplicate_element_names_warn(two_zone):
 
 
 # --------------------------------------------------------------------------- synthetic data, recovery
-TRUE = {"U_win": 2.0, "gamma_interior_wall": 4.5, "gamma_exterior_wall": 2.2, "gamma_floor": 4.0,
-        "gamma_ceiling": 2.0}
+TRUE = {"U_win": 2.0, "gamma_interior_wall": 4.5, "gamma_exterior_wall": 2.2, "gamma_floor": 4.0, "gamma_ceiling": 2.0}
 F_C = np.array([250.0, 120.0])  # [W]
 
 
@@ -374,14 +447,18 @@ def simulate_dataset(building, params, weeks=7, seed=0, noise=0.02, f_c=F_C, occ
     tow = time_of_week(idx, 900.0)
     hour, dow = (tow % 96) / 4.0, tow // 96
     occ = ((hour >= 8) & (hour < 18) & (dow < 5)).astype(float)
-    q = np.column_stack([f_c[None, :] + occupancy * occ[:, None] * np.linspace(1, 0.6, nz)[None, :],
-                         np.full(n, building.physics["physics"]["ground_temperature"])])
+    q = np.column_stack(
+        [
+            f_c[None, :] + occupancy * occ[:, None] * np.linspace(1, 0.6, nz)[None, :],
+            np.full(n, building.physics["physics"]["ground_temperature"]),
+        ]
+    )
     u = np.empty((n, len(building.vavs)))
     for j, box in enumerate(building.vavs):
         k = 0
         while k < n:
             step = int(rng.integers(4, 16))
-            u[k:k + step, j] = rng.uniform(box.m_min, box.m_max)
+            u[k : k + step, j] = rng.uniform(box.m_min, box.m_max)
             k += step
     T_out = 14 + 5 * np.sin(2 * np.pi * (np.arange(n) / 96 - 0.375)) + np.cumsum(rng.normal(0, 0.05, n))
     T_sup = np.clip(14 + np.cumsum(rng.normal(0, 0.02, n)), 11, 18)
@@ -457,14 +534,14 @@ def test_initial_state_kalman(recovered, two_zone):
     k0 = 5 * 672 + 20
     x0 = model.initial_state(frame, k0)
     assert x0.shape == (model.n_states,)
-    assert_allclose(x0[:2], model.measured_outputs(frame.iloc[k0:k0 + 1])[0], rtol=0, atol=0.05)
+    assert_allclose(x0[:2], model.measured_outputs(frame.iloc[k0 : k0 + 1])[0], rtol=0, atol=0.05)
     xs = model.initial_states(frame, [k0, 10, k0 + 96])
     assert_allclose(xs[0], x0, rtol=0, atol=1e-9)
     assert_allclose(xs[1], model.initial_state(frame, 10), rtol=0, atol=1e-9)  # shorter warm-up at the start
     assert_allclose(model.initial_state(frame, 0)[:2], model.measured_outputs(frame)[0], rtol=0, atol=0.05)
     u, v = model.signals(frame)
-    _, Y = model.simulate(x0, u[k0:k0 + 96], v[k0:k0 + 96], q[k0:k0 + 96])
-    err = Y[1:] - model.measured_outputs(frame)[k0 + 1:k0 + 97]
+    _, Y = model.simulate(x0, u[k0 : k0 + 96], v[k0 : k0 + 96], q[k0 : k0 + 96])
+    err = Y[1:] - model.measured_outputs(frame)[k0 + 1 : k0 + 97]
     assert np.sqrt(np.mean(err**2)) < 0.08  # [K], with the true gains
 
 
@@ -550,14 +627,22 @@ def test_cli_fit_and_evaluate(two_zone, tmp_path):
     bfile = two_zone.save(tmp_path / "building.toml")
     model_file = tmp_path / "physics.json"
     cmd = [sys.executable, "-m", "hvacfmu.cli", "-q"]
-    fit = subprocess.run(cmd + ["fit", str(data), "-b", str(bfile), "--model", "physics", "-o", str(model_file)],
-                         capture_output=True, text=True, timeout=300)
+    fit = subprocess.run(
+        cmd + ["fit", str(data), "-b", str(bfile), "--model", "physics", "-o", str(model_file)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert fit.returncode == 0, fit.stderr
     assert "Model B (physics)" in fit.stdout and "gamma_floor" in fit.stdout
     model = load_model(model_file)
     assert model.kind == "physics" and model.n_states == assemble(two_zone).n_states
-    ev = subprocess.run(cmd + ["evaluate", str(data), "-b", str(bfile), "--model", str(model_file)],
-                        capture_output=True, text=True, timeout=300)
+    ev = subprocess.run(
+        cmd + ["evaluate", str(data), "-b", str(bfile), "--model", str(model_file)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert ev.returncode == 0, ev.stderr
     assert "physics" in ev.stdout and "fall" in ev.stdout
 

@@ -66,8 +66,9 @@ def test_heat_uses_each_box_inlet(model):
     assert_allclose(model.step_state(x, u, v2, np.zeros(3)), model.step_state(x, u, v, np.zeros(3)), atol=1e-12)
     v3 = v.copy()
     v3[2:] = 80.0
-    assert_allclose(model.step_state(x, np.zeros(3), v3, np.zeros(3)), model.step_state(x, np.zeros(3), v, np.zeros(3)),
-                    atol=1e-12)
+    assert_allclose(
+        model.step_state(x, np.zeros(3), v3, np.zeros(3)), model.step_state(x, np.zeros(3), v, np.zeros(3)), atol=1e-12
+    )
 
 
 def test_simulate_matches_step_state_and_round_trip(model, tmp_path):
@@ -100,15 +101,15 @@ def _reheat_dataset(building, weeks, seed=0, drop_td=False):
     u = np.column_stack([np.repeat(rng.uniform(b.m_min, 0.3, n // 8 + 1), 8)[:n] for b in building.vavs])
     T_out = 6 + 4 * np.sin(2 * np.pi * (np.arange(n) / 96 - 0.375)) + np.cumsum(rng.normal(0, 0.03, n))
     sup = {a: np.clip(13 + np.cumsum(rng.normal(0, 0.02, n)), 11, 16) for a in ("AHU1", "AHU2")}
-    td = {b: sup["AHU2" if b == "V3" else "AHU1"] + np.repeat(rng.uniform(0, 16, n // 6 + 1), 6)[:n]
-          for b in ("V1", "V3")}
+    td = {
+        b: sup["AHU2" if b == "V3" else "AHU1"] + np.repeat(rng.uniform(0, 16, n // 6 + 1), 6)[:n] for b in ("V1", "V3")
+    }
     v = np.column_stack([T_out, sup["AHU1"], td["V1"], sup["AHU1"], td["V3"]])
     true = PhysicsModel(building, TRUE, zero_gains(3), step=900.0, inlets=INLETS)
     x0 = true.network.wall_steady_state(np.full(2, 21.0), 6.0)
     _, Y = true.simulate(x0, u, v, q)
     Y = Y[:-1] + rng.normal(0, 0.02, (n, 2))
-    cols = {"T_A": Y[:, 0], "T_B": Y[:, 1], "T_out": T_out,
-            "T_supply_AHU1": sup["AHU1"], "T_supply_AHU2": sup["AHU2"]}
+    cols = {"T_A": Y[:, 0], "T_B": Y[:, 1], "T_out": T_out, "T_supply_AHU1": sup["AHU1"], "T_supply_AHU2": sup["AHU2"]}
     cols.update({f"m_{b}": u[:, j] for j, b in enumerate(building.vav_names)})
     if not drop_td:
         cols.update({f"Td_{b}": td[b] for b in td})
@@ -143,8 +144,11 @@ def test_physics_model_for_other_zones_is_refused(model):
     frame = pd.DataFrame({"T_A": 21.0, "T_Q": 21.0, "m_V1": 0.1, "T_out": 5.0}, index=idx)
     from hvacfmu.errors import ModelError
 
-    with pytest.raises(ModelError, match=r"zone temperature column\(s\) \['T_B'\].*Model zones: \['A', 'B'\]; "
-                                         r"data zones: \['A', 'Q'\]"):
+    with pytest.raises(
+        ModelError,
+        match=r"zone temperature column\(s\) \['T_B'\].*Model zones: \['A', 'B'\]; "
+        r"data zones: \['A', 'Q'\]",
+    ):
         model.measured_outputs(frame)
     with pytest.raises(ModelError, match=r"VAV airflow column\(s\) \['m_V2', 'm_V3'\]"):
         model.signals(frame)

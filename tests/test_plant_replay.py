@@ -50,7 +50,7 @@ def _errors(result, zones):
     err = np.column_stack([tab[f"T_{z}"] - tab[f"T_{z}_measured"] for z in zones])
     idx = tab.index
     occupied = np.asarray((idx.day_of_week < 5) & (idx.hour >= 8) & (idx.hour < 18))
-    rms = np.sqrt(np.nanmean(err ** 2, axis=0))
+    rms = np.sqrt(np.nanmean(err**2, axis=0))
     bias = np.nanmean(err[occupied], axis=0)
     return rms, bias
 
@@ -73,8 +73,9 @@ def test_replay_reproduces_measured_temperatures(plant_fmu, default_dataset):
 def test_replay_without_reheat_and_warmup_runs_cold(plant_fmu, default_dataset):
     """The defect this guards against: no local reheat and a flat start leave the plant far too cold."""
     zones = list(default_dataset.building.zone_names)
-    r = run_cosim(plant_fmu, default_dataset, ReplayController(), week=WEEK, warmup=0.0,
-                  start_values={"local_reheat": 0})
+    r = run_cosim(
+        plant_fmu, default_dataset, ReplayController(), week=WEEK, warmup=0.0, start_values={"local_reheat": 0}
+    )
     assert r.summary["warmup_steps"] == 0
     rms, bias = _errors(r, zones)
     assert np.max(rms) > 2 * RMS_BOUND
@@ -109,7 +110,7 @@ def test_local_reheat_loops_are_the_emulator_controllers(short_paths):
     assert reheated > 0
     # an excitation experiment switches the loops off and resets them
     x, _ = plant.advance(x, 60.0 * (k0 + 180), 300.0, m, 8.0, 14.0, [0.0] * 4, excitation=True)
-    assert_allclose(x[-2 * nb:], 0.0, rtol=0, atol=0)
+    assert_allclose(x[-2 * nb :], 0.0, rtol=0, atol=0)
 
 
 def test_facades_from_ghi_are_the_emulator_weather(short_paths):
@@ -121,7 +122,7 @@ def test_facades_from_ghi_are_the_emulator_weather(short_paths):
     plant = Plant.from_truth(truth)
     bld = truth["baseline"]["building"]
     k0, n = 10 * 1440 + 7 * 60, 10 * 60  # day 10, 07:00-17:00
-    index = dataset_index(truth["start"], truth["weeks"], truth["timezone"])[k0:k0 + n]
+    index = dataset_index(truth["start"], truth["weeks"], truth["timezone"])[k0 : k0 + n]
     w = synthetic_weather(index, stream(3, "test"), bld["latitude"], bld["longitude"], truth["baseline"]["altitude"])
     I_ref = np.column_stack([w[f"I_{o}"] for o in ("N", "E", "S", "W")])
     I = np.vstack([plant.facades_from_ghi(60.0 * (k0 + j), 60.0, w["ghi"][j]) for j in range(0, n, 7)])
@@ -131,7 +132,10 @@ def test_facades_from_ghi_are_the_emulator_weather(short_paths):
     assert plant.facades_from_ghi(60.0 * k0, 900.0, 300.0).shape == (15, 4)
     t_week = 7 * 86400.0 + 12 * 3600.0 - 600.0  # noon of day 7 (the cache holds weeks from the dataset start)
     both = plant.facades_from_ghi(7 * 86400.0 - 600.0, 1200.0, 300.0)
-    parts = [plant.facades_from_ghi(7 * 86400.0 - 600.0, 600.0, 300.0), plant.facades_from_ghi(7 * 86400.0, 600.0, 300.0)]
+    parts = [
+        plant.facades_from_ghi(7 * 86400.0 - 600.0, 600.0, 300.0),
+        plant.facades_from_ghi(7 * 86400.0, 600.0, 300.0),
+    ]
     assert_allclose(both, np.vstack(parts), rtol=0, atol=0)
     assert np.min(plant.facades_from_ghi(t_week, 1200.0, 300.0)) > 10.0  # diffuse light on every facade at noon
 
@@ -201,8 +205,9 @@ def _replay_plant(plant, frame, use_discharge, warmup_rows, irradiance):
     x = plant.initial_state(T_meas[0])
     out = np.full_like(T_meas, np.nan)
     for k in range(len(f)):
-        x, _ = plant.advance(x, 900.0 * k, 900.0, m[k], T_out[k], Ts[k], irradiance[k],
-                             T_discharge=Td[k] if use_discharge else None)
+        x, _ = plant.advance(
+            x, 900.0 * k, 900.0, m[k], T_out[k], Ts[k], irradiance[k], T_discharge=Td[k] if use_discharge else None
+        )
         if k + 1 < len(f):
             out[k + 1] = plant.zone_temperatures(x)
     return out[warmup_rows:], T_meas[warmup_rows:]
@@ -235,7 +240,7 @@ def test_reheat_mode_replay_needs_discharge_temperatures():
     warm = 7 * 96
     sim, meas = _replay_plant(plant, frame, True, warm, irradiance)
     err = sim - meas
-    rms = np.sqrt(np.nanmean(err ** 2, axis=0))
+    rms = np.sqrt(np.nanmean(err**2, axis=0))
     assert np.all(rms < 0.3), dict(zip(plant.zones, rms.round(3)))
     cold, meas = _replay_plant(plant, frame, False, warm, irradiance)
     bias = np.nanmean(cold - meas, axis=0)

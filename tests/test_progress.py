@@ -38,9 +38,10 @@ def test_not_a_terminal_gives_plain_log_lines(caplog, fast_logging):
 def test_terminal_gets_a_bar_that_leaves_nothing_in_the_log(caplog):
     stream = FakeTerminal()
     assert is_terminal(stream) and not is_terminal(io.StringIO())
-    with caplog.at_level(logging.INFO, logger="hvacfmu.progress"), Progress(
-        total=3, desc="data", unit="stage", stream=stream
-    ) as bar:
+    with (
+        caplog.at_level(logging.INFO, logger="hvacfmu.progress"),
+        Progress(total=3, desc="data", unit="stage", stream=stream) as bar,
+    ):
         for note in ("gaps", "resampling", "weeks"):
             bar.update(note=note)
     assert "\r" in stream.getvalue() and "data" in stream.getvalue()

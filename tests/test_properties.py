@@ -32,8 +32,13 @@ BUILDING = {
     "longitude": -122.259,
     "timezone": "America/Los_Angeles",
     "zones": [
-        {"name": "A", "area": 100.0, "volume": 300.0, "adjacent": ["B"],
-         "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}]},
+        {
+            "name": "A",
+            "area": 100.0,
+            "volume": 300.0,
+            "adjacent": ["B"],
+            "facades": [{"orientation": "S", "window_area": 10.0, "wall_area": 20.0}],
+        },
         {"name": "B", "area": 50.0, "volume": 150.0, "adjacent": ["A"]},
     ],
     "ahus": [{"name": "AHU1"}, {"name": "AHU2"}],
@@ -88,7 +93,9 @@ def data_mutations(draw):
         st.tuples(st.just("unit_declared"), st.sampled_from(["T", "m", "rh"]), st.sampled_from(range(4))),
         st.tuples(st.just("gap"), st.sampled_from(cols), st.floats(0, 1), st.floats(0, 1)),
         st.tuples(st.just("spike"), st.sampled_from(cols), st.floats(0, 1), st.sampled_from([50.0, -50.0, 1e6])),
-        st.tuples(st.just("nonfinite"), st.sampled_from(cols), st.floats(0, 1), st.sampled_from([np.inf, -np.inf, np.nan])),
+        st.tuples(
+            st.just("nonfinite"), st.sampled_from(cols), st.floats(0, 1), st.sampled_from([np.inf, -np.inf, np.nan])
+        ),
         st.tuples(st.just("text"), st.sampled_from(cols), st.floats(0, 1), st.sampled_from(["abc", "", "1,5", "NaN"])),
         st.tuples(st.just("duplicate"), st.floats(0, 1)),
         st.tuples(st.just("truncate"), st.sampled_from([0, 1, 2, 50, 96 * 3])),
@@ -107,16 +114,55 @@ def data_mutations(draw):
 @st.composite
 def building_mutations(draw):
     """Wrong types and values in the building dict."""
-    path = draw(st.sampled_from([
-        ("zones", 0, "area"), ("zones", 1, "volume"), ("vavs", 0, "m_max"), ("vavs", 1, "m_min"),
-        ("vavs", 0, "ahu"), ("vavs", 1, "zone"), ("ahus", 0, "name"), ("ahus", 1, "T_supply_max"),
-        ("latitude",), ("longitude",), ("zones",), ("vavs",), ("ahus",), ("timezone",), ("columns",), ("units",),
-        ("zones", 0, "adjacent"), ("zones", 0, "facades"),
-    ]))
-    value = draw(st.sampled_from([
-        True, False, 0, 0.0, -1.0, 1e9, float("inf"), float("nan"), "12", "A", "", [], ["A"], {}, {"x": 1}, None,
-        [{"name": "A"}], {"T_A": "T_B"}, {"T_*": "degF"},
-    ]))
+    path = draw(
+        st.sampled_from(
+            [
+                ("zones", 0, "area"),
+                ("zones", 1, "volume"),
+                ("vavs", 0, "m_max"),
+                ("vavs", 1, "m_min"),
+                ("vavs", 0, "ahu"),
+                ("vavs", 1, "zone"),
+                ("ahus", 0, "name"),
+                ("ahus", 1, "T_supply_max"),
+                ("latitude",),
+                ("longitude",),
+                ("zones",),
+                ("vavs",),
+                ("ahus",),
+                ("timezone",),
+                ("columns",),
+                ("units",),
+                ("zones", 0, "adjacent"),
+                ("zones", 0, "facades"),
+            ]
+        )
+    )
+    value = draw(
+        st.sampled_from(
+            [
+                True,
+                False,
+                0,
+                0.0,
+                -1.0,
+                1e9,
+                float("inf"),
+                float("nan"),
+                "12",
+                "A",
+                "",
+                [],
+                ["A"],
+                {},
+                {"x": 1},
+                None,
+                [{"name": "A"}],
+                {"T_A": "T_B"},
+                {"T_*": "degF"},
+            ]
+        )
+    )
     return path, value
 
 
@@ -219,7 +265,9 @@ def assert_plausible(ds):
             assert ((v >= 0) & (v <= 1)).all(), c
         elif c == "ghi":
             assert ((v >= 0) & (v <= 1500)).all(), c
-        elif c.startswith("I_"):  # beam at most extraterrestrial (1408 W/m2 in January) + half of the diffuse and ground
+        elif c.startswith(
+            "I_"
+        ):  # beam at most extraterrestrial (1408 W/m2 in January) + half of the diffuse and ground
             assert ((v >= 0) & (v <= 1408 + 0.6 * 1500)).all(), c
         elif c == "excitation":
             assert np.isin(v, (0.0, 1.0)).all(), c
@@ -291,9 +339,21 @@ def test_cli_check_never_shows_a_traceback(tmp_path, mutations):
     data = write(frame, tmp_path / "m.csv", options.get("time_style", "offset"))
     (tmp_path / "b.toml").write_text(tomli_w.dumps(bdict))
     r = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "check", str(data), "-b", str(tmp_path / "b.toml"),
-         "--step", str(options.get("step", 900))],
-        check=False, capture_output=True, text=True, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "check",
+            str(data),
+            "-b",
+            str(tmp_path / "b.toml"),
+            "--step",
+            str(options.get("step", 900)),
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert "Traceback" not in r.stderr, r.stderr
     assert r.returncode == 1 and "NOT USABLE" in r.stdout, (r.returncode, r.stdout[-2000:], r.stderr[-2000:])

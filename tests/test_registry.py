@@ -59,8 +59,16 @@ def _fmu_run(path, model, frame, season):
     start["season"] = list(model.gains).index(season) + 1
     start["start_time_of_week"] = float(seconds_of_week(frame.index[:1])[0])
     start = {k: v for k, v in start.items() if k in names}
-    res = simulate_fmu(str(path), start_time=0.0, stop_time=t[-1], step_size=step, output_interval=step,
-                       input=signal, start_values=start, output=[f"T_{z}" for z in model.outputs])
+    res = simulate_fmu(
+        str(path),
+        start_time=0.0,
+        stop_time=t[-1],
+        step_size=step,
+        output_interval=step,
+        input=signal,
+        start_values=start,
+        output=[f"T_{z}" for z in model.outputs],
+    )
     return np.column_stack([res[f"T_{z}"] for z in model.outputs])
 
 
@@ -163,8 +171,12 @@ def test_state_from_outputs_public_home_matches_fmu_slave():
     b = sdh_building(nominal=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
-        model = PhysicsModel(building=b, params=dict(b.physics["physics"]["nominal"]), solar=True,
-                             gains={s: np.full((672, len(b.zone_names)), 1000.0) for s in b.season_names})
+        model = PhysicsModel(
+            building=b,
+            params=dict(b.physics["physics"]["nominal"]),
+            solar=True,
+            gains={s: np.full((672, len(b.zone_names)), 1000.0) for s in b.season_names},
+        )
     y0 = np.linspace(20.0, 23.0, model.n_outputs)
     u = np.full(model.n_inputs if hasattr(model, "n_inputs") else len(model.inputs), 0.3)
     v = np.array([10.0, 14.0] + [50.0] * (len(model.disturbances) - 2))

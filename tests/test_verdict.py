@@ -82,8 +82,10 @@ def test_true_model_beats_both_baselines_and_is_calibrated(truth, frame, buildin
     v = res.verdict
     assert len(v.zones) == 6 and not v.losing() and not v.causes
     assert all(z.beats_time_of_week and z.calibrated for z in v.zones)
-    assert res.format().splitlines()[0] == ("zones: beats persistence in 6/6 zones, the time-of-week mean in 6/6; "
-                                            "ASHRAE Guideline 14 hourly calibration met in 6/6")
+    assert res.format().splitlines()[0] == (
+        "zones: beats persistence in 6/6 zones, the time-of-week mean in 6/6; "
+        "ASHRAE Guideline 14 hourly calibration met in 6/6"
+    )
 
 
 def test_unused_column_makes_the_model_lose_and_is_named_first(truth, offset_data):
@@ -142,8 +144,11 @@ def test_delivered_heat_model_is_judged_by_its_fit_time_identifiability():
 
     ok = types.SimpleNamespace(heat="delivered", B=[[0.0]], meta={"plausibility": {"identifiable": True}})
     assert _airflow_gain(ok, dataset=None) == []
-    weak = types.SimpleNamespace(heat="delivered", B=[[0.0]], meta={"plausibility": {
-        "identifiable": False, "drive_effect_k": {"E": 0.05, "W": 0.9}}})
+    weak = types.SimpleNamespace(
+        heat="delivered",
+        B=[[0.0]],
+        meta={"plausibility": {"identifiable": False, "drive_effect_k": {"E": 0.05, "W": 0.9}}},
+    )
     lines = _airflow_gain(weak, dataset=None)
     assert len(lines) == 1 and "delivered heat not identifiable" in lines[0] and "E by 0.05 K" in lines[0]
     assert "W by" not in lines[0]

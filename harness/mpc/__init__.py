@@ -13,7 +13,22 @@ from .predict import BilinearPredictor, KalmanFilter, LinearPredictor, make_pred
 from .problem import CondensedProblem, MPCSettings, QPSolution, default_blocks, replay_problem, save_problem
 
 __all__ = [
-    "BilinearPredictor", "ClosedLoopResult", "CosimMPC", "cosim_controller", "settings_from_options", "CondensedProblem", "KalmanFilter", "LinearPredictor",
-    "MPCController", "MPCSettings", "Plan", "QPSolution", "closed_loop", "default_blocks",
-    "input_limits", "make_predictor", "replay_problem", "save_problem",
+    "BilinearPredictor",
+    "ClosedLoopResult",
+    "CosimMPC",
+    "cosim_controller",
+    "settings_from_options",
+    "CondensedProblem",
+    "KalmanFilter",
+    "LinearPredictor",
+    "MPCController",
+    "MPCSettings",
+    "Plan",
+    "QPSolution",
+    "closed_loop",
+    "default_blocks",
+    "input_limits",
+    "make_predictor",
+    "replay_problem",
+    "save_problem",
 ]

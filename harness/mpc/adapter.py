@@ -63,8 +63,9 @@ class CosimMPC:
 
     name = "mpc"
 
-    def __init__(self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05,
-                 init="outputs", **options):
+    def __init__(
+        self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05, init="outputs", **options
+    ):
         if init not in ("outputs", "model"):
             raise HvacfmuError(f"init must be 'outputs' or 'model', got {init!r}")
         self.init = init
@@ -84,13 +85,21 @@ class CosimMPC:
         self.settings, _ = settings_from_options(band=context.band, **self.options)
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
-        self.mpc = MPCController(model, u_min, u_max, self.settings, kalman_q_std=self.kalman[0],
-                                 kalman_r_std=self.kalman[1], failure_dir=self.failure_dir)
+        self.mpc = MPCController(
+            model,
+            u_min,
+            u_max,
+            self.settings,
+            kalman_q_std=self.kalman[0],
+            kalman_r_std=self.kalman[1],
+            failure_dir=self.failure_dir,
+        )
         N = self.mpc.N
         frame = context.frame
         # previews: the run's rows, then the last row held for the horizon past the end
-        idx = pd.date_range(frame.index[0], periods=len(frame) + N, freq=pd.Timedelta(seconds=context.step),
-                            tz=frame.index.tz)
+        idx = pd.date_range(
+            frame.index[0], periods=len(frame) + N, freq=pd.Timedelta(seconds=context.step), tz=frame.index.tz
+        )
         ext = frame.reindex(idx).ffill()
         missing = [c for c in model.disturbances if c not in ext]
         if missing:

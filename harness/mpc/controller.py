@@ -97,16 +97,26 @@ class MPCController:
 
     name = "mpc"
 
-    def __init__(self, model, u_min, u_max, settings: MPCSettings | None = None, *,
-                 kalman_q_std=0.05, kalman_r_std=0.05, failure_dir=None):
+    def __init__(
+        self,
+        model,
+        u_min,
+        u_max,
+        settings: MPCSettings | None = None,
+        *,
+        kalman_q_std=0.05,
+        kalman_r_std=0.05,
+        failure_dir=None,
+    ):
         self.model = model
         self.settings = settings or MPCSettings()
         self.pred = make_predictor(model)
         self.u_min = np.asarray(u_min, dtype=float).ravel()
         self.u_max = np.asarray(u_max, dtype=float).ravel()
         if self.u_min.size != self.pred.nu or self.u_max.size != self.pred.nu:
-            raise ModelError(f"input limits have {self.u_min.size}/{self.u_max.size} entries, "
-                             f"model has {self.pred.nu} inputs")
+            raise ModelError(
+                f"input limits have {self.u_min.size}/{self.u_max.size} entries, model has {self.pred.nu} inputs"
+            )
         self.lengths = np.asarray(self.settings.block_lengths)
         self.N = int(self.lengths.sum())
         self.bilinear = not self.pred.linear
@@ -240,17 +250,18 @@ class MPCController:
         solve_time, best, converged, it, last_delta, last_step = 0.0, None, False, 0, np.inf, None
         for it in range(1, s.max_iter + 1):
             if self.reduced:
-                y0, beta, theta = self.pred.reduced_prediction(x0, V, Qg, Xbar=Xbar, Ubar=Ubar,
-                                                               mode=s.linearisation, tol=s.rom_tol)
+                y0, beta, theta = self.pred.reduced_prediction(
+                    x0, V, Qg, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation, tol=s.rom_tol
+                )
                 if self._problem is None:
                     rom = self.pred.reduced_model(s.rom_tol)
-                    self._problem = ReducedProblem(rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta,
-                                                   self.u_min, self.u_max, s)
+                    self._problem = ReducedProblem(
+                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s
+                    )
                 else:
                     self._problem.update_blocks(beta, theta)
             else:
-                y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar,
-                                                    mode=s.linearisation)
+                y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
                 if self._problem is None:
                     self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
                 else:
@@ -280,8 +291,9 @@ class MPCController:
         if best is None:
             return self._failed_plan(sol, it, solve_time)
         sol, X, merit = best
-        return Plan(True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time,
-                    merit=merit)
+        return Plan(
+            True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time, merit=merit
+        )
 
     def merit(self, U, X) -> float:
         """The problem's cost of moves U (N, nu) evaluated on the exact model trajectory X (N+1, nx).
@@ -304,9 +316,18 @@ class MPCController:
 
     def _failed_plan(self, sol, it, solve_time=None):
         nan = np.full((self.N + 1, self.pred.nx), np.nan)
-        return Plan(False, sol.status, np.full((self.N, self.pred.nu), np.nan), sol.eps, nan,
-                    nan @ self.pred.C.T, float("nan"), it, False,
-                    sol.solve_time if solve_time is None else solve_time)
+        return Plan(
+            False,
+            sol.status,
+            np.full((self.N, self.pred.nu), np.nan),
+            sol.eps,
+            nan,
+            nan @ self.pred.C.T,
+            float("nan"),
+            it,
+            False,
+            sol.solve_time if solve_time is None else solve_time,
+        )
 
     def _keep_failure(self, y0, x0, V, Qg):
         arrays = self._problem.snapshot(y0, step=self.k, x0=x0, V=V, Qg=Qg)
@@ -508,12 +529,17 @@ def closed_loop(controller: MPCController, plant, x0, V, Qg, n_steps, *, noise_s
     plans = controller.plans[-n_steps:]
     s = controller.settings
     return ClosedLoopResult(
-        u=U, y=Y, x=X,
+        u=U,
+        y=Y,
+        x=X,
         step_time=np.array([p.step_time for p in plans]),
         iterations=np.array([p.iterations for p in plans]),
         fallback=fallback,
-        u_min=controller.u_min, u_max=controller.u_max,
-        T_min=float(np.min(s.T_min)), T_max=float(np.max(s.T_max)), rho=s.rho,
+        u_min=controller.u_min,
+        u_max=controller.u_max,
+        T_min=float(np.min(s.T_min)),
+        T_max=float(np.max(s.T_max)),
+        rho=s.rho,
         step=float(getattr(plant, "step", 900.0)),
         inputs=tuple(getattr(controller.model, "inputs", ())),
         outputs=tuple(getattr(controller.model, "outputs", ())),

@@ -182,7 +182,6 @@ class AffinePredictor:
         Ub = Ubar[blk].ravel()  # Ubar is blocked (constant within blocks)
         return (X[1:] @ self.C.T).ravel() - G @ Ub, G
 
-
     # --- reduced-order forced response -------------------------------------
     def reduced_model(self, tol=1e-3):
         """Balanced truncation of the airflow-to-output map ``(A, P, C)``, cached per ``tol``.
@@ -222,8 +221,15 @@ class AffinePredictor:
                 S = S.real
                 Si = np.linalg.inv(S)
                 Ar, Br, Cr, T = lam.real, Si @ Br, Cr @ S, T @ S
-            self._markov[key] = {"Ar": Ar, "Br": Br, "Cr": Cr, "D0": C @ P - Cr @ Br, "T": T,
-                                 "hsv": hsv, "order": order}
+            self._markov[key] = {
+                "Ar": Ar,
+                "Br": Br,
+                "Cr": Cr,
+                "D0": C @ P - Cr @ Br,
+                "T": T,
+                "hsv": hsv,
+                "order": order,
+            }
         return self._markov[key]
 
     def reduced_error(self, N, tol=1e-3) -> float:
@@ -343,10 +349,13 @@ class BilinearPredictor(AffinePredictor):
         if not len(Bxu) == len(Bvu) == Bu.shape[1]:
             problems.append(f"{len(Bxu)} Bxu matrices, {len(Bvu)} Bvu matrices and {Bu.shape[1]} Bu columns")
         for name, Ms, shape in (("Bxu", Bxu, (nx, nx)), ("Bvu", Bvu, (nx, nv))):
-            problems += [f"{name}[{i}] has shape {M.shape}, expected {shape}" for i, M in enumerate(Ms) if M.shape != shape]
+            problems += [
+                f"{name}[{i}] has shape {M.shape}, expected {shape}" for i, M in enumerate(Ms) if M.shape != shape
+            ]
         if self.C.shape[1] != nx or self.Bq.shape[0] != nx or self.Bv.shape[0] != nx or Bu.shape[0] != nx:
-            problems.append(f"C {self.C.shape}, Bv {self.Bv.shape}, Bq {self.Bq.shape}, Bu {Bu.shape} "
-                            f"do not match nx = {nx}")
+            problems.append(
+                f"C {self.C.shape}, Bv {self.Bv.shape}, Bq {self.Bq.shape}, Bu {Bu.shape} do not match nx = {nx}"
+            )
         if problems:
             raise ModelError("bilinear matrices: " + "; ".join(problems))
         self.nu = len(Bxu)
@@ -393,8 +402,7 @@ class BilinearPredictor(AffinePredictor):
         return W
 
     def beta(self, Xbar, V):
-        return (self.PtBu[None] + np.einsum("irn,kn->kri", self.PtBxu, Xbar)
-                + np.einsum("irv,kv->kri", self.PtBvu, V))
+        return self.PtBu[None] + np.einsum("irn,kn->kri", self.PtBxu, Xbar) + np.einsum("irv,kv->kri", self.PtBvu, V)
 
     def theta(self, Ubar):
         return np.einsum("ki,irn->krn", Ubar, self.PtBxu)
@@ -459,7 +467,11 @@ class KalmanFilter:
 
     def __init__(self, predictor, u_nom, q_std=0.05, r_std=0.05):
         self.pred = predictor
-        Au = predictor.state_matrix(np.asarray(u_nom, dtype=float)) if hasattr(predictor, "state_matrix") else predictor.A
+        Au = (
+            predictor.state_matrix(np.asarray(u_nom, dtype=float))
+            if hasattr(predictor, "state_matrix")
+            else predictor.A
+        )
         C = predictor.C
         Qn = q_std**2 * np.eye(predictor.nx)
         Rn = r_std**2 * np.eye(predictor.ny)
@@ -539,22 +551,38 @@ def probe_equations(model):
     Bu = np.column_stack([f(u=e) for e in Iu]) if nu else np.zeros((nx, 0))
     Bv = np.column_stack([f(v=e) for e in Iv]) if nv else np.zeros((nx, 0))
     Bq = np.column_stack([f(q=e) for e in Iq]) if nq else np.zeros((nx, 0))
-    Bxu = tuple(np.column_stack([f(x=e, u=ei) - A[:, j] - Bu[:, i] for j, e in enumerate(Ix)])
-                for i, ei in enumerate(Iu))
-    Bvu = tuple(np.column_stack([f(v=e, u=ei) - Bv[:, j] - Bu[:, i] for j, e in enumerate(Iv)]) if nv
-                else np.zeros((nx, 0)) for i, ei in enumerate(Iu))
+    Bxu = tuple(
+        np.column_stack([f(x=e, u=ei) - A[:, j] - Bu[:, i] for j, e in enumerate(Ix)]) for i, ei in enumerate(Iu)
+    )
+    Bvu = tuple(
+        np.column_stack([f(v=e, u=ei) - Bv[:, j] - Bu[:, i] for j, e in enumerate(Iv)]) if nv else np.zeros((nx, 0))
+        for i, ei in enumerate(Iu)
+    )
     scale = max(1.0, float(np.abs(A).max()))
     bilinear = any(np.abs(M).max(initial=0.0) > 1e-12 * scale for M in Bxu + Bvu)
     C = np.asarray(model.output(np.eye(nx)), dtype=float).T
-    eq = ModelEquations(step=float(model.step), A=A, Bu=Bu, Bv=Bv, Bq=Bq, C=C, inputs=tuple(model.inputs),
-                        disturbances=tuple(model.disturbances), outputs=tuple(model.outputs),
-                        gains=dict(model.gains), Bxu=Bxu if bilinear else (), Bvu=Bvu if bilinear else ())
+    eq = ModelEquations(
+        step=float(model.step),
+        A=A,
+        Bu=Bu,
+        Bv=Bv,
+        Bq=Bq,
+        C=C,
+        inputs=tuple(model.inputs),
+        disturbances=tuple(model.disturbances),
+        outputs=tuple(model.outputs),
+        gains=dict(model.gains),
+        Bxu=Bxu if bilinear else (),
+        Bvu=Bvu if bilinear else (),
+    )
     try:
         check_equations(model, eq, atol=1e-8)
     except ModelError as exc:
-        raise ModelError(f"MPC needs the equations of the {getattr(model, 'kind', '?')} model: its step is not "
-                         f"bilinear in its inputs when probed ({exc}); piecewise terms such as reheat need the "
-                         "kind's own equations()") from None
+        raise ModelError(
+            f"MPC needs the equations of the {getattr(model, 'kind', '?')} model: its step is not "
+            f"bilinear in its inputs when probed ({exc}); piecewise terms such as reheat need the "
+            "kind's own equations()"
+        ) from None
     return eq
 
 
@@ -573,8 +601,10 @@ def make_predictor(model):
         return BilinearPredictor(eq)
     if hasattr(model, "discrete_matrices"):
         return BilinearPredictor(model.discrete_matrices())
-    raise ModelError(f"no MPC predictor for model kind {getattr(model, 'kind', type(model).__name__)!r}: "
-                     "it provides neither equations() nor discrete_matrices()")
+    raise ModelError(
+        f"no MPC predictor for model kind {getattr(model, 'kind', type(model).__name__)!r}: "
+        "it provides neither equations() nor discrete_matrices()"
+    )
 
 
 def state_from_outputs(pred, y0, u, v, q) -> np.ndarray:

@@ -311,27 +311,27 @@ class _MPCProblem:
         iU = np.arange(nU)
         eps_of = self.i_eps + (iU if self.per_step else np.tile(np.arange(nu), self.nb))
         iY = np.arange(nY)
-        put(iU, iU, 1.0)                                  # U - eps <= u_max
+        put(iU, iU, 1.0)  # U - eps <= u_max
         put(iU, eps_of, -1.0)
         state["r0"] += nU
-        put(iU, iU, -1.0)                                 # -U - eps <= -u_min
+        put(iU, iU, -1.0)  # -U - eps <= -u_min
         put(iU, eps_of, -1.0)
         state["r0"] += nU
         put(np.arange(self.ne), self.i_eps + np.arange(self.ne), -1.0)  # -eps <= 0
         state["r0"] += self.ne
-        for sign in (1.0, -1.0):                          # ±y - s <= ±T_max/min
+        for sign in (1.0, -1.0):  # ±y - s <= ±T_max/min
             put(iY, self.i_y + iY, sign)
             if self.soft:
                 put(iY, self.i_s + iY, -1.0)
             state["r0"] += nY
         if self.soft:
-            put(iY, self.i_s + iY, -1.0)                  # -s <= 0
+            put(iY, self.i_s + iY, -1.0)  # -s <= 0
             state["r0"] += nY
         if self.settings.u_floor is not None:
-            put(iU, iU, -1.0)                             # -U <= -u_floor
+            put(iU, iU, -1.0)  # -U <= -u_floor
             state["r0"] += nU
         self.n_nonneg = state["r0"] - n_eq
-        if self.socp:                                     # (t, eps) in the second-order cone
+        if self.socp:  # (t, eps) in the second-order cone
             put(np.array([0]), np.array([self.i_t]), -1.0)
             put(1 + np.arange(self.ne), self.i_eps + np.arange(self.ne), -np.sqrt(self.eps_w))
             state["r0"] += 1 + self.ne
@@ -343,16 +343,18 @@ class _MPCProblem:
             raise SolverError("internal error: duplicate entries in the MPC constraint matrix")
         self._perm = tag.data.astype(np.int64) - 1  # A.data = coo_data[perm]
         self.A = sparse.csc_matrix((self._coo_data[self._perm], tag.indices, tag.indptr), shape=tag.shape)
-        self._b_const = np.concatenate([
-            np.tile(self.u_max, self.nb),
-            -np.tile(self.u_min, self.nb),
-            np.zeros(self.ne),
-            self.T_max,
-            -self.T_min,
-            np.zeros(nY if self.soft else 0),
-            np.full(nU if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
-            np.zeros(1 + self.ne if self.socp else 0),
-        ])
+        self._b_const = np.concatenate(
+            [
+                np.tile(self.u_max, self.nb),
+                -np.tile(self.u_min, self.nb),
+                np.zeros(self.ne),
+                self.T_max,
+                -self.T_min,
+                np.zeros(nY if self.soft else 0),
+                np.full(nU if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
+                np.zeros(1 + self.ne if self.socp else 0),
+            ]
+        )
 
     def _update_slots(self, **blocks):
         for name, values in blocks.items():
@@ -396,8 +398,9 @@ class _MPCProblem:
         t0 = time.perf_counter()
         try:
             if self._solver is None:
-                self._solver = clarabel.DefaultSolver(self.P, self.q, self.A, b, self.cones(),
-                                                      self._clarabel_settings())
+                self._solver = clarabel.DefaultSolver(
+                    self.P, self.q, self.A, b, self.cones(), self._clarabel_settings()
+                )
             elif self._A_changed:
                 self._solver.update(A=self.A.data.copy(), b=b)
             else:
@@ -434,10 +437,18 @@ class _MPCProblem:
         """Arrays that reproduce this problem exactly (for :func:`save_problem`)."""
         A = self.A.tocsc()
         out = {
-            "P_data": self.P.data, "P_indices": self.P.indices, "P_indptr": self.P.indptr,
-            "P_shape": np.array(self.P.shape), "q": self.q,
-            "A_data": A.data, "A_indices": A.indices, "A_indptr": A.indptr, "A_shape": np.array(A.shape),
-            "b": self.rhs(y0), "n_zero": np.array(self.n_eq), "n_nonneg": np.array(self.n_nonneg),
+            "P_data": self.P.data,
+            "P_indices": self.P.indices,
+            "P_indptr": self.P.indptr,
+            "P_shape": np.array(self.P.shape),
+            "q": self.q,
+            "A_data": A.data,
+            "A_indices": A.indices,
+            "A_indptr": A.indptr,
+            "A_shape": np.array(A.shape),
+            "b": self.rhs(y0),
+            "n_zero": np.array(self.n_eq),
+            "n_nonneg": np.array(self.n_nonneg),
             "n_soc": np.array(1 + self.ne if self.socp else 0),
             "settings_json": np.array(json.dumps(self.settings.to_dict())),
         }
@@ -549,14 +560,14 @@ class ReducedProblem(_MPCProblem):
         row = 0
         for k in range(N):
             wk, xk, xk1 = i_w + k * r_, self.i_x + (k - 1) * nr, self.i_x + k * nr
-            put(row + np.arange(r_), wk + np.arange(r_), 1.0)               # w(k) - β_k u - Θ_k ξ(k) = 0
+            put(row + np.arange(r_), wk + np.arange(r_), 1.0)  # w(k) - β_k u - Θ_k ξ(k) = 0
             slot("beta")
             put(row + bi, blk[k] * nu + bj, -self._beta[k])
             if self.has_theta and k > 0:
                 slot("theta")
                 put(row + ti, xk + tj, -self._theta[k])
             row += r_
-            put(row + np.arange(nr), xk1 + np.arange(nr), 1.0)              # ξ(k+1) - A_r ξ(k) - B_r w(k) = 0
+            put(row + np.arange(nr), xk1 + np.arange(nr), 1.0)  # ξ(k+1) - A_r ξ(k) - B_r w(k) = 0
             if k > 0:
                 if self.Ar.ndim == 1:
                     put(row + np.arange(nr), xk + np.arange(nr), -self.Ar)

@@ -318,10 +318,31 @@ def delayed_three_zones(delay=1, bilinear=False) -> EquationsModel:
         Bxu[0][0, 0], Bvu[0][0, 1] = -0.02, 0.02
         g = np.zeros(nx)
         g[1] = 0.3
-        kw = dict(Bxu=tuple(Bxu), Bvu=tuple(Bvu),
-                  switches=(Switch(g, input_index=1, input_below=u_min[1] + 1e-9, disturbance_index=0,
-                                   disturbance_below=12.0, name="reheat_B"),))
-    eq = ModelEquations(step=900.0, A=A, Bu=Bu, Bv=Bv, Bq=Bq, C=C, inputs=("m_A", "m_B", "m_C"),
-                        disturbances=("T_out", "T_supply"), outputs=("A", "B", "C"),
-                        gains={"fall": np.full((672, nz), 0.5)}, **kw)
+        kw = dict(
+            Bxu=tuple(Bxu),
+            Bvu=tuple(Bvu),
+            switches=(
+                Switch(
+                    g,
+                    input_index=1,
+                    input_below=u_min[1] + 1e-9,
+                    disturbance_index=0,
+                    disturbance_below=12.0,
+                    name="reheat_B",
+                ),
+            ),
+        )
+    eq = ModelEquations(
+        step=900.0,
+        A=A,
+        Bu=Bu,
+        Bv=Bv,
+        Bq=Bq,
+        C=C,
+        inputs=("m_A", "m_B", "m_C"),
+        disturbances=("T_out", "T_supply"),
+        outputs=("A", "B", "C"),
+        gains={"fall": np.full((672, nz), 0.5)},
+        **kw,
+    )
     return EquationsModel(eq, u_min, u_max, kind="extended" if bilinear else "equations")

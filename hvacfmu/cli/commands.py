@@ -55,8 +55,15 @@ def _load_dataset(args):
 def _cmd_check(args):
     import hvacfmu as hf
 
-    report = hf.check(args.data, args.building, step=args.step, seed=args.seed,
-                      interpolate_limit=args.interpolate_gaps, timezone=args.timezone, progress=not args.quiet)
+    report = hf.check(
+        args.data,
+        args.building,
+        step=args.step,
+        seed=args.seed,
+        interpolate_limit=args.interpolate_gaps,
+        timezone=args.timezone,
+        progress=not args.quiet,
+    )
     print(report)
     return 0 if report.ok else 1
 
@@ -74,10 +81,20 @@ def _cmd_generate(args):
 
     effects = [parse_effect(e) for e in (args.effect or [])]
     paths = hf.generate(
-        args.outdir, weeks=51 if args.weeks is None else args.weeks, seed=args.seed, effects=effects,
-        fmt=args.format, layout=args.layout, construction=args.construction, climate=args.climate,
-        start=args.start or "2025-09-01", hvac=args.hvac, units=args.units,
-        clock=args.clock, export_step=args.export_step, faults=args.fault or (),
+        args.outdir,
+        weeks=51 if args.weeks is None else args.weeks,
+        seed=args.seed,
+        effects=effects,
+        fmt=args.format,
+        layout=args.layout,
+        construction=args.construction,
+        climate=args.climate,
+        start=args.start or "2025-09-01",
+        hvac=args.hvac,
+        units=args.units,
+        clock=args.clock,
+        export_step=args.export_step,
+        faults=args.fault or (),
     )
     print(paths)
     return 0
@@ -98,8 +115,11 @@ def _cmd_fit(args):
     options = {}
     if args.heat is not None:
         if args.model not in ("lumped", "zones"):
-            print(f"hvacfmu: error: --heat applies to Model A (lumped, zones), not {args.model}; the physics model "
-                  "always uses each box's Td_<vav> where measured", file=sys.stderr)
+            print(
+                f"hvacfmu: error: --heat applies to Model A (lumped, zones), not {args.model}; the physics model "
+                "always uses each box's Td_<vav> where measured",
+                file=sys.stderr,
+            )
             return 2
         options["heat"] = args.heat
     dataset = _load_dataset(args)
@@ -172,9 +192,15 @@ def _cmd_demo(args):
 def _cmd_fleet(args):
     from ..fleet import fleet
 
-    result = fleet(args.source, stages=args.stages, out=args.out, scheduler=args.scheduler,
-                   n_workers=args.workers, kinds=tuple(args.kind or ("lumped", "zones")),
-                   progress=False if args.quiet else None)
+    result = fleet(
+        args.source,
+        stages=args.stages,
+        out=args.out,
+        scheduler=args.scheduler,
+        n_workers=args.workers,
+        kinds=tuple(args.kind or ("lumped", "zones")),
+        progress=False if args.quiet else None,
+    )
     print(result.summary())
     print(f"table: {result.out / 'fleet.parquet'} and fleet.csv; report: {result.out / 'report.html'}")
     return 1 if result.failed else 0
@@ -198,8 +224,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
-    p.add_argument("--engine", choices=("emulator", "energyplus"), default="emulator",
-                   help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')")
+    p.add_argument(
+        "--engine",
+        choices=("emulator", "energyplus"),
+        default="emulator",
+        help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')",
+    )
     p.add_argument("--weeks", type=int, default=None, help="length [weeks] (emulator default 51, energyplus: a year)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument(
@@ -209,23 +239,51 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
-    p.add_argument("--layout", choices=("sdh", "row4", "core9"), default="sdh",
-                   help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)")
-    p.add_argument("--construction", choices=("medium", "light", "heavy"), default="medium",
-                   help="construction template (default medium: the SDH-like concrete frame)")
-    p.add_argument("--climate", choices=("mild", "cold", "hot"), default="mild",
-                   help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)")
-    p.add_argument("--start", default=None, metavar="YYYY-MM-DD",
-                   help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)")
-    p.add_argument("--hvac", choices=("vav", "reheat", "reheat-dual"), default="vav",
-                   help="vav (default), reheat: real-BMS-like VAV with reheat at constant minimum airflow, two air "
-                        "handlers, Td_/rh_ columns; reheat-dual: the same with dual-maximum boxes")
+    p.add_argument(
+        "--layout",
+        choices=("sdh", "row4", "core9"),
+        default="sdh",
+        help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)",
+    )
+    p.add_argument(
+        "--construction",
+        choices=("medium", "light", "heavy"),
+        default="medium",
+        help="construction template (default medium: the SDH-like concrete frame)",
+    )
+    p.add_argument(
+        "--climate",
+        choices=("mild", "cold", "hot"),
+        default="mild",
+        help="mild (Berkeley, default), cold (Chicago-like winters), hot (Phoenix-like summers)",
+    )
+    p.add_argument(
+        "--start",
+        default=None,
+        metavar="YYYY-MM-DD",
+        help="local start date (emulator default 2025-09-01, energyplus 2017-01-01)",
+    )
+    p.add_argument(
+        "--hvac",
+        choices=("vav", "reheat", "reheat-dual"),
+        default="vav",
+        help="vav (default), reheat: real-BMS-like VAV with reheat at constant minimum airflow, two air "
+        "handlers, Td_/rh_ columns; reheat-dual: the same with dual-maximum boxes",
+    )
     p.add_argument("--units", choices=("si", "us"), default="si", help="export units: si (default) or us (°F, CFM, %%)")
-    p.add_argument("--clock", choices=("aware", "naive-local", "naive-utc"), default="aware",
-                   help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC")
+    p.add_argument(
+        "--clock",
+        choices=("aware", "naive-local", "naive-utc"),
+        default="aware",
+        help="timestamps: ISO with UTC offset (default), naive local wall clock, or naive UTC",
+    )
     p.add_argument("--export-step", type=int, default=60, metavar="SECONDS", help="trend-log interval (default 60)")
-    p.add_argument("--fault", action="append", choices=("outages", "sparse_box", "stuck_sensor"),
-                   help="real-world export defect (repeatable)")
+    p.add_argument(
+        "--fault",
+        action="append",
+        choices=("outages", "sparse_box", "stuck_sensor"),
+        help="real-world export defect (repeatable)",
+    )
     from ..energyplus.cli import add_energyplus_arguments
 
     add_energyplus_arguments(p)
@@ -240,16 +298,27 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
-    p.add_argument("--model", "-m", choices=fittable_kinds(), required=True,
-                   help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()))
+    p.add_argument(
+        "--model",
+        "-m",
+        choices=fittable_kinds(),
+        required=True,
+        help="model kind (from the model-kind registry): " + ", ".join(fittable_kinds()),
+    )
     p.add_argument("--output", "-o", required=True, help="model file to write (JSON)")
-    p.add_argument("--heat", choices=("auto", "airflow", "delivered"),
-                   help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
-                   "are measured or an air handler is often off, else the paper's airflow form)")
+    p.add_argument(
+        "--heat",
+        choices=("auto", "airflow", "delivered"),
+        help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
+        "are measured or an air handler is often off, else the paper's airflow form)",
+    )
     p.set_defaults(func=_cmd_fit)
 
-    p = sub.add_parser("evaluate", help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
-                       "CV(RMSE)), then 24-hour open-loop RMS on held-out weeks (the paper's Table I)")
+    p = sub.add_parser(
+        "evaluate",
+        help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
+        "CV(RMSE)), then 24-hour open-loop RMS on held-out weeks (the paper's Table I)",
+    )
     _data_args(p)
     p.add_argument("--model", "-m", action="append", required=True, help="model file (repeatable)")
     p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
@@ -261,12 +330,23 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
     p.add_argument("model", help="model file (JSON), or an emulator truth.json for the plant FMU")
     p.add_argument("--output", "-o", required=True, help="FMU to write")
-    p.add_argument("--timezone", help="IANA time zone of the building (e.g. America/Los_Angeles); lets the FMU of a "
-                   "model with calendar terms (holidays) follow the calendar through its start_time parameter")
-    p.add_argument("--building", "-b", help="building file (TOML) the model was fitted on: box airflow bounds "
-                   "(m_max) and zones in the model description")
-    p.add_argument("--native", action="store_true", help="native FMU: the model as generated C code compiled "
-                   "with the system C compiler, no Python at run time (linear/bilinear model kinds)")
+    p.add_argument(
+        "--timezone",
+        help="IANA time zone of the building (e.g. America/Los_Angeles); lets the FMU of a "
+        "model with calendar terms (holidays) follow the calendar through its start_time parameter",
+    )
+    p.add_argument(
+        "--building",
+        "-b",
+        help="building file (TOML) the model was fitted on: box airflow bounds "
+        "(m_max) and zones in the model description",
+    )
+    p.add_argument(
+        "--native",
+        action="store_true",
+        help="native FMU: the model as generated C code compiled "
+        "with the system C compiler, no Python at run time (linear/bilinear model kinds)",
+    )
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
@@ -295,13 +375,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fleet", help="run check/fit/evaluate/diagnose/export over many buildings on Dask")
     p.add_argument("source", help="folder of building folders, a folder with fleet.json, or a manifest (.json/.csv)")
-    p.add_argument("--stages", default="check,fit,evaluate",
-                   help="comma-separated subset of check,fit,evaluate,diagnose,export (default check,fit,evaluate)")
+    p.add_argument(
+        "--stages",
+        default="check,fit,evaluate",
+        help="comma-separated subset of check,fit,evaluate,diagnose,export (default check,fit,evaluate)",
+    )
     p.add_argument("--out", default="hvacfmu-fleet", help="output folder (default ./hvacfmu-fleet)")
     p.add_argument("--scheduler", help="address of a running Dask scheduler (default: a local cluster)")
     p.add_argument("--workers", type=int, help="local workers (default: the machine's cores)")
-    p.add_argument("--kind", action="append", choices=fittable_kinds(),
-                   help="model kind to fit (repeatable; default lumped and zones)")
+    p.add_argument(
+        "--kind",
+        action="append",
+        choices=fittable_kinds(),
+        help="model kind to fit (repeatable; default lumped and zones)",
+    )
     p.set_defaults(func=_cmd_fleet)
     return parser
 
@@ -331,8 +418,9 @@ def main(argv=None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
-                        format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s"
+    )
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

@@ -118,13 +118,17 @@ class _Stages:
         dt = time.perf_counter() - t
         self.times.append(StageTime(name, dt, ok, err))
         status = "done" if ok else "FAILED"
-        print(f"[{self.i}/{self.n}] {name}: {status} in {dt:.1f} s (elapsed {time.perf_counter() - self.t0:.1f} s)",
-              file=self.stream, flush=True)
+        print(
+            f"[{self.i}/{self.n}] {name}: {status} in {dt:.1f} s (elapsed {time.perf_counter() - self.t0:.1f} s)",
+            file=self.stream,
+            flush=True,
+        )
         return out
 
 
-def run_demo(out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: int = 3,
-             progress: bool = True) -> DemoResult:
+def run_demo(
+    out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: int = 3, progress: bool = True
+) -> DemoResult:
     """Run the whole paper on the emulated building and write a report.
 
     Parameters
@@ -150,20 +154,38 @@ def run_demo(out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: in
     st = _Stages(8)
     r: dict = {"weeks": weeks, "seed": seed, "mpc_horizon": mpc_horizon}
 
-    r["data"] = st.run("dataset", f"emulated SDH-like floor, {weeks} weeks of 1-minute data (cached)",
-                       _stage_dataset, out, weeks, seed)
+    r["data"] = st.run(
+        "dataset", f"emulated SDH-like floor, {weeks} weeks of 1-minute data (cached)", _stage_dataset, out, weeks, seed
+    )
     ds = r["data"]["dataset"] if r["data"] else None
-    r["model_a"] = st.run("model A", "fit the lumped and six-zone data-driven models", _stage_model_a, out, ds) \
-        if ds else None
-    r["model_b"] = st.run("model B", "fit the physics-based RC model", _stage_model_b, out, ds, progress) \
-        if ds else None
-    r["evaluation"] = st.run("evaluate", "24-h open-loop RMS on held-out weeks", _stage_evaluate, out, ds, r) \
-        if ds else None
-    r["diagnosis"] = st.run("diagnose", "what the six-zone model gets wrong", _stage_diagnose, out, ds, r) \
-        if ds and r["model_a"] else None
+    r["model_a"] = (
+        st.run("model A", "fit the lumped and six-zone data-driven models", _stage_model_a, out, ds) if ds else None
+    )
+    r["model_b"] = (
+        st.run("model B", "fit the physics-based RC model", _stage_model_b, out, ds, progress) if ds else None
+    )
+    r["evaluation"] = (
+        st.run("evaluate", "24-h open-loop RMS on held-out weeks", _stage_evaluate, out, ds, r) if ds else None
+    )
+    r["diagnosis"] = (
+        st.run("diagnose", "what the six-zone model gets wrong", _stage_diagnose, out, ds, r)
+        if ds and r["model_a"]
+        else None
+    )
     r["fmus"] = st.run("export", "FMI 2.0 co-simulation FMUs, validated with FMPy", _stage_export, out, r)
-    r["mpc"] = st.run("mpc", f"closed-loop MPC weeks (N = {mpc_horizon}) through the FMPy harness",
-                      _stage_mpc, out, ds, r, mpc_horizon) if ds and r["fmus"] else None
+    r["mpc"] = (
+        st.run(
+            "mpc",
+            f"closed-loop MPC weeks (N = {mpc_horizon}) through the FMPy harness",
+            _stage_mpc,
+            out,
+            ds,
+            r,
+            mpc_horizon,
+        )
+        if ds and r["fmus"]
+        else None
+    )
     r["stage_times"] = st.times
     files = st.run("report", "write report.html and figures", _stage_report, out, r)
     failed = [s.name for s in st.times if not s.ok]
@@ -171,7 +193,8 @@ def run_demo(out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: in
     if files:
         # the stage table in the report includes the report stage itself only in the printout
         (out / "stage_times.json").write_text(
-            json.dumps([dataclasses.asdict(s) for s in st.times], indent=1), encoding="utf-8")
+            json.dumps([dataclasses.asdict(s) for s in st.times], indent=1), encoding="utf-8"
+        )
     return result
 
 
@@ -195,8 +218,11 @@ def _stage_model_a(out, ds):
     for kind in ("lumped", "zones"):
         t = time.perf_counter()
         model = fit(ds, kind, progress=False)
-        res[kind] = {"model": model, "path": model.save(out / "models" / f"{kind}.json"),
-                     "seconds": time.perf_counter() - t}
+        res[kind] = {
+            "model": model,
+            "path": model.save(out / "models" / f"{kind}.json"),
+            "seconds": time.perf_counter() - t,
+        }
     return res
 
 
@@ -205,8 +231,13 @@ def _stage_model_b(out, ds, progress):
 
     t = time.perf_counter()
     model = fit(ds, "physics", progress=progress)
-    return {"physics": {"model": model, "path": model.save(out / "models" / "physics.json"),
-                        "seconds": time.perf_counter() - t}}
+    return {
+        "physics": {
+            "model": model,
+            "path": model.save(out / "models" / "physics.json"),
+            "seconds": time.perf_counter() - t,
+        }
+    }
 
 
 def _stage_evaluate(out, ds, r):
@@ -288,8 +319,9 @@ def _stage_mpc(out, ds, r, horizon):
             # on the plant, the boxes' local reheat loops stay on for every supervisory controller, as in
             # the building the data come from (the replay sets this itself)
             start_values = {"local_reheat": 1} if fmu == r["fmus"].get("plant", {}).get("path") else None
-            result = run_cosim(fmu, ds, controller, week=week.number, model=model, allow_partial=True,
-                               start_values=start_values)
+            result = run_cosim(
+                fmu, ds, controller, week=week.number, model=model, allow_partial=True, start_values=start_values
+            )
         except Exception as exc:  # noqa: BLE001 - one failed run must not hide the others
             traceback.print_exc(file=sys.stderr)
             res["errors"][run_label] = f"{type(exc).__name__}: {exc}"
@@ -298,8 +330,12 @@ def _stage_mpc(out, ds, r, horizon):
         result.save(out / "results" / f"cosim_{slug}.csv")
         res["runs"][run_label] = {"result": result, "kind": kind, "controller": ctrl, "fmu": str(fmu)}
     if res["errors"]:
-        raise _PartialFailure("MPC runs failed: " + "; ".join(f"{k}: {v}" for k, v in res["errors"].items())
-                              + " (the other runs are in the report)", res)
+        raise _PartialFailure(
+            "MPC runs failed: "
+            + "; ".join(f"{k}: {v}" for k, v in res["errors"].items())
+            + " (the other runs are in the report)",
+            res,
+        )
     return res
 
 

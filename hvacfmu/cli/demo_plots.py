@@ -59,8 +59,9 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
             elif kind == "flow":
                 cols = [f"m_{v}" for v in vavs_of_zone[z] if f"m_{v}" in measured]
                 if cols:
-                    ax.step(measured.index, measured[cols].sum(axis=1), where="post", color="k", lw=1.1,
-                            label="measured")
+                    ax.step(
+                        measured.index, measured[cols].sum(axis=1), where="post", color="k", lw=1.1, label="measured"
+                    )
         colors = ["tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:cyan"]
         for (label, table), color in zip(runs.items(), colors * 3):
             for z, ax in zip(zones, panels):

@@ -21,7 +21,8 @@ def write_report(out, r, paper_table, paper_zones, paper_figures) -> dict:
         "Reproduction of Zhou, Hu & Tomlin, 'Model Comparison of a Data-Driven and a Physical Model for "
         "Simulating HVAC Systems', on the emulated building shipped with hvacfmu (the paper's Sutardja Dai Hall "
         "data are not available). Every number below is computed by this run; the paper's published numbers "
-        "are shown beside ours where they exist.")
+        "are shown beside ours where they exist."
+    )
     _section_data(rep, r)
     _section_table1(rep, r, paper_table, paper_zones, paper_figures)
     _section_gains(rep, r, figs)
@@ -54,7 +55,8 @@ def _section_data(rep, r):
     rep.paragraph(
         f"Building '{b.name}': {len(b.zones)} zones ({', '.join(b.zone_names)}), {len(b.vavs)} VAV boxes. "
         f"{len(ds.weeks)} weeks from {ds.frame.index[0]:%Y-%m-%d} at a {ds.step / 60:g}-minute model step "
-        f"(emulated 1-minute data, seed {r['seed']}); measurements: {d['paths'].measurements}.")
+        f"(emulated 1-minute data, seed {r['seed']}); measurements: {d['paths'].measurements}."
+    )
     rep.table("data.weeks", df, "Weeks per season and the seeded 90/10 train/test split", digits=0)
 
 
@@ -68,17 +70,22 @@ def _section_table1(rep, r, paper_table, paper_zones, paper_figures):
         f"RMS [K] of 24-hour open-loop predictions (N = {ev['zones'].horizon if 'zones' in ev else 96} steps) "
         "started at every midnight of the held-out test weeks from the measured temperature, driven by measured "
         "inputs and disturbances and the season's internal-gain profile; averaged by zone and season. "
-        "Baselines: persistence (temperature held for 24 h) and the seasonal time-of-week mean of the training weeks.")
+        "Baselines: persistence (temperature held for 24 h) and the seasonal time-of-week mean of the training weeks."
+    )
     _verdict(rep, ev)
     if "zones" in ev:
         res = ev["zones"]
         for sc in res.scores:
-            rep.table(f"table1.{sc.name}", sc.table("model", res.season_order),
-                      f"{sc.name}: RMS [K] by zone and season")
+            rep.table(
+                f"table1.{sc.name}", sc.table("model", res.season_order), f"{sc.name}: RMS [K] by zone and season"
+            )
         sc0 = res.scores[0]
         for bname in sc0.baselines:
-            rep.table(f"table1.baseline.{bname}", sc0.table(bname, res.season_order),
-                      f"Baseline '{bname}': RMS [K] on the same windows")
+            rep.table(
+                f"table1.baseline.{bname}",
+                sc0.table(bname, res.season_order),
+                f"Baseline '{bname}': RMS [K] on the same windows",
+            )
     for key, label in (("model A", "Model A"), ("model B", "Model B")):
         df = pd.DataFrame(paper_table[key], index=list(paper_zones) + ["mean"]).T
         df.index.name = "season"
@@ -99,16 +106,33 @@ def _verdict(rep, ev):
         if verdict is None:
             continue
         models = list(dict.fromkeys(z.model for z in verdict.zones))
-        rep.bullets([verdict.summary(m) for m in models]
-                    + [f"{z.model}: worse than persistence in {z.output} ({z.rms:.3f} K against {z.persistence:.3f} K)"
-                       for z in verdict.losing()]
-                    + [f"likely cause for {m}: {c}" for m, cs in verdict.causes.items() for c in cs])
-        df = pd.DataFrame([{"model / zone": f"{z.model} / {z.output}", "RMS [K]": z.rms,
-                            "persistence [K]": z.persistence, "time-of-week [K]": z.time_of_week,
-                            "NMBE [%]": z.nmbe, "CV(RMSE) [%]": z.cvrmse} for z in verdict.zones])
-        rep.table(f"verdict.{key}", df.set_index("model / zone"),
-                  "Verdict per zone: 24-h open-loop RMS against the baselines; ASHRAE Guideline 14 hourly NMBE "
-                  "and CV(RMSE) (calibrated: |NMBE| <= 10 %, CV(RMSE) <= 30 %)")
+        rep.bullets(
+            [verdict.summary(m) for m in models]
+            + [
+                f"{z.model}: worse than persistence in {z.output} ({z.rms:.3f} K against {z.persistence:.3f} K)"
+                for z in verdict.losing()
+            ]
+            + [f"likely cause for {m}: {c}" for m, cs in verdict.causes.items() for c in cs]
+        )
+        df = pd.DataFrame(
+            [
+                {
+                    "model / zone": f"{z.model} / {z.output}",
+                    "RMS [K]": z.rms,
+                    "persistence [K]": z.persistence,
+                    "time-of-week [K]": z.time_of_week,
+                    "NMBE [%]": z.nmbe,
+                    "CV(RMSE) [%]": z.cvrmse,
+                }
+                for z in verdict.zones
+            ]
+        )
+        rep.table(
+            f"verdict.{key}",
+            df.set_index("model / zone"),
+            "Verdict per zone: 24-h open-loop RMS against the baselines; ASHRAE Guideline 14 hourly NMBE "
+            "and CV(RMSE) (calibrated: |NMBE| <= 10 %, CV(RMSE) <= 30 %)",
+        )
 
 
 def _section_gains(rep, r, figs):
@@ -158,11 +182,12 @@ def _section_trajectories(rep, r, figs):
         return
     wk = ev["week"]
     path = plot_week_trajectories(ev["trajectories"], figs / f"open_loop_week_{wk.number}.png")
-    rep.paragraph(f"Held-out {wk.season} week {wk.number} starting {wk.start:%Y-%m-%d}, one 7-day simulation per model "
-                  "from the measured temperatures at its start.")
+    rep.paragraph(
+        f"Held-out {wk.season} week {wk.number} starting {wk.start:%Y-%m-%d}, one 7-day simulation per model "
+        "from the measured temperatures at its start."
+    )
     rep.figure(path, "7-day open-loop predictions vs measured")
-    df = pd.DataFrame({tr.name: tr.rms() for tr in ev["trajectories"]},
-                      index=list(ev["trajectories"][0].outputs)).T
+    df = pd.DataFrame({tr.name: tr.rms() for tr in ev["trajectories"]}, index=list(ev["trajectories"][0].outputs)).T
     df.index.name = "model"
     rep.table("open_loop_week.rms", df, "RMS [K] over the 7-day open-loop trajectory")
 
@@ -183,7 +208,8 @@ def _section_mpc(rep, r, figs, paper_figures):
         "FMU (a building that is neither model) with state feedback every step, next to the replay of measured "
         "airflows and a rule-based PI controller; there the boxes' local reheat loops stay active under every "
         "controller, and each run starts after a week of warm-up on measured data. All runs go through the FMPy "
-        "co-simulation harness.")
+        "co-simulation harness."
+    )
     rows = {}
     for label, d in mpc["runs"].items():
         s = d["result"].summary
@@ -201,8 +227,11 @@ def _section_mpc(rep, r, figs, paper_figures):
     rep.table("mpc.runs", df, "Closed-loop weeks: energy proxy, comfort and compute time")
     ours = {label: v["week [s]"] for label, v in rows.items() if "own FMU" in label}
     if ours:
-        rep.paragraph("The paper needed under 5 minutes (Model A) and about 20 hours (Model B) for the week; here: "
-                      + "; ".join(f"{k}: {rep.value('mpc.week_seconds.' + k, v, 1)} s" for k, v in ours.items()) + ".")
+        rep.paragraph(
+            "The paper needed under 5 minutes (Model A) and about 20 hours (Model B) for the week; here: "
+            + "; ".join(f"{k}: {rep.value('mpc.week_seconds.' + k, v, 1)} s" for k, v in ours.items())
+            + "."
+        )
     b = r["data"]["dataset"].building
     zones = list(b.zone_names)
     vavs = {z: [v.name for v in b.vavs_of(z)] for z in zones}
@@ -213,8 +242,9 @@ def _section_mpc(rep, r, figs, paper_figures):
             continue
         first = next(iter(runs.values()))
         measured = r["data"]["dataset"].frame.reindex(first.index)
-        pt, pf = plot_mpc(runs, measured, zones, vavs, figs / f"mpc_{name}_temperature.png",
-                          figs / f"mpc_{name}_airflow.png")
+        pt, pf = plot_mpc(
+            runs, measured, zones, vavs, figs / f"mpc_{name}_temperature.png", figs / f"mpc_{name}_airflow.png"
+        )
         where = "each model's own FMU" if name == "own" else "the emulator plant FMU"
         rep.figure(pt, f"MPC zone temperatures on {where} (Fig. 6)")
         rep.figure(pf, f"MPC airflows on {where} (Fig. 7)")
@@ -265,9 +295,10 @@ def _section_fmus(rep, r):
     if not fm:
         rep.paragraph("The export stage failed.")
         return
-    rows = {k: {"file": str(v["path"]),
-                "fmpy validate": "no problems" if not v["problems"] else "; ".join(v["problems"])}
-            for k, v in fm.items()}
+    rows = {
+        k: {"file": str(v["path"]), "fmpy validate": "no problems" if not v["problems"] else "; ".join(v["problems"])}
+        for k, v in fm.items()
+    }
     df = pd.DataFrame.from_dict(rows, orient="index")
     df.index.name = "model"
     rep.table("fmus", df, "FMI 2.0 co-simulation FMUs and their validation")
@@ -286,27 +317,38 @@ def _section_comparison(rep, r):
         mb = float(b.table("model").loc["all", "mean"])
         diff = rep.value("comparison.rms_difference", ma - mb)
         better = b.name if mb < ma else a.name
-        items.append(f"Accuracy: mean RMS {a.name} {rep.value('comparison.rms_a', ma)} K vs {b.name} "
-                     f"{rep.value('comparison.rms_b', mb)} K (difference {diff} K); {better} predicts better on "
-                     "this building. The paper found Model B better by about 0.1 K.")
+        items.append(
+            f"Accuracy: mean RMS {a.name} {rep.value('comparison.rms_a', ma)} K vs {b.name} "
+            f"{rep.value('comparison.rms_b', mb)} K (difference {diff} K); {better} predicts better on "
+            "this building. The paper found Model B better by about 0.1 K."
+        )
         per_zone = (a.table("model").loc["all"] - b.table("model").loc["all"]).drop("mean")
-        items.append("Largest per-zone differences (A − B): "
-                     + ", ".join(f"{z} {v:+.3f} K" for z, v in per_zone.sort_values(key=abs, ascending=False).items()))
+        items.append(
+            "Largest per-zone differences (A − B): "
+            + ", ".join(f"{z} {v:+.3f} K" for z, v in per_zone.sort_values(key=abs, ascending=False).items())
+        )
     models = stage_models(r)
     if "zones" in models and "physics" in models:
         na, nb = models["zones"]["model"].n_states, models["physics"]["model"].n_states
-        items.append(f"Complexity: Model A has {rep.value('comparison.states_a', na)} states, Model B "
-                     f"{rep.value('comparison.states_b', nb)}; identification took "
-                     f"{rep.value('comparison.fit_seconds_a', models['zones']['seconds'], 1)} s vs "
-                     f"{rep.value('comparison.fit_seconds_b', models['physics']['seconds'], 1)} s. Model B needs "
-                     "geometry and construction data; Model A only temperatures, airflows and zone adjacency.")
+        items.append(
+            f"Complexity: Model A has {rep.value('comparison.states_a', na)} states, Model B "
+            f"{rep.value('comparison.states_b', nb)}; identification took "
+            f"{rep.value('comparison.fit_seconds_a', models['zones']['seconds'], 1)} s vs "
+            f"{rep.value('comparison.fit_seconds_b', models['physics']['seconds'], 1)} s. Model B needs "
+            "geometry and construction data; Model A only temperatures, airflows and zone adjacency."
+        )
     mpc = r.get("mpc") or {}
     runs = mpc.get("runs") or {}
     plant_runs = {k: v["result"].summary for k, v in runs.items() if "plant" in k}
     if plant_runs:
-        items.append("On the emulator plant: " + "; ".join(
-            f"{k}: Σu² {s['energy_proxy']:.1f}, comfort violation {s['comfort_violation_Kh']:.1f} K·h"
-            for k, s in plant_runs.items()) + ".")
+        items.append(
+            "On the emulator plant: "
+            + "; ".join(
+                f"{k}: Σu² {s['energy_proxy']:.1f}, comfort violation {s['comfort_violation_Kh']:.1f} K·h"
+                for k, s in plant_runs.items()
+            )
+            + "."
+        )
     if not items:
         items.append("Not enough stages succeeded to compare the models.")
     rep.bullets(items)
@@ -315,8 +357,9 @@ def _section_comparison(rep, r):
 def _section_times(rep, r):
     rep.heading("Run time by stage")
     times = r.get("stage_times") or []
-    df = pd.DataFrame({"seconds": [s.seconds for s in times], "ok": ["yes" if s.ok else "FAILED: " + (s.error or "")
-                                                                      for s in times]},
-                      index=[s.name for s in times])
+    df = pd.DataFrame(
+        {"seconds": [s.seconds for s in times], "ok": ["yes" if s.ok else "FAILED: " + (s.error or "") for s in times]},
+        index=[s.name for s in times],
+    )
     df.index.name = "stage"
     rep.table("stage_times", df, "Stage times of this run (the report stage itself is not included)", digits=1)

@@ -118,8 +118,13 @@ class Report:
             elif b.kind == "table":
                 caption, digits = b.extra
                 df = b.content
-                rows = ["<tr><th>" + e(str(df.index.name or "")) + "</th>"
-                        + "".join(f"<th>{e(str(c))}</th>" for c in df.columns) + "</tr>"]
+                rows = [
+                    "<tr><th>"
+                    + e(str(df.index.name or ""))
+                    + "</th>"
+                    + "".join(f"<th>{e(str(c))}</th>" for c in df.columns)
+                    + "</tr>"
+                ]
                 for idx, row in df.iterrows():
                     cells = "".join(f"<td>{e(_fmt(v, digits))}</td>" for v in row)
                     rows.append(f"<tr><th>{e(str(idx))}</th>{cells}</tr>")

@@ -123,13 +123,17 @@ class CheckReport:
             lines.append(f"Building: {self.building}")
         if lr is not None and lr.start is not None:
             span = (lr.end - lr.start).total_seconds()
-            lines.append(f"Span: {lr.start.isoformat()} .. {lr.end.isoformat()} ({span / 86400:.1f} days, {lr.rows} rows)")
+            lines.append(
+                f"Span: {lr.start.isoformat()} .. {lr.end.isoformat()} ({span / 86400:.1f} days, {lr.rows} rows)"
+            )
             native = f"{lr.native_step:g} s (median spacing)" if lr.native_step else "unknown"
             if lr.native_step:
                 expected = span / lr.native_step + 1
                 native += f", {100 * min(lr.rows / expected, 1.0):.2f} % of the rows expected at that spacing"
-            clock = "with UTC offsets" if lr.has_offsets or self.dataset is None else (
-                f"naive, read in {self.dataset.building.clock_timezone}"
+            clock = (
+                "with UTC offsets"
+                if lr.has_offsets or self.dataset is None
+                else (f"naive, read in {self.dataset.building.clock_timezone}")
             )
             lines.append(f"Native resolution: {native}; times {clock}")
             coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
@@ -219,22 +223,41 @@ def check(
         building = as_building(building, timezone)
     except BuildingError as exc:
         return CheckReport(ok=False, problems=[str(exc)], warnings=[], path=str(path))
-    about = f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"
+    about = (
+        f"{building.name} ({len(building.zones)} zones, {len(building.vavs)} VAV boxes, time zone {building.timezone})"
+    )
     with Progress(total=1, desc=f"reading {path.name}", unit="file", enabled=progress) as bar:
         frame, report, problems = _load(path, building)
         bar.update()
     if problems:
         return CheckReport(
-            ok=False, problems=problems, warnings=list(report.warnings), path=str(path), building=about, load_report=report
+            ok=False,
+            problems=problems,
+            warnings=list(report.warnings),
+            path=str(path),
+            building=about,
+            load_report=report,
         )
     try:
         dataset = _prepare(
-            path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=(frame, report),
+            path,
+            building,
+            step,
+            seed,
+            train_fraction,
+            interpolate_limit,
+            min_coverage,
+            loaded=(frame, report),
             progress=progress,
         )
     except (DataError, ValueError) as exc:
         return CheckReport(
-            ok=False, problems=[str(exc)], warnings=list(report.warnings), path=str(path), building=about, load_report=report
+            ok=False,
+            problems=[str(exc)],
+            warnings=list(report.warnings),
+            path=str(path),
+            building=about,
+            load_report=report,
         )
     gaps, problems, sparse = _coverage(dataset, building, path.name, min_coverage)
     step_s = dataset.step

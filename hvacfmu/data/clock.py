@@ -154,7 +154,9 @@ def _utc_offset_hours(zone: str, when: pd.Timestamp) -> float:
 def _advice(offset: float, building, has_offsets: bool, when: pd.Timestamp, slack: float) -> str:
     """The likely cause and fix of a clock offset [h] known within ``slack`` [h]."""
     if has_offsets:
-        return "the timestamps carry UTC offsets, so the export wrote wrong offsets (or the building's longitude is wrong)"
+        return (
+            "the timestamps carry UTC offsets, so the export wrote wrong offsets (or the building's longitude is wrong)"
+        )
     clock = building.clock_timezone
     clock_off = _utc_offset_hours(clock, when)
     if clock_off != 0 and abs(offset + clock_off) < slack:

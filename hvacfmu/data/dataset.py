@@ -248,7 +248,11 @@ class Dataset:
         if "excitation" not in frame.columns:
             notes.append("no 'excitation' column: no forced-response experiments are flagged (all 0)")
             frame["excitation"] = 0.0
-        if building.ahus and "T_supply" not in frame.columns and all(c in frame.columns for c in building.supply_columns()):
+        if (
+            building.ahus
+            and "T_supply" not in frame.columns
+            and all(c in frame.columns for c in building.supply_columns())
+        ):
             frame["T_supply"] = primary_supply(frame, building)
             if len(building.ahus) > 1:
                 notes.append(
@@ -291,7 +295,9 @@ def primary_supply(frame: pd.DataFrame, building: Building) -> np.ndarray:
     if len(building.ahus) == 1:
         return frame[building.ahus[0].supply_column].to_numpy(dtype=float, copy=True)
     n = len(frame)
-    temps = np.column_stack([frame[c].to_numpy(dtype=float) for c in building.supply_columns()]) if n else np.zeros((0, 0))
+    temps = (
+        np.column_stack([frame[c].to_numpy(dtype=float) for c in building.supply_columns()]) if n else np.zeros((0, 0))
+    )
     flows = np.zeros((n, len(building.ahus)))
     nominal = np.zeros(len(building.ahus))
     for j, a in enumerate(building.ahus):
@@ -384,9 +390,7 @@ def prepare(
         For each entry of :attr:`Dataset.warnings`.
     """
     building = as_building(building, timezone)
-    dataset = _prepare(
-        path, building, step, seed, train_fraction, interpolate_limit, min_coverage, progress=progress
-    )
+    dataset = _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage, progress=progress)
     for w in dataset.warnings:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     return dataset
@@ -415,7 +419,8 @@ def sparse_message(name: str, canonical: str, coverage: float, threshold: float 
     """The message naming a column too sparse for the models (see :data:`MIN_COLUMN_COVERAGE`)."""
     what = "a required column" if canonical.startswith(("T_", "m_")) else "an optional column"
     return (
-        f"column {name!r}" + (f" ({canonical})" if name != canonical else "")
+        f"column {name!r}"
+        + (f" ({canonical})" if name != canonical else "")
         + f": a value in only {100 * coverage:.1f} % of the model steps, below the {100 * threshold:g} % that "
         f"fitting and evaluation need ({what}); trim the file to the span the sensor covers, fix the export"
         + ("" if what.startswith("a required") else ", or drop the column")
@@ -442,9 +447,7 @@ def option_problems(step, train_fraction=0.9, interpolate_limit=None, min_covera
     return problems
 
 
-def _prepare(
-    path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None, progress=False
-):
+def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_coverage, loaded=None, progress=False):
     problems = option_problems(step, train_fraction, interpolate_limit, min_coverage)
     if problems:
         raise DataError(problems_message("Cannot prepare the data with these options", problems))
@@ -461,7 +464,9 @@ def _prepare(
             before = int(np.isfinite(raw.to_numpy()).sum())
             raw = interpolate_gaps(raw, interpolate_limit, report.native_step)
             filled = int(np.isfinite(raw.to_numpy()).sum()) - before
-            notes.append(f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min")
+            notes.append(
+                f"interpolated {filled} missing value(s) linearly in gaps of at most {interpolate_limit:g} min"
+            )
         bar.update(note="resampling")
         frame, coverage = resample(raw, step, min_coverage=min_coverage, column_steps=column_steps)
         coarse = [c for c, s in column_steps.items() if s and s > step * (1 + 1e-9)]
@@ -498,5 +503,5 @@ __all__ = [
     "make_weeks",
     "prepare",
     "primary_supply",
-    "sparse_columns"
+    "sparse_columns",
 ]

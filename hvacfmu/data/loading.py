@@ -168,13 +168,17 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         utc = pd.DatetimeIndex(values).tz_convert("UTC").as_unit("ns")
         ok = ~utc.isna()
         if not ok.all():
-            problems.append(f"{label}: column {name!r}: {int((~ok).sum())} empty times at {_Where(None).rows(np.flatnonzero(~ok))}")
+            problems.append(
+                f"{label}: column {name!r}: {int((~ok).sum())} empty times at {_Where(None).rows(np.flatnonzero(~ok))}"
+            )
         return utc.asi8, ok, True
     if pd.api.types.is_datetime64_dtype(values.dtype):
         naive = pd.DatetimeIndex(values).as_unit("ns")
         empty = np.asarray(naive.isna())
         if empty.any():
-            problems.append(f"{label}: column {name!r}: {int(empty.sum())} empty times at {_Where(None).rows(np.flatnonzero(empty))}")
+            problems.append(
+                f"{label}: column {name!r}: {int(empty.sum())} empty times at {_Where(None).rows(np.flatnonzero(empty))}"
+            )
         return _localize(naive, empty, tz, name, label, problems) + (False,)
     if pd.api.types.is_numeric_dtype(values.dtype) or pd.api.types.is_bool_dtype(values.dtype):
         problems.append(
@@ -285,9 +289,7 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
             more = f" and {len(bad_runs) - N_EXAMPLES} more" if len(bad_runs) > N_EXAMPLES else ""
             first = bad_runs[0][0][0]
             example = naive[first].isoformat()
-            offsets = [
-                _fmt_offset(int(x) - int(local[first])) for x in (dst_utc[first], std_utc[first])
-            ]
+            offsets = [_fmt_offset(int(x) - int(local[first])) for x in (dst_utc[first], std_utc[first])]
             problems.append(
                 f"{label}: column {name!r}: {int(unresolved.sum())} naive local times are ambiguous (repeated when "
                 f"daylight saving time ends in {tz}) and their order does not tell which occurrence they are: "
@@ -460,15 +462,20 @@ def _map_columns(raw, building, label, time_name, problems, report) -> dict:
         name = building.column_for(canonical)
         if name in raw.columns:
             present[canonical] = name
-        elif len(building.ahus) == 1 and canonical == building.ahus[0].supply_column and (
-            building.column_for("T_supply") in raw.columns
+        elif (
+            len(building.ahus) == 1
+            and canonical == building.ahus[0].supply_column
+            and (building.column_for("T_supply") in raw.columns)
         ):
             present[canonical] = building.column_for("T_supply")  # the single unit's plain T_supply column
         elif required:
             mapped = f" (mapped from {canonical})" if name != canonical else ""
             problems.append(f"{label}: missing required column {name!r}{mapped}")
-    if building.ahus and "T_supply" in present and "T_supply" not in building.columns and any(
-        present.get(c) == present["T_supply"] for c in building.supply_columns()
+    if (
+        building.ahus
+        and "T_supply" in present
+        and "T_supply" not in building.columns
+        and any(present.get(c) == present["T_supply"] for c in building.supply_columns())
     ):
         del present["T_supply"]  # the file's T_supply is a unit's own column; the primary supply is derived
     used = set(present.values()) | {time_name}
@@ -480,7 +487,7 @@ def _map_columns(raw, building, label, time_name, problems, report) -> dict:
         problems[-1] += (
             f" (the file has {len(unknown)} column(s) that map to nothing: "
             f"{', '.join(repr(c) for c in unknown[:8])}{' ...' if len(unknown) > 8 else ''}; "
-            "map them to canonical names in the building's [columns] table, e.g. T_NW = \"RM4-NW ZN-T\")"
+            'map them to canonical names in the building\'s [columns] table, e.g. T_NW = "RM4-NW ZN-T")'
         )
     if unknown:
         report.warnings.append(
@@ -694,7 +701,7 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
     if unit == "1" and 1.5 < top <= 100.5 and float(np.min(finite)) >= -0.5:
         problems.append(
             f"{label}: {desc}: values reach {top:.4g} (declared as a fraction 0..1); the data look like percent: "
-            "declare the unit in the building's [units] table, e.g. \"rh_*\" = \"%\""
+            'declare the unit in the building\'s [units] table, e.g. "rh_*" = "%"'
         )
         return si
     bad = np.flatnonzero((si < -FRACTION_NOISE) | (si > 1 + FRACTION_NOISE))

@@ -81,8 +81,9 @@ def _disturbances(sig: Signals, model) -> np.ndarray:
 
 def _gains(sig: Signals, model) -> np.ndarray:
     q = np.zeros((len(sig.Y), sig.nz))
-    calendar = any(t.gain_adjustment(sig.index[:1], np.zeros((sig.n_tow, sig.nz)), sig.step) is not None
-                   for t in model.terms)
+    calendar = any(
+        t.gain_adjustment(sig.index[:1], np.zeros((sig.n_tow, sig.nz)), sig.step) is not None for t in model.terms
+    )
     for s in sig.seasons:
         m = sig.season == s
         if m.any():
@@ -125,8 +126,10 @@ def fold_fits(sig: Signals, plan: CVPlan, terms, zones_idx=None) -> list:
     ``zones_idx``: fit only the equations of these zones (and the zones coupled to them): the
     others are measured in :func:`zone_open_loop_rms`, so their coefficients are not needed.
     """
-    return [fit_structure(sig, terms, rows, within=W, only_zones=zones_idx).model
-            for rows, W in zip(plan.fit_rows, plan.within)]
+    return [
+        fit_structure(sig, terms, rows, within=W, only_zones=zones_idx).model
+        for rows, W in zip(plan.fit_rows, plan.within)
+    ]
 
 
 def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:
@@ -152,10 +155,17 @@ def paired_test(plan: CVPlan, before: list, after: list) -> dict:
     sd = float(d.std(ddof=1))
     se = sd / np.sqrt(n)
     t = float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0)
-    return {"n_weeks": int(n), "n_folds": len(plan.folds), "before": mb, "after": float(a_w.mean()),
-            "gain_abs": float(d.mean()), "gain_percent": 100.0 * float(d.mean()) / mb if mb > 0 else 0.0,
-            "se_percent": float(100.0 * se / mb) if mb > 0 else None, "t": t,
-            "weeks_improved": float(np.mean(d > 0))}
+    return {
+        "n_weeks": int(n),
+        "n_folds": len(plan.folds),
+        "before": mb,
+        "after": float(a_w.mean()),
+        "gain_abs": float(d.mean()),
+        "gain_percent": 100.0 * float(d.mean()) / mb if mb > 0 else 0.0,
+        "se_percent": float(100.0 * se / mb) if mb > 0 else None,
+        "t": t,
+        "weeks_improved": float(np.mean(d > 0)),
+    }
 
 
 __all__ = ["CVPlan", "fold_fits", "fold_scores", "make_plan", "paired_test", "zone_open_loop_rms"]

@@ -45,10 +45,12 @@ def base_linear(model) -> LinearZoneModel:
         model = model.base
     if isinstance(model, LinearZoneModel):
         if model.beta is not None:
-            raise FitError("diagnosis refits Model A in its airflow form; this model uses the delivered-heat form "
-                           "(Td_/inlet columns): let diagnose fit its own base (default) or fit the base with "
-                           "heat='airflow' — measured discharge temperatures are then tested as the reheat / "
-                           "unused_input causes")
+            raise FitError(
+                "diagnosis refits Model A in its airflow form; this model uses the delivered-heat form "
+                "(Td_/inlet columns): let diagnose fit its own base (default) or fit the base with "
+                "heat='airflow' — measured discharge temperatures are then tested as the reheat / "
+                "unused_input causes"
+            )
         return model
     raise FitError(
         f"diagnosis needs a Model A base (kinds 'zones' or 'lumped', or 'extended'), got kind {model.kind!r}"
@@ -107,7 +109,7 @@ def zone_design(sig: Signals, z: int, terms, U_eff=None, feats=None) -> ZoneDesi
             add(f"c[{c}]", sig.V[c], 0.0, np.inf)
     for ti, t in enumerate(terms):
         fl = feats[ti] if feats is not None else term_features(sig, t, U_eff)
-        for (zz, name, col, low, high) in fl:
+        for zz, name, col, low, high in fl:
             if zz == z:
                 add(name, col, low, high, ti)
     return ZoneDesign(names, np.column_stack(cols), np.array(lo), np.array(hi), owner, offset)
@@ -223,9 +225,14 @@ def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None, 
                 else:
                     C[z, base.disturbances.index(nm[2:-1])] = th[k]
     gains = _gains_from_fit(sig, rows, target_next - yhat_wo_q, W)
-    new_base = dataclasses.replace(base, A=A, B=B, C=C, gains=gains,
-                                   meta={**{k: v for k, v in base.meta.items() if k != "uncertainty"},
-                                         "refit": "diagnosis within-LS"})
+    new_base = dataclasses.replace(
+        base,
+        A=A,
+        B=B,
+        C=C,
+        gains=gains,
+        meta={**{k: v for k, v in base.meta.items() if k != "uncertainty"}, "refit": "diagnosis within-LS"},
+    )
     new_terms = [_with_coefs(sig, t, coefs[i], stds[i], sig.zones) for i, t in enumerate(terms)]
     model = ExtendedModel(base=new_base, terms=tuple(new_terms))
     return StructureFit(model, lss, names, len(rows), resid)
@@ -291,14 +298,14 @@ def fit_block(sig: Signals, W: Within, block, terms, U_eff, feats, target_next) 
         D = designs[z]
         Xw = W(D.X)
         for j, key in enumerate(cols[z]):
-            X[i * n:(i + 1) * n, keys.index(key)] = Xw[:, j]
-        y[i * n:(i + 1) * n] = W(target_next[:, z] - D.offset)
+            X[i * n : (i + 1) * n, keys.index(key)] = Xw[:, j]
+        y[i * n : (i + 1) * n] = W(target_next[:, z] - D.offset)
     ls = bounded_ls(X, y, lo, hi, dof_extra=W.n_groups * len(block))
     sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
     res = y - X @ ls.theta
     zone_ls, resid = {}, {}
     for i, z in enumerate(block):
-        r = res[i * n:(i + 1) * n]
+        r = res[i * n : (i + 1) * n]
         resid[z] = r
         rss = float(r @ r)
         zone_ls[z] = LSResult(None, rss, n, None, rss / max(n - len(cols[z]) - W.n_groups, 1))
@@ -347,6 +354,21 @@ def _with_coefs(sig, t, coefs: dict, stds: dict, zones):
     return t.with_fit(sig, coefs, stds)
 
 
-__all__ = ["MAX_DELAY", "Signals", "StructureFit", "Within", "base_linear", "base_solar", "bounded_ls",
-           "coupled_blocks", "coupling_ratios", "effective_inputs", "fit_block", "fit_structure", "make_signals",
-           "shifted", "term_features", "zone_design"]
+__all__ = [
+    "MAX_DELAY",
+    "Signals",
+    "StructureFit",
+    "Within",
+    "base_linear",
+    "base_solar",
+    "bounded_ls",
+    "coupled_blocks",
+    "coupling_ratios",
+    "effective_inputs",
+    "fit_block",
+    "fit_structure",
+    "make_signals",
+    "shifted",
+    "term_features",
+    "zone_design",
+]

@@ -75,9 +75,11 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
         from ..errors import ModelError
 
-        raise ModelError("diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
-                         "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
-                         "diagnose fit its own base model")
+        raise ModelError(
+            "diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
+            "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
+            "diagnose fit its own base model"
+        )
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)
@@ -92,8 +94,9 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     starts, seasons = R.day_starts(sig.index, sig.week, sig.season)
     rol_base = R.open_loop_residuals(base_model, dataset.frame, starts, seasons, opts["horizon"])
     train_rows = sig.valid & sig.train
-    white_before = {z: R.whiteness(np.where(train_rows, r1_base[:, j], np.nan), sig.step)
-                    for j, z in enumerate(sig.zones)}
+    white_before = {
+        z: R.whiteness(np.where(train_rows, r1_base[:, j], np.nan), sig.step) for j, z in enumerate(sig.zones)
+    }
     errors = {
         "one_step": R.breakdown(r1_base, ctx, sig.zones, sig.week >= 0),
         "open_loop": R.breakdown(rol_base, ctx, sig.zones, sig.week >= 0),
@@ -108,27 +111,42 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         final = sel.fit.model
     else:
         final = ExtendedModel(base=sig.base, terms=())
-    final = ExtendedModel(base=final.base, terms=final.terms, meta={
-        "name": "extended",
-        "diagnosis": {"causes": [c.cause for c in findings],
-                      "base_kind": base_model.kind},
-        "provenance": {"data_sha256": getattr(dataset, "sha256", None), "data": getattr(dataset, "source", None),
-                       "options": {k: v for k, v in opts.items()}},
-    })
+    final = ExtendedModel(
+        base=final.base,
+        terms=final.terms,
+        meta={
+            "name": "extended",
+            "diagnosis": {"causes": [c.cause for c in findings], "base_kind": base_model.kind},
+            "provenance": {
+                "data_sha256": getattr(dataset, "sha256", None),
+                "data": getattr(dataset, "source", None),
+                "options": {k: v for k, v in opts.items()},
+            },
+        },
+    )
 
     # --- residuals of the final model ------------------------------------------------------
     r1_final = one_step_residuals(sig, final)
     rol_final = R.open_loop_residuals(final, dataset.frame, starts, seasons, opts["horizon"])
-    white_after = {z: R.whiteness(np.where(train_rows, r1_final[:, j], np.nan), sig.step)
-                   for j, z in enumerate(sig.zones)}
+    white_after = {
+        z: R.whiteness(np.where(train_rows, r1_final[:, j], np.nan), sig.step) for j, z in enumerate(sig.zones)
+    }
     after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)
     errors["open_loop_after"] = {"zone": after["zone"], "hour": after["hour"]}
     unexplained = []
     for z, w in white_after.items():
         if w.get("white") is False:
-            unexplained.append({"zone": z, "period_h": w["peak_period_h"], "peak_share": w["peak_share"],
-                                "cpgram_departure": w["cpgram_departure"], "cpgram_bound": w["cpgram_bound"],
-                                "ljung_box_p": w["ljung_box"]["p_value"], "acf_lag1": w["acf_lag1"]})
+            unexplained.append(
+                {
+                    "zone": z,
+                    "period_h": w["peak_period_h"],
+                    "peak_share": w["peak_share"],
+                    "cpgram_departure": w["cpgram_departure"],
+                    "cpgram_bound": w["cpgram_bound"],
+                    "ljung_box_p": w["ljung_box"]["p_value"],
+                    "acf_lag1": w["acf_lag1"],
+                }
+            )
 
     # --- held-out comparison (the evaluation protocol) ---------------------------------------
     # headline: the base structure refitted by the same least squares -> extended (same fitting method);
@@ -156,13 +174,29 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         "n_train_rows": n_train,
     }
     report = DiagnosisReport(
-        verdict=verdict, findings=fdicts, candidates=cdicts, unexplained=unexplained,
-        whiteness={"before": white_before, "after": white_after}, errors=errors, heldout=heldout,
-        model=final, base_model=base_model, data=data,
-        options={k: v for k, v in opts.items()}, rounds=sel.rounds, notes=notes,
-        series={"zones": sig.zones, "index": sig.index, "train": train_rows,
-                "one_step_before": r1_base, "one_step_after": r1_final,
-                "open_loop_before": rol_base, "open_loop_after": rol_final, "step": sig.step},
+        verdict=verdict,
+        findings=fdicts,
+        candidates=cdicts,
+        unexplained=unexplained,
+        whiteness={"before": white_before, "after": white_after},
+        errors=errors,
+        heldout=heldout,
+        model=final,
+        base_model=base_model,
+        data=data,
+        options={k: v for k, v in opts.items()},
+        rounds=sel.rounds,
+        notes=notes,
+        series={
+            "zones": sig.zones,
+            "index": sig.index,
+            "train": train_rows,
+            "one_step_before": r1_base,
+            "one_step_after": r1_final,
+            "open_loop_before": rol_base,
+            "open_loop_after": rol_final,
+            "step": sig.step,
+        },
     )
     if plots:
         say(f"writing figures to {plots}")
@@ -191,15 +225,20 @@ def _heldout_table(base_model, refit, final, dataset, horizon, notes) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = evaluate([refit, final, base_model], dataset, horizon=horizon,
-                           names=["base", "extended", "original"])
+            res = evaluate([refit, final, base_model], dataset, horizon=horizon, names=["base", "extended", "original"])
         except DataError as exc:
             notes.append(f"held-out RMS not available: {exc}")
             return {}
     tb, te, to = res.table("base"), res.table("extended"), res.table("original")
     zones = list(final.outputs)
-    out = {"zones": zones, "base": {}, "extended": {}, "original_base": {}, "gain_percent": {},
-           "n_windows": res.score("base").n_windows()}
+    out = {
+        "zones": zones,
+        "base": {},
+        "extended": {},
+        "original_base": {},
+        "gain_percent": {},
+        "n_windows": res.score("base").n_windows(),
+    }
     for s in tb.index:
         out["base"][s] = {z: float(tb.loc[s, z]) for z in zones}
         out["extended"][s] = {z: float(te.loc[s, z]) for z in zones}
@@ -212,14 +251,21 @@ def _heldout_table(base_model, refit, final, dataset, horizon, notes) -> dict:
         out["mean_extended"] = float(te.loc["all", "mean"])
         out["mean_original_base"] = float(to.loc["all", "mean"])
         out["gain_percent_mean"] = float(100 * (out["mean_base"] - out["mean_extended"]) / out["mean_base"])
-        out["refit_gain_percent_mean"] = float(100 * (out["mean_original_base"] - out["mean_base"])
-                                               / out["mean_original_base"])
+        out["refit_gain_percent_mean"] = float(
+            100 * (out["mean_original_base"] - out["mean_base"]) / out["mean_original_base"]
+        )
         out["refit_base"] = out["base"]["all"]
         out["mean_refit_base"] = out["mean_base"]
     # issue 13 p.5: the verdict against persistence / time-of-week / Guideline 14 on the same windows
     v = res.verdict
     out["verdict"] = v.to_dict()
-    out["verdict_lines"] = [v.summary(m) for m in ("base", "extended")] + [
-        f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against {z.persistence:.3f} K"
-        for z in v.losing() if z.model in ("base", "extended")] + [t for t in map(v.thin, ("extended",)) if t]
+    out["verdict_lines"] = (
+        [v.summary(m) for m in ("base", "extended")]
+        + [
+            f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against {z.persistence:.3f} K"
+            for z in v.losing()
+            if z.model in ("base", "extended")
+        ]
+        + [t for t in map(v.thin, ("extended",)) if t]
+    )
     return out

@@ -70,10 +70,15 @@ def plot_residual_by_zone(report, path):
     zones = _zones(report)
     x = np.arange(len(zones))
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for ax, pre, title in ((axes[0], "one_step", "one-step errors [K]"), (axes[1], "open_loop", "24-h open-loop errors [K]")):
+    for ax, pre, title in (
+        (axes[0], "one_step", "one-step errors [K]"),
+        (axes[1], "open_loop", "24-h open-loop errors [K]"),
+    ):
         for k, (key, lab) in enumerate(((f"{pre}_before", "base"), (f"{pre}_after", "extended"))):
             r = s[key]
-            rms = [np.sqrt(np.nanmean(r[:, j] ** 2)) if np.isfinite(r[:, j]).any() else np.nan for j in range(len(zones))]
+            rms = [
+                np.sqrt(np.nanmean(r[:, j] ** 2)) if np.isfinite(r[:, j]).any() else np.nan for j in range(len(zones))
+            ]
             ax.bar(x + (k - 0.5) * 0.38, rms, width=0.38, label=lab)
         ax.set_xticks(x, zones)
         ax.set_title(f"RMS of {title}")

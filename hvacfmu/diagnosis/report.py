@@ -87,25 +87,30 @@ class DiagnosisReport:
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
         """JSON-ready mapping following schema ``hvacfmu.diagnosis/1``."""
-        return _clean({
-            "schema": SCHEMA,
-            "verdict": self.verdict,
-            "summary": self.summary(),
-            "data": self.data,
-            "base_model": {"kind": self.base_model.kind, "outputs": list(self.base_model.outputs)},
-            "options": self.options,
-            "findings": self.findings,
-            "candidates": self.candidates,
-            "untestable": [{"cause": c["cause"], "location": c["location"], "reason": c["reason"]}
-                           for c in self.candidates if c["status"] == "untestable"],
-            "unexplained": self.unexplained,
-            "whiteness": self.whiteness,
-            "errors": self.errors,
-            "heldout": self.heldout,
-            "rounds": self.rounds,
-            "notes": self.notes,
-            "model": {"kind": "extended", "terms": [t.to_dict() for t in self.model.terms]},
-        })
+        return _clean(
+            {
+                "schema": SCHEMA,
+                "verdict": self.verdict,
+                "summary": self.summary(),
+                "data": self.data,
+                "base_model": {"kind": self.base_model.kind, "outputs": list(self.base_model.outputs)},
+                "options": self.options,
+                "findings": self.findings,
+                "candidates": self.candidates,
+                "untestable": [
+                    {"cause": c["cause"], "location": c["location"], "reason": c["reason"]}
+                    for c in self.candidates
+                    if c["status"] == "untestable"
+                ],
+                "unexplained": self.unexplained,
+                "whiteness": self.whiteness,
+                "errors": self.errors,
+                "heldout": self.heldout,
+                "rounds": self.rounds,
+                "notes": self.notes,
+                "model": {"kind": "extended", "terms": [t.to_dict() for t in self.model.terms]},
+            }
+        )
 
     def save_json(self, path) -> Path:
         path = Path(path)
@@ -129,15 +134,18 @@ class DiagnosisReport:
             s = "nothing missing: no catalogue cause is significant and the residuals are white"
         if self.unexplained:
             s += "; unexplained structure in " + ", ".join(
-                f"{u['zone']} (period {u['period_h']:.1f} h)" for u in self.unexplained)
+                f"{u['zone']} (period {u['period_h']:.1f} h)" for u in self.unexplained
+            )
         return s
 
     def format(self) -> str:
         """Human-readable report."""
-        L = [f"Diagnosis of the {self.base_model.kind} model on {self.data.get('source') or 'the dataset'}",
-             f"  {self.data.get('n_train_weeks')} training / {self.data.get('n_test_weeks')} held-out weeks, "
-             f"solar data: {'yes' if self.data.get('has_solar') else 'no'}",
-             ""]
+        L = [
+            f"Diagnosis of the {self.base_model.kind} model on {self.data.get('source') or 'the dataset'}",
+            f"  {self.data.get('n_train_weeks')} training / {self.data.get('n_test_weeks')} held-out weeks, "
+            f"solar data: {'yes' if self.data.get('has_solar') else 'no'}",
+            "",
+        ]
         ho = self.heldout
         if ho.get("verdict_lines"):  # against the baselines first (issue 13 p.5), then the causes
             L += ["Held-out verdict against persistence and the time-of-week mean (base refitted, extended):"]
@@ -150,20 +158,25 @@ class DiagnosisReport:
                 if b is None or a is None:
                     continue
                 L.append(f"  {z:>6}: {b:.3f} -> {a:.3f}  ({g:+.1f} %)")
-            L.append(f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  "
-                     f"({ho['gain_percent_mean']:+.1f} %)")
+            L.append(
+                f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  ({ho['gain_percent_mean']:+.1f} %)"
+            )
             if "mean_original_base" in ho:
-                L.append(f"  (the given base model: mean {ho['mean_original_base']:.3f} -> refitted "
-                         f"{ho['mean_base']:.3f}, {ho['refit_gain_percent_mean']:+.1f} %: a change of fitting "
-                         f"method, not a cause)")
+                L.append(
+                    f"  (the given base model: mean {ho['mean_original_base']:.3f} -> refitted "
+                    f"{ho['mean_base']:.3f}, {ho['refit_gain_percent_mean']:+.1f} %: a change of fitting "
+                    f"method, not a cause)"
+                )
             L.append("")
         if self.findings:
             L.append("Findings (in order of selection):")
             for i, f in enumerate(self.findings, 1):
                 t = f["test"]
                 L.append(f" {i}. {f['cause']} at {_loc(f['location'])}")
-                L.append(f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
-                         f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}")
+                L.append(
+                    f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+                    f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
+                )
                 ev = _short_evidence(f)
                 if ev:
                     L.append(f"    evidence: {ev}")
@@ -171,17 +184,23 @@ class DiagnosisReport:
                     L.append(f"    parameters: {_fmt_params(f['parameters'])}")
                 cv = f.get("cv") or {}
                 if cv.get("gain_percent") is not None:
-                    L.append(f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
-                             f"({cv['n_weeks']} weeks, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
-                             f"affected zones open loop, others measured)")
+                    L.append(
+                        f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
+                        f"({cv['n_weeks']} weeks, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
+                        f"affected zones open loop, others measured)"
+                    )
                 rv = (f.get("evidence") or {}).get("rival")
                 if rv:
                     t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
-                    L.append(f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
-                             f"(cross-validated paired t {t}); the data favour {rv['favoured']}")
+                    L.append(
+                        f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
+                        f"(cross-validated paired t {t}); the data favour {rv['favoured']}"
+                    )
                 for o in f.get("competitors") or []:
-                    L.append(f"    also significant here: {o['cause']} at {_loc(o['location'])} "
-                             f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})")
+                    L.append(
+                        f"    also significant here: {o['cause']} at {_loc(o['location'])} "
+                        f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})"
+                    )
                 h = f.get("heldout") or {}
                 if h.get("zones"):
                     zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
@@ -208,33 +227,43 @@ class DiagnosisReport:
         if self.unexplained:
             L.append("Unexplained (residuals not white, no catalogue cause):")
             for u in self.unexplained:
-                L.append(f"  - zone {u['zone']}: dominant period {u['period_h']:.1f} h "
-                         f"({100 * u['peak_share']:.1f} % of residual variance), cumulated periodogram departs "
-                         f"{u['cpgram_departure']:.2f} (1 % bound {u['cpgram_bound']:.2f})")
+                L.append(
+                    f"  - zone {u['zone']}: dominant period {u['period_h']:.1f} h "
+                    f"({100 * u['peak_share']:.1f} % of residual variance), cumulated periodogram departs "
+                    f"{u['cpgram_departure']:.2f} (1 % bound {u['cpgram_bound']:.2f})"
+                )
             L.append("")
         big = self.errors.get("largest_open_loop_errors", [])
         if big:
             L.append("Where the base model errs most (24-hour open-loop, mean error [K] = measured - predicted):")
             for c in big:
-                L.append(f"  - {c['zone']} at {c['by']}={c['label']}: {c['mean']:+.3f} (rms {c['rms']:.3f}, n {c['n']})")
+                L.append(
+                    f"  - {c['zone']} at {c['by']}={c['label']}: {c['mean']:+.3f} (rms {c['rms']:.3f}, n {c['n']})"
+                )
             L.append("")
-        L.append("Residual whiteness (one-step, training weeks): zone: lag-1 ACF, Ljung-Box p, "
-                 "periodogram departure before -> after")
+        L.append(
+            "Residual whiteness (one-step, training weeks): zone: lag-1 ACF, Ljung-Box p, "
+            "periodogram departure before -> after"
+        )
         for z in self.model.outputs:
             b, a = self.whiteness["before"].get(z, {}), self.whiteness["after"].get(z, {})
             if "acf_lag1" not in b:
                 continue
-            L.append(f"  {z:>6}: {b['acf_lag1']:+.2f}, {b['ljung_box']['p_value']:.2g}, {b['cpgram_departure']:.3f}"
-                     f" -> {a.get('acf_lag1', float('nan')):+.2f}, "
-                     f"{a.get('ljung_box', {}).get('p_value', float('nan')):.2g}, "
-                     f"{a.get('cpgram_departure', float('nan')):.3f}")
+            L.append(
+                f"  {z:>6}: {b['acf_lag1']:+.2f}, {b['ljung_box']['p_value']:.2g}, {b['cpgram_departure']:.3f}"
+                f" -> {a.get('acf_lag1', float('nan')):+.2f}, "
+                f"{a.get('ljung_box', {}).get('p_value', float('nan')):.2g}, "
+                f"{a.get('cpgram_departure', float('nan')):.3f}"
+            )
         o = self.options
         L.append("")
-        L.append(f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, then blocked "
-                 f"cross-validation over {o.get('cv_folds', 10)} folds of whole training weeks: gain "
-                 f">= {o.get('cv_min_gain_percent', 1.0):g} % (zone_coupling {o['coupling_min_gain_percent']:g} %) "
-                 f"and >= {o['min_gain_abs']:g} K with week-clustered paired t >= {o.get('cv_min_t', 2.0):g}; "
-                 f"held-out weeks are reported, not used to accept.")
+        L.append(
+            f"Thresholds: ΔBIC > {o['bic_margin']:g} with autocorrelation-adjusted LR, then blocked "
+            f"cross-validation over {o.get('cv_folds', 10)} folds of whole training weeks: gain "
+            f">= {o.get('cv_min_gain_percent', 1.0):g} % (zone_coupling {o['coupling_min_gain_percent']:g} %) "
+            f"and >= {o['min_gain_abs']:g} K with week-clustered paired t >= {o.get('cv_min_t', 2.0):g}; "
+            f"held-out weeks are reported, not used to accept."
+        )
         for n in self.notes:
             L.append(f"note: {n}")
         return "\n".join(L)
@@ -268,8 +297,9 @@ def _fmt_params(p: dict) -> str:
             s = f"{k}={v['value']:.4g}" + (f"±{v['std']:.2g}" if v.get("std") is not None else "")
             out.append(s)
         elif isinstance(v, dict):
-            out.append(f"{k}=" + ", ".join(f"{z}:{w['value']:.3g}±{w['std']:.2g}" for z, w in v.items()
-                                           if abs(w["value"]) > 0))
+            out.append(
+                f"{k}=" + ", ".join(f"{z}:{w['value']:.3g}±{w['std']:.2g}" for z, w in v.items() if abs(w["value"]) > 0)
+            )
     return "; ".join(out)
 
 
@@ -278,35 +308,52 @@ def _short_evidence(f: dict) -> str:
     c = f["cause"]
     if c == "solar_gain":
         s, cl = ev.get("resid_sunny", {}), ev.get("resid_cloudy", {})
-        ph = ("" if ev.get("resid_peak_hour") is None or ev.get("facade_peak_hour") is None else
-              f"; residual peaks at {ev['resid_peak_hour']:.1f} h, facade irradiance at {ev['facade_peak_hour']:.1f} h")
-        return (f"corr(residual, I) {ev.get('corr', float('nan')):+.2f}; mean one-step residual sunny "
-                f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K" + ph)
+        ph = (
+            ""
+            if ev.get("resid_peak_hour") is None or ev.get("facade_peak_hour") is None
+            else f"; residual peaks at {ev['resid_peak_hour']:.1f} h, facade irradiance at {ev['facade_peak_hour']:.1f} h"
+        )
+        return (
+            f"corr(residual, I) {ev.get('corr', float('nan')):+.2f}; mean one-step residual sunny "
+            f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K" + ph
+        )
     if c == "unused_input":
-        return (f"column {ev.get('column')} (coverage {100 * (ev.get('coverage') or 0):.0f} %): corr(residual, column) "
-                f"{ev.get('corr', float('nan')):+.2f}")
+        return (
+            f"column {ev.get('column')} (coverage {100 * (ev.get('coverage') or 0):.0f} %): corr(residual, column) "
+            f"{ev.get('corr', float('nan')):+.2f}"
+        )
     if c == "supply_air_bilinear":
         return f"corr(residual, u·(T_supply−T)) {ev.get('corr', float('nan')):+.2f}"
     if c == "zone_coupling":
         return f"corr(residual, ΔT of the pair) {ev.get('corr_a', float('nan')):+.2f} / {ev.get('corr_b', float('nan')):+.2f}"
     if c == "thermal_mass":
-        return f"time constant {ev.get('time_constant_h', float('nan')):.1f} h (alpha {ev.get('alpha', float('nan')):g})"
+        return (
+            f"time constant {ev.get('time_constant_h', float('nan')):.1f} h (alpha {ev.get('alpha', float('nan')):g})"
+        )
     if c == "actuation_delay":
         xc = ev.get("xcorr_resid_airflow_by_lag", {})
         fu = ev.get("xcorr_resid_future_airflow_by_lag", {})
-        return ("corr(residual, airflow lagged): " + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
-                + "; future airflow: " + ", ".join(f"{k}:{v:+.2f}" for k, v in fu.items() if v is not None))
+        return (
+            "corr(residual, airflow lagged): "
+            + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
+            + "; future airflow: "
+            + ", ".join(f"{k}:{v:+.2f}" for k, v in fu.items() if v is not None)
+        )
     if c == "reheat" and "corr_reheat_heat" in ev:
-        return (f"corr(residual, Σ m·cp·(Td − T_supply)) {ev['corr_reheat_heat']:+.2f}; coils heating in "
-                f"{100 * ev.get('share_of_rows_heating', 0):.0f} % of training rows")
+        return (
+            f"corr(residual, Σ m·cp·(Td − T_supply)) {ev['corr_reheat_heat']:+.2f}; coils heating in "
+            f"{100 * ev.get('share_of_rows_heating', 0):.0f} % of training rows"
+        )
     if c == "reheat":
         return f"T_out threshold {ev.get('T_threshold', float('nan')):g} °C at minimum airflow {ev.get('u_min', 0):.3f} kg/s"
     if c == "internal_gain_schedule":
         if "days" in ev:
             return f"{len(f['location'].get('dates', []))} weekdays with weekend-like gains ({ev.get('rule')})"
         if "lag_h" in ev:
-            return (f"weekday morning gains {60 * ev['lag_h']:+.0f} min later under daylight saving "
-                    f"(R² {ev.get('r2_at_lag', 0):.2f}, scale {ev.get('scale_at_lag', 0):.2f}); daylight-saving rows "
-                    f"{100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training")
+            return (
+                f"weekday morning gains {60 * ev['lag_h']:+.0f} min later under daylight saving "
+                f"(R² {ev.get('r2_at_lag', 0):.2f}, scale {ev.get('scale_at_lag', 0):.2f}); daylight-saving rows "
+                f"{100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
+            )
         return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
     return ""

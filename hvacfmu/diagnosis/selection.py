@@ -130,8 +130,7 @@ def _zone_cache(cache, sig, W, terms, z, target):
     return cache[z]
 
 
-def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Candidate, options,
-                    cache=None) -> None:
+def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Candidate, options, cache=None) -> None:
     """Fill ``c.test`` (and ``c.term``: best variant, with its fitted coefficients) in place.
 
     ``cache``: ``{"U_eff": ..., "feats": ...}`` of the current terms, shared by the candidates
@@ -145,20 +144,27 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
     for t in c.variants:
         sig = sig_for(sig0, c, t)
         zs = _affected(sig, t)
-        fast = (cache is not None and len(zs) == 1 and not isinstance(t, (ActuationDelay, ZoneCoupling))
-                and [zs[0]] in blocks)
+        fast = (
+            cache is not None
+            and len(zs) == 1
+            and not isinstance(t, (ActuationDelay, ZoneCoupling))
+            and [zs[0]] in blocks
+        )
         if fast:
             # the term only adds columns to one uncoupled zone equation: reuse its transformed design
             z = zs[0]
             names0, Xw0, yw, lo0, hi0 = _zone_cache(cache, sig, W, terms, z, target)
             new = [f for f in term_features(sig, t, cache["U_eff"]) if f[0] == z]
             Xw = np.column_stack([Xw0] + [W(f[2]) for f in new])
-            ls = bounded_ls(Xw, yw, np.r_[lo0, [f[3] for f in new]], np.r_[hi0, [f[4] for f in new]],
-                            dof_extra=W.n_groups)
+            ls = bounded_ls(
+                Xw, yw, np.r_[lo0, [f[3] for f in new]], np.r_[hi0, [f[4] for f in new]], dof_extra=W.n_groups
+            )
             lr = N * np.log(cur_rss[z] / ls.rss)
             sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
-            coefs = {f"{sig.zones[z]}:{f[1]}": (float(ls.theta[len(names0) + i]), float(sd[len(names0) + i]))
-                     for i, f in enumerate(new)}
+            coefs = {
+                f"{sig.zones[z]}:{f[1]}": (float(ls.theta[len(names0) + i]), float(sd[len(names0) + i]))
+                for i, f in enumerate(new)
+            }
             if best is None or lr > best[1]:
                 best = (t, lr, lr * factors[z], coefs)
             continue
@@ -237,8 +243,9 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
     for z, col, r in ((a, d, ra), (b, -d, rb)):
         D = zone_design(sig, z, terms, U_eff, feats)
         X = np.column_stack([D.X, col])
-        ls = bounded_ls(W(X), W(target[:, z] - D.offset), np.r_[D.lower, 0.0], np.r_[D.upper, 1.0],
-                        dof_extra=W.n_groups)
+        ls = bounded_ls(
+            W(X), W(target[:, z] - D.offset), np.r_[D.lower, 0.0], np.r_[D.upper, 1.0], dof_extra=W.n_groups
+        )
         out[f"untied_coef_{sig.zones[z]}"] = float(ls.theta[-1])
         ks.append(ls.theta[-1] / r)
     ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
@@ -254,8 +261,13 @@ def heldout_rms(model, dataset, horizon=96):
         warnings.simplefilter("ignore")
         res = evaluate(model, dataset, horizon=horizon)
     sc = res.scores[0]
-    return {"starts": list(sc.starts), "seasons": list(sc.seasons), "rms": np.asarray(sc.rms, float),
-            "outputs": tuple(sc.outputs), "result": res}
+    return {
+        "starts": list(sc.starts),
+        "seasons": list(sc.seasons),
+        "rms": np.asarray(sc.rms, float),
+        "outputs": tuple(sc.outputs),
+        "result": res,
+    }
 
 
 def compare_heldout(before, after, zones_idx) -> dict:
@@ -324,16 +336,26 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     while len(findings) < opts["max_terms"]:
         # gain-profile features (holidays, daylight saving) use the current model's profiles; once
         # a daylight-saving shift is in, the profile of the clock the gains follow stays
-        sig = dataclasses.replace(sig0, base_profiles=fixed_profiles or {
-            s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
-            or sig0.base_profiles)
+        sig = dataclasses.replace(
+            sig0,
+            base_profiles=fixed_profiles
+            or {s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
+            or sig0.base_profiles,
+        )
         cands = _score_round(sig, W, terms, cur, opts)
-        ranked = sorted([c for c in cands if c.variants and c.status == "not tested"],
-                        key=lambda c: -c.test["delta_bic"])
+        ranked = sorted(
+            [c for c in cands if c.variants and c.status == "not tested"], key=lambda c: -c.test["delta_bic"]
+        )
         accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows)
         _name_competitors(cands, accepted)
-        rounds.append({"round": len(rounds) + 1, "scored": len([c for c in cands if c.test]),
-                       "significant": [c.key for c in ranked], "accepted": [c.key for c in accepted]})
+        rounds.append(
+            {
+                "round": len(rounds) + 1,
+                "scored": len([c for c in cands if c.test]),
+                "significant": [c.key for c in ranked],
+                "accepted": [c.key for c in accepted],
+            }
+        )
         last_cands = cands
         if not accepted:
             break
@@ -349,8 +371,9 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
         cur_ho = ho.rms(cur.model)
         for c in accepted:
             c.heldout = ho.compare(prev_ho, cur_ho, _affected(sig, c.term), c.term, sig)
-            c.term = next((t for t in cur.model.terms if t.cause == c.term.cause
-                           and t.location() == c.term.location()), c.term)
+            c.term = next(
+                (t for t in cur.model.terms if t.cause == c.term.cause and t.location() == c.term.location()), c.term
+            )
     others = [c for c in last_cands if c not in findings]
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
 
@@ -364,8 +387,10 @@ def fit_consistent(sig: Signals, terms, rows, refresh_profiles: bool = True):
     """
     fit = fit_structure(sig, terms, rows)
     if refresh_profiles and any(isinstance(t, InternalGainSchedule) for t in terms):
-        sig2 = dataclasses.replace(sig, base_profiles={s: np.asarray(fit.model.base.gains[s]) for s in sig.seasons
-                                                       if s in fit.model.base.gains})
+        sig2 = dataclasses.replace(
+            sig,
+            base_profiles={s: np.asarray(fit.model.base.gains[s]) for s in sig.seasons if s in fit.model.base.gains},
+        )
         fit = fit_structure(sig2, terms, rows)
     return fit
 
@@ -391,21 +416,28 @@ def _gate(c, opts) -> None:
     """Information-criterion and cause-specific gates after the training-rows fit."""
     if c.test["delta_bic"] <= opts["bic_margin"]:
         c.status = "not significant"
-        c.reason = (f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
-                    f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
-                    f"penalty {c.test['bic_penalty']:.1f})")
-    elif c.cause == "zone_coupling" and not (1.0 / opts["coupling_max_asymmetry"] <= c.evidence["symmetry_ratio"]
-                                             <= opts["coupling_max_asymmetry"]):
+        c.reason = (
+            f"ΔBIC {c.test['delta_bic']:.1f} ≤ {opts['bic_margin']:g} "
+            f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
+            f"penalty {c.test['bic_penalty']:.1f})"
+        )
+    elif c.cause == "zone_coupling" and not (
+        1.0 / opts["coupling_max_asymmetry"] <= c.evidence["symmetry_ratio"] <= opts["coupling_max_asymmetry"]
+    ):
         c.status = "no evidence"
-        c.reason = (f"asymmetric: the zones' own coefficients differ by a factor "
-                    f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
-                    f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
-                    f"not a heat exchange between them")
+        c.reason = (
+            f"asymmetric: the zones' own coefficients differ by a factor "
+            f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
+            f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
+            f"not a heat exchange between them"
+        )
     elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
         c.status = "not significant"
-        c.reason = (f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
-                    f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
-                    f"daily effect correlates with it)")
+        c.reason = (
+            f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
+            f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
+            f"daily effect correlates with it)"
+        )
     if c.cause == "actuation_delay":
         # evidence only: in closed loop a real delay also shows in the future airflow (the emulator's
         # 30-min delay in C failed a hard past-over-future rule), so the cross-validation decides
@@ -463,15 +495,26 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
     if plan is not None:
         for i, c in enumerate(list(accepted)):
             o = _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores)
-            if o is not None and c.evidence["rival"]["favoured"] == o.cause and _cv_accepts(o, opts) \
-                    and not (set(_affected(sig, o.term)) - set(_affected(sig, c.term))) & used:
+            if (
+                o is not None
+                and c.evidence["rival"]["favoured"] == o.cause
+                and _cv_accepts(o, opts)
+                and not (set(_affected(sig, o.term)) - set(_affected(sig, c.term))) & used
+            ):
                 # the rival explains the same gain better on the same folds: it is the finding
                 o.status, o.reason = "found", _found_reason(o, opts)
-                o.evidence["rival"] = {"cause": c.cause, "location": c.location, "cv_gain_percent":
-                                       c.cv.get("gain_percent"), "cv_t": c.cv.get("t"), "favoured": o.cause}
+                o.evidence["rival"] = {
+                    "cause": c.cause,
+                    "location": c.location,
+                    "cv_gain_percent": c.cv.get("gain_percent"),
+                    "cv_t": c.cv.get("t"),
+                    "favoured": o.cause,
+                }
                 c.status = "no evidence"
-                c.reason = (f"a {o.cause} at {o.location} explains the same gain better on the same folds "
-                            f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})")
+                c.reason = (
+                    f"a {o.cause} at {o.location} explains the same gain better on the same folds "
+                    f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})"
+                )
                 accepted[i] = o
     return accepted
 
@@ -483,8 +526,11 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     are scored on the same folds, and ``c.evidence["rival"]`` says which the data favour.
     """
     zs = set(_affected(sig, c.term))
-    rivals = [o for o in ranked if o is not c and o.cause != c.cause and o.term is not None
-              and zs & set(_affected(sig, o.term))]
+    rivals = [
+        o
+        for o in ranked
+        if o is not c and o.cause != c.cause and o.term is not None and zs & set(_affected(sig, o.term))
+    ]
     if not rivals:
         return None
     o = rivals[0]
@@ -493,12 +539,17 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
         if key not in base_scores:
             base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
         sig_o = sig_for(sig, o, o.term)
-        o.cv = paired_test(plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan,
-                                                                                     list(terms) + [o.term], key),
-                                                               key))
+        o.cv = paired_test(
+            plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan, list(terms) + [o.term], key), key)
+        )
     ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
-    c.evidence["rival"] = {"cause": o.cause, "location": o.location, "cv_gain_percent": o.cv.get("gain_percent"),
-                           "cv_t": o.cv.get("t"), "favoured": c.cause if ct >= ot else o.cause}
+    c.evidence["rival"] = {
+        "cause": o.cause,
+        "location": o.location,
+        "cv_gain_percent": o.cv.get("gain_percent"),
+        "cv_t": o.cv.get("t"),
+        "favoured": c.cause if ct >= ot else o.cause,
+    }
     return o
 
 
@@ -514,8 +565,10 @@ def _found_reason(c, opts) -> str:
     if not c.cv or c.cv.get("gain_percent") is None:
         return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
     cv = c.cv
-    return (f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
-            f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {cv['n_weeks']} weeks, paired t = {cv['t']:.1f}")
+    return (
+        f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
+        f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {cv['n_weeks']} weeks, paired t = {cv['t']:.1f}"
+    )
 
 
 def _rejected_reason(c, opts) -> str:
@@ -523,8 +576,10 @@ def _rejected_reason(c, opts) -> str:
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
-    return (f"cross-validated gain {cv['gain_percent']:.2f} ± {cv['se_percent']:.2f} % (t = {cv['t']:.2f}) "
-            f"below {need:g} % with t ≥ {opts['cv_min_t']:g}")
+    return (
+        f"cross-validated gain {cv['gain_percent']:.2f} ± {cv['se_percent']:.2f} % (t = {cv['t']:.2f}) "
+        f"below {need:g} % with t ≥ {opts['cv_min_t']:g}"
+    )
 
 
 def _name_competitors(cands, accepted) -> None:
@@ -540,9 +595,15 @@ def _name_competitors(cands, accepted) -> None:
                 continue
             oz = set(o.term.zones()) if o.term is not None else set()
             if zs & oz:
-                c.competitors.append({"cause": o.cause, "location": o.location, "delta_bic": o.test["delta_bic"],
-                                      "status": o.status,
-                                      "cv_gain_percent": (o.cv or {}).get("gain_percent")})
+                c.competitors.append(
+                    {
+                        "cause": o.cause,
+                        "location": o.location,
+                        "delta_bic": o.test["delta_bic"],
+                        "status": o.status,
+                        "cv_gain_percent": (o.cv or {}).get("gain_percent"),
+                    }
+                )
         c.competitors.sort(key=lambda d: -d["delta_bic"])
         del c.competitors[4:]
 
@@ -607,5 +668,12 @@ def _teacher_forced(sig: Signals, model) -> np.ndarray:
     return model.teacher_forced(sig.Y, sig.U)
 
 
-__all__ = ["DEFAULT_OPTIONS", "SelectionResult", "compare_heldout", "forward_select", "heldout_rms",
-           "one_step_residuals", "score_candidate"]
+__all__ = [
+    "DEFAULT_OPTIONS",
+    "SelectionResult",
+    "compare_heldout",
+    "forward_select",
+    "heldout_rms",
+    "one_step_residuals",
+    "score_candidate",
+]

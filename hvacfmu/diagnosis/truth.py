@@ -67,8 +67,7 @@ def finding_supported(finding: dict, truth: dict, step: float = 900.0) -> tuple[
     if isinstance(listed, dict):  # emulator >= 1.2: cause ids present in the baseline, by location
         for entry in listed.get(c, []):
             keys = [k for k in ("zone", "facade", "zones") if k in entry]
-            same = all((set(entry[k]) == set(loc.get(k, [])) if k == "zones" else entry[k] == loc.get(k))
-                       for k in keys)
+            same = all((set(entry[k]) == set(loc.get(k, [])) if k == "zones" else entry[k] == loc.get(k)) for k in keys)
             if same:
                 return True, f"baseline: {entry.get('source', c)}"
         return False, "not in the emulator's truth"
@@ -114,4 +113,3 @@ def compare_with_truth(report, truth: dict) -> dict:
         ok, why = finding_supported(f, truth, step)
         (supported if ok else unsupported).append({"cause": f["cause"], "location": f["location"], "why": why})
     return {"found": found, "missed": missed, "supported": supported, "unsupported": unsupported}
-

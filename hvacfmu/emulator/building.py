@@ -97,7 +97,7 @@ def floor_plan(layout: str = "sdh"):
         zones[name] = {"area": area, "volume": area * CEILING_HEIGHT, "facades": facades}
     shared = {}
     for i, a in enumerate(order):
-        for b in order[i + 1:]:
+        for b in order[i + 1 :]:
             length = _shared_length(lay.rects[a], lay.rects[b])
             if length > 0:
                 shared[(a, b)] = length
@@ -231,10 +231,22 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
                 }
             )
         elements.append(
-            {"name": f"{zname}_floor", "construction": "floor_slab", "area": z["area"], "side1": zname, "side2": "adiabatic"}
+            {
+                "name": f"{zname}_floor",
+                "construction": "floor_slab",
+                "area": z["area"],
+                "side1": zname,
+                "side2": "adiabatic",
+            }
         )
         elements.append(
-            {"name": f"{zname}_ceiling", "construction": "ceiling_slab", "area": z["area"], "side1": zname, "side2": "adiabatic"}
+            {
+                "name": f"{zname}_ceiling",
+                "construction": "ceiling_slab",
+                "area": z["area"],
+                "side1": zname,
+                "side2": "adiabatic",
+            }
         )
     for (a, b), length in plan["shared"].items():
         elements.append(
@@ -264,8 +276,9 @@ def _check(layout, construction, climate, hvac="vav"):
         raise EmulatorError(problems_message("Invalid emulator building", problems))
 
 
-def building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True,
-                  hvac: str = "vav") -> dict:
+def building_dict(
+    layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True, hvac: str = "vav"
+) -> dict:
     """A floor as a building-file mapping (see :func:`emulated_building`)."""
     _check(layout, construction, climate, hvac)
     lay = get_layout(layout)
@@ -348,8 +361,9 @@ def sdh_building_dict(nominal: bool = True) -> dict:
     return building_dict("sdh", "medium", "mild", nominal)
 
 
-def emulated_building(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
-                      nominal: bool = True, hvac: str = "vav") -> Building:
+def emulated_building(
+    layout: str = "sdh", construction: str = "medium", climate: str = "mild", nominal: bool = True, hvac: str = "vav"
+) -> Building:
     """An emulated floor as a :class:`~hvacfmu.building.Building`.
 
     Parameters
@@ -394,8 +408,9 @@ def sdh_building(nominal: bool = True) -> Building:
     return building_from_dict(sdh_building_dict(nominal))
 
 
-def true_building_dict(layout: str = "sdh", construction: str = "medium", climate: str = "mild",
-                       hvac: str = "vav") -> dict:
+def true_building_dict(
+    layout: str = "sdh", construction: str = "medium", climate: str = "mild", hvac: str = "vav"
+) -> dict:
     """The emulator's true building: true tables, and slabs facing the floors above and below.
 
     Floor and ceiling slabs are not adiabatic in the truth: their far side faces

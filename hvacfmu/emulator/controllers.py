@@ -98,7 +98,7 @@ def excitation_schedule(index: pd.DatetimeIndex, rng, n_zones, params=None):
     """
     p = (params or DEFAULT_CONTROLLERS)["excitation"]
     local = index.tz_localize(None)
-    day = (local.as_unit("s").asi8 // 86400)
+    day = local.as_unit("s").asi8 // 86400
     dow = np.asarray(local.day_of_week)
     hour = np.asarray(local.hour) + np.asarray(local.minute) / 60.0
     saturdays = np.unique(day[dow == 5])

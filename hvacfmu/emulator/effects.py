@@ -148,7 +148,7 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
     for z in building["zones"]:
         for a in z.get("adjacent", []):
             adjacent.add(frozenset((z["name"], a)))
-    non_adjacent = [(a, b) for i, a in enumerate(zones) for b in zones[i + 1:] if frozenset((a, b)) not in adjacent]
+    non_adjacent = [(a, b) for i, a in enumerate(zones) for b in zones[i + 1 :] if frozenset((a, b)) not in adjacent]
     out, problems = [], []
     for i, spec in enumerate(effects):
         try:
@@ -184,7 +184,9 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
                     sunny = [f for f in options if f != "N"] or options
                     r["facade"] = str(rng.choice(sunny))
                 elif r["facade"] not in options:
-                    problems.append(f"{where}: zone {r['zone']} has no {r['facade']!r} facade (it has {', '.join(options)})")
+                    problems.append(
+                        f"{where}: zone {r['zone']} has no {r['facade']!r} facade (it has {', '.join(options)})"
+                    )
             if "scale" in e:
                 base = [w["shgc"] for w in building.get("windows", []) if w["zone"] == r.get("zone")]
                 r["shgc"] = (float(e["scale"]) - 1.0) * (base[0] if base else 0.0)

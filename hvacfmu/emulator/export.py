@@ -102,9 +102,16 @@ def apply_faults(frame: pd.DataFrame, faults, rng, zones, vavs) -> tuple[pd.Data
         length = min(n - 2, int(round(rng.uniform(2.0, 4.0) / _days_per_row(frame))))
         s = int(rng.integers(1, max(2, n - length)))
         col = f"T_{z}"
-        frame.loc[s: s + length - 1, col] = frame[col].iloc[s - 1]
-        records.append({"kind": "stuck sensor", "column": col, "start": str(times[s]),
-                        "end": str(times[min(s + length, n) - 1]), "value": float(frame[col].iloc[s - 1])})
+        frame.loc[s : s + length - 1, col] = frame[col].iloc[s - 1]
+        records.append(
+            {
+                "kind": "stuck sensor",
+                "column": col,
+                "start": str(times[s]),
+                "end": str(times[min(s + length, n) - 1]),
+                "value": float(frame[col].iloc[s - 1]),
+            }
+        )
     if "sparse_box" in faults:
         v = str(rng.choice(list(vavs)))
         answered = rng.random(n) < SPARSE_COVERAGE
@@ -117,7 +124,7 @@ def apply_faults(frame: pd.DataFrame, faults, rng, zones, vavs) -> tuple[pd.Data
         for _ in range(n_out):
             length = max(1, int(rng.uniform(0.25, 8.0) * rows_per_hour))
             s = int(rng.integers(0, max(1, n - length)))
-            keep[s: s + length] = False
+            keep[s : s + length] = False
             records.append({"kind": "outage", "start": str(times[s]), "end": str(times[min(s + length, n) - 1])})
         drops = rng.random(n) < 0.005
         keep &= ~drops

@@ -57,8 +57,9 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
             "start": "2025-09-01" if weeks >= 40 else str(rng.choice(SEASON_STARTS)),
         }
         if hvac != "vav":
-            p.update(units="us", clock=str(rng.choice(["naive-local", "naive-utc"])), export_step=900,
-                     faults=["outages"])
+            p.update(
+                units="us", clock=str(rng.choice(["naive-local", "naive-utc"])), export_step=900, faults=["outages"]
+            )
         out.append(p)
     return out
 
@@ -100,19 +101,29 @@ def generate_fleet(n: int, outdir, seed: int = 0, weeks: int = 51, progress: boo
     for i, p in enumerate(fleet_parameters(n, seed, weeks)):
         name = f"b{i:03d}"
         paths = generate(outdir / name, weeks=int(weeks), **p)
-        rows.append({
-            "name": name,
-            "folder": name,
-            "measurements": paths.measurements.relative_to(outdir).as_posix(),
-            "building": paths.building.relative_to(outdir).as_posix(),
-            "truth": paths.truth.relative_to(outdir).as_posix(),
-            "parameters": {"weeks": int(weeks), **p},
-        })
+        rows.append(
+            {
+                "name": name,
+                "folder": name,
+                "measurements": paths.measurements.relative_to(outdir).as_posix(),
+                "building": paths.building.relative_to(outdir).as_posix(),
+                "truth": paths.truth.relative_to(outdir).as_posix(),
+                "parameters": {"weeks": int(weeks), **p},
+            }
+        )
         if progress:
-            print(f"fleet: {i + 1}/{n} {name}: {p['layout']}, {p['construction']}, {p['climate']}, {p['hvac']}, "
-                  f"effects {', '.join(p['effects']) or 'none'} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
-    manifest = {"format": FLEET_FORMAT, "seed": int(seed), "weeks": int(weeks), "emulator_version": EMULATOR_VERSION,
-                "buildings": rows}
+            print(
+                f"fleet: {i + 1}/{n} {name}: {p['layout']}, {p['construction']}, {p['climate']}, {p['hvac']}, "
+                f"effects {', '.join(p['effects']) or 'none'} ({time.perf_counter() - t0:.0f} s)",
+                file=sys.stderr,
+            )
+    manifest = {
+        "format": FLEET_FORMAT,
+        "seed": int(seed),
+        "weeks": int(weeks),
+        "emulator_version": EMULATOR_VERSION,
+        "buildings": rows,
+    }
     path = outdir / "fleet.json"
     path.write_text(json.dumps(manifest, indent=1), encoding="utf-8")
     return path

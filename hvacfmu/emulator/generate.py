@@ -73,8 +73,16 @@ class GeneratedPaths:
         )
 
 
-def make_truth(weeks: int = 51, seed: int = 0, effects=(), start: str = DEFAULT_START, layout: str = "sdh",
-               construction: str = "medium", climate: str = "mild", hvac: str = "vav") -> dict:
+def make_truth(
+    weeks: int = 51,
+    seed: int = 0,
+    effects=(),
+    start: str = DEFAULT_START,
+    layout: str = "sdh",
+    construction: str = "medium",
+    climate: str = "mild",
+    hvac: str = "vav",
+) -> dict:
     """The truth mapping of a dataset before simulation (structure, parameters, resolved effects).
 
     ``layout``, ``construction`` and ``climate`` name entries of
@@ -339,9 +347,22 @@ def _discharge_columns(sim: dict, truth: dict) -> dict:
     return out
 
 
-def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "parquet", layout: str = "sdh",
-             construction: str = "medium", climate: str = "mild", start: str = DEFAULT_START, hvac: str = "vav",
-             units: str = "si", clock: str = "aware", export_step: int = 60, faults=()) -> GeneratedPaths:
+def generate(
+    outdir,
+    weeks: int = 51,
+    seed: int = 0,
+    effects=(),
+    fmt: str = "parquet",
+    layout: str = "sdh",
+    construction: str = "medium",
+    climate: str = "mild",
+    start: str = DEFAULT_START,
+    hvac: str = "vav",
+    units: str = "si",
+    clock: str = "aware",
+    export_step: int = 60,
+    faults=(),
+) -> GeneratedPaths:
     """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
     Parameters
@@ -388,8 +409,9 @@ def generate(outdir, weeks: int = 51, seed: int = 0, effects=(), fmt: str = "par
         raise EmulatorError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
     faults = tuple(faults)
     validate_export(units, clock, export_step, faults)
-    truth = make_truth(weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate,
-                       hvac=hvac)
+    truth = make_truth(
+        weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate, hvac=hvac
+    )
     sim = simulate(truth)
     frame = _measured_frame(sim, truth)
     frame, row_gaps, nan_gaps = _standard_gaps(frame, truth, sim, export_step)
@@ -431,7 +453,7 @@ def _standard_gaps(frame, truth, sim, export_step):
     gap_cols = [f"T_{z}" for z in zones] + [f"m_{v}" for v in vavs] + ["T_out", "ghi"] + supply
     row_gaps, nan_gaps = _gaps(n, truth["weeks"], stream(truth["seed"], "gaps"), gap_cols)
     for s, e, col in nan_gaps:
-        frame.loc[s: e - 1, col] = np.nan
+        frame.loc[s : e - 1, col] = np.nan
     keep = np.ones(n, dtype=bool)
     for s, e in row_gaps:
         keep[s:e] = False
@@ -496,8 +518,17 @@ def cache_key(weeks: int, seed: int, effects=(), **options) -> str:
     return key
 
 
-_GENERATE_DEFAULTS = {"layout": "sdh", "construction": "medium", "climate": "mild", "start": DEFAULT_START,
-                      "hvac": "vav", "units": "si", "clock": "aware", "export_step": 60, "faults": ()}
+_GENERATE_DEFAULTS = {
+    "layout": "sdh",
+    "construction": "medium",
+    "climate": "mild",
+    "start": DEFAULT_START,
+    "hvac": "vav",
+    "units": "si",
+    "clock": "aware",
+    "export_step": 60,
+    "faults": (),
+}
 
 
 def cached_dataset(weeks: int = 51, seed: int = 0, effects=(), **options) -> GeneratedPaths:
@@ -511,8 +542,9 @@ def cached_dataset(weeks: int = 51, seed: int = 0, effects=(), **options) -> Gen
     """
     unknown = set(options) - set(_GENERATE_DEFAULTS)
     if unknown:
-        raise EmulatorError(f"cached_dataset: unknown option(s) {', '.join(sorted(unknown))}; "
-                            f"known: {', '.join(_GENERATE_DEFAULTS)}")
+        raise EmulatorError(
+            f"cached_dataset: unknown option(s) {', '.join(sorted(unknown))}; known: {', '.join(_GENERATE_DEFAULTS)}"
+        )
     root = _cache_root()
     final = root / cache_key(weeks, seed, effects, **options)
     paths = GeneratedPaths(final / "measurements.parquet", final / "building.toml", final / "truth.json")

@@ -127,8 +127,15 @@ ROW4 = Layout(
     rects=_ROW4_RECTS,
     vavs=_sized_vavs(_ROW4_RECTS),
     peak_gain={"R1": 14.0, "R2": 16.0, "R3": 12.0, "R4": 15.0},
-    window_to_wall={("R2", "S"): 0.65, ("R2", "N"): 0.25, ("R3", "S"): 0.40, ("R4", "E"): 0.25,
-                    ("R4", "N"): 0.25, ("R4", "S"): 0.30, ("R1", "W"): 0.35},
+    window_to_wall={
+        ("R2", "S"): 0.65,
+        ("R2", "N"): 0.25,
+        ("R3", "S"): 0.40,
+        ("R4", "E"): 0.25,
+        ("R4", "N"): 0.25,
+        ("R4", "S"): 0.30,
+        ("R1", "W"): 0.35,
+    },
     blind=frozenset({("R3", "N")}),
     ahu_of_zone={"R1": "AHU1", "R2": "AHU1", "R3": "AHU2", "R4": "AHU2"},
 )
@@ -162,13 +169,28 @@ LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9)}
 #: Construction templates: thickness [m] of the massive layers and furniture mass [J/(K m2)].
 #: ``medium`` is the SDH-like concrete frame (the default; its values are those of building.py).
 CONSTRUCTION_TEMPLATES = {
-    "medium": {"exterior_concrete": 0.15, "insulation": 0.08, "slab": 0.20, "internal_mass_factor": 1.0,
-               "description": "concrete frame: 15 cm concrete exterior walls with 8 cm insulation, 20 cm slabs"},
-    "light": {"exterior_concrete": 0.0, "insulation": 0.12, "slab": 0.10, "internal_mass_factor": 0.5,
-              "description": "steel frame: insulated metal-panel walls (no concrete), 10 cm slabs on metal deck, "
-                             "light furniture"},
-    "heavy": {"exterior_concrete": 0.30, "insulation": 0.06, "slab": 0.30, "internal_mass_factor": 1.5,
-              "description": "masonry: 30 cm solid walls with 6 cm insulation, 30 cm slabs, heavy contents"},
+    "medium": {
+        "exterior_concrete": 0.15,
+        "insulation": 0.08,
+        "slab": 0.20,
+        "internal_mass_factor": 1.0,
+        "description": "concrete frame: 15 cm concrete exterior walls with 8 cm insulation, 20 cm slabs",
+    },
+    "light": {
+        "exterior_concrete": 0.0,
+        "insulation": 0.12,
+        "slab": 0.10,
+        "internal_mass_factor": 0.5,
+        "description": "steel frame: insulated metal-panel walls (no concrete), 10 cm slabs on metal deck, "
+        "light furniture",
+    },
+    "heavy": {
+        "exterior_concrete": 0.30,
+        "insulation": 0.06,
+        "slab": 0.30,
+        "internal_mass_factor": 1.5,
+        "description": "masonry: 30 cm solid walls with 6 cm insulation, 30 cm slabs, heavy contents",
+    },
 }
 
 
@@ -180,7 +202,10 @@ CONSTRUCTION_TEMPLATES = {
 CLIMATES = {
     "mild": {
         "description": "Berkeley, CA: mild, cool summers, wet winters",
-        "latitude": 37.8750, "longitude": -122.2587, "timezone": "America/Los_Angeles", "altitude": 60.0,
+        "latitude": 37.8750,
+        "longitude": -122.2587,
+        "timezone": "America/Los_Angeles",
+        "altitude": 60.0,
         "monthly_mean": [10.3, 11.5, 12.6, 13.7, 15.2, 16.8, 17.2, 17.8, 18.4, 16.8, 13.1, 10.3],
         "monthly_range": [7.5, 8.0, 8.5, 9.0, 9.5, 10.0, 10.0, 10.0, 11.0, 10.5, 9.0, 7.5],
         "monthly_cloudy": [0.55, 0.50, 0.45, 0.35, 0.25, 0.15, 0.10, 0.10, 0.15, 0.25, 0.40, 0.55],
@@ -192,7 +217,10 @@ CLIMATES = {
     },
     "cold": {
         "description": "Chicago-like: cold winters (daily means below -5 °C on cold spells), warm summers",
-        "latitude": 41.8781, "longitude": -87.6298, "timezone": "America/Chicago", "altitude": 180.0,
+        "latitude": 41.8781,
+        "longitude": -87.6298,
+        "timezone": "America/Chicago",
+        "altitude": 180.0,
         "monthly_mean": [-4.6, -2.6, 3.2, 9.4, 15.3, 20.8, 23.6, 22.8, 18.7, 12.2, 4.9, -1.4],
         "monthly_range": [7.5, 8.0, 9.0, 10.0, 10.5, 10.5, 10.0, 9.5, 10.0, 10.0, 8.0, 7.0],
         "monthly_cloudy": [0.60, 0.55, 0.55, 0.50, 0.40, 0.35, 0.30, 0.30, 0.35, 0.40, 0.55, 0.65],
@@ -204,7 +232,10 @@ CLIMATES = {
     },
     "hot": {
         "description": "Phoenix-like: hot, sunny summers, mild winters; Arizona keeps standard time all year",
-        "latitude": 33.4484, "longitude": -112.0740, "timezone": "America/Phoenix", "altitude": 340.0,
+        "latitude": 33.4484,
+        "longitude": -112.0740,
+        "timezone": "America/Phoenix",
+        "altitude": 340.0,
         "monthly_mean": [13.5, 15.4, 18.6, 22.6, 27.8, 33.0, 35.2, 34.6, 31.6, 25.3, 17.9, 12.8],
         "monthly_range": [12.5, 13.0, 13.5, 14.5, 15.0, 15.0, 12.0, 11.5, 12.5, 13.5, 13.0, 12.5],
         "monthly_cloudy": [0.25, 0.25, 0.20, 0.10, 0.08, 0.05, 0.25, 0.25, 0.12, 0.12, 0.15, 0.25],
@@ -226,8 +257,8 @@ HVAC_MODES = {
     "vav": {"description": "one air handler; reheat at minimum airflow, discharge temperature not logged"},
     "reheat": {
         "description": "VAV with hot-water reheat: two air handlers with their own supply-air reset, "
-                       "constant minimum airflow in heating, discharge air up to T_discharge_max, "
-                       "per-box Td_<vav> and rh_<vav> logged",
+        "constant minimum airflow in heating, discharge air up to T_discharge_max, "
+        "per-box Td_<vav> and rh_<vav> logged",
         "min_airflow_scale": 1.5,  # [-] boxes keep a higher constant minimum (ventilation, heating)
         "max_min_fraction": 0.45,  # [-] cap of m_min / m_max
         "T_discharge_max": 35.0,  # [°C] heating limit of the discharge air, declared per air handler
@@ -235,8 +266,8 @@ HVAC_MODES = {
     },
     "reheat-dual": {
         "description": "as reheat, with dual-maximum boxes: in heating the discharge air rises first, then the "
-                       "airflow rises from its minimum to heating_max_fraction x m_max at the discharge limit "
-                       "(more air = more heat in winter)",
+        "airflow rises from its minimum to heating_max_fraction x m_max at the discharge limit "
+        "(more air = more heat in winter)",
         "min_airflow_scale": 1.5,
         "max_min_fraction": 0.45,
         "T_discharge_max": 35.0,

@@ -33,6 +33,7 @@ DEFAULT_OCCUPANCY = {
     "adjacent_floor": {"mean": 21.8, "workday_rise": 0.7, "noise_std": 0.25},  # [°C]
 }
 
+
 def _season_of_day(month, day):
     md = (month, day)
     if (9, 1) <= md <= (12, 15):

@@ -90,7 +90,10 @@ class PlantCore:
         Ad, Bd = net.discretize(DT)
         nz = len(zones)
         k_hvac = [net.input_index(f"Q_hvac_{z}") for z in zones]
-        k_w = [net.input_index(n) for n in ["T_out", "T_fl"] + [f"I_{o}" for o in ORIENTATIONS] + [f"Q_ig_{z}" for z in zones]]
+        k_w = [
+            net.input_index(n)
+            for n in ["T_out", "T_fl"] + [f"I_{o}" for o in ORIENTATIONS] + [f"Q_ig_{z}" for z in zones]
+        ]
         index = dataset_index(truth["start"], truth["weeks"], truth["timezone"])
         areas = [z["area"] for z in bld["zones"]]
         gains = internal_gains(index, zones, areas, stream(truth["seed"], "occupancy"), base["occupancy"], effects)
@@ -109,7 +112,11 @@ class PlantCore:
         reheat = [e for e in effects if e["name"] == "reheat"]
         rh = None
         if reheat:
-            rh = {"zone": zidx[reheat[0]["zone"]], "power": float(reheat[0]["power"]), "below": float(reheat[0]["below"])}
+            rh = {
+                "zone": zidx[reheat[0]["zone"]],
+                "power": float(reheat[0]["power"]),
+                "below": float(reheat[0]["below"]),
+            }
             rh["boxes"] = np.flatnonzero(box_zone == rh["zone"])
         return cls(
             zones=zones,
@@ -224,11 +231,22 @@ class Plant:
             dhi = np.nan_to_num(np.asarray(erbs["dhi"], dtype=float), nan=0.0)
             # the four facades in one call (pvlib is elementwise): facade-major blocks of n minutes
             az = np.repeat([FACADE_AZIMUTH[o] for o in ORIENTATIONS], n)
-            tile = [np.tile(a, 4) for a in (sun["apparent_zenith"], sun["azimuth"], dni, g, dhi, sun["dni_extra"],
-                                             sun["airmass"])]
+            tile = [
+                np.tile(a, 4)
+                for a in (sun["apparent_zenith"], sun["azimuth"], dni, g, dhi, sun["dni_extra"], sun["airmass"])
+            ]
             poa = pvlib.irradiance.get_total_irradiance(
-                90.0, az, tile[0], tile[1], tile[2], tile[3], tile[4], dni_extra=tile[5], airmass=tile[6],
-                model="perez", albedo=0.2,
+                90.0,
+                az,
+                tile[0],
+                tile[1],
+                tile[2],
+                tile[3],
+                tile[4],
+                dni_extra=tile[5],
+                airmass=tile[6],
+                model="perez",
+                albedo=0.2,
             )
             out = np.asarray(poa["poa_global"], dtype=float).reshape(4, n).T
         return np.clip(np.nan_to_num(out, nan=0.0), 0.0, None)
@@ -246,7 +264,9 @@ class Plant:
             if w not in cache:
                 if len(cache) > 8:
                     cache.clear()
-                index = dataset_index(self.truth["start"], self.truth["weeks"], self.truth["timezone"])[w * week:(w + 1) * week]
+                index = dataset_index(self.truth["start"], self.truth["weeks"], self.truth["timezone"])[
+                    w * week : (w + 1) * week
+                ]
                 bld = self.truth["baseline"]["building"]
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
@@ -277,7 +297,10 @@ class Plant:
             self._loops = {
                 "per": int(round(float(cp["control_interval"]) / DT)),
                 "occupied": occupied_mode(index, cp),
-                "sp": {True: float(cp["heating_setpoint"]["occupied"]), False: float(cp["heating_setpoint"]["unoccupied"])},
+                "sp": {
+                    True: float(cp["heating_setpoint"]["occupied"]),
+                    False: float(cp["heating_setpoint"]["unoccupied"]),
+                },
                 "kp": kp,
                 "ki_dt": kp * float(cp["control_interval"]) / float(cp["integral_time"]),
                 "offsets": np.asarray(cp["box_offsets"], dtype=float),
@@ -326,7 +349,9 @@ class Plant:
         """
         T = np.asarray(T_zones, dtype=float)
         if T.shape != (len(self.zones),):
-            raise EmulatorError(f"T_zones must have {len(self.zones)} values ({', '.join(self.zones)}), got shape {T.shape}")
+            raise EmulatorError(
+                f"T_zones must have {len(self.zones)} values ({', '.join(self.zones)}), got shape {T.shape}"
+            )
         x = np.array([T[z].mean() for z in self.core.node_zones])
         c = self.core
         if c.delay_minutes:
@@ -363,7 +388,9 @@ class Plant:
         irr = np.asarray(irradiance, dtype=float)
         per_minute = irr.ndim == 2 and irr.shape == (round(nsub), 4)
         if irr.shape != (4,) and not per_minute:
-            problems.append(f"irradiance must be [I_N, I_E, I_S, I_W] or one such row per minute, got shape {irr.shape}")
+            problems.append(
+                f"irradiance must be [I_N, I_E, I_S, I_W] or one such row per minute, got shape {irr.shape}"
+            )
         Ts = np.asarray(T_supply, dtype=float)
         n_units = max(len(c.ahus), 1)
         if Ts.shape not in ((), (n_units,)):
@@ -435,17 +462,24 @@ class Plant:
         k0, nsub, x, m, irr, p, Ts_box = self._inputs(x, t, dt, m_vav, T_out, T_supply, irradiance, reheat, T_discharge)
         nth = c.n_thermal
         xt = x[:nth].copy()
-        buf = x[nth: nth + c.n_buffer].reshape(c.delay_minutes, len(c.delay_boxes), 2).copy() if c.delay_minutes else None
+        buf = (
+            x[nth : nth + c.n_buffer].reshape(c.delay_minutes, len(c.delay_boxes), 2).copy()
+            if c.delay_minutes
+            else None
+        )
         W = self.core.w_rows(k0, k0 + nsub, T_out, irr) @ c.Bw.T
         nz = len(self.zones)
         p_cmd = p
         if self.local_reheat:
             loops = self._reheat_loops()
             nb = len(self.vavs)
-            integ = x[nth + c.n_buffer: nth + c.n_buffer + nb].copy()
-            p_loc = x[nth + c.n_buffer + nb:].copy()
-            rh_max = loops["rh_max"] if loops["T_discharge_max"] is None else (
-                c.m_min * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0))
+            integ = x[nth + c.n_buffer : nth + c.n_buffer + nb].copy()
+            p_loc = x[nth + c.n_buffer + nb :].copy()
+            rh_max = (
+                loops["rh_max"]
+                if loops["T_discharge_max"] is None
+                else (c.m_min * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0))
+            )
             if loops["dual"]:  # the discharge stage of a dual-maximum box heats the commanded airflow
                 rh_max = np.maximum(m, c.m_min) * CP_AIR * np.maximum(loops["T_discharge_max"] - Ts_box, 0.0)
         for j in range(nsub):

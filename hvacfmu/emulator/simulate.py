@@ -76,7 +76,7 @@ def simulate(truth: dict) -> dict:
     for s_i, seg in enumerate(segments):
         b0, b1 = seg["start"] // per, -(-seg["end"] // per)
         exc_block[b0:b1] = s_i
-        exc_flag[b0 * per: b1 * per] = True
+        exc_flag[b0 * per : b1 * per] = True
         frac = np.asarray(seg["levels"])[core.box_zone]
         exc_m.append(core.m_min + frac * (core.m_max - core.m_min))
     occ_block = occupied[::per]
@@ -135,12 +135,12 @@ def simulate(truth: dict) -> dict:
             h_z = core.Mzb @ p_a
             np.subtract(Ad_air, BQ * mcp_z, out=A_air)
             if multi:  # per-box supply temperature: sum_i m_i c_p T_supply,i per zone
-                sup = (T_supply[k0: k0 + per][:, core.box_ahu] * (CP_AIR * m_a)) @ core.Mzb.T
-                D = W[k0 - w0: k0 - w0 + per] + BQ @ h_z + sup @ BQ.T
+                sup = (T_supply[k0 : k0 + per][:, core.box_ahu] * (CP_AIR * m_a)) @ core.Mzb.T
+                D = W[k0 - w0 : k0 - w0 + per] + BQ @ h_z + sup @ BQ.T
             else:
-                D = W[k0 - w0: k0 - w0 + per] + BQ @ h_z + T_supply[k0: k0 + per, None] * (BQ @ mcp_z)
+                D = W[k0 - w0 : k0 - w0 + per] + BQ @ h_z + T_supply[k0 : k0 + per, None] * (BQ @ mcp_z)
             if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
-                D += np.outer(rh_minute[k0: k0 + per], BQ[:, rh["zone"]])
+                D += np.outer(rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
             X[0] = x
             for j in range(per):
                 np.dot(A_b, X[j], out=X[j + 1])
@@ -151,7 +151,7 @@ def simulate(truth: dict) -> dict:
                 p_log[b] = p
                 m_app_log[b] = m_a
                 p_app_log[b] = p_a
-                Y[k0: k0 + per] = X[:per, :nz]
+                Y[k0 : k0 + per] = X[:per, :nz]
         return x
 
     x = np.full(core.n_thermal, 22.0)
@@ -161,8 +161,8 @@ def simulate(truth: dict) -> dict:
         # block b of the recorded run reads slot b % d_blocks: slots 0, 1, ... are oldest first
         buf = np.zeros((core.delay_minutes, len(db), 2))
         for i, slot in enumerate(range(d_blocks)):
-            buf[i * per:(i + 1) * per, :, 0] = ring_m[slot]
-            buf[i * per:(i + 1) * per, :, 1] = ring_p[slot]
+            buf[i * per : (i + 1) * per, :, 0] = ring_m[slot]
+            buf[i * per : (i + 1) * per, :, 1] = ring_p[slot]
         x0 = np.concatenate([x0, buf.ravel()])
     run(0, n, x, record=True)
 

@@ -56,8 +56,9 @@ def _diurnal_shape(hour):
     return out
 
 
-def synthetic_weather(index: pd.DatetimeIndex, rng: np.random.Generator, latitude, longitude, altitude=60.0,
-                      climate=None) -> dict:
+def synthetic_weather(
+    index: pd.DatetimeIndex, rng: np.random.Generator, latitude, longitude, altitude=60.0, climate=None
+) -> dict:
     """Generate weather for a tz-aware one-minute index.
 
     Parameters
@@ -105,8 +106,15 @@ def _synthetic_weather(index, rng, latitude, longitude, altitude, climate):
     first_day = pd.Timestamp(int(day0) * 86400, unit="s")
     doy_days = ((first_day.day_of_year - 1) + np.arange(n_days)) % 365 + 0.5
 
-    table = {key: np.asarray(climate.get(f"monthly_{key}", default), dtype=float) for key, default in
-             (("mean", MONTHLY_MEAN), ("range", MONTHLY_RANGE), ("cloudy", MONTHLY_CLOUDY), ("linke", MONTHLY_LINKE))}
+    table = {
+        key: np.asarray(climate.get(f"monthly_{key}", default), dtype=float)
+        for key, default in (
+            ("mean", MONTHLY_MEAN),
+            ("range", MONTHLY_RANGE),
+            ("cloudy", MONTHLY_CLOUDY),
+            ("linke", MONTHLY_LINKE),
+        )
+    }
     clim_mean = _monthly_interp(doy_days, table["mean"])
     clim_range = _monthly_interp(doy_days, table["range"])
     p_cloudy = _monthly_interp(doy_days, table["cloudy"])

@@ -44,13 +44,21 @@ time step, no report objects).
 
 from .cli import add_energyplus_arguments, generate_from_args
 from .generate import (
-           APPROXIMATIONS,
-           EXPORT_VERSION,
-           EnergyPlusPaths,
-           cache_key,
-           cached_export,
-           generate,
+    APPROXIMATIONS,
+    EXPORT_VERSION,
+    EnergyPlusPaths,
+    cache_key,
+    cached_export,
+    generate,
 )
 
-__all__ = ["APPROXIMATIONS", "EXPORT_VERSION", "EnergyPlusPaths", "add_energyplus_arguments", "cache_key",
-           "cached_export", "generate", "generate_from_args"]
+__all__ = [
+    "APPROXIMATIONS",
+    "EXPORT_VERSION",
+    "EnergyPlusPaths",
+    "add_energyplus_arguments",
+    "cache_key",
+    "cached_export",
+    "generate",
+    "generate_from_args",
+]

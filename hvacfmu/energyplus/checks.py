@@ -73,8 +73,11 @@ def airflow_identifiability(model, building, step: float | None = None) -> list:
         ok = abs(values[i]) >= g_min
         if not ok:
             flagged.append(zone)
-        lines.append(f"{zone}: {what} {values[i]:+.3g} {unit}, smallest plausible {g_min:.3g}"
-                     + ("" if ok else "  -> NOT IDENTIFIED (closed loop, no excitation)"))
-    head = (f"airflow identifiability: {len(flagged)} of {len(outputs)} zone gains below the physical minimum"
-            + (f" ({', '.join(flagged)})" if flagged else ""))
+        lines.append(
+            f"{zone}: {what} {values[i]:+.3g} {unit}, smallest plausible {g_min:.3g}"
+            + ("" if ok else "  -> NOT IDENTIFIED (closed loop, no excitation)")
+        )
+    head = f"airflow identifiability: {len(flagged)} of {len(outputs)} zone gains below the physical minimum" + (
+        f" ({', '.join(flagged)})" if flagged else ""
+    )
     return [head, *lines]

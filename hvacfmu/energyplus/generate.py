@@ -34,8 +34,10 @@ EXPORT_VERSION = "1.2"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
-    ("box airflow m_<vav> and discharge temperature Td_<vav> are the zone inlet node's mass flow and temperature, "
-     "time-averaged over the HVAC steps of each 15-minute step (not flow-weighted)"),
+    (
+        "box airflow m_<vav> and discharge temperature Td_<vav> are the zone inlet node's mass flow and temperature, "
+        "time-averaged over the HVAC steps of each 15-minute step (not flow-weighted)"
+    ),
     "T_supply_<ahu> is the air handler's supply outlet node temperature; it holds an idle value when the unit is off",
     "T_supply is the airflow-weighted mean of the units' supply temperatures (plain mean when no air flows)",
     "ghi = direct normal x sin(solar altitude) + diffuse horizontal, from EnergyPlus's site variables",
@@ -71,17 +73,20 @@ def select_boxes(boxes, floor, zones):
         sel = list(boxes)
     if not sel:
         names = sorted({b.zone for b in boxes})
-        raise DataError(f"no conditioned zone matches floor={floor!r} zones={zones!r}; the IDF's conditioned zones are "
-                        f"{names}")
+        raise DataError(
+            f"no conditioned zone matches floor={floor!r} zones={zones!r}; the IDF's conditioned zones are {names}"
+        )
     return sel
 
 
 def export_probes(boxes, ahus, zones):
     """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
-    p = [Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment"),
-         Probe("_dni", "Site Direct Solar Radiation Rate per Area", "Environment"),
-         Probe("_dhi", "Site Diffuse Solar Radiation Rate per Area", "Environment"),
-         Probe("_alt", "Site Solar Altitude Angle", "Environment")]
+    p = [
+        Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment"),
+        Probe("_dni", "Site Direct Solar Radiation Rate per Area", "Environment"),
+        Probe("_dhi", "Site Diffuse Solar Radiation Rate per Area", "Environment"),
+        Probe("_alt", "Site Solar Altitude Angle", "Environment"),
+    ]
     p += [Probe(f"T_{hvac.sanitise(z)}", "Zone Mean Air Temperature", z) for z in zones]
     for b in boxes:
         p.append(Probe(f"m_{b.name}", "System Node Mass Flow Rate", b.outlet_node, system=True))
@@ -133,10 +138,23 @@ def _heating_limit(idf, zones):
 def _building_dict(idf, site, boxes, ahus, limits, label):
     zones = list(dict.fromkeys(b.zone for b in boxes))
     surfs, wins = geometry.surfaces(idf), geometry.windows(idf)
-    d = {"name": label, "latitude": site.latitude, "longitude": site.longitude, "timezone": site.timezone,
-         "zones": geometry.zone_tables(idf, zones, surfs, wins),
-         "vavs": [{"name": b.name, "zone": hvac.sanitise(b.zone), "m_min": limits[b.name][0],
-                   "m_max": limits[b.name][1], "ahu": hvac.sanitise(b.ahu)} for b in boxes]}
+    d = {
+        "name": label,
+        "latitude": site.latitude,
+        "longitude": site.longitude,
+        "timezone": site.timezone,
+        "zones": geometry.zone_tables(idf, zones, surfs, wins),
+        "vavs": [
+            {
+                "name": b.name,
+                "zone": hvac.sanitise(b.zone),
+                "m_min": limits[b.name][0],
+                "m_max": limits[b.name][1],
+                "ahu": hvac.sanitise(b.ahu),
+            }
+            for b in boxes
+        ],
+    }
     d["ahus"] = []
     for name in ahus:
         a = {"name": hvac.sanitise(name)}
@@ -148,10 +166,20 @@ def _building_dict(idf, site, boxes, ahus, limits, label):
     return d
 
 
-
-def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days: int | None = None,
-             start: str = "01-01", year: int = 2017, floor: str | None = None, zones=None,
-             timezone: str | None = None, fmt: str = "parquet") -> EnergyPlusPaths:
+def generate(
+    outdir,
+    prototype,
+    *,
+    weather=None,
+    weeks: int | None = None,
+    days: int | None = None,
+    start: str = "01-01",
+    year: int = 2017,
+    floor: str | None = None,
+    zones=None,
+    timezone: str | None = None,
+    fmt: str = "parquet",
+) -> EnergyPlusPaths:
     """Run an EnergyPlus building and write what its BMS would export.
 
     Parameters
@@ -219,12 +247,27 @@ def generate(outdir, prototype, *, weather=None, weeks: int | None = None, days:
     label = f"{idf_path.stem} ({site.label})" + (f", zones with {floor!r}" if floor else "")
     d = _building_dict(read_idf(idf_path), site, boxes, ahus, limits, label)
     _building.building_from_dict(d)  # validates; raises BuildingError naming every problem
-    return _write(outdir, frame, d, fmt, {
-        "idf": str(idf_path), "weather": str(epw), "site": dataclasses.asdict(site), "start": str(first),
-        "end": str(last), "year": year, "floor": floor, "zones": {hvac.sanitise(z): z for z in zone_names},
-        "boxes": [dataclasses.asdict(b) for b in boxes], "air_density": hvac.std_air_density(site.elevation),
-        "idf_changes": notes, "approximations": list(APPROXIMATIONS), "export_version": EXPORT_VERSION,
-    })
+    return _write(
+        outdir,
+        frame,
+        d,
+        fmt,
+        {
+            "idf": str(idf_path),
+            "weather": str(epw),
+            "site": dataclasses.asdict(site),
+            "start": str(first),
+            "end": str(last),
+            "year": year,
+            "floor": floor,
+            "zones": {hvac.sanitise(z): z for z in zone_names},
+            "boxes": [dataclasses.asdict(b) for b in boxes],
+            "air_density": hvac.std_air_density(site.elevation),
+            "idf_changes": notes,
+            "approximations": list(APPROXIMATIONS),
+            "export_version": EXPORT_VERSION,
+        },
+    )
 
 
 def _write(outdir: Path, frame: pd.DataFrame, d: dict, fmt: str, info: dict) -> EnergyPlusPaths:

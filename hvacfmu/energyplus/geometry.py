@@ -42,7 +42,7 @@ SLAB = {"name": "hvacfmu_slab_concrete", "conductivity": 1.4, "density": 2300.0,
 
 def _vertices(obj, first: int) -> np.ndarray:
     """Vertices (n, 3) from field index ``first`` (the number of vertices) onwards."""
-    raw = [f for f in obj.fields[first + 1:] if f.strip()]
+    raw = [f for f in obj.fields[first + 1 :] if f.strip()]
     xyz = np.array([float(v) for v in raw[: 3 * (len(raw) // 3)]]).reshape(-1, 3)
     return xyz
 
@@ -72,9 +72,20 @@ def surfaces(idf) -> list:
     out = []
     for s in idf.all("BuildingSurface:Detailed"):
         v = _vertices(s, 10)
-        out.append({"name": s.get(0), "type": s.get(1).lower(), "construction": s.get(2), "zone": s.get(3),
-                    "bc": s.get(5).lower(), "bc_object": s.get(6), "area": polygon_area(v), "normal": _newell(v),
-                    "zmin": float(v[:, 2].min()), "zmax": float(v[:, 2].max())})
+        out.append(
+            {
+                "name": s.get(0),
+                "type": s.get(1).lower(),
+                "construction": s.get(2),
+                "zone": s.get(3),
+                "bc": s.get(5).lower(),
+                "bc_object": s.get(6),
+                "area": polygon_area(v),
+                "normal": _newell(v),
+                "zmin": float(v[:, 2].min()),
+                "zmax": float(v[:, 2].max()),
+            }
+        )
     return out
 
 
@@ -85,8 +96,9 @@ def windows(idf) -> list:
         if w.get(1).lower() not in ("window", "glassdoor"):
             continue
         mult = w.number(7, 1.0) or 1.0
-        out.append({"name": w.get(0), "construction": w.get(2), "host": w.get(3),
-                    "area": polygon_area(_vertices(w, 8)) * mult})
+        out.append(
+            {"name": w.get(0), "construction": w.get(2), "host": w.get(3), "area": polygon_area(_vertices(w, 8)) * mult}
+        )
     return out
 
 
@@ -127,12 +139,19 @@ def zone_tables(idf, zones: list, surfs: list, wins: list) -> list:
             other = _other_zone(s, by_name)
             if other and other.lower() in sel and other.lower() != zl:
                 adjacent.add(sel[other.lower()])
-        out.append({
-            "name": sel[zl], "area": round(area, 3), "volume": round(vol, 3),
-            "adjacent": sorted(adjacent),
-            "facades": [{"orientation": o, "window_area": round(facades[o][0], 3), "wall_area": round(facades[o][1], 3)}
-                        for o in "NESW" if o in facades],
-        })
+        out.append(
+            {
+                "name": sel[zl],
+                "area": round(area, 3),
+                "volume": round(vol, 3),
+                "adjacent": sorted(adjacent),
+                "facades": [
+                    {"orientation": o, "window_area": round(facades[o][0], 3), "wall_area": round(facades[o][1], 3)}
+                    for o in "NESW"
+                    if o in facades
+                ],
+            }
+        )
     return out
 
 

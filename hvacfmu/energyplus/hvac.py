@@ -187,8 +187,10 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
         if v_max is None:
             v_max = _sized(sizing, "AirTerminal:SingleDuct:VAV:Reheat", b.terminal, "Maximum Air Flow Rate")
         if v_max is None or v_max <= 0:
-            problems.append(f"box {b.name} ({b.terminal_type} {b.terminal!r}): no maximum air flow rate in the IDF "
-                            "or in eplusout.eio's sizing results")
+            problems.append(
+                f"box {b.name} ({b.terminal_type} {b.terminal!r}): no maximum air flow rate in the IDF "
+                "or in eplusout.eio's sizing results"
+            )
             continue
         frac = 0.0
         if b.terminal_type.lower().startswith("airterminal:singleduct:vav") and term is not None:

@@ -91,8 +91,9 @@ def parse_idf(text: str, source: str = "") -> Idf:
             continue
         objects.append(IdfObject(fields[0], fields[1:]))
     if chunks[-1].strip():
-        raise BuildingError(f"IDF file {source or '(text)'}: ends inside an object ({chunks[-1].strip()[:60]!r}...); "
-                            "a ';' is missing")
+        raise BuildingError(
+            f"IDF file {source or '(text)'}: ends inside an object ({chunks[-1].strip()[:60]!r}...); a ';' is missing"
+        )
     return Idf(objects, source)
 
 

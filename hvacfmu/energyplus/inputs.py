@@ -20,14 +20,36 @@ from .idf import Idf
 
 #: IANA time zone of the US states of the weather files shipped with EnergyPlus (and their neighbours).
 US_STATE_TIMEZONES = {
-    "AZ": "America/Phoenix", "CA": "America/Los_Angeles", "NV": "America/Los_Angeles", "OR": "America/Los_Angeles",
-    "WA": "America/Los_Angeles", "CO": "America/Denver", "UT": "America/Denver", "NM": "America/Denver",
-    "WY": "America/Denver", "MT": "America/Denver", "ID": "America/Boise", "IL": "America/Chicago",
-    "TX": "America/Chicago", "OK": "America/Chicago", "MN": "America/Chicago", "WI": "America/Chicago",
-    "MO": "America/Chicago", "IA": "America/Chicago", "LA": "America/Chicago", "NJ": "America/New_York",
-    "NY": "America/New_York", "VA": "America/New_York", "FL": "America/New_York", "GA": "America/New_York",
-    "MA": "America/New_York", "PA": "America/New_York", "MD": "America/New_York", "DC": "America/New_York",
-    "HI": "Pacific/Honolulu", "AK": "America/Anchorage",
+    "AZ": "America/Phoenix",
+    "CA": "America/Los_Angeles",
+    "NV": "America/Los_Angeles",
+    "OR": "America/Los_Angeles",
+    "WA": "America/Los_Angeles",
+    "CO": "America/Denver",
+    "UT": "America/Denver",
+    "NM": "America/Denver",
+    "WY": "America/Denver",
+    "MT": "America/Denver",
+    "ID": "America/Boise",
+    "IL": "America/Chicago",
+    "TX": "America/Chicago",
+    "OK": "America/Chicago",
+    "MN": "America/Chicago",
+    "WI": "America/Chicago",
+    "MO": "America/Chicago",
+    "IA": "America/Chicago",
+    "LA": "America/Chicago",
+    "NJ": "America/New_York",
+    "NY": "America/New_York",
+    "VA": "America/New_York",
+    "FL": "America/New_York",
+    "GA": "America/New_York",
+    "MA": "America/New_York",
+    "PA": "America/New_York",
+    "MD": "America/New_York",
+    "DC": "America/New_York",
+    "HI": "Pacific/Honolulu",
+    "AK": "America/Anchorage",
 }
 STEPS_PER_HOUR = 4
 
@@ -54,8 +76,9 @@ def resolve_prototype(prototype) -> Path:
     try:
         import pyenergyplus.dataset as ds
     except ImportError:  # pragma: no cover
-        raise BuildingError(f"IDF {prototype!r} not found and pyenergyplus is not installed "
-                            "(pip install 'hvacfmu[energyplus]')") from None
+        raise BuildingError(
+            f"IDF {prototype!r} not found and pyenergyplus is not installed (pip install 'hvacfmu[energyplus]')"
+        ) from None
     name = str(prototype)
     cand = Path(ds.modeldir) / (name if name.lower().endswith(".idf") else name + ".idf")
     if cand.exists():
@@ -65,8 +88,10 @@ def resolve_prototype(prototype) -> Path:
     if key in table:
         return Path(table[key])
     names = sorted(x.stem for x in Path(ds.modeldir).glob("*.idf"))
-    raise BuildingError(f"unknown EnergyPlus prototype {prototype!r}: give an IDF path, one of the example files "
-                        f"{names}, or a key of pyenergyplus.dataset.ashrae_models {sorted(ds.ashrae_models)}")
+    raise BuildingError(
+        f"unknown EnergyPlus prototype {prototype!r}: give an IDF path, one of the example files "
+        f"{names}, or a key of pyenergyplus.dataset.ashrae_models {sorted(ds.ashrae_models)}"
+    )
 
 
 def resolve_weather(weather, idf_path: Path) -> Path:
@@ -84,7 +109,9 @@ def resolve_weather(weather, idf_path: Path) -> Path:
     for city, key in (("denver", "usa_co_denver"), ("chicago", "usa_il_chicago")):
         if stem.endswith(city):
             return Path(ds.weather_files[key])
-    raise DataError(f"IDF {idf_path} is not one of EnergyPlus's example buildings: give its weather file (--weather EPW)")
+    raise DataError(
+        f"IDF {idf_path} is not one of EnergyPlus's example buildings: give its weather file (--weather EPW)"
+    )
 
 
 def read_site(epw: Path, timezone: str | None = None) -> Site:
@@ -95,8 +122,10 @@ def read_site(epw: Path, timezone: str | None = None) -> Site:
     state, lat, lon, tzh, elev = first[2].strip(), float(first[6]), float(first[7]), float(first[8]), float(first[9])
     tz = timezone or US_STATE_TIMEZONES.get(state.upper())
     if tz is None:
-        raise DataError(f"weather file {epw}: cannot tell the IANA time zone of {first[1]} ({state}, {first[3]}, UTC"
-                        f"{tzh:+g} h); give it (timezone='Europe/Berlin', --timezone)")
+        raise DataError(
+            f"weather file {epw}: cannot tell the IANA time zone of {first[1]} ({state}, {first[3]}, UTC"
+            f"{tzh:+g} h); give it (timezone='Europe/Berlin', --timezone)"
+        )
     try:
         zone = zoneinfo.ZoneInfo(tz)
     except zoneinfo.ZoneInfoNotFoundError:
@@ -104,8 +133,10 @@ def read_site(epw: Path, timezone: str | None = None) -> Site:
     jan = _dt.datetime(2021, 1, 15, tzinfo=zone).utcoffset().total_seconds() / 3600
     jul = _dt.datetime(2021, 7, 15, tzinfo=zone).utcoffset().total_seconds() / 3600
     if abs(min(jan, jul) - tzh) > 0.01:
-        raise DataError(f"time zone {tz} (standard offset {min(jan, jul):+g} h) does not match the weather file "
-                        f"{epw.name} (UTC{tzh:+g} h)")
+        raise DataError(
+            f"time zone {tz} (standard offset {min(jan, jul):+g} h) does not match the weather file "
+            f"{epw.name} (UTC{tzh:+g} h)"
+        )
     return Site(lat, lon, tzh, elev, tz, f"{first[1].strip()}, {state}")
 
 
@@ -127,8 +158,10 @@ def run_dates(year: int, start: str, weeks: int | None, days: int | None) -> tup
     if n is not None and n < 1:
         raise DataError(f"the run period must last at least one day, got {n}")
     if last.year != year:
-        raise DataError(f"run period {first} + {n} days ends in {last.year}: EnergyPlus runs one calendar year here; "
-                        "start earlier or ask for fewer weeks")
+        raise DataError(
+            f"run period {first} + {n} days ends in {last.year}: EnergyPlus runs one calendar year here; "
+            "start earlier or ask for fewer weeks"
+        )
     return first, last
 
 
@@ -136,8 +169,22 @@ def prepare_idf(idf: Idf, first: _dt.date, last: _dt.date, site: Site) -> list:
     """Edit ``idf`` in place for the export run (see module docstring); returns notes on what was changed."""
     notes = []
     idf.remove("RunPeriod")
-    idf.add("RunPeriod", "hvacfmu", first.month, first.day, first.year, last.month, last.day, last.year, "",
-            "No", "No", "No", "Yes", "Yes")
+    idf.add(
+        "RunPeriod",
+        "hvacfmu",
+        first.month,
+        first.day,
+        first.year,
+        last.month,
+        last.day,
+        last.year,
+        "",
+        "No",
+        "No",
+        "No",
+        "Yes",
+        "Yes",
+    )
     ts = idf.one("Timestep")
     if ts is None or ts.number(0) != STEPS_PER_HOUR:
         notes.append(f"Timestep set to {STEPS_PER_HOUR} per hour (was {ts.get(0) if ts else 'unset'})")
@@ -153,6 +200,8 @@ def prepare_idf(idf: Idf, first: _dt.date, last: _dt.date, site: Site) -> list:
         idf.remove("RunPeriodControl:DaylightSavingTime")
         notes.append(f"RunPeriodControl:DaylightSavingTime removed: {site.timezone} has no daylight saving time")
     elif idf.one("RunPeriodControl:DaylightSavingTime") is None and has_dst(site.timezone, first.year):
-        notes.append(f"the IDF has no daylight saving period although {site.timezone} has one: its schedules run "
-                     "on standard time")
+        notes.append(
+            f"the IDF has no daylight saving period although {site.timezone} has one: its schedules run "
+            "on standard time"
+        )
     return notes

@@ -21,8 +21,15 @@ from .geometry import (
 )
 from .hvac import sanitise
 
-_GROUND_BC = ("ground", "groundfcfactormethod", "groundslabpreprocessoraverage", "groundslabpreprocessorcore",
-              "groundslabpreprocessorperimeter", "groundbasementpreprocessoraveragewall", "foundation")
+_GROUND_BC = (
+    "ground",
+    "groundfcfactormethod",
+    "groundslabpreprocessoraverage",
+    "groundslabpreprocessorcore",
+    "groundslabpreprocessorperimeter",
+    "groundbasementpreprocessoraveragewall",
+    "foundation",
+)
 _ZONE_FILM = {"wall": "interior_wall", "floor": "floor", "ceiling": "ceiling", "roof": "ceiling"}
 _OTHER_FILM = {"wall": "interior_wall", "floor": "ceiling", "ceiling": "floor", "roof": "floor"}
 
@@ -31,8 +38,15 @@ def _materials(idf) -> dict:
     """IDF material name (lower) -> building-file material row and thickness [m]."""
     out = {}
     for m in idf.all("Material"):
-        out[m.name.lower()] = ({"name": sanitise(m.name), "conductivity": m.number(3), "density": m.number(4),
-                                "specific_heat": m.number(5)}, m.number(2))
+        out[m.name.lower()] = (
+            {
+                "name": sanitise(m.name),
+                "conductivity": m.number(3),
+                "density": m.number(4),
+                "specific_heat": m.number(5),
+            },
+            m.number(2),
+        )
     for m in idf.all("Material:NoMass"):
         out[m.name.lower()] = ({"name": sanitise(m.name), "r_value": m.number(2)}, 0.0)
     for m in idf.all("Material:AirGap"):
@@ -65,7 +79,7 @@ def _heat_capacity(idf, cons_name: str, mats: dict) -> float:
     """Heat capacity [J/(K m2)] of a construction."""
     c = idf.by_name("Construction").get(cons_name.lower())
     total = 0.0
-    for layer in (c.fields[1:] if c else []):
+    for layer in c.fields[1:] if c else []:
         row, thick = mats.get(layer.strip().lower(), ({}, 0.0))
         if "density" in row and thick:
             total += row["density"] * row["specific_heat"] * thick
@@ -85,8 +99,13 @@ def _element_key(s: dict, zl: str, zname: str, sel: dict, by_name: dict, rot: di
     if other and other.lower() in sel and other.lower() != zl:
         if other.lower() < zl:  # the partner surface of the other zone describes this element
             return None
-        return s["construction"], sel[other.lower()], zname, None, (_OTHER_FILM.get(typ, "interior_wall"),
-                                                                   _ZONE_FILM.get(typ, "interior_wall"))
+        return (
+            s["construction"],
+            sel[other.lower()],
+            zname,
+            None,
+            (_OTHER_FILM.get(typ, "interior_wall"), _ZONE_FILM.get(typ, "interior_wall")),
+        )
     return s["construction"], "adiabatic", zname, None, ("none", _ZONE_FILM.get(typ, "interior_wall"))
 
 
@@ -125,7 +144,7 @@ def _construction_layers(idf, name: str, mats: dict, used: dict) -> list:
         return [{"material": SLAB["name"], "thickness": 0.15}]
     c = idf.by_name("Construction").get(name.lower())
     layers = []
-    for layer in (c.fields[1:] if c else []):
+    for layer in c.fields[1:] if c else []:
         row, thick = mats.get(layer.strip().lower(), (None, 0.0))
         if row is None:
             continue
@@ -146,17 +165,33 @@ def _tables(idf, mats, groups, win_groups, zones, surfs) -> dict:
             continue
         cname = f"{sanitise(cons)}__{films[0]}_{films[1]}"
         if cname not in constructions:
-            constructions[cname] = {"name": cname, "layers": _construction_layers(idf, cons, mats, used),
-                                    "films": list(films)}
-        el = {"name": f"{side2}_{sanitise(cons)}_{side1}" + (f"_{orient}" if orient else ""),
-              "construction": cname, "area": round(area, 3), "side1": side1, "side2": side2}
+            constructions[cname] = {
+                "name": cname,
+                "layers": _construction_layers(idf, cons, mats, used),
+                "films": list(films),
+            }
+        el = {
+            "name": f"{side2}_{sanitise(cons)}_{side1}" + (f"_{orient}" if orient else ""),
+            "construction": cname,
+            "area": round(area, 3),
+            "side1": side1,
+            "side2": side2,
+        }
         if orient:
             el["orientation"] = orient
         elements.append(el)
     windows, u_sum, a_sum = [], 0.0, 0.0
     for (zone, orient), (a, ua, ga) in sorted(win_groups.items()):
-        windows.append({"name": f"{zone}_{orient}_window", "zone": zone, "orientation": orient, "area": round(a, 3),
-                        "u_value": round(ua / a, 4), "shgc": round(ga / a, 4)})
+        windows.append(
+            {
+                "name": f"{zone}_{orient}_window",
+                "zone": zone,
+                "orientation": orient,
+                "area": round(a, 3),
+                "u_value": round(ua / a, 4),
+                "shgc": round(ga / a, 4),
+            }
+        )
         u_sum, a_sum = u_sum + ua, a_sum + a
     floor = sum(s["area"] for s in surfs if s["zone"].lower() in {z.lower() for z in zones} and s["type"] == "floor")
     cap = 0.0
@@ -164,7 +199,16 @@ def _tables(idf, mats, groups, win_groups, zones, surfs) -> dict:
         if m.get(2).lower() in {z.lower() for z in zones}:
             cap += _heat_capacity(idf, m.get(1), mats) * (m.number(4, 0.0) or 0.0)
     nominal = {"U_win": round(u_sum / a_sum, 4) if a_sum else DEFAULT_WINDOW[0], **NOMINAL_FILMS}
-    physics = {"ambient_film": AMBIENT_FILM, "ground_temperature": _ground_temperature(idf),
-               "internal_mass": round(cap / floor, 1) if floor and cap else 10000.0, "nominal": nominal}
-    return {"materials": sorted(used.values(), key=lambda r: r["name"]), "constructions": list(constructions.values()),
-            "windows": windows, "elements": elements, "physics": physics}
+    physics = {
+        "ambient_film": AMBIENT_FILM,
+        "ground_temperature": _ground_temperature(idf),
+        "internal_mass": round(cap / floor, 1) if floor and cap else 10000.0,
+        "nominal": nominal,
+    }
+    return {
+        "materials": sorted(used.values(), key=lambda r: r["name"]),
+        "constructions": list(constructions.values()),
+        "windows": windows,
+        "elements": elements,
+        "physics": physics,
+    }

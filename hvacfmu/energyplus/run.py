@@ -46,8 +46,9 @@ def load_api():
     try:
         from pyenergyplus.api import EnergyPlusAPI
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise DataError("EnergyPlus is not installed: pip install 'hvacfmu[energyplus]' "
-                        f"(the pyenergyplus-lbnl package) ({exc})") from None
+        raise DataError(
+            f"EnergyPlus is not installed: pip install 'hvacfmu[energyplus]' (the pyenergyplus-lbnl package) ({exc})"
+        ) from None
     return EnergyPlusAPI()
 
 
@@ -79,9 +80,12 @@ class _Recorder:
             self.handles = [x.get_variable_handle(state, p.variable, p.key) for p in self.probes]
             bad = [f"{p.variable} of {p.key!r}" for p, h in zip(self.probes, self.handles) if h < 0]
             if bad:
-                raise DataError("EnergyPlus has no output variable " + "; ".join(bad[:5]) +
-                                (f" (and {len(bad) - 5} more)" if len(bad) > 5 else "") +
-                                ": check the node/zone names in the IDF")
+                raise DataError(
+                    "EnergyPlus has no output variable "
+                    + "; ".join(bad[:5])
+                    + (f" (and {len(bad) - 5} more)" if len(bad) > 5 else "")
+                    + ": check the node/zone names in the IDF"
+                )
         return True
 
     def _guard(self, state, fn):
@@ -163,8 +167,10 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     api.runtime.callback_end_zone_timestep_after_zone_reporting(state, rec.zone_step)
     wrapped = []
     for reg, fn in extra_callbacks:
+
         def cb(s, fn=fn):
             rec._guard(s, fn)
+
         wrapped.append(cb)
         getattr(api.runtime, reg)(state, cb)
     workdir = Path(workdir)
@@ -172,8 +178,9 @@ def simulate(idf_path, epw_path, workdir, probes, *, on_step=None, extra_callbac
     code = api.runtime.run_energyplus(state, ["-d", str(workdir), "-w", str(epw_path), str(idf_path)])
     api.state_manager.delete_state(state)
     if rec.error is not None:
-        err = CallbackError(f"EnergyPlus run of {idf_path} stopped: a callback raised "
-                            f"{type(rec.error).__name__}: {rec.error}")
+        err = CallbackError(
+            f"EnergyPlus run of {idf_path} stopped: a callback raised {type(rec.error).__name__}: {rec.error}"
+        )
         err.steps_after_error = rec.steps_after_error
         raise err from rec.error
     if code != 0:

@@ -32,14 +32,19 @@ def plot_rms_table(score, path, season_order=None, baselines=("persistence", "ti
     tables.update({b: score.table(b, season_order) for b in baselines})
     seasons = [s for s in tables["model"].index if s != "all"]
     cols = list(score.outputs) + ["mean"]
-    fig, axes = plt.subplots(1, max(len(seasons), 1), figsize=(3.2 * max(len(seasons), 1) + 1, 3.4),
-                             sharey=True, squeeze=False)
+    fig, axes = plt.subplots(
+        1, max(len(seasons), 1), figsize=(3.2 * max(len(seasons), 1) + 1, 3.4), sharey=True, squeeze=False
+    )
     width = 0.8 / len(tables)
     x = np.arange(len(cols))
     for ax, s in zip(axes[0], seasons):
         for i, (label, df) in enumerate(tables.items()):
-            ax.bar(x + (i - (len(tables) - 1) / 2) * width, df.loc[s, cols].to_numpy(float), width,
-                   label=score.name if label == "model" else label)
+            ax.bar(
+                x + (i - (len(tables) - 1) / 2) * width,
+                df.loc[s, cols].to_numpy(float),
+                width,
+                label=score.name if label == "model" else label,
+            )
         ax.set_xticks(x, cols, rotation=45)
         ax.set_title(s)
         ax.grid(axis="y", alpha=0.3)

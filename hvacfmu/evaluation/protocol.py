@@ -153,8 +153,9 @@ def _check_models(model_or_models, dataset, horizon):
     step = float(dataset.step)
     for m in models:
         if abs(float(m.step) - step) > 1e-9:
-            raise DataError(f"model step {m.step} s differs from the dataset step {step} s; "
-                            f"prepare the data with --step {m.step:g}")
+            raise DataError(
+                f"model step {m.step} s differs from the dataset step {step} s; prepare the data with --step {m.step:g}"
+            )
     return models
 
 
@@ -184,8 +185,12 @@ def _window_starts(index, weeks):
     return out
 
 
-_SKIP_REASONS = ("missing data", "window past the end of the data", "no internal-gain profile for season",
-                 "no row at midnight")
+_SKIP_REASONS = (
+    "missing data",
+    "window past the end of the data",
+    "no internal-gain profile for season",
+    "no row at midnight",
+)
 
 
 def _usable_windows(model, name, dataset, starts, horizon, Y, u, v, skipped, notes):
@@ -255,12 +260,16 @@ def _score_model(model, name, dataset, starts, horizon):
         base["persistence"] = window_rms(meas, np.broadcast_to(Y[k0s][:, None, :], meas.shape))
         base["time-of-week mean"] = _tow_baseline(dataset, Y, final, rng, notes, name)
         hourly = hourly_statistics(meas, pred, float(dataset.step))
-        residuals = pd.DataFrame((meas - pred).reshape(W * N, ny), index=idx[(rng + 1).ravel()],
-                                 columns=list(model.outputs))
+        residuals = pd.DataFrame(
+            (meas - pred).reshape(W * N, ny), index=idx[(rng + 1).ravel()], columns=list(model.outputs)
+        )
     total_skipped = sum(skipped.values())
     if total_skipped:
-        notes.append(f"{name}: {total_skipped} of {len(starts)} windows skipped ("
-                     + ", ".join(f"{v} {k}" for k, v in skipped.items() if v) + ")")
+        notes.append(
+            f"{name}: {total_skipped} of {len(starts)} windows skipped ("
+            + ", ".join(f"{v} {k}" for k, v in skipped.items() if v)
+            + ")"
+        )
     sc = ModelScore(
         name=name,
         kind=str(getattr(model, "kind", type(model).__name__)),
@@ -303,8 +312,12 @@ def hourly_statistics(measured, predicted, step):
     m = measured[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
     p = predicted[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
     e = m - p
-    return {"n": int(W * H), "sum_error": e.sum(axis=0), "sum_sq_error": (e * e).sum(axis=0),
-            "sum_measured": m.sum(axis=0)}
+    return {
+        "n": int(W * H),
+        "sum_error": e.sum(axis=0),
+        "sum_sq_error": (e * e).sum(axis=0),
+        "sum_measured": m.sum(axis=0),
+    }
 
 
 def _tow_baseline(dataset, Y, final, rng, notes, name):

@@ -133,15 +133,18 @@ class EvaluationResult:
 
     def format_table(self, digits: int = 3) -> str:
         """The paper's Table I for each model and both baselines, as text."""
-        out = [f"24-hour open-loop prediction RMS [K] on held-out weeks "
-               f"(horizon {self.horizon} steps of {self.step:g} s)"]
+        out = [
+            f"24-hour open-loop prediction RMS [K] on held-out weeks (horizon {self.horizon} steps of {self.step:g} s)"
+        ]
         shown = []
         for sc in self.scores:
             n = sc.n_windows()
             skipped = ", ".join(f"{v} {k}" for k, v in sc.skipped.items() if v) or "none"
             out.append("")
-            out.append(f"== {sc.name} ({sc.kind}): {sum(n.values())} windows "
-                       f"({', '.join(f'{s} {k}' for s, k in n.items())}); skipped: {skipped}")
+            out.append(
+                f"== {sc.name} ({sc.kind}): {sum(n.values())} windows "
+                f"({', '.join(f'{s} {k}' for s, k in n.items())}); skipped: {skipped}"
+            )
             out.append(_format_df(sc.table("model", self.season_order), digits))
             key = (sc.outputs, tuple(sc.starts))
             if key in shown:
@@ -211,8 +214,15 @@ class EvaluationResult:
         for sc in self.scores:
             for i, (t, s, w) in enumerate(zip(sc.starts, sc.seasons, sc.weeks)):
                 for j, o in enumerate(sc.outputs):
-                    rec = {"model": sc.name, "kind": sc.kind, "season": s, "week": w, "start": t,
-                           "output": o, "rms": sc.rms[i, j]}
+                    rec = {
+                        "model": sc.name,
+                        "kind": sc.kind,
+                        "season": s,
+                        "week": w,
+                        "start": t,
+                        "output": o,
+                        "rms": sc.rms[i, j],
+                    }
                     rec.update({b: sc.baselines[b][i, j] for b in BASELINES})
                     recs.append(rec)
         cols = ["model", "kind", "season", "week", "start", "output", "rms", *BASELINES]
@@ -235,8 +245,7 @@ class EvaluationResult:
         folder.mkdir(parents=True, exist_ok=True)
         files = []
         for sc in self.scores:
-            files.append(plots.plot_rms_table(sc, folder / f"rms_{_slug(sc.name)}.png", self.season_order,
-                                                BASELINES))
+            files.append(plots.plot_rms_table(sc, folder / f"rms_{_slug(sc.name)}.png", self.season_order, BASELINES))
         if dataset is not None and self.models:
             wk = choose_week(dataset, week)
             if wk is not None:
@@ -260,6 +269,8 @@ def _format_df(df: pd.DataFrame, digits: int) -> str:
     sw = max(6, *(len(str(i)) for i in df.index)) if len(df) else 6
     lines = ["season".ljust(sw) + "".join(c.rjust(width + 1) for c in cols)]
     for s, row in df.iterrows():
-        lines.append(str(s).ljust(sw) + "".join(
-            (f"{v:.{digits}f}" if np.isfinite(v) else "n/a").rjust(width + 1) for v in row.to_numpy(float)))
+        lines.append(
+            str(s).ljust(sw)
+            + "".join((f"{v:.{digits}f}" if np.isfinite(v) else "n/a").rjust(width + 1) for v in row.to_numpy(float))
+        )
     return "\n".join(lines)

@@ -46,7 +46,6 @@ class Trajectory:
         return pd.DataFrame(cols, index=self.index)
 
 
-
 def week_trajectory(model, dataset, week, name=None) -> Trajectory:
     """Open-loop simulation over a whole week (7 days), as in the paper's Fig. 5.
 
@@ -88,10 +87,10 @@ def week_trajectory(model, dataset, week, name=None) -> Trajectory:
     if k0 is None:
         raise DataError(f"week {week.number}: no row with a complete initial state")
     u, v = (pd.DataFrame(np.asarray(z, float)) for z in model.signals(frame))
-    part_u, part_v = u.iloc[k0:e - 1], v.iloc[k0:e - 1]
+    part_u, part_v = u.iloc[k0 : e - 1], v.iloc[k0 : e - 1]
     filled = int(part_u.isna().to_numpy().sum() + part_v.isna().to_numpy().sum())
     part_u, part_v = part_u.ffill().bfill().to_numpy(), part_v.ffill().bfill().to_numpy()
-    q = np.asarray(model.gains_at(idx[k0:e - 1], week.season), float)
+    q = np.asarray(model.gains_at(idx[k0 : e - 1], week.season), float)
     _, Yp = model.simulate(x0, part_u, part_v, q)
     return Trajectory(
         name=name or str(getattr(model, "kind", "model")),
@@ -112,8 +111,11 @@ def choose_week(dataset, week):
             found = next((w for w in dataset.weeks if w.number == int(week)), None)
             if found is None:
                 numbers = [w.number for w in dataset.weeks]
-                raise DataError(f"no week {int(week)} in the dataset; weeks are numbered "
-                                f"{min(numbers)}..{max(numbers)}" if numbers else "the dataset has no week")
+                raise DataError(
+                    f"no week {int(week)} in the dataset; weeks are numbered {min(numbers)}..{max(numbers)}"
+                    if numbers
+                    else "the dataset has no week"
+                )
             return found
         return week
     tests = dataset.test_weeks()

@@ -92,12 +92,19 @@ class ZoneVerdict:
 
     def to_dict(self) -> dict:
         return {
-            "model": self.model, "output": self.output, "status": self.status,
-            "rms": _num(self.rms), "persistence": _num(self.persistence), "time_of_week": _num(self.time_of_week),
+            "model": self.model,
+            "output": self.output,
+            "status": self.status,
+            "rms": _num(self.rms),
+            "persistence": _num(self.persistence),
+            "time_of_week": _num(self.time_of_week),
             "margin_persistence": _num(self.margin(self.persistence)),
             "margin_time_of_week": _num(self.margin(self.time_of_week)),
-            "beats_persistence": self.beats_persistence, "beats_time_of_week": self.beats_time_of_week,
-            "nmbe_percent": _num(self.nmbe), "cvrmse_percent": _num(self.cvrmse), "n_hours": self.n_hours,
+            "beats_persistence": self.beats_persistence,
+            "beats_time_of_week": self.beats_time_of_week,
+            "nmbe_percent": _num(self.nmbe),
+            "cvrmse_percent": _num(self.cvrmse),
+            "n_hours": self.n_hours,
             "g14_calibrated": self.calibrated,
         }
 
@@ -128,8 +135,10 @@ class Verdict:
         if cov and cov["skipped"]:  # say what the verdict stands on when windows were skipped
             per = ", ".join(f"{s} {k}" for s, k in cov["windows"].items())
             on = f"; on {sum(cov['windows'].values())} of {cov['total']} test windows ({per})"
-        return (f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
-                f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}")
+        return (
+            f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
+            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}"
+        )
 
     def thin(self, model: str) -> str:
         """A warning when most test windows were skipped or a test season has none scored, else ''."""
@@ -140,19 +149,26 @@ class Verdict:
         if not cov["unscored_seasons"] and 2 * scored >= cov["total"]:
             return ""
         why = ", ".join(f"{v} {k}" for k, v in cov["skipped"].items())
-        none = (f"; none in {', '.join(cov['unscored_seasons'])}: this verdict says nothing about "
-                f"{'that season' if len(cov['unscored_seasons']) == 1 else 'those seasons'}"
-                if cov["unscored_seasons"] else "")
-        return (f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}){none}; "
-                f"`--interpolate-gaps MINUTES` fills short logger gaps (prepare(..., interpolate_limit=...))")
+        none = (
+            f"; none in {', '.join(cov['unscored_seasons'])}: this verdict says nothing about "
+            f"{'that season' if len(cov['unscored_seasons']) == 1 else 'those seasons'}"
+            if cov["unscored_seasons"]
+            else ""
+        )
+        return (
+            f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}){none}; "
+            f"`--interpolate-gaps MINUTES` fills short logger gaps (prepare(..., interpolate_limit=...))"
+        )
 
     def format(self) -> str:
         """Text, the losing zones and their likely causes first."""
         names = list(dict.fromkeys(z.model for z in self.zones))
         lines = [self.summary(m) for m in names]
         for z in self.losing():
-            lines.append(f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
-                         f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)")
+            lines.append(
+                f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
+                f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)"
+            )
         thin: dict = {}  # models with the same windows share one line
         for m in names:
             if self.thin(m):
@@ -164,22 +180,31 @@ class Verdict:
                 lines += [f"   - {c}" for c in causes]
         if lines:
             lines.append("")
-        lines.append("Verdict per zone: 24-h open-loop RMS [K] against the baselines; ASHRAE Guideline 14 hourly "
-                     f"NMBE / CV(RMSE) [%] (calibrated: |NMBE| <= {G14_NMBE_MAX:g}, CV <= {G14_CVRMSE_MAX:g})")
+        lines.append(
+            "Verdict per zone: 24-h open-loop RMS [K] against the baselines; ASHRAE Guideline 14 hourly "
+            f"NMBE / CV(RMSE) [%] (calibrated: |NMBE| <= {G14_NMBE_MAX:g}, CV <= {G14_CVRMSE_MAX:g})"
+        )
         head = f"{'model':<22} {'zone':<8} {'model':>7} {'persist':>7} {'tow':>7} {'NMBE':>6} {'CV':>6}  verdict"
         lines.append(head)
         for z in self.zones:
             g14 = "" if z.calibrated else " (G14: not calibrated)"
-            lines.append(f"{z.model[:22]:<22} {z.output[:8]:<8} {z.rms:7.3f} {z.persistence:7.3f} "
-                         f"{z.time_of_week:7.3f} {z.nmbe:6.2f} {z.cvrmse:6.2f}  {z.status}{g14}")
+            lines.append(
+                f"{z.model[:22]:<22} {z.output[:8]:<8} {z.rms:7.3f} {z.persistence:7.3f} "
+                f"{z.time_of_week:7.3f} {z.nmbe:6.2f} {z.cvrmse:6.2f}  {z.status}{g14}"
+            )
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"zones": [z.to_dict() for z in self.zones],
-                "likely_causes": {k: list(v) for k, v in self.causes.items()},
-                "coverage": {k: dict(v) for k, v in self.coverage.items()},
-                "thresholds": {"nmbe_percent": G14_NMBE_MAX, "cvrmse_percent": G14_CVRMSE_MAX,
-                               "correlation": CORRELATION_MIN}}
+        return {
+            "zones": [z.to_dict() for z in self.zones],
+            "likely_causes": {k: list(v) for k, v in self.causes.items()},
+            "coverage": {k: dict(v) for k, v in self.coverage.items()},
+            "thresholds": {
+                "nmbe_percent": G14_NMBE_MAX,
+                "cvrmse_percent": G14_CVRMSE_MAX,
+                "correlation": CORRELATION_MIN,
+            },
+        }
 
 
 # =============================================================================
@@ -212,10 +237,24 @@ def make_verdict(scores, models, dataset) -> Verdict:
         nmbe, cv = g14_metrics(sc.hourly)
         r, p = np.nanmean(sc.rms, axis=0), np.nanmean(sc.baselines["persistence"], axis=0)
         with np.errstate(all="ignore"):
-            t = np.nanmean(sc.baselines["time-of-week mean"], axis=0) if np.isfinite(
-                sc.baselines["time-of-week mean"]).any() else np.full(len(sc.outputs), np.nan)
-        mine = [ZoneVerdict(sc.name, o, float(r[j]), float(p[j]), float(t[j]), float(nmbe[j]), float(cv[j]),
-                            int(sc.hourly["n"]) if sc.hourly else 0) for j, o in enumerate(sc.outputs)]
+            t = (
+                np.nanmean(sc.baselines["time-of-week mean"], axis=0)
+                if np.isfinite(sc.baselines["time-of-week mean"]).any()
+                else np.full(len(sc.outputs), np.nan)
+            )
+        mine = [
+            ZoneVerdict(
+                sc.name,
+                o,
+                float(r[j]),
+                float(p[j]),
+                float(t[j]),
+                float(nmbe[j]),
+                float(cv[j]),
+                int(sc.hourly["n"]) if sc.hourly else 0,
+            )
+            for j, o in enumerate(sc.outputs)
+        ]
         zones += mine
         coverage[sc.name] = _coverage(sc, dataset)
         losing = [z.output for z in mine if not z.beats_persistence]
@@ -229,8 +268,12 @@ def _coverage(sc, dataset) -> dict:
     windows = sc.n_windows()
     skipped = {k: int(v) for k, v in sc.skipped.items() if v}
     tested = dict.fromkeys(w.season for w in dataset.test_weeks())
-    return {"windows": windows, "total": sum(windows.values()) + sum(skipped.values()), "skipped": skipped,
-            "unscored_seasons": [s for s in tested if s not in windows]}
+    return {
+        "windows": windows,
+        "total": sum(windows.values()) + sum(skipped.values()),
+        "skipped": skipped,
+        "unscored_seasons": [s for s in tested if s not in windows],
+    }
 
 
 # =============================================================================
@@ -248,11 +291,16 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
     out += _sparse_columns(model, score, dataset)
     out += _airflow_gain(model, dataset)
     out += _bandwidth_edge(model)
-    out += [f"loading warned: {w}" for w in getattr(dataset, "warnings", []) or []
-            if any(k in str(w).lower() for k in _LOADING_CAUSES)]
+    out += [
+        f"loading warned: {w}"
+        for w in getattr(dataset, "warnings", []) or []
+        if any(k in str(w).lower() for k in _LOADING_CAUSES)
+    ]
     if not out:
-        out.append("none of the cheap checks fired (unused columns, sparse columns, airflow gain, LOESS "
-                   "bandwidth, clock/units); run `hvacfmu diagnose` for the structural causes")
+        out.append(
+            "none of the cheap checks fired (unused columns, sparse columns, airflow gain, LOESS "
+            "bandwidth, clock/units); run `hvacfmu diagnose` for the structural causes"
+        )
     return out
 
 
@@ -285,8 +333,10 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
         if hits:  # one line per column, naming every zone it explains
             rs = sorted(hits.values())
             r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
-            found.append(f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
-                         f"({r_txt}): the model does not see it{_column_hint(c)}")
+            found.append(
+                f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
+                f"({r_txt}): the model does not see it{_column_hint(c)}"
+            )
     return found + _missing_discharge(model, dataset)
 
 
@@ -299,9 +349,11 @@ def _missing_discharge(model, dataset) -> list[str]:
     if not boxes:
         return []
     names = ", ".join(f"Td_{v}" for v in boxes[:4]) + (f" and {len(boxes) - 4} more" if len(boxes) > 4 else "")
-    return [f"missing input: the boxes reheat (rh_ columns) but the data hold no discharge air temperature "
-            f"({names}): the heat a box delivers is m·cp·(Td − T_zone), and without Td more air looks like "
-            f"more cooling while it heats; export the Td_<vav> columns and refit (the delivered-heat form)"]
+    return [
+        f"missing input: the boxes reheat (rh_ columns) but the data hold no discharge air temperature "
+        f"({names}): the heat a box delivers is m·cp·(Td − T_zone), and without Td more air looks like "
+        f"more cooling while it heats; export the Td_<vav> columns and refit (the delivered-heat form)"
+    ]
 
 
 def _best_correlation(x, r) -> float:
@@ -319,8 +371,10 @@ def _best_correlation(x, r) -> float:
 
 def _column_hint(c: str) -> str:
     if c.startswith("Td_"):
-        return ("; discharge air temperature: the heat a box delivers is m·cp·(Td − T_zone), which a model "
-                "seeing only airflow and one supply temperature takes for cooling when the box reheats")
+        return (
+            "; discharge air temperature: the heat a box delivers is m·cp·(Td − T_zone), which a model "
+            "seeing only airflow and one supply temperature takes for cooling when the box reheats"
+        )
     if c.startswith("rh_"):
         return "; reheat command/valve: heat the model cannot see"
     return ""
@@ -331,14 +385,16 @@ def _sparse_columns(model, score, dataset) -> list[str]:
     frame = dataset.frame
     rows = np.zeros(len(frame), bool)
     for w in dataset.test_weeks():
-        rows[frame.index.searchsorted(w.start):frame.index.searchsorted(w.end)] = True
+        rows[frame.index.searchsorted(w.start) : frame.index.searchsorted(w.end)] = True
     cols = [c for c in frame.columns if c in _used_columns(model) or c.startswith("m_")]
     out = []
     for c in cols:
         share = float(np.isfinite(frame[c].to_numpy(float)[rows]).mean()) if rows.any() else 1.0
         if share < SPARSE_SHARE:
-            out.append(f"sparse column {c!r}: {100 * share:.0f} % of the test-week steps have a value "
-                       f"({sum(score.skipped.values())} windows skipped)")
+            out.append(
+                f"sparse column {c!r}: {100 * share:.0f} % of the test-week steps have a value "
+                f"({sum(score.skipped.values())} windows skipped)"
+            )
     return out
 
 
@@ -351,10 +407,12 @@ def _airflow_gain(model, dataset) -> list[str]:
         if plaus.get("identifiable", True):
             return []
         weak = {z: e for z, e in (plaus.get("drive_effect_k") or {}).items() if e is not None and e < MIN_EFFECT_K}
-        return ["delivered heat not identifiable (flagged at fit time): over its observed range it moves "
-                + ", ".join(f"{z} by {e:.2g} K" for z, e in weak.items())
-                + "; the fit learned the thermostat loop, not the building (add forced-response weeks, or use the "
-                "physics model)"]
+        return [
+            "delivered heat not identifiable (flagged at fit time): over its observed range it moves "
+            + ", ".join(f"{z} by {e:.2g} K" for z, e in weak.items())
+            + "; the fit learned the thermostat loop, not the building (add forced-response weeks, or use the "
+            "physics model)"
+        ]
     B = getattr(base, "B", None)
     if B is None:
         return []
@@ -369,9 +427,11 @@ def _airflow_gain(model, dataset) -> list[str]:
         return []
     exc = dataset.frame["excitation"].to_numpy(float) if "excitation" in dataset.frame else np.zeros(1)
     closed = "closed-loop data without excitation experiments" if not np.nansum(exc) else "these data"
-    return [f"airflow gain not identifiable: |B| up to {np.abs(B).max():.2g} K/step per kg/s moves the zones by "
-            f"at most {effect.max():.2g} K per step for the airflow's variation; from {closed} the fit learned "
-            "the thermostat loop, not the building (add forced-response weeks, or use the physics model)"]
+    return [
+        f"airflow gain not identifiable: |B| up to {np.abs(B).max():.2g} K/step per kg/s moves the zones by "
+        f"at most {effect.max():.2g} K per step for the airflow's variation; from {closed} the fit learned "
+        "the thermostat loop, not the building (add forced-response weeks, or use the physics model)"
+    ]
 
 
 def _bandwidth_edge(model) -> list[str]:
@@ -387,10 +447,12 @@ def _bandwidth_edge(model) -> list[str]:
     out = []
     for edge, names, what in ((lo, at_lo, "lower"), (hi, at_hi, "upper")):
         if names:
-            out.append(f"LOESS bandwidth on the {what} edge of its grid ({edge:g} h) for {len(names)} of "
-                       f"{len(sm['bandwidth_h'])} series ({', '.join(names[:6])}{', ...' if len(names) > 6 else ''}): "
-                       "the cross-validation optimum may lie outside the grid; refit with a wider "
-                       "`bandwidths=` grid")
+            out.append(
+                f"LOESS bandwidth on the {what} edge of its grid ({edge:g} h) for {len(names)} of "
+                f"{len(sm['bandwidth_h'])} series ({', '.join(names[:6])}{', ...' if len(names) > 6 else ''}): "
+                "the cross-validation optimum may lie outside the grid; refit with a wider "
+                "`bandwidths=` grid"
+            )
     return out
 
 
@@ -399,5 +461,4 @@ def _num(x: Any) -> float | None:
     return x if np.isfinite(x) else None
 
 
-__all__ = ["G14_CVRMSE_MAX", "G14_NMBE_MAX", "Verdict", "ZoneVerdict", "g14_metrics", "likely_causes",
-           "make_verdict"]
+__all__ = ["G14_CVRMSE_MAX", "G14_NMBE_MAX", "Verdict", "ZoneVerdict", "g14_metrics", "likely_causes", "make_verdict"]

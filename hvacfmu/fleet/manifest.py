@@ -61,8 +61,10 @@ def read_fleet(source) -> list[BuildingSpec]:
     else:
         specs = _from_manifest(source)
     if not specs:
-        raise DataError(f"fleet source {source}: no building found (a sub-folder needs one *.toml building file "
-                        "and one *.parquet or *.csv measurement file)")
+        raise DataError(
+            f"fleet source {source}: no building found (a sub-folder needs one *.toml building file "
+            "and one *.parquet or *.csv measurement file)"
+        )
     names = [s.name for s in specs]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -96,8 +98,11 @@ def _from_manifest(path: Path) -> list[BuildingSpec]:
             continue
         truth = base / r["truth"] if isinstance(r.get("truth"), str) else None
         name = str(r.get("name") or files["measurements"].parent.name)
-        specs.append(BuildingSpec(name, files["measurements"], files["building"],
-                                  truth if truth is not None and truth.exists() else None))
+        specs.append(
+            BuildingSpec(
+                name, files["measurements"], files["building"], truth if truth is not None and truth.exists() else None
+            )
+        )
     if problems:
         raise DataError(f"fleet manifest {path}:\n  - " + "\n  - ".join(problems))
     return specs
@@ -112,6 +117,8 @@ def _from_folders(root: Path) -> list[BuildingSpec]:
             truth = folder / "truth.json"
             specs.append(BuildingSpec(folder.name, data[0], tomls[0], truth if truth.exists() else None))
         elif tomls or data:
-            raise DataError(f"fleet folder {folder}: expected exactly one *.toml building file and one "
-                            f"measurement file, found {[p.name for p in tomls + data]}")
+            raise DataError(
+                f"fleet folder {folder}: expected exactly one *.toml building file and one "
+                f"measurement file, found {[p.name for p in tomls + data]}"
+            )
     return specs

@@ -55,8 +55,10 @@ class FleetResult:
     def summary(self) -> str:
         n = len(self.buildings)
         cached = sum(bool(b.get("cached")) for b in self.buildings)
-        lines = [f"fleet: {n} buildings in {self.seconds:.1f} s on {self.n_workers} worker(s) "
-                 f"({n - len(self.failed)} ok, {len(self.failed)} failed, {cached} from cache)"]
+        lines = [
+            f"fleet: {n} buildings in {self.seconds:.1f} s on {self.n_workers} worker(s) "
+            f"({n - len(self.failed)} ok, {len(self.failed)} failed, {cached} from cache)"
+        ]
         for b in self.buildings:
             if b["status"] != "ok":
                 lines.append(f"!! {b['name']}: {b['failed_stage']} failed: {b['error'].splitlines()[0]}")
@@ -67,8 +69,19 @@ class FleetResult:
         return "\n".join(lines)
 
 
-def fleet(source, stages=("check", "fit", "evaluate"), out="hvacfmu-fleet", *, scheduler=None, n_workers=None,
-          kinds=DEFAULT_KINDS, step: float = 900.0, horizon: int = 96, progress=None, report=True) -> FleetResult:
+def fleet(
+    source,
+    stages=("check", "fit", "evaluate"),
+    out="hvacfmu-fleet",
+    *,
+    scheduler=None,
+    n_workers=None,
+    kinds=DEFAULT_KINDS,
+    step: float = 900.0,
+    horizon: int = 96,
+    progress=None,
+    report=True,
+) -> FleetResult:
     """Run the pipeline over every building of ``source`` on a Dask cluster.
 
     Parameters
@@ -117,20 +130,28 @@ def _run_on_dask(specs: list[BuildingSpec], stages, out, options, scheduler, n_w
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:  # pragma: no cover - dask is a dependency
-        raise HvacfmuError(f"the fleet command needs dask.distributed ({exc}); "
-                           "pip install 'dask[distributed]'") from None
+        raise HvacfmuError(
+            f"the fleet command needs dask.distributed ({exc}); pip install 'dask[distributed]'"
+        ) from None
     cluster = None
     if scheduler:
         client = Client(scheduler, timeout="30s")
     else:
         n_workers = int(n_workers or min(len(specs), os.cpu_count() or 1))
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               memory_limit=DEFAULT_WORKER_MEMORY, dashboard_address=None)
+        cluster = LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            memory_limit=DEFAULT_WORKER_MEMORY,
+            dashboard_address=None,
+        )
         client = Client(cluster)
     try:
         n = len(client.scheduler_info().get("workers", {})) or (n_workers or 1)
-        futures = {client.submit(run_building, s, stages, str(out), options, key=f"building-{i}-{s.name}",
-                                 pure=False): s for i, s in enumerate(specs)}
+        futures = {
+            client.submit(run_building, s, stages, str(out), options, key=f"building-{i}-{s.name}", pure=False): s
+            for i, s in enumerate(specs)
+        }
         results = {}
         bar = _progress(len(specs), progress)
         for fut in as_completed(list(futures)):
@@ -148,10 +169,20 @@ def _run_on_dask(specs: list[BuildingSpec], stages, out, options, scheduler, n_w
 
 
 def _lost(spec: BuildingSpec, exc: Exception) -> dict:
-    return {"name": spec.name, "key": None, "status": "failed", "failed_stage": "worker",
-            "error": f"the Dask task failed ({type(exc).__name__}: {exc}); a worker over its memory limit "
-                     f"({DEFAULT_WORKER_MEMORY}) is restarted and its task reported here",
-            "seconds": {}, "zones": [], "findings": [], "fmus": {}, "notes": [], "cached": False}
+    return {
+        "name": spec.name,
+        "key": None,
+        "status": "failed",
+        "failed_stage": "worker",
+        "error": f"the Dask task failed ({type(exc).__name__}: {exc}); a worker over its memory limit "
+        f"({DEFAULT_WORKER_MEMORY}) is restarted and its task reported here",
+        "seconds": {},
+        "zones": [],
+        "findings": [],
+        "fmus": {},
+        "notes": [],
+        "cached": False,
+    }
 
 
 def _progress(total: int, progress):
@@ -167,12 +198,14 @@ def _progress(total: int, progress):
             if done[0] + 1 == total:
                 bar.close()
             done[0] += 1
+
         return update
 
     def line(r):
         done[0] += 1
         state = "cached" if r.get("cached") else ("ok" if r["status"] == "ok" else f"FAILED at {r['failed_stage']}")
         print(f"fleet: {done[0]}/{total} {r['name']}: {state}", file=sys.stderr, flush=True)
+
     return line
 
 
@@ -180,9 +213,14 @@ def fleet_table(results: list) -> pd.DataFrame:
     """One row per building, model and zone (one row per building when it has no zone scores)."""
     rows = []
     for r in results:
-        base = {"building": r["name"], "status": r["status"], "failed_stage": r["failed_stage"],
-                "error": r["error"], "peak_rss_mb": r.get("peak_rss_mb"),
-                "seconds": sum(r.get("seconds", {}).values())}
+        base = {
+            "building": r["name"],
+            "status": r["status"],
+            "failed_stage": r["failed_stage"],
+            "error": r["error"],
+            "peak_rss_mb": r.get("peak_rss_mb"),
+            "seconds": sum(r.get("seconds", {}).values()),
+        }
         findings = r.get("findings", [])
         base["findings"] = "; ".join(f"{f['cause']} {f['location']}" for f in findings)
         base["n_findings"] = len(findings)
@@ -195,7 +233,8 @@ def fleet_table(results: list) -> pd.DataFrame:
             zone_findings = [f for f in findings if z.get("zone") and f'"{z.get("zone")}"' in f["location"]]
             row["zone_findings"] = "; ".join(
                 f"{f['cause']} ({f['gain_percent']:+.1f} %)" if f.get("gain_percent") is not None else f["cause"]
-                for f in zone_findings)
+                for f in zone_findings
+            )
             rows.append(row)
     return pd.DataFrame(rows)
 

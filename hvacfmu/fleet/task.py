@@ -48,8 +48,13 @@ def cache_key(spec: BuildingSpec, stages, options: dict) -> str:
     from .. import __version__
 
     h = hashlib.sha256(spec.content_key().encode())
-    h.update(json.dumps({"stages": list(stages), "options": options, "version": __version__,
-                         "result_version": RESULT_VERSION}, sort_keys=True, default=str).encode())
+    h.update(
+        json.dumps(
+            {"stages": list(stages), "options": options, "version": __version__, "result_version": RESULT_VERSION},
+            sort_keys=True,
+            default=str,
+        ).encode()
+    )
     return h.hexdigest()[:20]
 
 
@@ -85,9 +90,20 @@ def run_building(spec: BuildingSpec, stages, out, options: dict | None = None) -
         result = json.loads(path.read_text(encoding="utf-8"))
         result["cached"] = True
         return result
-    result = {"name": spec.name, "key": key, "status": "ok", "failed_stage": None, "error": None,
-              "seconds": {}, "zones": [], "findings": [], "fmus": {}, "notes": [],
-              "measurements": str(spec.measurements), "building": str(spec.building)}
+    result = {
+        "name": spec.name,
+        "key": key,
+        "status": "ok",
+        "failed_stage": None,
+        "error": None,
+        "seconds": {},
+        "zones": [],
+        "findings": [],
+        "fmus": {},
+        "notes": [],
+        "measurements": str(spec.measurements),
+        "building": str(spec.building),
+    }
     state = {"folder": path.parent}
     path.parent.mkdir(parents=True, exist_ok=True)
     for stage in stages:
@@ -190,12 +206,19 @@ def _zone_rows(ev, names) -> list:
             row["time_of_week_all"] = _finite(tables["time-of-week mean"][zone].get("all", np.nan))
             v = verdicts.get((name, zone))
             if v is not None:
-                row.update(verdict=v.status, nmbe_percent=_finite(v.nmbe), cvrmse_percent=_finite(v.cvrmse),
-                           g14_calibrated=v.calibrated)
+                row.update(
+                    verdict=v.status,
+                    nmbe_percent=_finite(v.nmbe),
+                    cvrmse_percent=_finite(v.cvrmse),
+                    g14_calibrated=v.calibrated,
+                )
             else:
                 rms, pers = row.get("rms_all"), row["persistence_all"]
-                row["verdict"] = ("beats persistence" if rms is not None and pers is not None and rms < pers
-                                  else "WORSE THAN PERSISTENCE")
+                row["verdict"] = (
+                    "beats persistence"
+                    if rms is not None and pers is not None and rms < pers
+                    else "WORSE THAN PERSISTENCE"
+                )
             rows.append(row)
     return rows
 
@@ -211,9 +234,13 @@ def _stage_diagnose(spec, state, result, options):
     result["diagnosis_verdict"] = report.to_dict().get("verdict")
     for f in report.findings:
         held = f.get("heldout") or {}
-        result["findings"].append({"cause": f.get("cause"), "location": json.dumps(f.get("location"), sort_keys=True),
-                                   "gain_percent": _finite(held.get("gain_percent", np.nan))
-                                   if isinstance(held, dict) else None})
+        result["findings"].append(
+            {
+                "cause": f.get("cause"),
+                "location": json.dumps(f.get("location"), sort_keys=True),
+                "gain_percent": _finite(held.get("gain_percent", np.nan)) if isinstance(held, dict) else None,
+            }
+        )
 
 
 def _stage_export(spec, state, result, options):
@@ -226,5 +253,10 @@ def _stage_export(spec, state, result, options):
         result["fmus"][kind] = str(out)
 
 
-_STAGE_FUNCTIONS = {"check": _stage_check, "fit": _stage_fit, "evaluate": _stage_evaluate,
-                    "diagnose": _stage_diagnose, "export": _stage_export}
+_STAGE_FUNCTIONS = {
+    "check": _stage_check,
+    "fit": _stage_fit,
+    "evaluate": _stage_evaluate,
+    "diagnose": _stage_diagnose,
+    "export": _stage_export,
+}

@@ -281,8 +281,9 @@ def cv_bandwidth(t, y, bandwidths, *, folds=5, block=4, seed=0) -> CvResult:
     conv_y = _Convolver(Yrep, rmax)
     # masks are often identical across series: transform each distinct one once
     packed = np.packbits(Mrep, axis=0).T.copy()
-    _, first, inverse = np.unique(packed.view(np.dtype((np.void, packed.shape[1]))).ravel(),
-                                  return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(
+        packed.view(np.dtype((np.void, packed.shape[1]))).ravel(), return_index=True, return_inverse=True
+    )
     inverse = inverse.ravel()
     conv_m = _Convolver(Mrep[:, first].astype(float), rmax)
     held = ~keep  # (n, folds)
@@ -632,9 +633,7 @@ class _Prepared:
         self.t = np.arange(n) * self.step
         self.T = frame[[f"T_{z}" for z in b.zone_names]].to_numpy(float)
         self.m = frame[[f"m_{v}" for v in b.vav_names]].to_numpy(float)
-        self.exc = (
-            frame["excitation"].to_numpy(float) == 1.0 if "excitation" in frame.columns else np.zeros(n, bool)
-        )
+        self.exc = frame["excitation"].to_numpy(float) == 1.0 if "excitation" in frame.columns else np.zeros(n, bool)
         self._split_weeks(dataset)
         self.warnings: list[str] = []  # fit warnings (the dataset keeps its own)
         self.min_cov = float(opts["min_season_coverage"])
@@ -681,8 +680,13 @@ class _Prepared:
             if has_td:
                 form, why = "delivered", f"discharge air temperatures measured ({len(has_td)} of {len(b.vavs)} boxes)"
             elif self.off_share > OFF_SHARE_DELIVERED:
-                form, why = "delivered", (f"an air handler is off (no airflow in all its boxes) in "
-                                          f"{100 * self.off_share:.0f} % of the training steps")
+                form, why = (
+                    "delivered",
+                    (
+                        f"an air handler is off (no airflow in all its boxes) in "
+                        f"{100 * self.off_share:.0f} % of the training steps"
+                    ),
+                )
             else:
                 form, why = "airflow", "no discharge air temperatures; air handlers always run"
         else:
@@ -690,12 +694,18 @@ class _Prepared:
         if form == "airflow" and has_td:
             self.warn(f"heat='airflow' ignores the measured discharge air temperatures {has_td}")
         if form == "airflow" and self.off_share > OFF_SHARE_DELIVERED:
-            self.warn(f"heat='airflow': the supply temperature enters linearly although an air handler is off in "
-                      f"{100 * self.off_share:.0f} % of the training steps (its idle node temperature is "
-                      "meaningless); heat='delivered' avoids this")
+            self.warn(
+                f"heat='airflow': the supply temperature enters linearly although an air handler is off in "
+                f"{100 * self.off_share:.0f} % of the training steps (its idle node temperature is "
+                "meaningless); heat='delivered' avoids this"
+            )
         self.delivered = form == "delivered"
-        self.heat_form = {"form": form, "reason": why, "inlets": dict(zip(b.vav_names, self.inlets)),
-                          "air_handler_off_share": self.off_share}
+        self.heat_form = {
+            "form": form,
+            "reason": why,
+            "inlets": dict(zip(b.vav_names, self.inlets)),
+            "air_handler_off_share": self.off_share,
+        }
         self.Tin = self.frame[list(self.inlets)].to_numpy(float)
 
     def box_heat(self, T_box):
@@ -739,8 +749,10 @@ class _Prepared:
             x = x[np.isfinite(x)]
             if x.size < 2:
                 why = [w for w in getattr(self.dataset, "warnings", []) or [] if f"'T_{name}'" in w]
-                problems.append(f"{what} {name}: no data in the training weeks"
-                                + (f" (the data layer said: {why[0]})" if why else ""))
+                problems.append(
+                    f"{what} {name}: no data in the training weeks"
+                    + (f" (the data layer said: {why[0]})" if why else "")
+                )
             elif np.ptp(x) < 1e-6:
                 problems.append(
                     f"{what} {name}: constant at {x[0]:g} over all training weeks (stuck sensor?); "
@@ -828,12 +840,17 @@ def _warn_grid_edge(prep: _Prepared, names, bws, grid):
         if not at:
             continue
         what = "every series" if len(at) == len(names) else ", ".join(at)
-        hint = ("(it cannot go lower than the CV block, option cv_block): the de-smoothed series may be dominated "
-                "by fast variations such as a thermostat loop; see the identifiability check, or fix option "
-                "bandwidth to compare" if label == "lower" else
-                f"(extended up to {MAX_BANDWIDTH_H:g} h); the series vary little within a day")
-        prep.warn(f"LOESS bandwidth {edge / 3600:g} h chosen by cross-validation for {what} is on the "
-                  f"{label} edge of its grid ({', '.join(f'{g / 3600:g}' for g in grid)} h) {hint}")
+        hint = (
+            "(it cannot go lower than the CV block, option cv_block): the de-smoothed series may be dominated "
+            "by fast variations such as a thermostat loop; see the identifiability check, or fix option "
+            "bandwidth to compare"
+            if label == "lower"
+            else f"(extended up to {MAX_BANDWIDTH_H:g} h); the series vary little within a day"
+        )
+        prep.warn(
+            f"LOESS bandwidth {edge / 3600:g} h chosen by cross-validation for {what} is on the "
+            f"{label} edge of its grid ({', '.join(f'{g / 3600:g}' for g in grid)} h) {hint}"
+        )
 
 
 def _regression_rows(prep: _Prepared, *arrays_at_k, next_ok):
@@ -948,9 +965,20 @@ def _lumped_stage(prep: _Prepared, opts, smooth_cache=None):
     if not post.found:
         raise FitError("the Bayesian constrained least-squares fit failed (Clarabel found no solution)")
     return {
-        "x": x, "u": u, "X": X, "hat": hat, "rows": rows, "free": free, "post": post,
-        "mu_a": float(mu_a), "mu_b": float(mu_b), "sd_a": sd_a, "sd_b": sd_b, "prior_src": prior_src,
-        "smooth": sinfo, "weights": w,
+        "x": x,
+        "u": u,
+        "X": X,
+        "hat": hat,
+        "rows": rows,
+        "free": free,
+        "post": post,
+        "mu_a": float(mu_a),
+        "mu_b": float(mu_b),
+        "sd_a": sd_a,
+        "sd_b": sd_b,
+        "prior_src": prior_src,
+        "smooth": sinfo,
+        "weights": w,
     }
 
 
@@ -1094,7 +1122,10 @@ def fit_lumped(dataset, **options):
         {
             "smoothing": st["smooth"],
             "priors": {
-                "mu_a": st["mu_a"], "sd_a": st["sd_a"], "mu_b": st["mu_b"], "sd_b": st["sd_b"],
+                "mu_a": st["mu_a"],
+                "sd_a": st["sd_a"],
+                "mu_b": st["mu_b"],
+                "sd_b": st["sd_b"],
                 "source": st["prior_src"],
             },
             "fit_without_priors": dict(zip(names, st["free"].theta.tolist())),
@@ -1106,8 +1137,17 @@ def fit_lumped(dataset, **options):
             "gain_coverage": coverage,
         }
     )
-    return _finish(prep, opts, "lumped", np.array([[a]]), np.array([bb]), c.reshape(1, -1), gains, meta,
-                   weights=st["weights"][None, :])
+    return _finish(
+        prep,
+        opts,
+        "lumped",
+        np.array([[a]]),
+        np.array([bb]),
+        c.reshape(1, -1),
+        gains,
+        meta,
+        weights=st["weights"][None, :],
+    )
 
 
 def fit_zones(dataset, **options):
@@ -1167,7 +1207,7 @@ def fit_zones(dataset, **options):
     fits = [_fit_one_zone(prep, opts, D, layout[i], lump, i) for i in range(len(layout))]
     A, drive, C, coef_sd = _zone_coefficients(prep, layout, fits)
     nz, nv = A.shape[0], C.shape[1]
-    Xh, Uh, Vh = hat[:, :nz], hat[:, nz:2 * nz], hat[:, 2 * nz:2 * nz + nv]
+    Xh, Uh, Vh = hat[:, :nz], hat[:, nz : 2 * nz], hat[:, 2 * nz : 2 * nz + nv]
     rows = _regression_rows(prep, Xh, Uh, Vh, next_ok=np.all(np.isfinite(Xh), axis=1))
     qr = Xh[rows + 1] - (Xh[rows] @ A.T + Uh[rows] * drive + Vh[rows] @ C.T)
     gains, coverage = _gains_by_season(prep, qr, rows, nz)
@@ -1177,8 +1217,13 @@ def fit_zones(dataset, **options):
         {
             "smoothing": sinfo,
             "priors": {
-                "lumped": {"mu_a": lump["mu_a"], "mu_b": lump["mu_b"], "sd_a": lump["sd_a"], "sd_b": lump["sd_b"],
-                           "source": lump["prior_src"]},
+                "lumped": {
+                    "mu_a": lump["mu_a"],
+                    "mu_b": lump["mu_b"],
+                    "sd_a": lump["sd_a"],
+                    "sd_b": lump["sd_b"],
+                    "source": lump["prior_src"],
+                },
                 "zones": {z: f["prior"] for z, f in zip(zn, fits)},
             },
             "fit_without_priors": {z: f["free"].theta.tolist() for z, f in zip(zn, fits)},
@@ -1234,8 +1279,9 @@ def _zone_layout(prep: _Prepared, D, opts):
     layout, problems = [], []
     for i, z in enumerate(zn):
         nbrs = [j for j, other in enumerate(zn) if other in adj[z]]
-        vcols = list(range(n_temps)) + [k for k, vn in enumerate(prep.v_names)
-                                        if k >= n_temps and vn[2:] in b.zones[i].orientations]
+        vcols = list(range(n_temps)) + [
+            k for k, vn in enumerate(prep.v_names) if k >= n_temps and vn[2:] in b.zones[i].orientations
+        ]
         xcols = [i] + nbrs
         Z = np.column_stack([D[:, xcols], D[:, nz + i], D[:, 2 * nz + np.array(vcols, int)]])
         rows = _regression_rows(prep, Z, next_ok=np.isfinite(D[:, i]))
@@ -1275,8 +1321,15 @@ def _fit_one_zone(prep: _Prepared, opts, D, lay, lump, i):
     post = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h, prior_mean=mu, prior_sd=sd, sigma2=free.rss / max(free.n - p, 1))
     if not post.found:
         raise FitError(f"zone {z}: the Bayesian constrained least-squares fit failed (Clarabel)")
-    prior = {"mu_A_diag": lump["mu_a"], "sd_A_diag": sd_a, "mu_A_offdiag": mu_off, "sd_A_offdiag": sd_off,
-             "mu_B": mu_bi, "sd_B": sd_bi, "volume_share": share}
+    prior = {
+        "mu_A_diag": lump["mu_a"],
+        "sd_A_diag": sd_a,
+        "mu_A_offdiag": mu_off,
+        "sd_A_offdiag": sd_off,
+        "mu_B": mu_bi,
+        "sd_B": sd_bi,
+        "volume_share": share,
+    }
     return {"free": free, "post": post, "prior": prior}
 
 
@@ -1291,7 +1344,7 @@ def _zone_coefficients(prep: _Prepared, layout, fits):
         na = len(lay["xcols"])
         A[i, lay["xcols"]], A_sd[i, lay["xcols"]] = th[:na], sdv[:na]
         drive[i], drive_sd[i] = th[na], sdv[na]
-        C[i, lay["vcols"]], C_sd[i, lay["vcols"]] = th[na + 1:], sdv[na + 1:]
+        C[i, lay["vcols"]], C_sd[i, lay["vcols"]] = th[na + 1 :], sdv[na + 1 :]
     key = "beta" if prep.delivered else "B"
     return A, drive, C, {"A": A_sd, key: drive_sd if prep.delivered else np.diag(drive_sd), "C": C_sd}
 
@@ -1306,17 +1359,34 @@ def _finish(prep: _Prepared, opts, kind, A, drive, C, gains, meta, weights):
     heat_map = np.ones((1, len(b.vavs))) if kind == "lumped" else b.zone_vav_matrix()
     meta["heat"] = prep.heat_form
     meta["warnings"] = prep.warnings
-    common = {"kind": kind, "step": prep.step, "outputs": ("floor",) if kind == "lumped" else b.zone_names,
-              "measured_zones": b.zone_names, "output_weights": weights, "vavs": b.vav_names, "A": A, "gains": gains}
+    common = {
+        "kind": kind,
+        "step": prep.step,
+        "outputs": ("floor",) if kind == "lumped" else b.zone_names,
+        "measured_zones": b.zone_names,
+        "output_weights": weights,
+        "vavs": b.vav_names,
+        "A": A,
+        "gains": gains,
+    }
     if not prep.delivered:
-        model = LinearZoneModel(input_map=heat_map, disturbances=prep.v_names, B=np.diag(drive), C=C,
-                                meta=_jsonable(meta), **common)
+        model = LinearZoneModel(
+            input_map=heat_map, disturbances=prep.v_names, B=np.diag(drive), C=C, meta=_jsonable(meta), **common
+        )
     else:
         extra = tuple(dict.fromkeys(c for c in prep.inlets if c not in prep.v_names))
         C = np.concatenate([C, np.zeros((nx, len(extra)))], axis=1)
-        model = LinearZoneModel(input_map=np.eye(len(b.vavs)), disturbances=prep.v_names + extra,
-                                B=np.zeros((nx, len(b.vavs))), C=C, beta=drive, inlets=prep.inlets,
-                                heat_map=heat_map, meta=_jsonable(meta), **common)
+        model = LinearZoneModel(
+            input_map=np.eye(len(b.vavs)),
+            disturbances=prep.v_names + extra,
+            B=np.zeros((nx, len(b.vavs))),
+            C=C,
+            beta=drive,
+            inlets=prep.inlets,
+            heat_map=heat_map,
+            meta=_jsonable(meta),
+            **common,
+        )
     model = _refined(prep, opts, model)
     if opts["plausibility"]:
         model = check_fitted(model, prep.dataset, warn=prep.warn)
@@ -1336,8 +1406,11 @@ def _refined(prep: _Prepared, opts, model):
         return dataclasses.replace(model, meta=_jsonable({**model.meta, "open_loop": {"used": False, "reason": why}}))
     new, info = refine_open_loop(model, prep)
     info["why"] = "option open_loop=True" if form is True else "closed-loop data: no excitation periods"
-    info["one_step"] = {"A_diag": np.diag(model.A), "drive": model.beta if model.beta is not None else np.diag(model.B),
-                        "C": model.C}
+    info["one_step"] = {
+        "A_diag": np.diag(model.A),
+        "drive": model.beta if model.beta is not None else np.diag(model.B),
+        "C": model.C,
+    }
     return dataclasses.replace(new, meta=_jsonable({**model.meta, "open_loop": info}))
 
 

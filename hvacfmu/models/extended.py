@@ -184,8 +184,10 @@ class ExtendedModel(ZoneModel):
                 frame = frame.assign(**{c: v for c, v in derived.items() if c in missing})
             missing = [c for c in self._disturbances if c not in frame.columns]
         if missing:
-            raise ModelError(f"extended model needs frame columns {missing} (e.g. facade irradiance from ghi, "
-                             "discharge air temperatures Td_<vav> for reheat)")
+            raise ModelError(
+                f"extended model needs frame columns {missing} (e.g. facade irradiance from ghi, "
+                "discharge air temperatures Td_<vav> for reheat)"
+            )
         u, _ = self.base.signals(frame)
         v = frame[list(self._disturbances)].to_numpy(dtype=float)
         return u, v
@@ -225,11 +227,12 @@ class ExtendedModel(ZoneModel):
                 past = col[:-1]
                 buf = np.full(n, now)
                 if len(past):
-                    buf[n - len(past):] = past
+                    buf[n - len(past) :] = past
                 x[off : off + n] = np.where(np.isfinite(buf), buf, now)
             else:
-                h = t.hidden_history(self.measured_outputs(frame.iloc[: k0 + 1]),
-                                     self.base.signals(frame.iloc[: k0 + 1])[0], self._zi)
+                h = t.hidden_history(
+                    self.measured_outputs(frame.iloc[: k0 + 1]), self.base.signals(frame.iloc[: k0 + 1])[0], self._zi
+                )
                 x[off : off + n] = h[-1]
         return x
 
@@ -294,9 +297,17 @@ class ExtendedModel(ZoneModel):
 
         b = self.base
         nz, nx, nu, nv = len(self.outputs), self._nx, len(self.inputs), len(self._disturbances)
-        e = EquationParts(A=np.zeros((nx, nx)), Bu=np.zeros((nx, nu)), Bv=np.zeros((nx, nv)),
-                          Bxu=[np.zeros((nx, nx)) for _ in range(nu)], Bvu=[np.zeros((nx, nv)) for _ in range(nu)],
-                          switches=[], zi=self._zi, vi=self._vi, u_state={})
+        e = EquationParts(
+            A=np.zeros((nx, nx)),
+            Bu=np.zeros((nx, nu)),
+            Bv=np.zeros((nx, nv)),
+            Bxu=[np.zeros((nx, nx)) for _ in range(nu)],
+            Bvu=[np.zeros((nx, nv)) for _ in range(nu)],
+            switches=[],
+            zi=self._zi,
+            vi=self._vi,
+            u_state={},
+        )
         beq = b.equations()
         nvb = len(b.disturbances)
         e.A[:nz, :nz] = beq.A
@@ -315,11 +326,21 @@ class ExtendedModel(ZoneModel):
         Bq[:nz] = np.eye(nz)
         C = np.zeros((nz, nx))
         C[:, :nz] = np.eye(nz)
-        return ModelEquations(step=self.step, A=e.A, Bu=e.Bu, Bv=e.Bv, Bq=Bq, C=C, inputs=self.inputs,
-                              disturbances=self._disturbances, outputs=self.outputs,
-                              gains={s: np.asarray(g) for s, g in b.gains.items()},
-                              Bxu=tuple(e.Bxu) if bilinear else (), Bvu=tuple(e.Bvu) if bilinear else (),
-                              switches=tuple(e.switches))
+        return ModelEquations(
+            step=self.step,
+            A=e.A,
+            Bu=e.Bu,
+            Bv=e.Bv,
+            Bq=Bq,
+            C=C,
+            inputs=self.inputs,
+            disturbances=self._disturbances,
+            outputs=self.outputs,
+            gains={s: np.asarray(g) for s, g in b.gains.items()},
+            Bxu=tuple(e.Bxu) if bilinear else (),
+            Bvu=tuple(e.Bvu) if bilinear else (),
+            switches=tuple(e.switches),
+        )
 
     def output(self, x):
         return np.asarray(x)[..., : len(self.outputs)]

@@ -106,7 +106,11 @@ class LinearZoneModel(ZoneModel):
     def __post_init__(self):
         if self.kind not in self.KINDS:
             raise ModelError(f"LinearZoneModel kind must be one of {self.KINDS}, got {self.kind!r}")
-        nx, nu, nv = len(self.outputs), self.input_map.shape[0] if np.ndim(self.input_map) == 2 else -1, len(self.disturbances)
+        nx, nu, nv = (
+            len(self.outputs),
+            self.input_map.shape[0] if np.ndim(self.input_map) == 2 else -1,
+            len(self.disturbances),
+        )
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass normalisation
         set_("outputs", tuple(self.outputs))
         set_("measured_zones", tuple(self.measured_zones))
@@ -136,7 +140,9 @@ class LinearZoneModel(ZoneModel):
             raise ModelError(f"delivered-heat form: {len(self.inlets)} inlet columns for {nb} VAV boxes")
         unknown = [c for c in self.inlets if c not in self.disturbances]
         if unknown:
-            raise ModelError(f"delivered-heat form: inlet column(s) {unknown} are not disturbances {list(self.disturbances)}")
+            raise ModelError(
+                f"delivered-heat form: inlet column(s) {unknown} are not disturbances {list(self.disturbances)}"
+            )
         if not np.all(self.heat_map.sum(axis=0) == 1.0) or not np.all(np.isin(self.heat_map, (0.0, 1.0))):
             raise ModelError("delivered-heat form: heat_map must assign every box to exactly one state")
         set_("_inlet_idx", np.array([self.disturbances.index(c) for c in self.inlets], dtype=np.int64))
@@ -206,9 +212,20 @@ class LinearZoneModel(ZoneModel):
                 Bxu.append(bx)
                 Bvu.append(bv)
             Bxu, Bvu = tuple(Bxu), tuple(Bvu)
-        return ModelEquations(step=float(self.step), A=self.A, Bu=self.B, Bv=self.C, Bq=np.eye(nx),
-                              C=np.eye(nx), inputs=self.inputs, disturbances=tuple(self.disturbances),
-                              outputs=tuple(self.outputs), gains=dict(self.gains), Bxu=Bxu, Bvu=Bvu)
+        return ModelEquations(
+            step=float(self.step),
+            A=self.A,
+            Bu=self.B,
+            Bv=self.C,
+            Bq=np.eye(nx),
+            C=np.eye(nx),
+            inputs=self.inputs,
+            disturbances=tuple(self.disturbances),
+            outputs=tuple(self.outputs),
+            gains=dict(self.gains),
+            Bxu=Bxu,
+            Bvu=Bvu,
+        )
 
     def summary(self) -> str:
         """Readable coefficients, stability, internal-gain levels and fit provenance."""
@@ -223,10 +240,14 @@ class LinearZoneModel(ZoneModel):
         lines.append("A:" + "".ljust(w - 2) + "".join(o.rjust(11) for o in self.outputs))
         lines += [o.ljust(w) + "".join(fmt(v) for v in row) for o, row in zip(self.outputs, self.A)]
         if self.beta is None:
-            lines.append("B [K/step per kg/s]: " + " ".join(f"{o}={v:.4g}" for o, v in zip(self.inputs, np.diag(self.B))))
+            lines.append(
+                "B [K/step per kg/s]: " + " ".join(f"{o}={v:.4g}" for o, v in zip(self.inputs, np.diag(self.B)))
+            )
         else:
-            lines.append("delivered heat beta [K/step per kW]: "
-                         + " ".join(f"{o}={v:.4g}" for o, v in zip(self.outputs, self.beta)))
+            lines.append(
+                "delivered heat beta [K/step per kW]: "
+                + " ".join(f"{o}={v:.4g}" for o, v in zip(self.outputs, self.beta))
+            )
             lines.append("box inlets: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.vavs, self.inlets)))
         cols = [j for j, d in enumerate(self.disturbances) if d not in self.inlets]  # inlets act through beta only
         lines.append("C:" + "".ljust(w - 2) + "".join(self.disturbances[j].rjust(11) for j in cols))
@@ -272,8 +293,20 @@ class LinearZoneModel(ZoneModel):
     def from_dict(cls, d: dict[str, Any]) -> LinearZoneModel:
         check_version(d)
         what = f"{d.get('kind', '?')} model file"
-        keys = ["kind", "step", "outputs", "measured_zones", "output_weights", "vavs", "input_map",
-                "disturbances", "A", "B", "C", "gains"]
+        keys = [
+            "kind",
+            "step",
+            "outputs",
+            "measured_zones",
+            "output_weights",
+            "vavs",
+            "input_map",
+            "disturbances",
+            "A",
+            "B",
+            "C",
+            "gains",
+        ]
         require_keys(d, keys, what)
         names = {k: check_names(d[k], k, what) for k in ("outputs", "measured_zones", "vavs", "disturbances")}
         step = check_number(d["step"], "step", what)

@@ -90,8 +90,13 @@ class _Problem:
         self.lb = np.r_[np.full(nx, 1e-4), d_lo, np.zeros(nc)]
         self.ub = np.r_[a_hi, d_hi, np.full(nc, np.inf)]
         self.theta0 = np.clip(self.theta0, self.lb, np.where(np.isfinite(self.ub), self.ub - 1e-9, self.ub))
-        rows = np.flatnonzero(prep.train[:-1] & prep.train[1:] & self.uv_ok[:-1]
-                              & np.all(np.isfinite(self.Y[:-1]), axis=1) & np.all(np.isfinite(self.Y[1:]), axis=1))
+        rows = np.flatnonzero(
+            prep.train[:-1]
+            & prep.train[1:]
+            & self.uv_ok[:-1]
+            & np.all(np.isfinite(self.Y[:-1]), axis=1)
+            & np.all(np.isfinite(self.Y[1:]), axis=1)
+        )
         self.rows = rows
 
     def with_theta(self, theta, gains=None):
@@ -103,12 +108,12 @@ class _Problem:
         A = m.A.copy()
         A[np.diag_indices(nx)] = theta[:nx]
         C = m.C.copy()
-        C[self.cmask] = theta[2 * nx:]
+        C[self.cmask] = theta[2 * nx :]
         kw = {"A": A, "C": C}
         if self.delivered:
-            kw["beta"] = theta[nx:2 * nx].copy()
+            kw["beta"] = theta[nx : 2 * nx].copy()
         else:
-            kw["B"] = np.diag(theta[nx:2 * nx])
+            kw["B"] = np.diag(theta[nx : 2 * nx])
         new = dataclasses.replace(m, **kw)
         if gains is None:
             gains = self.gains_for(new)
@@ -170,16 +175,26 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
 
     starts = training_windows(prep, horizon)
     if starts.size < 7:
-        return model, {"used": False, "reason": f"only {starts.size} complete training days", "windows": int(starts.size)}
+        return model, {
+            "used": False,
+            "reason": f"only {starts.size} complete training days",
+            "windows": int(starts.size),
+        }
     pb = _Problem(model, prep, starts, horizon)
     r0 = pb.residuals(pb.theta0)
-    sol = least_squares(pb.residuals, pb.theta0, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev,
-                        diff_step=1e-4)
-    w2 = np.broadcast_to(pb.weight ** 2, (starts.size, horizon, pb.Y.shape[1])).ravel()
-    rms0 = float(np.sqrt(np.sum(r0 ** 2) / np.sum(w2)))
-    rms1 = float(np.sqrt(np.sum(sol.fun ** 2) / np.sum(w2)))
-    info = {"windows": int(starts.size), "horizon_steps": int(horizon), "rms_before": rms0, "rms_after": rms1,
-            "nfev": int(sol.nfev)}
+    sol = least_squares(
+        pb.residuals, pb.theta0, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev, diff_step=1e-4
+    )
+    w2 = np.broadcast_to(pb.weight**2, (starts.size, horizon, pb.Y.shape[1])).ravel()
+    rms0 = float(np.sqrt(np.sum(r0**2) / np.sum(w2)))
+    rms1 = float(np.sqrt(np.sum(sol.fun**2) / np.sum(w2)))
+    info = {
+        "windows": int(starts.size),
+        "horizon_steps": int(horizon),
+        "rms_before": rms0,
+        "rms_after": rms1,
+        "nfev": int(sol.nfev),
+    }
     if not rms1 < rms0:
         info.update(used=False, reason="no improvement of the training windows' open-loop error")
         return model, info

@@ -67,20 +67,28 @@ def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H) -> 
     if rho >= 1.0:
         problems.append(f"unstable: spectral radius of A is {rho:.6g} >= 1 (temperatures would grow without bound)")
     elif tau[0] > max_time_constant_h:
-        problems.append(f"slowest time constant {tau[0]:.0f} h exceeds {max_time_constant_h:g} h: the model "
-                        "loses almost no heat (an integrator, not a building)")
+        problems.append(
+            f"slowest time constant {tau[0]:.0f} h exceeds {max_time_constant_h:g} h: the model "
+            "loses almost no heat (an integrator, not a building)"
+        )
     off = model.A - np.diag(np.diag(model.A))
     if np.any(off < 0):
         i, j = np.unravel_index(np.argmin(off), off.shape)
-        problems.append(f"coupling A[{model.outputs[i]}, {model.outputs[j]}] = {off[i, j]:.3g} < 0 "
-                        "(a warmer neighbour would cool the zone)")
+        problems.append(
+            f"coupling A[{model.outputs[i]}, {model.outputs[j]}] = {off[i, j]:.3g} < 0 "
+            "(a warmer neighbour would cool the zone)"
+        )
     if np.any(model.C < 0):
         i, j = np.unravel_index(np.argmin(model.C), model.C.shape)
-        problems.append(f"C[{model.outputs[i]}, {model.disturbances[j]}] = {model.C[i, j]:.3g} < 0 "
-                        "(warmer weather or more sun would cool the zone)")
+        problems.append(
+            f"C[{model.outputs[i]}, {model.disturbances[j]}] = {model.C[i, j]:.3g} < 0 "
+            "(warmer weather or more sun would cool the zone)"
+        )
     if model.beta is None and np.any(model.B > 0):
-        problems.append(f"airflow warms the zone (B up to {np.max(model.B):.3g} > 0); in the airflow form the "
-                        "supply air must cool (use the delivered-heat form for heating with reheat)")
+        problems.append(
+            f"airflow warms the zone (B up to {np.max(model.B):.3g} > 0); in the airflow form the "
+            "supply air must cool (use the delivered-heat form for heating with reheat)"
+        )
     if model.beta is not None and np.any(model.beta < 0):
         problems.append(f"delivered heat cools the zone (beta down to {np.min(model.beta):.3g} < 0)")
     return problems, numbers
@@ -114,8 +122,14 @@ def drive_effect_k(model, frame) -> dict:
     return out
 
 
-def check_fitted(model, dataset=None, warn=None, *, max_time_constant_h: float = MAX_TIME_CONSTANT_H,
-                 min_effect_k: float = MIN_EFFECT_K):
+def check_fitted(
+    model,
+    dataset=None,
+    warn=None,
+    *,
+    max_time_constant_h: float = MAX_TIME_CONSTANT_H,
+    min_effect_k: float = MIN_EFFECT_K,
+):
     """Refuse an implausible fitted Model A; flag a non-identifiable one. Returns the model with ``meta`` updated.
 
     Parameters
@@ -157,12 +171,16 @@ def check_fitted(model, dataset=None, warn=None, *, max_time_constant_h: float =
             tau_diag = -float(model.step) / np.log(a) / 3600.0  # [h] per state, from its own decay
             fast = [z for z in weak if tau_diag[model.outputs.index(z)] < FAST_TIME_CONSTANT_H]
             what = "delivered heat" if model.beta is not None else "airflow"
-            msg = (f"the {what} of the boxes is not identifiable from these data: over its observed range it moves "
-                   f"the temperature by less than {min_effect_k:g} K in steady state in "
-                   + ", ".join(f"{z} ({e:.2g} K)" for z, e in weak.items()))
+            msg = (
+                f"the {what} of the boxes is not identifiable from these data: over its observed range it moves "
+                f"the temperature by less than {min_effect_k:g} K in steady state in "
+                + ", ".join(f"{z} ({e:.2g} K)" for z, e in weak.items())
+            )
             if fast:
-                msg += (f"; with time constants under {FAST_TIME_CONSTANT_H:g} h in {', '.join(fast)}, the model "
-                        "learned the thermostat loop (closed-loop data without excitation), not the building")
+                msg += (
+                    f"; with time constants under {FAST_TIME_CONSTANT_H:g} h in {', '.join(fast)}, the model "
+                    "learned the thermostat loop (closed-loop data without excitation), not the building"
+                )
             msg += ". Add excitation experiments (column 'excitation') or discharge air temperatures (Td_<vav>)"
             notes.append(msg)
     numbers["identifiable"] = not notes

@@ -93,9 +93,11 @@ class ModelKind:
             If the kind is not identified directly from data (e.g. ``extended``).
         """
         if self.fit is None:
-            raise ModelError(f"model kind {self.name!r} is not fitted directly from data"
-                             + (f": {self.fit_note}" if self.fit_note else "")
-                             + f"; kinds that can be fitted: {fittable_kinds()}")
+            raise ModelError(
+                f"model kind {self.name!r} is not fitted directly from data"
+                + (f": {self.fit_note}" if self.fit_note else "")
+                + f"; kinds that can be fitted: {fittable_kinds()}"
+            )
         return _resolve(self.fit, f"fit function of kind {self.name!r}")
 
 
@@ -127,8 +129,10 @@ def register_kind(kind: ModelKind, *, replace: bool = False) -> ModelKind:
     if not isinstance(kind, ModelKind):
         raise TypeError(f"expected a ModelKind, got {type(kind).__name__}")
     if kind.name in _REGISTRY and not replace and _REGISTRY[kind.name] != kind:
-        raise ModelError(f"model kind {kind.name!r} is already registered ({_REGISTRY[kind.name].model_class}); "
-                         "pass replace=True to replace it")
+        raise ModelError(
+            f"model kind {kind.name!r} is already registered ({_REGISTRY[kind.name].model_class}); "
+            "pass replace=True to replace it"
+        )
     _REGISTRY[kind.name] = kind
     return kind
 
@@ -168,22 +172,47 @@ def get_kind(name: str) -> ModelKind:
 
 
 # --------------------------------------------------------------------------- built-in kinds
-register_kind(ModelKind(
-    "lumped", "Model A, one lumped zone (area-weighted mean temperature, summed airflow)",
-    "hvacfmu.models.linear:LinearZoneModel", fit="hvacfmu.models.datadriven:fit_lumped",
-    equations=True, fmu_slave="HvacfmuLumped"))
-register_kind(ModelKind(
-    "zones", "Model A, one state per zone (semiparametric: LOESS + constrained least squares)",
-    "hvacfmu.models.linear:LinearZoneModel", fit="hvacfmu.models.datadriven:fit_zones",
-    equations=True, fmu_slave="HvacfmuZones"))
-register_kind(ModelKind(
-    "physics", "Model B, RC network from the building's geometry and constructions, bilinear in airflow",
-    "hvacfmu.models.physics:PhysicsModel", fit="hvacfmu.models.physics:fit_physics",
-    equations=True, fmu_slave="HvacfmuPhysics"))
-register_kind(ModelKind(
-    "extended", "Model A plus the extension terms of diagnosed causes",
-    "hvacfmu.models.extended:ExtendedModel", fit=None, equations=True, fmu_slave="HvacfmuExtended",
-    fit_note="it is the result of the diagnosis (hvacfmu diagnose ... -o model.json, or hf.diagnose(data).model)"))
+register_kind(
+    ModelKind(
+        "lumped",
+        "Model A, one lumped zone (area-weighted mean temperature, summed airflow)",
+        "hvacfmu.models.linear:LinearZoneModel",
+        fit="hvacfmu.models.datadriven:fit_lumped",
+        equations=True,
+        fmu_slave="HvacfmuLumped",
+    )
+)
+register_kind(
+    ModelKind(
+        "zones",
+        "Model A, one state per zone (semiparametric: LOESS + constrained least squares)",
+        "hvacfmu.models.linear:LinearZoneModel",
+        fit="hvacfmu.models.datadriven:fit_zones",
+        equations=True,
+        fmu_slave="HvacfmuZones",
+    )
+)
+register_kind(
+    ModelKind(
+        "physics",
+        "Model B, RC network from the building's geometry and constructions, bilinear in airflow",
+        "hvacfmu.models.physics:PhysicsModel",
+        fit="hvacfmu.models.physics:fit_physics",
+        equations=True,
+        fmu_slave="HvacfmuPhysics",
+    )
+)
+register_kind(
+    ModelKind(
+        "extended",
+        "Model A plus the extension terms of diagnosed causes",
+        "hvacfmu.models.extended:ExtendedModel",
+        fit=None,
+        equations=True,
+        fmu_slave="HvacfmuExtended",
+        fit_note="it is the result of the diagnosis (hvacfmu diagnose ... -o model.json, or hf.diagnose(data).model)",
+    )
+)
 
 
 __all__ = [

@@ -91,8 +91,16 @@ def term_from_dict(d: dict, zone_names: tuple) -> Term:
     return t
 
 
-for _cls in (SolarGain, SupplyAirBilinear, ZoneCoupling, ThermalMass, InternalGainSchedule, ActuationDelay,
-             Reheat, UnusedInput):
+for _cls in (
+    SolarGain,
+    SupplyAirBilinear,
+    ZoneCoupling,
+    ThermalMass,
+    InternalGainSchedule,
+    ActuationDelay,
+    Reheat,
+    UnusedInput,
+):
     register_cause(_cls)
 
 __all__ = [

@@ -70,8 +70,10 @@ class ActuationDelay(Term):
     def add_equations(self, e: EquationParts) -> None:
         zi, n, off = e.zi[self.zone], int(self.delay), e.off
         if np.any(e.Bxu[zi]) or np.any(e.Bvu[zi]):
-            raise ModelError(f"actuation_delay in zone {self.zone!r} of a model bilinear in that airflow (delivered "
-                             "heat): the delayed airflow times the state is quadratic, no bilinear equations")
+            raise ModelError(
+                f"actuation_delay in zone {self.zone!r} of a model bilinear in that airflow (delivered "
+                "heat): the delayed airflow times the state is quadratic, no bilinear equations"
+            )
         for j in range(n - 1):
             e.A[off + j, off + j + 1] = 1.0
         e.Bu[off + n - 1, zi] = 1.0
@@ -88,8 +90,11 @@ class ActuationDelay(Term):
             if z in have:
                 continue
             ev = delay_evidence(sig, W, resid[:, zi], sig.U[:, zi])
-            out.append(Candidate(cls.cause, {"zone": z}, [cls(zone=z, delay=d) for d in range(1, MAX_DELAY + 1)], 0,
-                                 evidence=ev))
+            out.append(
+                Candidate(
+                    cls.cause, {"zone": z}, [cls(zone=z, delay=d) for d in range(1, MAX_DELAY + 1)], 0, evidence=ev
+                )
+            )
         return out
 
 
@@ -104,5 +109,8 @@ def delay_evidence(sig, W, r, u) -> dict:
             fu[:-lag] = u[lag:]
             future[str(lag)] = corr(r, W(np.nan_to_num(fu, nan=fill)))
     best = max((k for k in past if k != "0" and np.isfinite(past[k])), key=lambda k: abs(past[k]), default=None)
-    return {"xcorr_resid_airflow_by_lag": past, "xcorr_resid_future_airflow_by_lag": future,
-            "best_past_lag": None if best is None else int(best)}
+    return {
+        "xcorr_resid_airflow_by_lag": past,
+        "xcorr_resid_future_airflow_by_lag": future,
+        "best_past_lag": None if best is None else int(best),
+    }

@@ -91,8 +91,10 @@ class InternalGainSchedule(Term):
         return self.adjustment(index, profile, step)
 
     def add_equations(self, e: EquationParts) -> None:
-        raise ModelError(f"internal_gain_schedule ({self.variant}) depends on the calendar (dates, daylight "
-                         "saving): it has no time-invariant equations; use the model's gains_at with a start time")
+        raise ModelError(
+            f"internal_gain_schedule ({self.variant}) depends on the calendar (dates, daylight "
+            "saving): it has no time-invariant equations; use the model's gains_at with a start time"
+        )
 
     def features(self, sig, U_eff):
         unit = dataclasses.replace(self, coef=tuple(1.0 for _ in sig.zones), zone_names=sig.zones)
@@ -106,8 +108,9 @@ class InternalGainSchedule(Term):
     def with_fit(self, sig, coefs, stds):
         zones = sig.zones
         c = tuple(float(coefs.get(f"coef[{z}]", 0.0)) for z in zones)
-        return dataclasses.replace(self, zone_names=tuple(zones), coef=c,
-                                   std={"coef": {z: float(stds.get(f"coef[{z}]", 0.0)) for z in zones}})
+        return dataclasses.replace(
+            self, zone_names=tuple(zones), coef=c, std={"coef": {z: float(stds.get(f"coef[{z}]", 0.0)) for z in zones}}
+        )
 
     @classmethod
     def from_dict(cls, d, zone_names, problems, std):
@@ -131,8 +134,9 @@ class InternalGainSchedule(Term):
             problems.append(f"{what}: ref_weekday must be an integer 0..6, got {rw!r}")
         if not isinstance(sh, int):
             problems.append(f"{what}: shift must be an integer number of steps, got {sh!r}")
-        return cls(variant=variant, zone_names=tuple(zone_names), coef=tuple(c), dates=dates,
-                   ref_weekday=rw, shift=sh, std=std)
+        return cls(
+            variant=variant, zone_names=tuple(zone_names), coef=tuple(c), dates=dates, ref_weekday=rw, shift=sh, std=std
+        )
 
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
@@ -159,7 +163,6 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None) 
     idx = sig.index
     per_day = sig.n_tow // 7
     tow = np.zeros(len(idx), dtype=int)
-
 
     tow = time_of_week(idx, sig.step) % sig.n_tow
     dates = np.array(idx.date)
@@ -203,8 +206,9 @@ def holiday_candidate(sig, W, options) -> Candidate:
     """
     resid_all = options.get("_resid_all")
     if resid_all is None or sig.n_tow % 7:
-        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable",
-                         reason="no one-step residuals")
+        return Candidate(
+            InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", reason="no one-step residuals"
+        )
     deps = day_departures(sig, resid_all, rows=W.rows)
     gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
     med = float(np.median(gam)) if len(gam) else 0.0
@@ -224,23 +228,40 @@ def holiday_candidate(sig, W, options) -> Candidate:
         if len(ds) >= 3 and g >= gw_min and (g - med) / scale >= z_min / 2:
             weeks.append({"week": wk, "gamma": g})
             picked |= {d["date"] for d in ds}
-    ev = {"weekdays_checked": len(deps), "gamma_median": med, "gamma_robust_std": mad,
-          "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
-          "weeks": weeks,
-          "rule": f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g}"}
+    ev = {
+        "weekdays_checked": len(deps),
+        "gamma_median": med,
+        "gamma_robust_std": mad,
+        "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
+        "weeks": weeks,
+        "rule": f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g}",
+    }
     if len(deps) < 10:
-        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", evidence=ev,
-                         reason=f"only {len(deps)} weekdays with data")
+        return Candidate(
+            InternalGainSchedule.cause,
+            {"variant": "holiday"},
+            status="untestable",
+            evidence=ev,
+            reason=f"only {len(deps)} weekdays with data",
+        )
     if not picked:
-        return Candidate(InternalGainSchedule.cause, {"variant": "holiday"}, status="not significant", evidence=ev,
-                         reason="no weekday departs from the seasonal profile toward a weekend day")
+        return Candidate(
+            InternalGainSchedule.cause,
+            {"variant": "holiday"},
+            status="not significant",
+            evidence=ev,
+            reason="no weekday departs from the seasonal profile toward a weekend day",
+        )
     dates = tuple(sorted(picked))
-    term = InternalGainSchedule(variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
-                                dates=dates, ref_weekday=6)
-    n_choices = len(weeks) + len([d for d in dates if not any(d in {x["date"] for x in by_week[w["week"]]}
-                                                              for w in weeks)])
-    return Candidate(InternalGainSchedule.cause, {"variant": "holiday", "dates": list(dates)}, [term],
-                     max(n_choices, 1), evidence=ev)
+    term = InternalGainSchedule(
+        variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones), dates=dates, ref_weekday=6
+    )
+    n_choices = len(weeks) + len(
+        [d for d in dates if not any(d in {x["date"] for x in by_week[w["week"]]} for w in weeks)]
+    )
+    return Candidate(
+        InternalGainSchedule.cause, {"variant": "holiday", "dates": list(dates)}, [term], max(n_choices, 1), evidence=ev
+    )
 
 
 #: Lags [steps] searched when aligning the daylight-saving and standard-time weekday gain profiles.
@@ -336,16 +357,25 @@ def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
             num[i] += w * float(delta @ x)
             den[i] += w * float(x @ x)
             dd[i] += w * float(delta @ delta)
-        seasons[s] = {"weekdays_dst": int(n_on), "weekdays_standard": int(n_off),
-                      "weekend_days_dst": int(n_on_we), "weekend_days_standard": int(n_off_we)}
+        seasons[s] = {
+            "weekdays_dst": int(n_on),
+            "weekdays_standard": int(n_off),
+            "weekend_days_dst": int(n_on_we),
+            "weekend_days_standard": int(n_off_we),
+        }
     if not seasons:
         return {"seasons": {}}
     gamma = num / np.maximum(den, 1e-300)
     r2 = np.where(gamma > 0, gamma * num / np.maximum(dd, 1e-300), 0.0)
     i = int(np.argmax(r2))
-    return {"lag_steps": int(lags[i]), "lag_h": float(lags[i] * sig.step / 3600.0),
-            "r2_at_lag": float(r2[i]), "scale_at_lag": float(gamma[i]),
-            "r2_by_lag": {str(int(L)): round(float(c), 4) for L, c in zip(lags, r2)}, "seasons": seasons}
+    return {
+        "lag_steps": int(lags[i]),
+        "lag_h": float(lags[i] * sig.step / 3600.0),
+        "r2_at_lag": float(r2[i]),
+        "scale_at_lag": float(gamma[i]),
+        "r2_by_lag": {str(int(L)): round(float(c), 4) for L, c in zip(lags, r2)},
+        "seasons": seasons,
+    }
 
 
 def shifted_clock_profiles(sig, gains: np.ndarray, rows: np.ndarray, shift: int) -> dict:
@@ -386,39 +416,59 @@ def dst_candidate(sig, W, options: dict) -> Candidate:
     onw = W(on.astype(float))
     loc = {"variant": "dst_shift"}
     if np.var(onw) < 1e-3:
-        return Candidate(InternalGainSchedule.cause, loc, status="untestable",
-                         reason="daylight-saving time does not change within any season's training weeks")
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="untestable",
+            reason="daylight-saving time does not change within any season's training weeks",
+        )
     resid_all = options.get("_resid_all")
     ev = {"dst_fraction_of_training_rows": float(on[W.rows].mean())}
     if resid_all is None:
-        return Candidate(InternalGainSchedule.cause, loc, status="untestable", evidence=ev,
-                         reason="no one-step residuals")
+        return Candidate(
+            InternalGainSchedule.cause, loc, status="untestable", evidence=ev, reason="no one-step residuals"
+        )
     gains = apparent_gains(sig, resid_all)
     ev.update(dst_profile_lag(sig, gains, W.rows))
     if not ev["seasons"]:
-        return Candidate(InternalGainSchedule.cause, loc, status="untestable", evidence=ev,
-                         reason=f"no season has {DST_MIN_DAYS} training weekdays both with and without daylight "
-                                f"saving")
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="untestable",
+            evidence=ev,
+            reason=f"no season has {DST_MIN_DAYS} training weekdays both with and without daylight saving",
+        )
     steps = int(round(3600 / sig.step))
     L = ev["lag_steps"]
     if 2 * abs(L) < steps:
-        return Candidate(InternalGainSchedule.cause, loc, status="not significant", evidence=ev,
-                         reason=f"the weekday gain profiles with and without daylight saving align at lag "
-                                f"{L * sig.step / 60:+.0f} min (under half an hour)")
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="not significant",
+            evidence=ev,
+            reason=f"the weekday gain profiles with and without daylight saving align at lag "
+            f"{L * sig.step / 60:+.0f} min (under half an hour)",
+        )
     r2_min, g_min = options["dst_min_r2"], options["dst_min_scale"]
     if ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min:
-        return Candidate(InternalGainSchedule.cause, loc, status="not significant", evidence=ev,
-                         reason=f"a {L * sig.step / 60:+.0f}-min shift explains {100 * ev['r2_at_lag']:.0f} % of the "
-                                f"morning difference between daylight-saving and standard-time weekdays at scale "
-                                f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
-                                f"schedule jump at the change")
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="not significant",
+            evidence=ev,
+            reason=f"a {L * sig.step / 60:+.0f}-min shift explains {100 * ev['r2_at_lag']:.0f} % of the "
+            f"morning difference between daylight-saving and standard-time weekdays at scale "
+            f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
+            f"schedule jump at the change",
+        )
     # the clock moves by the legal hour; the estimated lag (often 60-90 min: the ramp of a
     # partly shifted profile looks wider) gives the direction and is reported as evidence
     shifts = [-int(np.sign(L)) * steps]
     variants = []
     for sh in shifts:
-        t = InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones),
-                                 shift=sh)
+        t = InternalGainSchedule(
+            variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones), shift=sh
+        )
         variants.append(t)
     c = Candidate(InternalGainSchedule.cause, loc, variants, 1, evidence=ev)
     c.profiles = {sh: shifted_clock_profiles(sig, gains, W.rows, sh) for sh in shifts}

@@ -113,8 +113,13 @@ class Reheat(Term):
         z = zone_of(d, "zone", zone_names, what, problems)
         if variant == "discharge":
             return cls(zone=z, coef=num(d, "coef", what, problems), variant="discharge", std=std)
-        return cls(zone=z, coef=num(d, "coef", what, problems), u_min=num(d, "u_min", what, problems),
-                   T_threshold=num(d, "T_threshold", what, problems), std=std)
+        return cls(
+            zone=z,
+            coef=num(d, "coef", what, problems),
+            u_min=num(d, "u_min", what, problems),
+            T_threshold=num(d, "T_threshold", what, problems),
+            std=std,
+        )
 
     def features(self, sig, U_eff):
         i = sig.zones.index(self.zone)
@@ -130,8 +135,9 @@ class Reheat(Term):
         if self.variant == "discharge":
             c.Tn[..., zi] += self.coef * c.v[..., c.vi[reheat_column(self.zone)]]
         else:
-            c.Tn[..., zi] += self.coef * reheat_feature(c.u_eff[..., zi], c.v[..., c.vi["T_out"]], self.u_min,
-                                                        self.T_threshold)
+            c.Tn[..., zi] += self.coef * reheat_feature(
+                c.u_eff[..., zi], c.v[..., c.vi["T_out"]], self.u_min, self.T_threshold
+            )
 
     def add_equations(self, e: EquationParts) -> None:
         zi = e.zi[self.zone]
@@ -139,12 +145,22 @@ class Reheat(Term):
             e.Bv[zi, e.vi[reheat_column(self.zone)]] += self.coef
             return
         if zi in e.u_state:
-            raise ModelError(f"on/off reheat in zone {self.zone!r} with a delayed airflow: the switch would test a "
-                             "state, not an input")
+            raise ModelError(
+                f"on/off reheat in zone {self.zone!r} with a delayed airflow: the switch would test a "
+                "state, not an input"
+            )
         g = np.zeros(e.A.shape[0])
         g[zi] = self.coef
-        e.switches.append(Switch(gain=g, input_index=zi, input_below=self.u_min, disturbance_index=e.vi["T_out"],
-                                 disturbance_below=self.T_threshold, name=f"reheat_{self.zone}"))
+        e.switches.append(
+            Switch(
+                gain=g,
+                input_index=zi,
+                input_below=self.u_min,
+                disturbance_index=e.vi["T_out"],
+                disturbance_below=self.T_threshold,
+                name=f"reheat_{self.zone}",
+            )
+        )
 
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
@@ -162,11 +178,21 @@ class Reheat(Term):
             col = reheat_column(z)
             if col in sig.V:
                 q = sig.V[col]
-                ev = {"corr_reheat_heat": corr(r, W(q)), "reheat_heat_mean_kW": float(np.nanmean(q[rows])),
-                      "share_of_rows_heating": float(np.mean(q[rows] > 0.1))}
+                ev = {
+                    "corr_reheat_heat": corr(r, W(q)),
+                    "reheat_heat_mean_kW": float(np.nanmean(q[rows])),
+                    "share_of_rows_heating": float(np.mean(q[rows] > 0.1)),
+                }
                 if np.nanmax(q[rows]) > 0:
-                    out.append(Candidate(cls.cause, {"zone": z, "variant": "discharge"},
-                                         [cls(zone=z, variant="discharge")], 0, evidence=ev))
+                    out.append(
+                        Candidate(
+                            cls.cause,
+                            {"zone": z, "variant": "discharge"},
+                            [cls(zone=z, variant="discharge")],
+                            0,
+                            evidence=ev,
+                        )
+                    )
                     continue
             umin = float(sig.u_min[zi] * 1.05 + 1e-6)
             u = U_eff[:, zi]
@@ -178,9 +204,16 @@ class Reheat(Term):
                     variants.append(cls(zone=z, u_min=umin, T_threshold=th))
             ev = {"u_min": umin, "resid_in_regime_by_threshold": regime}
             if not variants:
-                out.append(Candidate(cls.cause, {"zone": z}, status="untestable", evidence=ev,
-                                     reason=f"fewer than {MIN_REGIME_ROWS} training rows at minimum airflow in cold "
-                                            f"weather (T_out < {max(REHEAT_THRESHOLDS):g} °C)"))
+                out.append(
+                    Candidate(
+                        cls.cause,
+                        {"zone": z},
+                        status="untestable",
+                        evidence=ev,
+                        reason=f"fewer than {MIN_REGIME_ROWS} training rows at minimum airflow in cold "
+                        f"weather (T_out < {max(REHEAT_THRESHOLDS):g} °C)",
+                    )
+                )
             else:
                 out.append(Candidate(cls.cause, {"zone": z}, variants, 1, evidence=ev))
         return out

@@ -106,8 +106,11 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
     frame = dataset.frame
     b = dataset.building
     zones = tuple(base.outputs)
-    missing = [c for c in [f"T_{z}" for z in base.measured_zones] + [f"m_{v}" for v in base.vavs]
-               + ["T_out", "T_supply"] if c not in frame.columns]
+    missing = [
+        c
+        for c in [f"T_{z}" for z in base.measured_zones] + [f"m_{v}" for v in base.vavs] + ["T_out", "T_supply"]
+        if c not in frame.columns
+    ]
     if missing:
         raise DataError(f"dataset lacks columns the base model needs: {missing}")
     Y = base.measured_outputs(frame)
@@ -175,11 +178,34 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
         if np.isfinite(q).mean() >= MIN_COVERAGE:
             V[c] = pd.Series(q).ffill().bfill().fillna(0.0).to_numpy()
     return Signals(
-        index=frame.index, zones=zones, Y=Y, U=U, V=V, season=season, week=week, train=train, test=test,
-        valid=valid, group=group, tow=tow, season_id=s_id, dst=dst_active(frame.index), seasons=seasons,
-        n_tow=n_tow, step=float(dataset.step), u_min=u_min, volumes=volumes,
-        facades=facades, neighbours=neighbours, base_q=base_q, base_profiles=base_profiles,
-        has_solar=has_solar, base=base, extra=extra, extra_zones=extra_zones, extra_coverage=coverage,
+        index=frame.index,
+        zones=zones,
+        Y=Y,
+        U=U,
+        V=V,
+        season=season,
+        week=week,
+        train=train,
+        test=test,
+        valid=valid,
+        group=group,
+        tow=tow,
+        season_id=s_id,
+        dst=dst_active(frame.index),
+        seasons=seasons,
+        n_tow=n_tow,
+        step=float(dataset.step),
+        u_min=u_min,
+        volumes=volumes,
+        facades=facades,
+        neighbours=neighbours,
+        base_q=base_q,
+        base_profiles=base_profiles,
+        has_solar=has_solar,
+        base=base,
+        extra=extra,
+        extra_zones=extra_zones,
+        extra_coverage=coverage,
     )
 
 
@@ -235,7 +261,6 @@ def _profile_for(base, season, n_tow):
         return np.asarray(base.gains[season])
     g = [np.asarray(v) for v in base.gains.values()]
     return np.mean(g, axis=0) if g else np.zeros((n_tow, base.n_states))
-
 
 
 # ----------------------------------------------------------------------------
@@ -335,5 +360,3 @@ def ema_last(hist: np.ndarray, alpha: float, fallback: float) -> float:
         return float(fallback)
     s = ema_series(hist, alpha)
     return float(s[-1]) if np.isfinite(s[-1]) else float(fallback)
-
-

@@ -69,8 +69,9 @@ class SolarGain(Term):
         f = d.get("facade")
         if f not in ORIENTATIONS:
             problems.append(f"{what}: facade must be one of {ORIENTATIONS}, got {f!r}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), facade=f,
-                   coef=num(d, "coef", what, problems), std=std)
+        return cls(
+            zone=zone_of(d, "zone", zone_names, what, problems), facade=f, coef=num(d, "coef", what, problems), std=std
+        )
 
     def features(self, sig, U_eff):
         return [(sig.zones.index(self.zone), "coef", sig.V[f"I_{self.facade}"], 0.0, np.inf)]
@@ -90,13 +91,26 @@ class SolarGain(Term):
             for o in sig.facades[zi]:
                 loc = {"zone": z, "facade": o}
                 if not sig.has_solar:
-                    out.append(Candidate(cls.cause, loc, status="untestable",
-                                         reason="no solar data (ghi or facade irradiance) in the dataset"))
+                    out.append(
+                        Candidate(
+                            cls.cause,
+                            loc,
+                            status="untestable",
+                            reason="no solar data (ghi or facade irradiance) in the dataset",
+                        )
+                    )
                     continue
                 if (z, o) in have or base_solar(sig, zi, o) != 0.0:
                     continue  # already a solar path of the model
-                out.append(Candidate(cls.cause, loc, [cls(zone=z, facade=o)], 0,
-                                     evidence=solar_evidence(sig, W, resid[:, zi], o, rows)))
+                out.append(
+                    Candidate(
+                        cls.cause,
+                        loc,
+                        [cls(zone=z, facade=o)],
+                        0,
+                        evidence=solar_evidence(sig, W, resid[:, zi], o, rows),
+                    )
+                )
         return out
 
 
@@ -108,6 +122,11 @@ def solar_evidence(sig, W, r, facade, rows) -> dict:
     hi = day & (Ir >= np.quantile(Ir[day], 0.75)) if day.any() else day
     lo = day & (Ir <= np.quantile(Ir[day], 0.25)) if day.any() else day
     ph_r, ph_i = peak_hour(sig, r, rows), peak_hour(sig, Ir, rows)
-    return {"corr": corr(r, W(np.asarray(I, float))), "resid_sunny": cond_mean(r, hi),
-            "resid_cloudy": cond_mean(r, lo), "resid_peak_hour": ph_r, "facade_peak_hour": ph_i,
-            "peak_hour_gap_h": None if ph_r is None or ph_i is None else abs(ph_r - ph_i)}
+    return {
+        "corr": corr(r, W(np.asarray(I, float))),
+        "resid_sunny": cond_mean(r, hi),
+        "resid_cloudy": cond_mean(r, lo),
+        "resid_peak_hour": ph_r,
+        "facade_peak_hour": ph_i,
+        "peak_hour_gap_h": None if ph_r is None or ph_i is None else abs(ph_r - ph_i),
+    }

@@ -62,8 +62,10 @@ class SupplyAirBilinear(Term):
     def add_equations(self, e: EquationParts) -> None:
         zi = e.zi[self.zone]
         if zi in e.u_state:
-            raise ModelError(f"supply_air_bilinear in zone {self.zone!r} with a delayed airflow is quadratic in "
-                             "the state: no bilinear equations")
+            raise ModelError(
+                f"supply_air_bilinear in zone {self.zone!r} with a delayed airflow is quadratic in "
+                "the state: no bilinear equations"
+            )
         e.Bvu[zi][zi, e.vi["T_supply"]] += self.coef
         e.Bxu[zi][zi, zi] -= self.coef
 
@@ -82,8 +84,10 @@ class SupplyAirBilinear(Term):
             r = resid[:, zi]
             u = U_eff[W.rows, zi]
             umin = sig.u_min[zi]
-            ev = {"corr": corr(r, W(f)),
-                  "resid_airflow_min": cond_mean(r, u <= umin * 1.05 + 1e-6),
-                  "resid_airflow_high": cond_mean(r, u >= np.nanquantile(u, 0.9))}
+            ev = {
+                "corr": corr(r, W(f)),
+                "resid_airflow_min": cond_mean(r, u <= umin * 1.05 + 1e-6),
+                "resid_airflow_high": cond_mean(r, u >= np.nanquantile(u, 0.9)),
+            }
             out.append(Candidate(cls.cause, {"zone": z}, [t], 0, evidence=ev))
         return out

@@ -46,8 +46,9 @@ class ThermalMass(Term):
         a = num(d, "alpha", what, problems)
         if np.isfinite(a) and not 0.0 < a <= 1.0:
             problems.append(f"{what}: alpha must lie in (0, 1], got {a}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), alpha=a,
-                   beta=num(d, "beta", what, problems), std=std)
+        return cls(
+            zone=zone_of(d, "zone", zone_names, what, problems), alpha=a, beta=num(d, "beta", what, problems), std=std
+        )
 
     def n_hidden(self):
         return 1
@@ -93,8 +94,15 @@ class ThermalMass(Term):
             for al in ALPHAS:
                 f = cls(zone=z, alpha=al).features(sig, None)[0][2]
                 cors[f"{al:g}"] = corr(resid[:, zi], W(f))
-            out.append(Candidate(cls.cause, {"zone": z}, [cls(zone=z, alpha=al) for al in ALPHAS], 1,
-                                 evidence=slow_mode_evidence(cors, sig.step)))
+            out.append(
+                Candidate(
+                    cls.cause,
+                    {"zone": z},
+                    [cls(zone=z, alpha=al) for al in ALPHAS],
+                    1,
+                    evidence=slow_mode_evidence(cors, sig.step),
+                )
+            )
         return out
 
 
@@ -111,5 +119,9 @@ def slow_mode_evidence(cors: dict, step: float) -> dict:
     best = max(finite, key=lambda a: finite[a])
     tau = step / float(best) / 3600.0
     fastest = max(finite, key=float)
-    return {"corr_by_alpha": cors, "best_time_constant_h": tau, "best_corr": finite[best],
-            "slow_mode": bool(finite[best] > 0 and best != fastest)}
+    return {
+        "corr_by_alpha": cors,
+        "best_time_constant_h": tau,
+        "best_corr": finite[best],
+        "slow_mode": bool(finite[best] > 0 and best != fastest),
+    }

@@ -49,8 +49,12 @@ class UnusedInput(Term):
         col = d.get("column")
         if not isinstance(col, str) or not col:
             problems.append(f"{what}: 'column' must name a measured column, got {col!r}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), column=col,
-                   coef=num(d, "coef", what, problems), std=std)
+        return cls(
+            zone=zone_of(d, "zone", zone_names, what, problems),
+            column=col,
+            coef=num(d, "coef", what, problems),
+            std=std,
+        )
 
     def features(self, sig, U_eff):
         return [(sig.zones.index(self.zone), "coef", sig.extra[self.column], -np.inf, np.inf)]
@@ -77,6 +81,5 @@ class UnusedInput(Term):
                 if np.nanstd(xr) <= 0:
                     continue
                 ev = {"column": col, "corr": corr(resid[:, zi], W(x)), "coverage": sig.extra_coverage.get(col)}
-                out.append(Candidate(cls.cause, {"zone": z, "column": col}, [cls(zone=z, column=col)], 0,
-                                     evidence=ev))
+                out.append(Candidate(cls.cause, {"zone": z, "column": col}, [cls(zone=z, column=col)], 0, evidence=ev))
         return out

@@ -46,8 +46,13 @@ class ZoneCoupling(Term):
         if not (isinstance(zs, list) and len(zs) == 2 and all(z in zone_names for z in zs) and zs[0] != zs[1]):
             problems.append(f"{what}: 'zones' must be two different zones of {list(zone_names)}, got {zs!r}")
             zs = [None, None]
-        return cls(zone_a=zs[0], zone_b=zs[1], coef_ab=num(d, "coef_ab", what, problems),
-                   coef_ba=num(d, "coef_ba", what, problems), std=std)
+        return cls(
+            zone_a=zs[0],
+            zone_b=zs[1],
+            coef_ab=num(d, "coef_ab", what, problems),
+            coef_ba=num(d, "coef_ba", what, problems),
+            std=std,
+        )
 
     def features(self, sig, U_eff):
         a, b = sig.zones.index(self.zone_a), sig.zones.index(self.zone_b)
@@ -84,6 +89,13 @@ class ZoneCoupling(Term):
                     continue
                 dw = W(np.asarray(sig.Y[:, b] - sig.Y[:, a], float))
                 ev = {"corr_a": corr(resid[:, a], dw), "corr_b": corr(resid[:, b], -dw)}
-                out.append(Candidate(cls.cause, {"zones": [zones[a], zones[b]]},
-                                     [cls(zone_a=zones[a], zone_b=zones[b])], 0, evidence=ev))
+                out.append(
+                    Candidate(
+                        cls.cause,
+                        {"zones": [zones[a], zones[b]]},
+                        [cls(zone_a=zones[a], zone_b=zones[b])],
+                        0,
+                        evidence=ev,
+                    )
+                )
         return out

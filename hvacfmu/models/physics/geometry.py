@@ -60,8 +60,15 @@ _CONSTRUCTION_KEYS = {"name", "layers", "films"}
 _LAYER_KEYS = {"material", "thickness"}
 _WINDOW_KEYS = {"name", "zone", "orientation", "area", "u_value", "shgc"}
 _ELEMENT_KEYS = {"name", "construction", "area", "side1", "side2", "orientation"}
-_PHYSICS_KEYS = {"ambient_film", "ground_temperature", "internal_mass", "nominal", "furniture_capacity",
-                 "max_layer_thickness", "solar_air_fraction"}
+_PHYSICS_KEYS = {
+    "ambient_film",
+    "ground_temperature",
+    "internal_mass",
+    "nominal",
+    "furniture_capacity",
+    "max_layer_thickness",
+    "solar_air_fraction",
+}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -264,12 +271,22 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         problems.append("[physics] must be a table")
         p = {}
     _unknown_keys(p, _PHYSICS_KEYS, "[physics]", problems)
-    ambient_film = _num(p.get("ambient_film", math.nan), "[physics].ambient_film [W/(m2 K)]", problems,
-                        positive=True) if "ambient_film" in p else math.nan
-    ground_temperature = (_num(p["ground_temperature"], "[physics].ground_temperature [°C]", problems)
-                          if "ground_temperature" in p else None)
-    internal_mass = _num(overrides.get("internal_mass", p.get("internal_mass", 0.0)),
-                         "[physics].internal_mass [J/(K m2)]", problems, nonneg=True)
+    ambient_film = (
+        _num(p.get("ambient_film", math.nan), "[physics].ambient_film [W/(m2 K)]", problems, positive=True)
+        if "ambient_film" in p
+        else math.nan
+    )
+    ground_temperature = (
+        _num(p["ground_temperature"], "[physics].ground_temperature [°C]", problems)
+        if "ground_temperature" in p
+        else None
+    )
+    internal_mass = _num(
+        overrides.get("internal_mass", p.get("internal_mass", 0.0)),
+        "[physics].internal_mass [J/(K m2)]",
+        problems,
+        nonneg=True,
+    )
     furniture = overrides.get("furniture_capacity")
     if furniture is None:
         furniture = p.get("furniture_capacity", DEFAULT_FURNITURE_CAPACITY)
@@ -308,9 +325,12 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         _unknown_keys(r, _MATERIAL_KEYS, where, problems)
         if "r_value" in r:
             if any(k in r for k in ("conductivity", "density", "specific_heat")):
-                problems.append(f"{where}: give either r_value (massless) or conductivity/density/specific_heat, not both")
-            materials[name] = Material(name, r_value=_num(r["r_value"], f"{where}: r_value [m2 K/W]", problems,
-                                                          positive=True))
+                problems.append(
+                    f"{where}: give either r_value (massless) or conductivity/density/specific_heat, not both"
+                )
+            materials[name] = Material(
+                name, r_value=_num(r["r_value"], f"{where}: r_value [m2 K/W]", problems, positive=True)
+            )
         else:
             vals = {}
             for key, unit in (("conductivity", "W/(m K)"), ("density", "kg/m3"), ("specific_heat", "J/(kg K)")):
@@ -351,8 +371,13 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
                 problems.append(f"{lw}: missing 'thickness' [m]")
                 thick = math.nan
             else:
-                thick = _num(lay["thickness"], f"{lw}: thickness [m]", problems,
-                             positive=not (mat is not None and mat.massless), nonneg=True)
+                thick = _num(
+                    lay["thickness"],
+                    f"{lw}: thickness [m]",
+                    problems,
+                    positive=not (mat is not None and mat.massless),
+                    nonneg=True,
+                )
             if mat is not None:
                 layers.append(Layer(mat, thick))
         films = r.get("films", ["none", "none"])

@@ -69,7 +69,7 @@ class _Segments:
         self.nw = nw
         self.seasons = seasons
         self.starts = starts
-        self.mask = np.isfinite(y[:, nw + 1:])
+        self.mask = np.isfinite(y[:, nw + 1 :])
 
     @property
     def n(self):
@@ -109,7 +109,7 @@ def _weekend_segments(dataset, model, nw, ns, max_segments):
             seg = slice(r, r + ns)
             if np.isnan(u_all[seg]).any() or np.isnan(v_all[seg]).any():
                 continue
-            if np.isfinite(y_all[r + 1: r + ns + 1]).mean() < 0.5 or np.isnan(y_all[r]).all():
+            if np.isfinite(y_all[r + 1 : r + ns + 1]).mean() < 0.5 or np.isnan(y_all[r]).all():
                 continue
             starts.append(r)
             seasons.append(week.season)
@@ -168,7 +168,7 @@ def _simulate_segments(template, theta, step, segs, K, free_modes=0):
     else:
         Kz = disc.W @ K
     Y, *_ = disc.run(z0[None], m[None], segs.v[None], q, y=segs.y[None], Kz=Kz, n_correct=nw + 1, mt=mt[None])
-    Yf = Y[:, :, nw + 1:]
+    Yf = Y[:, :, nw + 1 :]
     Phi = None
     if free_modes:
         # free response of the (airflow-dependent) homogeneous system to each slow mode, from the segment start
@@ -197,7 +197,7 @@ class _LinearPart:
     def __init__(self, Y0, S, Phi, segs):
         self.segs = segs
         mask = segs.mask
-        target = segs.y[:, segs.nw + 1:] - Y0
+        target = segs.y[:, segs.nw + 1 :] - Y0
         self.bases = []
         t_parts, a_parts = [], []
         for b in range(segs.n):
@@ -326,17 +326,45 @@ def fit_physics(
     (ig(k-1)), (fixed_ig).
     """
     with single_threaded():
-        return _fit_physics(dataset, progress=progress, solar=solar, max_layer_thickness=max_layer_thickness,
-                            furniture_capacity=furniture_capacity, internal_mass=internal_mass,
-                            segment_hours=segment_hours, warmup_hours=warmup_hours, max_segments=max_segments,
-                            kalman=kalman, kalman_rounds=kalman_rounds, bound_factor=bound_factor,
-                            max_nfev=max_nfev, initial=initial, free_modes=free_modes,
-                            segment_observer=segment_observer)
+        return _fit_physics(
+            dataset,
+            progress=progress,
+            solar=solar,
+            max_layer_thickness=max_layer_thickness,
+            furniture_capacity=furniture_capacity,
+            internal_mass=internal_mass,
+            segment_hours=segment_hours,
+            warmup_hours=warmup_hours,
+            max_segments=max_segments,
+            kalman=kalman,
+            kalman_rounds=kalman_rounds,
+            bound_factor=bound_factor,
+            max_nfev=max_nfev,
+            initial=initial,
+            free_modes=free_modes,
+            segment_observer=segment_observer,
+        )
 
 
-def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_capacity, internal_mass,
-                 segment_hours, warmup_hours, max_segments, kalman, kalman_rounds, bound_factor, max_nfev,
-                 initial, free_modes, segment_observer):
+def _fit_physics(
+    dataset,
+    *,
+    progress,
+    solar,
+    max_layer_thickness,
+    furniture_capacity,
+    internal_mass,
+    segment_hours,
+    warmup_hours,
+    max_segments,
+    kalman,
+    kalman_rounds,
+    bound_factor,
+    max_nfev,
+    initial,
+    free_modes,
+    segment_observer,
+):
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
@@ -357,9 +385,15 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         solar = bool(getattr(dataset, "has_solar", False))
     if solar and not getattr(dataset, "has_solar", False):
         raise FitError("solar=True needs facade irradiance (I_N..I_W) in the data; this dataset has none")
-    options = {k: v for k, v in (("max_layer_thickness", max_layer_thickness),
-                                  ("furniture_capacity", furniture_capacity),
-                                  ("internal_mass", internal_mass)) if v is not None}
+    options = {
+        k: v
+        for k, v in (
+            ("max_layer_thickness", max_layer_thickness),
+            ("furniture_capacity", furniture_capacity),
+            ("internal_mass", internal_mass),
+        )
+        if v is not None
+    }
     frame = dataset.frame
     train_rows = np.zeros(len(frame), dtype=bool)
     for w in dataset.weeks:
@@ -429,8 +463,17 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
             net = template.build(np.exp(theta))
             k = model.options["kalman"]
             state["K"] = kalman_gain(net.discretize(step), k["airflow"], k["q_air"], k["q_mass"], k["r"])
-        res = so.least_squares(residuals, theta, bounds=(lo, hi), method="trf", x_scale=1.0,
-                               diff_step=1e-5, max_nfev=max_nfev, xtol=1e-4, ftol=1e-6)
+        res = so.least_squares(
+            residuals,
+            theta,
+            bounds=(lo, hi),
+            method="trf",
+            x_scale=1.0,
+            diff_step=1e-5,
+            max_nfev=max_nfev,
+            xtol=1e-4,
+            ftol=1e-6,
+        )
         theta = res.x
         results.append(res)
     if bar is not None:
@@ -441,24 +484,31 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
     params = dict(zip(PARAM_NAMES, map(float, np.exp(theta))))
 
     # --- uncertainty ------------------------------------------------------------
-    estimates, unident, jac_info = _uncertainty(template, theta, f_c, step, segs, state["K"], lo, hi, zones,
-                                                free_modes)
+    estimates, unident, jac_info = _uncertainty(template, theta, f_c, step, segs, state["K"], lo, hi, zones, free_modes)
     rms = float(np.sqrt(np.mean(r**2)))
 
     # --- step 2: seasonal time-of-week gains --------------------------------------
-    fitted = PhysicsModel(building, params, zero_gains, step=step, solar=solar, options=model.options,
-                          f_ig_const=f_c, inlets=inlets)
+    fitted = PhysicsModel(
+        building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
+    )
     gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
     meta = {
         "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
         "fit_seconds": round(time.perf_counter() - t_start, 2),
         "data": {"source": str(getattr(dataset, "source", "")), "sha256": getattr(dataset, "sha256", None)},
         "method": "Zhou, Hu & Tomlin sec. IV.B: weekend simulation-error fit (log-parameters, variable "
-                  "projection for f_IG^c >= 0), segment initial states from a filter over the warm-up plus "
-                  "fitted slowest modes; f_IG^v by one-step OLS (gain injection) averaged per season",
-        "fit_options": {"segment_hours": segment_hours, "warmup_hours": warmup_hours, "max_segments": max_segments,
-                        "free_modes": int(free_modes), "segment_observer": segment_observer,
-                        "bound_factor": bound_factor, "max_nfev": max_nfev, "solar": bool(solar)},
+        "projection for f_IG^c >= 0), segment initial states from a filter over the warm-up plus "
+        "fitted slowest modes; f_IG^v by one-step OLS (gain injection) averaged per season",
+        "fit_options": {
+            "segment_hours": segment_hours,
+            "warmup_hours": warmup_hours,
+            "max_segments": max_segments,
+            "free_modes": int(free_modes),
+            "segment_observer": segment_observer,
+            "bound_factor": bound_factor,
+            "max_nfev": max_nfev,
+            "solar": bool(solar),
+        },
         "nominal": nominal,
         "initial": start,
         "estimates": estimates,
@@ -469,15 +519,29 @@ def _fit_physics(dataset, *, progress, solar, max_layer_thickness, furniture_cap
         "segment_steps": ns,
         "warmup_steps": nw,
         "segments_per_season": {s: int(np.sum(segs.seasons == s)) for s in np.unique(segs.seasons)},
-        "optimizer": {"status": int(res.status), "message": str(res.message), "nfev": int(state["nfev"]),
-                      "rounds": len(results), "cost": float(res.cost)},
+        "optimizer": {
+            "status": int(res.status),
+            "message": str(res.message),
+            "nfev": int(state["nfev"]),
+            "rounds": len(results),
+            "cost": float(res.cost),
+        },
         "gains": gain_info,
         "n_states": model.n_states,
         "inlets": dict(zip(building.vav_names, inlets)),
         "inlet_notes": notes,
     }
-    final = PhysicsModel(building, params, gains, step=step, solar=solar, options=fitted.options,
-                         f_ig_const=f_c, meta=meta, inlets=inlets)
+    final = PhysicsModel(
+        building,
+        params,
+        gains,
+        step=step,
+        solar=solar,
+        options=fitted.options,
+        f_ig_const=f_c,
+        meta=meta,
+        inlets=inlets,
+    )
     meta["plausibility"] = check_physics(final)
     meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
     log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
@@ -516,13 +580,19 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
         if i < len(theta):
             rel = float(np.expm1(std[i])) if std[i] < 50 else math.inf
             at_bound = theta[i] <= lo[i] + 1e-6 or theta[i] >= hi[i] - 1e-6
-            e = {"value": float(values[i]), "rel_std": rel if math.isfinite(rel) else None,
-                 "std": float(values[i] * rel) if math.isfinite(rel) else None}
+            e = {
+                "value": float(values[i]),
+                "rel_std": rel if math.isfinite(rel) else None,
+                "std": float(values[i] * rel) if math.isfinite(rel) else None,
+            }
         else:
             rel = float(std[i] / abs(values[i])) if values[i] > 0 else math.inf
             at_bound = values[i] <= 0.0
-            e = {"value": float(values[i]), "std": float(std[i]) if np.isfinite(std[i]) else None,
-                 "rel_std": rel if math.isfinite(rel) else None}
+            e = {
+                "value": float(values[i]),
+                "std": float(std[i]) if np.isfinite(std[i]) else None,
+                "rel_std": rel if math.isfinite(rel) else None,
+            }
         if colnorm[i] == 1.0 and not np.any(J[:, i]):
             flags.append("no influence on the fitted outputs")
         if rel > 1.0:
@@ -590,9 +660,10 @@ def _seasonal_gains(dataset, model, f_c, nw):
         x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
         x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
         m = u @ disc.zone_vav.T
-        _, _, Yp, _ = disc.run(x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=len(rows), record_pred=True,
-                               mt=disc.inlet_flux(u, v))
-        innov = y[w + 1:] - Yp[w + 1:]  # rows r0+1 .. : innovation of y(k+1) -> f(k)
+        _, _, Yp, _ = disc.run(
+            x0 @ disc.W.T, m, v, q, y=y, Kz=Kz, n_correct=len(rows), record_pred=True, mt=disc.inlet_flux(u, v)
+        )
+        innov = y[w + 1 :] - Yp[w + 1 :]  # rows r0+1 .. : innovation of y(k+1) -> f(k)
         # bad inputs give meaningless innovations
         bad = np.isnan(u_all[rows[w:-1]]).any(axis=1) | np.isnan(v_all[rows[w:-1]]).any(axis=1)
         fv = innov @ CB_inv.T

@@ -169,8 +169,9 @@ class PhysicsModel(ZoneModel):
             raise ModelError(f"step must be > 0 s, got {self.step}")
         set_("step", float(self.step))
         opts = dict(self.options)
-        unknown = sorted(set(opts) - {"max_layer_thickness", "furniture_capacity", "internal_mass",
-                                       "solar_air_fraction", "kalman"})
+        unknown = sorted(
+            set(opts) - {"max_layer_thickness", "furniture_capacity", "internal_mass", "solar_air_fraction", "kalman"}
+        )
         if unknown:
             raise ModelError(f"unknown physics model option(s) {unknown}")
         try:
@@ -192,8 +193,9 @@ class PhysicsModel(ZoneModel):
         if kal["observer"] not in OBSERVERS:
             raise ModelError(f"options.kalman.observer must be one of {OBSERVERS}, got {kal['observer']!r}")
         if "airflow" not in kal:
-            kal["airflow"] = [float(sum(0.5 * (v.m_min + v.m_max) for v in self.building.vavs_of(z)))
-                              for z in spec.zones]
+            kal["airflow"] = [
+                float(sum(0.5 * (v.m_min + v.m_max) for v in self.building.vavs_of(z))) for z in spec.zones
+            ]
         kal["airflow"] = check_shape(kal["airflow"], (nz,), "options.kalman.airflow").tolist()
         opts["kalman"] = kal
         opts.setdefault("max_layer_thickness", spec.max_layer_thickness)
@@ -304,11 +306,20 @@ class PhysicsModel(ZoneModel):
         m = self.discrete_matrices()
         dense = lambda M: M.toarray() if hasattr(M, "toarray") else np.asarray(M, dtype=float)  # noqa: E731
         A = dense(m.A)
-        return ModelEquations(step=float(self.step), A=A, Bu=np.zeros((A.shape[0], len(self.inputs))),
-                              Bv=dense(m.Bv), Bq=dense(m.Bq), C=dense(m.C), inputs=tuple(self.inputs),
-                              disturbances=tuple(self.disturbances), outputs=tuple(self.outputs),
-                              gains=dict(self.gains), Bxu=tuple(dense(b) for b in m.Bxu),
-                              Bvu=tuple(dense(b) for b in m.Bvu))
+        return ModelEquations(
+            step=float(self.step),
+            A=A,
+            Bu=np.zeros((A.shape[0], len(self.inputs))),
+            Bv=dense(m.Bv),
+            Bq=dense(m.Bq),
+            C=dense(m.C),
+            inputs=tuple(self.inputs),
+            disturbances=tuple(self.disturbances),
+            outputs=tuple(self.outputs),
+            gains=dict(self.gains),
+            Bxu=tuple(dense(b) for b in m.Bxu),
+            Bvu=tuple(dense(b) for b in m.Bvu),
+        )
 
     def output(self, x):
         return np.asarray(x)[..., : len(self.outputs)]
@@ -363,14 +374,16 @@ class PhysicsModel(ZoneModel):
         k0s = np.asarray(k0s, dtype=np.int64).reshape(-1)
         n = len(frame)
         if np.any((k0s < 0) | (k0s >= n)):
-            raise ModelError(f"initial_state: rows {k0s[(k0s < 0) | (k0s >= n)].tolist()} outside the frame (0..{n - 1})")
+            raise ModelError(
+                f"initial_state: rows {k0s[(k0s < 0) | (k0s >= n)].tolist()} outside the frame (0..{n - 1})"
+            )
         nw = int(self.options["kalman"]["warmup_steps"])
         short = k0s < nw
         if short.any() and not short.all():  # rows near the start of the data get the warm-up they can
             out = np.empty((len(k0s), self.n_states))
             out[~short] = self.initial_states(frame, k0s[~short])
             for i in np.flatnonzero(short):
-                out[i] = self.initial_states(frame, k0s[i:i + 1])[0]
+                out[i] = self.initial_states(frame, k0s[i : i + 1])[0]
             return out
         w = int(min(nw, k0s.min()))
         rows = k0s[:, None] + np.arange(-w, 1)[None, :]
@@ -442,14 +455,18 @@ class PhysicsModel(ZoneModel):
             raise ModelError(f"malformed physics model file: {exc}") from None
         for key in ("outputs", "inputs", "disturbances", "q_names"):
             if key in d and tuple(d[key]) != tuple(getattr(model, key)):
-                raise ModelError(f"physics model file: {key} {d[key]} do not match the rebuilt model's {list(getattr(model, key))}")
+                raise ModelError(
+                    f"physics model file: {key} {d[key]} do not match the rebuilt model's {list(getattr(model, key))}"
+                )
         return model
 
     # --- reporting -------------------------------------------------------------------------
     def summary(self) -> str:
         """Parameter estimates with uncertainty and identifiability flags, as text."""
-        lines = [f"Model B (physics): {self.n_states} states, {len(self.outputs)} zones, "
-                 f"{len(self.inputs)} VAV boxes, step {self.step:g} s"]
+        lines = [
+            f"Model B (physics): {self.n_states} states, {len(self.outputs)} zones, "
+            f"{len(self.inputs)} VAV boxes, step {self.step:g} s"
+        ]
         est = self.meta.get("estimates", {})
         for name in PARAM_NAMES:
             e = est.get(name, {})
@@ -474,8 +491,10 @@ class PhysicsModel(ZoneModel):
         if flagged:
             lines.append("  not identifiable from these data: " + ", ".join(flagged))
         if "fit_rms" in self.meta:
-            lines.append(f"  step-1 weekend simulation RMS: {self.meta['fit_rms']:.3f} K "
-                         f"({self.meta.get('n_segments', '?')} segments)")
+            lines.append(
+                f"  step-1 weekend simulation RMS: {self.meta['fit_rms']:.3f} K "
+                f"({self.meta.get('n_segments', '?')} segments)"
+            )
         return "\n".join(lines)
 
 

@@ -365,7 +365,7 @@ class RCNetwork:
         Bv = np.zeros((nx, len(t.disturbances)))
         Bv[:, 0] = self.g_amb / c
         if t.solar:
-            Bv[:, 2:2 + len(ORIENTATIONS)] = self.solar / c[:, None]
+            Bv[:, 2 : 2 + len(ORIENTATIONS)] = self.solar / c[:, None]
         Bq = np.zeros((nx, len(t.q_names)))
         Bq[np.arange(nz), np.arange(nz)] = 1.0 / c[:nz]
         if t.has_ground:
@@ -431,8 +431,11 @@ class RCNetwork:
         To = np.broadcast_to(T_out, batch).reshape(-1)
         rhs = self.g_amb[nz:][:, None] * To[None, :] - self._L_wa @ y.T
         if t.has_ground:
-            Tg = t.spec.ground_temperature if q is None else np.broadcast_to(
-                np.asarray(q, dtype=float)[..., nz], batch).reshape(-1)
+            Tg = (
+                t.spec.ground_temperature
+                if q is None
+                else np.broadcast_to(np.asarray(q, dtype=float)[..., nz], batch).reshape(-1)
+            )
             rhs = rhs + self.g_gnd[nz:][:, None] * np.broadcast_to(Tg, To.shape)[None, :]
         xw = self._L_ww_lu.solve(rhs) if rhs.shape[0] else rhs
         x = np.concatenate([y, xw.T], axis=1)
@@ -478,7 +481,7 @@ class DiscreteBilinear:
         WB = W @ np.concatenate([Bv, Bq, Bh], axis=1)
         P = self.gd[:, None] * WB
         nv, nq = Bv.shape[1], Bq.shape[1]
-        self.Pv, self.Pq, self.Ph = P[:, :nv], P[:, nv:nv + nq], P[:, nv + nq:]
+        self.Pv, self.Pq, self.Ph = P[:, :nv], P[:, nv : nv + nq], P[:, nv + nq :]
         self.Vz = V[:nz]
         self.zone_vav = network.template.zone_vav
 
@@ -575,8 +578,9 @@ class DiscreteBilinear:
     def _run(self, z0, m, v, q, y, Kz, n_correct, record_states, record_pred, mt):
         z = np.array(z0, dtype=float)
         n = m.shape[-2]
-        batch = np.broadcast_shapes(z.shape[:-1], m.shape[:-2], v.shape[:-2], q.shape[:-2],
-                                    () if y is None else y.shape[:-2])
+        batch = np.broadcast_shapes(
+            z.shape[:-1], m.shape[:-2], v.shape[:-2], q.shape[:-2], () if y is None else y.shape[:-2]
+        )
         z = np.broadcast_to(z, batch + z.shape[-1:]).copy()
         nz = self.Vz.shape[0]
         Y = np.empty(batch + (n + 1, nz))

@@ -69,33 +69,36 @@ MATERIALS = {
 TEMPLATES = {
     "concrete_slab_office_1990s": {
         "description": "1990s office: precast concrete panels with 50 mm mineral wool, 200 mm concrete floor "
-                       "slabs with suspended ceilings, gypsum partitions, double glazing in aluminium frames",
+        "slabs with suspended ceilings, gypsum partitions, double glazing in aluminium frames",
         "mass_class": "heavy",
         "exterior_wall": [("gypsum_board", 0.013), ("mineral_wool", 0.05), ("precast_concrete", 0.15)],
         "partition": [("gypsum_board", 0.013), ("air_gap", None), ("gypsum_board", 0.013)],
         "floor": [("carpet", None), ("concrete", 0.10)],
         "ceiling": [("suspended_ceiling_plenum", None), ("concrete", 0.10)],
-        "window_u": 3.2, "window_shgc": 0.55,
+        "window_u": 3.2,
+        "window_shgc": 0.55,
     },
     "light_steel_frame": {
         "description": "light steel frame: insulated steel-stud walls with gypsum lining, composite steel-deck "
-                       "floors with a thin concrete topping, suspended ceilings, double glazing",
+        "floors with a thin concrete topping, suspended ceilings, double glazing",
         "mass_class": "light",
         "exterior_wall": [("gypsum_board", 0.013), ("steel_stud_insulated_cavity", None), ("gypsum_board", 0.013)],
         "partition": [("gypsum_board", 0.013), ("air_gap", None), ("gypsum_board", 0.013)],
         "floor": [("carpet", None), ("lightweight_concrete", 0.04)],
         "ceiling": [("suspended_ceiling_plenum", None), ("lightweight_concrete", 0.04)],
-        "window_u": 2.8, "window_shgc": 0.40,
+        "window_u": 2.8,
+        "window_shgc": 0.40,
     },
     "heavy_masonry": {
         "description": "heavy masonry: 300 mm solid brick walls, plastered inside, without insulation; 250 mm "
-                       "concrete floors; 115 mm brick partitions; older double glazing",
+        "concrete floors; 115 mm brick partitions; older double glazing",
         "mass_class": "very heavy",
         "exterior_wall": [("plaster", 0.015), ("brick", 0.30)],
         "partition": [("plaster", 0.015), ("brick", 0.115), ("plaster", 0.015)],
         "floor": [("concrete", 0.125)],
         "ceiling": [("plaster", 0.015), ("concrete", 0.125)],
-        "window_u": 2.8, "window_shgc": 0.60,
+        "window_u": 2.8,
+        "window_shgc": 0.60,
     },
 }
 
@@ -133,22 +136,51 @@ def _elements(building, t):
     for z in building.zones:
         for f in z.facades:
             if f.window_area > 0:
-                windows.append({"name": f"{z.name}_{f.orientation}_window", "zone": z.name, "orientation":
-                                f.orientation, "area": f.window_area, "u_value": t["window_u"],
-                                "shgc": t["window_shgc"]})
+                windows.append(
+                    {
+                        "name": f"{z.name}_{f.orientation}_window",
+                        "zone": z.name,
+                        "orientation": f.orientation,
+                        "area": f.window_area,
+                        "u_value": t["window_u"],
+                        "shgc": t["window_shgc"],
+                    }
+                )
             wall = f.wall_area if f.wall_area > 0 else WALL_PER_WINDOW * f.window_area
             if wall > 0:
-                elements.append({"name": f"{z.name}_{f.orientation}_wall", "construction": "exterior_wall",
-                                 "area": wall, "side1": z.name, "side2": "ambient", "orientation": f.orientation})
+                elements.append(
+                    {
+                        "name": f"{z.name}_{f.orientation}_wall",
+                        "construction": "exterior_wall",
+                        "area": wall,
+                        "side1": z.name,
+                        "side2": "ambient",
+                        "orientation": f.orientation,
+                    }
+                )
         for kind in ("floor", "ceiling"):
-            elements.append({"name": f"{z.name}_{kind}", "construction": kind, "area": z.area, "side1": z.name,
-                             "side2": "adiabatic"})
+            elements.append(
+                {
+                    "name": f"{z.name}_{kind}",
+                    "construction": kind,
+                    "area": z.area,
+                    "side1": z.name,
+                    "side2": "adiabatic",
+                }
+            )
     area = {z.name: z for z in building.zones}
     for p, q in building.adjacency_pairs():
         small = min(area[p], area[q], key=lambda z: z.area)
         height = small.volume / small.area
-        elements.append({"name": f"{p}_{q}_partition", "construction": "partition",
-                         "area": height * math.sqrt(small.area), "side1": p, "side2": q})
+        elements.append(
+            {
+                "name": f"{p}_{q}_partition",
+                "construction": "partition",
+                "area": height * math.sqrt(small.area),
+                "side1": p,
+                "side2": q,
+            }
+        )
     return windows, elements
 
 
@@ -176,12 +208,16 @@ def expand_template(building, physics: dict) -> dict:
     """
     name = physics.get("construction_template")
     if not isinstance(name, str) or name not in TEMPLATES:
-        raise BuildingError(f"construction_template {name!r} is not a known template; known: {', '.join(TEMPLATES)} "
-                            "(hvacfmu.models.physics.templates)")
+        raise BuildingError(
+            f"construction_template {name!r} is not a known template; known: {', '.join(TEMPLATES)} "
+            "(hvacfmu.models.physics.templates)"
+        )
     both = [k for k in ("materials", "constructions", "windows", "elements") if physics.get(k)]
     if both:
-        raise BuildingError(f"construction_template {name!r} and the tables {both} are both given; use one: "
-                            "the template builds every table from the zones' areas, facades and adjacency")
+        raise BuildingError(
+            f"construction_template {name!r} and the tables {both} are both given; use one: "
+            "the template builds every table from the zones' areas, facades and adjacency"
+        )
     t = TEMPLATES[name]
     windows, elements = _elements(building, t)
     phys = {"ambient_film": AMBIENT_FILM, "nominal": {"U_win": t["window_u"], **NOMINAL_FILMS}}
@@ -189,9 +225,10 @@ def expand_template(building, physics: dict) -> dict:
     phys["nominal"].update(user.pop("nominal", {}) or {})
     phys.update(user)
     return {
-        "materials": [{"name": m, **MATERIALS[m]} for m in sorted({m for k in ("exterior_wall", "partition",
-                                                                           "floor", "ceiling")
-                                                                  for m, _ in t[k]})],
+        "materials": [
+            {"name": m, **MATERIALS[m]}
+            for m in sorted({m for k in ("exterior_wall", "partition", "floor", "ceiling") for m, _ in t[k]})
+        ],
         "constructions": _constructions(t),
         "windows": windows,
         "elements": elements,
