@@ -634,6 +634,7 @@ def _assert_truthful(rep, truth):
     return cmp
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_emulator_baseline_findings_are_all_in_truth(seed):
     """Baseline emulator data: window solar, bilinear supply air, wall mass and reheat coils
@@ -705,6 +706,7 @@ EFFECT_CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect, seed", EFFECT_CASES)
 def test_emulator_effect_is_found(effect, seed):
     name = effect.split(":")[0]
@@ -733,6 +735,7 @@ def test_emulator_effect_is_found(effect, seed):
         assert top["location"] == f["location"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "seed, effects",
     [
