@@ -241,4 +241,50 @@ def paired_test(plan: CVPlan, before: list, after: list) -> dict:
     }
 
 
-__all__ = ["CVPlan", "affine_steps", "fold_fits", "fold_scores", "make_plan", "paired_test", "zone_open_loop_rms"]
+def paired_test_days(plan: CVPlan, before: list, after: list, active: list) -> dict:
+    """Paired comparison over the days a calendar term acts on (each 24-hour window one unit).
+
+    A term that only changes a few dated days (a holiday) changes nothing on the other
+    weeks: the week-clustered test over every week would dilute its gain by the share of
+    weeks it acts on. Here the units are its active windows (``active``: per fold, a bool
+    per window), gain ``100 · mean(d) / mean(b)`` over them, ``t = mean(d) / (sd(d) / √n)``.
+    """
+    b, a, folds = [], [], set()
+    for f, (rb, ra, act) in enumerate(zip(before, after, active)):
+        ok = np.isfinite(rb).all(axis=1) & np.isfinite(ra).all(axis=1) & act
+        b += list(rb[ok].mean(axis=1))
+        a += list(ra[ok].mean(axis=1))
+        if ok.any():
+            folds.add(f)
+    b_d, a_d = np.array(b), np.array(a)
+    n = len(b_d)
+    if n < 3:
+        return {"n_days": n, "gain_percent": None, "se_percent": None, "t": None, "unit": "active day"}
+    d = b_d - a_d
+    mb = float(b_d.mean())
+    se = float(d.std(ddof=1)) / np.sqrt(n)
+    return {
+        "unit": "active day",
+        "n_days": int(n),
+        "n_folds_active": len(folds),
+        "n_folds": len(plan.folds),
+        "before": mb,
+        "after": float(a_d.mean()),
+        "gain_abs": float(d.mean()),
+        "gain_percent": 100.0 * float(d.mean()) / mb if mb > 0 else 0.0,
+        "se_percent": float(100.0 * se / mb) if mb > 0 else None,
+        "t": float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0),
+        "days_improved": float(np.mean(d > 0)),
+    }
+
+
+__all__ = [
+    "CVPlan",
+    "affine_steps",
+    "fold_fits",
+    "fold_scores",
+    "make_plan",
+    "paired_test",
+    "paired_test_days",
+    "zone_open_loop_rms",
+]
