@@ -27,7 +27,8 @@ def _data_args(p):
         type=float,
         default=None,
         metavar="MINUTES",
-        help="linearly interpolate gaps up to this length (default: keep every gap)",
+        help="linearly interpolate gaps of every column, zone temperatures included, up to this length when "
+        "loading (default: keep every gap; evaluate fills input gaps by itself, see --fill-inputs)",
     )
     p.add_argument(
         "--timezone",
@@ -137,8 +138,21 @@ def _cmd_evaluate(args):
     import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    result = hf.evaluate(args.model if len(args.model) > 1 else args.model[0], dataset, horizon=args.horizon)
+    result = hf.evaluate(
+        args.model if len(args.model) > 1 else args.model[0],
+        dataset,
+        horizon=args.horizon,
+        fill_inputs_h=args.fill_inputs,
+        min_output_share=args.min_output_share / 100.0,
+    )
     print(result.format())
+    if args.interpolate_gaps is not None:
+        print(
+            f"note: --interpolate-gaps {args.interpolate_gaps:g} filled gaps of up to {args.interpolate_gaps:g} min in "
+            "every column when loading, the zone temperatures included, so these scores count interpolated "
+            "temperatures as measured; evaluate scores only measured outputs by itself (inputs filled across gaps "
+            "up to --fill-inputs hours): drop --interpolate-gaps to score measured temperatures only"
+        )
     if args.json:
         result.save_json(args.json)
         print(f"wrote {args.json}")
@@ -322,6 +336,22 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.add_argument("--model", "-m", action="append", required=True, help="model file (repeatable)")
     p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
+    p.add_argument(
+        "--fill-inputs",
+        type=float,
+        default=2.0,
+        metavar="HOURS",
+        help="fill gaps of the inputs (airflows, Td, T_supply, weather) up to this length by linear interpolation "
+        "in time for the simulation; a window with a longer input gap is skipped (default 2 h; 0: no filling). "
+        "Zone temperatures are never filled: errors count measured steps only",
+    )
+    p.add_argument(
+        "--min-output-share",
+        type=float,
+        default=75.0,
+        metavar="PERCENT",
+        help="score a window only when every output is measured in this share of its steps (default 75)",
+    )
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--plots", help="folder for figures (7-day open-loop trajectories)")
     p.add_argument("--week", type=int, help="week number of the 7-day trajectory figure (default: a spring test week)")

@@ -149,15 +149,27 @@ class Verdict:
         if not cov["unscored_seasons"] and 2 * scored >= cov["total"]:
             return ""
         why = ", ".join(f"{v} {k}" for k, v in cov["skipped"].items())
+        per = "; ".join(
+            f"{s} {d['scored']}/{d['scored'] + sum(d['skipped'].values())}" for s, d in cov.get("by_season", {}).items()
+        )
         none = (
             f"; none in {', '.join(cov['unscored_seasons'])}: this verdict says nothing about "
             f"{'that season' if len(cov['unscored_seasons']) == 1 else 'those seasons'}"
             if cov["unscored_seasons"]
             else ""
         )
+        rules = cov.get("rules") or {}
+        fill = rules.get("fill_inputs_h")
+        hint = (
+            f"inputs are filled across gaps up to {fill:g} h and outputs must be measured in "
+            f"{100 * rules.get('min_output_share', 0.75):g} % of a window's steps; `--fill-inputs HOURS` "
+            "(evaluate(..., fill_inputs_h=)) allows longer input gaps"
+            if fill is not None
+            else "`--fill-inputs HOURS` fills longer input gaps"
+        )
         return (
-            f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}){none}; "
-            f"`--interpolate-gaps MINUTES` fills short logger gaps (prepare(..., interpolate_limit=...))"
+            f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}; scored per season: {per})"
+            f"{none}; {hint}"
         )
 
     def format(self) -> str:
@@ -216,10 +228,11 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
     ``NMBE = 100 * sum(m - p) / ((n - 1) * mean(m))``,
     ``CV(RMSE) = 100 * sqrt(sum((m - p)^2) / (n - 1)) / mean(m)``.
     """
-    if not hourly or hourly["n"] < 2:
-        nan = np.full(len(hourly["sum_error"]) if hourly else 0, np.nan)
+    ny = len(hourly["sum_error"]) if hourly else 0
+    if not hourly or np.all(np.asarray(hourly["n"]) < 2):
+        nan = np.full(ny, np.nan)
         return nan, nan
-    n = hourly["n"]
+    n = np.where(np.asarray(hourly["n"]) >= 2, np.asarray(hourly["n"], float), np.nan)
     mean = np.asarray(hourly["sum_measured"], float) / n
     with np.errstate(divide="ignore", invalid="ignore"):
         nmbe = 100.0 * np.asarray(hourly["sum_error"], float) / ((n - 1) * mean)
@@ -251,7 +264,7 @@ def make_verdict(scores, models, dataset) -> Verdict:
                 float(t[j]),
                 float(nmbe[j]),
                 float(cv[j]),
-                int(sc.hourly["n"]) if sc.hourly else 0,
+                int(np.broadcast_to(sc.hourly["n"], (len(sc.outputs),))[j]) if sc.hourly else 0,
             )
             for j, o in enumerate(sc.outputs)
         ]
@@ -264,15 +277,20 @@ def make_verdict(scores, models, dataset) -> Verdict:
 
 
 def _coverage(sc, dataset) -> dict:
-    """Scored windows per season, skipped windows by reason, test seasons without a scored window."""
+    """Scored windows per season, skipped windows by reason (overall and per season), test seasons
+    without a scored window, and the coverage rules applied."""
     windows = sc.n_windows()
     skipped = {k: int(v) for k, v in sc.skipped.items() if v}
     tested = dict.fromkeys(w.season for w in dataset.test_weeks())
+    filled = getattr(sc, "filled_inputs", None)
     return {
         "windows": windows,
         "total": sum(windows.values()) + sum(skipped.values()),
         "skipped": skipped,
+        "by_season": sc.by_season(tuple(dataset.building.season_names)),
         "unscored_seasons": [s for s in tested if s not in windows],
+        "rules": dict(getattr(sc, "rules", {}) or {}),
+        "filled_step_share": float(np.mean(filled)) if filled is not None and len(filled) else 0.0,
     }
 
 
