@@ -231,7 +231,7 @@ def test_cli_fill_inputs_and_interpolate_gaps_note(clean, truth, tmp_path):
         return r.stdout
 
     out = run("--fill-inputs", "0", "--json", str(tmp_path / "e.json"))
-    assert "per season:" in out and "input gap longer than 0 h" in out, out
+    assert "per season:" in out and "input gap (inputs not filled)" in out, out
     rules = json.loads((tmp_path / "e.json").read_text())["models"][0]["rules"]
     assert rules["fill_inputs_h"] == 0 and rules["min_output_share"] == 0.75
     out = run("--interpolate-gaps", "30", "--min-output-share", "90")

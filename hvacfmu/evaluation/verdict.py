@@ -161,7 +161,7 @@ class Verdict:
         rules = cov.get("rules") or {}
         fill = rules.get("fill_inputs_h")
         hint = (
-            f"inputs are filled across gaps up to {fill:g} h and outputs must be measured in "
+            f"inputs are {f'filled across gaps up to {fill:g} h' if fill else 'not filled'} and outputs must be measured in "
             f"{100 * rules.get('min_output_share', 0.75):g} % of a window's steps; `--fill-inputs HOURS` "
             "(evaluate(..., fill_inputs_h=)) allows longer input gaps"
             if fill is not None

@@ -49,7 +49,7 @@ def skip_reasons(fill_inputs_h: float, min_output_share: float) -> tuple:
         f"outputs not measured in the first {START_SHIFT_MAX_H:g} h",
         "window past the end of the data",
         f"an output measured in under {100 * min_output_share:g} % of the steps",
-        f"input gap longer than {fill_inputs_h:g} h",
+        f"input gap longer than {fill_inputs_h:g} h" if fill_inputs_h > 0 else "input gap (inputs not filled)",
         "no internal-gain profile for season",
         "no finite initial state",
     )
