@@ -66,7 +66,7 @@ def _cmd_check(args):
         progress=not args.quiet,
     )
     print(report)
-    return 0 if report.ok else 1
+    return report.exit_code
 
 
 # --------------------------------------------------------------------------- generate
@@ -232,7 +232,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("check", help="load and validate a dataset; print coverage, gaps, seasons, split")
+    p = sub.add_parser(
+        "check",
+        help="load and validate a dataset; print coverage, gaps, seasons, split",
+        description="Load and validate a dataset. Exit code 0: usable (notes at most); 1: not usable (every "
+        "problem listed); 3: usable, but a warning needs action first (clock offset, unknown columns ignored, "
+        "stuck sensor, discharge air against its unit), marked '!' and named on the final line.",
+    )
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
