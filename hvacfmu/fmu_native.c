@@ -9,6 +9,13 @@
  *   x+ = A x + Bu u + Bv v + Bq q + sum_i u_i (Bxu_i x + Bvu_i v) + sum_s on_s scale_s g_s
  *   y  = x[out_state]
  *
+ * A large model whose A has real eigenvalues is generated in modal form (HV_MODAL, see
+ * hvacfmu/fmu_native_modal.py): the state is z = W x with A = V diag(lam) W, and one step is
+ *
+ *   z+ = lam * z + P w,  w = [u, v, q, a, s],  a_r = sum_t alpha_t u_i(t) src_t,  xs = S z
+ *
+ * with xs the physical states the outputs and bilinear terms read (S = rows of V).
+ *
  * q is row (slot mod n_slots) of the season's time-of-week gain table, with
  * slot = floor((start_time_of_week + t_start)/step + 1e-9) + k for model step k,
  * or floor(time_of_week/step + 1e-9) when the time_of_week input is >= 0.
@@ -46,14 +53,21 @@ typedef struct {
 
 #include "hvacfmu_model.h" /* generated: sizes, matrices, gain tables, variables */
 
-#define HV_STATE_MAGIC 0x48564631 /* "HVF1" */
+#if !HV_MODAL
+#define HV_NS 1
+#define HV_NREP 0
+#endif
+#define HV_NWALL (HV_NU + HV_NV + HV_NQ + HV_NSWITCH + HV_MODAL * HV_NREP + 1)
+
+#define HV_STATE_MAGIC 0x48564632 /* "HVF2" */
 
 /* everything fmi2GetFMUstate saves */
 typedef struct {
     int magic;
     int size;
     double r[HV_NVARS]; /* variable values by value reference (season as a double) */
-    double x[HV_NX];
+    double x[HV_NX]; /* the state; in modal form the modal state z */
+    double xs[HV_NS]; /* modal form: the physical states S z (outputs first) */
     long long k; /* model steps since the start time */
     long long slot0;
     double t, t_start;
@@ -73,6 +87,7 @@ typedef struct {
     double v[HV_NV > 0 ? HV_NV : 1];
     double tmp[HV_NX];
     double xn[HV_NX];
+    double zn[HV_NX];
 } hv_inst;
 
 /* ------------------------------------------------------------------ helpers without libm */
@@ -104,6 +119,7 @@ static void hv_log(hv_inst *c, fmi2Status status, const char *category, const ch
     c->cb.logger(c->cb.componentEnvironment, c->name, status, category, msg);
 }
 
+#if !HV_MODAL
 static void spmv_add(const hv_sparse *a, const double *x, double *y) {
     if (!a->row) { /* dense, column-major: y += sum_j a[:, j] x[j] (independent lanes, vectorises) */
         const double *col = a->val;
@@ -117,6 +133,7 @@ static void spmv_add(const hv_sparse *a, const double *x, double *y) {
     }
     for (int k = 0; k < a->nnz; ++k) y[a->row[k]] += a->val[k] * x[a->col[k]];
 }
+#endif
 
 /* ------------------------------------------------------------------ the model */
 static const double *gains_row(int season, long long slot) {
@@ -138,6 +155,65 @@ static void model_inputs(hv_inst *c) {
     for (int i = 0; i < HV_NV; ++i) c->v[i] = r[hv_vr_v[i]];
 }
 
+/* the factor of switch s this step: 0 when its condition does not hold */
+static double switch_value(hv_inst *c, int s) {
+    const hv_switch *w = &hv_switches[s];
+    if (w->input_index >= 0 && !(c->u[w->input_index] <= w->input_below)) return 0.0;
+    if (w->disturbance_index >= 0 && !(c->v[w->disturbance_index] < w->disturbance_below)) return 0.0;
+    return w->scale_by >= 0 ? c->v[w->scale_by] : 1.0;
+}
+
+#if HV_MODAL
+/* zn, xsn = one modal step from z, xs with inputs c->u, c->v and gain row q */
+static void modal_step(hv_inst *c, const double *z, const double *xs, const double *q, double *zn, double *xsn) {
+    const double *u = c->u, *v = c->v;
+    double w[HV_NWALL];
+    double *a = w + HV_NU + HV_NV + HV_NQ, *sw = a + HV_NREP;
+    memcpy(w, u, sizeof(double) * HV_NU);
+    memcpy(w + HV_NU, v, sizeof(double) * HV_NV);
+    memcpy(w + HV_NU + HV_NV, q, sizeof(double) * HV_NQ);
+    for (int r = 0; r < HV_NREP; ++r) a[r] = 0.0;
+    for (int t = 0; t < HV_NBT; ++t) {
+        int src = hv_bt_src[t];
+        a[hv_bt_rep[t]] += hv_bt_alpha[t] * u[hv_bt_input[t]] * (src >= 0 ? xs[src] : v[-1 - src]);
+    }
+    for (int s = 0; s < HV_NSWITCH; ++s) sw[s] = switch_value(c, s);
+    for (int j = 0; j < HV_NX; ++j) zn[j] = hv_lam[j] * z[j];
+    for (int k = 0; k < HV_NW; ++k) { /* zn += P[:, k] w_k (independent lanes, vectorises) */
+        const double wk = w[hv_P_src[k]];
+        const double *col = hv_P + (size_t)k * HV_NX;
+        if (wk == 0.0) continue;
+        for (int j = 0; j < HV_NX; ++j) zn[j] += col[j] * wk;
+    }
+    double acc[HV_NS];
+    for (int i = 0; i < HV_NS; ++i) acc[i] = 0.0;
+    for (int j = 0; j < HV_NX; ++j) { /* xsn = S zn, accumulated over modes in HV_NS lanes */
+        const double zj = zn[j];
+        const double *row = hv_ST + (size_t)j * HV_NS;
+        for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * zj;
+    }
+    memcpy(xsn, acc, sizeof acc);
+}
+
+/* xn = step(x) in physical coordinates through the modal form (initialisation only: two dense products) */
+static void phys_step(hv_inst *c, const double *x, const double *q, double *xn) {
+    double *z = c->tmp, *zn = c->zn;
+    double xs[HV_NS], xsn[HV_NS];
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_W[(size_t)i * HV_NX + j] * x[j];
+        z[i] = s;
+    }
+    for (int i = 0; i < HV_NS; ++i) xs[i] = x[hv_S_state[i]];
+    modal_step(c, z, xs, q, zn, xsn);
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_V[(size_t)i * HV_NX + j] * zn[j];
+        xn[i] = s;
+    }
+}
+#define STATE_STEP phys_step
+#else
 /* xn = step(x) with inputs c->u, c->v and gain row q */
 static void step_state(hv_inst *c, const double *x, const double *q, double *xn) {
     const double *u = c->u, *v = c->v;
@@ -156,14 +232,13 @@ static void step_state(hv_inst *c, const double *x, const double *q, double *xn)
     }
 #endif
     for (int s = 0; s < HV_NSWITCH; ++s) {
-        const hv_switch *w = &hv_switches[s];
-        double scale;
-        if (w->input_index >= 0 && !(u[w->input_index] <= w->input_below)) continue;
-        if (w->disturbance_index >= 0 && !(v[w->disturbance_index] < w->disturbance_below)) continue;
-        scale = w->scale_by >= 0 ? v[w->scale_by] : 1.0;
-        for (int j = 0; j < HV_NX; ++j) xn[j] += scale * w->gain[j];
+        double scale = switch_value(c, s);
+        if (scale != 0.0)
+            for (int j = 0; j < HV_NX; ++j) xn[j] += scale * hv_switches[s].gain[j];
     }
 }
+#define STATE_STEP step_state
+#endif
 
 static long long slot_of_step(hv_inst *c, long long k) {
 #if HV_VR_TOWIN >= 0
@@ -173,8 +248,43 @@ static long long slot_of_step(hv_inst *c, long long k) {
     return c->s.slot0 + k;
 }
 
+/* the physical value of output i */
+static double output_value(const hv_state *s, int i) {
+#if HV_MODAL
+    return s->xs[hv_out_xs[i]];
+#else
+    return s->x[hv_out_state[i]];
+#endif
+}
+
 static void write_outputs(hv_inst *c) {
-    for (int i = 0; i < HV_NY; ++i) c->s.r[hv_vr_y[i]] = c->s.x[hv_out_state[i]];
+    for (int i = 0; i < HV_NY; ++i) c->s.r[hv_vr_y[i]] = output_value(&c->s, i);
+}
+
+/* Advance the state n model steps from model step k (inputs held); commit only when the outputs stay finite. */
+static int advance(hv_inst *c, int season, long long slot, long long n) {
+    double x[HV_NX];
+    memcpy(x, c->s.x, sizeof x);
+#if HV_MODAL
+    double xs[HV_NS];
+    memcpy(xs, c->s.xs, sizeof xs);
+    for (long long j = 0; j < n; ++j) {
+        modal_step(c, x, xs, gains_row(season, slot + j), c->xn, xs);
+        memcpy(x, c->xn, sizeof x);
+    }
+    for (int i = 0; i < HV_NY; ++i)
+        if (!hv_finite(xs[hv_out_xs[i]])) return 0;
+    memcpy(c->s.xs, xs, sizeof xs);
+#else
+    for (long long j = 0; j < n; ++j) {
+        step_state(c, x, gains_row(season, slot + j), c->xn);
+        memcpy(x, c->xn, sizeof x);
+    }
+    for (int i = 0; i < HV_NY; ++i)
+        if (!hv_finite(x[hv_out_state[i]])) return 0;
+#endif
+    memcpy(c->s.x, x, sizeof x);
+    return 1;
 }
 
 /* Solve a (n x n, row-major, overwritten) z = b by Gaussian elimination with partial pivoting. */
@@ -230,11 +340,11 @@ static int initial_state(hv_inst *c, const double *y0, const double *q) {
         free(g), free(e), free(col), free(a), free(b);
         return 0;
     }
-    step_state(c, e, q, g); /* g = step(0) */
+    STATE_STEP(c, e, q, g); /* g = step(0) */
     for (int i = 0; i < nh; ++i) b[i] = g[hv_hidden_state[i]];
     for (int j = 0; j < HV_NX; ++j) { /* column j of F */
         e[j] = 1.0;
-        step_state(c, e, q, col);
+        STATE_STEP(c, e, q, col);
         e[j] = 0.0;
         int jh = hv_hidden_index[j];
         for (int i = 0; i < nh; ++i) {
@@ -251,6 +361,22 @@ static int initial_state(hv_inst *c, const double *y0, const double *q) {
         for (int i = 0; i < nh; ++i) x[hv_hidden_state[i]] = b[i];
     free(g), free(e), free(col), free(a), free(b);
     return 1;
+}
+
+/* Modal form: the state x (physical, in c->s.x) becomes z = W x, with xs = x[S_state] exactly. */
+static void to_modal(hv_inst *c) {
+#if HV_MODAL
+    double *x = c->s.x, *z = c->tmp;
+    for (int i = 0; i < HV_NS; ++i) c->s.xs[i] = x[hv_S_state[i]];
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_W[(size_t)i * HV_NX + j] * x[j];
+        z[i] = s;
+    }
+    memcpy(x, z, sizeof(double) * HV_NX);
+#else
+    (void)c;
+#endif
 }
 
 /* ------------------------------------------------------------------ checks */
@@ -384,6 +510,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
         hv_log(c, fmi2Error, "logStatusError", "initialisation failed: out of memory");
         return fmi2Error;
     }
+    to_modal(c);
     c->s.k = 0;
     c->s.t = c->s.t_start;
     c->s.initialized = 1;
@@ -613,22 +740,11 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
         return fmi2Discard;
     }
     model_inputs(c);
-    int season = (int)c->s.r[HV_VR_SEASON];
-    long long slot = slot_of_step(c, c->s.k);
-    double x[HV_NX];
-    memcpy(x, c->s.x, sizeof x);
-    for (long long j = 0; j < n; ++j) {
-        step_state(c, x, gains_row(season, slot + j), c->xn);
-        memcpy(x, c->xn, sizeof x);
+    if (!advance(c, (int)c->s.r[HV_VR_SEASON], slot_of_step(c, c->s.k), n)) {
+        hv_log(c, fmi2Discard, "logStatusDiscard",
+               "the zone temperatures became non-finite in the step from t=%.17g s; step refused", t);
+        return fmi2Discard;
     }
-    for (int i = 0; i < HV_NY; ++i) {
-        if (!hv_finite(x[hv_out_state[i]])) {
-            hv_log(c, fmi2Discard, "logStatusDiscard",
-                   "the zone temperatures became non-finite in the step from t=%.17g s; step refused", t);
-            return fmi2Discard;
-        }
-    }
-    memcpy(c->s.x, x, sizeof x);
     c->s.k += n;
     c->s.t = c->s.t_start + (double)c->s.k * HV_STEP;
     write_outputs(c);

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import FMUError, problems_message
+from .fmu_native_modal import header_tables, modal_form
 
 logger = logging.getLogger(__name__)
 
@@ -225,8 +226,12 @@ def _variables(layout) -> str:
     return out
 
 
-def generate_header(eq, layout, M, guid: str) -> str:
-    """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``."""
+def generate_header(eq, layout, M, guid: str, form=None) -> str:
+    """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``.
+
+    With ``form`` (a :class:`~hvacfmu.fmu_native_modal.ModalForm` of ``eq``) the
+    model runs in modal coordinates; otherwise with the physical matrices.
+    """
     nx, nu, nv, ny = eq.n_states, len(eq.inputs), len(eq.disturbances), len(eq.outputs)
     seasons = list(layout["seasons"])
     out_idx = output_states(eq.C)
@@ -250,6 +255,7 @@ def generate_header(eq, layout, M, guid: str) -> str:
         f"#define HV_NSWITCH {len(eq.switches)}",
         f"#define HV_BILINEAR {int(eq.bilinear)}",
         f"#define HV_HAS_MAP {int(M is not None)}",
+        f"#define HV_MODAL {int(form is not None)}",
         "",
     ]
     out = "\n".join(head)
@@ -258,7 +264,8 @@ def generate_header(eq, layout, M, guid: str) -> str:
     out += _c_array("int", "hv_out_state", out_idx)
     out += _c_array("int", "hv_hidden_state", hidden)
     out += _c_array("int", "hv_hidden_index", hidden_index)
-    out += _matrices(eq) + _switches(eq) + _gain_tables(eq, seasons) + _variables(layout)
+    out += header_tables(form, _c_double) if form is not None else _matrices(eq)
+    out += _switches(eq) + _gain_tables(eq, seasons) + _variables(layout)
     return out
 
 
@@ -319,7 +326,9 @@ def _zip_folder(folder: Path, out_path: Path) -> None:
     tmp.replace(out_path)
 
 
-def export_native_fmu(model, out_path, *, model_name: str | None = None, compile: bool = True, building=None) -> Path:
+def export_native_fmu(
+    model, out_path, *, model_name: str | None = None, compile: bool = True, building=None, modal: bool = True
+) -> Path:
     """Export a zone model as a native FMI 2.0 co-simulation FMU (generated C code, no Python at run time).
 
     Parameters
@@ -335,6 +344,9 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         its sources (``fmpy compile`` builds them).
     building : Building, optional
         Box airflow bounds (``m_max``) and zones, as for :func:`hvacfmu.fmu.export_fmu`.
+    modal : bool
+        Run a large model in modal coordinates when its ``A`` allows it
+        (:mod:`hvacfmu.fmu_native_modal`, default); False keeps the physical matrices.
 
     Returns
     -------
@@ -364,7 +376,9 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         "Native FMU: generated C code, no Python needed at run time.",
     )
     identifier = native_identifier(model.kind)
-    header_wo_guid = generate_header(eq, layout, M, "")
+    form = modal_form(eq, output_states(eq.C)) if modal else None
+    logger.info("native FMU of %s: %s form", name, "modal" if form is not None else "physical")
+    header_wo_guid = generate_header(eq, layout, M, "", form)
     guid = "{" + str(uuid.UUID(hashlib.sha256(header_wo_guid.encode()).hexdigest()[:32])) + "}"
     out_path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_native_") as tmp:
@@ -372,7 +386,7 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         src = root / "sources"
         src.mkdir()
         shutil.copyfile(RUNTIME_SOURCE, src / RUNTIME_NAME)
-        (src / HEADER_NAME).write_text(generate_header(eq, layout, M, guid), encoding="utf-8")
+        (src / HEADER_NAME).write_text(generate_header(eq, layout, M, guid, form), encoding="utf-8")
         xml = model_description_xml(
             layout, identifier=identifier, guid=guid, native=True, source_files=[RUNTIME_NAME], model_name=name
         )

@@ -231,6 +231,35 @@ def test_c_master_without_python_matches_python_model(native, tmp_path, kind):
     assert "us_per_step" in err
 
 
+def header(path) -> str:
+    with zipfile.ZipFile(path) as z:
+        return z.read("sources/hvacfmu_model.h").decode()
+
+
+def test_physics_runs_in_modal_form_small_models_in_physical_form(native):
+    assert "#define HV_MODAL 1" in header(native["physics"][1])
+    for kind in ("lumped", "zones", "extended"):
+        assert "#define HV_MODAL 0" in header(native[kind][1])
+
+
+@pytest.mark.slow
+def test_modal_and_physical_physics_fmus_agree(native, tmp_path):
+    """The physics FMU in physical form (dense A, modal=False) gives the modal FMU's numbers in the C master."""
+    model, path = native["physics"]
+    plain = export_native_fmu(model, tmp_path / "plain.fmu", modal=False)
+    assert "#define HV_MODAL 0" in header(plain)
+    n = 300
+    idx, cols, _, _ = signals(model, n, seed=11)
+    names_in = list(cols)
+    U = np.column_stack([cols[c] for c in names_in])
+    (tmp_path / "m").mkdir()
+    (tmp_path / "p").mkdir()
+    Ym, _ = run_c_master(tmp_path / "m", path, model, n, U, names_in)
+    Yp, _ = run_c_master(tmp_path / "p", plain, model, n, U, names_in)
+    assert_allclose(Ym, Yp, rtol=0, atol=EXACT)
+    assert np.ptp(Yp) > 0.5
+
+
 # ----------------------------------------------------------------------------- behaviour
 class Native:
     """A native FMU through FMPy's FMU2Slave with logging captured."""
