@@ -20,8 +20,12 @@
  * slot = floor((start_time_of_week + t_start)/step + 1e-9) + k for model step k,
  * or floor(time_of_week/step + 1e-9) when the time_of_week input is >= 0.
  * A communication step must be a whole multiple of the model step; other steps,
- * NaN or out-of-range inputs and non-contiguous steps return fmi2Discard with a
- * logged reason and leave the state unchanged.
+ * NaN or out-of-range inputs and non-contiguous steps return fmi2Error with a
+ * logged reason (time, variable, value) and leave the state unchanged. fmi2Error,
+ * not fmi2Discard: a master such as FMPy's simulate_fmu ends a run quietly with a
+ * short result on fmi2Discard (it reads fmi2Terminated and stops), but raises on
+ * fmi2Error, so `fmpy simulate` exits non-zero. The instance stays usable
+ * (fmi2SetFMUstate, fmi2Reset or a corrected step).
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -395,7 +399,7 @@ static int check_inputs(hv_inst *c, double t) {
             used += snprintf(names + used, sizeof names - used, "%s%s=%.17g (allowed [%g, %g])", bad > 1 ? ", " : "",
                              hv_var_name[vr], val, hv_var_min[vr], hv_var_max[vr]);
     }
-    if (bad) hv_log(c, fmi2Discard, "logStatusDiscard", "at t=%.17g s: invalid input value(s): %s; step not taken", t, names);
+    if (bad) hv_log(c, fmi2Error, "logStatusError", "at t=%.17g s: invalid input value(s): %s; step not taken", t, names);
     return !bad;
 }
 
@@ -714,8 +718,8 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
     hv_inst *c = comp;
     if (c->pending) {
         c->pending = 0;
-        hv_log(c, fmi2Discard, "logStatusDiscard", "step refused after an earlier error: %s", c->pending_msg);
-        return fmi2Discard;
+        hv_log(c, fmi2Error, "logStatusError", "step refused after an earlier error: %s", c->pending_msg);
+        return fmi2Error;
     }
     if (!c->s.initialized) {
         hv_log(c, fmi2Error, "logStatusError",
@@ -724,26 +728,26 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
                              "fmi2EnterInitializationMode and fmi2ExitInitializationMode first");
         return fmi2Error;
     }
-    if (!check_inputs(c, t)) return fmi2Discard;
+    if (!check_inputs(c, t)) return fmi2Error;
     if (!hv_finite(t) || hv_fabs(t - c->s.t) > 1e-9 * (hv_fabs(c->s.t) > 1.0 ? hv_fabs(c->s.t) : 1.0)) {
-        hv_log(c, fmi2Discard, "logStatusDiscard",
+        hv_log(c, fmi2Error, "logStatusError",
                "fmi2DoStep at t=%.17g s but the FMU is at t=%.17g s; steps must be contiguous "
                "(restore a saved FMU state to go back in time)", t, c->s.t);
-        return fmi2Discard;
+        return fmi2Error;
     }
     double kf = h / HV_STEP;
     long long n = hv_floor(kf + 0.5);
     if (!hv_finite(kf) || n < 1 || hv_fabs(kf - (double)n) > 1e-9 * (kf > 1.0 ? kf : 1.0)) {
-        hv_log(c, fmi2Discard, "logStatusDiscard",
+        hv_log(c, fmi2Error, "logStatusError",
                "communication step %.17g s at t=%.17g s is not a whole multiple of the model step %g s; step refused "
                "(use a step of k*%g s, k >= 1)", h, t, HV_STEP, HV_STEP);
-        return fmi2Discard;
+        return fmi2Error;
     }
     model_inputs(c);
     if (!advance(c, (int)c->s.r[HV_VR_SEASON], slot_of_step(c, c->s.k), n)) {
-        hv_log(c, fmi2Discard, "logStatusDiscard",
+        hv_log(c, fmi2Error, "logStatusError",
                "the zone temperatures became non-finite in the step from t=%.17g s; step refused", t);
-        return fmi2Discard;
+        return fmi2Error;
     }
     c->s.k += n;
     c->s.t = c->s.t_start + (double)c->s.k * HV_STEP;
@@ -782,8 +786,8 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component comp, const fmi2StatusKind s, fmi2
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Boolean *value) {
     if (s == fmi2Terminated) {
-        /* asked by FMPy after a discard: true ends its run at fmi2LastSuccessfulTime (false makes FMPy
-         * retry the same step forever); the instance itself stays usable */
+        /* asked by FMPy after a discard (this FMU refuses steps with fmi2Error, but a master may still ask):
+         * true ends its run at fmi2LastSuccessfulTime (false makes FMPy retry the same step forever) */
         *value = fmi2True;
         return fmi2OK;
     }

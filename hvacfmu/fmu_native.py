@@ -9,10 +9,13 @@ layout). Both are listed in ``<SourceFiles>`` so that ``fmpy compile`` or any
 FMI tool can rebuild the binary; the export compiles
 ``binaries/linux64/<modelIdentifier>.so`` with the system C compiler (``gcc``
 or ``$CC``). The variables, their value references and the run-time behaviour
-(whole-multiple steps, ``fmi2Discard`` with a logged reason on bad input, time
-of week, initial state) are those of the pythonfmu FMU of the same model
-(:mod:`hvacfmu.fmu_slave`), except that calendar-dependent models (holidays,
-daylight-saving terms) are refused.
+(whole-multiple steps, time of week, initial state) are those of the pythonfmu
+FMU of the same model (:mod:`hvacfmu.fmu_slave`), except that calendar-dependent
+models (holidays, daylight-saving terms) are refused. A refused step (a step
+that is not a whole multiple of the model step, a NaN or out-of-range input, a
+non-contiguous time) returns ``fmi2Error`` with a logged message naming the
+time, the variable and the value, so that ``fmpy simulate`` fails loudly instead
+of returning a short result (FMPy ends a run quietly on ``fmi2Discard``).
 
 Examples
 --------

@@ -336,16 +336,16 @@ def test_multi_steps_exact_and_bad_steps_and_inputs_refused(native):
         assert_allclose(b.fmu.getReal([b.vr[n] for n in names_out]), Ya[-1], rtol=0, atol=0)
         before = b.fmu.getReal([b.vr[n] for n in names_out])
         for h in (450.0, 1000.0, 0.0, float("nan")):
-            with pytest.raises(Exception, match="discard"):
+            with pytest.raises(Exception, match="error"):
                 b.fmu.doStep(3600.0, h)
         assert any("not a whole multiple of the model step 900 s" in msg for _, _, msg in b.log)
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match="error"):
             b.fmu.doStep(7200.0, STEP)
         assert any("steps must be contiguous" in msg for _, _, msg in b.log)
         vr_m = b.vr[names_in[0]]
         for bad in (float("nan"), -0.1, 1e3):
             b.fmu.setReal([vr_m], [bad])
-            with pytest.raises(Exception, match="discard"):
+            with pytest.raises(Exception, match="error"):
                 b.fmu.doStep(3600.0, STEP)
         assert any(f"invalid input value(s): {names_in[0]}=nan" in msg for _, _, msg in b.log)
         assert b.fmu.getReal([b.vr[n] for n in names_out]) == before  # refused steps change nothing
@@ -451,3 +451,37 @@ def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
         env=env,
     )
     assert bad.returncode != 0 and "cannot be exported as a native FMU" in bad.stderr
+
+
+@pytest.mark.parametrize(
+    "case, expect",
+    [
+        ("step", "communication step 600 s at t=0 s is not a whole multiple of the model step 900 s"),
+        ("nan", "at t=2700 s: invalid input value(s): T_out=nan"),
+        ("range", "at t=4500 s: invalid input value(s): T_out=95"),
+    ],
+)
+def test_fmpy_simulate_fails_loudly_on_a_refused_step(native, tmp_path, case, expect):
+    """`fmpy simulate` on a native FMU that refuses a step exits non-zero and prints the FMU's reason (16 p.4).
+
+    The FMU answers fmi2Error (FMPy raises), not fmi2Discard (FMPy would stop quietly, exit 0 and write a
+    short result).
+    """
+    model, path = native["zones"]
+    cmd = ["fmpy", "simulate", str(path), "--stop-time", "17100", "--output-file", str(tmp_path / "out.csv")]
+    if case == "step":
+        cmd += ["--output-interval", "600"]
+    else:
+        t = np.arange(20) * STEP
+        T_out = np.full(20, 10.0)
+        if case == "nan":
+            T_out[3] = np.nan
+        else:
+            T_out[5:] = 95.0
+        pd.DataFrame({"time": t, "T_out": T_out}).to_csv(tmp_path / "in.csv", index=False, na_rep="nan")
+        cmd += ["--output-interval", "900", "--input-file", str(tmp_path / "in.csv")]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    text = run.stdout + run.stderr
+    assert run.returncode != 0, text
+    assert "[ERROR]" in text and expect in text, text
+    assert "fmi2DoStep failed with status 3 (error)" in text
