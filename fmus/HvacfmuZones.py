@@ -18,6 +18,10 @@ dictionary is freed while still in use, which corrupts the heap ("corrupted
 double-linked list" at exit). The first branch below gives that reference
 back and hands over the class defined at import instead of defining new
 copies (each copy stayed alive through an MRO list pythonfmu never frees).
+
+At exit, the same binary releases its interpreter state twice (a C++ exit
+handler, then its ELF destructor): ``hvacfmu.fmu_exit`` empties that state
+from a Python exit hook first, so the host does not abort at exit now and then.
 """
 
 if "_hvacfmu_slave_class" in globals():  # executed again by pythonfmu for a new instance
@@ -32,6 +36,9 @@ else:
         _impl, _missing = None, f"{type(_exc).__name__}: {_exc}"
 
     if _impl is not None:
+        import hvacfmu.fmu_exit as _exit
+
+        _exit.install()  # pythonfmu's binary frees its interpreter state twice at exit: see hvacfmu/fmu_exit.py
         exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines ZoneModelSlave and its bases here
     else:
         from pythonfmu import Fmi2Slave
