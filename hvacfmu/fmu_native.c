@@ -150,7 +150,7 @@ static void model_inputs(hv_inst *c) {
 #if HV_HAS_MAP
     for (int i = 0; i < HV_NU; ++i) {
         double s = 0.0;
-        for (int j = 0; j < HV_NB; ++j) s += hv_map[i * HV_NB + j] * r[hv_vr_m[j]];
+        for (int k = hv_map_start[i]; k < hv_map_start[i + 1]; ++k) s += hv_map_val[k] * r[hv_vr_m[hv_map_col[k]]];
         c->u[i] = s;
     }
 #else
@@ -389,9 +389,8 @@ static int check_inputs(hv_inst *c, double t) {
     size_t used = 0;
     int bad = 0;
     names[0] = 0;
-    for (int vr = 0; vr < HV_NVARS; ++vr) {
-        int role = hv_var_role[vr];
-        if (role != R_M && role != R_V && role != R_TOWIN) continue;
+    for (int i = 0; i < HV_NIN; ++i) {
+        int vr = hv_vr_in[i];
         double val = c->s.r[vr];
         if (val >= hv_var_min[vr] && val <= hv_var_max[vr]) continue; /* NaN fails both */
         ++bad;

@@ -223,6 +223,8 @@ def _variables(layout) -> str:
     out += _c_array("double", "hv_var_max", [bound(e, "max", np.inf) for e in var], _c_double)
     for role in ("m", "v", "y", "y0"):
         out += _c_array("int", f"hv_vr_{role}", [i for i, e in enumerate(var) if e["role"] == role])
+    inputs = [i for i, e in enumerate(var) if e["role"] in ("m", "v", "tow_in")]
+    out += f"#define HV_NIN {len(inputs)}\n" + _c_array("int", "hv_vr_in", inputs)
     for role, macro in (("season", "HV_VR_SEASON"), ("tow", "HV_VR_TOW"), ("tow_in", "HV_VR_TOWIN")):
         vrs = [i for i, e in enumerate(var) if e["role"] == role]
         out += f"#define {macro} {vrs[0] if vrs else -1}\n"
@@ -263,7 +265,10 @@ def generate_header(eq, layout, M, guid: str, form=None) -> str:
     ]
     out = "\n".join(head)
     if M is not None:
-        out += _c_array("double", "hv_map", np.asarray(M, dtype=float).ravel().tolist(), _c_double)
+        Mf = np.asarray(M, dtype=float)  # CSR: row i's nonzeros at hv_map_start[i] .. hv_map_start[i + 1]
+        out += _c_array("int", "hv_map_start", np.concatenate([[0], np.cumsum(np.count_nonzero(Mf, axis=1))]).tolist())
+        out += _c_array("int", "hv_map_col", np.nonzero(Mf)[1].tolist())
+        out += _c_array("double", "hv_map_val", Mf[np.nonzero(Mf)].tolist(), _c_double)
     out += _c_array("int", "hv_out_state", out_idx)
     out += _c_array("int", "hv_hidden_state", hidden)
     out += _c_array("int", "hv_hidden_index", hidden_index)
