@@ -84,7 +84,18 @@ def make_models(building):
             solar=True,
             gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names},
         )
-    return {"lumped": lumped, "zones": zones, "physics": physics}
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain, SupplyAirBilinear, ThermalMass
+
+    extended = ExtendedModel(  # the six-zone model with one term of each kind the diagnosis adds
+        base=zones,
+        terms=(
+            SolarGain(zone="S", facade="S", coef=4e-4),
+            SupplyAirBilinear(zone="NW", coef=0.02),
+            ThermalMass(zone="C", alpha=0.02, beta=0.05),
+            ActuationDelay(zone="E", delay=2),
+        ),
+    )
+    return {"lumped": lumped, "zones": zones, "physics": physics, "extended": extended}
 
 
 def year_inputs(building, model, n, seed=1):
@@ -293,7 +304,7 @@ def _native_header(path) -> str:
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics"])
+    ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics", "extended"])
     ap.add_argument("--steps", type=int, default=N_YEAR, help="steps per run (default a year: 35040)")
     ap.add_argument("--native-only", action="store_true", help="only the native vs pythonfmu table")
     args = ap.parse_args()
