@@ -168,6 +168,7 @@ static double switch_value(hv_inst *c, int s) {
 }
 
 #if HV_MODAL
+#define HV_BLOCK 8 /* modes per register block */
 /* zn, xsn = one modal step from z, xs with inputs c->u, c->v and gain row q */
 static void modal_step(hv_inst *c, const double *z, const double *xs, const double *q, double *zn, double *xsn) {
     const double *u = c->u, *v = c->v;
@@ -182,19 +183,31 @@ static void modal_step(hv_inst *c, const double *z, const double *xs, const doub
         a[hv_bt_rep[t]] += hv_bt_alpha[t] * u[hv_bt_input[t]] * (src >= 0 ? xs[src] : v[-1 - src]);
     }
     for (int s = 0; s < HV_NSWITCH; ++s) sw[s] = switch_value(c, s);
-    for (int j = 0; j < HV_NX; ++j) zn[j] = hv_lam[j] * z[j];
-    for (int k = 0; k < HV_NW; ++k) { /* zn += P[:, k] w_k (independent lanes, vectorises) */
-        const double wk = w[hv_P_src[k]];
-        const double *col = hv_P + (size_t)k * HV_NX;
-        if (wk == 0.0) continue;
-        for (int j = 0; j < HV_NX; ++j) zn[j] += col[j] * wk;
-    }
     double acc[HV_NS];
     for (int i = 0; i < HV_NS; ++i) acc[i] = 0.0;
-    for (int j = 0; j < HV_NX; ++j) { /* xsn = S zn, accumulated over modes in HV_NS lanes */
-        const double zj = zn[j];
+    /* zn = lam z + P w and xsn = S zn, in blocks of HV_BLOCK modes kept in registers (the sums run in
+     * the same order as column by column: k ascending for zn[j], j ascending for xsn[i]) */
+    int j0 = 0;
+    for (; j0 + HV_BLOCK <= HV_NX; j0 += HV_BLOCK) {
+        double b[HV_BLOCK];
+        for (int t = 0; t < HV_BLOCK; ++t) b[t] = hv_lam[j0 + t] * z[j0 + t];
+        for (int k = 0; k < HV_NW; ++k) {
+            const double wk = w[hv_P_src[k]];
+            const double *col = hv_P + (size_t)k * HV_NX + j0;
+            for (int t = 0; t < HV_BLOCK; ++t) b[t] += col[t] * wk;
+        }
+        for (int t = 0; t < HV_BLOCK; ++t) {
+            const double *row = hv_ST + (size_t)(j0 + t) * HV_NS;
+            zn[j0 + t] = b[t];
+            for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * b[t];
+        }
+    }
+    for (int j = j0; j < HV_NX; ++j) {
+        double b = hv_lam[j] * z[j];
+        for (int k = 0; k < HV_NW; ++k) b += hv_P[(size_t)k * HV_NX + j] * w[hv_P_src[k]];
         const double *row = hv_ST + (size_t)j * HV_NS;
-        for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * zj;
+        zn[j] = b;
+        for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * b;
     }
     memcpy(xsn, acc, sizeof acc);
 }
