@@ -457,7 +457,7 @@ def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
     "case, expect",
     [
         ("step", "communication step 600 s at t=0 s is not a whole multiple of the model step 900 s"),
-        ("nan", "at t=2700 s: invalid input value(s): T_out=nan"),
+        pytest.param("nan", "at t=2700 s: invalid input value(s): T_out=nan", marks=pytest.mark.slow),
         ("range", "at t=4500 s: invalid input value(s): T_out=95"),
     ],
 )
