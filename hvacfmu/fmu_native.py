@@ -111,11 +111,11 @@ def output_states(C) -> list | None:
 # ----------------------------------------------------------------------------- C header
 def _c_double(x: float) -> str:
     x = float(x)
-    if np.isnan(x):
+    if x - x == 0.0:  # finite (the common case first: headers hold hundreds of thousands of numbers)
+        return x.hex()
+    if x != x:
         raise FMUError("a model coefficient is NaN; the model cannot be exported")
-    if np.isinf(x):
-        return "HUGE_VAL" if x > 0 else "(-HUGE_VAL)"
-    return x.hex()
+    return "HUGE_VAL" if x > 0 else "(-HUGE_VAL)"
 
 
 def _c_array(ctype: str, name: str, values, fmt=str) -> str:
@@ -388,13 +388,14 @@ def export_native_fmu(
     logger.info("native FMU of %s: %s form", name, "modal" if form is not None else "physical")
     header_wo_guid = generate_header(eq, layout, M, "", form)
     guid = "{" + str(uuid.UUID(hashlib.sha256(header_wo_guid.encode()).hexdigest()[:32])) + "}"
+    header = header_wo_guid.replace('#define HV_GUID ""', f"#define HV_GUID {_c_string(guid)}", 1)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_native_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
         shutil.copyfile(RUNTIME_SOURCE, src / RUNTIME_NAME)
-        (src / HEADER_NAME).write_text(generate_header(eq, layout, M, guid, form), encoding="utf-8")
+        (src / HEADER_NAME).write_text(header, encoding="utf-8")
         xml = model_description_xml(
             layout, identifier=identifier, guid=guid, native=True, source_files=[RUNTIME_NAME], model_name=name
         )

@@ -127,7 +127,13 @@ def real_eigen(A):
     qualifies when it has real eigenvalues and a well-conditioned eigenvector
     basis.
     """
-    A = np.asarray(A, dtype=float)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):  # a few hundred states: threads only slow it down on a shared machine
+        return _real_eigen(np.asarray(A, dtype=float))
+
+
+def _real_eigen(A):
     d = symmetrizing_scale(A)
     try:
         if d is not None:
