@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import shutil
 
 import numpy as np
 import pytest
@@ -116,3 +117,42 @@ def test_physics_model_runs_in_modal_form(physics_eq):
     assert form.n_rep == 6
     assert list(form.S_state) == list(range(6))
     assert form.P.shape[1] <= 24  # T_out, 4 facades, 6 gains, 6 zone columns (T_supply only through the boxes)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler gcc")
+def test_forced_modal_c_runtime_with_map_bilinear_term_and_switch(tmp_path, monkeypatch):
+    """The C runtime's modal branch on a small extended model (forced: MODAL_ABOVE = 0) with a box map,
+    a bilinear supply-air term, a thermal-mass state and a reheat switch: two weeks in FMPy equal the
+    Python model to 1e-9 K."""
+    import pandas as pd
+    from test_fmu_native import header, signals, simulate_year, zones_model
+
+    import hvacfmu.fmu_native_modal as modal
+    from hvacfmu.emulator import sdh_building
+    from hvacfmu.fmu_native import export_native_fmu
+    from hvacfmu.models.extended import ExtendedModel, Reheat, SolarGain, SupplyAirBilinear, ThermalMass
+
+    base = zones_model(sdh_building(nominal=True))
+    A = np.asarray(base.A)
+    base = dataclasses.replace(base, A=0.5 * (A + A.T))  # symmetric: real eigenvalues (the test model's are complex)
+    z = base.outputs
+    model = ExtendedModel(
+        base=base,
+        terms=(
+            ThermalMass(zone=z[1], alpha=0.02, beta=0.05),
+            SupplyAirBilinear(zone=z[2], coef=0.02),
+            SolarGain(zone=z[4], facade="W", coef=4e-4),
+            Reheat(zone=z[5], coef=0.05, u_min=1.2, T_threshold=14.0),  # zone C: 5 boxes, summed airflow
+        ),
+    )
+    eq = model.equations()
+    assert eq.switches and eq.bilinear
+    monkeypatch.setattr(modal, "MODAL_ABOVE", 0)
+    path = export_native_fmu(model, tmp_path / "modal.fmu")
+    assert "#define HV_MODAL 1" in header(path)
+    Y, Yref = simulate_year(model, path, 2 * 672)
+    assert_allclose(Y, Yref[: len(Y)], rtol=0, atol=1e-9)  # [K]
+    assert np.ptp(Yref) > 1.0
+    idx, cols, _, _ = signals(model, 2 * 672)
+    u, v = model.signals(pd.DataFrame(cols, index=idx))
+    assert 0.1 < eq.switches[0].active(u, v).mean() < 0.9  # the reheat switch turns on and off
