@@ -4,8 +4,9 @@ A unique script and class name per FMU kind: pythonfmu names the FMU's binary
 and Python module after them, and FMUs that share a name must not run each
 other's code when loaded in one process. Built by ``hvacfmu.fmu``.
 
-All logic is in ``hvacfmu/fmu_slave.py`` (host Python environment). Its source
-is executed in this module's namespace instead of being imported, because the
+All logic is in the package ``hvacfmu.fmu_slave`` (host Python environment). The
+source of the slave classes is executed in this module's namespace instead of
+being imported (``hvacfmu.fmu_slave.define_slave``), because the
 pythonfmu 0.7.0 binary corrupts the interpreter when it frees an instance whose
 class or methods were defined in another module (measured: the slave module's
 dictionary is cleared and the next instance crashes the host).
@@ -31,15 +32,15 @@ if "_hvacfmu_slave_class" in globals():  # executed again by pythonfmu for a new
     HvacfmuPlant = _hvacfmu_slave_class  # noqa: F821 - the class made at import
 else:
     try:
-        import hvacfmu.fmu_slave as _impl
+        from hvacfmu.fmu_slave import define_slave as _define
     except ImportError as _exc:  # the host lacks hvacfmu or one of its packages: say so, do not crash
-        _impl, _missing = None, f"{type(_exc).__name__}: {_exc}"
+        _define, _missing = None, f"{type(_exc).__name__}: {_exc}"
 
-    if _impl is not None:
+    if _define is not None:
         import hvacfmu.fmu_exit as _exit
 
         _exit.install()  # pythonfmu's binary frees its interpreter state twice at exit: see hvacfmu/fmu_exit.py
-        exec(compile(_impl.source(), _impl.__file__, "exec"))  # defines PlantSlave and its bases here
+        _define(globals(), "PlantSlave")  # executes the source of PlantSlave and its bases here
     else:
         from pythonfmu import Fmi2Slave
         from pythonfmu.enums import Fmi2Status

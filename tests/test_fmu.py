@@ -424,8 +424,8 @@ def test_exception_in_slave_is_logged_with_traceback(built, tmp_path):
     model, mp, _ = built["zones"]
     script = tmp_path / "HvacfmuTestRaises.py"
     script.write_text(
-        "import hvacfmu.fmu_slave as _impl\n"
-        "exec(compile(_impl.source(), _impl.__file__, 'exec'))\n\n\n"
+        "from hvacfmu.fmu_slave import define_slave\n"
+        "define_slave(globals(), 'ZoneModelSlave')\n\n\n"
         "class HvacfmuTestRaises(ZoneModelSlave):  # noqa: F821\n"
         "    def _advance(self, current_time, step_size):\n"
         "        if current_time >= 1800.0:\n"
