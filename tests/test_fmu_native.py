@@ -389,11 +389,13 @@ def test_models_the_native_fmu_cannot_represent_are_refused(sdh, tmp_path):
     assert not list(tmp_path.iterdir())
 
 
-def test_fmpy_compile_rebuilds_the_binary_from_the_sources(native, tmp_path):
-    """The sources in the FMU are complete: FMPy's CMake build of them gives the same trajectory."""
+@pytest.mark.parametrize("kind", ["lumped", pytest.param("physics", marks=pytest.mark.slow)])
+def test_fmpy_compile_rebuilds_the_binary_from_the_sources(native, tmp_path, kind):
+    """The sources in the FMU are complete: FMPy's CMake build of them gives the same trajectory
+    (physics: the modal form)."""
     if shutil.which("cmake") is None:
         pytest.skip("cmake not available")
-    model, path = native["lumped"]
+    model, path = native[kind]
     rebuilt = tmp_path / "rebuilt.fmu"
     with zipfile.ZipFile(path) as zin, zipfile.ZipFile(rebuilt, "w") as zout:
         for item in zin.infolist():
