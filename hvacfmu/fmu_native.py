@@ -5,7 +5,8 @@ runtime ``hvacfmu_native.c`` (shipped with hvacfmu) and the generated header
 ``hvacfmu_model.h`` (the model's :class:`~hvacfmu.models.equations.ModelEquations`
 as constant tables: sparse matrices in exact hexadecimal floating point, the
 seasonal time-of-week gain tables, the box-to-input map and the variable
-layout). Both are listed in ``<SourceFiles>`` so that ``fmpy compile`` or any
+layout; a large model whose ``A`` has real eigenvalues, such as Model B, in modal
+form, :mod:`hvacfmu.fmu_native_modal`). Both are listed in ``<SourceFiles>`` so that ``fmpy compile`` or any
 FMI tool can rebuild the binary; the export compiles
 ``binaries/linux64/<modelIdentifier>.so`` with the system C compiler (``gcc``
 or ``$CC``). The variables, their value references and the run-time behaviour
