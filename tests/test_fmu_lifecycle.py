@@ -44,6 +44,8 @@ def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
+    from hvacfmu.fmu_slave.resources import SETUP_CACHE
+
     path = build_fmus(("zones",), tmp_path)["zones"]
     md = read_model_description(str(path))
     unz = extract(str(path))
@@ -60,9 +62,14 @@ def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):
         s.terminate()
         s.freeInstance()
         # the process may hold other FMUs of this kind from earlier tests (pytest-xdist workers): count entries
-        loaded.append(set(sys.modules[md.coSimulation.modelIdentifier]._SETUP_CACHE))
+        loaded.append(set(SETUP_CACHE))
     module = sys.modules[md.coSimulation.modelIdentifier]
-    assert module._hvacfmu_slave_class is getattr(module, md.coSimulation.modelIdentifier)
+    cls = module._hvacfmu_slave_class
+    assert cls is getattr(module, md.coSimulation.modelIdentifier)
+    # pythonfmu 0.7.0 needs the slave class, its bases and their methods defined in the slave module itself
+    own = [c for c in cls.__mro__ if c.__name__ in ("HvacfmuSlaveBase", "ZoneModelSlave", cls.__name__)]
+    assert len(own) == 3 and all(c.__module__ == module.__name__ for c in own), [c.__module__ for c in own]
+    assert cls.do_step.__globals__ is vars(module) and cls._advance.__globals__ is vars(module)
     assert loaded[1] == loaded[0] and loaded[2] == loaded[0]  # one model loaded for three instances
 
 
