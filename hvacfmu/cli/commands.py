@@ -221,8 +221,6 @@ def _cmd_fleet(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..models.registry import fittable_kinds
-
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -232,6 +230,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
+    for add in (
+        _add_check_parser,
+        _add_generate_parser,
+        _add_generate_fleet_parser,
+        _add_fit_parser,
+        _add_evaluate_parser,
+        _add_export_parser,
+        _add_cosim_parser,
+        _add_diagnose_parser,
+        _add_demo_parser,
+        _add_fleet_parser,
+    ):
+        add(sub)
+    return parser
+
+
+def _add_check_parser(sub) -> None:
+    """The ``check`` subcommand."""
     p = sub.add_parser(
         "check",
         help="load and validate a dataset; print coverage, gaps, seasons, split",
@@ -242,6 +258,9 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
+
+def _add_generate_parser(sub) -> None:
+    """The ``generate`` subcommand."""
     p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument(
@@ -309,12 +328,20 @@ def build_parser() -> argparse.ArgumentParser:
     add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
 
+
+def _add_generate_fleet_parser(sub) -> None:
+    """The ``generate-fleet`` subcommand."""
     p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
     p.add_argument("n", type=int, metavar="N")
     p.add_argument("outdir", metavar="DIR")
     p.add_argument("--weeks", type=int, default=51, help="length of every dataset (default 51)")
     p.add_argument("--seed", type=int, default=0, help="draws layouts, constructions, climates, effects, modes")
     p.set_defaults(func=_cmd_generate_fleet)
+
+
+def _add_fit_parser(sub) -> None:
+    """The ``fit`` subcommand."""
+    from ..models.registry import fittable_kinds
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
@@ -334,6 +361,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_fit)
 
+
+def _add_evaluate_parser(sub) -> None:
+    """The ``evaluate`` subcommand."""
     p = sub.add_parser(
         "evaluate",
         help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
@@ -363,6 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--week", type=int, help="week number of the 7-day trajectory figure (default: a spring test week)")
     p.set_defaults(func=_cmd_evaluate)
 
+
+def _add_export_parser(sub) -> None:
+    """The ``export`` subcommand."""
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
     p.add_argument("model", help="model file (JSON), or an emulator truth.json for the plant FMU")
     p.add_argument("--output", "-o", required=True, help="FMU to write")
@@ -385,6 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_export)
 
+
+def _add_cosim_parser(sub) -> None:
+    """The ``cosim`` subcommand."""
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
     try:
         from harness.cosim import add_cosim_arguments
@@ -394,6 +430,9 @@ def build_parser() -> argparse.ArgumentParser:
         add_cosim_arguments(p)
     p.set_defaults(func=_cmd_cosim)
 
+
+def _add_diagnose_parser(sub) -> None:
+    """The ``diagnose`` subcommand."""
     p = sub.add_parser("diagnose", help="find what the model gets wrong, name the cause, extend the model")
     _data_args(p)
     p.add_argument("--model", "-m", help="base model file (default: fit the six-zone Model A)")
@@ -402,12 +441,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", help="write the extended model (JSON)")
     p.set_defaults(func=_cmd_diagnose)
 
+
+def _add_demo_parser(sub) -> None:
+    """The ``demo`` subcommand."""
     p = sub.add_parser("demo", help="the paper end to end on the built-in emulated building, with a report")
     p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
     p.set_defaults(func=_cmd_demo)
+
+
+def _add_fleet_parser(sub) -> None:
+    """The ``fleet`` subcommand."""
+    from ..models.registry import fittable_kinds
 
     p = sub.add_parser("fleet", help="run check/fit/evaluate/diagnose/export over many buildings on Dask")
     p.add_argument("source", help="folder of building folders, a folder with fleet.json, or a manifest (.json/.csv)")
@@ -426,7 +473,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="model kind to fit (repeatable; default lumped and zones)",
     )
     p.set_defaults(func=_cmd_fleet)
-    return parser
 
 
 def _version():
