@@ -312,18 +312,7 @@ def check(
             f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
             "fitting needs at least one"
         )
-    exc = dataset.frame["excitation"].to_numpy() == 1
-    periods = [
-        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
-    ]
-    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
-    if not periods:
-        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
-    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
-    attention = [w for w in notes if any(k in w for k in _ATTENTION)]
-    if clock.warning:
-        notes.insert(0, f"{path.name}: clock: {clock.warning}")
-        attention.insert(0, notes[0])
+    periods, notes, clock, attention = _findings(dataset, building, path.name, report, sparse)
     return CheckReport(
         ok=not problems,
         problems=problems,
@@ -337,6 +326,24 @@ def check(
         clock=clock,
         attention=attention,
     )
+
+
+def _findings(dataset, building, name: str, report, sparse) -> tuple:
+    """Excitation periods, notes (warnings), the clock check and the warnings that need action."""
+    step_s = dataset.step
+    exc = dataset.frame["excitation"].to_numpy() == 1
+    periods = [
+        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
+    ]
+    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
+    if not periods:
+        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    attention = [w for w in notes if any(k in w for k in _ATTENTION)]
+    if clock.warning:
+        notes.insert(0, f"{name}: clock: {clock.warning}")
+        attention.insert(0, notes[0])
+    return periods, notes, clock, attention
 
 
 def _attention_label(warning: str) -> str:
