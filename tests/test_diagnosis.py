@@ -315,6 +315,27 @@ def test_fold_scores_equal_the_step_by_step_simulation(terms, zones_idx, affine)
     assert any(np.isnan(f).any() for f in fast)  # the gaps make some windows unusable
 
 
+def test_calendar_term_is_tested_on_its_active_days():
+    """A term acting on 10 of 65 days: its gain is measured on those days, not diluted by the rest."""
+    from hvacfmu.diagnosis.crossval import CVPlan, paired_test, paired_test_days
+
+    rng = np.random.default_rng(0)
+    weeks = np.repeat(np.arange(13), 5)
+    folds = np.array_split(np.arange(65), 10)
+    before = [0.3 + 0.05 * rng.random((len(f), 2)) for f in folds]
+    active = [np.isin(f, np.r_[10:15, 40:45]) for f in folds]
+    after = [b - np.where(a[:, None], 0.1 + 0.01 * rng.random(b.shape), 0.0) for b, a in zip(before, active)]
+    plan = CVPlan(folds=folds, fit_rows=[], within=[], starts=folds, week_of_start=[weeks[f] for f in folds], horizon=96)
+    days = paired_test_days(plan, before, after, active)
+    every = paired_test(plan, before, after)
+    assert days["n_days"] == 10 and days["n_folds_active"] >= 2
+    assert days["gain_percent"] > 25 and days["t"] > 20
+    assert every["gain_percent"] < days["gain_percent"] / 4  # diluted by the 11 weeks it does not act on
+    assert every["t"] < days["t"] / 5
+    none = paired_test_days(plan, before, before, [np.zeros(len(f), bool) for f in folds])
+    assert none["gain_percent"] is None
+
+
 def test_two_synthetic_effects_are_both_found():
     base = row_model()
     terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
