@@ -468,7 +468,7 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
         if zs & used:
             c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
             continue
-        if tried >= opts["max_tries"]:
+        if tried >= opts["max_tries"] and accepted:  # with nothing accepted yet, the next ones are tried
             c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
             continue
         tried += 1
