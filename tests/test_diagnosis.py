@@ -325,7 +325,9 @@ def test_calendar_term_is_tested_on_its_active_days():
     before = [0.3 + 0.05 * rng.random((len(f), 2)) for f in folds]
     active = [np.isin(f, np.r_[10:15, 40:45]) for f in folds]
     after = [b - np.where(a[:, None], 0.1 + 0.01 * rng.random(b.shape), 0.0) for b, a in zip(before, active)]
-    plan = CVPlan(folds=folds, fit_rows=[], within=[], starts=folds, week_of_start=[weeks[f] for f in folds], horizon=96)
+    plan = CVPlan(
+        folds=folds, fit_rows=[], within=[], starts=folds, week_of_start=[weeks[f] for f in folds], horizon=96
+    )
     days = paired_test_days(plan, before, after, active)
     every = paired_test(plan, before, after)
     assert days["n_days"] == 10 and days["n_folds_active"] >= 2
@@ -872,7 +874,23 @@ def _battery():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case_id", [0, 21, 22])  # row4 clean; core9 holiday weeks; row4 reheat in R1
+@pytest.mark.parametrize(
+    "case_id",
+    [
+        0,  # row4, 15 min, clean
+        13,  # core9, 15 min, holiday week + solar gain of NE's east facade
+        14,  # sdh, 5 min, solar gain + 45-min delay (9 steps)
+        21,  # core9, 15 min, holiday weeks 2 + 3
+        22,  # row4, 15 min, reheat in R1
+        pytest.param(
+            25,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="known miss: the row4 R1+R4 coupling (928 W/K) scores -0.1 % cross-validated (README battery)",
+            ),
+        ),
+    ],
+)
 def test_battery_slice(case_id):
     bat = _battery()
     case = bat.make_cases(48, 2026)[case_id]
