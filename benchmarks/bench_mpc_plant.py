@@ -4,7 +4,7 @@ For a summer, a winter and a shoulder (spring or fall) week of the default
 emulator dataset, runs ``hvacfmu cosim``'s machinery (:func:`harness.cosim.run_cosim`)
 on the plant FMU (a building that is neither model) with the rule-based PI
 controller and with MPC on Model A (six zones) and Model B (physics) at the
-given horizons; prints per run the energy proxy Σu² [(kg/s)²], the supplied
+given horizons (the harness's ``"plant"`` preset unless ``--preset paper``); prints per run the energy proxy Σu² [(kg/s)²], the supplied
 air [t], the comfort violation [K·h] outside the band, the controller's
 week time and its statistics (failures, not converged, projected moves,
 clipped box commands), then whether each MPC used less energy than the rule
@@ -13,6 +13,7 @@ with no more violation.
 Usage::
 
     python3 benchmarks/bench_mpc_plant.py [--models A B] [--horizons 12 48] [--seasons summer winter shoulder]
+        [--preset plant|paper]
 """
 
 from __future__ import annotations
@@ -69,6 +70,14 @@ def main(argv=None) -> int:
     ap.add_argument("--models", nargs="+", choices=["A", "B"], default=["A", "B"])
     ap.add_argument("--horizons", nargs="+", type=int, default=[12])
     ap.add_argument("--seasons", nargs="+", default=["summer", "winter", "shoulder"])
+    ap.add_argument(
+        "--preset",
+        choices=["plant", "paper"],
+        default="plant",
+        help="MPC options (harness.mpc.adapter.preset_options): 'plant' (default: offset-free, move "
+        "suppression, back-off) or 'paper' (the paper's problem, blocks/per-step slack/QP beyond N = 3 "
+        "not included)",
+    )
     args = ap.parse_args(argv)
     from hvacfmu.emulator import cached_dataset
     from hvacfmu.fmu import export_plant_fmu
@@ -84,11 +93,7 @@ def main(argv=None) -> int:
         rows = [("rule", rule)]
         for key, model in models.items():
             for N in args.horizons:
-                opts = {"horizon": N, "formulation": "qp"}
-                if N > 3:
-                    opts.update(blocks="auto", slack="per_step")
-                if key == "B" and N > 3:
-                    opts["linearisation"] = "newton"
+                opts = {"horizon": N, "preset": args.preset}
                 rows.append(
                     (
                         f"MPC {key} N={N}",

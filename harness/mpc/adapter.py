@@ -18,10 +18,37 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
-from .predict import state_from_outputs
+from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
 _SETTING_NAMES = {f.name for f in dataclasses.fields(MPCSettings)}
+
+#: presets of :class:`CosimMPC` (options given explicitly win)
+PRESETS = ("plant", "paper")
+
+
+def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
+    """MPC options of a preset for a horizon [steps] and a linear or bilinear model.
+
+    ``"paper"``: none (:class:`MPCSettings` defaults, the paper's problem).
+    ``"plant"`` (the harness default): what a model that is not the building
+    needs, measured on the emulator's plant FMU (``benchmarks/bench_mpc_plant.py``,
+    README "MPC"): offset-free estimation (``offset_gain=0.6``), move
+    suppression (``move_penalty=20``), a 0.4 K back-off from the band edges,
+    and for horizons over 3 steps move blocking, per-step slack and the ℓ1
+    penalty QP (a shared slack or ρ‖ε‖₂ spread slack over long horizons);
+    bilinear models up to 24 steps use the Newton linearisation.
+    """
+    if preset not in PRESETS:
+        raise HvacfmuError(f"unknown MPC preset {preset!r}; choose one of {PRESETS}")
+    if preset == "paper":
+        return {}
+    out = {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4}
+    if horizon > 3:
+        out.update(blocks="auto", slack="per_step", formulation="qp")
+        if bilinear and horizon <= 24:
+            out["linearisation"] = "newton"
+    return out
 
 
 def settings_from_options(band=None, **options) -> tuple[MPCSettings, dict]:
@@ -58,25 +85,42 @@ class CosimMPC:
     kalman_q_std, kalman_r_std : float [K]
     init : {"outputs", "model"}
         Initial estimate of hidden states (see :meth:`_initial_estimate`).
+    preset : {"plant", "paper"}
+        Defaults under the explicit options (:func:`preset_options`): ``"plant"``
+        (offset-free, move suppression, back-off; the model is not the building)
+        or ``"paper"`` (the paper's problem as stated).
     **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
     """
 
     name = "mpc"
 
     def __init__(
-        self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05, init="outputs", **options
+        self,
+        model,
+        building=None,
+        failure_dir=None,
+        kalman_q_std=0.05,
+        kalman_r_std=0.05,
+        init="outputs",
+        preset="plant",
+        **options,
     ):
         if init not in ("outputs", "model"):
             raise HvacfmuError(f"init must be 'outputs' or 'model', got {init!r}")
         self.init = init
+        self.preset = preset
         self.model = model
         self.building = building
         self.failure_dir = failure_dir
         self.kalman = (float(kalman_q_std), float(kalman_r_std))
         self.options = dict(options)
-        self.settings, unknown = settings_from_options(**self.options)
+        _, unknown = settings_from_options(**self.options)
         if unknown:
             raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
+        horizon = int(self.options.get("horizon", MPCSettings.horizon))
+        bilinear = not make_predictor(model).linear
+        self.options = {**preset_options(preset, horizon, bilinear), **self.options}
+        self.settings, _ = settings_from_options(**self.options)
         self.mpc = None
 
     # ----- protocol ------------------------------------------------------

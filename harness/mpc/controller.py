@@ -140,23 +140,53 @@ class MPCController:
         self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
         self._plan = None
         self._last = None  # (u, v, q) applied at the previous step
+        self._x_last = None  # state estimate of the previous step (Model A: its measured outputs)
+        self._pinv_C = None
+        self.pred.offset = None  # offset-free MPC: the drift is estimated again from the start
         if self.kf is not None:
             self.kf.x = None if x0 is None else np.asarray(x0, dtype=float)
         self._x0 = None if x0 is None else np.asarray(x0, dtype=float)
 
     def estimate(self, y, v, q) -> np.ndarray:
-        """State estimate from the measured outputs y (ny,) [°C]."""
+        """State estimate from the measured outputs y (ny,) [°C].
+
+        With ``settings.offset_gain`` g > 0 (offset-free MPC), the one-step
+        prediction error ``e = y - C x̂(k|k-1)`` (the prediction already
+        carrying the current drift) updates an integrating disturbance
+        ``d += g C⁺ e`` [K/step] on the measured nodes, which the predictor adds
+        to every step of the horizon (:attr:`AffinePredictor.offset`): a
+        constant model bias (heat the model does not know, a wrong gain at the
+        operating point) is then removed in steady state instead of showing up
+        as a steady violation of the band.
+        """
         y = np.asarray(y, dtype=float)
+        g = float(self.settings.offset_gain)
         if self.kf is None:  # the state is the measured output (Model A)
+            if g > 0.0 and self._last is not None and self._x_last is not None:
+                self._update_offset(y - self.pred.C @ self.pred.step(self._x_last, *self._last), g)
+            self._x_last = y.copy()
             return y.copy()
         if self.kf.x is None:
             self.kf.initialise(y, v, q, self.u_min)
         elif self._last is not None:
             self.kf.predict(*self._last)
+            if g > 0.0:
+                self._update_offset(y - self.pred.C @ self.kf.x, g)
             self.kf.correct(y)
         else:
             self.kf.correct(y)
         return self.kf.x.copy()
+
+    def _update_offset(self, e, g):
+        if self._pinv_C is None:
+            self._pinv_C = np.linalg.pinv(self.pred.C)
+        d = np.zeros(self.pred.nx) if self.pred.offset is None else self.pred.offset
+        self.pred.offset = d + g * (self._pinv_C @ e)
+
+    @property
+    def offset(self) -> np.ndarray:
+        """The estimated drift (nx,) [K/step] of offset-free MPC (zeros when off)."""
+        return np.zeros(self.pred.nx) if self.pred.offset is None else self.pred.offset.copy()
 
     # ----- one step --------------------------------------------------------
     def step(self, y, V, Qg) -> np.ndarray:
@@ -237,6 +267,7 @@ class MPCController:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
                 self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+            self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
                 self._keep_failure(y0, x0, V, Qg)
@@ -266,6 +297,7 @@ class MPCController:
                     self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
                 else:
                     self._problem.update_G(G)
+            self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             solve_time += sol.solve_time
             if not sol.found:
@@ -310,9 +342,19 @@ class MPCController:
         eps = exc.max(axis=0) if s.slack == "shared" else exc.ravel()
         pen = float(np.linalg.norm(eps)) if s.formulation == "socp" else float(eps.sum())
         Y = X[1:] @ self.pred.C.T
-        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - s.T_max, s.T_min - Y))))
+        lo, hi = s.band
+        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - hi, lo - Y))))
         weight = s.comfort_penalty if s.comfort_penalty is not None else 1e6
-        return float(np.sum(U**2)) + s.rho * pen + weight * viol
+        move = 0.0
+        if s.move_penalty > 0.0:
+            Ub = U[_block_starts(self.lengths)]
+            prev = self._u_prev()[None]
+            move = s.move_penalty * float(np.sum(np.diff(np.vstack([prev, Ub]), axis=0) ** 2))
+        return float(np.sum(U**2)) + s.rho * pen + weight * viol + move
+
+    def _u_prev(self) -> np.ndarray:
+        """The move applied at the previous step (the lower limits before the first step), for the move penalty."""
+        return self._last[0] if self._last is not None else np.clip(np.zeros(self.pred.nu), self.u_min, self.u_max)
 
     def _failed_plan(self, sol, it, solve_time=None):
         nan = np.full((self.N + 1, self.pred.nx), np.nan)
