@@ -164,7 +164,8 @@ def test_presets_and_explicit_options():
     assert p3 == {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4}
     p12 = preset_options("plant", 12, True)
     assert p12["blocks"] == "auto" and p12["slack"] == "per_step" and p12["linearisation"] == "newton"
-    assert "linearisation" not in preset_options("plant", 48, True)  # reduced model: frozen iteration
+    p48 = preset_options("plant", 48, True)  # reduced model: one frozen iteration per step
+    assert "linearisation" not in p48 and p48["max_iter"] == 1
     with pytest.raises(HvacfmuError, match="unknown MPC preset"):
         preset_options("fast", 12, False)
     ctrl = cosim_controller(linear_model(), None, horizon=12, back_off=0.1)

@@ -37,7 +37,9 @@ def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
     suppression (``move_penalty=20``), a 0.4 K back-off from the band edges,
     and for horizons over 3 steps move blocking, per-step slack and the ℓ1
     penalty QP (a shared slack or ρ‖ε‖₂ spread slack over long horizons);
-    bilinear models up to 24 steps use the Newton linearisation.
+    bilinear models up to 24 steps use the Newton linearisation, longer horizons
+    (reduced-order prediction) one convex iteration per step (real-time
+    iteration: the first step is exact, the plan is refined at the next steps).
     """
     if preset not in PRESETS:
         raise HvacfmuError(f"unknown MPC preset {preset!r}; choose one of {PRESETS}")
@@ -48,6 +50,8 @@ def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
         out.update(blocks="auto", slack="per_step", formulation="qp")
         if bilinear and horizon <= 24:
             out["linearisation"] = "newton"
+        elif bilinear:  # reduced-order prediction: one convex iteration per step (real-time iteration)
+            out["max_iter"] = 1
     return out
 
 
