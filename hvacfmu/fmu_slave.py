@@ -1270,6 +1270,7 @@ def plant_layout(plant, truth: dict) -> dict:
             (0, 1),
         )
     )
+    var += plant_discharge_entries(plant)
     start = truth.get("start", "?")
     return {
         "slave_api": SLAVE_API_VERSION,
@@ -1292,12 +1293,45 @@ def plant_layout(plant, truth: dict) -> dict:
 PLANT_STEP = 60.0
 
 
+# ----- plant: discharge air commands (issue 13 p.3; kept apart from the rest of the plant slave)
+def plant_discharge_entries(plant) -> list:
+    """Optional inputs ``Td_<vav>`` [degC] of the plant FMU: the discharge air each box heats its supply air to.
+
+    Appended after every other variable (earlier value references unchanged). The start value 0 degC
+    (below any supply air) means no reheat by this input: a box whose ``Td_`` is not set discharges at
+    its unit's supply temperature, as the plant did before these inputs existed.
+    """
+    return [
+        _entry(
+            "td",
+            sanitize_name(f"Td_{b}"),
+            "Real",
+            "input",
+            0.0,
+            "degC",
+            f"Discharge air temperature command of VAV box {b} [degC]: the box reheats its supply air to it "
+            "(m c_p (Td - T_supply)); at or below the supply temperature (default 0): no reheat",
+            BOUNDS["degC"],
+        )
+        for b in plant.vavs
+    ]
+
+
+def plant_discharge_reheat(plant, values, td_vrs, m, T_supply):
+    """Reheat power [W] per box from the ``Td_`` inputs (None when every one is at or below its supply air)."""
+    Td = np.array([values[vr] for vr in td_vrs], dtype=float)
+    if not Td.size or np.all(Td <= np.min(T_supply)):
+        return None
+    return plant.discharge_reheat(m, T_supply, Td)
+
+
 class PlantSlave(HvacfmuSlaveBase):
     """FMU slave of the emulated building (``resources/truth.json``).
 
     Inputs ``m_<vav>`` [kg/s] for every box, ``T_out``, ``T_supply`` [°C],
     ``I_N`` ... ``I_W`` [W/m²], optional ``ghi`` [W/m²] (facades from it
-    when >= 0) and ``excitation`` (0/1); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
+    when >= 0), ``excitation`` (0/1) and ``Td_<vav>`` [°C] (discharge air
+    commands, :func:`plant_discharge_entries`; unset: no reheat); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
     [°C], ``local_reheat`` (0/1). FMU time is seconds since the dataset start.
     """
 
@@ -1357,6 +1391,7 @@ class PlantSlave(HvacfmuSlaveBase):
         self._run = self.plant.with_local_reheat(bool(v[rh_vr]))
         (self._ghi_vr,) = self.vrs_with_role("ghi")
         (self._exc_vr,) = self.vrs_with_role("exc")
+        self._td_vrs = self.vrs_with_role("td")
         self._x = self._run.initial_state(np.asarray(y0, dtype=float))
         self._t = self._t_start
         for vr, val in zip(self._y_vrs, self.plant.zone_temperatures(self._x).tolist()):
@@ -1380,14 +1415,16 @@ class PlantSlave(HvacfmuSlaveBase):
         t, dt = round(current_time / PLANT_STEP) * PLANT_STEP, round(n) * PLANT_STEP
         ghi = values[self._ghi_vr]
         irr = self._run.facades_from_ghi(t, dt, ghi) if ghi >= 0 else np.array(w[2:6], dtype=float)
+        m = np.array(self._get_m(values), dtype=float)
         x, T = self._run.advance(
             self._x,
             t,
             dt,
-            np.array(self._get_m(values), dtype=float),
+            m,
             w[0],
             w[1],
             irr,
+            reheat=plant_discharge_reheat(self._run, values, self._td_vrs, m, w[1]),
             excitation=values[self._exc_vr] >= 0.5,
         )
         self._x = x
