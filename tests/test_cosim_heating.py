@@ -126,3 +126,60 @@ def test_rule_heats_with_a_vav_reheat_sequence(plant_fmu, short_data):
     # the old rule can only add (cold) air: the band is out of reach; the sequence holds it far better
     assert rule.summary["comfort_violation_Kh"] < 0.25 * old.summary["comfort_violation_Kh"]
     assert old.summary["heating_kWh"] == 0.0
+
+
+# ---------------------------------------------------------------------------
+# MPC deciding the reheat (harness.mpc.heating)
+# ---------------------------------------------------------------------------
+def test_model_a_heat_gain_from_its_airflow_gain(short_data):
+    """Model A knows only the airflow gain B [K/step per kg/s]; a kW of reheat is B / (c_p ΔT_ref) with
+    ΔT_ref the data's median supply-zone difference, and the groups are each zone's boxes."""
+    from harness.mpc.heating import discharge_commands, heat_plan
+    from hvacfmu.models.datadriven import fit_zones
+
+    model = fit_zones(short_data)
+    b = short_data.building
+    vavs = b.vav_names
+    frame = short_data.frame
+    heated, plan, names = heat_plan(model, b, vavs, vavs, np.full(len(vavs), 35.0), frame)
+    dT = np.nanmedian(frame[["T_supply"]].to_numpy() - frame[[f"T_{z}" for z in model.measured_zones]].to_numpy())
+    assert_allclose(plan.G, np.asarray(model.B) * 1000.0 / (CP_AIR * dT), rtol=1e-12, atol=0)
+    assert np.all(np.diag(plan.G) > 0.0)  # reheat warms its own zone
+    assert [sorted(vavs[i] for i in g) for g in plan.groups] == [sorted(v.name for v in b.vavs_of(z)) for z in names]
+    eq = heated.equations()
+    assert eq.inputs[-len(names) :] == tuple(f"h_{z}" for z in names)
+    # the plan's reheat at minimum airflow: h_max reached exactly at the heating limit
+    m_min = np.array([v.m_min for v in b.vavs])
+    Td = discharge_commands(plan, plan.limits(14.0), m_min, 14.0, np.arange(len(vavs)))
+    assert_allclose(Td, 35.0, rtol=0, atol=1e-9)
+    assert_allclose(discharge_commands(plan, np.zeros(len(names)), m_min, 14.0, [0, 1]), 14.0, rtol=0, atol=0)
+
+
+def test_mpc_heats_through_discharge_air(plant_fmu, short_data):
+    """Model A's MPC on the plant FMU with a band that needs heat: it decides the discharge air (between
+    the supply air and the limit) and holds the band far better than the same MPC with airflow only."""
+    from harness.cosim import make_controller
+    from hvacfmu.models.datadriven import fit_zones
+
+    model = fit_zones(short_data)
+    span = day_span(short_data)
+    runs = {
+        heating: run_cosim(
+            plant_fmu,
+            short_data,
+            make_controller("mpc", model, short_data.building, {"horizon": 12, "heating": heating}),
+            model=model,
+            band=BAND,
+            **span,
+        )
+        for heating in (True, False)
+    }
+    hot, cold = runs[True], runs[False]
+    assert hot.summary["controller_stats"]["failures"] == 0
+    vavs = short_data.building.vav_names
+    t = hot.table.iloc[:-1]
+    Td, Ts = t[[f"Td_{v}" for v in vavs]].to_numpy(), t[["T_supply"]].to_numpy()
+    assert np.all(Td >= Ts - 1e-12) and np.all(Td <= DEFAULT_T_DISCHARGE_MAX + 1e-9)
+    assert hot.summary["heating_kWh"] > 0.0 and cold.summary["heating_kWh"] == 0.0
+    assert hot.summary["comfort_violation_Kh"] < 0.25 * cold.summary["comfort_violation_Kh"]
+    assert f"Td_{vavs[0]}" not in cold.table

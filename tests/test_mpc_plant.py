@@ -173,3 +173,21 @@ def test_presets_and_explicit_options():
     assert ctrl.settings.block_lengths == (1, 1, 2, 4, 4)
     paper = cosim_controller(linear_model(), None, horizon=12, preset="paper")
     assert (paper.settings.offset_gain, paper.settings.move_penalty, paper.settings.back_off) == (0.0, 0.0, 0.0)
+
+
+def test_input_weights_plan_is_kkt_optimal():
+    """Per-input cost weights (reheat inputs get their own): the plan is the certified optimum of Σ w_i u_i²."""
+    N, w = 3, np.array([1.0, 0.2, 5.0])
+    x0 = np.array([22.4, 21.0, 21.8])
+    V, Q = linear_preview(N, seed=4)
+    s = MPCSettings(horizon=N, formulation="qp", comfort_penalty=None)
+    plan = MPCController(linear_model(), LIN_UMIN, LIN_UMAX, s, input_weights=w).plan(x0, V, Q)
+    assert plan.found and np.max(np.abs(plan.eps)) <= FEAS_TOL
+    cons = linear_constraints(x0, V, Q, N)
+    infeas, stat, _ = kkt_certificate(
+        plan.U.ravel(), lambda z: 2 * np.tile(w, N) * z, cons, lambda z: jacobian(cons, z)
+    )
+    assert infeas <= FEAS_TOL and stat <= 1e-5, (infeas, stat)
+    assert_allclose(plan.obj, np.sum(w * plan.U**2), rtol=1e-7, atol=0)
+    with pytest.raises(SolverError, match="input weights"):
+        MPCController(linear_model(), LIN_UMIN, LIN_UMAX, s, input_weights=[1.0, 0.0, 1.0]).plan(x0, V, Q)

@@ -18,6 +18,7 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
+from .heating import HEAT_WEIGHT, discharge_commands, heat_plan
 from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
@@ -89,6 +90,10 @@ class CosimMPC:
     kalman_q_std, kalman_r_std : float [K]
     init : {"outputs", "model"}
         Initial estimate of hidden states (see :meth:`_initial_estimate`).
+    heating : bool
+        Where the plant takes discharge air commands (``context.discharge``), decide
+        a reheat per box (or per zone for Model A) as well (:mod:`harness.mpc.heating`);
+        ``False`` commands airflows only.
     preset : {"plant", "paper"}
         Defaults under the explicit options (:func:`preset_options`): ``"plant"``
         (offset-free, move suppression, back-off; the model is not the building)
@@ -107,12 +112,14 @@ class CosimMPC:
         kalman_r_std=0.05,
         init="outputs",
         preset="plant",
+        heating=True,
         **options,
     ):
         if init not in ("outputs", "model"):
             raise HvacfmuError(f"init must be 'outputs' or 'model', got {init!r}")
         self.init = init
         self.preset = preset
+        self.heating = bool(heating)
         self.model = model
         self.building = building
         self.failure_dir = failure_dir
@@ -133,14 +140,26 @@ class CosimMPC:
         self.settings, _ = settings_from_options(band=context.band, **self.options)
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
+        self.n_air = u_min.size
+        controlled, weights, self.heat = model, None, None
+        if self.heating and context.discharge:
+            controlled, self.heat, _ = heat_plan(
+                model, building, context.vavs, context.discharge, context.heating_limits(), context.frame
+            )
+            T_ref = float(np.nanmedian(context.frame["T_supply"].to_numpy(float)))
+            h_max = self.heat.limits(T_ref)  # [kW] at the run's median supply air (applied: clipped per box)
+            u_min, u_max = np.concatenate([u_min, np.zeros_like(h_max)]), np.concatenate([u_max, h_max])
+            weights = np.concatenate([np.ones(self.n_air), np.full(h_max.size, HEAT_WEIGHT)])
+            self._td_boxes = [list(context.vavs).index(b) for b in context.discharge]
         self.mpc = MPCController(
-            model,
+            controlled,
             u_min,
             u_max,
             self.settings,
             kalman_q_std=self.kalman[0],
             kalman_r_std=self.kalman[1],
             failure_dir=self.failure_dir,
+            input_weights=weights,
         )
         N = self.mpc.N
         frame = context.frame
@@ -182,13 +201,20 @@ class CosimMPC:
         y0 = model.measured_outputs(row)[0]
         if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
             return None  # gaps at the start: the controller's own steady-state initialisation
-        return state_from_outputs(self.mpc.pred, y0, u[0], v[0], self.Q[0])
+        u0 = np.concatenate([u[0], np.zeros(self.mpc.pred.nu - u.shape[1])])  # no reheat
+        return state_from_outputs(self.mpc.pred, y0, u0, v[0], self.Q[0])
 
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
         y_model = self._W @ y
         u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N])
-        return self.limiter(self._split_offset + self._split @ u)
+        m = self.limiter(self._split_offset + self._split @ u[: self.n_air])
+        if self.heat is None:
+            return m
+        T_supply = (
+            float(v["T_supply"]) if "T_supply" in v else float(self.V[k, self.model.disturbances.index("T_supply")])
+        )
+        return np.concatenate([m, discharge_commands(self.heat, u[self.n_air :], m, T_supply, self._td_boxes)])
 
     def stats(self) -> dict:
         """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""
@@ -232,7 +258,7 @@ class CosimMPC:
         vavs = list(context.vavs)
         m_min, m_max = context.box_limits()
         model = self.model
-        nu = self.mpc.pred.nu
+        nu = self.n_air
         S = np.zeros((len(vavs), nu))
         off = np.zeros(len(vavs))
         mapped = input_mapping(model)

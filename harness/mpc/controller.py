@@ -93,6 +93,8 @@ class MPCController:
     failure_dir : path or None
         Where failed problems are saved as ``failure_<step>.npz``; ``None``
         keeps them in :attr:`failed_problems`.
+    input_weights : array (n_inputs,) or None
+        Cost weight of each input (default ones, the paper's ``Σ ||u||²``).
     """
 
     name = "mpc"
@@ -107,6 +109,7 @@ class MPCController:
         kalman_q_std=0.05,
         kalman_r_std=0.05,
         failure_dir=None,
+        input_weights=None,
     ):
         self.model = model
         self.settings = settings or MPCSettings()
@@ -117,6 +120,7 @@ class MPCController:
             raise ModelError(
                 f"input limits have {self.u_min.size}/{self.u_max.size} entries, model has {self.pred.nu} inputs"
             )
+        self.weights = np.ones(self.pred.nu) if input_weights is None else np.asarray(input_weights, float).ravel()
         self.lengths = np.asarray(self.settings.block_lengths)
         self.N = int(self.lengths.sum())
         self.bilinear = not self.pred.linear
@@ -266,7 +270,7 @@ class MPCController:
         if not self.bilinear:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
             self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
@@ -287,14 +291,14 @@ class MPCController:
                 if self._problem is None:
                     rom = self.pred.reduced_model(s.rom_tol)
                     self._problem = ReducedProblem(
-                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s
+                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s, self.weights
                     )
                 else:
                     self._problem.update_blocks(beta, theta)
             else:
                 y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
                 if self._problem is None:
-                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
                 else:
                     self._problem.update_G(G)
             self._problem.set_previous(self._u_prev())
@@ -349,8 +353,8 @@ class MPCController:
         if s.move_penalty > 0.0:
             Ub = U[_block_starts(self.lengths)]
             prev = self._u_prev()[None]
-            move = s.move_penalty * float(np.sum(np.diff(np.vstack([prev, Ub]), axis=0) ** 2))
-        return float(np.sum(U**2)) + s.rho * pen + weight * viol + move
+            move = s.move_penalty * float(np.sum(self.weights * np.diff(np.vstack([prev, Ub]), axis=0) ** 2))
+        return float(np.sum(self.weights * U**2)) + s.rho * pen + weight * viol + move
 
     def _u_prev(self) -> np.ndarray:
         """The move applied at the previous step (the lower limits before the first step), for the move penalty."""

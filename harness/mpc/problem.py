@@ -120,7 +120,8 @@ class MPCSettings:
         ``"per_step"`` gives every step (block) its own slack, with
         ``||eps||`` taken over all steps.
     move_penalty : float [1/(kg/s)²]
-        Weight ``w`` of ``w Σ_j ||u_b(j) - u_b(j-1)||²`` over the blocked moves,
+        Weight ``w`` of ``w Σ_j ||u_b(j) - u_b(j-1)||²`` over the blocked moves (each input scaled by
+        its cost weight),
         ``u_b(-1)`` the move applied at the previous step (move suppression).
         0 (default) is the paper's cost. A model whose airflow gain is smaller
         than the plant's makes an unpenalised plan swing between the limits
@@ -273,7 +274,7 @@ class _MPCProblem:
 
     n_extra = 0
 
-    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=()):
+    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None):
         self.settings = settings
         self.lengths = np.asarray(settings.block_lengths)
         self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
@@ -301,12 +302,15 @@ class _MPCProblem:
         self.i_x = self.i_y + nY
         self.nz = self.i_x + self.n_extra
         pdiag = np.zeros(self.nz)
-        pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu)
+        self.weights = np.ones(nu) if weights is None else np.asarray(weights, dtype=float).ravel()
+        if self.weights.shape != (nu,) or not np.all(self.weights > 0.0):
+            raise SolverError(f"input weights must be {nu} positive numbers, got {self.weights!r}")
+        pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu) * np.tile(self.weights, self.nb)
         self.P = sparse.diags(pdiag, format="csc")
         self.w_move = float(settings.move_penalty)
         if self.w_move > 0.0:  # w Σ ||u_b(j) - u_b(j-1)||², u_b(-1) = the previous move (linear term, set_previous)
             D = sparse.eye(self.nb) - sparse.eye(self.nb, k=-1)
-            PU = 2.0 * self.w_move * sparse.kron(D.T @ D, sparse.eye(nu))
+            PU = 2.0 * self.w_move * sparse.kron(D.T @ D, sparse.diags(self.weights))
             self.P = (self.P + sparse.block_diag([PU, sparse.csc_matrix((self.nz - nU, self.nz - nU))])).tocsc()
         self.q = np.zeros(self.nz)
         if self.socp:
@@ -328,8 +332,8 @@ class _MPCProblem:
         if self.w_move <= 0.0:
             return
         u_prev = np.asarray(u_prev, dtype=float).ravel()
-        self.q[: self.nu] = -2.0 * self.w_move * u_prev
-        self._move_const = self.w_move * float(u_prev @ u_prev)
+        self.q[: self.nu] = -2.0 * self.w_move * self.weights * u_prev
+        self._move_const = self.w_move * float(self.weights @ u_prev**2)
         self._q_changed = True
 
     # ----- assembly ------------------------------------------------------
@@ -524,6 +528,9 @@ class CondensedProblem(_MPCProblem):
     ny : int
         Number of outputs.
     settings : MPCSettings
+    weights : array (nu,) or None
+        Weight of each input in the cost ``Σ_k Σ_i w_i u_i(k)²`` (default ones: the paper's ``Σ ||u||²``;
+        reheat inputs [kW] get their own, :mod:`harness.mpc.heating`).
 
     Notes
     -----
@@ -532,9 +539,9 @@ class CondensedProblem(_MPCProblem):
     dense block and was 4x slower with clarabel at N = 96.)
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings):
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None):
         G = np.asarray(G, dtype=float)
-        super().__init__(u_min, u_max, ny, settings)
+        super().__init__(u_min, u_max, ny, settings, weights=weights)
         if G.shape != (self.N * self.ny, self.nb * self.nu):
             raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         self.G = G
@@ -578,16 +585,16 @@ class ReducedProblem(_MPCProblem):
     ----------
     Ar : array (nr,) diagonal or (nr, nr);  Br : (nr, r);  Cr : (ny, nr);  D0 : (ny, r)
     beta : array (N, r, nu);  theta : array (N, r, nr) or None
-    u_min, u_max, settings : as :class:`CondensedProblem`
+    u_min, u_max, settings, weights : as :class:`CondensedProblem`
     """
 
-    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings):
+    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None):
         self.Ar, self.Br = np.asarray(Ar, float), np.asarray(Br, float)
         self.Cr, self.D0 = np.asarray(Cr, float), np.asarray(D0, float)
         self.nr, self.r = self.Br.shape
         self.has_theta = theta is not None
         self.n_extra = settings.horizon * (self.nr + self.r)
-        super().__init__(u_min, u_max, self.Cr.shape[0], settings)
+        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights)
         self._beta = np.asarray(beta, float)
         self._theta = None if theta is None else np.asarray(theta, float)
         self._check_blocks(beta=self._beta, theta=self._theta)
