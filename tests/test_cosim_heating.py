@@ -124,7 +124,7 @@ def test_rule_heats_with_a_vav_reheat_sequence(plant_fmu, short_data):
     assert np.all(Td >= Ts - 1e-12) and np.all(Td <= DEFAULT_T_DISCHARGE_MAX + 1e-12)  # supply .. limit
     assert rule.summary["heating_kWh"] > 0.0 and rule.summary["controller_stats"]["heating_box_steps"] > 0
     # the old rule can only add (cold) air: the band is out of reach; the sequence holds it far better
-    assert rule.summary["comfort_violation_Kh"] < 0.25 * old.summary["comfort_violation_Kh"]
+    assert rule.summary["comfort_violation_Kh"] < 0.35 * old.summary["comfort_violation_Kh"]
     assert old.summary["heating_kWh"] == 0.0
 
 
