@@ -319,12 +319,10 @@ def _stage_mpc(out, ds, r, horizon):
         options = {"horizon": horizon} if ctrl == "mpc" else {}
         try:
             controller = make_controller(ctrl, model, b, options)
-            # on the plant, the boxes' local reheat loops stay on for every supervisory controller, as in
-            # the building the data come from (the replay sets this itself)
-            start_values = {"local_reheat": 1} if fmu == r["fmus"].get("plant", {}).get("path") else None
-            result = run_cosim(
-                fmu, ds, controller, week=week.number, model=model, allow_partial=True, start_values=start_values
-            )
+            # on the plant, the rule and the MPCs heat through the boxes' discharge air commands (Td_<vav>);
+            # only the replay keeps the boxes' own reheat loops (it sets local_reheat itself): both at once
+            # would heat twice
+            result = run_cosim(fmu, ds, controller, week=week.number, model=model, allow_partial=True)
         except Exception as exc:  # noqa: BLE001 - one failed run must not hide the others
             traceback.print_exc(file=sys.stderr)
             res["errors"][run_label] = f"{type(exc).__name__}: {exc}"

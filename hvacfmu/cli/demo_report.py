@@ -208,8 +208,8 @@ def _section_mpc(rep, r, figs, paper_figures):
         "move blocking and per-step slack beyond 3 steps). As in the paper, each "
         "model's MPC runs against that model's own FMU; beyond the paper, each MPC also controls the emulator's plant "
         "FMU (a building that is neither model) with state feedback every step, next to the replay of measured "
-        "airflows and a rule-based PI controller; there the boxes' local reheat loops stay active under every "
-        "controller, and each run starts after a week of warm-up on measured data. All runs go through the FMPy "
+        "airflows and a rule-based PI controller; there the rule (a VAV reheat sequence) and the MPCs also "
+        "command each box's discharge air (reheat), the replay keeps the boxes' own reheat loops, and each run starts after a week of warm-up on measured data. All runs go through the FMPy "
         "co-simulation harness."
     )
     rows = {}
