@@ -511,6 +511,34 @@ def test_plant_fmu_matches_plant(plant_fmu, short_paths, fmu_data):
     assert_allclose(Y, np.array(Yref), rtol=0, atol=EXACT)
 
 
+def test_plant_fmu_bounds_come_from_the_emulated_building(plant_fmu, short_paths):
+    """Plant airflow inputs: 0..1.2 x m_max, nominal m_max, box and zone named; temperatures in plausible ranges."""
+    from fmpy import read_model_description
+
+    truth = json.loads(Path(short_paths.truth).read_text())
+    names = {v.name: v for v in read_model_description(str(plant_fmu)).modelVariables}
+    boxes = truth["baseline"]["building"]["vavs"]
+    for box in boxes:
+        v = names[f"m_{box['name']}"]
+        assert float(v.min) == 0.0 and float(v.max) == pytest.approx(1.2 * box["m_max"], rel=1e-12)
+        assert float(v.nominal) == box["m_max"]
+        assert f"VAV box {box['name']} serving zone {box['zone']}" in v.description
+    assert (float(names["T_out"].min), float(names["T_out"].max)) == (-60.0, 60.0)
+    assert (float(names["T_supply"].min), float(names["T_supply"].max)) == (0.0, 80.0)
+    for z in truth["baseline"]["building"]["zones"]:
+        start = names[f"T_{z['name']}_start"]
+        assert (float(start.min), float(start.max)) == (-40.0, 60.0) and z["name"] in start.description
+    s = Slave(plant_fmu)  # the plant refuses an airflow above its bound, naming it
+    try:
+        s.init()
+        s.fmu.setReal([s.vr[f"m_{boxes[0]['name']}"]], [1.3 * boxes[0]["m_max"]])
+        with pytest.raises(Exception, match="discard|fatal"):
+            s.fmu.doStep(0.0, 900.0)
+        assert any(f"m_{boxes[0]['name']}=" in msg and "invalid input" in msg for _, _, msg in s.log)
+    finally:
+        s.close()
+
+
 def test_fmpy_command_line(built, fmu_data, tmp_path):
     """`fmpy info` and `fmpy simulate --input-file ... --output-interval 900` as a user would run them."""
     model, _, path = built["zones"]
