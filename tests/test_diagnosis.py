@@ -894,7 +894,7 @@ def _battery():
 def test_battery_slice(case_id):
     bat = _battery()
     case = bat.make_cases(48, 2026)[case_id]
-    assert case["layout"] in ("row4", "core9")
+    assert case["layout"] in ("row4", "core9", "sdh")
     r = bat.run_case(case, weeks=16)
     assert r["unsupported"] == [], f"false finding(s) on {case}: {r['unsupported']}"
     assert r["missed"] == [], f"missed on {case}: {r['missed']}"
