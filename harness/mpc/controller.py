@@ -139,6 +139,7 @@ class MPCController:
         self.plans = []
         self.failed_problems = []
         self.n_failures = 0
+        self.n_frozen_fallbacks = 0  # solves whose full (newton) linearisation failed and the frozen one was used
         self.n_projected = 0  # steps whose planned move left [u_min, u_max] (softened limits) and was projected
         self.projected_max = 0.0  # [kg/s] largest projected difference of one input
         self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
@@ -284,26 +285,14 @@ class MPCController:
         Xbar = self.pred.simulate(x0, Ubar, V, Qg)
         solve_time, best, converged, it, last_delta, last_step = 0.0, None, False, 0, np.inf, None
         for it in range(1, s.max_iter + 1):
-            if self.reduced:
-                y0, beta, theta = self.pred.reduced_prediction(
-                    x0, V, Qg, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation, tol=s.rom_tol
-                )
-                if self._problem is None:
-                    rom = self.pred.reduced_model(s.rom_tol)
-                    self._problem = ReducedProblem(
-                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s, self.weights
-                    )
-                else:
-                    self._problem.update_blocks(beta, theta)
-            else:
-                y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
-                if self._problem is None:
-                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
-                else:
-                    self._problem.update_G(G)
-            self._problem.set_previous(self._u_prev())
-            sol = self._problem.solve(y0)
+            sol, y0 = self._solve_linearised(x0, V, Qg, Xbar, Ubar, s.linearisation)
             solve_time += sol.solve_time
+            if not sol.found and s.linearisation == "newton":
+                # the full linearisation can be ill-conditioned (solver: numerical error); the frozen one is
+                # the paper's and always convex: solve that instead, and count it
+                sol, y0 = self._solve_linearised(x0, V, Qg, Xbar, Ubar, "frozen")
+                solve_time += sol.solve_time
+                self.n_frozen_fallbacks += 1
             if not sol.found:
                 self._keep_failure(y0, x0, V, Qg)
                 break
@@ -330,6 +319,27 @@ class MPCController:
         return Plan(
             True, sol.status, sol.U, sol.eps, X, X @ self.pred.C.T, sol.obj, it, converged, solve_time, merit=merit
         )
+
+    def _solve_linearised(self, x0, V, Qg, Xbar, Ubar, mode):
+        """Solve the convex problem linearised around ``(Xbar, Ubar)`` (``mode``: frozen or newton); (solution, y0)."""
+        s = self.settings
+        if self.reduced:
+            y0, beta, theta = self.pred.reduced_prediction(x0, V, Qg, Xbar=Xbar, Ubar=Ubar, mode=mode, tol=s.rom_tol)
+            if self._problem is None:
+                rom = self.pred.reduced_model(s.rom_tol)
+                self._problem = ReducedProblem(
+                    rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s, self.weights
+                )
+            else:
+                self._problem.update_blocks(beta, theta)
+        else:
+            y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=mode)
+            if self._problem is None:
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
+            else:
+                self._problem.update_G(G)
+        self._problem.set_previous(self._u_prev())
+        return self._problem.solve(y0), y0
 
     def merit(self, U, X) -> float:
         """The problem's cost of moves U (N, nu) evaluated on the exact model trajectory X (N+1, nx).
@@ -396,6 +406,7 @@ class MPCController:
         return {
             "steps": len(self.plans),
             "failures": self.n_failures,
+            "frozen_fallbacks": self.n_frozen_fallbacks,
             "not_converged": int(sum(1 for p in self.plans if p.found and not p.converged)),
             "projected_steps": self.n_projected,
             "projected_max": self.projected_max,
