@@ -976,3 +976,30 @@ def test_extended_model_own_equations_drive_the_mpc():
     bad = ExtendedModel(base=base, terms=(ActuationDelay(zone="A", delay=1), Reheat(zone="A", coef=0.3, u_min=0.1)))
     with pytest.raises(ModelError, match="delayed airflow.*probing"):
         MPCController(bad, LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3))
+
+
+def test_failed_newton_solve_falls_back_to_the_frozen_linearisation(rc_small, monkeypatch):
+    """A QP of the full linearisation that the solver cannot solve is replaced by the frozen one, counted.
+
+    The failure is forced here (a solver 'NumericalError' on every newton solve); the plan must then be the
+    frozen iteration's own plan, found, and ``stats()['frozen_fallbacks']`` must count the replaced solves.
+    """
+    m = rc_small
+    N = 5
+    x0, V, Q = bilinear_case(m, N, seed=2)
+    settings = dict(horizon=N, max_iter=30, tol=1e-8, comfort_penalty=None)
+    frozen = MPCController(m, m.m_min, m.m_max, MPCSettings(linearisation="frozen", **settings)).plan(x0, V, Q)
+    c = MPCController(m, m.m_min, m.m_max, MPCSettings(linearisation="newton", **settings))
+    real = c._solve_linearised
+
+    def failing(x0, V, Qg, Xbar, Ubar, mode):
+        sol, y0 = real(x0, V, Qg, Xbar, Ubar, mode)
+        if mode == "newton":
+            sol = dataclasses.replace(sol, found=False, status="NumericalError")
+        return sol, y0
+
+    monkeypatch.setattr(c, "_solve_linearised", failing)
+    plan = c.plan(x0, V, Q)
+    assert plan.found and plan.converged
+    assert c.n_frozen_fallbacks == plan.iterations
+    assert_allclose(plan.U, frozen.U, rtol=0, atol=1e-7)
