@@ -158,6 +158,21 @@ class DiagnosisReport:
             L += ["Held-out verdict against persistence and the time-of-week mean (base refitted, extended):"]
             L += [f"  {line}" for line in ho["verdict_lines"]] + [""]
         L += [f"Verdict: {self.verdict} — {self.summary()}", ""]
+        L += self._heldout_lines()
+        if self.findings:
+            L.append("Findings (in order of selection):")
+            for i, f in enumerate(self.findings, 1):
+                L += _finding_lines(i, f)
+            L.append("")
+        L += self._candidate_lines() + self._residual_lines() + self._threshold_lines()
+        for n in self.notes:
+            L.append(f"note: {n}")
+        return "\n".join(L)
+
+    def _heldout_lines(self) -> list:
+        """Held-out RMS per zone, base refitted -> extended."""
+        L: list = []
+        ho = self.heldout
         if ho.get("zones"):
             L.append("Held-out 24-hour RMS [K] per zone (base structure refitted -> extended, gain):")
             for z in ho["zones"]:
@@ -180,44 +195,11 @@ class DiagnosisReport:
                     f"method, not a cause)"
                 )
             L.append("")
-        if self.findings:
-            L.append("Findings (in order of selection):")
-            for i, f in enumerate(self.findings, 1):
-                t = f["test"]
-                L.append(f" {i}. {f['cause']} at {_loc(f['location'])}")
-                L.append(
-                    f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
-                    f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
-                )
-                ev = _short_evidence(f)
-                if ev:
-                    L.append(f"    evidence: {ev}")
-                if f.get("parameters"):
-                    L.append(f"    parameters: {_fmt_params(f['parameters'])}")
-                cv = f.get("cv") or {}
-                if cv.get("gain_percent") is not None:
-                    L.append(
-                        f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
-                        f"({_cv_units(cv)}, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
-                        f"affected zones open loop, others measured)"
-                    )
-                rv = (f.get("evidence") or {}).get("rival")
-                if rv:
-                    t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
-                    L.append(
-                        f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
-                        f"(cross-validated paired t {t}); the data favour {rv['favoured']}"
-                    )
-                for o in f.get("competitors") or []:
-                    L.append(
-                        f"    also significant here: {o['cause']} at {_loc(o['location'])} "
-                        f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})"
-                    )
-                h = f.get("heldout") or {}
-                if h.get("zones"):
-                    zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
-                    L.append(f"    held-out RMS [K]: {zz}; gain {h['gain_percent']:.1f} %")
-            L.append("")
+        return L
+
+    def _candidate_lines(self) -> list:
+        """Candidates significant but not confirmed, and untestable ones."""
+        L: list = []
         rej = [c for c in self.candidates if c["status"] in ("no cross-validated gain", "no evidence")]
         if rej:
             L.append("Significant on training data but not confirmed (not added):")
@@ -245,6 +227,11 @@ class DiagnosisReport:
                     f"{u['cpgram_departure']:.2f} (1 % bound {u['cpgram_bound']:.2f})"
                 )
             L.append("")
+        return L
+
+    def _residual_lines(self) -> list:
+        """Unexplained zones, largest open-loop errors and residual whiteness before -> after."""
+        L: list = []
         big = self.errors.get("largest_open_loop_errors", [])
         if big:
             L.append("Where the base model errs most (24-hour open-loop, mean error [K] = measured - predicted):")
@@ -267,6 +254,11 @@ class DiagnosisReport:
                 f"{a.get('ljung_box', {}).get('p_value', float('nan')):.2g}, "
                 f"{a.get('cpgram_departure', float('nan')):.3f}"
             )
+        return L
+
+    def _threshold_lines(self) -> list:
+        """The acceptance rule's thresholds."""
+        L: list = []
         o = self.options
         L.append("")
         L.append(
@@ -276,9 +268,7 @@ class DiagnosisReport:
             f"and >= {o['min_gain_abs']:g} K with week-clustered paired t >= {o.get('cv_min_t', 2.0):g}; "
             f"held-out weeks are reported, not used to accept."
         )
-        for n in self.notes:
-            L.append(f"note: {n}")
-        return "\n".join(L)
+        return L
 
     def __str__(self):
         return self.format()
@@ -289,6 +279,46 @@ class DiagnosisReport:
         from . import plots
 
         return plots.plot_all(self, folder)
+
+
+def _finding_lines(i: int, f: dict) -> list:
+    """The lines of finding number ``i``: test, evidence, parameters, cross-validation, rivals, held-out gain."""
+    L: list = []
+    t = f["test"]
+    L.append(f" {i}. {f['cause']} at {_loc(f['location'])}")
+    L.append(
+        f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+        f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
+    )
+    ev = _short_evidence(f)
+    if ev:
+        L.append(f"    evidence: {ev}")
+    if f.get("parameters"):
+        L.append(f"    parameters: {_fmt_params(f['parameters'])}")
+    cv = f.get("cv") or {}
+    if cv.get("gain_percent") is not None:
+        L.append(
+            f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
+            f"({_cv_units(cv)}, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
+            f"affected zones open loop, others measured)"
+        )
+    rv = (f.get("evidence") or {}).get("rival")
+    if rv:
+        t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
+        L.append(
+            f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
+            f"(cross-validated paired t {t}); the data favour {rv['favoured']}"
+        )
+    for o in f.get("competitors") or []:
+        L.append(
+            f"    also significant here: {o['cause']} at {_loc(o['location'])} "
+            f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})"
+        )
+    h = f.get("heldout") or {}
+    if h.get("zones"):
+        zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
+        L.append(f"    held-out RMS [K]: {zz}; gain {h['gain_percent']:.1f} %")
+    return L
 
 
 def _loc(loc: dict) -> str:
