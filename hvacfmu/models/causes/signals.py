@@ -135,49 +135,9 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
     season = np.full(n, "", dtype=object)
     for w in dataset.weeks:
         season[week == w.number] = w.season
-    # one-step validity
-    fin = np.isfinite(Y).all(axis=1) & np.isfinite(U).all(axis=1)
-    for c in V.values():
-        fin &= np.isfinite(c)
-    valid = np.zeros(n, dtype=bool)
-    n_delay = max_delay(dataset.step)
-    if n > n_delay + 1:
-        ok = fin[:-1] & fin[1:] & (week[:-1] == week[1:]) & (week[:-1] >= 0)
-        ufin = np.isfinite(U).all(axis=1)
-        for d in range(1, n_delay + 1):
-            lag = np.zeros(n - 1, dtype=bool)
-            lag[d:] = ufin[: n - 1 - d]
-            ok &= lag
-        valid[:-1] = ok
-    # gains groups
-    n_tow = n_time_of_week(dataset.step)
-    seasons = tuple(s for s in dataset.building.season_names if s in set(season[week >= 0]))
-    s_id = np.array([seasons.index(s) if s in seasons else -1 for s in season]) if n else np.zeros(0, int)
-    tow = time_of_week(frame.index, dataset.step) % n_tow
-    group = np.where(s_id >= 0, s_id * n_tow + tow, -1)
-    base_profiles = {}
-    base_q = np.zeros((n, len(zones)))
-    for s in seasons:
-        prof = _profile_for(base, s, n_tow)
-        base_profiles[s] = prof
-        m = season == s
-        base_q[m] = prof[tow[m]]
-    # structure
-    if base.kind == "zones":
-        volumes = np.array([b.zone(z).volume if z in b.zone_names else 1.0 for z in zones])
-        facades = tuple(b.zone(z).orientations if z in b.zone_names else () for z in zones)
-        u_min = np.array([sum(v.m_min for v in b.vavs_of(z)) for z in zones])
-    else:
-        volumes = np.full(len(zones), sum(z.volume for z in b.zones))
-        facades = (tuple(o for o in "NESW" if any(o in z.orientations for z in b.zones)),) * len(zones)
-        u_min = np.array([sum(v.m_min for v in b.vavs) * float(base.input_map[i].max()) for i in range(len(zones))])
-    adj = np.abs(base.A) > 0
-    if base.kind == "zones":
-        zi = {z: i for i, z in enumerate(zones)}
-        for p, q in b.adjacency_pairs():
-            if p in zi and q in zi:
-                adj[zi[p], zi[q]] = adj[zi[q], zi[p]] = True
-    neighbours = tuple(tuple(j for j in range(len(zones)) if j != i and adj[i, j]) for i in range(len(zones)))
+    valid = _one_step_valid(Y, U, V, week, dataset.step)
+    n_tow, seasons, s_id, tow, group, base_profiles, base_q = _gain_groups(dataset, base, season, week)
+    volumes, facades, u_min, neighbours = _structure(base, b, zones)
     extra, extra_zones, coverage = unused_columns(dataset, base)
     from .reheat import zone_reheat_columns
 
@@ -214,6 +174,67 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
         extra_zones=extra_zones,
         extra_coverage=coverage,
     )
+
+
+def _one_step_valid(Y, U, V: dict, week, step) -> np.ndarray:
+    """Rows whose one-step transition is usable: finite now and next, same week, inputs finite over the delays."""
+    n = len(Y)
+    fin = np.isfinite(Y).all(axis=1) & np.isfinite(U).all(axis=1)
+    for c in V.values():
+        fin &= np.isfinite(c)
+    valid = np.zeros(n, dtype=bool)
+    n_delay = max_delay(step)
+    if n > n_delay + 1:
+        ok = fin[:-1] & fin[1:] & (week[:-1] == week[1:]) & (week[:-1] >= 0)
+        ufin = np.isfinite(U).all(axis=1)
+        for d in range(1, n_delay + 1):
+            lag = np.zeros(n - 1, dtype=bool)
+            lag[d:] = ufin[: n - 1 - d]
+            ok &= lag
+        valid[:-1] = ok
+    return valid
+
+
+def _gain_groups(dataset, base, season, week) -> tuple:
+    """Season x time-of-week groups of the rows and the base model's gains on every row.
+
+    Returns ``(n_tow, seasons, season_id, tow, group, base_profiles, base_q)``.
+    """
+    frame = dataset.frame
+    n, zones = len(frame), tuple(base.outputs)
+    n_tow = n_time_of_week(dataset.step)
+    seasons = tuple(s for s in dataset.building.season_names if s in set(season[week >= 0]))
+    s_id = np.array([seasons.index(s) if s in seasons else -1 for s in season]) if n else np.zeros(0, int)
+    tow = time_of_week(frame.index, dataset.step) % n_tow
+    group = np.where(s_id >= 0, s_id * n_tow + tow, -1)
+    base_profiles = {}
+    base_q = np.zeros((n, len(zones)))
+    for s in seasons:
+        prof = _profile_for(base, s, n_tow)
+        base_profiles[s] = prof
+        m = season == s
+        base_q[m] = prof[tow[m]]
+    return n_tow, seasons, s_id, tow, group, base_profiles, base_q
+
+
+def _structure(base, b, zones) -> tuple:
+    """Per output: volume [m3], facades, minimum airflow [kg/s] and neighbours (model coupling or adjacency)."""
+    if base.kind == "zones":
+        volumes = np.array([b.zone(z).volume if z in b.zone_names else 1.0 for z in zones])
+        facades = tuple(b.zone(z).orientations if z in b.zone_names else () for z in zones)
+        u_min = np.array([sum(v.m_min for v in b.vavs_of(z)) for z in zones])
+    else:
+        volumes = np.full(len(zones), sum(z.volume for z in b.zones))
+        facades = (tuple(o for o in "NESW" if any(o in z.orientations for z in b.zones)),) * len(zones)
+        u_min = np.array([sum(v.m_min for v in b.vavs) * float(base.input_map[i].max()) for i in range(len(zones))])
+    adj = np.abs(base.A) > 0
+    if base.kind == "zones":
+        zi = {z: i for i, z in enumerate(zones)}
+        for p, q in b.adjacency_pairs():
+            if p in zi and q in zi:
+                adj[zi[p], zi[q]] = adj[zi[q], zi[p]] = True
+    neighbours = tuple(tuple(j for j in range(len(zones)) if j != i and adj[i, j]) for i in range(len(zones)))
+    return volumes, facades, u_min, neighbours
 
 
 #: Smallest share of finite rows for a measured column to be screened.
