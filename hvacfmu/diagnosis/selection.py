@@ -204,6 +204,11 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
         "p_value": float(stats.chi2.sf(max(lr_adj, 0.0), k)) if k > 0 else None,
         "coefficients": {n: {"value": v, "std": s} for n, (v, s) in coefs.items()},
     }
+    _term_evidence(c, sig, W, terms, t, coefs)
+
+
+def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict) -> None:
+    """Location details and cause-specific evidence of the best variant ``t`` of candidate ``c`` (in place)."""
     if isinstance(t, ActuationDelay):
         c.location = {**c.location, "delay": int(t.delay)}
     if isinstance(t, ZoneCoupling):
