@@ -74,7 +74,7 @@ def physics_file(short_paths):
     from hvacfmu.models.physics import PhysicsModel
 
     b = load_building(short_paths.building)
-    model = PhysicsModel(b, b.physics["physics"]["nominal"], {"fall": np.full((672, 7), 800.0)})
+    model = PhysicsModel(b, b.physics["physics"]["nominal"], {"fall": np.full((672, 6), 800.0)})
     return json.loads(json.dumps(model.to_dict()))
 
 
