@@ -424,8 +424,8 @@ def test_exception_in_slave_is_logged_with_traceback(built, tmp_path):
     model, mp, _ = built["zones"]
     script = tmp_path / "HvacfmuTestRaises.py"
     script.write_text(
-        "import hvacfmu.fmu_slave as _impl\n"
-        "exec(compile(_impl.source(), _impl.__file__, 'exec'))\n\n\n"
+        "from hvacfmu.fmu_slave import define_slave\n"
+        "define_slave(globals(), 'ZoneModelSlave')\n\n\n"
         "class HvacfmuTestRaises(ZoneModelSlave):  # noqa: F821\n"
         "    def _advance(self, current_time, step_size):\n"
         "        if current_time >= 1800.0:\n"
@@ -876,7 +876,8 @@ def test_export_with_building_file_bounds_the_box_inputs(built, fmu_data, tmp_pa
 
 
 def test_pythonfmu_fmu_without_its_python_packages_says_so(built, tmp_path):
-    """Loaded where hvacfmu cannot be imported, the FMU logs what it needs and refuses steps; no crash."""
+    """Loaded where hvacfmu cannot be imported, the FMU refuses to instantiate and says what it needs: in the
+    FMU log, and on stderr for `fmpy simulate` (exit 1), whose FMU log is off; the host does not crash."""
     _, _, path = built["zones"]
     script = tmp_path / "host.py"
     script.write_text(
@@ -895,8 +896,19 @@ def test_pythonfmu_fmu_without_its_python_packages_says_so(built, tmp_path):
     )
     run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
+    assert "EXC Failed to instantiate" in run.stdout, run.stdout + run.stderr
     assert "needs the Python packages hvacfmu, numpy" in run.stdout, run.stdout + run.stderr
     assert "hvacfmu export --native" in run.stdout
+    cli = (
+        "import sys\n"
+        "sys.modules['hvacfmu'] = None\n"
+        "from fmpy.cli import main\n"
+        f"sys.argv = ['fmpy', 'simulate', {str(path)!r}, '--output-interval', '900', '--stop-time', '1800']\n"
+        "main()\n"
+    )
+    run = subprocess.run([sys.executable, "-c", cli], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1, (run.returncode, run.stderr[-2000:])
+    assert "needs the Python packages hvacfmu, numpy" in run.stderr and "Failed to instantiate" in run.stderr
 
 
 @pytest.mark.parametrize("kind", ["zones", "physics"])

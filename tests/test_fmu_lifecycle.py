@@ -5,6 +5,7 @@ Uses the functions of ``benchmarks/bench_fmu_lifecycle.py`` (which prints the fu
 
 from __future__ import annotations
 
+import subprocess
 import sys
 from pathlib import Path
 
@@ -43,6 +44,8 @@ def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
+    from hvacfmu.fmu_slave.resources import SETUP_CACHE
+
     path = build_fmus(("zones",), tmp_path)["zones"]
     md = read_model_description(str(path))
     unz = extract(str(path))
@@ -59,7 +62,40 @@ def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):
         s.terminate()
         s.freeInstance()
         # the process may hold other FMUs of this kind from earlier tests (pytest-xdist workers): count entries
-        loaded.append(set(sys.modules[md.coSimulation.modelIdentifier]._SETUP_CACHE))
+        loaded.append(set(SETUP_CACHE))
     module = sys.modules[md.coSimulation.modelIdentifier]
-    assert module._hvacfmu_slave_class is getattr(module, md.coSimulation.modelIdentifier)
+    cls = module._hvacfmu_slave_class
+    assert cls is getattr(module, md.coSimulation.modelIdentifier)
+    # pythonfmu 0.7.0 needs the slave class, its bases and their methods defined in the slave module itself
+    own = [c for c in cls.__mro__ if c.__name__ in ("HvacfmuSlaveBase", "ZoneModelSlave", cls.__name__)]
+    assert len(own) == 3 and all(c.__module__ == module.__name__ for c in own), [c.__module__ for c in own]
+    assert cls.do_step.__globals__ is vars(module) and cls._advance.__globals__ is vars(module)
     assert loaded[1] == loaded[0] and loaded[2] == loaded[0]  # one model loaded for three instances
+
+
+def test_exit_hook_empties_the_interpreter_state_of_every_loaded_binary(tmp_path):
+    """The exit hook finds each loaded pythonfmu binary (even once FMPy deleted its folder) and resets its state.
+
+    pythonfmu 0.7.0 frees its static ``PyState`` in a C++ exit handler and then writes to it in its ELF
+    destructor (use after free: valgrind shows it; the abort at exit is random). Loading an FMU must install
+    the hook, and the hook must reach every binary loaded in the process. (Two kinds are loaded here, but
+    all pythonfmu binaries share the SONAME ``libpythonfmu-export.so``, so the process maps the first one only.)
+    """
+    fmus = build_fmus(("lumped", "zones"), tmp_path)
+    script = (
+        "import sys, fmpy\n"
+        "import hvacfmu.fmu_exit as fe\n"
+        "assert fe.release_pythonfmu_state() == 0  # nothing loaded yet\n"
+        "for p in sys.argv[1:]:\n"
+        "    fmpy.simulate_fmu(p, stop_time=3600.0, output_interval=900.0)\n"
+        "print(fe._installed, len(fe._loaded_fmu_libraries()), fe.release_pythonfmu_state(),"
+        " fe.release_pythonfmu_state())\n"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", script, str(fmus["lumped"]), str(fmus["zones"])],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["True", "1", "1", "1"], run.stdout + run.stderr

@@ -206,48 +206,9 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
         )
     windows, elements = [], []
     for zname in lay.zone_order:
-        z = plan["zones"][zname]
-        for orient, length in z["facades"].items():
-            facade_area = length * FLOOR_TO_FLOOR
-            win = round(lay.wwr(zname, orient) * facade_area, 2)
-            windows.append(
-                {
-                    "name": f"{zname}_{orient}_window",
-                    "zone": zname,
-                    "orientation": orient,
-                    "area": win,
-                    "u_value": params["U_win"],
-                    "shgc": shgc,
-                }
-            )
-            elements.append(
-                {
-                    "name": f"{zname}_exterior_{orient}",
-                    "construction": "exterior_wall",
-                    "area": round(facade_area - win, 2),
-                    "side1": "ambient",
-                    "side2": zname,
-                    "orientation": orient,
-                }
-            )
-        elements.append(
-            {
-                "name": f"{zname}_floor",
-                "construction": "floor_slab",
-                "area": z["area"],
-                "side1": zname,
-                "side2": "adiabatic",
-            }
-        )
-        elements.append(
-            {
-                "name": f"{zname}_ceiling",
-                "construction": "ceiling_slab",
-                "area": z["area"],
-                "side1": zname,
-                "side2": "adiabatic",
-            }
-        )
+        w, e = _zone_envelope(zname, plan["zones"][zname], lay, params["U_win"], shgc)
+        windows += w
+        elements += e
     for (a, b), length in plan["shared"].items():
         elements.append(
             {
@@ -268,6 +229,53 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
         "nominal": dict(params),
     }
     return {"materials": mats, "constructions": cons, "windows": windows, "elements": elements, "physics": physics}
+
+
+def _zone_envelope(zname: str, z: dict, lay, u_win: float, shgc: float) -> tuple[list, list]:
+    """Windows and opaque elements (facades, floor and ceiling slabs) of one zone of the floor plan."""
+    windows, elements = [], []
+    for orient, length in z["facades"].items():
+        facade_area = length * FLOOR_TO_FLOOR
+        win = round(lay.wwr(zname, orient) * facade_area, 2)
+        windows.append(
+            {
+                "name": f"{zname}_{orient}_window",
+                "zone": zname,
+                "orientation": orient,
+                "area": win,
+                "u_value": u_win,
+                "shgc": shgc,
+            }
+        )
+        elements.append(
+            {
+                "name": f"{zname}_exterior_{orient}",
+                "construction": "exterior_wall",
+                "area": round(facade_area - win, 2),
+                "side1": "ambient",
+                "side2": zname,
+                "orientation": orient,
+            }
+        )
+    elements.append(
+        {
+            "name": f"{zname}_floor",
+            "construction": "floor_slab",
+            "area": z["area"],
+            "side1": zname,
+            "side2": "adiabatic",
+        }
+    )
+    elements.append(
+        {
+            "name": f"{zname}_ceiling",
+            "construction": "ceiling_slab",
+            "area": z["area"],
+            "side1": zname,
+            "side2": "adiabatic",
+        }
+    )
+    return windows, elements
 
 
 def _check(layout, construction, climate, hvac="vav"):

@@ -141,14 +141,7 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
     list of dict
         One fully specified dict per effect (JSON-serialisable).
     """
-    zones = [z["name"] for z in building["zones"]]
-    facades = {z["name"]: [f["orientation"] for f in z.get("facades", [])] for z in building["zones"]}
-    perimeter = [z for z in zones if facades[z]]
-    adjacent = set()
-    for z in building["zones"]:
-        for a in z.get("adjacent", []):
-            adjacent.add(frozenset((z["name"], a)))
-    non_adjacent = [(a, b) for i, a in enumerate(zones) for b in zones[i + 1 :] if frozenset((a, b)) not in adjacent]
+    ctx = _layout_context(building, weeks, control_interval)
     out, problems = [], []
     for i, spec in enumerate(effects):
         try:
@@ -167,86 +160,7 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
                 r[k] = [int(x) for x in v]
             elif k == "zones" and isinstance(v, (list, tuple)):
                 r[k] = [str(x) for x in v]
-        where = f"effect {i + 1} ({name})"
-
-        def check_zone(z, allowed=zones):
-            if z not in allowed:
-                problems.append(f"{where}: zone {z!r} is not one of {', '.join(allowed)}")
-                return False
-            return True
-
-        if name == "solar_gain":
-            if "zone" not in e:
-                r["zone"] = str(rng.choice(perimeter))
-            if check_zone(r["zone"], perimeter):
-                options = facades[r["zone"]]
-                if "facade" not in e:
-                    sunny = [f for f in options if f != "N"] or options
-                    r["facade"] = str(rng.choice(sunny))
-                elif r["facade"] not in options:
-                    problems.append(
-                        f"{where}: zone {r['zone']} has no {r['facade']!r} facade (it has {', '.join(options)})"
-                    )
-            if "scale" in e:
-                base = [w["shgc"] for w in building.get("windows", []) if w["zone"] == r.get("zone")]
-                r["shgc"] = (float(e["scale"]) - 1.0) * (base[0] if base else 0.0)
-            if not isinstance(r["shgc"], float) or not 0.0 < r["shgc"] <= 1.0:
-                problems.append(f"{where}: shgc must be in (0, 1], got {r['shgc']!r}")
-        elif name == "zone_coupling":
-            if "zones" not in e:
-                pair = non_adjacent[int(rng.integers(len(non_adjacent)))]
-                r["zones"] = list(pair)
-            pair = r["zones"]
-            if not isinstance(pair, list) or len(pair) != 2 or pair[0] == pair[1]:
-                problems.append(f"{where}: zones must be two different zones like 'NW+S', got {pair!r}")
-            elif all(check_zone(z) for z in pair) and frozenset(pair) in adjacent:
-                problems.append(
-                    f"{where}: zones {pair[0]} and {pair[1]} are declared adjacent; the coupling must be undeclared "
-                    f"(non-adjacent pairs: {', '.join('+'.join(p) for p in non_adjacent)})"
-                )
-            if not isinstance(r["ua"], float) or not r["ua"] > 0:
-                problems.append(f"{where}: ua must be > 0 W/K, got {r['ua']!r}")
-        elif name == "actuation_delay":
-            if "zone" not in e:
-                r["zone"] = str(rng.choice(zones))
-            check_zone(r["zone"])
-            step = control_interval / 60.0
-            m = r["minutes"]
-            if not isinstance(m, float) or m <= 0 or abs(m / step - round(m / step)) > 1e-9:
-                problems.append(f"{where}: minutes must be a positive multiple of {step:g}, got {m!r}")
-        elif name == "internal_gain_schedule":
-            if r["kind"] not in ("holiday", "dst"):
-                problems.append(f"{where}: kind must be 'holiday' or 'dst', got {r['kind']!r}")
-            elif r["kind"] == "holiday":
-                if "weeks" not in e:
-                    candidates = np.arange(1, weeks) if weeks > 1 else np.arange(weeks)
-                    k = min(2, len(candidates))
-                    r["weeks"] = sorted(int(w) for w in rng.choice(candidates, size=k, replace=False))
-                w = r["weeks"]
-                if not isinstance(w, list) or not w or any(not 0 <= x < weeks for x in w):
-                    problems.append(f"{where}: weeks must be week numbers in 0..{weeks - 1} like '3+9', got {w!r}")
-                if not isinstance(r["factor"], float) or not 0.0 <= r["factor"] < 1.0:
-                    problems.append(f"{where}: factor must be in [0, 1), got {r['factor']!r}")
-            else:
-                r.pop("factor", None)
-                r.setdefault("hours", 1.0)
-                if r["hours"] != 1.0:
-                    problems.append(f"{where}: only a one-hour daylight-saving shift is modelled (hours=1)")
-        elif name == "reheat":
-            if "zone" not in e:
-                r["zone"] = str(rng.choice(perimeter))
-            check_zone(r["zone"])
-            if not isinstance(r["power"], float) or not r["power"] > 0:
-                problems.append(f"{where}: power must be > 0 W, got {r['power']!r}")
-            if not isinstance(r["below"], float):
-                problems.append(f"{where}: below must be a temperature in °C, got {r['below']!r}")
-        elif name == "thermal_mass":
-            if "zone" not in e:
-                r["zone"] = str(rng.choice(zones))
-            check_zone(r["zone"])
-            for key, unit in (("capacitance", "J/K"), ("ua", "W/K")):
-                if not isinstance(r[key], float) or not r[key] > 0:
-                    problems.append(f"{where}: {key} must be > 0 {unit}, got {r[key]!r}")
+        _RESOLVERS[name](e, r, rng, ctx, f"effect {i + 1} ({name})", problems)
         out.append(r)
     delayed = [r["zone"] for r in out if r["name"] == "actuation_delay"]
     for z in {z for z in delayed if delayed.count(z) > 1}:
@@ -254,6 +168,129 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
     if problems:
         raise EmulatorError(problems_message("Invalid emulator effects", problems))
     return out
+
+
+def _layout_context(building: dict, weeks: int, control_interval: float) -> dict:
+    """What the resolvers need of the building: zones, facades, perimeter zones, (non-)adjacent pairs."""
+    zones = [z["name"] for z in building["zones"]]
+    facades = {z["name"]: [f["orientation"] for f in z.get("facades", [])] for z in building["zones"]}
+    adjacent = set()
+    for z in building["zones"]:
+        for a in z.get("adjacent", []):
+            adjacent.add(frozenset((z["name"], a)))
+    return {
+        "building": building,
+        "weeks": weeks,
+        "control_interval": control_interval,
+        "zones": zones,
+        "facades": facades,
+        "perimeter": [z for z in zones if facades[z]],
+        "adjacent": adjacent,
+        "non_adjacent": [
+            (a, b) for i, a in enumerate(zones) for b in zones[i + 1 :] if frozenset((a, b)) not in adjacent
+        ],
+    }
+
+
+def _check_zone(z, allowed, where: str, problems: list) -> bool:
+    if z not in allowed:
+        problems.append(f"{where}: zone {z!r} is not one of {', '.join(allowed)}")
+        return False
+    return True
+
+
+def _resolve_solar_gain(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["perimeter"]))
+    if _check_zone(r["zone"], ctx["perimeter"], where, problems):
+        options = ctx["facades"][r["zone"]]
+        if "facade" not in e:
+            sunny = [f for f in options if f != "N"] or options
+            r["facade"] = str(rng.choice(sunny))
+        elif r["facade"] not in options:
+            problems.append(f"{where}: zone {r['zone']} has no {r['facade']!r} facade (it has {', '.join(options)})")
+    if "scale" in e:
+        base = [w["shgc"] for w in ctx["building"].get("windows", []) if w["zone"] == r.get("zone")]
+        r["shgc"] = (float(e["scale"]) - 1.0) * (base[0] if base else 0.0)
+    if not isinstance(r["shgc"], float) or not 0.0 < r["shgc"] <= 1.0:
+        problems.append(f"{where}: shgc must be in (0, 1], got {r['shgc']!r}")
+
+
+def _resolve_zone_coupling(e, r, rng, ctx, where, problems) -> None:
+    non_adjacent = ctx["non_adjacent"]
+    if "zones" not in e:
+        pair = non_adjacent[int(rng.integers(len(non_adjacent)))]
+        r["zones"] = list(pair)
+    pair = r["zones"]
+    if not isinstance(pair, list) or len(pair) != 2 or pair[0] == pair[1]:
+        problems.append(f"{where}: zones must be two different zones like 'NW+S', got {pair!r}")
+    elif all(_check_zone(z, ctx["zones"], where, problems) for z in pair) and frozenset(pair) in ctx["adjacent"]:
+        problems.append(
+            f"{where}: zones {pair[0]} and {pair[1]} are declared adjacent; the coupling must be undeclared "
+            f"(non-adjacent pairs: {', '.join('+'.join(p) for p in non_adjacent)})"
+        )
+    if not isinstance(r["ua"], float) or not r["ua"] > 0:
+        problems.append(f"{where}: ua must be > 0 W/K, got {r['ua']!r}")
+
+
+def _resolve_actuation_delay(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["zones"]))
+    _check_zone(r["zone"], ctx["zones"], where, problems)
+    step = ctx["control_interval"] / 60.0
+    m = r["minutes"]
+    if not isinstance(m, float) or m <= 0 or abs(m / step - round(m / step)) > 1e-9:
+        problems.append(f"{where}: minutes must be a positive multiple of {step:g}, got {m!r}")
+
+
+def _resolve_internal_gain_schedule(e, r, rng, ctx, where, problems) -> None:
+    weeks = ctx["weeks"]
+    if r["kind"] not in ("holiday", "dst"):
+        problems.append(f"{where}: kind must be 'holiday' or 'dst', got {r['kind']!r}")
+    elif r["kind"] == "holiday":
+        if "weeks" not in e:
+            candidates = np.arange(1, weeks) if weeks > 1 else np.arange(weeks)
+            k = min(2, len(candidates))
+            r["weeks"] = sorted(int(w) for w in rng.choice(candidates, size=k, replace=False))
+        w = r["weeks"]
+        if not isinstance(w, list) or not w or any(not 0 <= x < weeks for x in w):
+            problems.append(f"{where}: weeks must be week numbers in 0..{weeks - 1} like '3+9', got {w!r}")
+        if not isinstance(r["factor"], float) or not 0.0 <= r["factor"] < 1.0:
+            problems.append(f"{where}: factor must be in [0, 1), got {r['factor']!r}")
+    else:
+        r.pop("factor", None)
+        r.setdefault("hours", 1.0)
+        if r["hours"] != 1.0:
+            problems.append(f"{where}: only a one-hour daylight-saving shift is modelled (hours=1)")
+
+
+def _resolve_reheat(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["perimeter"]))
+    _check_zone(r["zone"], ctx["zones"], where, problems)
+    if not isinstance(r["power"], float) or not r["power"] > 0:
+        problems.append(f"{where}: power must be > 0 W, got {r['power']!r}")
+    if not isinstance(r["below"], float):
+        problems.append(f"{where}: below must be a temperature in °C, got {r['below']!r}")
+
+
+def _resolve_thermal_mass(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["zones"]))
+    _check_zone(r["zone"], ctx["zones"], where, problems)
+    for key, unit in (("capacitance", "J/K"), ("ua", "W/K")):
+        if not isinstance(r[key], float) or not r[key] > 0:
+            problems.append(f"{where}: {key} must be > 0 {unit}, got {r[key]!r}")
+
+
+_RESOLVERS = {
+    "solar_gain": _resolve_solar_gain,
+    "zone_coupling": _resolve_zone_coupling,
+    "actuation_delay": _resolve_actuation_delay,
+    "internal_gain_schedule": _resolve_internal_gain_schedule,
+    "reheat": _resolve_reheat,
+    "thermal_mass": _resolve_thermal_mass,
+}
 
 
 def effect_label(effect: dict) -> str:

@@ -53,140 +53,161 @@ def simulate(truth: dict) -> dict:
     seed = truth["seed"]
     core = PlantCore.from_truth(truth)
     index = dataset_index(truth["start"], truth["weeks"], truth["timezone"])
-    n = len(index)
     bld = base["building"]
     weather = synthetic_weather(
         index, stream(seed, "weather"), bld["latitude"], bld["longitude"], base["altitude"], base.get("climate")
     )
     cp = base["controllers"]
     T_supply = supply_air_temperatures(weather["T_out"], lambda name: stream(seed, name), cp, core.ahus)
-    multi = T_supply.ndim == 2
-    irr = np.column_stack([weather[f"I_{o}"] for o in ("N", "E", "S", "W")])
-    occupied = occupied_mode(index, cp)
-    nz, nb = len(core.zones), len(core.vavs)
-    segments = excitation_schedule(index, stream(seed, "excitation"), nz, cp)
-
-    per = int(round(cp["control_interval"] / DT))
-    if n % per:
-        raise ValueError("dataset length must be a multiple of the control interval")
-    n_blocks = n // per
-    exc_block = np.full(n_blocks, -1)
-    exc_flag = np.zeros(n, dtype=bool)
-    exc_m = []
-    for s_i, seg in enumerate(segments):
-        b0, b1 = seg["start"] // per, -(-seg["end"] // per)
-        exc_block[b0:b1] = s_i
-        exc_flag[b0 * per : b1 * per] = True
-        frac = np.asarray(seg["levels"])[core.box_zone]
-        exc_m.append(core.m_min + frac * (core.m_max - core.m_min))
-    occ_block = occupied[::per]
-
-    ctrl = VavControllers(core.m_min, core.m_max, core.box_zone, cp["box_offsets"], cp)
-    rh = core.reheat_effect
-    rh_minute = None
-    if rh is not None:
-        rh_minute = rh["power"] * (weather["T_out"] < rh["below"])
-    # delay ring buffer in control intervals
-    d_blocks = core.delay_minutes // per if core.delay_minutes else 0
-    db = core.delay_boxes
-    ring_m = np.tile(core.m_min[db], (max(d_blocks, 1), 1))
-    ring_p = np.zeros_like(ring_m)
-
-    m_log = np.empty((n_blocks, nb))
-    m_app_log = np.empty((n_blocks, nb))
-    p_log = np.empty((n_blocks, nb))
-    p_app_log = np.empty((n_blocks, nb))
-    Y = np.empty((n, nz))
-    Ad, BQ, Bw = core.Ad, core.BQ, core.Bw
-    A_b = Ad.copy()  # per control interval: Ad - BQ diag(m_z c_p) on the air-node columns
-    A_air = A_b[:, :nz]  # view
-    Mzb_cp = core.Mzb * CP_AIR
-    X = np.empty((per + 1, core.n_thermal))  # states of one control interval
-    Ad_air = Ad[:, :nz].copy()
-    chunk = 7 * 1440
-
-    def run(k_start, k_end, x, record):
-        nonlocal ring_m, ring_p
-        W = None
-        w0 = -1
-        for b in range(k_start // per, k_end // per):
-            k0 = b * per
-            if W is None or k0 >= w0 + chunk:
-                w0 = k0
-                w1 = min(k0 + chunk, n)
-                W = core.w_rows(w0, w1, weather["T_out"][w0:w1], irr[w0:w1]) @ Bw.T
-            Tz = x[:nz]
-            e = exc_block[b]
-            if e >= 0:
-                m = exc_m[e]
-                p = np.zeros(nb)
-                ctrl.reset()
-            else:
-                m, p = ctrl.step(Tz, occ_block[b], T_supply[k0, core.box_ahu] if multi else None)
-            m_a, p_a = m, p
-            if d_blocks:
-                slot = b % d_blocks
-                m_a, p_a = m.copy(), p.copy()
-                m_a[db] = ring_m[slot]
-                p_a[db] = ring_p[slot]
-                ring_m[slot] = m[db]
-                ring_p[slot] = p[db]
-            mcp_z = Mzb_cp @ m_a
-            h_z = core.Mzb @ p_a
-            np.subtract(Ad_air, BQ * mcp_z, out=A_air)
-            if multi:  # per-box supply temperature: sum_i m_i c_p T_supply,i per zone
-                sup = (T_supply[k0 : k0 + per][:, core.box_ahu] * (CP_AIR * m_a)) @ core.Mzb.T
-                D = W[k0 - w0 : k0 - w0 + per] + BQ @ h_z + sup @ BQ.T
-            else:
-                D = W[k0 - w0 : k0 - w0 + per] + BQ @ h_z + T_supply[k0 : k0 + per, None] * (BQ @ mcp_z)
-            if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
-                D += np.outer(rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
-            X[0] = x
-            for j in range(per):
-                np.dot(A_b, X[j], out=X[j + 1])
-                X[j + 1] += D[j]
-            x = X[per].copy()
-            if record:
-                m_log[b] = m
-                p_log[b] = p
-                m_app_log[b] = m_a
-                p_app_log[b] = p_a
-                Y[k0 : k0 + per] = X[:per, :nz]
-        return x
+    segments = excitation_schedule(index, stream(seed, "excitation"), len(core.zones), cp)
+    sim = _ClosedLoop(core, cp, index, weather, T_supply, segments)
 
     x = np.full(core.n_thermal, 22.0)
-    x = run(0, min(n, SPIN_UP_DAYS * 1440), x, record=False)
-    x0 = x.copy()
-    if d_blocks:
-        # block b of the recorded run reads slot b % d_blocks: slots 0, 1, ... are oldest first
-        buf = np.zeros((core.delay_minutes, len(db), 2))
-        for i, slot in enumerate(range(d_blocks)):
-            buf[i * per : (i + 1) * per, :, 0] = ring_m[slot]
-            buf[i * per : (i + 1) * per, :, 1] = ring_p[slot]
-        x0 = np.concatenate([x0, buf.ravel()])
-    run(0, n, x, record=True)
-
+    x = sim.run(0, min(sim.n, SPIN_UP_DAYS * 1440), x, record=False)
+    x0 = np.concatenate([x, sim.delay_buffer()]) if sim.d_blocks else x.copy()
+    sim.run(0, sim.n, x, record=True)
+    per = sim.per
     return {
         "index": index,
-        "T_zone": Y,
-        "m_vav": np.repeat(m_log, per, axis=0),
-        "m_applied": np.repeat(m_app_log, per, axis=0),
-        "reheat": np.repeat(p_app_log, per, axis=0),
-        "reheat_command": np.repeat(p_log, per, axis=0),
+        "T_zone": sim.Y,
+        "m_vav": np.repeat(sim.m_log, per, axis=0),
+        "m_applied": np.repeat(sim.m_app_log, per, axis=0),
+        "reheat": np.repeat(sim.p_app_log, per, axis=0),
+        "reheat_command": np.repeat(sim.p_log, per, axis=0),
         "T_supply": T_supply,
         "ahus": core.ahus,
         "box_ahu": core.box_ahu,
         "T_out": weather["T_out"],
         "ghi": weather["ghi"],
-        "I": irr,
+        "I": sim.irr,
         "Q_ig": core.Q_ig,
         "T_fl": core.T_fl,
-        "excitation": exc_flag,
+        "excitation": sim.exc_flag,
         "segments": segments,
         "x0": x0,
         "weather": weather,
         "core": core,
     }
+
+
+class _ClosedLoop:
+    """The building under its box controllers, minute by minute, one control interval at a time.
+
+    Holds the plant matrices, the controllers, the actuation-delay ring buffer and, for a recorded
+    run, the logs of commanded and delivered airflow and reheat per control interval and the zone
+    temperatures per minute.
+    """
+
+    chunk = 7 * 1440  # minutes of disturbance rows computed at once
+
+    def __init__(self, core: PlantCore, cp: dict, index, weather: dict, T_supply: np.ndarray, segments: list):
+        self.core, self.weather, self.T_supply = core, weather, T_supply
+        self.n = n = len(index)
+        self.multi = T_supply.ndim == 2
+        self.irr = np.column_stack([weather[f"I_{o}"] for o in ("N", "E", "S", "W")])
+        self.per = per = int(round(cp["control_interval"] / DT))
+        if n % per:
+            raise ValueError("dataset length must be a multiple of the control interval")
+        self._excitation(segments, n // per)
+        self.occ_block = occupied_mode(index, cp)[::per]
+        self.ctrl = VavControllers(core.m_min, core.m_max, core.box_zone, cp["box_offsets"], cp)
+        rh = core.reheat_effect
+        self.rh_minute = None if rh is None else rh["power"] * (weather["T_out"] < rh["below"])
+        # delay ring buffer in control intervals
+        self.d_blocks = core.delay_minutes // per if core.delay_minutes else 0
+        self.ring_m = np.tile(core.m_min[core.delay_boxes], (max(self.d_blocks, 1), 1))
+        self.ring_p = np.zeros_like(self.ring_m)
+        nz, nb, n_blocks = len(core.zones), len(core.vavs), n // per
+        self.m_log = np.empty((n_blocks, nb))
+        self.m_app_log = np.empty((n_blocks, nb))
+        self.p_log = np.empty((n_blocks, nb))
+        self.p_app_log = np.empty((n_blocks, nb))
+        self.Y = np.empty((n, nz))
+        self.A_b = core.Ad.copy()  # per control interval: Ad - BQ diag(m_z c_p) on the air-node columns
+        self.Ad_air = core.Ad[:, :nz].copy()
+        self.Mzb_cp = core.Mzb * CP_AIR
+        self.X = np.empty((per + 1, core.n_thermal))  # states of one control interval
+
+    def _excitation(self, segments: list, n_blocks: int) -> None:
+        """Control intervals forced by an excitation segment, and each segment's airflows."""
+        core, per = self.core, self.per
+        self.exc_block = np.full(n_blocks, -1)
+        self.exc_flag = np.zeros(self.n, dtype=bool)
+        self.exc_m = []
+        for s_i, seg in enumerate(segments):
+            b0, b1 = seg["start"] // per, -(-seg["end"] // per)
+            self.exc_block[b0:b1] = s_i
+            self.exc_flag[b0 * per : b1 * per] = True
+            frac = np.asarray(seg["levels"])[core.box_zone]
+            self.exc_m.append(core.m_min + frac * (core.m_max - core.m_min))
+
+    def _commands(self, b: int, x: np.ndarray) -> tuple:
+        """Commanded ``(m, p)`` of control interval ``b`` and what the boxes deliver ``(m_a, p_a)`` after the delay."""
+        core, nz = self.core, len(self.core.zones)
+        e = self.exc_block[b]
+        if e >= 0:
+            m, p = self.exc_m[e], np.zeros(len(core.vavs))
+            self.ctrl.reset()
+        else:
+            k0 = b * self.per
+            m, p = self.ctrl.step(x[:nz], self.occ_block[b], self.T_supply[k0, core.box_ahu] if self.multi else None)
+        if not self.d_blocks:
+            return m, p, m, p
+        db, slot = core.delay_boxes, b % self.d_blocks
+        m_a, p_a = m.copy(), p.copy()
+        m_a[db] = self.ring_m[slot]
+        p_a[db] = self.ring_p[slot]
+        self.ring_m[slot] = m[db]
+        self.ring_p[slot] = p[db]
+        return m, p, m_a, p_a
+
+    def _forcing(self, k0: int, Wk: np.ndarray, m_a: np.ndarray, p_a: np.ndarray) -> np.ndarray:
+        """Set ``A_b`` for the delivered airflow and return the per-minute forcing of one control interval."""
+        core, per, BQ = self.core, self.per, self.core.BQ
+        mcp_z = self.Mzb_cp @ m_a
+        h_z = core.Mzb @ p_a
+        np.subtract(self.Ad_air, BQ * mcp_z, out=self.A_b[:, : len(core.zones)])
+        if self.multi:  # per-box supply temperature: sum_i m_i c_p T_supply,i per zone
+            sup = (self.T_supply[k0 : k0 + per][:, core.box_ahu] * (CP_AIR * m_a)) @ core.Mzb.T
+            D = Wk + BQ @ h_z + sup @ BQ.T
+        else:
+            D = Wk + BQ @ h_z + self.T_supply[k0 : k0 + per, None] * (BQ @ mcp_z)
+        rh = core.reheat_effect
+        if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
+            D += np.outer(self.rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
+        return D
+
+    def run(self, k_start: int, k_end: int, x: np.ndarray, record: bool) -> np.ndarray:
+        """Advance from minute ``k_start`` to ``k_end`` (multiples of the control interval); returns the state."""
+        core, per, X, nz = self.core, self.per, self.X, len(self.core.zones)
+        W = None
+        w0 = -1
+        for b in range(k_start // per, k_end // per):
+            k0 = b * per
+            if W is None or k0 >= w0 + self.chunk:
+                w0, w1 = k0, min(k0 + self.chunk, self.n)
+                W = core.w_rows(w0, w1, self.weather["T_out"][w0:w1], self.irr[w0:w1]) @ core.Bw.T
+            m, p, m_a, p_a = self._commands(b, x)
+            D = self._forcing(k0, W[k0 - w0 : k0 - w0 + per], m_a, p_a)
+            X[0] = x
+            for j in range(per):
+                np.dot(self.A_b, X[j], out=X[j + 1])
+                X[j + 1] += D[j]
+            x = X[per].copy()
+            if record:
+                self.m_log[b], self.p_log[b], self.m_app_log[b], self.p_app_log[b] = m, p, m_a, p_a
+                self.Y[k0 : k0 + per] = X[:per, :nz]
+        return x
+
+    def delay_buffer(self) -> np.ndarray:
+        """The delay ring buffer per minute, oldest first, flattened (the tail of :class:`Plant`'s state)."""
+        core, per = self.core, self.per
+        # block b of the recorded run reads slot b % d_blocks: slots 0, 1, ... are oldest first
+        buf = np.zeros((core.delay_minutes, len(core.delay_boxes), 2))
+        for slot in range(self.d_blocks):
+            buf[slot * per : (slot + 1) * per, :, 0] = self.ring_m[slot]
+            buf[slot * per : (slot + 1) * per, :, 1] = self.ring_p[slot]
+        return buf.ravel()
 
 
 def controller_defaults(seed: int, n_vav: int) -> dict:

@@ -213,11 +213,9 @@ def build_network(building: dict, params: dict, extras: dict | None = None, effe
     ex = dict(DEFAULT_EXTRAS)
     ex.update(extras or {})
     phys = building.get("physics", {})
-    ambient_film = float(phys.get("ambient_film", 25.0))
     zones = [z["name"] for z in building["zones"]]
     zinfo = {z["name"]: z for z in building["zones"]}
     inputs = input_names(zones)
-    k_out, k_fl = inputs.index("T_out"), inputs.index("T_fl")
     bld = _Builder(zones, inputs)
     air = {}
     for z in zones:
@@ -227,68 +225,14 @@ def build_network(building: dict, params: dict, extras: dict | None = None, effe
         area = zinfo[z]["area"]
         furn[z] = bld.node(f"furniture_{z}", float(phys["internal_mass"]) * area)
         bld.link(air[z], furn[z], ex["furniture_film"] * ex["furniture_area_ratio"] * area)
-
-    materials = {m["name"]: m for m in building["materials"]}
-    constructions = {c["name"]: c for c in building["constructions"]}
-
-    def endpoint(side):
-        if side in air:
-            return air[side]
-        if side == "ambient":
-            return ("input", k_out)
-        if side == "adjacent_floor":
-            return ("input", k_fl)
-        if side == "adiabatic":
-            return None
-        raise ValueError(f"unknown element side {side!r}")
-
-    floor_surface = {}
-    ext_surfaces = []  # (surface, area, orientation)
+    walls = _Envelope(bld, building, params, ex, air, inputs)
     for el in building["elements"]:
-        cons = constructions[el["construction"]]
-        area = float(el["area"])
-        ends = (endpoint(el["side1"]), endpoint(el["side2"]))
-        films = [_film_value(f, params, ex, ambient_film) for f in cons["films"]]
-        r_film = [1.0 / (h * area) if math.isfinite(h) else 0.0 for h in films]
-        # walk from side 1 to side 2
-        prev = ends[0]
-        r_acc = r_film[0]
-        first = None
-        r_first_inner = None
-        for layer in cons["layers"]:
-            mat = materials[layer["material"]]
-            if "r_value" in mat:
-                r_acc += float(mat["r_value"]) / area
-                continue
-            thick = float(layer["thickness"])
-            k = float(mat["conductivity"])
-            n = max(1, int(math.ceil(thick / ex["max_node_thickness"] - 1e-9)))
-            dx = thick / n
-            for i in range(n):
-                r_acc += 0.5 * dx / (k * area)
-                node = bld.node(
-                    f"{el['name']}:{layer['material']}{i + 1}",
-                    float(mat["density"]) * float(mat["specific_heat"]) * dx * area,
-                )
-                if first is None:
-                    first = node
-                    r_first_inner = r_acc - r_film[0]
-                if prev is not None:
-                    bld.link(prev, node, 1.0 / r_acc)
-                prev = node
-                r_acc = 0.5 * dx / (k * area)
-        r_acc += r_film[1]
-        if prev is not None and ends[1] is not None and r_acc > 0:
-            bld.link(prev, ends[1], 1.0 / r_acc)
-        surface1 = (ends[0], first, r_film[0] if ends[0] is not None else math.inf, r_first_inner or 0.0)
-        if el["side1"] in air and cons["films"][0] == "floor":
-            floor_surface[el["side1"]] = surface1
-        if el["side1"] == "ambient":
-            ext_surfaces.append((surface1, area, el.get("orientation")))
+        walls.add_element(el)
     # solar absorbed by opaque exterior walls (sol-air at the outer surface)
-    for surface, area, orient in ext_surfaces:
+    for surface, area, orient in walls.ext_surfaces:
         if orient in ORIENTATIONS:
             bld.surface_heat(surface, inputs.index(f"I_{orient}"), ex["wall_solar_absorptance"] * area)
+    k_out = inputs.index("T_out")
     # windows: conduction to ambient, transmitted solar
     for w in building.get("windows", []):
         z = w["zone"]
@@ -297,7 +241,7 @@ def build_network(building: dict, params: dict, extras: dict | None = None, effe
         gain = float(w["shgc"]) * float(w["area"])
         bld.heat(air[z], k_i, gain * ex["solar_fraction_air"])
         bld.heat(furn[z], k_i, gain * ex["solar_fraction_furniture"])
-        bld.surface_heat(floor_surface[z], k_i, gain * ex["solar_fraction_floor"])
+        bld.surface_heat(walls.floor_surface[z], k_i, gain * ex["solar_fraction_floor"])
     # infiltration of perimeter zones
     for z in zones:
         if zinfo[z].get("facades"):
@@ -308,9 +252,14 @@ def build_network(building: dict, params: dict, extras: dict | None = None, effe
         k_q = inputs.index(f"Q_ig_{z}")
         bld.heat(air[z], k_q, ex["gain_fraction_convective"])
         bld.heat(furn[z], k_q, ex["gain_fraction_furniture"])
-        bld.surface_heat(floor_surface[z], k_q, ex["gain_fraction_floor"])
+        bld.surface_heat(walls.floor_surface[z], k_q, ex["gain_fraction_floor"])
         bld.heat(air[z], inputs.index(f"Q_hvac_{z}"), 1.0)
-    # effects that change the network
+    _add_effects(bld, building, air, inputs, effects)
+    return bld.build()
+
+
+def _add_effects(bld, building: dict, air: dict, inputs: list, effects) -> None:
+    """Effects that change the network: a zone coupling, an extra thermal mass, extra solar gain."""
     for eff in effects:
         if eff["name"] == "zone_coupling":
             a, b = eff["zones"]
@@ -324,4 +273,73 @@ def build_network(building: dict, params: dict, extras: dict | None = None, effe
             win = [w for w in building["windows"] if w["zone"] == z and w["orientation"] == eff["facade"]]
             area = sum(float(w["area"]) for w in win)
             bld.heat(air[z], inputs.index(f"I_{eff['facade']}"), float(eff["shgc"]) * area)
-    return bld.build()
+
+
+class _Envelope:
+    """Adds the building elements (walls, floors, ceilings) to a :class:`_Builder`, layer by layer.
+
+    Records each zone's floor surface (where transmitted sun and radiant gains land) and the exterior
+    surfaces with their orientation (sol-air gains).
+    """
+
+    def __init__(self, bld, building: dict, params: dict, ex: dict, air: dict, inputs: list):
+        self.bld, self.params, self.ex, self.air = bld, params, ex, air
+        self.ambient_film = float(building.get("physics", {}).get("ambient_film", 25.0))
+        self.k_out, self.k_fl = inputs.index("T_out"), inputs.index("T_fl")
+        self.materials = {m["name"]: m for m in building["materials"]}
+        self.constructions = {c["name"]: c for c in building["constructions"]}
+        self.floor_surface: dict = {}
+        self.ext_surfaces: list = []  # (surface, area, orientation)
+
+    def endpoint(self, side):
+        if side in self.air:
+            return self.air[side]
+        if side == "ambient":
+            return ("input", self.k_out)
+        if side == "adjacent_floor":
+            return ("input", self.k_fl)
+        if side == "adiabatic":
+            return None
+        raise ValueError(f"unknown element side {side!r}")
+
+    def add_element(self, el: dict) -> None:
+        """Nodes of every massive (sub-)layer of ``el`` and the conductances between them, from side 1 to 2."""
+        cons = self.constructions[el["construction"]]
+        area = float(el["area"])
+        ends = (self.endpoint(el["side1"]), self.endpoint(el["side2"]))
+        films = [_film_value(f, self.params, self.ex, self.ambient_film) for f in cons["films"]]
+        r_film = [1.0 / (h * area) if math.isfinite(h) else 0.0 for h in films]
+        prev = ends[0]
+        r_acc = r_film[0]
+        first = None
+        r_first_inner = None
+        for layer in cons["layers"]:
+            mat = self.materials[layer["material"]]
+            if "r_value" in mat:
+                r_acc += float(mat["r_value"]) / area
+                continue
+            thick = float(layer["thickness"])
+            k = float(mat["conductivity"])
+            n = max(1, int(math.ceil(thick / self.ex["max_node_thickness"] - 1e-9)))
+            dx = thick / n
+            for i in range(n):
+                r_acc += 0.5 * dx / (k * area)
+                node = self.bld.node(
+                    f"{el['name']}:{layer['material']}{i + 1}",
+                    float(mat["density"]) * float(mat["specific_heat"]) * dx * area,
+                )
+                if first is None:
+                    first = node
+                    r_first_inner = r_acc - r_film[0]
+                if prev is not None:
+                    self.bld.link(prev, node, 1.0 / r_acc)
+                prev = node
+                r_acc = 0.5 * dx / (k * area)
+        r_acc += r_film[1]
+        if prev is not None and ends[1] is not None and r_acc > 0:
+            self.bld.link(prev, ends[1], 1.0 / r_acc)
+        surface1 = (ends[0], first, r_film[0] if ends[0] is not None else math.inf, r_first_inner or 0.0)
+        if el["side1"] in self.air and cons["films"][0] == "floor":
+            self.floor_surface[el["side1"]] = surface1
+        if el["side1"] == "ambient":
+            self.ext_surfaces.append((surface1, area, el.get("orientation")))

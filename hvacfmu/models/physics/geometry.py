@@ -265,7 +265,29 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         if v.zone not in zone_set:
             problems.append(f"VAV {v.name}: serves zone {v.zone!r}, which is not a zone of this building")
 
-    # --- [physics] ------------------------------------------------------------
+    p = _physics_values(phys, overrides, problems)
+    materials = _parse_materials(phys, problems)
+    constructions = _parse_constructions(phys, materials, problems)
+    windows = _parse_windows(phys, zones, problems)
+    elements = _parse_elements(phys, zones, constructions, p["ambient_film"], p["ground_temperature"], problems)
+
+    if problems:
+        raise BuildingError(problems_message(f"Invalid physics description of {where_b}", problems))
+    return PhysicsSpec(
+        zones=zones,
+        zone_area={z.name: z.area for z in building.zones},
+        zone_volume={z.name: z.volume for z in building.zones},
+        vav_zone=tuple(v.zone for v in building.vavs),
+        materials=materials,
+        constructions=constructions,
+        windows=tuple(windows),
+        elements=tuple(elements),
+        **p,
+    )
+
+
+def _physics_values(phys: dict, overrides: dict, problems: list) -> dict:
+    """The ``[physics]`` table's scalars and nominal parameters (``overrides`` first), as PhysicsSpec keywords."""
     p = phys.get("physics", {})
     if not isinstance(p, dict):
         problems.append("[physics] must be a table")
@@ -314,8 +336,19 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
     extra = sorted(set(nominal_raw) - set(PARAM_NAMES))
     if extra:
         problems.append(f"[physics].nominal: unknown parameter(s) {extra} (known: {list(PARAM_NAMES)})")
+    return {
+        "ambient_film": ambient_film,
+        "ground_temperature": ground_temperature,
+        "internal_mass": internal_mass,
+        "furniture_capacity": furniture,
+        "max_layer_thickness": max_thick,
+        "nominal": nominal,
+        "solar_air_fraction": saf,
+    }
 
-    # --- materials --------------------------------------------------------------
+
+def _parse_materials(phys: dict, problems: list) -> dict:
+    """``[[materials]]``: name -> :class:`Material` (massless with ``r_value``)."""
     mat_rows = _table(phys, "materials", problems)
     _names(mat_rows, "materials", problems)
     materials = {}
@@ -340,8 +373,11 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
                 else:
                     vals[key] = _num(r[key], f"{where}: {key} [{unit}]", problems, positive=True)
             materials[name] = Material(name, **vals)
+    return materials
 
-    # --- constructions --------------------------------------------------------------
+
+def _parse_constructions(phys: dict, materials: dict, problems: list) -> dict:
+    """``[[constructions]]``: name -> :class:`Construction` (layers of known materials, two film kinds)."""
     con_rows = _table(phys, "constructions", problems)
     _names(con_rows, "constructions", problems)
     constructions = {}
@@ -388,8 +424,12 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
             if f not in film_kinds:
                 problems.append(f"{where}: film {f!r} is not one of {list(film_kinds)}")
         constructions[name] = Construction(name, tuple(layers), (str(films[0]), str(films[1])))
+    return constructions
 
-    # --- windows --------------------------------------------------------------
+
+def _parse_windows(phys: dict, zones: tuple, problems: list) -> list:
+    """``[[windows]]`` of known zones and orientations."""
+    zone_set = set(zones)
     win_rows = _table(phys, "windows", problems)
     _names(win_rows, "windows", problems, warn_duplicates=True)
     windows = []
@@ -409,8 +449,12 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
         if shgc > 1:
             problems.append(f"{where}: shgc must lie in [0, 1], got {shgc:g}")
         windows.append(Window(name, zone, orient, area, u, shgc))
+    return windows
 
-    # --- elements --------------------------------------------------------------
+
+def _parse_elements(phys, zones, constructions, ambient_film, ground_temperature, problems) -> list:
+    """``[[elements]]``: walls, floors, ceilings between zones and boundaries; every zone must be touched."""
+    zone_set = set(zones)
     el_rows = _table(phys, "elements", problems)
     _names(el_rows, "elements", problems, warn_duplicates=True)
     elements = []
@@ -446,23 +490,4 @@ def parse_physics(building: Building, **overrides) -> PhysicsSpec:
     for z in zones:
         if z not in touched:
             problems.append(f"zone {z}: no building element touches it (each zone needs walls, floor or ceiling)")
-
-    if problems:
-        raise BuildingError(problems_message(f"Invalid physics description of {where_b}", problems))
-    return PhysicsSpec(
-        zones=zones,
-        zone_area={z.name: z.area for z in building.zones},
-        zone_volume={z.name: z.volume for z in building.zones},
-        vav_zone=tuple(v.zone for v in building.vavs),
-        materials=materials,
-        constructions=constructions,
-        windows=tuple(windows),
-        elements=tuple(elements),
-        ambient_film=ambient_film,
-        ground_temperature=ground_temperature,
-        internal_mass=internal_mass,
-        furniture_capacity=furniture,
-        max_layer_thickness=max_thick,
-        nominal=nominal,
-        solar_air_fraction=saf,
-    )
+    return elements

@@ -368,19 +368,7 @@ def _fit_physics(
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
-    problems = []
-    if segment_observer not in ("gain_injection", "kalman"):
-        problems.append(f"segment_observer must be 'gain_injection' or 'kalman', got {segment_observer!r}")
-    if int(free_modes) < 0:
-        problems.append(f"free_modes must be >= 0, got {free_modes}")
-    if not segment_hours > 0 or warmup_hours < 0:
-        problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
-    if not bound_factor > 1:
-        problems.append(f"bound_factor must be > 1, got {bound_factor}")
-    if problems:
-        from ...errors import problems_message
-
-        raise FitError(problems_message("fit_physics: bad options", problems))
+    _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor)
     if solar is None:
         solar = bool(getattr(dataset, "has_solar", False))
     if solar and not getattr(dataset, "has_solar", False):
@@ -394,43 +382,17 @@ def _fit_physics(
         )
         if v is not None
     }
-    frame = dataset.frame
-    train_rows = np.zeros(len(frame), dtype=bool)
-    for w in dataset.weeks:
-        if w.train:
-            train_rows |= (frame.index >= w.start) & (frame.index < w.end)
-    if not train_rows.any():
-        raise FitError("the dataset has no training weeks")
-    inlets, notes = inlet_columns(building, frame, rows=train_rows)
-    for note in notes:
-        warnings.warn(note, HvacfmuWarning, stacklevel=2)
-    zones = building.zone_names
-    m_zone = frame[[f"m_{v}" for v in building.vav_names]].to_numpy(float)[train_rows] @ building.zone_vav_matrix().T
-    airflow = np.nan_to_num(np.nanmean(m_zone, axis=0), nan=0.0)
-    kal = dict(kalman or {})
-    kal.setdefault("airflow", airflow.tolist())
-    if "warmup_steps" not in kal:
-        kal["warmup_steps"] = int(round(warmup_hours * 3600 / step))
-    options["kalman"] = kal
-    zero_gains = {}
-
+    inlets, notes = _training_inputs(dataset, options, kalman, warmup_hours)
     spec = parse_physics(building, **{k: v for k, v in options.items() if k != "kalman"})
     nominal = dict(spec.nominal)
     start = dict(nominal)
     if initial:
         start.update(initial)
-    nz = len(zones)
-    nq = nz + (1 if spec.has_ground else 0)
-    n_tow = n_time_of_week(step)
-    seasons_present = list(dict.fromkeys(w.season for w in dataset.weeks))
-    for s in seasons_present:
-        zero_gains[s] = np.zeros((n_tow, nq))
-        if spec.has_ground:
-            zero_gains[s][:, nz] = spec.ground_temperature
+    zero_gains = _zero_gains(dataset, spec)
     model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options, inlets=inlets)
     template = model._template
     if solar:
-        missing = [c for c in model.disturbances if c not in frame.columns]
+        missing = [c for c in model.disturbances if c not in dataset.frame.columns]
         if missing:
             raise FitError(f"solar=True but the data lack {missing}")
 
@@ -439,52 +401,22 @@ def _fit_physics(
     segs = _weekend_segments(dataset, model, nw, ns, max_segments)
     log.info("Model B step 1: %d weekend segments of %d steps, %d states", segs.n, ns, model.n_states)
 
-    theta0 = np.log(template.params_vector(start))
-    lo = np.log(template.params_vector(nominal) / bound_factor)
-    hi = np.log(template.params_vector(nominal) * bound_factor)
-    theta0 = np.clip(theta0, lo + 1e-9, hi - 1e-9)
-    bar = Progress(total=None, desc="Model B step 1", unit="eval", enabled=progress)
-    observer = segment_observer
-    state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
-
-    def residuals(theta):
-        Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
-        _, r = _solve_gains(Y0, S, Phi, segs)
-        state["nfev"] += 1
-        if bar is not None:
-            bar.update(1)
-        return r
-
-    theta = theta0
-    results = []
-    n_rounds = max(1, int(kalman_rounds)) if observer == "kalman" else 1
-    for rnd in range(n_rounds):
-        if rnd > 0 and observer == "kalman":
-            net = template.build(np.exp(theta))
-            k = model.options["kalman"]
-            state["K"] = kalman_gain(net.discretize(step), k["airflow"], k["q_air"], k["q_mass"], k["r"])
-        res = so.least_squares(
-            residuals,
-            theta,
-            bounds=(lo, hi),
-            method="trf",
-            x_scale=1.0,
-            diff_step=1e-5,
-            max_nfev=max_nfev,
-            xtol=1e-4,
-            ftol=1e-6,
-        )
-        theta = res.x
-        results.append(res)
-    if bar is not None:
-        bar.close()
-    res = results[-1]
-    Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
+    bounds = (
+        np.log(template.params_vector(nominal) / bound_factor),
+        np.log(template.params_vector(nominal) * bound_factor),
+    )
+    theta0 = np.clip(np.log(template.params_vector(start)), bounds[0] + 1e-9, bounds[1] - 1e-9)
+    theta, K, results, nfev = _optimise(
+        model, segs, theta0, bounds, progress, segment_observer, kalman_rounds, free_modes, max_nfev
+    )
+    Y0, S, Phi = _simulate_segments(template, theta, step, segs, K, free_modes)
     f_c, r = _solve_gains(Y0, S, Phi, segs)
     params = dict(zip(PARAM_NAMES, map(float, np.exp(theta))))
 
     # --- uncertainty ------------------------------------------------------------
-    estimates, unident, jac_info = _uncertainty(template, theta, f_c, step, segs, state["K"], lo, hi, zones, free_modes)
+    estimates, unident, jac_info = _uncertainty(
+        template, theta, f_c, step, segs, K, bounds[0], bounds[1], building.zone_names, free_modes
+    )
     rms = float(np.sqrt(np.mean(r**2)))
 
     # --- step 2: seasonal time-of-week gains --------------------------------------
@@ -492,6 +424,7 @@ def _fit_physics(
         building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
     )
     gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
+    res = results[-1]
     meta = {
         "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
         "fit_seconds": round(time.perf_counter() - t_start, 2),
@@ -522,7 +455,7 @@ def _fit_physics(
         "optimizer": {
             "status": int(res.status),
             "message": str(res.message),
-            "nfev": int(state["nfev"]),
+            "nfev": int(nfev),
             "rounds": len(results),
             "cost": float(res.cost),
         },
@@ -546,6 +479,106 @@ def _fit_physics(
     meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
     log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
     return final
+
+
+def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor) -> None:
+    """Refuse impossible options of :func:`fit_physics`, all problems at once."""
+    problems = []
+    if segment_observer not in ("gain_injection", "kalman"):
+        problems.append(f"segment_observer must be 'gain_injection' or 'kalman', got {segment_observer!r}")
+    if int(free_modes) < 0:
+        problems.append(f"free_modes must be >= 0, got {free_modes}")
+    if not segment_hours > 0 or warmup_hours < 0:
+        problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
+    if not bound_factor > 1:
+        problems.append(f"bound_factor must be > 1, got {bound_factor}")
+    if problems:
+        from ...errors import problems_message
+
+        raise FitError(problems_message("fit_physics: bad options", problems))
+
+
+def _training_inputs(dataset, options: dict, kalman, warmup_hours) -> tuple:
+    """Inlet temperature columns of the boxes on the training rows, and the filter options (set in ``options``).
+
+    Returns ``(inlets, notes)``; ``options["kalman"]`` gets the mean training airflow per zone and the
+    warm-up length unless given.
+    """
+    frame, building = dataset.frame, dataset.building
+    train_rows = np.zeros(len(frame), dtype=bool)
+    for w in dataset.weeks:
+        if w.train:
+            train_rows |= (frame.index >= w.start) & (frame.index < w.end)
+    if not train_rows.any():
+        raise FitError("the dataset has no training weeks")
+    inlets, notes = inlet_columns(building, frame, rows=train_rows)
+    for note in notes:
+        warnings.warn(note, HvacfmuWarning, stacklevel=3)
+    m_zone = frame[[f"m_{v}" for v in building.vav_names]].to_numpy(float)[train_rows] @ building.zone_vav_matrix().T
+    airflow = np.nan_to_num(np.nanmean(m_zone, axis=0), nan=0.0)
+    kal = dict(kalman or {})
+    kal.setdefault("airflow", airflow.tolist())
+    if "warmup_steps" not in kal:
+        kal["warmup_steps"] = int(round(warmup_hours * 3600 / float(dataset.step)))
+    options["kalman"] = kal
+    return inlets, notes
+
+
+def _zero_gains(dataset, spec) -> dict:
+    """season -> zero time-of-week gain table (the ground column at the ground temperature)."""
+    nz = len(spec.zones)
+    nq = nz + (1 if spec.has_ground else 0)
+    n_tow = n_time_of_week(float(dataset.step))
+    zero_gains = {}
+    for s in dict.fromkeys(w.season for w in dataset.weeks):
+        zero_gains[s] = np.zeros((n_tow, nq))
+        if spec.has_ground:
+            zero_gains[s][:, nz] = spec.ground_temperature
+    return zero_gains
+
+
+def _optimise(model, segs, theta0, bounds, progress, observer, kalman_rounds, free_modes, max_nfev) -> tuple:
+    """Step 1: bounded least squares of the weekend simulation error over the log-parameters.
+
+    Returns ``(theta, K, results, nfev)``: the optimum, the segment observer used last, the
+    ``least_squares`` result of every round and the number of residual evaluations.
+    """
+    template, step = model._template, model.step
+    bar = Progress(total=None, desc="Model B step 1", unit="eval", enabled=progress)
+    state = {"K": "gain_injection" if observer == "gain_injection" else model.kalman_gain, "nfev": 0}
+
+    def residuals(theta):
+        Y0, S, Phi = _simulate_segments(template, theta, step, segs, state["K"], free_modes)
+        _, r = _solve_gains(Y0, S, Phi, segs)
+        state["nfev"] += 1
+        if bar is not None:
+            bar.update(1)
+        return r
+
+    theta = theta0
+    results = []
+    n_rounds = max(1, int(kalman_rounds)) if observer == "kalman" else 1
+    for rnd in range(n_rounds):
+        if rnd > 0 and observer == "kalman":
+            net = template.build(np.exp(theta))
+            k = model.options["kalman"]
+            state["K"] = kalman_gain(net.discretize(step), k["airflow"], k["q_air"], k["q_mass"], k["r"])
+        res = so.least_squares(
+            residuals,
+            theta,
+            bounds=bounds,
+            method="trf",
+            x_scale=1.0,
+            diff_step=1e-5,
+            max_nfev=max_nfev,
+            xtol=1e-4,
+            ftol=1e-6,
+        )
+        theta = res.x
+        results.append(res)
+    if bar is not None:
+        bar.close()
+    return theta, state["K"], results, state["nfev"]
 
 
 def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes):

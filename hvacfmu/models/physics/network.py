@@ -128,103 +128,49 @@ class NetworkTemplate:
     def __init__(self, spec: PhysicsSpec, solar: bool = False, inlets=None):
         self.spec = spec
         self.solar = bool(solar)
-        zones = spec.zones
-        zidx = {z: i for i, z in enumerate(zones)}
-        nz = len(zones)
-        names = [f"air:{z}" for z in zones]
-        cap = [RHO_AIR * CP_AIR * spec.zone_volume[z] + spec.furniture_capacity * spec.zone_area[z] for z in zones]
-        pidx = {p: i for i, p in enumerate(PARAM_NAMES)}
-        ea, eb, r0, rc = [], [], [], []
-
-        def edge(a, b, r_fixed, coef):
-            if a == b or (a < 0 and b < 0):
-                return
-            if a < 0:
-                a, b = b, a
-            ea.append(a)
-            eb.append(b)
-            r0.append(r_fixed)
-            rc.append(coef)
-
-        if spec.internal_mass > 0:
-            for z in zones:
-                i = len(names)
-                names.append(f"mass:{z}")
-                cap.append(spec.internal_mass * spec.zone_area[z])
-                coef = np.zeros(len(PARAM_NAMES))
-                coef[pidx["gamma_interior_wall"]] = 1.0 / spec.zone_area[z]
-                edge(zidx[z], i, 0.0, coef)
-
-        def side_node(s):
-            if s in zidx:
-                return zidx[s]
-            return {"ambient": _AMBIENT, "ground": _GROUND}.get(s)  # None: adiabatic
-
-        floor_surfaces = []  # (zone, first massive node, fixed resistance to it, film coefficients, area)
-        counts = {}
-        for el in spec.elements:
-            counts[el.name] = counts.get(el.name, 0) + 1
-        seen = {}
-        for el in spec.elements:
-            A = el.area
-            seen[el.name] = seen.get(el.name, 0) + 1
-            label = el.name if counts[el.name] == 1 else f"{el.name}#{seen[el.name]}"
-            con = el.construction
-            nodes = [side_node(el.side1)]
-            # resistance accumulated since the previous node: fixed part, per-parameter coefficients
-            acc_r, acc_c = 0.0, np.zeros(len(PARAM_NAMES))
-
-            def film(kind):
-                nonlocal acc_r
-                if kind in FILM_PARAMS:
-                    acc_c[pidx[FILM_PARAMS[kind]]] += 1.0 / A
-                elif kind == "ambient":
-                    acc_r += 1.0 / (spec.ambient_film * A)
-
-            film(con.films[0])
-            for li, layer in enumerate(con.layers):
-                mat = layer.material
-                if mat.massless:
-                    acc_r += mat.r_value / A
-                    continue
-                n_sub = max(1, math.ceil(layer.thickness / spec.max_layer_thickness - 1e-9))
-                d = layer.thickness / n_sub
-                r_half = d / (2.0 * mat.conductivity * A)
-                for j in range(n_sub):
-                    acc_r += r_half
-                    i = len(names)
-                    names.append(f"{label}[{li}.{j}]" if n_sub > 1 else f"{label}[{li}]")
-                    cap.append(mat.density * mat.specific_heat * d * A)
-                    if nodes[-1] is not None:
-                        edge(nodes[-1], i, acc_r, acc_c.copy())
-                        if len(nodes) == 1 and nodes[0] >= 0 and con.films[0] == "floor":
-                            floor_surfaces.append((nodes[0], i, acc_r, acc_c.copy(), A))
-                    nodes.append(i)
-                    acc_r, acc_c = r_half, np.zeros(len(PARAM_NAMES))
-            film(con.films[1])
-            end = side_node(el.side2)
-            if nodes[-1] is not None and end is not None:
-                edge(nodes[-1], end, acc_r, acc_c.copy())
-                if len(nodes) > 1 and end >= 0 and con.films[1] == "floor":
-                    floor_surfaces.append((end, nodes[-1], acc_r, acc_c.copy(), A))
-
-        self.node_names = tuple(names)
+        asm = _Assembly(spec)
+        asm.add_internal_mass()
+        for el, label in _labelled(spec.elements):
+            asm.add_element(el, label)
+        nz = len(spec.zones)
+        self.node_names = tuple(asm.names)
         self.n_zones = nz
-        self.capacity = np.asarray(cap, dtype=float)
-        nx = len(names)
-        self.edge_a = np.asarray(ea, dtype=np.int64)
-        self.edge_b = np.asarray(eb, dtype=np.int64)
-        self.edge_r0 = np.asarray(r0, dtype=float)
-        self.edge_rc = np.asarray(rc, dtype=float).reshape(-1, len(PARAM_NAMES))
+        self.capacity = np.asarray(asm.cap, dtype=float)
+        self.edge_a = np.asarray(asm.ea, dtype=np.int64)
+        self.edge_b = np.asarray(asm.eb, dtype=np.int64)
+        self.edge_r0 = np.asarray(asm.r0, dtype=float)
+        self.edge_rc = np.asarray(asm.rc, dtype=float).reshape(-1, len(PARAM_NAMES))
+        self._set_windows(spec, asm.zidx)
+        self._set_floors(asm.floor_surfaces, nz)
+        self.vav_zone = np.asarray([asm.zidx[z] for z in spec.vav_zone], dtype=np.int64)
+        self.has_ground = spec.has_ground
+        self._set_inputs(inlets)
+        self.q_names = tuple(f"f_ig_{z}" for z in spec.zones) + (("T_ground",) if self.has_ground else ())
+        # sparsity pattern of L: internal edges give 4 entries, boundary edges 1
+        internal = self.edge_b >= 0
+        a, b = self.edge_a, self.edge_b
+        self._rows = np.concatenate([a, b[internal], a[internal], b[internal], self.window_zone])
+        self._cols = np.concatenate([a, b[internal], b[internal], a[internal], self.window_zone])
+        self._internal = internal
+        self.n_states = len(asm.names)
+        # zone-by-VAV summation matrix
+        self.zone_vav = np.zeros((nz, len(self.vav_zone)))
+        self.zone_vav[self.vav_zone, np.arange(len(self.vav_zone))] = 1.0
+
+    def _set_windows(self, spec: PhysicsSpec, zidx: dict) -> None:
+        """Window conductances (per U_win) and the solar apertures per zone and facade."""
         self.window_zone = np.asarray([zidx[w.zone] for w in spec.windows], dtype=np.int64)
         u_nom = spec.nominal["U_win"]
         self.window_g = np.asarray([w.u_value * w.area / u_nom for w in spec.windows], dtype=float)
         # solar: SHGC * area [m2] per zone and facade orientation; a fraction goes to the air node,
         # the rest is absorbed at the zone's floor surfaces (area-weighted), see RCNetwork.solar_matrix
-        self.solar_window = np.zeros((nz, len(ORIENTATIONS)))
+        self.solar_window = np.zeros((len(spec.zones), len(ORIENTATIONS)))
         for w in spec.windows:
             self.solar_window[zidx[w.zone], ORIENTATIONS.index(w.orientation)] += w.shgc * w.area
         self.solar_air_fraction = spec.solar_air_fraction
+
+    def _set_floors(self, floor_surfaces: list, nz: int) -> None:
+        """Floor surfaces that absorb the transmitted sun, with their share of their zone's floor area."""
         fz = np.array([f[0] for f in floor_surfaces], dtype=np.int64)
         self.floor_zone = fz
         self.floor_node = np.array([f[1] for f in floor_surfaces], dtype=np.int64)
@@ -233,8 +179,9 @@ class NetworkTemplate:
         area = np.array([f[4] for f in floor_surfaces], dtype=float)
         zone_floor_area = np.bincount(fz, area, minlength=nz)
         self.floor_share = area / zone_floor_area[fz] if len(fz) else area
-        self.vav_zone = np.asarray([zidx[z] for z in spec.vav_zone], dtype=np.int64)
-        self.has_ground = spec.has_ground
+
+    def _set_inputs(self, inlets) -> None:
+        """Disturbance columns (outdoor, supply, sun, then other inlet columns) and each box's inlet index."""
         base = ("T_out", "T_supply") + (tuple(f"I_{o}" for o in ORIENTATIONS) if self.solar else ())
         inlets = ("T_supply",) * len(self.vav_zone) if inlets is None or len(inlets) == 0 else tuple(inlets)
         if len(inlets) != len(self.vav_zone):
@@ -242,17 +189,6 @@ class NetworkTemplate:
         self.inlets = inlets
         self.disturbances = base + tuple(dict.fromkeys(c for c in inlets if c not in base))
         self.inlet_idx = np.array([self.disturbances.index(c) for c in inlets], dtype=np.int64)
-        self.q_names = tuple(f"f_ig_{z}" for z in zones) + (("T_ground",) if self.has_ground else ())
-        # sparsity pattern of L: internal edges give 4 entries, boundary edges 1
-        internal = self.edge_b >= 0
-        a, b = self.edge_a, self.edge_b
-        self._rows = np.concatenate([a, b[internal], a[internal], b[internal], self.window_zone])
-        self._cols = np.concatenate([a, b[internal], b[internal], a[internal], self.window_zone])
-        self._internal = internal
-        self.n_states = nx
-        # zone-by-VAV summation matrix
-        self.zone_vav = np.zeros((nz, len(self.vav_zone)))
-        self.zone_vav[self.vav_zone, np.arange(len(self.vav_zone))] = 1.0
 
     def params_vector(self, params) -> np.ndarray:
         """The five parameters as an array in :data:`PARAM_NAMES` order (dict or sequence accepted)."""
@@ -610,3 +546,107 @@ class DiscreteBilinear:
                 h = CP_AIR * (mt[..., k, :] - m[..., k, :] * xz)
             z = ed * z + vk @ PvT + q[..., k, :] @ PqT + h @ PhT
         return Y, Z, Yp, z
+
+
+def _labelled(elements) -> list:
+    """(element, node label) pairs; repeated element names are numbered ``name#1``, ``name#2``, ..."""
+    counts: dict = {}
+    for el in elements:
+        counts[el.name] = counts.get(el.name, 0) + 1
+    seen: dict = {}
+    out = []
+    for el in elements:
+        seen[el.name] = seen.get(el.name, 0) + 1
+        out.append((el, el.name if counts[el.name] == 1 else f"{el.name}#{seen[el.name]}"))
+    return out
+
+
+class _Assembly:
+    """Nodes and edges of an RC network collected element by element (used by :class:`NetworkTemplate`).
+
+    An edge resistance is ``r0 + rc . (1 / params)``: a fixed part and per-parameter film coefficients.
+    Node indices: zones first (their air nodes), then internal masses and layer nodes in order;
+    boundaries are negative (``_AMBIENT``, ``_GROUND``).
+    """
+
+    def __init__(self, spec: PhysicsSpec):
+        self.spec = spec
+        self.zidx = {z: i for i, z in enumerate(spec.zones)}
+        self.pidx = {p: i for i, p in enumerate(PARAM_NAMES)}
+        self.names = [f"air:{z}" for z in spec.zones]
+        self.cap = [
+            RHO_AIR * CP_AIR * spec.zone_volume[z] + spec.furniture_capacity * spec.zone_area[z] for z in spec.zones
+        ]
+        self.ea: list = []
+        self.eb: list = []
+        self.r0: list = []
+        self.rc: list = []
+        self.floor_surfaces: list = []  # (zone, first massive node, fixed resistance to it, film coefficients, area)
+
+    def edge(self, a, b, r_fixed, coef) -> None:
+        if a == b or (a < 0 and b < 0):
+            return
+        if a < 0:
+            a, b = b, a
+        self.ea.append(a)
+        self.eb.append(b)
+        self.r0.append(r_fixed)
+        self.rc.append(coef)
+
+    def side_node(self, s):
+        if s in self.zidx:
+            return self.zidx[s]
+        return {"ambient": _AMBIENT, "ground": _GROUND}.get(s)  # None: adiabatic
+
+    def add_internal_mass(self) -> None:
+        spec = self.spec
+        if spec.internal_mass <= 0:
+            return
+        for z in spec.zones:
+            i = len(self.names)
+            self.names.append(f"mass:{z}")
+            self.cap.append(spec.internal_mass * spec.zone_area[z])
+            coef = np.zeros(len(PARAM_NAMES))
+            coef[self.pidx["gamma_interior_wall"]] = 1.0 / spec.zone_area[z]
+            self.edge(self.zidx[z], i, 0.0, coef)
+
+    def _film(self, kind, A, acc_c) -> float:
+        """Add film ``kind`` of an area ``A`` surface: identified films to ``acc_c``; returns the fixed part."""
+        if kind in FILM_PARAMS:
+            acc_c[self.pidx[FILM_PARAMS[kind]]] += 1.0 / A
+        elif kind == "ambient":
+            return 1.0 / (self.spec.ambient_film * A)
+        return 0.0
+
+    def add_element(self, el, label: str) -> None:
+        """Layer nodes of element ``el`` (massive layers split into sub-layers) and the edges between them."""
+        A, con = el.area, el.construction
+        nodes = [self.side_node(el.side1)]
+        # resistance accumulated since the previous node: fixed part, per-parameter coefficients
+        acc_c = np.zeros(len(PARAM_NAMES))
+        acc_r = self._film(con.films[0], A, acc_c)
+        for li, layer in enumerate(con.layers):
+            mat = layer.material
+            if mat.massless:
+                acc_r += mat.r_value / A
+                continue
+            n_sub = max(1, math.ceil(layer.thickness / self.spec.max_layer_thickness - 1e-9))
+            d = layer.thickness / n_sub
+            r_half = d / (2.0 * mat.conductivity * A)
+            for j in range(n_sub):
+                acc_r += r_half
+                i = len(self.names)
+                self.names.append(f"{label}[{li}.{j}]" if n_sub > 1 else f"{label}[{li}]")
+                self.cap.append(mat.density * mat.specific_heat * d * A)
+                if nodes[-1] is not None:
+                    self.edge(nodes[-1], i, acc_r, acc_c.copy())
+                    if len(nodes) == 1 and nodes[0] >= 0 and con.films[0] == "floor":
+                        self.floor_surfaces.append((nodes[0], i, acc_r, acc_c.copy(), A))
+                nodes.append(i)
+                acc_r, acc_c = r_half, np.zeros(len(PARAM_NAMES))
+        acc_r += self._film(con.films[1], A, acc_c)
+        end = self.side_node(el.side2)
+        if nodes[-1] is not None and end is not None:
+            self.edge(nodes[-1], end, acc_r, acc_c.copy())
+            if len(nodes) > 1 and end >= 0 and con.films[1] == "floor":
+                self.floor_surfaces.append((end, nodes[-1], acc_r, acc_c.copy(), A))
