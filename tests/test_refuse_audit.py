@@ -67,7 +67,15 @@ def test_cli_refuses_a_model_file_for_other_zones_without_a_traceback(tmp_path, 
     path = tmp_path / "other.json"
     path.write_text(json.dumps(model.to_dict()))
     r = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "evaluate", str(short_paths.measurements), "-b", str(short_paths.building)]
+        [
+            sys.executable,
+            "-m",
+            "hvacfmu.cli",
+            "evaluate",
+            str(short_paths.measurements),
+            "-b",
+            str(short_paths.building),
+        ]
         + ["-m", str(path)],
         capture_output=True,
         text=True,
