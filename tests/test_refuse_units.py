@@ -29,7 +29,7 @@ CASES = [("cold", "2026-01-05"), ("mild", "2026-01-05"), ("hot", "2025-07-07")]
 def export(climate, start, units):
     from hvacfmu.emulator import cached_dataset
 
-    return cached_dataset(weeks=2, seed=0, climate=climate, start=start, units=units, hvac="reheat")
+    return cached_dataset(weeks=2, seed=0, climate=climate, start=start, units=units, hvac="reheat", export_step=900)
 
 
 def checked(path, bdict, units=None):
