@@ -97,7 +97,7 @@ def _maps(model) -> list[str]:
 
 def _signal_scale(name: str) -> float:
     """A generous swing of one input [its unit]: 50 K for temperatures, 1000 W/m² for irradiance, 1 otherwise."""
-    if name.startswith(("T", "m_T")):
+    if name.startswith("T"):
         return 50.0
     if name.startswith(("I_", "ghi")):
         return 1000.0
