@@ -11,9 +11,10 @@ runs both back to back). Target: at most 5x for the six-zone model.
 
 A second table compares the native FMU (``hvacfmu export --native``: generated C,
 no Python at run time) with the pythonfmu FMU of the same model, per step through
-the same raw ctypes loop (target: native at least 20x faster), and gives the
-native FMU's cost in a pure C master (``tests/data/fmi2_master.c``, wall clock,
-printing every output) and its largest difference from the Python model.
+the same FMPy calls (target: native at least 20x faster per ``fmi2DoStep``),
+gives the floor of an FMPy call (the least a ``doStep`` costs from Python, hence
+the largest ratio FMPy can show), the native FMU's cost in a pure C master
+(``tests/data/fmi2_master.c``) and its largest difference from the Python model.
 
 Usage: ``python3 benchmarks/bench_fmu.py [--repeats 5] [--kinds lumped zones physics] [--steps N]``
 """
@@ -83,7 +84,18 @@ def make_models(building):
             solar=True,
             gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names},
         )
-    return {"lumped": lumped, "zones": zones, "physics": physics}
+    from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain, SupplyAirBilinear, ThermalMass
+
+    extended = ExtendedModel(  # the six-zone model with one term of each kind the diagnosis adds
+        base=zones,
+        terms=(
+            SolarGain(zone="S", facade="S", coef=4e-4),
+            SupplyAirBilinear(zone="NW", coef=0.02),
+            ThermalMass(zone="C", alpha=0.02, beta=0.05),
+            ActuationDelay(zone="E", delay=2),
+        ),
+    )
+    return {"lumped": lumped, "zones": zones, "physics": physics, "extended": extended}
 
 
 def year_inputs(building, model, n, seed=1):
@@ -128,7 +140,16 @@ def open_fmu(path, model, y0, instance, first_inputs):
     return fmu, vr
 
 
-def run_fmu(path, model, building, m, v, y0, raw, step_times=None):
+def run_fmu(path, model, building, m, v, y0, raw, costs=None):
+    """A year through one FMU instance; returns (process CPU seconds, outputs).
+
+    With ``raw`` the FMI calls go through FMPy's ``FMU2Slave.fmi2*`` methods on
+    preallocated ctypes arrays. ``costs`` (a dict of lists), when given, gets the
+    process CPU time per step of: ``loop`` (setReal + doStep + getReal),
+    ``setget`` (the same loop without doStep, on the same instance afterwards),
+    ``doStep`` (their difference) and ``floor`` (an FMPy call that does nothing in
+    the FMU: ``fmi2SetDebugLogging``), all in seconds.
+    """
     # all inputs, in the FMU's order; time_of_week = -1 keeps the FMU clock
     names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances) + ["time_of_week"]
     W = np.column_stack([m, v, np.full(len(m), -1.0)])
@@ -147,20 +168,30 @@ def run_fmu(path, model, building, m, v, y0, raw, step_times=None):
             out = np.frombuffer(a_out, dtype=float)
             set_real, do_step, get_real, comp = fmu.fmi2SetReal, fmu.fmi2DoStep, fmu.fmi2GetReal, fmu.component
             nin, nout = len(vin), len(vout)
-            ns = time.perf_counter_ns
-            t_step = 0
             t = CLOCK()
             for k in range(n):
                 buf[:] = W[k]
                 set_real(comp, a_vin, nin, a_val)
-                t1 = ns()
                 do_step(comp, k * 900.0, 900.0, 1)
-                t_step += ns() - t1
                 get_real(comp, a_vout, nout, a_out)
                 Y[k] = out
             dt = CLOCK() - t
-            if step_times is not None:
-                step_times.append(t_step * 1e-9)
+            if costs is not None:
+                Y2 = np.empty_like(Y)
+                t = CLOCK()
+                for k in range(n):
+                    buf[:] = W[k]
+                    set_real(comp, a_vin, nin, a_val)
+                    get_real(comp, a_vout, nout, a_out)
+                    Y2[k] = out
+                setget = CLOCK() - t
+                debug = fmu.fmi2SetDebugLogging
+                t = CLOCK()
+                for _ in range(n):
+                    debug(comp, 0, 0, None)
+                floor = CLOCK() - t
+                for key, val in (("loop", dt), ("setget", setget), ("doStep", dt - setget), ("floor", floor)):
+                    costs.setdefault(key, []).append(val / n)
         else:
             rows = W.tolist()
             Y = []
@@ -211,26 +242,29 @@ def c_master_us_per_step(path, model, building, m, v, tmp):
 
 
 def compare_native(kinds, models, building, n, repeats, tmp):
-    """Second table: the native FMU against the pythonfmu FMU, per step (raw ctypes loop)."""
+    """Second table: the native FMU against the pythonfmu FMU, per step, same FMPy calls for both."""
     import pandas as pd
 
     from hvacfmu.fmu_native import export_native_fmu
 
     index = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")
-    print(f"\nnative vs pythonfmu FMU, {n} steps, raw ctypes loop, medians of {repeats} runs (process CPU time)")
+    print(f"\nnative vs pythonfmu FMU, {n} steps, medians of {repeats} runs, process CPU time [us/step]")
     print(
-        "(loop: setReal + doStep + getReal from Python; doStep: the fmi2DoStep call alone, wall clock; "
-        "C master: process CPU time per step in tests/data/fmi2_master.c)"
+        "loop: setReal + doStep + getReal through FMPy's FMU2Slave.fmi2* on ctypes arrays; doStep: loop minus the same\n"
+        "loop without doStep; floor: an FMPy call that does nothing in the FMU (fmi2SetDebugLogging), the least any\n"
+        "FMU's doStep can cost from Python; cap: pythonfmu doStep / native floor, the largest ratio FMPy allows;\n"
+        "C master: fmi2GetReal + fmi2SetReal + fmi2DoStep per step in tests/data/fmi2_master.c (no Python)."
     )
     print(
-        f"{'model':8s} {'loop pythonfmu':>14s} {'loop native':>12s} {'ratio':>6s} {'doStep pythonfmu':>17s} "
-        f"{'doStep native':>14s} {'ratio':>6s} {'C master':>9s} {'max |dT| [K]':>13s} {'export [s]':>10s}  [us/step]"
+        f"{'model':8s} {'loop py':>8s} {'loop nat':>8s} {'ratio':>6s} {'doStep py':>9s} {'doStep nat':>10s} {'ratio':>6s} "
+        f"{'floor':>6s} {'cap':>5s} {'C master':>9s} {'max |dT| [K]':>12s} {'export [s]':>10s} form"
     )
     for kind in kinds:
         model = models[kind]
         t0 = time.perf_counter()
         native = export_native_fmu(model, Path(tmp) / f"{kind}_native.fmu")
         build = time.perf_counter() - t0
+        form = "modal" if "#define HV_MODAL 1" in _native_header(native) else "physical"
         python_fmu = export_fmu(model.save(Path(tmp) / f"{kind}_cmp.json"), Path(tmp) / f"{kind}_cmp.fmu")
         m, v = year_inputs(building, model, n)
         frame = pd.DataFrame({f"m_{b}": m[:, j] for j, b in enumerate(building.vav_names)}, index=index)
@@ -240,28 +274,37 @@ def compare_native(kinds, models, building, n, repeats, tmp):
         q = model.gains_at(index, list(model.gains)[0])
         y0 = np.full(model.n_outputs, 21.0)
         _, Yref = model.simulate(state_from_outputs(model, y0, u[0], v[0], q[0]), u, v, q)
-        py, nat, ratios, py_step, nat_step = [], [], [], [], []
+        py, nat = {}, {}
         for _ in range(repeats):
-            a, _ = run_fmu(python_fmu, model, building, m, v, y0, raw=True, step_times=py_step)
-            b, Y = run_fmu(native, model, building, m, v, y0, raw=True, step_times=nat_step)
-            py.append(a)
-            nat.append(b)
-            ratios.append(a / b)
-        step_ratio = statistics.median(p / q for p, q in zip(py_step, nat_step))
+            run_fmu(python_fmu, model, building, m, v, y0, raw=True, costs=py)
+            _, Y = run_fmu(native, model, building, m, v, y0, raw=True, costs=nat)
+        med = (
+            {k: 1e6 * statistics.median(x) for k, x in py.items()},
+            {k: 1e6 * statistics.median(x) for k, x in nat.items()},
+        )
         err = float(np.max(np.abs(Y - Yref[1:])))
         c_us = c_master_us_per_step(native, model, building, m, v, tmp)
         c_txt = f"{c_us:9.2f}" if c_us is not None else f"{'(no gcc)':>9s}"
         print(
-            f"{kind:8s} {1e6 * statistics.median(py) / n:14.2f} {1e6 * statistics.median(nat) / n:12.2f} "
-            f"{statistics.median(ratios):6.1f} {1e6 * statistics.median(py_step) / n:17.2f} "
-            f"{1e6 * statistics.median(nat_step) / n:14.2f} {step_ratio:6.1f} {c_txt} {err:13.2e} {build:10.2f}"
+            f"{kind:8s} {med[0]['loop']:8.2f} {med[1]['loop']:8.2f} {med[0]['loop'] / med[1]['loop']:6.1f} "
+            f"{med[0]['doStep']:9.2f} {med[1]['doStep']:10.2f} {med[0]['doStep'] / med[1]['doStep']:6.1f} "
+            f"{med[1]['floor']:6.2f} {med[0]['doStep'] / med[1]['floor']:5.0f} {c_txt} {err:12.2e} {build:10.2f} {form}"
         )
+
+
+def _native_header(path) -> str:
+    import zipfile
+
+    from hvacfmu.fmu_native import HEADER_NAME
+
+    with zipfile.ZipFile(path) as z:
+        return z.read(f"sources/{HEADER_NAME}").decode()
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics"])
+    ap.add_argument("--kinds", nargs="+", default=["lumped", "zones", "physics", "extended"])
     ap.add_argument("--steps", type=int, default=N_YEAR, help="steps per run (default a year: 35040)")
     ap.add_argument("--native-only", action="store_true", help="only the native vs pythonfmu table")
     args = ap.parse_args()

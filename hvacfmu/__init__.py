@@ -84,7 +84,14 @@ def _as_model(model: Any) -> Any:
     return model if isinstance(model, ZoneModel) else _load(model)
 
 
-def evaluate(model: Any, data: Any, horizon: int = 96, names: Any = None) -> EvaluationResult:
+def evaluate(
+    model: Any,
+    data: Any,
+    horizon: int = 96,
+    names: Any = None,
+    fill_inputs_h: float = 2.0,
+    min_output_share: float = 0.75,
+) -> EvaluationResult:
     """Score models by 24-hour open-loop prediction RMS on the held-out weeks, verdict first.
 
     Parameters
@@ -97,6 +104,11 @@ def evaluate(model: Any, data: Any, horizon: int = 96, names: Any = None) -> Eva
         Prediction horizon [steps] (96 = 24 h at 15 minutes).
     names : sequence of str, optional
         Labels of the models.
+    fill_inputs_h : float [h]
+        Longest input gap filled by interpolation in time for the simulation (zone
+        temperatures are never filled; see :mod:`hvacfmu.evaluation.windows`).
+    min_output_share : float [-]
+        A window is scored only when every output is measured in this share of its steps.
 
     Returns
     -------
@@ -108,7 +120,9 @@ def evaluate(model: Any, data: Any, horizon: int = 96, names: Any = None) -> Eva
     from .evaluation import evaluate as _evaluate
 
     models = [_as_model(m) for m in model] if isinstance(model, (list, tuple)) else _as_model(model)
-    return _evaluate(models, data, horizon=horizon, names=names)
+    return _evaluate(
+        models, data, horizon=horizon, names=names, fill_inputs_h=fill_inputs_h, min_output_share=min_output_share
+    )
 
 
 def export_fmu(model: Any, path: Any, *, timezone: str | None = None) -> Any:

@@ -9,12 +9,23 @@
  *   x+ = A x + Bu u + Bv v + Bq q + sum_i u_i (Bxu_i x + Bvu_i v) + sum_s on_s scale_s g_s
  *   y  = x[out_state]
  *
+ * A large model whose A has real eigenvalues is generated in modal form (HV_MODAL, see
+ * hvacfmu/fmu_native_modal.py): the state is z = W x with A = V diag(lam) W, and one step is
+ *
+ *   z+ = lam * z + P w,  w = [u, v, q, a, s],  a_r = sum_t alpha_t u_i(t) src_t,  xs = S z
+ *
+ * with xs the physical states the outputs and bilinear terms read (S = rows of V).
+ *
  * q is row (slot mod n_slots) of the season's time-of-week gain table, with
  * slot = floor((start_time_of_week + t_start)/step + 1e-9) + k for model step k,
  * or floor(time_of_week/step + 1e-9) when the time_of_week input is >= 0.
  * A communication step must be a whole multiple of the model step; other steps,
- * NaN or out-of-range inputs and non-contiguous steps return fmi2Discard with a
- * logged reason and leave the state unchanged.
+ * NaN or out-of-range inputs and non-contiguous steps return fmi2Error with a
+ * logged reason (time, variable, value) and leave the state unchanged. fmi2Error,
+ * not fmi2Discard: a master such as FMPy's simulate_fmu ends a run quietly with a
+ * short result on fmi2Discard (it reads fmi2Terminated and stops), but raises on
+ * fmi2Error, so `fmpy simulate` exits non-zero. The instance stays usable
+ * (fmi2SetFMUstate, fmi2Reset or a corrected step).
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -46,14 +57,21 @@ typedef struct {
 
 #include "hvacfmu_model.h" /* generated: sizes, matrices, gain tables, variables */
 
-#define HV_STATE_MAGIC 0x48564631 /* "HVF1" */
+#if !HV_MODAL
+#define HV_NS 1
+#define HV_NREP 0
+#endif
+#define HV_NWALL (HV_NU + HV_NV + HV_NQ + HV_NSWITCH + HV_MODAL * HV_NREP + 1)
+
+#define HV_STATE_MAGIC 0x48564632 /* "HVF2" */
 
 /* everything fmi2GetFMUstate saves */
 typedef struct {
     int magic;
     int size;
     double r[HV_NVARS]; /* variable values by value reference (season as a double) */
-    double x[HV_NX];
+    double x[HV_NX]; /* the state; in modal form the modal state z */
+    double xs[HV_NS]; /* modal form: the physical states S z (outputs first) */
     long long k; /* model steps since the start time */
     long long slot0;
     double t, t_start;
@@ -73,6 +91,7 @@ typedef struct {
     double v[HV_NV > 0 ? HV_NV : 1];
     double tmp[HV_NX];
     double xn[HV_NX];
+    double zn[HV_NX];
 } hv_inst;
 
 /* ------------------------------------------------------------------ helpers without libm */
@@ -104,6 +123,7 @@ static void hv_log(hv_inst *c, fmi2Status status, const char *category, const ch
     c->cb.logger(c->cb.componentEnvironment, c->name, status, category, msg);
 }
 
+#if !HV_MODAL
 static void spmv_add(const hv_sparse *a, const double *x, double *y) {
     if (!a->row) { /* dense, column-major: y += sum_j a[:, j] x[j] (independent lanes, vectorises) */
         const double *col = a->val;
@@ -117,6 +137,7 @@ static void spmv_add(const hv_sparse *a, const double *x, double *y) {
     }
     for (int k = 0; k < a->nnz; ++k) y[a->row[k]] += a->val[k] * x[a->col[k]];
 }
+#endif
 
 /* ------------------------------------------------------------------ the model */
 static const double *gains_row(int season, long long slot) {
@@ -129,7 +150,7 @@ static void model_inputs(hv_inst *c) {
 #if HV_HAS_MAP
     for (int i = 0; i < HV_NU; ++i) {
         double s = 0.0;
-        for (int j = 0; j < HV_NB; ++j) s += hv_map[i * HV_NB + j] * r[hv_vr_m[j]];
+        for (int k = hv_map_start[i]; k < hv_map_start[i + 1]; ++k) s += hv_map_val[k] * r[hv_vr_m[hv_map_col[k]]];
         c->u[i] = s;
     }
 #else
@@ -138,6 +159,78 @@ static void model_inputs(hv_inst *c) {
     for (int i = 0; i < HV_NV; ++i) c->v[i] = r[hv_vr_v[i]];
 }
 
+/* the factor of switch s this step: 0 when its condition does not hold */
+static double switch_value(hv_inst *c, int s) {
+    const hv_switch *w = &hv_switches[s];
+    if (w->input_index >= 0 && !(c->u[w->input_index] <= w->input_below)) return 0.0;
+    if (w->disturbance_index >= 0 && !(c->v[w->disturbance_index] < w->disturbance_below)) return 0.0;
+    return w->scale_by >= 0 ? c->v[w->scale_by] : 1.0;
+}
+
+#if HV_MODAL
+#define HV_BLOCK 8 /* modes per register block */
+/* zn, xsn = one modal step from z, xs with inputs c->u, c->v and gain row q */
+static void modal_step(hv_inst *c, const double *z, const double *xs, const double *q, double *zn, double *xsn) {
+    const double *u = c->u, *v = c->v;
+    double w[HV_NWALL];
+    double *a = w + HV_NU + HV_NV + HV_NQ, *sw = a + HV_NREP;
+    memcpy(w, u, sizeof(double) * HV_NU);
+    memcpy(w + HV_NU, v, sizeof(double) * HV_NV);
+    memcpy(w + HV_NU + HV_NV, q, sizeof(double) * HV_NQ);
+    for (int r = 0; r < HV_NREP; ++r) a[r] = 0.0;
+    for (int t = 0; t < HV_NBT; ++t) {
+        int src = hv_bt_src[t];
+        a[hv_bt_rep[t]] += hv_bt_alpha[t] * u[hv_bt_input[t]] * (src >= 0 ? xs[src] : v[-1 - src]);
+    }
+    for (int s = 0; s < HV_NSWITCH; ++s) sw[s] = switch_value(c, s);
+    double acc[HV_NS];
+    for (int i = 0; i < HV_NS; ++i) acc[i] = 0.0;
+    /* zn = lam z + P w and xsn = S zn, in blocks of HV_BLOCK modes kept in registers (the sums run in
+     * the same order as column by column: k ascending for zn[j], j ascending for xsn[i]) */
+    int j0 = 0;
+    for (; j0 + HV_BLOCK <= HV_NX; j0 += HV_BLOCK) {
+        double b[HV_BLOCK];
+        for (int t = 0; t < HV_BLOCK; ++t) b[t] = hv_lam[j0 + t] * z[j0 + t];
+        for (int k = 0; k < HV_NW; ++k) {
+            const double wk = w[hv_P_src[k]];
+            const double *col = hv_P + (size_t)k * HV_NX + j0;
+            for (int t = 0; t < HV_BLOCK; ++t) b[t] += col[t] * wk;
+        }
+        for (int t = 0; t < HV_BLOCK; ++t) {
+            const double *row = hv_ST + (size_t)(j0 + t) * HV_NS;
+            zn[j0 + t] = b[t];
+            for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * b[t];
+        }
+    }
+    for (int j = j0; j < HV_NX; ++j) {
+        double b = hv_lam[j] * z[j];
+        for (int k = 0; k < HV_NW; ++k) b += hv_P[(size_t)k * HV_NX + j] * w[hv_P_src[k]];
+        const double *row = hv_ST + (size_t)j * HV_NS;
+        zn[j] = b;
+        for (int i = 0; i < HV_NS; ++i) acc[i] += row[i] * b;
+    }
+    memcpy(xsn, acc, sizeof acc);
+}
+
+/* xn = step(x) in physical coordinates through the modal form (initialisation only: two dense products) */
+static void phys_step(hv_inst *c, const double *x, const double *q, double *xn) {
+    double *z = c->tmp, *zn = c->zn;
+    double xs[HV_NS], xsn[HV_NS];
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_W[(size_t)i * HV_NX + j] * x[j];
+        z[i] = s;
+    }
+    for (int i = 0; i < HV_NS; ++i) xs[i] = x[hv_S_state[i]];
+    modal_step(c, z, xs, q, zn, xsn);
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_V[(size_t)i * HV_NX + j] * zn[j];
+        xn[i] = s;
+    }
+}
+#define STATE_STEP phys_step
+#else
 /* xn = step(x) with inputs c->u, c->v and gain row q */
 static void step_state(hv_inst *c, const double *x, const double *q, double *xn) {
     const double *u = c->u, *v = c->v;
@@ -156,14 +249,13 @@ static void step_state(hv_inst *c, const double *x, const double *q, double *xn)
     }
 #endif
     for (int s = 0; s < HV_NSWITCH; ++s) {
-        const hv_switch *w = &hv_switches[s];
-        double scale;
-        if (w->input_index >= 0 && !(u[w->input_index] <= w->input_below)) continue;
-        if (w->disturbance_index >= 0 && !(v[w->disturbance_index] < w->disturbance_below)) continue;
-        scale = w->scale_by >= 0 ? v[w->scale_by] : 1.0;
-        for (int j = 0; j < HV_NX; ++j) xn[j] += scale * w->gain[j];
+        double scale = switch_value(c, s);
+        if (scale != 0.0)
+            for (int j = 0; j < HV_NX; ++j) xn[j] += scale * hv_switches[s].gain[j];
     }
 }
+#define STATE_STEP step_state
+#endif
 
 static long long slot_of_step(hv_inst *c, long long k) {
 #if HV_VR_TOWIN >= 0
@@ -173,8 +265,43 @@ static long long slot_of_step(hv_inst *c, long long k) {
     return c->s.slot0 + k;
 }
 
+/* the physical value of output i */
+static double output_value(const hv_state *s, int i) {
+#if HV_MODAL
+    return s->xs[hv_out_xs[i]];
+#else
+    return s->x[hv_out_state[i]];
+#endif
+}
+
 static void write_outputs(hv_inst *c) {
-    for (int i = 0; i < HV_NY; ++i) c->s.r[hv_vr_y[i]] = c->s.x[hv_out_state[i]];
+    for (int i = 0; i < HV_NY; ++i) c->s.r[hv_vr_y[i]] = output_value(&c->s, i);
+}
+
+/* Advance the state n model steps from model step k (inputs held); commit only when the outputs stay finite. */
+static int advance(hv_inst *c, int season, long long slot, long long n) {
+    double x[HV_NX];
+    memcpy(x, c->s.x, sizeof x);
+#if HV_MODAL
+    double xs[HV_NS];
+    memcpy(xs, c->s.xs, sizeof xs);
+    for (long long j = 0; j < n; ++j) {
+        modal_step(c, x, xs, gains_row(season, slot + j), c->xn, xs);
+        memcpy(x, c->xn, sizeof x);
+    }
+    for (int i = 0; i < HV_NY; ++i)
+        if (!hv_finite(xs[hv_out_xs[i]])) return 0;
+    memcpy(c->s.xs, xs, sizeof xs);
+#else
+    for (long long j = 0; j < n; ++j) {
+        step_state(c, x, gains_row(season, slot + j), c->xn);
+        memcpy(x, c->xn, sizeof x);
+    }
+    for (int i = 0; i < HV_NY; ++i)
+        if (!hv_finite(x[hv_out_state[i]])) return 0;
+#endif
+    memcpy(c->s.x, x, sizeof x);
+    return 1;
 }
 
 /* Solve a (n x n, row-major, overwritten) z = b by Gaussian elimination with partial pivoting. */
@@ -230,11 +357,11 @@ static int initial_state(hv_inst *c, const double *y0, const double *q) {
         free(g), free(e), free(col), free(a), free(b);
         return 0;
     }
-    step_state(c, e, q, g); /* g = step(0) */
+    STATE_STEP(c, e, q, g); /* g = step(0) */
     for (int i = 0; i < nh; ++i) b[i] = g[hv_hidden_state[i]];
     for (int j = 0; j < HV_NX; ++j) { /* column j of F */
         e[j] = 1.0;
-        step_state(c, e, q, col);
+        STATE_STEP(c, e, q, col);
         e[j] = 0.0;
         int jh = hv_hidden_index[j];
         for (int i = 0; i < nh; ++i) {
@@ -253,15 +380,30 @@ static int initial_state(hv_inst *c, const double *y0, const double *q) {
     return 1;
 }
 
+/* Modal form: the state x (physical, in c->s.x) becomes z = W x, with xs = x[S_state] exactly. */
+static void to_modal(hv_inst *c) {
+#if HV_MODAL
+    double *x = c->s.x, *z = c->tmp;
+    for (int i = 0; i < HV_NS; ++i) c->s.xs[i] = x[hv_S_state[i]];
+    for (int i = 0; i < HV_NX; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < HV_NX; ++j) s += hv_W[(size_t)i * HV_NX + j] * x[j];
+        z[i] = s;
+    }
+    memcpy(x, z, sizeof(double) * HV_NX);
+#else
+    (void)c;
+#endif
+}
+
 /* ------------------------------------------------------------------ checks */
 static int check_inputs(hv_inst *c, double t) {
     char names[1500];
     size_t used = 0;
     int bad = 0;
     names[0] = 0;
-    for (int vr = 0; vr < HV_NVARS; ++vr) {
-        int role = hv_var_role[vr];
-        if (role != R_M && role != R_V && role != R_TOWIN) continue;
+    for (int i = 0; i < HV_NIN; ++i) {
+        int vr = hv_vr_in[i];
         double val = c->s.r[vr];
         if (val >= hv_var_min[vr] && val <= hv_var_max[vr]) continue; /* NaN fails both */
         ++bad;
@@ -269,7 +411,7 @@ static int check_inputs(hv_inst *c, double t) {
             used += snprintf(names + used, sizeof names - used, "%s%s=%.17g (allowed [%g, %g])", bad > 1 ? ", " : "",
                              hv_var_name[vr], val, hv_var_min[vr], hv_var_max[vr]);
     }
-    if (bad) hv_log(c, fmi2Discard, "logStatusDiscard", "at t=%.17g s: invalid input value(s): %s; step not taken", t, names);
+    if (bad) hv_log(c, fmi2Error, "logStatusError", "at t=%.17g s: invalid input value(s): %s; step not taken", t, names);
     return !bad;
 }
 
@@ -384,6 +526,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
         hv_log(c, fmi2Error, "logStatusError", "initialisation failed: out of memory");
         return fmi2Error;
     }
+    to_modal(c);
     c->s.k = 0;
     c->s.t = c->s.t_start;
     c->s.initialized = 1;
@@ -587,8 +730,8 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
     hv_inst *c = comp;
     if (c->pending) {
         c->pending = 0;
-        hv_log(c, fmi2Discard, "logStatusDiscard", "step refused after an earlier error: %s", c->pending_msg);
-        return fmi2Discard;
+        hv_log(c, fmi2Error, "logStatusError", "step refused after an earlier error: %s", c->pending_msg);
+        return fmi2Error;
     }
     if (!c->s.initialized) {
         hv_log(c, fmi2Error, "logStatusError",
@@ -597,38 +740,27 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
                              "fmi2EnterInitializationMode and fmi2ExitInitializationMode first");
         return fmi2Error;
     }
-    if (!check_inputs(c, t)) return fmi2Discard;
+    if (!check_inputs(c, t)) return fmi2Error;
     if (!hv_finite(t) || hv_fabs(t - c->s.t) > 1e-9 * (hv_fabs(c->s.t) > 1.0 ? hv_fabs(c->s.t) : 1.0)) {
-        hv_log(c, fmi2Discard, "logStatusDiscard",
+        hv_log(c, fmi2Error, "logStatusError",
                "fmi2DoStep at t=%.17g s but the FMU is at t=%.17g s; steps must be contiguous "
                "(restore a saved FMU state to go back in time)", t, c->s.t);
-        return fmi2Discard;
+        return fmi2Error;
     }
     double kf = h / HV_STEP;
     long long n = hv_floor(kf + 0.5);
     if (!hv_finite(kf) || n < 1 || hv_fabs(kf - (double)n) > 1e-9 * (kf > 1.0 ? kf : 1.0)) {
-        hv_log(c, fmi2Discard, "logStatusDiscard",
+        hv_log(c, fmi2Error, "logStatusError",
                "communication step %.17g s at t=%.17g s is not a whole multiple of the model step %g s; step refused "
                "(use a step of k*%g s, k >= 1)", h, t, HV_STEP, HV_STEP);
-        return fmi2Discard;
+        return fmi2Error;
     }
     model_inputs(c);
-    int season = (int)c->s.r[HV_VR_SEASON];
-    long long slot = slot_of_step(c, c->s.k);
-    double x[HV_NX];
-    memcpy(x, c->s.x, sizeof x);
-    for (long long j = 0; j < n; ++j) {
-        step_state(c, x, gains_row(season, slot + j), c->xn);
-        memcpy(x, c->xn, sizeof x);
+    if (!advance(c, (int)c->s.r[HV_VR_SEASON], slot_of_step(c, c->s.k), n)) {
+        hv_log(c, fmi2Error, "logStatusError",
+               "the zone temperatures became non-finite in the step from t=%.17g s; step refused", t);
+        return fmi2Error;
     }
-    for (int i = 0; i < HV_NY; ++i) {
-        if (!hv_finite(x[hv_out_state[i]])) {
-            hv_log(c, fmi2Discard, "logStatusDiscard",
-                   "the zone temperatures became non-finite in the step from t=%.17g s; step refused", t);
-            return fmi2Discard;
-        }
-    }
-    memcpy(c->s.x, x, sizeof x);
     c->s.k += n;
     c->s.t = c->s.t_start + (double)c->s.k * HV_STEP;
     write_outputs(c);
@@ -666,8 +798,8 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component comp, const fmi2StatusKind s, fmi2
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Boolean *value) {
     if (s == fmi2Terminated) {
-        /* asked by FMPy after a discard: true ends its run at fmi2LastSuccessfulTime (false makes FMPy
-         * retry the same step forever); the instance itself stays usable */
+        /* asked by FMPy after a discard (this FMU refuses steps with fmi2Error, but a master may still ask):
+         * true ends its run at fmi2LastSuccessfulTime (false makes FMPy retry the same step forever) */
         *value = fmi2True;
         return fmi2OK;
     }

@@ -5,14 +5,18 @@ runtime ``hvacfmu_native.c`` (shipped with hvacfmu) and the generated header
 ``hvacfmu_model.h`` (the model's :class:`~hvacfmu.models.equations.ModelEquations`
 as constant tables: sparse matrices in exact hexadecimal floating point, the
 seasonal time-of-week gain tables, the box-to-input map and the variable
-layout). Both are listed in ``<SourceFiles>`` so that ``fmpy compile`` or any
+layout; a large model whose ``A`` has real eigenvalues, such as Model B, in modal
+form, :mod:`hvacfmu.fmu_native_modal`). Both are listed in ``<SourceFiles>`` so that ``fmpy compile`` or any
 FMI tool can rebuild the binary; the export compiles
 ``binaries/linux64/<modelIdentifier>.so`` with the system C compiler (``gcc``
 or ``$CC``). The variables, their value references and the run-time behaviour
-(whole-multiple steps, ``fmi2Discard`` with a logged reason on bad input, time
-of week, initial state) are those of the pythonfmu FMU of the same model
-(:mod:`hvacfmu.fmu_slave`), except that calendar-dependent models (holidays,
-daylight-saving terms) are refused.
+(whole-multiple steps, time of week, initial state) are those of the pythonfmu
+FMU of the same model (:mod:`hvacfmu.fmu_slave`), except that calendar-dependent
+models (holidays, daylight-saving terms) are refused. A refused step (a step
+that is not a whole multiple of the model step, a NaN or out-of-range input, a
+non-contiguous time) returns ``fmi2Error`` with a logged message naming the
+time, the variable and the value, so that ``fmpy simulate`` fails loudly instead
+of returning a short result (FMPy ends a run quietly on ``fmi2Discard``).
 
 Examples
 --------
@@ -34,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import FMUError, problems_message
+from .fmu_native_modal import header_tables, modal_form
 
 logger = logging.getLogger(__name__)
 
@@ -107,11 +112,11 @@ def output_states(C) -> list | None:
 # ----------------------------------------------------------------------------- C header
 def _c_double(x: float) -> str:
     x = float(x)
-    if np.isnan(x):
+    if x - x == 0.0:  # finite (the common case first: headers hold hundreds of thousands of numbers)
+        return x.hex()
+    if x != x:
         raise FMUError("a model coefficient is NaN; the model cannot be exported")
-    if np.isinf(x):
-        return "HUGE_VAL" if x > 0 else "(-HUGE_VAL)"
-    return x.hex()
+    return "HUGE_VAL" if x > 0 else "(-HUGE_VAL)"
 
 
 def _c_array(ctype: str, name: str, values, fmt=str) -> str:
@@ -219,14 +224,20 @@ def _variables(layout) -> str:
     out += _c_array("double", "hv_var_max", [bound(e, "max", np.inf) for e in var], _c_double)
     for role in ("m", "v", "y", "y0"):
         out += _c_array("int", f"hv_vr_{role}", [i for i, e in enumerate(var) if e["role"] == role])
+    inputs = [i for i, e in enumerate(var) if e["role"] in ("m", "v", "tow_in")]
+    out += f"#define HV_NIN {len(inputs)}\n" + _c_array("int", "hv_vr_in", inputs)
     for role, macro in (("season", "HV_VR_SEASON"), ("tow", "HV_VR_TOW"), ("tow_in", "HV_VR_TOWIN")):
         vrs = [i for i, e in enumerate(var) if e["role"] == role]
         out += f"#define {macro} {vrs[0] if vrs else -1}\n"
     return out
 
 
-def generate_header(eq, layout, M, guid: str) -> str:
-    """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``."""
+def generate_header(eq, layout, M, guid: str, form=None) -> str:
+    """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``.
+
+    With ``form`` (a :class:`~hvacfmu.fmu_native_modal.ModalForm` of ``eq``) the
+    model runs in modal coordinates; otherwise with the physical matrices.
+    """
     nx, nu, nv, ny = eq.n_states, len(eq.inputs), len(eq.disturbances), len(eq.outputs)
     seasons = list(layout["seasons"])
     out_idx = output_states(eq.C)
@@ -250,15 +261,20 @@ def generate_header(eq, layout, M, guid: str) -> str:
         f"#define HV_NSWITCH {len(eq.switches)}",
         f"#define HV_BILINEAR {int(eq.bilinear)}",
         f"#define HV_HAS_MAP {int(M is not None)}",
+        f"#define HV_MODAL {int(form is not None)}",
         "",
     ]
     out = "\n".join(head)
     if M is not None:
-        out += _c_array("double", "hv_map", np.asarray(M, dtype=float).ravel().tolist(), _c_double)
+        Mf = np.asarray(M, dtype=float)  # CSR: row i's nonzeros at hv_map_start[i] .. hv_map_start[i + 1]
+        out += _c_array("int", "hv_map_start", np.concatenate([[0], np.cumsum(np.count_nonzero(Mf, axis=1))]).tolist())
+        out += _c_array("int", "hv_map_col", np.nonzero(Mf)[1].tolist())
+        out += _c_array("double", "hv_map_val", Mf[np.nonzero(Mf)].tolist(), _c_double)
     out += _c_array("int", "hv_out_state", out_idx)
     out += _c_array("int", "hv_hidden_state", hidden)
     out += _c_array("int", "hv_hidden_index", hidden_index)
-    out += _matrices(eq) + _switches(eq) + _gain_tables(eq, seasons) + _variables(layout)
+    out += header_tables(form, _c_double) if form is not None else _matrices(eq)
+    out += _switches(eq) + _gain_tables(eq, seasons) + _variables(layout)
     return out
 
 
@@ -319,7 +335,9 @@ def _zip_folder(folder: Path, out_path: Path) -> None:
     tmp.replace(out_path)
 
 
-def export_native_fmu(model, out_path, *, model_name: str | None = None, compile: bool = True, building=None) -> Path:
+def export_native_fmu(
+    model, out_path, *, model_name: str | None = None, compile: bool = True, building=None, modal: bool = True
+) -> Path:
     """Export a zone model as a native FMI 2.0 co-simulation FMU (generated C code, no Python at run time).
 
     Parameters
@@ -335,6 +353,9 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         its sources (``fmpy compile`` builds them).
     building : Building, optional
         Box airflow bounds (``m_max``) and zones, as for :func:`hvacfmu.fmu.export_fmu`.
+    modal : bool
+        Run a large model in modal coordinates when its ``A`` allows it
+        (:mod:`hvacfmu.fmu_native_modal`, default); False keeps the physical matrices.
 
     Returns
     -------
@@ -364,15 +385,18 @@ def export_native_fmu(model, out_path, *, model_name: str | None = None, compile
         "Native FMU: generated C code, no Python needed at run time.",
     )
     identifier = native_identifier(model.kind)
-    header_wo_guid = generate_header(eq, layout, M, "")
+    form = modal_form(eq, output_states(eq.C)) if modal else None
+    logger.info("native FMU of %s: %s form", name, "modal" if form is not None else "physical")
+    header_wo_guid = generate_header(eq, layout, M, "", form)
     guid = "{" + str(uuid.UUID(hashlib.sha256(header_wo_guid.encode()).hexdigest()[:32])) + "}"
+    header = header_wo_guid.replace('#define HV_GUID ""', f"#define HV_GUID {_c_string(guid)}", 1)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu_native_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
         shutil.copyfile(RUNTIME_SOURCE, src / RUNTIME_NAME)
-        (src / HEADER_NAME).write_text(generate_header(eq, layout, M, guid), encoding="utf-8")
+        (src / HEADER_NAME).write_text(header, encoding="utf-8")
         xml = model_description_xml(
             layout, identifier=identifier, guid=guid, native=True, source_files=[RUNTIME_NAME], model_name=name
         )

@@ -252,3 +252,41 @@ def test_step_times_standard_time_end_of_step():
     assert list(local.strftime("%Y-%m-%d %H:%M")) == ["2017-01-02 00:00", "2017-12-31 23:30", "2017-12-31 23:45"]
     summer = step_times([(2017, 191, 12.25)], -7.0, 0.25).tz_convert("America/Denver")  # 10 July, DST
     assert summer[0].strftime("%H:%M %z") == "13:00 -0600"
+
+
+def test_delivered_heat_is_energyplus_system_heat_and_the_door_is_the_unmeasured_load(tmp_path):
+    """Issue 14, small office in winter: the export's m·cp·(Td − T_zone) is the heat EnergyPlus's units deliver
+    (``Zone Air Heat Balance System Air Transfer Rate``), so no packaged-unit heat is missing from the inputs;
+    the load no BMS column carries is the outdoor air of Perimeter_ZN_1 (the entrance: door infiltration peaks at
+    arrival, lunch and departure, times the indoor-outdoor difference), several times that of the other zones."""
+    import datetime as dt
+
+    from hvacfmu.energyplus import hvac
+    from hvacfmu.energyplus.generate import export_probes, select_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import prepare_idf, read_site, resolve_prototype, resolve_weather
+
+    idf_path = resolve_prototype(PROTOTYPE)
+    epw = resolve_weather(None, idf_path)
+    idf = read_idf(idf_path)
+    boxes = select_boxes(hvac.air_boxes(idf), None, None)
+    ahus = {b.ahu: b.supply_node for b in boxes}
+    prepare_idf(idf, dt.date(2017, 1, 17), dt.date(2017, 1, 19), read_site(epw))  # Tue-Thu, cold mornings
+    (tmp_path / "in.idf").write_text(idf.text(), encoding="latin-1")
+    probes = export_probes(boxes, ahus, list(ZONES))
+    for z in ZONES:
+        probes.append(Probe(f"sys_{z}", "Zone Air Heat Balance System Air Transfer Rate", z))
+        probes.append(Probe(f"oa_{z}", "Zone Air Heat Balance Outdoor Air Transfer Rate", z))
+    values, _, _ = simulate(tmp_path / "in.idf", epw, tmp_path / "out", probes)
+    df = pd.DataFrame(values, columns=[p.column for p in probes])
+    oa_sd = {}
+    for z in ZONES:
+        delivered = df[f"m_VAV_{z}"] * 1005.0 * (df[f"Td_VAV_{z}"] - df[f"T_{z}"])  # [W], cp of the export
+        system = df[f"sys_{z}"]
+        assert system.std() > 200  # [W] the units heat and cool
+        # EnergyPlus's moist-air cp is ~1 % above 1005 J/(kg K); node values are step averages
+        assert np.sqrt(np.mean((delivered - system) ** 2)) < 0.03 * system.std(), z
+        oa_sd[z] = df[f"oa_{z}"].std()
+    others = [oa_sd[z] for z in ZONES[2:]]
+    assert oa_sd["Core_ZN"] < 1.0  # [W] no exterior wall, no infiltration
+    assert oa_sd["Perimeter_ZN_1"] > 3 * max(others), oa_sd

@@ -115,16 +115,17 @@ def test_truth_scores_at_noise_floor(data, truth):
     assert all(t.hour == 0 and t.minute == 0 for t in sc.starts)
 
 
-def test_missing_data_windows_are_skipped(data, truth):
+def test_output_gap_is_scored_on_the_observed_steps_only(data, truth):
+    """The 2.5-h gap in T_NW no longer skips its window: NW is scored on its 86 measured steps, the others on 96."""
     gap_day = data.frame.index[3 * 672 + 200].normalize()
     week = next(w for w in data.weeks if w.start <= gap_day < w.end)
     weeks = tuple(dataclasses.replace(w, train=w.number != week.number) for w in data.weeks)
-    ds = dataclasses.replace(data, weeks=weeks)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)  # the other seasons now have no test week
-        sc = evaluate(truth, ds).scores[0]
-    assert sc.skipped["missing data"] == 1
-    assert gap_day not in sc.starts
+        sc = evaluate(truth, dataclasses.replace(data, weeks=weeks)).scores[0]
+    i = sc.starts.index(gap_day)
+    assert sc.observed[i].sum(axis=0).tolist() == [86, 96, 96, 96, 96, 96]
+    assert sum(sc.skipped.values()) == 0 and len(sc.starts) == 7
 
 
 def test_only_the_interface_is_used(data, truth):

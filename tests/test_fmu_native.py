@@ -231,6 +231,35 @@ def test_c_master_without_python_matches_python_model(native, tmp_path, kind):
     assert "us_per_step" in err
 
 
+def header(path) -> str:
+    with zipfile.ZipFile(path) as z:
+        return z.read("sources/hvacfmu_model.h").decode()
+
+
+def test_physics_runs_in_modal_form_small_models_in_physical_form(native):
+    assert "#define HV_MODAL 1" in header(native["physics"][1])
+    for kind in ("lumped", "zones", "extended"):
+        assert "#define HV_MODAL 0" in header(native[kind][1])
+
+
+@pytest.mark.slow
+def test_modal_and_physical_physics_fmus_agree(native, tmp_path):
+    """The physics FMU in physical form (dense A, modal=False) gives the modal FMU's numbers in the C master."""
+    model, path = native["physics"]
+    plain = export_native_fmu(model, tmp_path / "plain.fmu", modal=False)
+    assert "#define HV_MODAL 0" in header(plain)
+    n = 300
+    idx, cols, _, _ = signals(model, n, seed=11)
+    names_in = list(cols)
+    U = np.column_stack([cols[c] for c in names_in])
+    (tmp_path / "m").mkdir()
+    (tmp_path / "p").mkdir()
+    Ym, _ = run_c_master(tmp_path / "m", path, model, n, U, names_in)
+    Yp, _ = run_c_master(tmp_path / "p", plain, model, n, U, names_in)
+    assert_allclose(Ym, Yp, rtol=0, atol=EXACT)
+    assert np.ptp(Yp) > 0.5
+
+
 # ----------------------------------------------------------------------------- behaviour
 class Native:
     """A native FMU through FMPy's FMU2Slave with logging captured."""
@@ -307,16 +336,16 @@ def test_multi_steps_exact_and_bad_steps_and_inputs_refused(native):
         assert_allclose(b.fmu.getReal([b.vr[n] for n in names_out]), Ya[-1], rtol=0, atol=0)
         before = b.fmu.getReal([b.vr[n] for n in names_out])
         for h in (450.0, 1000.0, 0.0, float("nan")):
-            with pytest.raises(Exception, match="discard"):
+            with pytest.raises(Exception, match="error"):
                 b.fmu.doStep(3600.0, h)
         assert any("not a whole multiple of the model step 900 s" in msg for _, _, msg in b.log)
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match="error"):
             b.fmu.doStep(7200.0, STEP)
         assert any("steps must be contiguous" in msg for _, _, msg in b.log)
         vr_m = b.vr[names_in[0]]
         for bad in (float("nan"), -0.1, 1e3):
             b.fmu.setReal([vr_m], [bad])
-            with pytest.raises(Exception, match="discard"):
+            with pytest.raises(Exception, match="error"):
                 b.fmu.doStep(3600.0, STEP)
         assert any(f"invalid input value(s): {names_in[0]}=nan" in msg for _, _, msg in b.log)
         assert b.fmu.getReal([b.vr[n] for n in names_out]) == before  # refused steps change nothing
@@ -360,11 +389,13 @@ def test_models_the_native_fmu_cannot_represent_are_refused(sdh, tmp_path):
     assert not list(tmp_path.iterdir())
 
 
-def test_fmpy_compile_rebuilds_the_binary_from_the_sources(native, tmp_path):
-    """The sources in the FMU are complete: FMPy's CMake build of them gives the same trajectory."""
+@pytest.mark.parametrize("kind", ["lumped", pytest.param("physics", marks=pytest.mark.slow)])
+def test_fmpy_compile_rebuilds_the_binary_from_the_sources(native, tmp_path, kind):
+    """The sources in the FMU are complete: FMPy's CMake build of them gives the same trajectory
+    (physics: the modal form)."""
     if shutil.which("cmake") is None:
         pytest.skip("cmake not available")
-    model, path = native["lumped"]
+    model, path = native[kind]
     rebuilt = tmp_path / "rebuilt.fmu"
     with zipfile.ZipFile(path) as zin, zipfile.ZipFile(rebuilt, "w") as zout:
         for item in zin.infolist():
@@ -422,3 +453,37 @@ def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
         env=env,
     )
     assert bad.returncode != 0 and "cannot be exported as a native FMU" in bad.stderr
+
+
+@pytest.mark.parametrize(
+    "case, expect",
+    [
+        ("step", "communication step 600 s at t=0 s is not a whole multiple of the model step 900 s"),
+        pytest.param("nan", "at t=2700 s: invalid input value(s): T_out=nan", marks=pytest.mark.slow),
+        ("range", "at t=4500 s: invalid input value(s): T_out=95"),
+    ],
+)
+def test_fmpy_simulate_fails_loudly_on_a_refused_step(native, tmp_path, case, expect):
+    """`fmpy simulate` on a native FMU that refuses a step exits non-zero and prints the FMU's reason (16 p.4).
+
+    The FMU answers fmi2Error (FMPy raises), not fmi2Discard (FMPy would stop quietly, exit 0 and write a
+    short result).
+    """
+    model, path = native["zones"]
+    cmd = ["fmpy", "simulate", str(path), "--stop-time", "17100", "--output-file", str(tmp_path / "out.csv")]
+    if case == "step":
+        cmd += ["--output-interval", "600"]
+    else:
+        t = np.arange(20) * STEP
+        T_out = np.full(20, 10.0)
+        if case == "nan":
+            T_out[3] = np.nan
+        else:
+            T_out[5:] = 95.0
+        pd.DataFrame({"time": t, "T_out": T_out}).to_csv(tmp_path / "in.csv", index=False, na_rep="nan")
+        cmd += ["--output-interval", "900", "--input-file", str(tmp_path / "in.csv")]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    text = run.stdout + run.stderr
+    assert run.returncode != 0, text
+    assert "[ERROR]" in text and expect in text, text
+    assert "fmi2DoStep failed with status 3 (error)" in text

@@ -152,3 +152,66 @@ def test_delivered_heat_model_is_judged_by_its_fit_time_identifiability():
     lines = _airflow_gain(weak, dataset=None)
     assert len(lines) == 1 and "delivered heat not identifiable" in lines[0] and "E by 0.05 K" in lines[0]
     assert "W by" not in lines[0]
+
+
+def test_a_season_lost_to_persistence_shows_although_the_year_is_won(truth, frame, building):
+    """Extra heat in zone C only in winter: the model still wins over all windows but loses in winter."""
+    gains = {s: g.copy() for s, g in truth.gains.items()}
+    gains["winter"][:, truth.outputs.index("C")] += 0.2  # [K/step]
+    model = dataclasses.replace(truth, gains=gains)
+    res = evaluate(model, _dataset(frame, building))
+    v = res.verdict
+    assert not v.losing()  # over the whole year C still beats persistence
+    lost = [(s.output, s.season) for s in v.losing_seasons()]
+    assert lost == [("C", "winter")], lost
+    c = v.losing_seasons()[0]
+    assert c.rms > c.persistence and c.n_windows == 7 and c.n_weeks == 1
+    text = res.format().splitlines()
+    assert text[0].startswith("!! zones: beats persistence in 6/6 zones") and text[0].endswith(
+        "; worse than persistence in a season in 1/6 (winter)"
+    ), text[0]
+    assert text[1].startswith("!! zones: WORSE THAN PERSISTENCE in C in winter: ") and text[1].endswith(
+        "% worse; 7 windows, 1 test week)"
+    ), text[1]
+    causes = v.causes["zones"]
+    assert any(c.startswith("C in winter: the prediction drifts") and "colder than predicted" in c for c in causes), (
+        causes
+    )
+    assert any(c.startswith("C in winter: judged on 7 windows of one held-out week") for c in causes)
+    d = res.to_dict()["verdict"]
+    assert {(s["output"], s["season"]) for s in d["seasons"] if not s["beats_persistence"]} == {("C", "winter")}
+    assert len(d["seasons"]) == 12  # 6 zones x 2 seasons
+
+
+def test_season_causes_need_a_drift():
+    import pandas as pd
+
+    from hvacfmu.evaluation.result import ModelScore
+    from hvacfmu.evaluation.verdict import SeasonVerdict, season_causes
+
+    N = 96
+    idx = pd.date_range("2025-01-06", periods=2 * N, freq="15min", tz="UTC")
+
+    def score(e):
+        return ModelScore(
+            name="m",
+            kind="zones",
+            outputs=("A",),
+            starts=[idx[0], idx[N]],
+            seasons=["winter", "winter"],
+            weeks=[1, 2],
+            rms=np.ones((2, 1)),
+            baselines={},
+            skipped={},
+            residuals=pd.DataFrame({"A": e}, index=idx),
+        )
+
+    ramp = np.tile(np.linspace(0.0, 1.0, N), 2)  # grows over the day, always positive: a drift
+    rms = float(np.sqrt(np.mean(ramp**2)))
+    sv = SeasonVerdict("m", "A", "winter", rms, 0.3, np.nan, 2, 2)
+    (drift,) = season_causes(score(ramp), sv)
+    assert "0.50 K warmer than predicted" in drift and "grows from 0.12 K in the first to 0.88 K" in drift
+    noise = np.tile(np.r_[np.ones(N // 2), -np.ones(N // 2)], 2)  # no bias
+    assert season_causes(score(noise), dataclasses.replace(sv, rms=1.0)) == []
+    one_week = season_causes(score(noise), dataclasses.replace(sv, rms=1.0, n_weeks=1))
+    assert len(one_week) == 1 and "one held-out week" in one_week[0]

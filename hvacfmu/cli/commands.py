@@ -27,7 +27,8 @@ def _data_args(p):
         type=float,
         default=None,
         metavar="MINUTES",
-        help="linearly interpolate gaps up to this length (default: keep every gap)",
+        help="linearly interpolate gaps of every column, zone temperatures included, up to this length when "
+        "loading (default: keep every gap; evaluate fills input gaps by itself, see --fill-inputs)",
     )
     p.add_argument(
         "--timezone",
@@ -65,7 +66,7 @@ def _cmd_check(args):
         progress=not args.quiet,
     )
     print(report)
-    return 0 if report.ok else 1
+    return report.exit_code
 
 
 # --------------------------------------------------------------------------- generate
@@ -137,8 +138,21 @@ def _cmd_evaluate(args):
     import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    result = hf.evaluate(args.model if len(args.model) > 1 else args.model[0], dataset, horizon=args.horizon)
+    result = hf.evaluate(
+        args.model if len(args.model) > 1 else args.model[0],
+        dataset,
+        horizon=args.horizon,
+        fill_inputs_h=args.fill_inputs,
+        min_output_share=args.min_output_share / 100.0,
+    )
     print(result.format())
+    if args.interpolate_gaps is not None:
+        print(
+            f"note: --interpolate-gaps {args.interpolate_gaps:g} filled gaps of up to {args.interpolate_gaps:g} min in "
+            "every column when loading, the zone temperatures included, so these scores count interpolated "
+            "temperatures as measured; evaluate scores only measured outputs by itself (inputs filled across gaps "
+            "up to --fill-inputs hours): drop --interpolate-gaps to score measured temperatures only"
+        )
     if args.json:
         result.save_json(args.json)
         print(f"wrote {args.json}")
@@ -207,8 +221,6 @@ def _cmd_fleet(args):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..models.registry import fittable_kinds
-
     parser = argparse.ArgumentParser(
         prog="hvacfmu",
         description="Thermal models of HVAC zones from measured data, as FMI 2.0 FMUs, with MPC.",
@@ -218,10 +230,37 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("check", help="load and validate a dataset; print coverage, gaps, seasons, split")
+    for add in (
+        _add_check_parser,
+        _add_generate_parser,
+        _add_generate_fleet_parser,
+        _add_fit_parser,
+        _add_evaluate_parser,
+        _add_export_parser,
+        _add_cosim_parser,
+        _add_diagnose_parser,
+        _add_demo_parser,
+        _add_fleet_parser,
+    ):
+        add(sub)
+    return parser
+
+
+def _add_check_parser(sub) -> None:
+    """The ``check`` subcommand."""
+    p = sub.add_parser(
+        "check",
+        help="load and validate a dataset; print coverage, gaps, seasons, split",
+        description="Load and validate a dataset. Exit code 0: usable (notes at most); 1: not usable (every "
+        "problem listed); 3: usable, but a warning needs action first (clock offset, unknown columns ignored, "
+        "stuck sensor, discharge air against its unit), marked '!' and named on the final line.",
+    )
     _data_args(p)
     p.set_defaults(func=_cmd_check)
 
+
+def _add_generate_parser(sub) -> None:
+    """The ``generate`` subcommand."""
     p = sub.add_parser("generate", help="write an emulated dataset (measurements, building.toml, truth.json)")
     p.add_argument("outdir")
     p.add_argument(
@@ -289,12 +328,20 @@ def build_parser() -> argparse.ArgumentParser:
     add_energyplus_arguments(p)
     p.set_defaults(func=_cmd_generate)
 
+
+def _add_generate_fleet_parser(sub) -> None:
+    """The ``generate-fleet`` subcommand."""
     p = sub.add_parser("generate-fleet", help="write N varied emulated buildings and a manifest fleet.json")
     p.add_argument("n", type=int, metavar="N")
     p.add_argument("outdir", metavar="DIR")
     p.add_argument("--weeks", type=int, default=51, help="length of every dataset (default 51)")
     p.add_argument("--seed", type=int, default=0, help="draws layouts, constructions, climates, effects, modes")
     p.set_defaults(func=_cmd_generate_fleet)
+
+
+def _add_fit_parser(sub) -> None:
+    """The ``fit`` subcommand."""
+    from ..models.registry import fittable_kinds
 
     p = sub.add_parser("fit", help="identify a model from data")
     _data_args(p)
@@ -314,6 +361,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_fit)
 
+
+def _add_evaluate_parser(sub) -> None:
+    """The ``evaluate`` subcommand."""
     p = sub.add_parser(
         "evaluate",
         help="verdict per zone against persistence and time-of-week (ASHRAE G14 NMBE, "
@@ -322,11 +372,30 @@ def build_parser() -> argparse.ArgumentParser:
     _data_args(p)
     p.add_argument("--model", "-m", action="append", required=True, help="model file (repeatable)")
     p.add_argument("--horizon", type=int, default=96, help="prediction horizon in steps (default 96 = 24 h)")
+    p.add_argument(
+        "--fill-inputs",
+        type=float,
+        default=2.0,
+        metavar="HOURS",
+        help="fill gaps of the inputs (airflows, Td, T_supply, weather) up to this length by linear interpolation "
+        "in time for the simulation; a window with a longer input gap is skipped (default 2 h; 0: no filling). "
+        "Zone temperatures are never filled: errors count measured steps only",
+    )
+    p.add_argument(
+        "--min-output-share",
+        type=float,
+        default=75.0,
+        metavar="PERCENT",
+        help="score a window only when every output is measured in this share of its steps (default 75)",
+    )
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--plots", help="folder for figures (7-day open-loop trajectories)")
     p.add_argument("--week", type=int, help="week number of the 7-day trajectory figure (default: a spring test week)")
     p.set_defaults(func=_cmd_evaluate)
 
+
+def _add_export_parser(sub) -> None:
+    """The ``export`` subcommand."""
     p = sub.add_parser("export", help="export a model as an FMI 2.0 co-simulation FMU")
     p.add_argument("model", help="model file (JSON), or an emulator truth.json for the plant FMU")
     p.add_argument("--output", "-o", required=True, help="FMU to write")
@@ -349,6 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_export)
 
+
+def _add_cosim_parser(sub) -> None:
+    """The ``cosim`` subcommand."""
     p = sub.add_parser("cosim", help="co-simulate an FMU with a controller in the loop (FMPy)")
     try:
         from harness.cosim import add_cosim_arguments
@@ -358,6 +430,9 @@ def build_parser() -> argparse.ArgumentParser:
         add_cosim_arguments(p)
     p.set_defaults(func=_cmd_cosim)
 
+
+def _add_diagnose_parser(sub) -> None:
+    """The ``diagnose`` subcommand."""
     p = sub.add_parser("diagnose", help="find what the model gets wrong, name the cause, extend the model")
     _data_args(p)
     p.add_argument("--model", "-m", help="base model file (default: fit the six-zone Model A)")
@@ -366,12 +441,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", help="write the extended model (JSON)")
     p.set_defaults(func=_cmd_diagnose)
 
+
+def _add_demo_parser(sub) -> None:
+    """The ``demo`` subcommand."""
     p = sub.add_parser("demo", help="the paper end to end on the built-in emulated building, with a report")
     p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
     p.set_defaults(func=_cmd_demo)
+
+
+def _add_fleet_parser(sub) -> None:
+    """The ``fleet`` subcommand."""
+    from ..models.registry import fittable_kinds
 
     p = sub.add_parser("fleet", help="run check/fit/evaluate/diagnose/export over many buildings on Dask")
     p.add_argument("source", help="folder of building folders, a folder with fleet.json, or a manifest (.json/.csv)")
@@ -390,7 +473,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="model kind to fit (repeatable; default lumped and zones)",
     )
     p.set_defaults(func=_cmd_fleet)
-    return parser
 
 
 def _version():

@@ -21,6 +21,17 @@ WEEK_COVERAGE_WARNING = 0.8
 #: Excitation periods listed by date in the report (the rest are counted).
 N_PERIODS_LISTED = 12
 
+#: Exit codes of ``hvacfmu check``: usable (notes at most), not usable, usable but a warning needs action.
+EXIT_OK, EXIT_NOT_USABLE, EXIT_ATTENTION = 0, 1, 3
+
+#: Fragments of loading warnings that change what a user must do (label shown on the final line).
+_ATTENTION = {
+    "unknown column(s) ignored": "unknown columns ignored",
+    "a stuck sensor?": "stuck sensor",
+    "discharge air below its unit's supply air": "discharge air vs its unit",
+    "discharge air above T_supply_max": "discharge air vs its unit",
+}
+
 
 def _duration(seconds: float) -> str:
     seconds = round(seconds)
@@ -82,6 +93,10 @@ class CheckReport:
         Start and end (exclusive) of each run of excitation steps.
     clock : ClockCheck or None
         The data's daily cycle against the declared clock (:func:`~hvacfmu.data.clock.clock_check`).
+    attention : list of str
+        The warnings (also in ``warnings``) that change what a user must do before fitting: a clock
+        that looks offset, columns ignored as unknown, a stuck sensor, discharge air that
+        contradicts its air handler. With any of them the report does not read as a clean bill.
     """
 
     ok: bool
@@ -94,6 +109,15 @@ class CheckReport:
     gaps: list = dataclasses.field(default_factory=list)
     excitation_periods: list = dataclasses.field(default_factory=list)
     clock: ClockCheck | None = None
+    attention: list = dataclasses.field(default_factory=list)
+
+    @property
+    def exit_code(self) -> int:
+        """What ``hvacfmu check`` returns: :data:`EXIT_OK` (0, usable; notes at most),
+        :data:`EXIT_NOT_USABLE` (1) or :data:`EXIT_ATTENTION` (3, usable but a warning needs action)."""
+        if not self.ok:
+            return EXIT_NOT_USABLE
+        return EXIT_ATTENTION if self.attention else EXIT_OK
 
     def __str__(self) -> str:
         return self.format()
@@ -177,15 +201,33 @@ class CheckReport:
             if len(self.excitation_periods) > N_PERIODS_LISTED:
                 lines.append(f"  ... and {len(self.excitation_periods) - N_PERIODS_LISTED} more")
         if self.warnings:
-            lines.append(f"Warnings ({len(self.warnings)}):")
-            lines += [f"  - {w}" for w in self.warnings]
+            act = (
+                f", {len(self.attention)} need{'s' if len(self.attention) == 1 else ''} action (!)"
+                if self.attention
+                else ""
+            )
+            lines.append(f"Warnings ({len(self.warnings)}{act}):")
+            lines += [f"  {'!' if w in self.attention else '-'} {w}" for w in self.warnings]
+        lines.append(self.verdict_line())
+        return "\n".join(lines)
+
+    def verdict_line(self) -> str:
+        """The final line: never a clean bill while a warning needs action (see :attr:`exit_code`)."""
         if self.problems:
             n = len(self.problems)
-            lines.append(f"NOT USABLE: {n} problem{'s' if n != 1 else ''}:")
-            lines += [f"  - {p}" for p in self.problems]
-        else:
-            lines.append("OK: the data can be used for fitting")
-        return "\n".join(lines)
+            return f"NOT USABLE: {n} problem{'s' if n != 1 else ''}:\n" + "\n".join(f"  - {p}" for p in self.problems)
+        if self.attention:
+            n = len(self.attention)
+            what = "; ".join(_attention_label(w) for w in self.attention)
+            return (
+                f"OK WITH {n} WARNING{'S' if n != 1 else ''} THAT NEED{'S' if n == 1 else ''} ACTION (see above: "
+                f"{what}): the data can be read, but fix {'it' if n == 1 else 'them'} before fitting or the models "
+                f"learn the mistake (exit code {EXIT_ATTENTION})"
+            )
+        if self.warnings:
+            n = len(self.warnings)
+            return f"OK with {n} note{'s' if n != 1 else ''} (see above): the data can be used for fitting"
+        return "OK: the data can be used for fitting"
 
 
 def check(
@@ -213,7 +255,10 @@ def check(
         a value in fewer than :data:`~hvacfmu.data.dataset.MIN_COLUMN_COVERAGE`
         (50 %) of the model steps. Plausibility findings that were masked
         (airflow spikes, stuck sensors) and a clock that looks offset
-        (:func:`~hvacfmu.data.clock.clock_check`) are warnings.
+        (:func:`~hvacfmu.data.clock.clock_check`) are warnings; those that change what
+        a user must do (clock offset, unknown columns ignored, stuck sensor, discharge air
+        against its unit) are also in ``attention`` and make the final line read
+        ``OK WITH n WARNINGS THAT NEED ACTION`` and ``exit_code`` 3 (0: usable, 1: not usable).
     """
     path = Path(path)
     bad_options = option_problems(step, train_fraction, interpolate_limit, min_coverage)
@@ -267,16 +312,7 @@ def check(
             f"{path.name}: the data span {_duration(span)} and hold no complete week (7 days from a local midnight); "
             "fitting needs at least one"
         )
-    exc = dataset.frame["excitation"].to_numpy() == 1
-    periods = [
-        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
-    ]
-    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
-    if not periods:
-        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
-    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
-    if clock.warning:
-        notes.insert(0, f"{path.name}: clock: {clock.warning}")
+    periods, notes, clock, attention = _findings(dataset, building, path.name, report, sparse)
     return CheckReport(
         ok=not problems,
         problems=problems,
@@ -288,7 +324,33 @@ def check(
         gaps=gaps,
         excitation_periods=periods,
         clock=clock,
+        attention=attention,
     )
+
+
+def _findings(dataset, building, name: str, report, sparse) -> tuple:
+    """Excitation periods, notes (warnings), the clock check and the warnings that need action."""
+    step_s = dataset.step
+    exc = dataset.frame["excitation"].to_numpy() == 1
+    periods = [
+        (dataset.frame.index[a], dataset.frame.index[b - 1] + pd.Timedelta(seconds=step_s)) for a, b in runs(exc)
+    ]
+    notes = [w for w in dataset.warnings if w not in sparse] + _week_notes(dataset)
+    if not periods:
+        notes.append("no excitation periods found: airflow coefficients must come from normal operation alone")
+    clock = clock_check(dataset.frame, building, step_s, has_offsets=report.has_offsets)
+    attention = [w for w in notes if any(k in w for k in _ATTENTION)]
+    if clock.warning:
+        notes.insert(0, f"{name}: clock: {clock.warning}")
+        attention.insert(0, notes[0])
+    return periods, notes, clock, attention
+
+
+def _attention_label(warning: str) -> str:
+    """A short name of a warning that needs action, for the final line."""
+    if ": clock: " in warning:
+        return "clock offset"
+    return next((label for k, label in _ATTENTION.items() if k in warning), "warning")
 
 
 def _coverage(dataset, building, label, min_coverage):

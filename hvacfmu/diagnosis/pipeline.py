@@ -60,6 +60,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     notes = []
     if not dataset.weeks:
         raise DataError("the dataset holds no complete week: nothing to diagnose")
+    given = model is not None
     if model is None:
         from ..fitting import fit
 
@@ -152,6 +153,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     # headline: the base structure refitted by the same least squares -> extended (same fitting method);
     # the given base model -> refit is shown separately (a change of fitting method, not a cause)
     heldout = _heldout_table(base_model, sel.reference_fit.model, final, dataset, opts["horizon"], notes)
+    if heldout:
+        heldout["original_given"] = given  # a base model passed by the caller, or diagnose's own fit
 
     verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
     fdicts = []

@@ -162,8 +162,13 @@ class DiagnosisReport:
                 f"  {'mean':>6}: {ho['mean_base']:.3f} -> {ho['mean_extended']:.3f}  ({ho['gain_percent_mean']:+.1f} %)"
             )
             if "mean_original_base" in ho:
+                which = (
+                    "the given base model"
+                    if ho.get("original_given", True)
+                    else "no base model given: diagnose's own fit (the paper's one-step fit, airflow form, no solar)"
+                )
                 L.append(
-                    f"  (the given base model: mean {ho['mean_original_base']:.3f} -> refitted "
+                    f"  ({which}: mean {ho['mean_original_base']:.3f} -> refitted "
                     f"{ho['mean_base']:.3f}, {ho['refit_gain_percent_mean']:+.1f} %: a change of fitting "
                     f"method, not a cause)"
                 )

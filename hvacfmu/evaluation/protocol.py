@@ -9,11 +9,15 @@ RMS error of eq. (RMS) of the paper,
     RMS = ( 1/N sum_{k=1..N} (y_measured(k) - y_predicted(k))^2 )^(1/2),
 
 per output; RMS values are averaged by output and season (the paper's Table I).
-Windows with any missing value (measured outputs over the window, inputs or
-disturbances over the horizon, or a non-finite initial state) are skipped and
-counted.
 
-Two baselines are scored on exactly the same windows and outputs:
+Windows with gaps are scored, not skipped, under the stated rules of :mod:`.windows`: inputs
+are filled for the simulation across gaps of at most ``fill_inputs_h`` hours (default 2 h), the
+zone temperatures must be measured at the start (or within the first hour), errors count only
+the steps whose output was measured, and a window is skipped (counted, with its reason and
+season) when an output is measured in under ``min_output_share`` (75 %) of its steps or an
+input gap is longer than the limit.
+
+Two baselines are scored on exactly the same windows, outputs and steps (the same mask):
 
 - ``persistence``: the output at the window's start held for 24 h;
 - ``time-of-week mean``: the mean measured output of the season's training
@@ -40,25 +44,33 @@ from ..errors import DataError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
+from .windows import FILL_INPUTS_H, MIN_OUTPUT_SHARE, fill_inputs, plan_windows, skip_reasons
 
 
 # =============================================================================
 # layer 1: arrays
 # =============================================================================
-def window_rms(measured, predicted):
-    """RMS error per window and output, eq. (RMS).
+def window_rms(measured, predicted, observed=None):
+    """RMS error per window and output, eq. (RMS), over the observed steps.
 
     Parameters
     ----------
     measured, predicted : arrays (W, N, ny) [°C]
         Values at steps k = 1..N of each window.
+    observed : array of bool (W, N, ny), optional
+        Steps that count (default: where ``measured`` is finite). With every step observed
+        this is exactly ``sqrt(mean(e**2))``.
 
     Returns
     -------
     array (W, ny) [K]
+        NaN for an output without an observed step in a window.
     """
-    e = np.asarray(measured, float) - np.asarray(predicted, float)
-    return np.sqrt(np.mean(e * e, axis=-2))
+    measured, predicted = np.asarray(measured, float), np.asarray(predicted, float)
+    obs = np.isfinite(measured) if observed is None else np.asarray(observed, bool)
+    e = np.where(obs, measured - predicted, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(np.sum(e * e, axis=-2) / obs.sum(axis=-2))
 
 
 def time_of_week_profile(y, slots, n_slots):
@@ -78,7 +90,14 @@ def time_of_week_profile(y, slots, n_slots):
 # =============================================================================
 # layer 2: the protocol
 # =============================================================================
-def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> EvaluationResult:
+def evaluate(
+    model_or_models,
+    dataset,
+    horizon: int = 96,
+    names=None,
+    fill_inputs_h: float = FILL_INPUTS_H,
+    min_output_share: float = MIN_OUTPUT_SHARE,
+) -> EvaluationResult:
     """Score models by 24-hour open-loop prediction RMS on the held-out test weeks, verdict first.
 
     Parameters
@@ -91,6 +110,13 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
         Prediction horizon N [steps] (96 = 24 h at 15 minutes).
     names : sequence of str, optional
         Labels of the models (default: ``meta["name"]`` or the kind, made unique).
+    fill_inputs_h : float [h]
+        Longest gap of an input (airflow, ``Td``, ``T_supply``, weather) filled by linear
+        interpolation in time for the simulation (default 2 h; 0 fills nothing). Zone
+        temperatures are never filled.
+    min_output_share : float [-]
+        A window is scored only when every output is measured in at least this share of its
+        steps (default 0.75); errors count only those steps.
 
     Returns
     -------
@@ -111,6 +137,9 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
     models = _check_models(model_or_models, dataset, horizon)
     names = _model_names(models, names)
     b = dataset.building
+    filled = fill_inputs(
+        dataset.frame, b.zone_names, float(dataset.step), float(fill_inputs_h), float(min_output_share)
+    )
     notes = _season_notes(dataset)
     test_weeks = dataset.test_weeks()
     if not test_weeks:
@@ -119,7 +148,7 @@ def evaluate(model_or_models, dataset, horizon: int = 96, names=None) -> Evaluat
     scores = []
     failures = []
     for model, name in zip(models, names):
-        sc, more = _score_model(model, name, dataset, starts, int(horizon))
+        sc, more = _score_model(model, name, dataset, starts, int(horizon), filled)
         notes += more
         scores.append(sc)
         if not sc.starts:
@@ -185,84 +214,42 @@ def _window_starts(index, weeks):
     return out
 
 
-_SKIP_REASONS = (
-    "missing data",
-    "window past the end of the data",
-    "no internal-gain profile for season",
-    "no row at midnight",
-)
-
-
-def _usable_windows(model, name, dataset, starts, horizon, Y, u, v, skipped, notes):
-    """(week, start, k0) of the windows with complete data and a gains profile; counts the others."""
-    idx = dataset.frame.index
-    n, N = len(idx), horizon
-    badY = np.r_[0, np.cumsum(~np.all(np.isfinite(Y), axis=1))]  # prefix sums of bad rows
-    badUV = np.r_[0, np.cumsum(~(np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)))]
-    keep, no_profile = [], set()
-    for w, t in starts:
-        k0 = idx.get_indexer([t])[0]
-        if k0 < 0:
-            skipped["no row at midnight"] += 1
-        elif k0 + N >= n:
-            skipped["window past the end of the data"] += 1
-        elif badY[k0 + N + 1] - badY[k0] or badUV[k0 + N] - badUV[k0]:
-            skipped["missing data"] += 1
-        elif w.season not in getattr(model, "gains", {}):
-            skipped["no internal-gain profile for season"] += 1
-            no_profile.add(w.season)
-        else:
-            keep.append((w, t, k0))
-    for s in sorted(no_profile):
-        msg = f"{name}: no internal-gain profile for season {s} (no training data in it); its test windows are skipped"
-        notes.append(msg)
-        warnings.warn(msg, HvacfmuWarning, stacklevel=4)
-    return keep
-
-
-def _initial_states(model, frame, keep, skipped):
-    """Initial states of the kept windows; windows with a non-finite state are skipped."""
-    x0, final = [], []
-    for w, t, k0 in keep:
-        x = np.asarray(model.initial_state(frame, k0), float)
-        if not np.all(np.isfinite(x)):
-            skipped["missing data"] += 1
-            continue
-        x0.append(x)
-        final.append((w, t, k0))
-    return x0, final
-
-
-def _score_model(model, name, dataset, starts, horizon):
-    """Open-loop windows of one model: RMS, baselines, hourly statistics and residuals."""
+def _score_model(model, name, dataset, starts, horizon, filled):
+    """Open-loop windows of one model: RMS, baselines, hourly statistics and residuals, all on the
+    steps whose output was measured (see :mod:`.windows`)."""
     frame = dataset.frame
     idx = frame.index
     N = horizon
-    Y = np.asarray(model.measured_outputs(frame), float)
-    u, v = (np.asarray(a, float) for a in model.signals(frame))
+    Y = measured_outputs(model, frame)
+    u, v = (np.asarray(a, float) for a in model.signals(filled.frame))
     ny = Y.shape[1]
-    skipped = dict.fromkeys(_SKIP_REASONS, 0)
     notes: list = []
-    keep = _usable_windows(model, name, dataset, starts, N, Y, u, v, skipped, notes)
-    x0, final = _initial_states(model, frame, keep, skipped)
+    plan = plan_windows(
+        starts, idx, Y, u, v, N, getattr(model, "gains", {}), filled.limit_h, filled.min_output_share, dataset.step
+    )
+    final, x0 = _initial_states(model, filled.frame, plan, filled)
+    _no_profile_notes(plan, name, notes)
     W = len(final)
     rms = np.empty((W, ny))
     base = {b: np.full((W, ny), np.nan) for b in BASELINES}
-    hourly, residuals = None, None
+    hourly, residuals, observed, filled_share = None, None, np.zeros((0, N, ny), bool), np.zeros(0)
     if W:
-        k0s = np.array([k for _, _, k in final])
+        k0s = np.array([k for _, k in final])
         rng = k0s[:, None] + np.arange(N)[None, :]  # (W, N) rows k0..k0+N-1
-        q = np.stack([np.asarray(model.gains_at(idx[r], w.season), float) for (w, _, _), r in zip(final, rng)])
+        q = np.stack([np.asarray(model.gains_at(idx[r], w.season), float) for (w, _), r in zip(final, rng)])
         _, Yp = model.simulate(np.stack(x0), u[rng], v[rng], q)
         meas, pred = Y[rng + 1], np.asarray(Yp)[:, 1:, :]  # (W, N, ny) at k = 1..N
-        rms = window_rms(meas, pred)
-        rms[~np.isfinite(rms)] = np.inf  # a diverging model must show, not vanish from the means
-        base["persistence"] = window_rms(meas, np.broadcast_to(Y[k0s][:, None, :], meas.shape))
-        base["time-of-week mean"] = _tow_baseline(dataset, Y, final, rng, notes, name)
-        hourly = hourly_statistics(meas, pred, float(dataset.step))
+        observed = np.isfinite(meas)
+        rms = window_rms(meas, pred, observed)
+        rms[~np.isfinite(rms) | ~np.all(np.isfinite(pred), axis=1)] = np.inf  # a diverging model must show
+        base["persistence"] = window_rms(meas, np.broadcast_to(Y[k0s][:, None, :], meas.shape), observed)
+        base["time-of-week mean"] = _tow_baseline(dataset, Y, final, rng, observed, notes, name)
+        hourly = hourly_statistics(meas, pred, float(dataset.step), observed)
         residuals = pd.DataFrame(
             (meas - pred).reshape(W * N, ny), index=idx[(rng + 1).ravel()], columns=list(model.outputs)
         )
+        filled_share = _filled_input_share(model, frame, filled.frame, rng)
+    skipped = plan.counts(skip_reasons(filled.limit_h, filled.min_output_share))
     total_skipped = sum(skipped.values())
     if total_skipped:
         notes.append(
@@ -274,19 +261,76 @@ def _score_model(model, name, dataset, starts, horizon):
         name=name,
         kind=str(getattr(model, "kind", type(model).__name__)),
         outputs=tuple(model.outputs),
-        starts=[t for _, t, _ in final],
-        seasons=[w.season for w, _, _ in final],
-        weeks=[w.number for w, _, _ in final],
+        starts=[idx[k] for _, k in final],
+        seasons=[w.season for w, _ in final],
+        weeks=[w.number for w, _ in final],
         rms=rms,
         baselines=base,
         skipped=skipped,
         hourly=hourly,
         residuals=residuals,
+        observed=observed,
+        filled_inputs=filled_share,
+        skipped_windows=[(t, w.season, why) for w, t, why in plan.skipped],
+        rules=filled.rules(),
     )
     return sc, notes
 
 
-def hourly_statistics(measured, predicted, step):
+def measured_outputs(model, frame) -> np.ndarray:
+    """The model's measured outputs (n, ny) [°C], missing only where a zone they weigh is missing.
+
+    Outputs that are weighted sums of zone temperatures (Model A's ``output_weights`` over
+    ``measured_zones``, also under an extended model's ``base``) are computed so that one zone's
+    gap leaves the outputs that do not weigh it measured (a plain matrix product would spread
+    the NaN to every output). Other kinds answer through ``model.measured_outputs``.
+    """
+    Y = np.asarray(model.measured_outputs(frame), float)
+    base = getattr(model, "base", model)
+    W = getattr(base, "output_weights", None)
+    zones = getattr(base, "measured_zones", None)
+    if W is None or zones is None or np.all(np.isfinite(Y)):
+        return Y
+    W = np.asarray(W, float)
+    X = frame[[f"T_{z}" for z in zones]].to_numpy(dtype=float)
+    if W.shape != (Y.shape[1], X.shape[1]):
+        return Y
+    missing = (~np.isfinite(X)).astype(float) @ (W != 0).T > 0
+    return np.where(missing, np.nan, np.nan_to_num(X, nan=0.0) @ W.T)
+
+
+def _initial_states(model, frame, plan, filled):
+    """Initial states of the planned windows from the input-filled frame; a non-finite one skips its window."""
+    x0, final = [], []
+    reason = skip_reasons(filled.limit_h, filled.min_output_share)[-1]
+    for w, k in plan.kept:
+        x = np.asarray(model.initial_state(frame, k), float)
+        if not np.all(np.isfinite(x)):
+            plan.skipped.append((w, frame.index[k], reason))
+            continue
+        x0.append(x)
+        final.append((w, k))
+    return final, x0
+
+
+def _no_profile_notes(plan, name, notes):
+    reason = "no internal-gain profile for season"
+    for s in sorted({w.season for w, _, why in plan.skipped if why == reason}):
+        msg = f"{name}: no internal-gain profile for season {s} (no training data in it); its test windows are skipped"
+        notes.append(msg)
+        warnings.warn(msg, HvacfmuWarning, stacklevel=4)
+
+
+def _filled_input_share(model, frame, filled_frame, rng) -> np.ndarray:
+    """Share of each window's steps (W,) at which an input or disturbance of the model was filled."""
+    if filled_frame is frame:
+        return np.zeros(len(rng))
+    u0, v0 = (np.asarray(a, float) for a in model.signals(frame))
+    filled = ~(np.all(np.isfinite(u0), axis=1) & np.all(np.isfinite(v0), axis=1))  # finite after filling (plan)
+    return filled[rng].mean(axis=1)
+
+
+def hourly_statistics(measured, predicted, step, observed=None):
     """Sums over hourly means of the windows, for ASHRAE Guideline 14 NMBE and CV(RMSE).
 
     Parameters
@@ -296,32 +340,43 @@ def hourly_statistics(measured, predicted, step):
     step : float [s]
         Model step; steps are averaged to whole hours (a trailing partial hour is dropped;
         steps of an hour or more are used as they are).
+    observed : array of bool (W, N, ny), optional
+        Steps that count (default: where ``measured`` is finite). An hour's means are taken
+        over its observed steps; an hour without one is left out.
 
     Returns
     -------
     dict
-        ``n`` (hours per output), ``sum_error`` (ny,) [K·h], ``sum_sq_error`` (ny,) [K²·h],
+        ``n`` (ny,) (hours per output), ``sum_error`` (ny,) [K·h], ``sum_sq_error`` (ny,) [K²·h],
         ``sum_measured`` (ny,) [°C·h]; errors are measured minus predicted.
     """
     measured, predicted = np.asarray(measured, float), np.asarray(predicted, float)
+    obs = np.isfinite(measured) if observed is None else np.asarray(observed, bool)
     W, N, ny = measured.shape
     per_hour = max(1, int(round(3600.0 / step)))
     H = N // per_hour
     if H == 0:
         per_hour, H = 1, N
-    m = measured[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
-    p = predicted[:, : H * per_hour].reshape(W, H, per_hour, ny).mean(axis=2).reshape(W * H, ny)
-    e = m - p
+
+    def hours(a):
+        return a[:, : H * per_hour].reshape(W, H, per_hour, ny)
+
+    count = hours(obs).sum(axis=2).reshape(W * H, ny)
+    has = count > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m = hours(np.where(obs, measured, 0.0)).sum(axis=2).reshape(W * H, ny) / count
+        p = hours(np.where(obs, predicted, 0.0)).sum(axis=2).reshape(W * H, ny) / count
+    e = np.where(has, m - p, 0.0)
     return {
-        "n": int(W * H),
+        "n": has.sum(axis=0),
         "sum_error": e.sum(axis=0),
         "sum_sq_error": (e * e).sum(axis=0),
-        "sum_measured": m.sum(axis=0),
+        "sum_measured": np.where(has, m, 0.0).sum(axis=0),
     }
 
 
-def _tow_baseline(dataset, Y, final, rng, notes, name):
-    """RMS of the seasonal time-of-week mean of the training weeks, on the given windows."""
+def _tow_baseline(dataset, Y, final, rng, observed, notes, name):
+    """RMS of the seasonal time-of-week mean of the training weeks, on the given windows and observed steps."""
     idx = dataset.frame.index
     step = float(dataset.step)
     n_slots = n_time_of_week(step)
@@ -335,7 +390,7 @@ def _tow_baseline(dataset, Y, final, rng, notes, name):
             train_season[a:e] = w.season
     profiles = {}
     out = np.full((len(final), Y.shape[1]), np.nan)
-    for i, ((w, _, _), r) in enumerate(zip(final, rng)):
+    for i, ((w, _), r) in enumerate(zip(final, rng)):
         s = w.season
         if s not in profiles:
             sel = train_season == s
@@ -346,7 +401,7 @@ def _tow_baseline(dataset, Y, final, rng, notes, name):
             profiles[s] = prof
         prof = profiles[s]
         if prof is not None:
-            out[i] = window_rms(Y[r + 1][None], prof[slots[r + 1]][None])[0]
+            out[i] = window_rms(Y[r + 1][None], prof[slots[r + 1]][None], observed[i][None])[0]
     return out
 
 

@@ -43,7 +43,18 @@ class ModelScore:
         Sums over the hourly means of all windows for ASHRAE Guideline 14 (see
         :func:`hvacfmu.evaluation.protocol.hourly_statistics`).
     residuals : DataFrame or None
-        Measured minus predicted [K] at every window step (rows: time; columns: outputs).
+        Measured minus predicted [K] at every window step (rows: time; columns: outputs; NaN
+        where the output was not measured).
+    observed : array of bool (W, N, ny)
+        The steps each window's errors count (the output was measured); the model and both
+        baselines are scored on exactly these.
+    filled_inputs : array (W,) [-]
+        Share of each window's steps at which an input of the model was filled by interpolation.
+    skipped_windows : list of (pandas.Timestamp, str, str)
+        Midnight, season and reason of each skipped window.
+    rules : dict
+        The coverage rules applied (``fill_inputs_h``, ``min_output_share``, ...), see
+        :mod:`hvacfmu.evaluation.windows`.
     """
 
     name: str
@@ -57,6 +68,10 @@ class ModelScore:
     skipped: dict
     hourly: dict | None = dataclasses.field(default=None, repr=False, compare=False)
     residuals: pd.DataFrame | None = dataclasses.field(default=None, repr=False, compare=False)
+    observed: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    filled_inputs: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    skipped_windows: list = dataclasses.field(default_factory=list, repr=False)
+    rules: dict = dataclasses.field(default_factory=dict, repr=False)
 
     def table(self, which: str = "model", season_order=None) -> pd.DataFrame:
         """Table I: rows seasons (+ ``all``), columns outputs + ``mean`` [K].
@@ -81,6 +96,34 @@ class ModelScore:
     def n_windows(self) -> dict:
         """Evaluated windows per season."""
         return {s: int(self.seasons.count(s)) for s in dict.fromkeys(self.seasons)}
+
+    def by_season(self, season_order=()) -> dict:
+        """Per season: ``scored`` windows and ``skipped`` windows by reason (only non-zero reasons)."""
+        out: dict = {}
+        order = [s for s in season_order if s in set(self.seasons) | {s for _, s, _ in self.skipped_windows}]
+        for s in order + [s for s in dict.fromkeys(self.seasons) if s not in order]:
+            out[s] = {"scored": 0, "skipped": {}}
+        for s in self.seasons:
+            out[s]["scored"] += 1
+        for _, s, why in self.skipped_windows:
+            d = out.setdefault(s, {"scored": 0, "skipped": {}})["skipped"]
+            d[why] = d.get(why, 0) + 1
+        return out
+
+    def coverage_line(self, season_order=()) -> str:
+        """``fall 5 scored, 2 skipped (2 input gap longer than 2 h); winter ...`` and the inputs filled."""
+        parts = []
+        for s, d in self.by_season(season_order).items():
+            n_skip = sum(d["skipped"].values())
+            why = f" ({', '.join(f'{v} {k}' for k, v in d['skipped'].items())})" if n_skip else ""
+            parts.append(f"{s} {d['scored']} scored, {n_skip} skipped{why}")
+        text = "; ".join(parts) or "no window"
+        if self.filled_inputs is not None and len(self.filled_inputs) and self.filled_inputs.max() > 0:
+            text += (
+                f"; inputs filled by interpolation (gaps up to {self.rules.get('fill_inputs_h', 0):g} h): "
+                f"{100 * float(np.mean(self.filled_inputs)):.1f} % of the steps of the scored windows"
+            )
+        return text
 
 
 @dataclasses.dataclass
@@ -145,8 +188,10 @@ class EvaluationResult:
                 f"== {sc.name} ({sc.kind}): {sum(n.values())} windows "
                 f"({', '.join(f'{s} {k}' for s, k in n.items())}); skipped: {skipped}"
             )
+            if sc.skipped_windows or (sc.filled_inputs is not None and np.any(sc.filled_inputs > 0)):
+                out.append(f"   per season: {sc.coverage_line(self.season_order)}")
             out.append(_format_df(sc.table("model", self.season_order), digits))
-            key = (sc.outputs, tuple(sc.starts))
+            key = (sc.outputs, tuple(sc.starts), _mask_key(sc.observed))
             if key in shown:
                 out.append("(baselines as above: same outputs and windows)")
                 continue
@@ -180,12 +225,20 @@ class EvaluationResult:
                     "baselines": {b: tab(sc.table(b, self.season_order)) for b in BASELINES},
                     "n_windows": sc.n_windows(),
                     "skipped": dict(sc.skipped),
+                    "by_season": sc.by_season(self.season_order),
+                    "rules": dict(sc.rules),
                     "windows": [
                         {
                             "start": t.isoformat(),
                             "season": s,
                             "week": int(w),
                             "rms": [_num(x) for x in sc.rms[i]],
+                            "observed_steps": [int(x) for x in sc.observed[i].sum(axis=0)]
+                            if sc.observed is not None and len(sc.observed)
+                            else None,
+                            "filled_inputs": _num(sc.filled_inputs[i])
+                            if sc.filled_inputs is not None and len(sc.filled_inputs)
+                            else None,
                             **{b: [_num(x) for x in sc.baselines[b][i]] for b in BASELINES},
                         }
                         for i, (t, s, w) in enumerate(zip(sc.starts, sc.seasons, sc.weeks))
@@ -252,6 +305,11 @@ class EvaluationResult:
                 trajs = [week_trajectory(m, dataset, wk, name=sc.name) for m, sc in zip(self.models, self.scores)]
                 files.append(plots.plot_week_trajectories(trajs, folder / f"week_{wk.number}.png"))
         return files
+
+
+def _mask_key(observed):
+    """A hashable summary of the observed steps (baselines are shared only on identical masks)."""
+    return None if observed is None else (observed.shape, np.packbits(observed).tobytes())
 
 
 def _num(x):

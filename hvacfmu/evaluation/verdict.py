@@ -110,6 +110,43 @@ class ZoneVerdict:
 
 
 @dataclasses.dataclass(frozen=True)
+class SeasonVerdict:
+    """One model's mean 24-hour RMS in one output and season against persistence [K] (a model may beat
+    persistence over the year and still lose in one season: that must show too)."""
+
+    model: str
+    output: str
+    season: str
+    rms: float
+    persistence: float
+    time_of_week: float
+    n_windows: int
+    n_weeks: int
+
+    @property
+    def beats_persistence(self) -> bool:
+        return bool(self.rms < self.persistence)
+
+    def margin(self) -> float:
+        """``1 - rms / persistence`` [-]."""
+        return float(1.0 - self.rms / self.persistence) if self.persistence else float("nan")
+
+    def to_dict(self) -> dict:
+        return {
+            "model": self.model,
+            "output": self.output,
+            "season": self.season,
+            "rms": _num(self.rms),
+            "persistence": _num(self.persistence),
+            "time_of_week": _num(self.time_of_week),
+            "margin_persistence": _num(self.margin()),
+            "beats_persistence": self.beats_persistence,
+            "n_windows": self.n_windows,
+            "n_weeks": self.n_weeks,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
 class Verdict:
     """Per-zone verdicts of every model and, per model that loses to persistence, the likely causes."""
 
@@ -117,10 +154,16 @@ class Verdict:
     causes: dict
     #: model -> what the verdict stands on: scored windows per season, skipped windows, unscored test seasons
     coverage: dict = dataclasses.field(default_factory=dict)
+    #: per model, output and season (:class:`SeasonVerdict`)
+    seasons: tuple = ()
 
     def losing(self, model: str | None = None) -> list:
         """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
         return [z for z in self.zones if not z.beats_persistence and (model is None or z.model == model)]
+
+    def losing_seasons(self, model: str | None = None) -> list:
+        """:class:`SeasonVerdict` of every zone and season where a model (or ``model``) is worse than persistence."""
+        return [v for v in self.seasons if not v.beats_persistence and (model is None or v.model == model)]
 
     def summary(self, model: str) -> str:
         """One line: in how many zones ``model`` beats each baseline and meets Guideline 14."""
@@ -129,15 +172,22 @@ class Verdict:
         p = sum(z.beats_persistence for z in mine)
         t = sum(z.beats_time_of_week for z in mine)
         c = sum(z.calibrated for z in mine)
-        flag = "!! " if p < n else ""
+        lost = self.losing_seasons(model)
+        flag = "!! " if p < n or lost else ""
         cov = self.coverage.get(model)
         on = ""
         if cov and cov["skipped"]:  # say what the verdict stands on when windows were skipped
             per = ", ".join(f"{s} {k}" for s, k in cov["windows"].items())
             on = f"; on {sum(cov['windows'].values())} of {cov['total']} test windows ({per})"
+        seasons = ""
+        if lost:
+            zs = len({v.output for v in lost})
+            seasons = (
+                f"; worse than persistence in a season in {zs}/{n} ({', '.join(sorted({v.season for v in lost}))})"
+            )
         return (
             f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
-            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}"
+            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}{seasons}"
         )
 
     def thin(self, model: str) -> str:
@@ -149,15 +199,27 @@ class Verdict:
         if not cov["unscored_seasons"] and 2 * scored >= cov["total"]:
             return ""
         why = ", ".join(f"{v} {k}" for k, v in cov["skipped"].items())
+        per = "; ".join(
+            f"{s} {d['scored']}/{d['scored'] + sum(d['skipped'].values())}" for s, d in cov.get("by_season", {}).items()
+        )
         none = (
             f"; none in {', '.join(cov['unscored_seasons'])}: this verdict says nothing about "
             f"{'that season' if len(cov['unscored_seasons']) == 1 else 'those seasons'}"
             if cov["unscored_seasons"]
             else ""
         )
+        rules = cov.get("rules") or {}
+        fill = rules.get("fill_inputs_h")
+        hint = (
+            f"inputs are {f'filled across gaps up to {fill:g} h' if fill else 'not filled'} and outputs must be measured in "
+            f"{100 * rules.get('min_output_share', 0.75):g} % of a window's steps; `--fill-inputs HOURS` "
+            "(evaluate(..., fill_inputs_h=)) allows longer input gaps"
+            if fill is not None
+            else "`--fill-inputs HOURS` fills longer input gaps"
+        )
         return (
-            f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}){none}; "
-            f"`--interpolate-gaps MINUTES` fills short logger gaps (prepare(..., interpolate_limit=...))"
+            f"!! {model}: only {scored} of {cov['total']} test windows scored ({why}; scored per season: {per})"
+            f"{none}; {hint}"
         )
 
     def format(self) -> str:
@@ -168,6 +230,12 @@ class Verdict:
             lines.append(
                 f"!! {z.model}: WORSE THAN PERSISTENCE in {z.output}: {z.rms:.3f} K against "
                 f"{z.persistence:.3f} K ({-100 * z.margin(z.persistence):.0f} % worse)"
+            )
+        for v in self.losing_seasons():
+            week = f"{v.n_weeks} test week" + ("s" if v.n_weeks != 1 else "")
+            lines.append(
+                f"!! {v.model}: WORSE THAN PERSISTENCE in {v.output} in {v.season}: {v.rms:.3f} K against "
+                f"{v.persistence:.3f} K ({-100 * v.margin():.0f} % worse; {v.n_windows} windows, {week})"
             )
         thin: dict = {}  # models with the same windows share one line
         for m in names:
@@ -184,12 +252,13 @@ class Verdict:
             "Verdict per zone: 24-h open-loop RMS [K] against the baselines; ASHRAE Guideline 14 hourly "
             f"NMBE / CV(RMSE) [%] (calibrated: |NMBE| <= {G14_NMBE_MAX:g}, CV <= {G14_CVRMSE_MAX:g})"
         )
-        head = f"{'model':<22} {'zone':<8} {'model':>7} {'persist':>7} {'tow':>7} {'NMBE':>6} {'CV':>6}  verdict"
+        zw = max([8, *(len(z.output) for z in self.zones)])
+        head = f"{'model':<22} {'zone':<{zw}} {'model':>7} {'persist':>7} {'tow':>7} {'NMBE':>6} {'CV':>6}  verdict"
         lines.append(head)
         for z in self.zones:
             g14 = "" if z.calibrated else " (G14: not calibrated)"
             lines.append(
-                f"{z.model[:22]:<22} {z.output[:8]:<8} {z.rms:7.3f} {z.persistence:7.3f} "
+                f"{z.model[:22]:<22} {z.output:<{zw}} {z.rms:7.3f} {z.persistence:7.3f} "
                 f"{z.time_of_week:7.3f} {z.nmbe:6.2f} {z.cvrmse:6.2f}  {z.status}{g14}"
             )
         return "\n".join(lines)
@@ -197,6 +266,7 @@ class Verdict:
     def to_dict(self) -> dict:
         return {
             "zones": [z.to_dict() for z in self.zones],
+            "seasons": [v.to_dict() for v in self.seasons],
             "likely_causes": {k: list(v) for k, v in self.causes.items()},
             "coverage": {k: dict(v) for k, v in self.coverage.items()},
             "thresholds": {
@@ -216,10 +286,11 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
     ``NMBE = 100 * sum(m - p) / ((n - 1) * mean(m))``,
     ``CV(RMSE) = 100 * sqrt(sum((m - p)^2) / (n - 1)) / mean(m)``.
     """
-    if not hourly or hourly["n"] < 2:
-        nan = np.full(len(hourly["sum_error"]) if hourly else 0, np.nan)
+    ny = len(hourly["sum_error"]) if hourly else 0
+    if not hourly or np.all(np.asarray(hourly["n"]) < 2):
+        nan = np.full(ny, np.nan)
         return nan, nan
-    n = hourly["n"]
+    n = np.where(np.asarray(hourly["n"]) >= 2, np.asarray(hourly["n"], float), np.nan)
     mean = np.asarray(hourly["sum_measured"], float) / n
     with np.errstate(divide="ignore", invalid="ignore"):
         nmbe = 100.0 * np.asarray(hourly["sum_error"], float) / ((n - 1) * mean)
@@ -229,50 +300,77 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
 
 def make_verdict(scores, models, dataset) -> Verdict:
     """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
-    zones = []
+    zones, seasons = [], []
     causes, coverage = {}, {}
     for sc, model in zip(scores, models):
         if not sc.starts:
             continue
-        nmbe, cv = g14_metrics(sc.hourly)
-        r, p = np.nanmean(sc.rms, axis=0), np.nanmean(sc.baselines["persistence"], axis=0)
-        with np.errstate(all="ignore"):
-            t = (
-                np.nanmean(sc.baselines["time-of-week mean"], axis=0)
-                if np.isfinite(sc.baselines["time-of-week mean"]).any()
-                else np.full(len(sc.outputs), np.nan)
-            )
-        mine = [
-            ZoneVerdict(
-                sc.name,
-                o,
-                float(r[j]),
-                float(p[j]),
-                float(t[j]),
-                float(nmbe[j]),
-                float(cv[j]),
-                int(sc.hourly["n"]) if sc.hourly else 0,
-            )
-            for j, o in enumerate(sc.outputs)
-        ]
+        mine = _zone_verdicts(sc)
         zones += mine
+        per_season = _season_verdicts(sc)
+        seasons += per_season
         coverage[sc.name] = _coverage(sc, dataset)
         losing = [z.output for z in mine if not z.beats_persistence]
-        if losing:
-            causes[sc.name] = likely_causes(model, sc, dataset, losing)
-    return Verdict(zones=tuple(zones), causes=causes, coverage=coverage)
+        lost = [v for v in per_season if not v.beats_persistence]
+        if losing or lost:
+            by_season = [c for v in lost for c in season_causes(sc, v)]
+            general = likely_causes(model, sc, dataset, list(dict.fromkeys(losing + [v.output for v in lost])))
+            if by_season and general[-1].startswith("none of the cheap checks fired"):
+                general = general[:-1]
+            causes[sc.name] = general + by_season
+    return Verdict(zones=tuple(zones), causes=causes, coverage=coverage, seasons=tuple(seasons))
+
+
+def _zone_verdicts(sc) -> list:
+    nmbe, cv = g14_metrics(sc.hourly)
+    r, p = np.nanmean(sc.rms, axis=0), np.nanmean(sc.baselines["persistence"], axis=0)
+    t = _tow_mean(sc.baselines["time-of-week mean"], len(sc.outputs))
+    hours = np.broadcast_to(sc.hourly["n"], (len(sc.outputs),)) if sc.hourly else np.zeros(len(sc.outputs), int)
+    return [
+        ZoneVerdict(sc.name, o, float(r[j]), float(p[j]), float(t[j]), float(nmbe[j]), float(cv[j]), int(hours[j]))
+        for j, o in enumerate(sc.outputs)
+    ]
+
+
+def _tow_mean(tow, ny) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return np.nanmean(tow, axis=0) if np.isfinite(tow).any() else np.full(ny, np.nan)
+
+
+def _season_verdicts(sc) -> list:
+    """Per output and season with scored windows (only when the windows cover more than one season)."""
+    seasons = np.asarray(sc.seasons, dtype=object)
+    names = list(dict.fromkeys(sc.seasons))
+    if len(names) < 2:
+        return []
+    out = []
+    for s in names:
+        sel = seasons == s
+        r, p = np.nanmean(sc.rms[sel], axis=0), np.nanmean(sc.baselines["persistence"][sel], axis=0)
+        t = _tow_mean(sc.baselines["time-of-week mean"][sel], len(sc.outputs))
+        n_weeks = len({w for w, ok in zip(sc.weeks, sel) if ok})
+        out += [
+            SeasonVerdict(sc.name, o, s, float(r[j]), float(p[j]), float(t[j]), int(sel.sum()), n_weeks)
+            for j, o in enumerate(sc.outputs)
+        ]
+    return out
 
 
 def _coverage(sc, dataset) -> dict:
-    """Scored windows per season, skipped windows by reason, test seasons without a scored window."""
+    """Scored windows per season, skipped windows by reason (overall and per season), test seasons
+    without a scored window, and the coverage rules applied."""
     windows = sc.n_windows()
     skipped = {k: int(v) for k, v in sc.skipped.items() if v}
     tested = dict.fromkeys(w.season for w in dataset.test_weeks())
+    filled = getattr(sc, "filled_inputs", None)
     return {
         "windows": windows,
         "total": sum(windows.values()) + sum(skipped.values()),
         "skipped": skipped,
+        "by_season": sc.by_season(tuple(dataset.building.season_names)),
         "unscored_seasons": [s for s in tested if s not in windows],
+        "rules": dict(getattr(sc, "rules", {}) or {}),
+        "filled_step_share": float(np.mean(filled)) if filled is not None and len(filled) else 0.0,
     }
 
 
@@ -300,6 +398,50 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
         out.append(
             "none of the cheap checks fired (unused columns, sparse columns, airflow gain, LOESS "
             "bandwidth, clock/units); run `hvacfmu diagnose` for the structural causes"
+        )
+    return out
+
+
+#: share of a losing season's RMS that a mean error (bias) must reach to be named as drift [-]
+DRIFT_BIAS_SHARE = 0.5
+#: growth of the mean |error| from the first to the last quarter of the horizon named as drift [-]
+DRIFT_GROWTH = 1.2
+
+
+def season_causes(score, sv) -> list[str]:
+    """Causes the data can test for a model worse than persistence in one zone and season (:class:`SeasonVerdict`).
+
+    - **drift**: the measured temperature holds (persistence is good) while the prediction walks away:
+      the season's mean error is at least :data:`DRIFT_BIAS_SHARE` of its RMS and the mean |error|
+      grows at least :data:`DRIFT_GROWTH`-fold from the first to the last quarter of the horizon;
+    - **one test week**: the season is judged on the windows of a single held-out week.
+    """
+    res = score.residuals
+    if res is None or res.empty or sv.output not in res.columns:
+        return []
+    W = len(score.starts)
+    N = len(res) // W
+    sel = np.asarray(score.seasons, dtype=object) == sv.season
+    e = res[sv.output].to_numpy(float).reshape(W, N)[sel]
+    out = []
+    with np.errstate(all="ignore"):
+        bias = float(np.nanmean(e))
+        q = max(1, N // 4)
+        first, last = float(np.nanmean(np.abs(e[:, :q]))), float(np.nanmean(np.abs(e[:, -q:])))
+    if abs(bias) >= DRIFT_BIAS_SHARE * sv.rms and last >= DRIFT_GROWTH * first:
+        side = "warmer" if bias > 0 else "colder"
+        out.append(
+            f"{sv.output} in {sv.season}: the prediction drifts while the zone holds its temperature "
+            f"(persistence {sv.persistence:.2f} K): the measured temperature is {abs(bias):.2f} K {side} than "
+            f"predicted on average (of {sv.rms:.2f} K RMS) and the mean error grows from {first:.2f} K in the first "
+            f"to {last:.2f} K in the last quarter of the day: a slow heat store the model lacks (thermal mass, "
+            "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; the physics "
+            "model, or `hvacfmu diagnose` (thermal_mass), tests it"
+        )
+    if sv.n_weeks == 1:
+        out.append(
+            f"{sv.output} in {sv.season}: judged on {sv.n_windows} windows of one held-out week; a colder or "
+            "warmer week than the training weeks weighs fully (more test weeks: prepare(..., train_fraction=))"
         )
     return out
 
@@ -461,4 +603,14 @@ def _num(x: Any) -> float | None:
     return x if np.isfinite(x) else None
 
 
-__all__ = ["G14_CVRMSE_MAX", "G14_NMBE_MAX", "Verdict", "ZoneVerdict", "g14_metrics", "likely_causes", "make_verdict"]
+__all__ = [
+    "G14_CVRMSE_MAX",
+    "G14_NMBE_MAX",
+    "SeasonVerdict",
+    "Verdict",
+    "ZoneVerdict",
+    "g14_metrics",
+    "likely_causes",
+    "make_verdict",
+    "season_causes",
+]

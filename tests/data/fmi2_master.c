@@ -1,6 +1,7 @@
 /* Minimal FMI 2.0 co-simulation master in C (tests/test_fmu_native.py): dlopen an FMU binary, run steps, print outputs.
  * Usage: master LIB GUID NSTEPS STEP NIN NOUT vr_in... vr_out...; NSTEPS rows of NIN input values on stdin.
- * Prints the outputs at t = 0, STEP, ..., NSTEPS*STEP (one line each) and "us_per_step" (process CPU time) on stderr. */
+ * Prints the outputs at t = 0, STEP, ..., NSTEPS*STEP (one line each) and "us_per_step" on stderr: process CPU time
+ * of fmi2GetReal + fmi2SetReal + fmi2DoStep per step (outputs are kept in memory and printed after the timed loop). */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
 #include <stdio.h>
@@ -57,7 +58,7 @@ int main(int argc, char **argv) {
     int nsteps = atoi(argv[3]), nin = atoi(argv[5]), nout = atoi(argv[6]);
     double h = atof(argv[4]);
     unsigned vin[256], vout[256];
-    double in[256], out[256];
+    double in[256];
     for (int i = 0; i < nin; ++i) vin[i] = (unsigned)atoi(argv[7 + i]);
     for (int i = 0; i < nout; ++i) vout[i] = (unsigned)atoi(argv[7 + nin + i]);
     callbacks_t cb = {logger, calloc, free, NULL, NULL};
@@ -65,6 +66,8 @@ int main(int argc, char **argv) {
     if (!c) return 3;
     if (setup(c, 0, 0.0, 0.0, 0, 0.0) || enter(c)) return 4;
     double *all = malloc(sizeof(double) * (size_t)(nsteps > 0 ? nsteps : 1) * (nin > 0 ? nin : 1));
+    double *res = malloc(sizeof(double) * (size_t)(nsteps + 1) * (nout > 0 ? nout : 1));
+    if (!all || !res) return 11;
     for (int k = 0; k < nsteps * nin; ++k)
         if (scanf("%lf", &all[k]) != 1) return 5;
     if (nsteps > 0 && setr(c, vin, nin, all)) return 6;
@@ -72,8 +75,7 @@ int main(int argc, char **argv) {
     struct timespec t0, t1;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t0);
     for (int k = 0; k < nsteps; ++k) {
-        if (getr(c, vout, nout, out)) return 8;
-        for (int i = 0; i < nout; ++i) printf("%.17g%c", out[i], i + 1 < nout ? ' ' : '\n');
+        if (getr(c, vout, nout, res + (size_t)k * nout)) return 8;
         memcpy(in, all + (size_t)k * nin, sizeof(double) * nin);
         int st = setr(c, vin, nin, in);
         if (st) return 9;
@@ -84,12 +86,14 @@ int main(int argc, char **argv) {
         }
     }
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t1);
-    if (getr(c, vout, nout, out)) return 8;
-    for (int i = 0; i < nout; ++i) printf("%.17g%c", out[i], i + 1 < nout ? ' ' : '\n');
+    if (getr(c, vout, nout, res + (size_t)nsteps * nout)) return 8;
+    for (int k = 0; k <= nsteps; ++k)
+        for (int i = 0; i < nout; ++i) printf("%.17g%c", res[(size_t)k * nout + i], i + 1 < nout ? ' ' : '\n');
     fprintf(stderr, "us_per_step %.3f\n", ((t1.tv_sec - t0.tv_sec) * 1e9 + (t1.tv_nsec - t0.tv_nsec)) / 1e3 / (nsteps ? nsteps : 1));
     term(c);
     freei(c);
     dlclose(lib);
     free(all);
+    free(res);
     return 0;
 }
