@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import argparse
 import collections
+import concurrent.futures
 import json
+import os
 import time
 
 import numpy as np
@@ -91,18 +93,143 @@ def make_cases(n, seed):
     return cases
 
 
+def _brief(c: dict) -> dict:
+    """The parts of a finding / candidate dict the battery keeps (cause, place, status, test, cv)."""
+    cv = c.get("cv") or {}
+    return {
+        "cause": c["cause"],
+        "location": c["location"],
+        "status": c.get("status"),
+        "reason": c.get("reason"),
+        "delta_bic": (c.get("test") or {}).get("delta_bic"),
+        "cv_gain_percent": cv.get("gain_percent"),
+        "cv_se_percent": cv.get("se_percent"),
+        "cv_t": cv.get("t"),
+    }
+
+
 def run_case(case, weeks):
+    """Generate (cached), diagnose and compare one case; a JSON-ready result record."""
+    import os
+    import subprocess
+
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
     from hvacfmu.diagnosis.truth import compare_with_truth
     from hvacfmu.emulator import cached_dataset
 
+    t0 = time.perf_counter()
     paths = cached_dataset(weeks=weeks, seed=case["seed"], effects=case["effects"], layout=case["layout"])
+    t_gen = time.perf_counter() - t0
     ds = prepare(paths.measurements, paths.building, step=case["step"])
     truth = json.loads(paths.truth.read_text())
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     rep = diagnose(ds, progress=False)
-    return compare_with_truth(rep, truth), time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    cmp = compare_with_truth(rep, truth)
+    d = rep.to_dict()
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=os.path.dirname(__file__)
+        ).stdout.strip()
+    except OSError:
+        commit = ""
+    return {
+        "case": case,
+        "weeks": weeks,
+        "commit": commit,
+        "found": [e["name"] for e in cmp["found"]],
+        "missed": cmp["missed"],
+        "unsupported": [{"cause": f["cause"], "location": f["location"]} for f in cmp["unsupported"]],
+        "findings": [_brief(f) for f in d["findings"]],
+        "candidates": [_brief(c) for c in d["candidates"] if (c.get("test") or {}).get("delta_bic") is not None],
+        "diagnose_wall_s": wall,
+        "diagnose_cpu_s": cpu,
+        "generate_wall_s": t_gen,
+    }
+
+
+def _case_line(r: dict) -> str:
+    c = r["case"]
+    row = "clean" if not c["effects"] else "+".join(e.split(":")[0] for e in c["effects"])
+    return (
+        f"case {c['id']:3d} {c['layout']:5s} {c['step'] / 60:.0f} min seed {c['seed']:2d} {row:40s} "
+        f"found {len(r['found'])} missed {[e['name'] for e in r['missed']]} "
+        f"false {[(f['cause'], f['location']) for f in r['unsupported']]} "
+        f"(diagnose {r['diagnose_cpu_s']:.0f} s CPU, {r['diagnose_wall_s']:.0f} s wall)"
+    )
+
+
+def confusion(results: list) -> tuple:
+    """Confusion matrix by cause and totals.
+
+    Rows: each injected cause, and ``clean`` (cases without an injected effect). Columns:
+    ``right place`` (found at its location), ``elsewhere`` (missed, but the same cause was
+    reported at another location: counted there as a false finding too), ``missed``, and
+    ``false findings`` (findings absent from the truth, counted on the row of the case's
+    first injected cause or ``clean``).
+    """
+    conf = collections.defaultdict(collections.Counter)
+    tot = collections.Counter()
+    for r in results:
+        c = r["case"]
+        for name in r["found"]:
+            conf[name]["right place"] += 1
+        false_causes = [f["cause"] for f in r["unsupported"]]
+        for e in r["missed"]:
+            conf[e["name"]]["elsewhere" if e["name"] in false_causes else "missed"] += 1
+        row = "clean" if not c["effects"] else c["effects"][0].split(":")[0]
+        conf[row]["false findings"] += len(r["unsupported"])
+        if not c["effects"]:
+            conf["clean"]["cases"] += 1
+            tot["clean_false"] += len(r["unsupported"])
+            tot["clean_cases_with_false"] += bool(r["unsupported"])
+        tot["effects"] += len(r["found"]) + len(r["missed"])
+        tot["found"] += len(r["found"])
+        tot["false"] += len(r["unsupported"])
+        tot["cases"] += 1
+        tot["pairs"] += len(c["effects"]) >= 2
+        tot[f"layout {c['layout']}"] += 1
+        tot[f"step {c['step'] / 60:.0f} min"] += 1
+    return conf, tot
+
+
+def print_summary(results: list) -> None:
+    conf, tot = confusion(results)
+    cols = ["right place", "elsewhere", "missed", "false findings", "cases"]
+    print(f"\nconfusion matrix by cause over {tot['cases']} cases (rows: injected cause; columns: outcome)")
+    print(f"{'':24s}" + "".join(f"{k:>16s}" for k in cols))
+    for r in [c for c in CAUSES if c in conf] + (["clean"] if "clean" in conf else []):
+        print(f"{r:24s}" + "".join(f"{conf[r].get(k, 0):16d}" for k in cols))
+    print(
+        "cases: "
+        + ", ".join(f"{k} {v}" for k, v in sorted(tot.items()) if k.startswith(("layout", "step")))
+        + f", pairs {tot['pairs']}, clean {conf['clean'].get('cases', 0)}"
+    )
+    if tot["effects"]:
+        print(
+            f"recall with the right location: {tot['found']}/{tot['effects']} = "
+            f"{100 * tot['found'] / tot['effects']:.0f} % (goal ≥ 95 %)"
+        )
+    print(
+        f"false findings: {tot['false']} in total, {tot['clean_false']} on clean cases "
+        f"({tot['clean_cases_with_false']} of {conf['clean'].get('cases', 0)} clean cases; goal 0)"
+    )
+    cpu = [r["diagnose_cpu_s"] for r in results]
+    if cpu:
+        print(f"diagnose CPU time per case: median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
+
+
+def _load(path) -> dict:
+    """Results already in the JSON-lines file, by case id (the case spec must match)."""
+    out = {}
+    if path and os.path.exists(path):
+        with open(path) as f:
+            for line in f:
+                if line.strip():
+                    r = json.loads(line)
+                    out[r["case"]["id"]] = r
+    return out
 
 
 def main():
@@ -110,46 +237,49 @@ def main():
     ap.add_argument("--cases", type=int, default=48)
     ap.add_argument("--start", type=int, default=0)
     ap.add_argument("--stop", type=int, default=None)
+    ap.add_argument("--only", type=str, default=None, help="comma-separated case ids")
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--weeks", type=int, default=16)
+    ap.add_argument("--workers", type=int, default=1, help="parallel worker processes")
+    ap.add_argument(
+        "--results",
+        default="battery-results.jsonl",
+        help="JSON-lines file: cases already in it are not rerun (delete it after changing the rule)",
+    )
     ap.add_argument("--list", action="store_true", help="print the cases and stop")
+    ap.add_argument("--summary", action="store_true", help="only print the matrix of the results file")
     args = ap.parse_args()
     cases = make_cases(args.cases, args.seed)[args.start : args.stop]
+    if args.only:
+        keep = {int(x) for x in args.only.split(",")}
+        cases = [c for c in cases if c["id"] in keep]
     if args.list:
         for c in cases:
             print(c)
         return
-    conf = collections.defaultdict(collections.Counter)
-    n_eff = n_found = n_false = n_clean_false = 0
+    done = _load(args.results)
+    results = []
+    todo = []
     for c in cases:
-        cmp, dt = run_case(c, args.weeks)
-        for e in cmp["found"]:
-            conf[e["name"]]["found"] += 1
-        for e in cmp["missed"]:
-            conf[e["name"]]["missed"] += 1
-        row = "clean" if not c["effects"] else "+".join(e.split(":")[0] for e in c["effects"])
-        for f in cmp["unsupported"]:
-            conf["clean" if not c["effects"] else "with effect"][f"false {f['cause']}"] += 1
-        if not c["effects"]:
-            conf["clean"]["cases"] += 1
-            n_clean_false += len(cmp["unsupported"])
-        n_eff += len(cmp["found"]) + len(cmp["missed"])
-        n_found += len(cmp["found"])
-        n_false += len(cmp["unsupported"])
-        print(
-            f"case {c['id']:3d} {c['layout']:5s} {c['step'] / 60:.0f} min seed {c['seed']:2d} {row:40s} "
-            f"found {len(cmp['found'])} missed {[e['name'] for e in cmp['missed']]} "
-            f"false {[(f['cause'], f['location']) for f in cmp['unsupported']]} ({dt:.0f} s)",
-            flush=True,
-        )
-    print("\nconfusion matrix by cause (rows: injected cause; columns: outcome)")
-    cols = sorted({k for r in conf.values() for k in r})
-    print(f"{'':24s}" + "".join(f"{k:>22s}" for k in cols))
-    for r in sorted(conf):
-        print(f"{r:24s}" + "".join(f"{conf[r].get(k, 0):22d}" for k in cols))
-    if n_eff:
-        print(f"\nrecall with the right location: {n_found}/{n_eff} = {100 * n_found / n_eff:.0f} % (goal ≥ 95 %)")
-    print(f"false findings: {n_false} in total, {n_clean_false} on clean cases (goal 0)")
+        r = done.get(c["id"])
+        if r is not None and r["case"] == c and r["weeks"] == args.weeks:
+            results.append(r)
+            print(_case_line(r) + " [from results file]", flush=True)
+        else:
+            todo.append(c)
+    if args.summary:
+        todo = []
+    if todo:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:
+            futs = {ex.submit(run_case, c, args.weeks): c for c in todo}
+            for fut in concurrent.futures.as_completed(futs):
+                r = fut.result()
+                with open(args.results, "a") as f:
+                    f.write(json.dumps(r, default=float) + "\n")
+                results.append(r)
+                print(_case_line(r), flush=True)
+    results.sort(key=lambda r: r["case"]["id"])
+    print_summary(results)
 
 
 if __name__ == "__main__":

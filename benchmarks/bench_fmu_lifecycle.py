@@ -9,8 +9,14 @@
    that runs ``fmpy.simulate_fmu`` for a day and exits; counts exit codes (an
    abort at exit, e.g. glibc's "corrupted double-linked list", is a negative
    code = signal). Target: all 0.
+3. **Refused steps** (``--refusing``, default 20). In one process, ``--refusing`` cycles of
+   instantiate, a step the FMU refuses (half its step size: pythonfmu answers fmi2Fatal),
+   terminate and free anyway, as a non-conforming host does (the harness, libcosim): memory
+   and survival. Then ``--refusing`` separate ``fmpy simulate`` processes with a refused
+   step size: all must exit 1 (the error), none crash (a negative code) or exit 0.
 
-Usage: ``python3 benchmarks/bench_fmu_lifecycle.py [--cycles 200] [--processes 100] [--kinds lumped zones physics plant]``
+Usage: ``python3 benchmarks/bench_fmu_lifecycle.py [--cycles 200] [--processes 100] [--refusing 20]
+[--kinds lumped zones physics plant]``
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 import argparse
 import ctypes
 import gc
+import logging
 import os
 import subprocess
 import sys
@@ -94,6 +101,61 @@ def cycles(path, n: int, steps: int) -> dict:
     return {"raw": rss_mb(False) - raw0, "trimmed": rss_mb(True) - trim0, "s_per_cycle": dt / n}
 
 
+def refused_cycles(path, n: int) -> dict:
+    """``n`` instantiate / refused step / terminate / free cycles in this process; memory figures."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    logging.getLogger("hvacfmu.fmu").addHandler(logging.NullHandler())  # the refusals are expected here
+    md = read_model_description(str(path))
+    step = float(md.defaultExperiment.stepSize)
+    unz = extract(str(path))
+    refused = 0
+
+    def one(i):
+        nonlocal refused
+        s = FMU2Slave(
+            guid=md.guid, unzipDirectory=unz, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=f"r{i}"
+        )
+        s.instantiate()
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        s.doStep(0.0, step)
+        try:
+            s.doStep(step, step / 2)
+        except Exception as exc:  # noqa: BLE001 - FMICallException, expected
+            refused += "fatal" in str(exc)
+        s.terminate()
+        s.freeInstance()
+
+    for i in range(3):
+        one(i)
+    gc.collect()
+    trim0 = rss_mb(True)
+    for i in range(n):
+        one(i)
+    gc.collect()
+    return {"trimmed": rss_mb(True) - trim0, "refused": refused - 3}
+
+
+def refusing_processes(path, n: int, jobs: int) -> dict:
+    """Exit codes of ``n`` ``fmpy simulate`` processes with a step size the FMU refuses (expected: all 1)."""
+    from fmpy import read_model_description
+
+    step = float(read_model_description(str(path)).defaultExperiment.stepSize)
+    cmd = ["fmpy", "simulate", str(path), "--output-interval", repr(step / 2), "--stop-time", repr(4 * step)]
+
+    def run(_):
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+
+    with ThreadPoolExecutor(jobs) as pool:
+        runs = list(pool.map(run, range(n)))
+    codes = [r.returncode for r in runs]
+    named = sum("step refused" in r.stderr and "status 4 (fatal)" in r.stderr for r in runs)
+    return {"exit1": codes.count(1), "named": named, "codes": sorted(set(codes))}
+
+
 PROCESS_SCRIPT = (
     "import sys\n"
     "from fmpy import simulate_fmu\n"
@@ -125,6 +187,7 @@ def main():
     ap.add_argument("--cycles", type=int, default=200)
     ap.add_argument("--steps", type=int, default=24, help="steps per cycle (default 24 = 6 h)")
     ap.add_argument("--processes", type=int, default=100)
+    ap.add_argument("--refusing", type=int, default=20, help="refused-step cycles and processes per FMU")
     ap.add_argument("--jobs", type=int, default=2, help="processes at a time (default 2)")
     ap.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     args = ap.parse_args()
@@ -146,6 +209,21 @@ def main():
                 r = processes(path, args.processes, args.jobs)
                 extra = f"  exit codes {r['codes']}: {r['first_error']}" if r["codes"] else ""
                 print(f"{kind:10s} {r['ok']:4d} / {args.processes} exited 0{extra}", flush=True)
+        if args.refusing:
+            _print_refusing(fmus, args.refusing, args.jobs)
+
+
+def _print_refusing(fmus, n, jobs):
+    print(f"\nrefused steps: {n} instantiate/refused step/terminate/free cycles in one process, then")
+    print(f"{n} separate `fmpy simulate` processes with a refused step size, {jobs} at a time")
+    print(f"{'FMU':10s} {'refused':>8s} {'growth [MB]':>12s} {'exit 1':>7s} {'reason named':>13s} exit codes")
+    for kind, path in fmus.items():
+        c = refused_cycles(path, n)
+        p = refusing_processes(path, n, jobs)
+        print(
+            f"{kind:10s} {c['refused']:8d} {c['trimmed']:12.1f} {p['exit1']:7d} {p['named']:13d} {p['codes']}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -16,11 +16,13 @@ uses a random 289-state RC network with 21 boxes instead
 (``harness.mpc.synthetic``), and the output says which.
 
 Targets (issue #6): Model A, N = 3: < 2 s; Model B: < 20 s (N = 3),
-< 60 s (N = 12), < 5 min (N = 96); zero solver failures.
+< 60 s (N = 12), < 5 min (N = 96); zero solver failures. ``A12``, ``A48``
+and ``B48`` run the harness's ``"plant"`` preset (what ``hvacfmu demo`` and
+``hvacfmu cosim --controller mpc`` use; issue 18 p.7: week times at N = 12 and 48).
 
 Usage::
 
-    python3 benchmarks/bench_mpc.py [--steps 672] [--repeat 1] [--synthetic] [--only A|B3|B12|B96]
+    python3 benchmarks/bench_mpc.py [--steps 672] [--repeat 1] [--synthetic] [--only A|A12|A48|B3|B12|B48|B96]
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from harness.mpc import MPCController, MPCSettings, closed_loop, input_limits  # noqa: E402
+from harness.mpc.adapter import preset_options  # noqa: E402
 
 PAPER_WEEK_B_S = 20 * 3600.0  #: the paper's week of MPC with Model B at N = 3 [s]
 PAPER_WEEK_A_S = 5 * 60.0  #: the paper's week with Model A: "< 5 minutes" [s]
@@ -176,14 +179,34 @@ def main(argv=None):
     ap.add_argument("--steps", type=int, default=672)
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--synthetic", action="store_true", help="Model B: the random 289-state RC network")
-    ap.add_argument("--only", choices=["A", "B3", "B12", "B96"], action="append")
+    ap.add_argument("--only", choices=["A", "A12", "A48", "B3", "B12", "B48", "B96"], action="append")
     args = ap.parse_args(argv)
-    only = set(args.only or ["A", "B3", "B12", "B96"])
+    only = set(args.only or ["A", "A12", "A48", "B3", "B12", "B48", "B96"])
     print(
         f"closed-loop week of MPC, {args.steps} steps, median of {args.repeat} run(s); "
         f"2-core machine load {os.getloadavg()[0]:.1f}"
     )
-    dataset = None if (args.synthetic and only == {"B3", "B12", "B96"}) else load_dataset()
+    dataset = None if (args.synthetic and not only & {"A", "A12", "A48"}) else load_dataset()
+    for key, N in (("A12", 12), ("A48", 48)):  # the horizons the demo and the harness run: the plant preset
+        if key not in only:
+            continue
+        model, how = fitted("zones", dataset)
+        u_min, u_max = input_limits(model, dataset.building)
+        V, Q, x0, week = week_signals(model, dataset, N)
+        opts = preset_options("plant", N, bilinear=False)
+        run(
+            f"A  N={N:<3} plant preset",
+            model,
+            u_min,
+            u_max,
+            MPCSettings(horizon=N, **opts),
+            V,
+            Q,
+            x0,
+            args.steps,
+            args.repeat,
+            paper_s=PAPER_WEEK_A_S,
+        )
     if "A" in only:
         model, how = fitted("zones", dataset)
         u_min, u_max = input_limits(model, dataset.building)
@@ -209,7 +232,8 @@ def main(argv=None):
     # N = 96: reduced-order prediction and one convex iteration per step (real-time iteration).
     cases = [
         ("B3", 3, dict()),
-        ("B12", 12, dict(blocks="auto", linearisation="newton", slack="per_step", formulation="qp")),
+        ("B12", 12, preset_options("plant", 12, bilinear=True)),
+        ("B48", 48, preset_options("plant", 48, bilinear=True)),
         ("B96", 96, dict(blocks="auto", max_iter=1, slack="per_step", formulation="qp")),
     ]
     cases = [c for c in cases if c[0] in only]
@@ -241,7 +265,7 @@ def main(argv=None):
             + (f" {s.formulation}")
         )
         run(tag, model, u_min, u_max, s, V, Q, x0, args.steps, args.repeat)
-        if N == 96:
+        if N > 24:
             err = rom_prediction_error(model, u_min, u_max, V, Q, x0)
             print(f"   reduced model: 96-step output error vs the full model, random airflows: {err:.3f} K")
     return 0

@@ -21,8 +21,12 @@ A controller is any object with::
   [°C] (order ``context.outputs``) at that time and that row's disturbances
   ``v`` (``T_out``, ``T_supply`` [°C], ``I_N`` ... [W/m²]). It returns the
   airflow of every VAV box [kg/s] in the order of ``context.vavs``; the
-  harness holds it for the step. Returning NaN or raising stops the run
-  (the harness reports it).
+  harness holds it for the step. When the plant takes discharge air
+  commands (``context.discharge``: the plant FMU's ``Td_<vav>`` inputs), it
+  may append one discharge air temperature [°C] per box of
+  ``context.discharge`` (its reheat: ``m c_p (Td - T_supply)``; at or below
+  the supply air, or not given: no reheat). Returning NaN or raising stops
+  the run (the harness reports it).
 
 The MPC controllers of :mod:`harness.mpc` plug in through
 ``harness.mpc.cosim_controller(model, building, **options)`` (see
@@ -38,6 +42,10 @@ import numpy as np
 import pandas as pd
 
 from hvacfmu.errors import HvacfmuError
+
+#: heating limit of the discharge air [°C] when the building file gives no ``T_supply_max``
+#: (the emulator's reheat mode uses 35 °C; warmer air stratifies under the ceiling)
+DEFAULT_T_DISCHARGE_MAX = 35.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,6 +72,9 @@ class ControlContext:
         Season of the run (selects a model's gains profile).
     model : ZoneModel or None
         The model given to the harness (e.g. the MPC's own model), if any.
+    discharge : tuple of str
+        Boxes whose discharge air temperature the controller may command
+        (the plant FMU's ``Td_<vav>`` inputs); empty when the plant has none.
     """
 
     frame: pd.DataFrame
@@ -75,6 +86,7 @@ class ControlContext:
     band: tuple = (20.0, 22.0)
     season: str | None = None
     model: object = None
+    discharge: tuple = ()
 
     @property
     def n_steps(self) -> int:
@@ -87,6 +99,19 @@ class ControlContext:
             np.array([by_name[v].m_min for v in self.vavs], dtype=float),
             np.array([by_name[v].m_max for v in self.vavs], dtype=float),
         )
+
+    def heating_limits(self, boxes=None) -> np.ndarray:
+        """Heating limit of the discharge air [°C] of ``boxes`` (default :attr:`discharge`).
+
+        The box's air handler's ``T_supply_max`` from the building file; :data:`DEFAULT_T_DISCHARGE_MAX`
+        where the building gives none.
+        """
+        out = []
+        for b in self.discharge if boxes is None else boxes:
+            ahu = self.building.ahu_of(b)
+            limit = getattr(ahu, "T_supply_max", None)
+            out.append(DEFAULT_T_DISCHARGE_MAX if limit is None else float(limit))
+        return np.array(out, dtype=float)
 
     def box_output(self) -> np.ndarray:
         """Index into ``y`` of the output measuring each box's zone."""
@@ -187,66 +212,115 @@ class ReplayController:
         return {"filled_airflows": self.n_filled, **self.limiter.stats()}
 
 
-class RuleController:
-    """A PI controller per zone driving the zone's boxes between ``m_min`` and ``m_max``.
+class _PI:
+    """A PI loop with output ``clip(kp e + I, 0, 1)`` and the integral frozen while the output saturates."""
 
-    The airflow fraction of each box is ``f = clip(Kp e + I, 0, 1)``,
+    def __init__(self, n, kp, ti, dt):
+        self.kp, self.k_i = float(kp), float(kp) * float(dt) / float(ti)
+        self.integral = np.zeros(n)
+
+    def __call__(self, e) -> np.ndarray:
+        f_unsat = self.kp * e + self.integral
+        grow = self.k_i * e
+        free = (f_unsat > 0.0) & (f_unsat < 1.0) | ((f_unsat <= 0.0) & (grow > 0)) | ((f_unsat >= 1.0) & (grow < 0))
+        self.integral = np.where(free, np.clip(self.integral + grow, -1.0, 2.0), self.integral)
+        return np.clip(f_unsat, 0.0, 1.0)
+
+
+class RuleController:
+    """A PI controller per zone driving the zone's boxes between ``m_min`` and ``m_max``; a VAV heating sequence
+    where the plant takes discharge air commands.
+
+    Airflow: the airflow fraction of each box is ``f = clip(Kp e + I, 0, 1)``,
     ``m = m_min + f (m_max - m_min)``, with ``e = T_zone - T_set`` when the
     supply air is colder than the zone (cooling) and ``e = T_set - T_zone``
-    when it is warmer (heating); the integral ``I`` (time constant ``Ti``)
-    is frozen while the output saturates (anti-windup).
+    when it is warmer (more air heats); the integral ``I`` (time constant
+    ``Ti``) is frozen while the output saturates (anti-windup).
+
+    With discharge commands, heating follows a single-maximum VAV reheat
+    sequence: a second PI loop on ``T_heat - T_zone`` (``T_heat = T_set -
+    heating_offset``) sets the reheat fraction ``h``; while it heats the box
+    stays at minimum airflow and discharges at ``Td = T_supply + h (Td_max -
+    T_supply)``, ``Td_max`` the box's heating limit
+    (:meth:`ControlContext.heating_limits`); otherwise ``Td`` is the supply
+    temperature (no reheat).
 
     Parameters
     ----------
     setpoint : float [°C], optional
-        Default: the middle of the comfort band.
+        Cooling setpoint. Default: the middle of the comfort band.
     kp : float [1/K]
-        Proportional gain on the airflow fraction.
+        Proportional gain on the airflow (and reheat) fraction.
     ti : float [s]
         Integral time.
+    heating_offset : float [K]
+        Heating setpoint below the cooling setpoint (the dead band).
+    heating_kp : float [1/K]
+        Proportional gain on the reheat fraction. Full reheat (35 °C at minimum airflow) warms a small
+        perimeter zone of the emulated building by ~2.5 K in 15 minutes: with the airflow loop's 0.5 the
+        two loops cycle between full reheat and full cooling every step (measured, summer nights).
     """
 
     name = "rule"
 
-    def __init__(self, setpoint=None, kp=0.5, ti=3600.0):
+    def __init__(self, setpoint=None, kp=0.5, ti=3600.0, heating_offset=0.5, heating_kp=0.1):
         self.setpoint = setpoint
         self.kp = float(kp)
         self.ti = float(ti)
+        self.heating_offset = float(heating_offset)
+        self.heating_kp = float(heating_kp)
 
     def reset(self, context: ControlContext) -> None:
         self.m_min, self.m_max = context.box_limits()
         self.out_of_box = context.box_output()
         self.dt = float(context.step)
         self.T_set = float(np.mean(context.band)) if self.setpoint is None else float(self.setpoint)
-        self.integral = np.zeros(len(context.vavs))
+        self.cool = _PI(len(context.vavs), self.kp, self.ti, self.dt)
+        self.heat = _PI(len(context.vavs), self.heating_kp, self.ti, self.dt)
+        self.td_boxes = np.array([list(context.vavs).index(b) for b in context.discharge], dtype=int)
+        self.td_max = context.heating_limits() if len(self.td_boxes) else np.zeros(0)
+        self.n_heating = 0  # box-steps with reheat
         # a delivered-heat model's FMU has no T_supply input (its boxes take Td_<vav> or T_supply_<ahu>):
         # the heating/cooling sign then comes from the prepared data's supply temperature
         frame = context.frame
         self.supply = frame["T_supply"].to_numpy(float) if "T_supply" in frame.columns else None
 
+    def _supply(self, k, v) -> float:
+        if "T_supply" in v:
+            return float(v["T_supply"])
+        if self.supply is not None:
+            return float(self.supply[min(k, len(self.supply) - 1)])
+        raise KeyError(
+            "the rule controller needs the supply air temperature: neither the FMU's inputs "
+            "nor the data hold a 'T_supply' column"
+        )
+
     def __call__(self, k, t, y, v):
         T = np.asarray(y, dtype=float)[self.out_of_box]
-        if "T_supply" in v:
-            T_supply = float(v["T_supply"])
-        elif self.supply is not None:
-            T_supply = float(self.supply[min(k, len(self.supply) - 1)])
-        else:
-            raise KeyError(
-                "the rule controller needs the supply air temperature: neither the FMU's inputs "
-                "nor the data hold a 'T_supply' column"
-            )
-        sign = np.where(T_supply <= T, 1.0, -1.0)
-        e = sign * (T - self.T_set)
-        f_unsat = self.kp * e + self.integral
-        f = np.clip(f_unsat, 0.0, 1.0)
-        # integrate only when not pushing further into saturation
-        grow = self.kp * e * self.dt / self.ti
-        free = (f_unsat > 0.0) & (f_unsat < 1.0) | ((f_unsat <= 0.0) & (grow > 0)) | ((f_unsat >= 1.0) & (grow < 0))
-        self.integral = np.where(free, np.clip(self.integral + grow, -1.0, 2.0), self.integral)
-        return self.m_min + f * (self.m_max - self.m_min)
+        T_supply = self._supply(k, v)
+        sign = np.where(T_supply <= T, 1.0, -1.0)  # supply air warmer than the zone: more air heats
+        f = self.cool(sign * (T - self.T_set))
+        if not len(self.td_boxes):  # airflow only
+            return self.m_min + f * (self.m_max - self.m_min)
+        h = self.heat(self.T_set - self.heating_offset - T)
+        heating = h > 0.0
+        f = np.where(heating, 0.0, f)  # the sequence: reheat only at minimum airflow
+        self.n_heating += int(np.sum(heating[self.td_boxes]))
+        Td = T_supply + h[self.td_boxes] * np.maximum(self.td_max - T_supply, 0.0)
+        return np.concatenate([self.m_min + f * (self.m_max - self.m_min), Td])
 
     def stats(self) -> dict:
-        return {"setpoint": self.T_set, "kp": self.kp, "ti": self.ti}
+        out = {"setpoint": self.T_set, "kp": self.kp, "ti": self.ti}
+        if len(getattr(self, "td_boxes", ())):
+            out.update(heating_setpoint=self.T_set - self.heating_offset, heating_box_steps=self.n_heating)
+        return out
 
 
-__all__ = ["BoxLimiter", "ControlContext", "Controller", "ReplayController", "RuleController"]
+__all__ = [
+    "DEFAULT_T_DISCHARGE_MAX",
+    "BoxLimiter",
+    "ControlContext",
+    "Controller",
+    "ReplayController",
+    "RuleController",
+]

@@ -67,6 +67,8 @@ CONTROLLERS = ("replay", "rule", "mpc")
 OPTIONAL_INPUTS = ("ghi", "excitation")
 #: facade irradiance inputs: kept at their start value (with a warning) when the data have no solar columns
 SOLAR_INPUTS = ("I_N", "I_E", "I_S", "I_W")
+#: specific heat of air [J/(kg K)] (issue 13: delivered heat m c_p (Td - T_zone))
+CP_AIR = 1005.0
 #: warm-up of the plant FMU before the span [s] (its slab and walls settle within days)
 PLANT_WARMUP = 7 * 86400.0
 DEFAULT_BAND = (20.0, 22.0)
@@ -135,6 +137,7 @@ class CosimResult:
             f"  energy proxy    {s['energy_proxy']:.4f} (kg/s)^2 summed over steps and boxes",
             f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
             f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC",
+            f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>",
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
         ]
@@ -334,9 +337,13 @@ def _default_mapping(inst: FMUInstance, frame, building):
     irradiance inputs the data cannot feed (no solar columns): they keep their start value (0 W/m2).
     """
     boxes = {f"m_{v}": v for v in building.vav_names}
-    inputs, controls, outputs, problems, defaulted = {}, {}, {}, [], []
+    plant = (inst.interface or {}).get("kind") == "plant"
+    inputs, controls, outputs, problems, defaulted, discharge = {}, {}, {}, [], [], {}
     for name, var in inst.vars.items():
         if var.causality == "input":
+            if plant and name.startswith("Td_") and name[3:] in building.vav_names:
+                discharge[name] = name[3:]  # a command for the controller (unset: no reheat), never the data's Td
+                continue
             if name in OPTIONAL_INPUTS and name not in frame.columns:
                 continue  # keeps its default (e.g. the plant's ghi: use I_N..I_W)
             if name in SOLAR_INPUTS and name not in frame.columns and var.start is not None:
@@ -355,7 +362,7 @@ def _default_mapping(inst: FMUInstance, frame, building):
                 outputs[name] = (name[2:],)
             else:
                 problems.append(f"FMU output {name!r} is not T_<zone> of a zone of the building")
-    return inputs, controls, outputs, problems, defaulted
+    return inputs, controls, outputs, problems, defaulted, discharge
 
 
 def _mapping_from_file(inst: FMUInstance, mapping: dict, frame, building):
@@ -523,6 +530,7 @@ def run_cosim(
                 band=tuple(band),
                 season=run.season,
                 model=model,
+                discharge=run.td_boxes,
             )
         )
         io = _FmuIO(inst, run)
@@ -558,6 +566,7 @@ class _Run:
     controls: dict = dataclasses.field(default_factory=dict)  # FMU input -> box
     outputs: dict = dataclasses.field(default_factory=dict)  # FMU output -> zones
     defaulted: list = dataclasses.field(default_factory=list)  # FMU inputs left at their start value
+    discharge: dict = dataclasses.field(default_factory=dict)  # FMU input Td_<vav> -> box (plant: a command)
     V: dict = dataclasses.field(default_factory=dict)
     filled: dict = dataclasses.field(default_factory=dict)
     cframe: pd.DataFrame | None = None
@@ -599,6 +608,10 @@ class _Run:
         return tuple(self.outputs)
 
     @property
+    def td_boxes(self) -> tuple:
+        return tuple(self.discharge.values())
+
+    @property
     def end(self):
         return self.frame.index[-1] + pd.Timedelta(seconds=self.step)
 
@@ -611,6 +624,7 @@ def _connect(run: _Run, inst: FMUInstance, mapping) -> None:
         found = _mapping_from_file(inst, mapping, run.frame, run.building)
     run.inputs, run.controls, run.outputs, problems = found[:4]
     run.defaulted = list(found[4]) if len(found) > 4 else []
+    run.discharge = dict(found[5]) if len(found) > 5 else {}
     if not run.outputs:
         problems.append("no FMU output is mapped to a zone temperature")
     if problems:
@@ -704,13 +718,17 @@ class _FmuIO:
             return self.K if inst.vars[name].unit == "K" else 0.0
 
         self.fmu = inst.fmu
-        names = list(run.controls) + list(run.inputs)
+        names = list(run.controls) + list(run.discharge) + list(run.inputs)
         self.nc, self.nin, self.nout = len(run.controls), len(names), len(run.out_names)
+        self.nd = len(run.discharge)  # discharge air commands after the airflows (unset: 0 degC, no reheat)
         self.in_vr = (ctypes.c_uint32 * self.nin)(*[inst.vars[k].vr for k in names])
         self.in_val = (ctypes.c_double * self.nin)()
         self.inp = np.frombuffer(self.in_val, dtype=float)
         self.in_off = np.array(
-            [offset(k) if k in run.inputs and run.inputs[k].startswith("T_") else 0.0 for k in names]
+            [
+                offset(k) if (k in run.inputs and run.inputs[k].startswith("T_")) or k in run.discharge else 0.0
+                for k in names
+            ]
         )
         self.out_vr = (ctypes.c_uint32 * self.nout)(*[inst.vars[k].vr for k in run.out_names])
         self.out_val = (ctypes.c_double * self.nout)()
@@ -719,8 +737,13 @@ class _FmuIO:
         self.Vmat = np.column_stack([run.V[k] for k in run.inputs]) if run.inputs else np.zeros((run.n, 0))
 
     def set_inputs(self, m, v):
-        self.inp[: self.nc] = m
-        self.inp[self.nc :] = v + self.in_off[self.nc :]
+        """Airflows (nc), optionally followed by discharge commands (nd) [degC], and disturbances."""
+        m = np.asarray(m, dtype=float)
+        nm = self.nc + self.nd
+        self.inp[: m.size] = m
+        self.inp[m.size : nm] = 0.0  # discharge commands not given: no reheat
+        self.inp[self.nc : nm] += self.in_off[self.nc : nm]
+        self.inp[nm:] = v + self.in_off[nm:]
         self.fmu.fmi2SetReal(self.fmu.component, self.in_vr, self.nin, self.in_val)
 
     def outputs(self) -> np.ndarray:
@@ -797,7 +820,7 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
     n, nc = run.n, io.nc
     tr = _Trace(
         Y=np.full((n + 1, io.nout), np.nan),
-        M=np.full((n + 1, nc), np.nan),
+        M=np.full((n + 1, nc + io.nd), np.nan),
         t_ctrl=np.full(n, np.nan),
         t_fmu=np.full(n, np.nan),
     )
@@ -815,10 +838,11 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
             tr.stopped = f"controller raised {type(exc).__name__} at step {k} ({index[k]}): {exc}"
             break
         c1 = time.perf_counter()
-        if m.shape != (nc,) or not np.all(np.isfinite(m)):
-            tr.stopped = f"controller returned {m!r} at step {k} ({index[k]}; need {nc} finite airflows)"
+        if m.shape not in ((nc,), (nc + io.nd,)) or not np.all(np.isfinite(m)):
+            need = f"{nc} finite airflows" + (f" (then {io.nd} discharge temperatures)" if io.nd else "")
+            tr.stopped = f"controller returned {m!r} at step {k} ({index[k]}; need {need})"
             break
-        tr.M[k] = m
+        tr.M[k, : m.size] = m
         try:
             io.set_inputs(m, io.Vmat[k])
             fmu.fmi2DoStep(fmu.component, t, run.step, 1)
@@ -844,6 +868,9 @@ def _result_table(run: _Run, tr: _Trace) -> pd.DataFrame:
     table = pd.DataFrame(tr.Y, index=index, columns=list(run.out_names))
     for j, b in enumerate(run.vavs):
         table[f"m_{b}"] = tr.M[:, j]
+    for j, b in enumerate(run.td_boxes):
+        if np.any(np.isfinite(tr.M[: tr.completed, len(run.vavs) + j])):  # only when the controller commands it
+            table[f"Td_{b}"] = tr.M[:, len(run.vavs) + j]
     for fmu_name, col in run.inputs.items():
         table[col] = np.append(run.V[fmu_name], np.nan)
     for o in run.out_names:
@@ -855,9 +882,20 @@ def _result_table(run: _Run, tr: _Trace) -> pd.DataFrame:
     return table.iloc[: tr.completed + 1] if tr.completed < run.n else table
 
 
+def _heating_kwh(run: _Run, tr: _Trace) -> float:
+    """Reheat commanded through the discharge inputs: Σ m c_p max(Td - T_supply, 0) · step [kWh] (0 without)."""
+    c, nc = tr.completed, len(run.vavs)
+    if not run.discharge or c == 0 or "T_supply" not in run.V:
+        return 0.0
+    cols = [run.vavs.index(b) for b in run.td_boxes]
+    m, Td = tr.M[:c, cols], tr.M[:c, nc:]
+    q = m * CP_AIR * np.maximum(Td - run.V["T_supply"][:c, None], 0.0)
+    return float(np.nansum(q) * run.step / 3.6e6)
+
+
 def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
     c = tr.completed
-    Mc, Yc = tr.M[:c], tr.Y[1 : c + 1]
+    Mc, Yc = tr.M[:c, : len(run.vavs)], tr.Y[1 : c + 1]
     lo, hi = run.band
     viol = np.clip(lo - Yc, 0, None) + np.clip(Yc - hi, 0, None)
     st = (tr.t_ctrl + tr.t_fmu)[:c]
@@ -881,6 +919,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "total_airflow_kg": float(np.sum(Mc) * run.step),
         "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if c else math.nan,
         "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
+        "heating_kWh": _heating_kwh(run, tr),
         "band": [float(lo), float(hi)],
         "step_time_median": med(st),
         "step_time_max": float(np.max(st)) if c else math.nan,

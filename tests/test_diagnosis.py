@@ -285,6 +285,59 @@ def test_synthetic_effect_is_found(term, seed, loc):
         assert abs(est["value"] - true) <= tol, (name, est, true)
 
 
+@pytest.mark.parametrize(
+    "terms, zones_idx, affine",
+    [
+        ((), (0,), True),
+        ((ThermalMass(zone="A", alpha=0.02), SupplyAirBilinear(zone="A")), (0,), True),
+        ((ZoneCoupling(zone_a="A", zone_b="C"),), (0, 2), True),
+        ((Reheat(zone="B", T_threshold=12.0, u_min=0.05),), (1,), True),
+        # a delayed airflow feeding the bilinear term is quadratic in the state: step-by-step fallback
+        ((ActuationDelay(zone="B", delay=2), SupplyAirBilinear(zone="B")), (1,), False),
+    ],
+)
+def test_fold_scores_equal_the_step_by_step_simulation(terms, zones_idx, affine):
+    """The cross-validation's vectorised open loop (one affine map per row, every fold at once)
+    gives the step-by-step ``step_state`` simulation's window RMS to 1e-9 K, NaN windows included."""
+    from hvacfmu.diagnosis import crossval as CV
+    from hvacfmu.diagnosis.design import make_signals
+
+    ds = simulate_dataset(row_model(), weeks=6, seed=3, gaps=True)
+    sig = make_signals(ds, row_model())
+    plan = CV.make_plan(sig, 10, 96)
+    models = CV.fold_fits(sig, plan, list(terms), zones_idx)
+    assert (CV.affine_steps(sig, models[0], plan.starts[0], 96) is not None) == affine
+    fast = CV.fold_scores(sig, plan, models, zones_idx)
+    for m, st, f in zip(models, plan.starts, fast):
+        slow = CV.zone_open_loop_rms(sig, m, st, zones_idx, 96)
+        assert np.array_equal(np.isnan(slow), np.isnan(f))
+        assert np.nanmax(np.abs(slow - f)) < 1e-9
+    assert any(np.isnan(f).any() for f in fast)  # the gaps make some windows unusable
+
+
+def test_calendar_term_is_tested_on_its_active_days():
+    """A term acting on 10 of 65 days: its gain is measured on those days, not diluted by the rest."""
+    from hvacfmu.diagnosis.crossval import CVPlan, paired_test, paired_test_days
+
+    rng = np.random.default_rng(0)
+    weeks = np.repeat(np.arange(13), 5)
+    folds = np.array_split(np.arange(65), 10)
+    before = [0.3 + 0.05 * rng.random((len(f), 2)) for f in folds]
+    active = [np.isin(f, np.r_[10:15, 40:45]) for f in folds]
+    after = [b - np.where(a[:, None], 0.1 + 0.01 * rng.random(b.shape), 0.0) for b, a in zip(before, active)]
+    plan = CVPlan(
+        folds=folds, fit_rows=[], within=[], starts=folds, week_of_start=[weeks[f] for f in folds], horizon=96
+    )
+    days = paired_test_days(plan, before, after, active)
+    every = paired_test(plan, before, after)
+    assert days["n_days"] == 10 and days["n_folds_active"] >= 2
+    assert days["gain_percent"] > 25 and days["t"] > 20
+    assert every["gain_percent"] < days["gain_percent"] / 4  # diluted by the 11 weeks it does not act on
+    assert every["t"] < days["t"] / 5
+    none = paired_test_days(plan, before, before, [np.zeros(len(f), bool) for f in folds])
+    assert none["gain_percent"] is None
+
+
 def test_two_synthetic_effects_are_both_found():
     base = row_model()
     terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
@@ -821,12 +874,28 @@ def _battery():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case_id", [0, 21, 22])  # row4 clean; core9 holiday weeks; row4 reheat in R1
+@pytest.mark.parametrize(
+    "case_id",
+    [
+        0,  # row4, 15 min, clean
+        13,  # core9, 15 min, holiday week + solar gain of NE's east facade
+        14,  # sdh, 5 min, solar gain + 45-min delay (9 steps)
+        21,  # core9, 15 min, holiday weeks 2 + 3
+        22,  # row4, 15 min, reheat in R1
+        pytest.param(
+            25,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="known miss: the row4 R1+R4 coupling (928 W/K) scores -0.1 % cross-validated (README battery)",
+            ),
+        ),
+    ],
+)
 def test_battery_slice(case_id):
     bat = _battery()
     case = bat.make_cases(48, 2026)[case_id]
-    assert case["layout"] in ("row4", "core9")
-    cmp, _ = bat.run_case(case, weeks=16)
-    assert cmp["unsupported"] == [], f"false finding(s) on {case}: {cmp['unsupported']}"
-    assert cmp["missed"] == [], f"missed on {case}: {cmp['missed']}"
-    assert len(cmp["found"]) == len(case["effects"])
+    assert case["layout"] in ("row4", "core9", "sdh")
+    r = bat.run_case(case, weeks=16)
+    assert r["unsupported"] == [], f"false finding(s) on {case}: {r['unsupported']}"
+    assert r["missed"] == [], f"missed on {case}: {r['missed']}"
+    assert len(r["found"]) == len(case["effects"])

@@ -321,14 +321,14 @@ def test_multiple_steps_exact_and_other_steps_refused(built, fmu_data):
         assert_allclose(b.fmu.getReal([b.vr[n] for n in names_out]), Ya[-1], rtol=0, atol=0)
         before = b.fmu.getReal([b.vr[n] for n in names_out])
         for h in (450.0, 1000.0, 0.0):
-            with pytest.raises(Exception, match="discard"):
+            with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
                 b.fmu.doStep(3600.0, h)
         assert any("not a whole multiple of the model step 900 s" in msg for _, _, msg in b.log)
         assert b.fmu.getReal([b.vr[n] for n in names_out]) == before  # refused steps change nothing
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             b.fmu.doStep(7200.0, 900.0)  # not contiguous
         assert any("steps must be contiguous" in msg for _, _, msg in b.log)
-        b.fmu.doStep(3600.0, 900.0)  # still usable
+        b.fmu.doStep(3600.0, 900.0)  # a host that ignores fmi2Fatal and goes on is safe (no crash, exact state)
     finally:
         a.close()
         b.close()
@@ -346,8 +346,8 @@ def test_multiple_steps_exact_and_other_steps_refused(built, fmu_data):
         ("bad_state", "fmi2SetFMUstate failed"),
     ],
 )
-def test_bad_input_gives_discard_and_log(built, setup, message):
-    """Each bad input: a non-OK status with a clear log message, and the host keeps running."""
+def test_bad_input_is_refused_with_a_log(built, setup, message):
+    """Each bad input: fmi2Fatal (pythonfmu's only error status) with a clear log message; the host keeps running."""
     _, _, path = built["zones"]
     s = Slave(path)
     vr = s.vr
@@ -368,11 +368,11 @@ def test_bad_input_gives_discard_and_log(built, setup, message):
             s.fmu.setInteger([vr["T_out"]], [3])
         elif setup == "bad_state":
             s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(b"not json"))
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             s.fmu.doStep(0.0, 900.0)
         text = "\n".join(msg for _, _, msg in s.log)
         assert re.search(message, text), text
-        assert any(status == "error" for status, _, _ in s.log)
+        assert any(status in ("error", "fatal") for status, _, _ in s.log)
     finally:
         s.close()
     # the process is healthy: a new instance of the same FMU runs
@@ -408,7 +408,7 @@ def test_broken_model_file_in_fmu(built, tmp_path, edit, message):
     s = Slave(bad)
     try:
         s.init()
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             s.fmu.doStep(0.0, 900.0)
         text = "\n".join(msg for _, _, msg in s.log)
         assert message in text, text
@@ -417,7 +417,7 @@ def test_broken_model_file_in_fmu(built, tmp_path, edit, message):
 
 
 def test_exception_in_slave_is_logged_with_traceback(built, tmp_path):
-    """A Python exception inside doStep becomes a logged traceback and fmi2Discard; the instance lives on."""
+    """A Python exception inside doStep becomes a logged traceback and fmi2Fatal; a host that goes on is safe."""
     from hvacfmu.fmu import _build
     from hvacfmu.fmu_slave import INTERFACE_FILE, zone_model_layout
 
@@ -442,11 +442,11 @@ def test_exception_in_slave_is_logged_with_traceback(built, tmp_path):
         s.init()
         s.fmu.doStep(0.0, 900.0)
         s.fmu.doStep(900.0, 900.0)
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             s.fmu.doStep(1800.0, 900.0)
         text = "\n".join(msg for _, _, msg in s.log)
         assert "Traceback (most recent call last)" in text and "ZeroDivisionError: injected failure" in text
-        s.fmu.getFMUstate()  # still answers
+        s.fmu.getFMUstate()  # still answers (the slave keeps the references pythonfmu releases twice)
     finally:
         s.close()
 
@@ -504,11 +504,39 @@ def test_plant_fmu_matches_plant(plant_fmu, short_paths, fmu_data):
             [f"T_{z}" for z in plant.zones],
             t0=t0,
         )
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             s.fmu.doStep(t0 + 96 * 900.0, 30.0)  # not a multiple of the plant's 60 s
     finally:
         s.close()
     assert_allclose(Y, np.array(Yref), rtol=0, atol=EXACT)
+
+
+def test_plant_fmu_bounds_come_from_the_emulated_building(plant_fmu, short_paths):
+    """Plant airflow inputs: 0..1.2 x m_max, nominal m_max, box and zone named; temperatures in plausible ranges."""
+    from fmpy import read_model_description
+
+    truth = json.loads(Path(short_paths.truth).read_text())
+    names = {v.name: v for v in read_model_description(str(plant_fmu)).modelVariables}
+    boxes = truth["baseline"]["building"]["vavs"]
+    for box in boxes:
+        v = names[f"m_{box['name']}"]
+        assert float(v.min) == 0.0 and float(v.max) == pytest.approx(1.2 * box["m_max"], rel=1e-12)
+        assert float(v.nominal) == box["m_max"]
+        assert f"VAV box {box['name']} serving zone {box['zone']}" in v.description
+    assert (float(names["T_out"].min), float(names["T_out"].max)) == (-60.0, 60.0)
+    assert (float(names["T_supply"].min), float(names["T_supply"].max)) == (0.0, 80.0)
+    for z in truth["baseline"]["building"]["zones"]:
+        start = names[f"T_{z['name']}_start"]
+        assert (float(start.min), float(start.max)) == (-40.0, 60.0) and z["name"] in start.description
+    s = Slave(plant_fmu)  # the plant refuses an airflow above its bound, naming it
+    try:
+        s.init()
+        s.fmu.setReal([s.vr[f"m_{boxes[0]['name']}"]], [1.3 * boxes[0]["m_max"]])
+        with pytest.raises(Exception, match="fatal"):
+            s.fmu.doStep(0.0, 900.0)
+        assert any(f"m_{boxes[0]['name']}=" in msg and "invalid input" in msg for _, _, msg in s.log)
+    finally:
+        s.close()
 
 
 def test_fmpy_command_line(built, fmu_data, tmp_path):
@@ -547,6 +575,32 @@ def test_fmpy_command_line(built, fmu_data, tmp_path):
     assert_allclose(out["time"], np.arange(n) * 900.0, rtol=0, atol=1e-6)
     Yref = reference(model, idx[:n], m[:n], v[:n], y0, week.season)
     assert_allclose(out[names_out].to_numpy(), Yref[:n], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("case", ["step", "input"])
+def test_fmpy_simulate_exits_nonzero_on_a_refused_step(built, fmu_data, tmp_path, case):
+    """`fmpy simulate` with a step the FMU refuses (a step size that is not a multiple of 900 s, or an
+    airflow out of range at one row): exit 1 with the reason and the time on stderr, never a short CSV."""
+    model, _, path = built["zones"]
+    week = fmu_data.test_weeks()[0]
+    idx, U, m, v, y0, names_in, names_out, sv = fmu_setup(model, fmu_data.building, fmu_data, week)
+    n = 16
+    inp = pd.DataFrame(U[:n], columns=names_in)
+    inp.insert(0, "time", np.arange(n) * 900.0)
+    if case == "input":
+        inp.loc[10:, "m_VAV_NW_1"] = -0.5  # from t = 9000 s
+    inp.to_csv(tmp_path / "in.csv", index=False)
+    interval = "450" if case == "step" else "900"
+    cmd = ["fmpy", "simulate", str(path), "--input-file", str(tmp_path / "in.csv"), "--output-interval", interval]
+    cmd += ["--stop-time", str((n - 1) * 900.0), "--output-file", str(tmp_path / "out.csv")]
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 1, (run.returncode, run.stderr[-3000:])
+    assert "fmi2DoStep failed with status 4 (fatal)" in run.stderr, run.stderr[-3000:]
+    if case == "step":
+        assert "communication step 450.0 s at t=0.0 s is not a whole multiple of the model step 900 s" in run.stderr
+    else:
+        assert "at t=9000.0 s: invalid input value(s): m_VAV_NW_1=-0.5" in run.stderr, run.stderr[-3000:]
+    assert not (tmp_path / "out.csv").exists()
 
 
 def test_export_command_line_and_errors(built, tmp_path):
@@ -868,7 +922,7 @@ def test_export_with_building_file_bounds_the_box_inputs(built, fmu_data, tmp_pa
         s.init({"season": 1})
         vav = fmu_data.building.vavs[0]
         s.fmu.setReal([s.vr[f"m_{vav.name}"]], [1.3 * vav.m_max])
-        with pytest.raises(Exception, match="discard"):
+        with pytest.raises(Exception, match=r"status 4 \(fatal\)"):
             s.fmu.doStep(0.0, 900.0)
         assert any(f"m_{vav.name}=" in msg and "invalid input" in msg for _, _, msg in s.log)
     finally:

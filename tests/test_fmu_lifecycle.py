@@ -13,7 +13,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from bench_fmu_lifecycle import build_fmus, cycles, processes  # noqa: E402
+from bench_fmu_lifecycle import build_fmus, cycles, processes, refused_cycles, refusing_processes  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -37,6 +37,18 @@ def test_processes_that_simulated_the_plant_exit_cleanly(fmus):
     """100 separate processes simulate the plant FMU (the one that aborted at exit) and all exit 0."""
     r = processes(fmus["plant"], 100, 2)
     assert r["ok"] == 100, r
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["zones", "plant"])
+def test_refused_steps_are_errors_and_never_crash_the_host(fmus, kind):
+    """A refused step (pythonfmu answers fmi2Fatal): 50 instances in one process that are still terminated and
+    freed afterwards (FMI forbids it, hosts do it) keep memory flat and the process alive; 20 `fmpy simulate`
+    processes with a refused step size all exit 1 naming the reason (none crashes, none exits 0)."""
+    c = refused_cycles(fmus[kind], 50)
+    assert c["refused"] == 50 and c["trimmed"] < 5.0, c
+    p = refusing_processes(fmus[kind], 20, 2)
+    assert p["exit1"] == 20 and p["named"] == 20, p
 
 
 def test_instances_share_the_loaded_model_and_the_slave_class(tmp_path):

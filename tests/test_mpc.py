@@ -613,7 +613,7 @@ def test_cosim_adapter_runs_model_a_in_band(small_building):
         season="fall",
         model=model,
     )
-    ctrl = cosim_controller(model, small_building, horizon=3, rho=100, comfort_penalty="none")
+    ctrl = cosim_controller(model, small_building, horizon=3, rho=100, comfort_penalty="none", preset="paper")
     assert isinstance(ctrl, Controller)
     ctrl.reset(ctx)
     x = np.array([21.0, 21.0])

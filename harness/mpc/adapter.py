@@ -18,10 +18,42 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
-from .predict import state_from_outputs
+from .heating import HEAT_WEIGHT, discharge_commands, heat_plan
+from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
 _SETTING_NAMES = {f.name for f in dataclasses.fields(MPCSettings)}
+
+#: presets of :class:`CosimMPC` (options given explicitly win)
+PRESETS = ("plant", "paper")
+
+
+def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
+    """MPC options of a preset for a horizon [steps] and a linear or bilinear model.
+
+    ``"paper"``: none (:class:`MPCSettings` defaults, the paper's problem).
+    ``"plant"`` (the harness default): what a model that is not the building
+    needs, measured on the emulator's plant FMU (``benchmarks/bench_mpc_plant.py``,
+    README "MPC"): offset-free estimation (``offset_gain=0.6``), move
+    suppression (``move_penalty=20``), a 0.4 K back-off from the band edges,
+    and for horizons over 3 steps move blocking, per-step slack and the ℓ1
+    penalty QP (a shared slack or ρ‖ε‖₂ spread slack over long horizons);
+    bilinear models up to 24 steps use the Newton linearisation, longer horizons
+    (reduced-order prediction) one convex iteration per step (real-time
+    iteration: the first step is exact, the plan is refined at the next steps).
+    """
+    if preset not in PRESETS:
+        raise HvacfmuError(f"unknown MPC preset {preset!r}; choose one of {PRESETS}")
+    if preset == "paper":
+        return {}
+    out = {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4}
+    if horizon > 3:
+        out.update(blocks="auto", slack="per_step", formulation="qp")
+        if bilinear and horizon <= 24:
+            out["linearisation"] = "newton"
+        elif bilinear:  # reduced-order prediction: one convex iteration per step (real-time iteration)
+            out["max_iter"] = 1
+    return out
 
 
 def settings_from_options(band=None, **options) -> tuple[MPCSettings, dict]:
@@ -58,25 +90,48 @@ class CosimMPC:
     kalman_q_std, kalman_r_std : float [K]
     init : {"outputs", "model"}
         Initial estimate of hidden states (see :meth:`_initial_estimate`).
+    heating : bool
+        Where the plant takes discharge air commands (``context.discharge``), decide
+        a reheat per box (or per zone for Model A) as well (:mod:`harness.mpc.heating`);
+        ``False`` commands airflows only.
+    preset : {"plant", "paper"}
+        Defaults under the explicit options (:func:`preset_options`): ``"plant"``
+        (offset-free, move suppression, back-off; the model is not the building)
+        or ``"paper"`` (the paper's problem as stated).
     **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
     """
 
     name = "mpc"
 
     def __init__(
-        self, model, building=None, failure_dir=None, kalman_q_std=0.05, kalman_r_std=0.05, init="outputs", **options
+        self,
+        model,
+        building=None,
+        failure_dir=None,
+        kalman_q_std=0.05,
+        kalman_r_std=0.05,
+        init="outputs",
+        preset="plant",
+        heating=True,
+        **options,
     ):
         if init not in ("outputs", "model"):
             raise HvacfmuError(f"init must be 'outputs' or 'model', got {init!r}")
         self.init = init
+        self.preset = preset
+        self.heating = bool(heating)
         self.model = model
         self.building = building
         self.failure_dir = failure_dir
         self.kalman = (float(kalman_q_std), float(kalman_r_std))
         self.options = dict(options)
-        self.settings, unknown = settings_from_options(**self.options)
+        _, unknown = settings_from_options(**self.options)
         if unknown:
             raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
+        horizon = int(self.options.get("horizon", MPCSettings.horizon))
+        bilinear = not make_predictor(model).linear
+        self.options = {**preset_options(preset, horizon, bilinear), **self.options}
+        self.settings, _ = settings_from_options(**self.options)
         self.mpc = None
 
     # ----- protocol ------------------------------------------------------
@@ -85,14 +140,26 @@ class CosimMPC:
         self.settings, _ = settings_from_options(band=context.band, **self.options)
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
+        self.n_air = u_min.size
+        controlled, weights, self.heat = model, None, None
+        if self.heating and context.discharge:
+            controlled, self.heat, _ = heat_plan(
+                model, building, context.vavs, context.discharge, context.heating_limits(), context.frame
+            )
+            T_ref = float(np.nanmedian(context.frame["T_supply"].to_numpy(float)))
+            h_max = self.heat.limits(T_ref)  # [kW] at the run's median supply air (applied: clipped per box)
+            u_min, u_max = np.concatenate([u_min, np.zeros_like(h_max)]), np.concatenate([u_max, h_max])
+            weights = np.concatenate([np.ones(self.n_air), np.full(h_max.size, HEAT_WEIGHT)])
+            self._td_boxes = [list(context.vavs).index(b) for b in context.discharge]
         self.mpc = MPCController(
-            model,
+            controlled,
             u_min,
             u_max,
             self.settings,
             kalman_q_std=self.kalman[0],
             kalman_r_std=self.kalman[1],
             failure_dir=self.failure_dir,
+            input_weights=weights,
         )
         N = self.mpc.N
         frame = context.frame
@@ -134,13 +201,20 @@ class CosimMPC:
         y0 = model.measured_outputs(row)[0]
         if not (np.all(np.isfinite(y0)) and np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
             return None  # gaps at the start: the controller's own steady-state initialisation
-        return state_from_outputs(self.mpc.pred, y0, u[0], v[0], self.Q[0])
+        u0 = np.concatenate([u[0], np.zeros(self.mpc.pred.nu - u.shape[1])])  # no reheat
+        return state_from_outputs(self.mpc.pred, y0, u0, v[0], self.Q[0])
 
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
         y_model = self._W @ y
         u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N])
-        return self.limiter(self._split_offset + self._split @ u)
+        m = self.limiter(self._split_offset + self._split @ u[: self.n_air])
+        if self.heat is None:
+            return m
+        T_supply = (
+            float(v["T_supply"]) if "T_supply" in v else float(self.V[k, self.model.disturbances.index("T_supply")])
+        )
+        return np.concatenate([m, discharge_commands(self.heat, u[self.n_air :], m, T_supply, self._td_boxes)])
 
     def stats(self) -> dict:
         """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""
@@ -184,7 +258,7 @@ class CosimMPC:
         vavs = list(context.vavs)
         m_min, m_max = context.box_limits()
         model = self.model
-        nu = self.mpc.pred.nu
+        nu = self.n_air
         S = np.zeros((len(vavs), nu))
         off = np.zeros(len(vavs))
         mapped = input_mapping(model)

@@ -93,6 +93,8 @@ class MPCController:
     failure_dir : path or None
         Where failed problems are saved as ``failure_<step>.npz``; ``None``
         keeps them in :attr:`failed_problems`.
+    input_weights : array (n_inputs,) or None
+        Cost weight of each input (default ones, the paper's ``Σ ||u||²``).
     """
 
     name = "mpc"
@@ -107,6 +109,7 @@ class MPCController:
         kalman_q_std=0.05,
         kalman_r_std=0.05,
         failure_dir=None,
+        input_weights=None,
     ):
         self.model = model
         self.settings = settings or MPCSettings()
@@ -117,6 +120,7 @@ class MPCController:
             raise ModelError(
                 f"input limits have {self.u_min.size}/{self.u_max.size} entries, model has {self.pred.nu} inputs"
             )
+        self.weights = np.ones(self.pred.nu) if input_weights is None else np.asarray(input_weights, float).ravel()
         self.lengths = np.asarray(self.settings.block_lengths)
         self.N = int(self.lengths.sum())
         self.bilinear = not self.pred.linear
@@ -140,23 +144,53 @@ class MPCController:
         self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
         self._plan = None
         self._last = None  # (u, v, q) applied at the previous step
+        self._x_last = None  # state estimate of the previous step (Model A: its measured outputs)
+        self._pinv_C = None
+        self.pred.offset = None  # offset-free MPC: the drift is estimated again from the start
         if self.kf is not None:
             self.kf.x = None if x0 is None else np.asarray(x0, dtype=float)
         self._x0 = None if x0 is None else np.asarray(x0, dtype=float)
 
     def estimate(self, y, v, q) -> np.ndarray:
-        """State estimate from the measured outputs y (ny,) [°C]."""
+        """State estimate from the measured outputs y (ny,) [°C].
+
+        With ``settings.offset_gain`` g > 0 (offset-free MPC), the one-step
+        prediction error ``e = y - C x̂(k|k-1)`` (the prediction already
+        carrying the current drift) updates an integrating disturbance
+        ``d += g C⁺ e`` [K/step] on the measured nodes, which the predictor adds
+        to every step of the horizon (:attr:`AffinePredictor.offset`): a
+        constant model bias (heat the model does not know, a wrong gain at the
+        operating point) is then removed in steady state instead of showing up
+        as a steady violation of the band.
+        """
         y = np.asarray(y, dtype=float)
+        g = float(self.settings.offset_gain)
         if self.kf is None:  # the state is the measured output (Model A)
+            if g > 0.0 and self._last is not None and self._x_last is not None:
+                self._update_offset(y - self.pred.C @ self.pred.step(self._x_last, *self._last), g)
+            self._x_last = y.copy()
             return y.copy()
         if self.kf.x is None:
             self.kf.initialise(y, v, q, self.u_min)
         elif self._last is not None:
             self.kf.predict(*self._last)
+            if g > 0.0:
+                self._update_offset(y - self.pred.C @ self.kf.x, g)
             self.kf.correct(y)
         else:
             self.kf.correct(y)
         return self.kf.x.copy()
+
+    def _update_offset(self, e, g):
+        if self._pinv_C is None:
+            self._pinv_C = np.linalg.pinv(self.pred.C)
+        d = np.zeros(self.pred.nx) if self.pred.offset is None else self.pred.offset
+        self.pred.offset = d + g * (self._pinv_C @ e)
+
+    @property
+    def offset(self) -> np.ndarray:
+        """The estimated drift (nx,) [K/step] of offset-free MPC (zeros when off)."""
+        return np.zeros(self.pred.nx) if self.pred.offset is None else self.pred.offset.copy()
 
     # ----- one step --------------------------------------------------------
     def step(self, y, V, Qg) -> np.ndarray:
@@ -236,7 +270,8 @@ class MPCController:
         if not self.bilinear:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
+            self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
                 self._keep_failure(y0, x0, V, Qg)
@@ -256,16 +291,17 @@ class MPCController:
                 if self._problem is None:
                     rom = self.pred.reduced_model(s.rom_tol)
                     self._problem = ReducedProblem(
-                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s
+                        rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s, self.weights
                     )
                 else:
                     self._problem.update_blocks(beta, theta)
             else:
                 y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=s.linearisation)
                 if self._problem is None:
-                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s)
+                    self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
                 else:
                     self._problem.update_G(G)
+            self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             solve_time += sol.solve_time
             if not sol.found:
@@ -310,9 +346,19 @@ class MPCController:
         eps = exc.max(axis=0) if s.slack == "shared" else exc.ravel()
         pen = float(np.linalg.norm(eps)) if s.formulation == "socp" else float(eps.sum())
         Y = X[1:] @ self.pred.C.T
-        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - s.T_max, s.T_min - Y))))
+        lo, hi = s.band
+        viol = float(np.sum(np.maximum(0.0, np.maximum(Y - hi, lo - Y))))
         weight = s.comfort_penalty if s.comfort_penalty is not None else 1e6
-        return float(np.sum(U**2)) + s.rho * pen + weight * viol
+        move = 0.0
+        if s.move_penalty > 0.0:
+            Ub = U[_block_starts(self.lengths)]
+            prev = self._u_prev()[None]
+            move = s.move_penalty * float(np.sum(self.weights * np.diff(np.vstack([prev, Ub]), axis=0) ** 2))
+        return float(np.sum(self.weights * U**2)) + s.rho * pen + weight * viol + move
+
+    def _u_prev(self) -> np.ndarray:
+        """The move applied at the previous step (the lower limits before the first step), for the move penalty."""
+        return self._last[0] if self._last is not None else np.clip(np.zeros(self.pred.nu), self.u_min, self.u_max)
 
     def _failed_plan(self, sol, it, solve_time=None):
         nan = np.full((self.N + 1, self.pred.nx), np.nan)

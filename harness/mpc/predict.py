@@ -51,6 +51,12 @@ class AffinePredictor:
 
     def __init__(self):
         self._markov = {}
+        #: estimated unmodelled drift (nx,) [K per step] added to every step (offset-free MPC), or None
+        self.offset = None
+
+    def _offset(self, W):
+        """``W`` plus the estimated drift :attr:`offset` (every row)."""
+        return W if self.offset is None else W + self.offset
 
     @property
     def nx(self) -> int:
@@ -301,13 +307,13 @@ class LinearPredictor(AffinePredictor):
         self._G = {}
 
     def drift(self, V, Qg, Ubar=None):
-        return V @ self.Bv.T + Qg @ self.Bq.T
+        return self._offset(V @ self.Bv.T + Qg @ self.Bq.T)
 
     def beta(self, Xbar, V):
         return np.broadcast_to(self.B, (V.shape[0],) + self.B.shape)
 
     def step(self, x, u, v, q):
-        return self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q
+        return self._offset(self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q)
 
     def sensitivity(self, beta, lengths, theta=None):
         key = (beta.shape[0], tuple(lengths))
@@ -399,7 +405,7 @@ class BilinearPredictor(AffinePredictor):
         W = V @ self.Bv.T + Qg @ self.Bq.T
         if self.switches:
             W = W + self._switch_terms(np.zeros((V.shape[0], self.nu)) if Ubar is None else Ubar, V)
-        return W
+        return self._offset(W)
 
     def beta(self, Xbar, V):
         return self.PtBu[None] + np.einsum("irn,kn->kri", self.PtBxu, Xbar) + np.einsum("irv,kv->kri", self.PtBvu, V)
@@ -412,7 +418,7 @@ class BilinearPredictor(AffinePredictor):
         out = self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
         if self.switches:
             out = out + self._switch_terms(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
-        return out
+        return self._offset(out)
 
     def state_matrix(self, u) -> np.ndarray:
         """``A + Σ_i u_i Bxu_i`` at airflows u (nu,) [kg/s]."""

@@ -119,6 +119,25 @@ class MPCSettings:
         one future step that needs slack open the limits for every step;
         ``"per_step"`` gives every step (block) its own slack, with
         ``||eps||`` taken over all steps.
+    move_penalty : float [1/(kg/s)²]
+        Weight ``w`` of ``w Σ_j ||u_b(j) - u_b(j-1)||²`` over the blocked moves (each input scaled by
+        its cost weight),
+        ``u_b(-1)`` the move applied at the previous step (move suppression).
+        0 (default) is the paper's cost. A model whose airflow gain is smaller
+        than the plant's makes an unpenalised plan swing between the limits
+        from step to step (measured on the plant FMU with Model A); a few
+        units damp that.
+    offset_gain : float
+        Offset-free MPC: gain in [0, 1] of the integrating disturbance
+        observer (:meth:`~harness.mpc.controller.MPCController.estimate`). Each
+        step the one-step prediction error of the measured outputs is added,
+        times this gain, to a constant drift of the zone air nodes [K/step]
+        that the prediction carries over the horizon; 0 (default) turns it
+        off (the model is trusted as it is, right when it is its own plant).
+    back_off : float [K]
+        The optimiser keeps the outputs in ``[T_min + back_off, T_max -
+        back_off]``: a margin for the plant-model mismatch left after the
+        offset correction; the comfort figures still use ``[T_min, T_max]``.
     """
 
     horizon: int = 3
@@ -136,6 +155,9 @@ class MPCSettings:
     prediction: str = "auto"
     rom_tol: float = 1.0e-3
     slack: str = "shared"
+    move_penalty: float = 0.0
+    offset_gain: float = 0.0
+    back_off: float = 0.0
 
     def __post_init__(self):
         problems = []
@@ -161,6 +183,12 @@ class MPCSettings:
             problems.append(f"slack must be 'shared' or 'per_step', got {self.slack!r}")
         if not 0 < self.rom_tol < 1:
             problems.append(f"rom_tol must be in (0, 1), got {self.rom_tol}")
+        if not (np.isfinite(self.move_penalty) and self.move_penalty >= 0.0):
+            problems.append(f"move_penalty must be finite and >= 0, got {self.move_penalty}")
+        if not 0.0 <= self.offset_gain <= 1.0:
+            problems.append(f"offset_gain must be in [0, 1], got {self.offset_gain}")
+        if not (self.back_off >= 0.0 and 2.0 * self.back_off < np.min(np.subtract(self.T_max, self.T_min))):
+            problems.append(f"back_off must be >= 0 K and leave a band: 2 x {self.back_off} K >= T_max - T_min")
         if self.u_floor is not None and not np.isfinite(self.u_floor):
             problems.append(f"u_floor must be finite or None, got {self.u_floor}")
         if self.blocks is not None and self.blocks != "auto" and not problems:
@@ -169,6 +197,14 @@ class MPCSettings:
                 problems.append(f"blocks {b} must be positive and sum to the horizon {self.horizon}")
         if problems:
             raise SolverError(problems_message("invalid MPC settings", problems))
+
+    @property
+    def band(self) -> tuple:
+        """The band the optimiser holds, ``(T_min + back_off, T_max - back_off)`` [°C]."""
+        return (
+            np.asarray(self.T_min, dtype=float) + self.back_off,
+            np.asarray(self.T_max, dtype=float) - self.back_off,
+        )
 
     @property
     def block_lengths(self) -> tuple:
@@ -238,7 +274,7 @@ class _MPCProblem:
 
     n_extra = 0
 
-    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=()):
+    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None):
         self.settings = settings
         self.lengths = np.asarray(settings.block_lengths)
         self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
@@ -266,8 +302,16 @@ class _MPCProblem:
         self.i_x = self.i_y + nY
         self.nz = self.i_x + self.n_extra
         pdiag = np.zeros(self.nz)
-        pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu)
+        self.weights = np.ones(nu) if weights is None else np.asarray(weights, dtype=float).ravel()
+        if self.weights.shape != (nu,) or not np.all(self.weights > 0.0):
+            raise SolverError(f"input weights must be {nu} positive numbers, got {self.weights!r}")
+        pdiag[:nU] = 2.0 * np.repeat(self.lengths, nu) * np.tile(self.weights, self.nb)
         self.P = sparse.diags(pdiag, format="csc")
+        self.w_move = float(settings.move_penalty)
+        if self.w_move > 0.0:  # w Σ ||u_b(j) - u_b(j-1)||², u_b(-1) = the previous move (linear term, set_previous)
+            D = sparse.eye(self.nb) - sparse.eye(self.nb, k=-1)
+            PU = 2.0 * self.w_move * sparse.kron(D.T @ D, sparse.diags(self.weights))
+            self.P = (self.P + sparse.block_diag([PU, sparse.csc_matrix((self.nz - nU, self.nz - nU))])).tocsc()
         self.q = np.zeros(self.nz)
         if self.socp:
             self.q[self.i_t] = settings.rho
@@ -275,10 +319,22 @@ class _MPCProblem:
             self.q[self.i_eps : self.i_eps + self.ne] = settings.rho * self.eps_w
         if self.soft:
             self.q[self.i_s : self.i_y] = settings.comfort_penalty
-        self.T_min = np.array(np.broadcast_to(np.asarray(settings.T_min, dtype=float), (self.N, self.ny))).ravel()
-        self.T_max = np.array(np.broadcast_to(np.asarray(settings.T_max, dtype=float), (self.N, self.ny))).ravel()
+        lo, hi = settings.band
+        self.T_min = np.array(np.broadcast_to(lo, (self.N, self.ny))).ravel()
+        self.T_max = np.array(np.broadcast_to(hi, (self.N, self.ny))).ravel()
         self._solver = None
         self._A_changed = False
+        self._q_changed = False
+        self._move_const = 0.0
+
+    def set_previous(self, u_prev) -> None:
+        """The move applied at the previous step (nu,) [kg/s], for the move penalty (no effect without it)."""
+        if self.w_move <= 0.0:
+            return
+        u_prev = np.asarray(u_prev, dtype=float).ravel()
+        self.q[: self.nu] = -2.0 * self.w_move * self.weights * u_prev
+        self._move_const = self.w_move * float(self.weights @ u_prev**2)
+        self._q_changed = True
 
     # ----- assembly ------------------------------------------------------
     def _prediction_rows(self, put, slot):
@@ -399,13 +455,16 @@ class _MPCProblem:
         try:
             if self._solver is None:
                 self._solver = clarabel.DefaultSolver(
-                    self.P, self.q, self.A, b, self.cones(), self._clarabel_settings()
+                    sparse.triu(self.P, format="csc"), self.q, self.A, b, self.cones(), self._clarabel_settings()
                 )
-            elif self._A_changed:
-                self._solver.update(A=self.A.data.copy(), b=b)
             else:
-                self._solver.update(b=b)
-            self._A_changed = False
+                data = {"b": b}
+                if self._A_changed:
+                    data["A"] = self.A.data.copy()
+                if self._q_changed:
+                    data["q"] = self.q.copy()
+                self._solver.update(**data)
+            self._A_changed = self._q_changed = False
             res = self._solver.solve()
             status = str(res.status)
             z = np.asarray(res.x, dtype=float)
@@ -424,7 +483,7 @@ class _MPCProblem:
         U = np.repeat(Ub, self.lengths, axis=0)
         eps = z[self.i_eps : self.i_eps + self.ne]
         s = z[self.i_s : self.i_y].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
-        obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) if found else float("nan")
+        obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) + self._move_const if found else float("nan")
         if found and self.socp:  # report ρ||eps||_2 itself, not the cone variable t
             obj += self.settings.rho * (float(np.linalg.norm(np.sqrt(self.eps_w) * eps)) - float(z[self.i_t]))
         if self.per_step:  # per step (N, nu), like U
@@ -469,6 +528,9 @@ class CondensedProblem(_MPCProblem):
     ny : int
         Number of outputs.
     settings : MPCSettings
+    weights : array (nu,) or None
+        Weight of each input in the cost ``Σ_k Σ_i w_i u_i(k)²`` (default ones: the paper's ``Σ ||u||²``;
+        reheat inputs [kW] get their own, :mod:`harness.mpc.heating`).
 
     Notes
     -----
@@ -477,9 +539,9 @@ class CondensedProblem(_MPCProblem):
     dense block and was 4x slower with clarabel at N = 96.)
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings):
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None):
         G = np.asarray(G, dtype=float)
-        super().__init__(u_min, u_max, ny, settings)
+        super().__init__(u_min, u_max, ny, settings, weights=weights)
         if G.shape != (self.N * self.ny, self.nb * self.nu):
             raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         self.G = G
@@ -523,16 +585,16 @@ class ReducedProblem(_MPCProblem):
     ----------
     Ar : array (nr,) diagonal or (nr, nr);  Br : (nr, r);  Cr : (ny, nr);  D0 : (ny, r)
     beta : array (N, r, nu);  theta : array (N, r, nr) or None
-    u_min, u_max, settings : as :class:`CondensedProblem`
+    u_min, u_max, settings, weights : as :class:`CondensedProblem`
     """
 
-    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings):
+    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None):
         self.Ar, self.Br = np.asarray(Ar, float), np.asarray(Br, float)
         self.Cr, self.D0 = np.asarray(Cr, float), np.asarray(D0, float)
         self.nr, self.r = self.Br.shape
         self.has_theta = theta is not None
         self.n_extra = settings.horizon * (self.nr + self.r)
-        super().__init__(u_min, u_max, self.Cr.shape[0], settings)
+        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights)
         self._beta = np.asarray(beta, float)
         self._theta = None if theta is None else np.asarray(theta, float)
         self._check_blocks(beta=self._beta, theta=self._theta)

@@ -448,7 +448,12 @@ def _add_demo_parser(sub) -> None:
     p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
     p.add_argument("--weeks", type=int, default=51)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--horizon", type=int, default=3, help="MPC horizon in steps (default 3, as in the paper)")
+    p.add_argument(
+        "--horizon",
+        type=int,
+        default=12,
+        help="MPC horizon in steps of 15 min (default 12 = 3 h; the paper used 3)",
+    )
     p.set_defaults(func=_cmd_demo)
 
 

@@ -60,27 +60,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     notes = []
     if not dataset.weeks:
         raise DataError("the dataset holds no complete week: nothing to diagnose")
-    given = model is not None
-    if model is None:
-        from ..fitting import fit
-
-        say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)
-        notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
-    elif isinstance(model, (str, Path)):
-        from ..models import load_model
-
-        model = load_model(model)
-    if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
-        from ..errors import ModelError
-
-        raise ModelError(
-            "diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
-            "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
-            "diagnose fit its own base model"
-        )
+    model, given = _base_model(dataset, model, say, notes)
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)
@@ -108,23 +88,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     say("scoring candidate causes and selecting extensions")
     sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
     findings = sel.findings
-    if findings or initial_terms:
-        final = sel.fit.model
-    else:
-        final = ExtendedModel(base=sig.base, terms=())
-    final = ExtendedModel(
-        base=final.base,
-        terms=final.terms,
-        meta={
-            "name": "extended",
-            "diagnosis": {"causes": [c.cause for c in findings], "base_kind": base_model.kind},
-            "provenance": {
-                "data_sha256": getattr(dataset, "sha256", None),
-                "data": getattr(dataset, "source", None),
-                "options": {k: v for k, v in opts.items()},
-            },
-        },
-    )
+    final = _final_model(sel, sig, initial_terms, base_model, dataset, opts)
 
     # --- residuals of the final model ------------------------------------------------------
     r1_final = one_step_residuals(sig, final)
@@ -134,20 +98,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     }
     after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)
     errors["open_loop_after"] = {"zone": after["zone"], "hour": after["hour"]}
-    unexplained = []
-    for z, w in white_after.items():
-        if w.get("white") is False:
-            unexplained.append(
-                {
-                    "zone": z,
-                    "period_h": w["peak_period_h"],
-                    "peak_share": w["peak_share"],
-                    "cpgram_departure": w["cpgram_departure"],
-                    "cpgram_bound": w["cpgram_bound"],
-                    "ljung_box_p": w["ljung_box"]["p_value"],
-                    "acf_lag1": w["acf_lag1"],
-                }
-            )
+    unexplained = _unexplained(white_after)
 
     # --- held-out comparison (the evaluation protocol) ---------------------------------------
     # headline: the base structure refitted by the same least squares -> extended (same fitting method);
@@ -163,19 +114,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         d["parameters"] = _params_of(final, c.term)
         fdicts.append(d)
     cdicts = [c.to_dict() for c in sel.candidates]
-    data = {
-        "source": getattr(dataset, "source", None),
-        "sha256": getattr(dataset, "sha256", None),
-        "step": float(dataset.step),
-        "start": sig.index[0].isoformat() if len(sig.index) else None,
-        "end": sig.index[-1].isoformat() if len(sig.index) else None,
-        "n_weeks": len(dataset.weeks),
-        "n_train_weeks": sum(1 for w in dataset.weeks if w.train),
-        "n_test_weeks": sum(1 for w in dataset.weeks if not w.train),
-        "seasons": list(sig.seasons),
-        "has_solar": bool(sig.has_solar),
-        "n_train_rows": n_train,
-    }
+    data = _data_summary(dataset, sig, n_train)
     report = DiagnosisReport(
         verdict=verdict,
         findings=fdicts,
@@ -206,6 +145,91 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         report.plot(plots)
     say(f"done: {report.summary()}")
     return report
+
+
+def _base_model(dataset, model, say, notes) -> tuple:
+    """The base model to diagnose (fitted when not given, loaded from a file) and whether it was given."""
+    given = model is not None
+    if model is None:
+        from ..fitting import fit
+
+        say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)
+        notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
+    elif isinstance(model, (str, Path)):
+        from ..models import load_model
+
+        model = load_model(model)
+    if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
+        from ..errors import ModelError
+
+        raise ModelError(
+            "diagnose needs Model A in the airflow form (zone airflow inputs); this model uses the "
+            "delivered-heat form (heat='delivered'). Refit with `hvacfmu fit --heat airflow`, or let "
+            "diagnose fit its own base model"
+        )
+    return model, given
+
+
+def _final_model(sel, sig, initial_terms, base_model, dataset, opts) -> ExtendedModel:
+    """The extended model with every accepted term, and its provenance."""
+    findings = sel.findings
+    if findings or initial_terms:
+        final = sel.fit.model
+    else:
+        final = ExtendedModel(base=sig.base, terms=())
+    final = ExtendedModel(
+        base=final.base,
+        terms=final.terms,
+        meta={
+            "name": "extended",
+            "diagnosis": {"causes": [c.cause for c in findings], "base_kind": base_model.kind},
+            "provenance": {
+                "data_sha256": getattr(dataset, "sha256", None),
+                "data": getattr(dataset, "source", None),
+                "options": {k: v for k, v in opts.items()},
+            },
+        },
+    )
+    return final
+
+
+def _unexplained(white_after: dict) -> list:
+    """Zones whose one-step residuals of the final model are still not white, with the periodogram's peak."""
+    unexplained = []
+    for z, w in white_after.items():
+        if w.get("white") is False:
+            unexplained.append(
+                {
+                    "zone": z,
+                    "period_h": w["peak_period_h"],
+                    "peak_share": w["peak_share"],
+                    "cpgram_departure": w["cpgram_departure"],
+                    "cpgram_bound": w["cpgram_bound"],
+                    "ljung_box_p": w["ljung_box"]["p_value"],
+                    "acf_lag1": w["acf_lag1"],
+                }
+            )
+    return unexplained
+
+
+def _data_summary(dataset, sig, n_train: int) -> dict:
+    """What the diagnosis ran on: source, span, weeks, seasons, solar, training rows."""
+    return {
+        "source": getattr(dataset, "source", None),
+        "sha256": getattr(dataset, "sha256", None),
+        "step": float(dataset.step),
+        "start": sig.index[0].isoformat() if len(sig.index) else None,
+        "end": sig.index[-1].isoformat() if len(sig.index) else None,
+        "n_weeks": len(dataset.weeks),
+        "n_train_weeks": sum(1 for w in dataset.weeks if w.train),
+        "n_test_weeks": sum(1 for w in dataset.weeks if not w.train),
+        "seasons": list(sig.seasons),
+        "has_solar": bool(sig.has_solar),
+        "n_train_rows": n_train,
+    }
 
 
 def _params_of(model: ExtendedModel, term) -> dict:

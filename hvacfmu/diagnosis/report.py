@@ -34,6 +34,13 @@ def _clean(x):
     return x
 
 
+def _cv_units(cv: dict) -> str:
+    """ "13 weeks" (week-clustered test) or "10 active days" (calendar terms)."""
+    if cv.get("unit") == "active day":
+        return f"{cv['n_days']} active days"
+    return f"{cv['n_weeks']} weeks"
+
+
 @dataclasses.dataclass
 class DiagnosisReport:
     """Outcome of :func:`hvacfmu.diagnosis.diagnose`.
@@ -191,7 +198,7 @@ class DiagnosisReport:
                 if cv.get("gain_percent") is not None:
                     L.append(
                         f"    cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % "
-                        f"({cv['n_weeks']} weeks, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
+                        f"({_cv_units(cv)}, {cv['n_folds']} folds, paired t {cv['t']:.1f}; "
                         f"affected zones open loop, others measured)"
                     )
                 rv = (f.get("evidence") or {}).get("rival")

@@ -38,7 +38,8 @@ from scipy import stats
 from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
-from .crossval import fold_fits, fold_scores, make_plan, paired_test
+from .report import _cv_units
+from .crossval import fold_fits, fold_scores, make_plan, paired_test, paired_test_days
 from .design import (
     Signals,
     Within,
@@ -467,7 +468,7 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
         if zs & used:
             c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
             continue
-        if tried >= opts["max_tries"]:
+        if tried >= opts["max_tries"] and accepted:  # with nothing accepted yet, the next ones are tried
             c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant but not tried this round (max_tries)"
             continue
         tried += 1
@@ -477,12 +478,7 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
             c.cv = {"n_weeks": 0, "reason": "fewer than 4 training weeks: no cross-validation"}
             ok = c.test["delta_bic"] > 2 * opts["bic_margin"]
         else:
-            key = tuple(sorted(zs))
-            if key not in base_scores:
-                base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
-            sig_c = sig_for(sig, c, c.term)
-            models = fold_fits(sig_c, plan, list(terms) + [c.term], key)
-            c.cv = paired_test(plan, base_scores[key], fold_scores(sig_c, plan, models, key))
+            cross_validate(sig, plan, terms, c, base_scores)
             ok = _cv_accepts(c, opts)
         if ok:
             c.status = "found"
@@ -519,6 +515,37 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
     return accepted
 
 
+def _is_holiday(t) -> bool:
+    return isinstance(t, InternalGainSchedule) and t.variant == "holiday"
+
+
+def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
+    """Fill ``c.cv``: blocked cross-validation of the structure with ``c.term`` against ``terms``.
+
+    A holiday term acts on a few dated days only: it is scored on its active days
+    (:func:`~hvacfmu.diagnosis.crossval.paired_test_days`); the week-clustered test over
+    every week is kept as evidence (``c.evidence["cv_all_weeks"]``: the other weeks must
+    not get worse). ``base_scores`` caches the scores without the term per zone set.
+    """
+    key = tuple(sorted(set(_affected(sig, c.term))))
+    if key not in base_scores:
+        base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
+    sig_c = sig_for(sig, c, c.term)
+    after = fold_scores(sig_c, plan, fold_fits(sig_c, plan, list(terms) + [c.term], key), key)
+    weeks = paired_test(plan, base_scores[key], after)
+    if not _is_holiday(c.term):
+        c.cv = weeks
+        return
+    feats = term_features(sig_c, c.term, sig_c.U)
+    on = np.zeros(len(sig.Y), bool)
+    for f in feats:
+        on |= np.nan_to_num(np.abs(f[2])) > 0
+    cum = np.concatenate([[0], np.cumsum(on)])
+    active = [(cum[np.minimum(st + plan.horizon, len(on))] - cum[st]) > 0 for st in plan.starts]
+    c.cv = paired_test_days(plan, base_scores[key], after, active)
+    c.evidence["cv_all_weeks"] = weeks
+
+
 def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     """Cross-validate the strongest significant candidate of another cause at the same zones.
 
@@ -535,13 +562,7 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
         return None
     o = rivals[0]
     if o.cv is None:
-        key = tuple(sorted(set(_affected(sig, o.term))))
-        if key not in base_scores:
-            base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
-        sig_o = sig_for(sig, o, o.term)
-        o.cv = paired_test(
-            plan, base_scores[key], fold_scores(sig_o, plan, fold_fits(sig_o, plan, list(terms) + [o.term], key), key)
-        )
+        cross_validate(sig, plan, terms, o, base_scores)
     ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
     c.evidence["rival"] = {
         "cause": o.cause,
@@ -558,7 +579,17 @@ def _cv_accepts(c, opts) -> bool:
     if cv.get("gain_percent") is None:
         return False
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
-    return cv["gain_percent"] >= need and cv["gain_abs"] >= opts["min_gain_abs"] and cv["t"] >= opts["cv_min_t"]
+
+    def passes(r):
+        return r["gain_percent"] >= need and r["gain_abs"] >= opts["min_gain_abs"] and r["t"] >= opts["cv_min_t"]
+
+    every = c.evidence.get("cv_all_weeks") or {}
+    if every.get("t") is None:
+        return passes(cv)
+    # a holiday term: better on the days it acts on without making the other weeks worse, or better
+    # over every week (its own days cannot be predicted when all of them fall in one fold, but the
+    # seasonal profile freed from them predicts the ordinary weeks better)
+    return (passes(cv) and every["t"] > -opts["cv_min_t"]) or passes(every)
 
 
 def _found_reason(c, opts) -> str:
@@ -567,7 +598,7 @@ def _found_reason(c, opts) -> str:
     cv = c.cv
     return (
         f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
-        f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {cv['n_weeks']} weeks, paired t = {cv['t']:.1f}"
+        f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {_cv_units(cv)}, paired t = {cv['t']:.1f}"
     )
 
 

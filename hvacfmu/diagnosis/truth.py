@@ -29,7 +29,8 @@ def _holiday_dates(truth, effect) -> set:
 def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0) -> bool:
     """True if ``finding`` (a report finding dict) names ``effect``'s cause and location.
 
-    ``step`` [s] is the model step of the diagnosis (a delay is matched within one step).
+    ``step`` [s] is the model step of the diagnosis (a delay is matched within one step or 15 min,
+    whichever is longer).
     """
     c, loc = finding["cause"], finding["location"]
     name = effect["name"]
@@ -42,8 +43,9 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
     if name in ("thermal_mass", "reheat"):
         return loc.get("zone") == effect["zone"]
     if name == "actuation_delay":
-        steps = float(effect["minutes"]) * 60.0 / float(step)
-        return loc.get("zone") == effect["zone"] and abs(int(loc.get("delay", 0)) - steps) <= 1.0
+        # within one step or 15 minutes, whichever is longer (the same tolerance in time at 5 and 15 min)
+        err_s = abs(int(loc.get("delay", 0)) * float(step) - float(effect["minutes"]) * 60.0)
+        return loc.get("zone") == effect["zone"] and err_s <= max(float(step), 900.0)
     if name == "internal_gain_schedule":
         kind = effect.get("kind", "holiday")
         if kind == "dst":

@@ -371,6 +371,36 @@ class Plant:
         """Air handler names (``reheat`` mode); empty for the single implicit unit."""
         return self.core.ahus
 
+    def supply_of_boxes(self, T_supply) -> np.ndarray:
+        """Supply air temperature [°C] of every box from one value or one per air handler (:attr:`ahus`)."""
+        c = self.core
+        Ts = np.asarray(T_supply, dtype=float)
+        n_units = max(len(c.ahus), 1)
+        if Ts.shape not in ((), (n_units,)):
+            raise EmulatorError(f"T_supply must be one value or {n_units} values, got shape {Ts.shape}")
+        return np.broadcast_to(Ts, (n_units,))[c.box_ahu] if Ts.ndim else np.full(len(c.m_min), float(Ts))
+
+    def discharge_reheat(self, m_vav, T_supply, T_discharge) -> np.ndarray:
+        """Reheat power [W] of every box that discharges at ``T_discharge`` [°C] (a command, not a measurement).
+
+        ``m c_p max(T_discharge - T_supply, 0)`` per box with its unit's supply
+        air: a box can only heat its supply air, so a command at or below the
+        supply temperature (e.g. an unset input) means no reheat, exactly the
+        box without a discharge command. Passed to :meth:`advance` as ``reheat=``,
+        it adds to the local loops' power when those run.
+
+        Parameters
+        ----------
+        m_vav : array (n_vav,) [kg/s]
+        T_supply : float or array (n_ahu,) [°C]
+        T_discharge : array (n_vav,) [°C]
+        """
+        m = np.asarray(m_vav, dtype=float)
+        Td = np.asarray(T_discharge, dtype=float)
+        if Td.shape != m.shape or not np.all(np.isfinite(Td)):
+            raise EmulatorError(f"T_discharge must have {m.size} finite values [°C], got shape {Td.shape}")
+        return m * CP_AIR * np.maximum(Td - self.supply_of_boxes(T_supply), 0.0)
+
     def _inputs(self, x, t, dt, m_vav, T_out, T_supply, irradiance, reheat, T_discharge):
         """Validate :meth:`advance` inputs; return (k0, nsub, x, m, irr, p, Ts_box) or raise listing every problem."""
         c = self.core

@@ -22,6 +22,7 @@ Files, one responsibility each:
 - ``zone_model.py``, ``plant.py``: the two slaves (stepping their model);
 - ``names.py``: variable names, units, bounds, descriptions (layout entries);
 - ``zone_layout.py``, ``plant_layout.py``: the variable layout of each FMU kind;
+- ``plant_discharge.py``: the plant's optional discharge air commands ``Td_<vav>``;
 - ``resources.py``: ``resources/interface.json`` and the cache of loaded models;
 - ``values.py``: fast value access by value reference.
 
@@ -43,28 +44,34 @@ This package (with :mod:`hvacfmu.fmu`) is the only code that speaks FMI, hence t
 camelCase in the model description. Behaviour an importer can rely on:
 
 - **Step sizes.** A communication step must be a whole multiple ``k >= 1`` of
-  the model step (``DefaultExperiment/@stepSize``, 900 s by default); the state
-  is advanced ``k`` model steps with the inputs held (zero-order hold). Any
-  other step, or a step that does not start at the slave's current time, is
-  refused: ``fmi2DoStep`` returns ``fmi2Discard`` with a logged message and
-  the state is unchanged. The FMU declares
-  ``canHandleVariableCommunicationStepSize="false"``. (The plant slave
-  accepts any positive step: the emulator integrates exactly.)
-- **Bad values.** NaN or out-of-range inputs (bounds in the model description)
-  and steps before initialisation are refused the same way (``fmi2Discard`` +
-  error log). A Python exception inside a step is logged with its traceback and
-  also returns ``fmi2Discard``; the instance stays usable.
-- **Never raise.** pythonfmu 0.7.0 turns a Python exception in *any* callback
-  into ``fmi2Fatal`` and then leaves the slave module half-freed in
-  ``sys.modules``: the next instance of the same FMU in that process fails or
-  crashes the host (measured, segmentation fault). So no callback here raises.
-  A model file that cannot be read (corrupt, newer format version, replaced)
-  is reported in the log at ``fmi2Instantiate`` and ``fmi2ExitInitializationMode``
-  and every ``fmi2DoStep`` returns ``fmi2Discard`` with the reason; the
-  variables still exist because their layout is read from
+  the model step (``DefaultExperiment/@stepSize``, 900 s by default; the plant's
+  60 s); the state is advanced ``k`` model steps with the inputs held
+  (zero-order hold). Any other step, or a step that does not start at the
+  slave's current time, is refused (below); the state is unchanged. The FMU
+  declares ``canHandleVariableCommunicationStepSize="false"``.
+- **Bad values.** NaN or out-of-range inputs (bounds in the model description),
+  steps before or after a failed initialisation, and a Python exception inside a
+  step (logged with its traceback) are refused the same way.
+- **A refused step is an error, never a silent stop.** The reason goes to the
+  FMU log (pythonfmu's fatal entry quotes it) and to Python's ``logging`` (logger ``hvacfmu.fmu``;
+  printed on stderr when the host configured no logging, as in ``fmpy
+  simulate``, whose FMU log is off), and ``do_step`` raises
+  :class:`~hvacfmu.fmu_slave.base.StepRefused`, which pythonfmu 0.7.0 answers
+  with ``fmi2Fatal`` (it has no way to answer ``fmi2Error``). So FMPy raises
+  ``fmi2DoStep failed with status 4 (fatal)`` and ``fmpy simulate`` exits 1,
+  where ``fmi2Discard`` (``do_step`` returning False) made FMPy stop early, keep the
+  truncated result and exit 0. A conforming host makes no further call; a host
+  that still terminates, reads the state or frees the instance is safe (the
+  slave keeps the references pythonfmu releases twice, see
+  ``HvacfmuSlaveBase._fail``).
+- **No other callback raises.** A model file that cannot be read (corrupt,
+  newer format version, replaced) is reported in the log at ``fmi2Instantiate``
+  and ``fmi2ExitInitializationMode``, and every ``fmi2DoStep`` is refused with
+  the reason; the variables still exist because their layout is read from
   ``resources/interface.json`` (written at export). Getting or setting a
   variable of the wrong type or an unknown value reference is logged as an
-  error and makes the next ``fmi2DoStep`` return ``fmi2Discard``.
+  error and makes the next ``fmi2DoStep`` refused. (A slave whose script cannot
+  import hvacfmu refuses to instantiate instead: no instance exists then.)
 - **State.** ``fmi2GetFMUstate``/``fmi2SetFMUstate`` and their serialisation
   save and restore the full internal state vector, the clock, the inputs and
   the parameters exactly (JSON of Python floats round-trips bit for bit).

@@ -7,7 +7,9 @@ package docstring). It may also be imported as an ordinary module (tests, tools)
 
 from __future__ import annotations
 
+import ctypes
 import json
+import logging
 import math
 import traceback
 from xml.etree.ElementTree import SubElement
@@ -19,12 +21,17 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from hvacfmu.fmu_slave.values import contiguous
 
 
+class StepRefused(RuntimeError):
+    """A refused ``fmi2DoStep`` (wrong step, bad input, failed initialisation, ...): pythonfmu answers fmi2Fatal."""
+
+
 class HvacfmuSlaveBase(Fmi2Slave):
     """Machinery shared by the hvacfmu slaves: value storage, checks, logging, XML, state.
 
     Subclasses implement :meth:`_setup` (read resources, return the variable
     layout), :meth:`_initialize`, :meth:`_advance` and the internal-state hooks.
-    No method called by the FMU binary raises (see the module docstring).
+    No method called by the FMU binary raises, except ``do_step`` when it refuses a step (:meth:`_fail`;
+    the contract is in the package docstring).
     """
 
     author = "hvacfmu"
@@ -54,6 +61,7 @@ class HvacfmuSlaveBase(Fmi2Slave):
         self._pending: str | None = None  # error from a get/set, reported by the next step
         self._initialized = False
         self._broken: str | None = None  # the FMU cannot run (unreadable resources)
+        self._refusal: str | None = None  # why the current step is refused
         self._failed: str | None = None  # initialisation failed
         self._t = 0.0
         self._t_start = 0.0
@@ -237,38 +245,47 @@ class HvacfmuSlaveBase(Fmi2Slave):
             self._failed = None
 
     def do_step(self, current_time, step_size):
+        """fmi2DoStep: True when the step is taken; a refused step raises :class:`StepRefused` (see :meth:`_fail`)."""
+        self._refusal = None
         try:
-            if self._broken:
-                return self._refuse(self._broken)
-            if self._pending:
-                msg, self._pending = self._pending, None
-                return self._refuse(f"step refused after an earlier error: {msg}")
-            if not self._initialized:
-                return self._refuse(
-                    self._failed
-                    or (
-                        "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
-                        "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"
-                    )
+            ok = self._try_step(current_time, step_size)
+        except Exception:  # noqa: BLE001 - a bug or a model failure: refused like any other step
+            self._refusal = f"exception in fmi2DoStep at t={current_time} s:\n{traceback.format_exc()}"
+            ok = False
+        if ok:
+            return True
+        self._fail(self._refusal or f"the step at t={current_time} s was refused")
+
+    def _try_step(self, current_time, step_size) -> bool:
+        """Checks, then :meth:`_advance`; False (after :meth:`_refuse`) when the step is refused."""
+        if self._broken:
+            return self._refuse(self._broken)
+        if self._pending:
+            msg, self._pending = self._pending, None
+            return self._refuse(f"step refused after an earlier error: {msg}")
+        if not self._initialized:
+            return self._refuse(
+                self._failed
+                or (
+                    "fmi2DoStep called before initialisation; call fmi2SetupExperiment, "
+                    "fmi2EnterInitializationMode and fmi2ExitInitializationMode first"
                 )
-            if self._unchecked:
-                self._check_inputs()
-            if self._bad:
-                names = ", ".join(
-                    f"{self._spec[vr]['name']}={value!r} (allowed [{self._lo_list[vr]}, {self._hi_list[vr]}] "
-                    f"{self._spec[vr].get('unit') or ''})"
-                    for vr, value in sorted(self._bad.items())
-                )
-                return self._refuse(f"at t={current_time} s: invalid input value(s): {names}; step not taken")
-            if abs(current_time - self._t) > 1e-9 * max(1.0, abs(self._t)):
-                return self._refuse(
-                    f"fmi2DoStep at t={current_time!r} s but the FMU is at t={self._t!r} s; "
-                    "steps must be contiguous (restore a saved FMU state to go back in time)"
-                )
-            return self._advance(current_time, step_size)
-        except Exception:  # noqa: BLE001 - reported to the importer, instance stays usable
-            self.log(f"exception in fmi2DoStep at t={current_time} s:\n{traceback.format_exc()}", Fmi2Status.error)
-            return False
+            )
+        if self._unchecked:
+            self._check_inputs()
+        if self._bad:
+            names = ", ".join(
+                f"{self._spec[vr]['name']}={value!r} (allowed [{self._lo_list[vr]}, {self._hi_list[vr]}] "
+                f"{self._spec[vr].get('unit') or ''})"
+                for vr, value in sorted(self._bad.items())
+            )
+            return self._refuse(f"at t={current_time} s: invalid input value(s): {names}; step not taken")
+        if abs(current_time - self._t) > 1e-9 * max(1.0, abs(self._t)):
+            return self._refuse(
+                f"fmi2DoStep at t={current_time!r} s but the FMU is at t={self._t!r} s; "
+                "steps must be contiguous (restore a saved FMU state to go back in time)"
+            )
+        return self._advance(current_time, step_size)
 
     def _check_inputs(self):
         """Bounds (and NaN) check of the inputs set by the fast path."""
@@ -283,9 +300,32 @@ class HvacfmuSlaveBase(Fmi2Slave):
         else:
             self._w = w
 
-    def _refuse(self, message):
-        self.log(message, Fmi2Status.error)
+    def _refuse(self, message) -> bool:
+        """Note why the step is refused (reported by :meth:`do_step`); returns False."""
+        self._refusal = message
         return False
+
+    def _fail(self, message):
+        """Report a refused step (Python logging: stderr when the host configured none) and raise it.
+
+        pythonfmu 0.7.0 cannot answer ``fmi2Error``: a ``do_step`` returning False
+        is ``fmi2Discard``, on which FMPy's ``simulate_fmu`` stops and returns the
+        truncated result with exit status 0; an exception is ``fmi2Fatal``, on which
+        FMPy raises (``fmpy simulate`` exits 1) and the harness stops naming the
+        time and status. pythonfmu logs ``Fatal py exception encountered: [doStep] ...
+        StepRefused('<message>')`` to the host (when its FMU log is on). pythonfmu then releases its references to this instance,
+        its class and its log list (``handle_py_exception``), and releases them
+        again if the host still calls ``fmi2FreeInstance`` (``~PySlaveInstance``),
+        which FMI forbids after ``fmi2Fatal`` but hosts do (the harness, libcosim);
+        one extra reference to each, taken here, keeps both orders safe (in a host
+        that never frees the instance, it stays alive: a few kB, once per failure).
+        """
+        # not self.log: pythonfmu would pass it to the host's logger callback while the exception is pending, and
+        # a Python host's callback (FMPy) loses the exception; its message ends up in pythonfmu's fatal log entry
+        logging.getLogger("hvacfmu.fmu").error("%s: %s", type(self).__name__, message)
+        for obj in (self, type(self), self.log_queue):
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+        raise StepRefused(message)
 
     # ------------------------------------------------------------ state
     def _get_fmu_state(self):

@@ -24,8 +24,8 @@ SIGNAL_BOUNDS = {
     "Td_": (0.0, 80.0),
 }
 
-#: plausible range of a zone air temperature [°C] (start-value parameters)
-ZONE_BOUNDS = BOUNDS["degC"]
+#: plausible range of a zone air temperature [°C] (start-value parameters): outside it, a unit or sensor error
+ZONE_BOUNDS = (-40.0, 60.0)
 
 #: box airflow upper bound = this factor x the box's design maximum ``m_max`` (measured flows overshoot
 #: ``m_max`` by a few per cent through sensor error and loop overshoot: up to 2 % in the emulated data)

@@ -13,6 +13,7 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 
 from hvacfmu.fmu_slave.names import ZONE_BOUNDS
+from hvacfmu.fmu_slave.plant_discharge import plant_discharge_reheat
 from hvacfmu.fmu_slave.plant_layout import PLANT_STEP, plant_layout
 from hvacfmu.fmu_slave.resources import INTERFACE_FILE, cached_setup, read_layout
 from hvacfmu.fmu_slave.values import tuple_getter
@@ -26,7 +27,8 @@ class PlantSlave(HvacfmuSlaveBase):
 
     Inputs ``m_<vav>`` [kg/s] for every box, ``T_out``, ``T_supply`` [°C],
     ``I_N`` ... ``I_W`` [W/m²], optional ``ghi`` [W/m²] (facades from it
-    when >= 0) and ``excitation`` (0/1); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
+    when >= 0), ``excitation`` (0/1) and ``Td_<vav>`` [°C] (discharge air commands,
+    :mod:`hvacfmu.fmu_slave.plant_discharge`; unset: no reheat); outputs ``T_<zone>`` [°C]; parameters ``T_<zone>_start``
     [°C], ``local_reheat`` (0/1). FMU time is seconds since the dataset start.
     """
 
@@ -86,6 +88,7 @@ class PlantSlave(HvacfmuSlaveBase):
         self._run = self.plant.with_local_reheat(bool(v[rh_vr]))
         (self._ghi_vr,) = self.vrs_with_role("ghi")
         (self._exc_vr,) = self.vrs_with_role("exc")
+        self._td_vrs = self.vrs_with_role("td")
         self._x = self._run.initial_state(np.asarray(y0, dtype=float))
         self._t = self._t_start
         for vr, val in zip(self._y_vrs, self.plant.zone_temperatures(self._x).tolist()):
@@ -109,14 +112,16 @@ class PlantSlave(HvacfmuSlaveBase):
         t, dt = round(current_time / PLANT_STEP) * PLANT_STEP, round(n) * PLANT_STEP
         ghi = values[self._ghi_vr]
         irr = self._run.facades_from_ghi(t, dt, ghi) if ghi >= 0 else np.array(w[2:6], dtype=float)
+        m = np.array(self._get_m(values), dtype=float)
         x, T = self._run.advance(
             self._x,
             t,
             dt,
-            np.array(self._get_m(values), dtype=float),
+            m,
             w[0],
             w[1],
             irr,
+            reheat=plant_discharge_reheat(self._run, values, self._td_vrs, m, w[1]),
             excitation=values[self._exc_vr] >= 0.5,
         )
         self._x = x

@@ -2,15 +2,8 @@
 
 from __future__ import annotations
 
-from hvacfmu.fmu_slave.names import (
-    BOUNDS,
-    SLAVE_API_VERSION,
-    entry,
-    sanitize_name,
-    signal_description,
-    signal_unit,
-    zone_entries,
-)
+from hvacfmu.fmu_slave.names import BOUNDS, SLAVE_API_VERSION, box_entry, entry, signal_entry, zone_entries
+from hvacfmu.fmu_slave.plant_discharge import plant_discharge_entries
 
 #: internal step of the emulated plant [s]; communication steps must be multiples of it
 PLANT_STEP = 60.0
@@ -18,27 +11,29 @@ PLANT_STEP = 60.0
 FACADE_INPUTS = ("I_N", "I_E", "I_S", "I_W")
 
 
+def plant_boxes(truth: dict) -> dict:
+    """Box name -> {"zone", "m_min", "m_max"} [kg/s] of the emulated building (``truth.json``'s building)."""
+    return {
+        str(v["name"]): {"zone": str(v["zone"]), "m_min": float(v["m_min"]), "m_max": float(v["m_max"])}
+        for v in truth["baseline"]["building"]["vavs"]
+    }
+
+
 def plant_layout(plant, truth: dict) -> dict:
-    """Variable layout of the plant FMU (:class:`hvacfmu.emulator.Plant`; ``truth``: its ``truth.json``)."""
-    var = [
-        entry(
-            "m",
-            sanitize_name(f"m_{b}"),
-            "Real",
-            "input",
-            0.0,
-            "kg/s",
-            f"Supply air mass flow rate of VAV box {b} [kg/s]",
-            BOUNDS["kg/s"],
-        )
-        for b in plant.vavs
-    ]
-    for name, start in (("T_out", 15.0), ("T_supply", 14.0)) + tuple((i, 0.0) for i in FACADE_INPUTS):
-        unit = signal_unit(name)
-        var.append(entry("v", name, "Real", "input", start, unit, signal_description(name), BOUNDS[unit]))
+    """Variable layout of the plant FMU (:class:`hvacfmu.emulator.Plant`; ``truth``: its ``truth.json``).
+
+    Box airflow inputs are bounded by the emulated building's boxes (0 to
+    ``M_MAX_MARGIN`` x ``m_max``, nominal ``m_max``, zone named), temperature and
+    irradiance inputs by their plausible ranges
+    (:data:`~hvacfmu.fmu_slave.names.SIGNAL_BOUNDS`), like the model FMUs.
+    """
+    boxes = plant_boxes(truth)
+    var = [box_entry(b, boxes.get(b)) for b in plant.vavs]
+    var += [signal_entry(name) for name in ("T_out", "T_supply", *FACADE_INPUTS)]
     var += _plant_switches()
     var += zone_entries(plant.zones, "zone", "zone ", " (all its nodes)")
     var.append(_local_reheat_parameter())
+    var += plant_discharge_entries(plant)  # appended last: earlier value references unchanged
     start = truth.get("start", "?")
     return {
         "slave_api": SLAVE_API_VERSION,
@@ -47,6 +42,7 @@ def plant_layout(plant, truth: dict) -> dict:
         "start": start,
         "timezone": truth.get("timezone"),
         "span": float(plant.horizon),
+        "boxes": {b: boxes[b] for b in sorted(boxes)},
         "description": (
             f"hvacfmu emulated building (plant): {len(plant.zones)} zones, {len(plant.vavs)} VAV boxes. "
             f"FMU time is seconds since the emulated dataset's start {start} ({truth.get('timezone')}); "

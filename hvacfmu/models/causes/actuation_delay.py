@@ -2,7 +2,7 @@
 
 Term: ``u_z(k)`` is replaced by ``u_z(k − delay)`` everywhere in the model; the last
 ``delay`` airflows are hidden states. Screen: one candidate per zone, delays 1 ..
-:data:`~hvacfmu.models.causes.signals.MAX_DELAY`; evidence: cross-correlation of the residual
+:func:`~hvacfmu.models.causes.signals.max_delay` (one hour); evidence: cross-correlation of the residual
 with the airflow by lag, past (``u(k − lag)``) and future (``u(k + lag)``, what a feedback
 loop produces: the controller answers the temperature error), and the best past lag.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import ModelError
 from .base import Candidate, EquationParts, StepContext, Term, corr, zone_of
-from .signals import MAX_DELAY, shifted
+from .signals import max_delay, shifted
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,7 +92,11 @@ class ActuationDelay(Term):
             ev = delay_evidence(sig, W, resid[:, zi], sig.U[:, zi])
             out.append(
                 Candidate(
-                    cls.cause, {"zone": z}, [cls(zone=z, delay=d) for d in range(1, MAX_DELAY + 1)], 0, evidence=ev
+                    cls.cause,
+                    {"zone": z},
+                    [cls(zone=z, delay=d) for d in range(1, max_delay(sig.step) + 1)],
+                    0,
+                    evidence=ev,
                 )
             )
         return out
@@ -102,7 +106,7 @@ def delay_evidence(sig, W, r, u) -> dict:
     """Cross-correlation of the residual with past and future airflow, by lag [steps]."""
     fill = float(np.nanmean(u))
     past, future = {}, {}
-    for lag in range(MAX_DELAY + 3):
+    for lag in range(max_delay(sig.step) + 3):
         past[str(lag)] = corr(r, W(np.nan_to_num(shifted(u, lag), nan=fill)))
         if lag:
             fu = np.full(len(u), np.nan)

@@ -223,18 +223,29 @@ def holiday_candidate(sig, W, options) -> Candidate:
         wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
         by_week.setdefault(wk, []).append(d)
     weeks = []
-    for wk, ds in by_week.items():
-        g = float(np.mean([d["gamma"] for d in ds]))
-        if len(ds) >= 3 and g >= gw_min and (g - med) / scale >= z_min / 2:
-            weeks.append({"week": wk, "gamma": g})
-            picked |= {d["date"] for d in ds}
+    # whole weeks are judged against the spread of the week means (averaging five days takes out
+    # most of the day-to-day noise, so a quiet week stands out there even at a mean gamma of 0.2-0.3)
+    wmean = {wk: float(np.mean([d["gamma"] for d in ds])) for wk, ds in by_week.items() if len(ds) >= 3}
+    wg = np.array(list(wmean.values()))
+    w_med = float(np.median(wg)) if len(wg) else 0.0
+    w_scale = max(float(1.4826 * np.median(np.abs(wg - w_med))) if len(wg) else 0.0, 0.03)
+    for wk, g in wmean.items():
+        z_w = (g - w_med) / w_scale
+        if (g >= gw_min and (g - med) / scale >= z_min / 2) or (g >= gw_min / 2 and z_w >= z_min):
+            weeks.append({"week": wk, "gamma": g, "z_week": z_w})
+            picked |= {d["date"] for d in by_week[wk]}
     ev = {
         "weekdays_checked": len(deps),
         "gamma_median": med,
         "gamma_robust_std": mad,
         "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
         "weeks": weeks,
-        "rule": f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g}",
+        "week_mean_median": w_med,
+        "week_mean_robust_std": w_scale,
+        "rule": (
+            f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g} (z >= {z_min / 2:g}), "
+            f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means"
+        ),
     }
     if len(deps) < 10:
         return Candidate(

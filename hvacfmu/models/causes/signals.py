@@ -19,7 +19,13 @@ from ...errors import DataError
 from ...timeutil import n_time_of_week, time_of_week
 from ..linear import LinearZoneModel
 
-MAX_DELAY = 4  #: largest actuation delay tested [steps]
+MAX_DELAY_S = 3600.0  #: largest actuation delay tested [s] (one hour: 4 steps of 15 min, 12 of 5 min)
+MAX_DELAY = 4  #: largest actuation delay tested at the 15-min step [steps] (see :func:`max_delay`)
+
+
+def max_delay(step: float) -> int:
+    """Largest actuation delay tested [steps] at model step ``step`` [s]: one hour, at least one step."""
+    return max(1, int(round(MAX_DELAY_S / float(step))))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -43,7 +49,7 @@ class Signals:
     train, test : arrays (n,) bool
     valid : array (n,) bool
         Rows k usable for a one-step equation (k and k+1 in the same week, every
-        signal finite at k and k+1, airflow finite back to k - MAX_DELAY).
+        signal finite at k and k+1, airflow finite back to k - max_delay(step)).
     group : array (n,) int
         Season × time-of-week slot id of each row.
     u_min : array (nz,) [kg/s]
@@ -134,10 +140,11 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
     for c in V.values():
         fin &= np.isfinite(c)
     valid = np.zeros(n, dtype=bool)
-    if n > MAX_DELAY + 1:
+    n_delay = max_delay(dataset.step)
+    if n > n_delay + 1:
         ok = fin[:-1] & fin[1:] & (week[:-1] == week[1:]) & (week[:-1] >= 0)
         ufin = np.isfinite(U).all(axis=1)
-        for d in range(1, MAX_DELAY + 1):
+        for d in range(1, n_delay + 1):
             lag = np.zeros(n - 1, dtype=bool)
             lag[d:] = ufin[: n - 1 - d]
             ok &= lag

@@ -424,26 +424,85 @@ def _fit_physics(
         building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
     )
     gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
+    meta = _fit_meta(
+        dataset,
+        t_start,
+        dict(
+            segment_hours=segment_hours,
+            warmup_hours=warmup_hours,
+            max_segments=max_segments,
+            free_modes=int(free_modes),
+            segment_observer=segment_observer,
+            bound_factor=bound_factor,
+            max_nfev=max_nfev,
+            solar=bool(solar),
+        ),
+        nominal=nominal,
+        initial=start,
+        estimates=estimates,
+        unident=unident,
+        jac_info=jac_info,
+        rms=rms,
+        segs=segs,
+        ns=ns,
+        nw=nw,
+        results=results,
+        nfev=nfev,
+        gain_info=gain_info,
+        n_states=model.n_states,
+        inlets=dict(zip(building.vav_names, inlets)),
+        notes=notes,
+    )
+    final = PhysicsModel(
+        building,
+        params,
+        gains,
+        step=step,
+        solar=solar,
+        options=fitted.options,
+        f_ig_const=f_c,
+        meta=meta,
+        inlets=inlets,
+    )
+    meta["plausibility"] = check_physics(final)
+    meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
+    log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
+    return final
+
+
+def _fit_meta(
+    dataset,
+    t_start,
+    fit_options: dict,
+    *,
+    nominal,
+    initial,
+    estimates,
+    unident,
+    jac_info,
+    rms,
+    segs,
+    ns,
+    nw,
+    results,
+    nfev,
+    gain_info,
+    n_states,
+    inlets,
+    notes,
+) -> dict:
+    """The ``meta`` record of a fitted physics model (method, options, estimates, optimiser, gains)."""
     res = results[-1]
-    meta = {
+    return {
         "fitted": pd.Timestamp.now(tz="UTC").isoformat(),
         "fit_seconds": round(time.perf_counter() - t_start, 2),
         "data": {"source": str(getattr(dataset, "source", "")), "sha256": getattr(dataset, "sha256", None)},
         "method": "Zhou, Hu & Tomlin sec. IV.B: weekend simulation-error fit (log-parameters, variable "
         "projection for f_IG^c >= 0), segment initial states from a filter over the warm-up plus "
         "fitted slowest modes; f_IG^v by one-step OLS (gain injection) averaged per season",
-        "fit_options": {
-            "segment_hours": segment_hours,
-            "warmup_hours": warmup_hours,
-            "max_segments": max_segments,
-            "free_modes": int(free_modes),
-            "segment_observer": segment_observer,
-            "bound_factor": bound_factor,
-            "max_nfev": max_nfev,
-            "solar": bool(solar),
-        },
+        "fit_options": fit_options,
         "nominal": nominal,
-        "initial": start,
+        "initial": initial,
         "estimates": estimates,
         "unidentifiable": unident,
         "jacobian": jac_info,
@@ -460,25 +519,10 @@ def _fit_physics(
             "cost": float(res.cost),
         },
         "gains": gain_info,
-        "n_states": model.n_states,
-        "inlets": dict(zip(building.vav_names, inlets)),
+        "n_states": n_states,
+        "inlets": inlets,
         "inlet_notes": notes,
     }
-    final = PhysicsModel(
-        building,
-        params,
-        gains,
-        step=step,
-        solar=solar,
-        options=fitted.options,
-        f_ig_const=f_c,
-        meta=meta,
-        inlets=inlets,
-    )
-    meta["plausibility"] = check_physics(final)
-    meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
-    log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
-    return final
 
 
 def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor) -> None:

@@ -1,0 +1,185 @@
+"""Heating through the plant's discharge air commands (issue 13 p.3): plant inputs, harness, rule sequence.
+
+The plant FMU takes optional ``Td_<vav>`` [°C] inputs; unset (or at the supply air) a box discharges at its
+supply temperature, exactly as before. The rule controller heats like a single-maximum VAV reheat
+sequence: minimum airflow, then the discharge air from the supply temperature up to the heating limit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from harness.controllers import DEFAULT_T_DISCHARGE_MAX, RuleController
+from harness.cosim import CP_AIR, run_cosim
+from hvacfmu.emulator import Plant
+from hvacfmu.emulator.effects import EmulatorError
+from hvacfmu.errors import HvacfmuWarning
+
+BAND = (22.5, 24.5)  # [°C] warm enough that an October day needs heat in every zone
+
+
+@pytest.fixture(scope="module")
+def short_data(short_paths):
+    from hvacfmu.data import prepare
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(short_paths.measurements, short_paths.building)
+
+
+@pytest.fixture(scope="module")
+def plant_fmu(tmp_path_factory, short_paths):
+    from hvacfmu.fmu import export_plant_fmu
+
+    return export_plant_fmu(short_paths.truth, tmp_path_factory.mktemp("plant") / "Plant.fmu")
+
+
+def day_span(data):
+    week = data.weeks[-1]
+    return dict(start=week.start, stop=week.start + pd.Timedelta(days=1), warmup=86400.0)
+
+
+class Fixed:
+    """Boxes at fixed airflows; discharge air ``T_supply + rise`` for every box (``rise=None``: no command)."""
+
+    name = "fixed"
+
+    def __init__(self, rise=None):
+        self.rise = rise
+
+    def reset(self, context):
+        self.m = context.box_limits()[0] * 1.2
+        self.n_td = len(context.discharge)
+
+    def __call__(self, k, t, y, v):
+        if self.rise is None:
+            return self.m
+        return np.concatenate([self.m, np.full(self.n_td, float(v["T_supply"]) + self.rise)])
+
+
+class AirflowOnlyRule(RuleController):
+    """The rule controller as it was before discharge commands (the plant's Td inputs hidden from it)."""
+
+    def reset(self, context):
+        super().reset(dataclasses.replace(context, discharge=()))
+
+
+def test_plant_discharge_reheat(short_paths):
+    plant = Plant.from_truth(json.loads(short_paths.truth.read_text()))
+    n = len(plant.vavs)
+    m = np.linspace(0.1, 0.5, n)
+    assert_allclose(plant.discharge_reheat(m, 14.0, np.full(n, 0.0)), 0.0, rtol=0, atol=0)  # unset: no reheat
+    Td = np.full(n, 30.0)
+    Td[0] = 10.0  # below the supply air: a box cannot cool, no reheat
+    p = plant.discharge_reheat(m, 14.0, Td)
+    assert p[0] == 0.0
+    assert_allclose(p[1:], m[1:] * CP_AIR * 16.0, rtol=1e-12, atol=0)  # [W]
+    with pytest.raises(EmulatorError, match="T_discharge must have"):
+        plant.discharge_reheat(m, 14.0, np.full(n - 1, 30.0))
+    with pytest.raises(EmulatorError, match="T_supply must be one value"):
+        plant.discharge_reheat(m, [14.0, 15.0, 16.0], Td)
+
+
+def test_plant_fmu_discharge_inputs(plant_fmu, short_data):
+    """Td at the supply air is bit-identical to no command; Td above it heats, and the summary's heating
+    energy is Σ m c_p (Td - T_supply) · step."""
+    span = day_span(short_data)
+    runs = {rise: run_cosim(plant_fmu, short_data, Fixed(rise), **span) for rise in (None, 0.0, 10.0)}
+    zones = [f"T_{z}" for z in short_data.building.zone_names]
+    base = runs[None].table[zones].to_numpy()
+    assert_allclose(runs[0.0].table[zones].to_numpy(), base, rtol=0, atol=0)
+    assert runs[None].summary["heating_kWh"] == 0.0 == runs[0.0].summary["heating_kWh"]
+    hot = runs[10.0]
+    assert np.all(hot.table[zones].to_numpy()[4:] > base[4:] + 0.05)  # every zone warmer after an hour
+    vavs = short_data.building.vav_names
+    t = hot.table.iloc[:-1]
+    m = t[[f"m_{b}" for b in vavs]].to_numpy()
+    rise = t[[f"Td_{b}" for b in vavs]].to_numpy() - t[["T_supply"]].to_numpy()
+    assert_allclose(rise, 10.0, rtol=0, atol=1e-9)
+    expected = float(np.sum(m * CP_AIR * rise) * 900.0 / 3.6e6)
+    assert_allclose(hot.summary["heating_kWh"], expected, rtol=1e-12, atol=0)  # [kWh]
+    assert "Td_" + vavs[0] not in runs[None].table  # no command, no column
+
+
+def test_rule_heats_with_a_vav_reheat_sequence(plant_fmu, short_data):
+    span = day_span(short_data)
+    rule = run_cosim(plant_fmu, short_data, RuleController(), band=BAND, **span)
+    old = run_cosim(plant_fmu, short_data, AirflowOnlyRule(), band=BAND, **span)
+    b = short_data.building
+    t = rule.table.iloc[:-1]
+    m = t[[f"m_{v}" for v in b.vav_names]].to_numpy()
+    Td = t[[f"Td_{v}" for v in b.vav_names]].to_numpy()
+    Ts = t[["T_supply"]].to_numpy()
+    m_min = np.array([v.m_min for v in b.vavs])
+    heating = Td > Ts + 1e-9
+    assert heating.mean() > 0.3  # the day needs heat
+    assert np.all(m[heating] == np.broadcast_to(m_min, m.shape)[heating])  # reheat only at minimum airflow
+    assert np.all(Td >= Ts - 1e-12) and np.all(Td <= DEFAULT_T_DISCHARGE_MAX + 1e-12)  # supply .. limit
+    assert rule.summary["heating_kWh"] > 0.0 and rule.summary["controller_stats"]["heating_box_steps"] > 0
+    # the old rule can only add (cold) air: the band is out of reach; the sequence holds it far better
+    assert rule.summary["comfort_violation_Kh"] < 0.35 * old.summary["comfort_violation_Kh"]
+    assert old.summary["heating_kWh"] == 0.0
+
+
+# ---------------------------------------------------------------------------
+# MPC deciding the reheat (harness.mpc.heating)
+# ---------------------------------------------------------------------------
+def test_model_a_heat_gain_from_its_airflow_gain(short_data):
+    """Model A knows only the airflow gain B [K/step per kg/s]; a kW of reheat is B / (c_p ΔT_ref) with
+    ΔT_ref the data's median supply-zone difference, and the groups are each zone's boxes."""
+    from harness.mpc.heating import discharge_commands, heat_plan
+    from hvacfmu.models.datadriven import fit_zones
+
+    model = fit_zones(short_data)
+    b = short_data.building
+    vavs = b.vav_names
+    frame = short_data.frame
+    heated, plan, names = heat_plan(model, b, vavs, vavs, np.full(len(vavs), 35.0), frame)
+    dT = np.nanmedian(frame[["T_supply"]].to_numpy() - frame[[f"T_{z}" for z in model.measured_zones]].to_numpy())
+    assert_allclose(plan.G, np.asarray(model.B) * 1000.0 / (CP_AIR * dT), rtol=1e-12, atol=0)
+    assert np.all(np.diag(plan.G) > 0.0)  # reheat warms its own zone
+    assert [sorted(vavs[i] for i in g) for g in plan.groups] == [sorted(v.name for v in b.vavs_of(z)) for z in names]
+    eq = heated.equations()
+    assert eq.inputs[-len(names) :] == tuple(f"h_{z}" for z in names)
+    # the plan's reheat at minimum airflow: h_max reached exactly at the heating limit
+    m_min = np.array([v.m_min for v in b.vavs])
+    Td = discharge_commands(plan, plan.limits(14.0), m_min, 14.0, np.arange(len(vavs)))
+    assert_allclose(Td, 35.0, rtol=0, atol=1e-9)
+    assert_allclose(discharge_commands(plan, np.zeros(len(names)), m_min, 14.0, [0, 1]), 14.0, rtol=0, atol=0)
+
+
+def test_mpc_heats_through_discharge_air(plant_fmu, short_data):
+    """Model A's MPC on the plant FMU with a band that needs heat: it decides the discharge air (between
+    the supply air and the limit) and holds the band far better than the same MPC with airflow only."""
+    from harness.cosim import make_controller
+    from hvacfmu.models.datadriven import fit_zones
+
+    model = fit_zones(short_data)
+    span = day_span(short_data)
+    runs = {
+        heating: run_cosim(
+            plant_fmu,
+            short_data,
+            make_controller("mpc", model, short_data.building, {"horizon": 12, "heating": heating}),
+            model=model,
+            band=BAND,
+            **span,
+        )
+        for heating in (True, False)
+    }
+    hot, cold = runs[True], runs[False]
+    assert hot.summary["controller_stats"]["failures"] == 0
+    vavs = short_data.building.vav_names
+    t = hot.table.iloc[:-1]
+    Td, Ts = t[[f"Td_{v}" for v in vavs]].to_numpy(), t[["T_supply"]].to_numpy()
+    assert np.all(Td >= Ts - 1e-12) and np.all(Td <= DEFAULT_T_DISCHARGE_MAX + 1e-9)
+    assert hot.summary["heating_kWh"] > 0.0 and cold.summary["heating_kWh"] == 0.0
+    assert hot.summary["comfort_violation_Kh"] < 0.25 * cold.summary["comfort_violation_Kh"]
+    assert f"Td_{vavs[0]}" not in cold.table
