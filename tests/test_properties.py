@@ -91,6 +91,9 @@ def data_mutations(draw):
     one = st.one_of(
         st.tuples(st.just("unit_data"), st.sampled_from(["T", "m", "rh"]), st.sampled_from(range(4))),
         st.tuples(st.just("unit_declared"), st.sampled_from(["T", "m", "rh"]), st.sampled_from(range(4))),
+        st.tuples(
+            st.just("unit_column"), st.sampled_from(["T_out", "m_V1", "T_supply_AHU1"]), st.sampled_from(range(4))
+        ),
         st.tuples(st.just("gap"), st.sampled_from(cols), st.floats(0, 1), st.floats(0, 1)),
         st.tuples(st.just("spike"), st.sampled_from(cols), st.floats(0, 1), st.sampled_from([50.0, -50.0, 1e6])),
         st.tuples(
@@ -194,6 +197,9 @@ def apply_data(frame, bdict, options, mutation):
         if unit != "furlongs":
             for c in cols:
                 f[c] = from_si(f[c].to_numpy(dtype=float), unit)
+    elif kind == "unit_column":  # one column declared apart from the others
+        col, k = p
+        bdict.setdefault("units", {})[col] = UNITS[col.split("_")[0]][k % len(UNITS[col.split("_")[0]])]
     elif kind == "unit_declared":
         prefix, k = p
         bdict.setdefault("units", {})[f"{prefix}_*"] = UNITS[prefix][k % len(UNITS[prefix])]

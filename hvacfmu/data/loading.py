@@ -17,7 +17,7 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
-from .plausibility import check_airflow, check_outdoor, check_stuck
+from .plausibility import check_airflow, check_outdoor, check_outdoor_unit_mix, check_stuck
 from .units import kind_of, normalize_unit, to_si
 
 #: Plausible range of any air temperature [°C].
@@ -608,6 +608,10 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
         si = _check_temperature(canonical, desc, label, unit, values, finite, si, where, problems)
         if canonical == "T_out" and len(problems) == n_before:
             check_outdoor(si, unit, ctx.local, ctx.building.latitude, f"{label}: {desc}", problems)
+        if canonical == "T_out" and len(problems) == n_before:
+            zone_unit = _zone_temperature_unit(ctx.building)
+            lat = ctx.building.latitude
+            check_outdoor_unit_mix(values, unit, zone_unit, ctx.local, lat, f"{label}: {desc}", report.warnings)
     elif kind == "airflow":
         box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
         kept = int(np.isfinite(si).sum())
@@ -625,6 +629,15 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
                 f"{label}: {desc}: {len(flag_bad)} value(s) other than 0 or 1, e.g. {where.rows(flag_bad, values=si)}"
             )
     return si
+
+
+def _zone_temperature_unit(building: Building) -> str | None:
+    """The declared unit of the zone temperatures, when all zones share one (else None)."""
+    try:
+        units = {normalize_unit(building.unit_for(f"T_{z}"), "temperature") for z in building.zone_names}
+    except ValueError:
+        return None
+    return units.pop() if len(units) == 1 else None
 
 
 def _frame_from_columns(columns: dict, order: list, index) -> pd.DataFrame:

@@ -16,10 +16,19 @@ Thresholds (module constants) and why:
   :data:`UNIT_HIGH_FACTOR` ``* m_max``, and while the box runs (above 0.2
   ``m_min``) its median must not fall below :data:`UNIT_LOW_FACTOR` ``* m_min``;
   a violation names the airflow units that would fit (cfm read as L/s is 2.1 times
-  too much, L/s read as cfm 2.1 times too little).
+  too much, L/s read as cfm 2.1 times too little). Far from the limits, the
+  minimum plateau decides: a box rests at ``m_min`` for much of any record; when
+  under :data:`PLATEAU_ABSENT` of its samples lie within :data:`PLATEAU_TOL` of
+  ``m_min`` in the declared unit but at least :data:`PLATEAU_SHARE` do in another
+  airflow unit, the unit is wrong.
 - Outdoor air: monthly means of ``T_out`` must lie in a climate envelope that
-  depends on latitude and on the half of the year (:func:`outdoor_envelope`);
-  °C declared as °F shows as a month at about -10 °C in the warm season.
+  depends on latitude, on the half of the year and on midwinter
+  (:func:`outdoor_envelope`); °C declared as °F shows as a month at about
+  -10 °C in the warm season, °F declared as °C as a January above 15 °C at
+  Chicago's latitude. In a cold month °C declared as °F can still fit (-5 °C
+  reads -20.5 °C); a ``T_out`` declared in another unit than the zone
+  temperatures that would fit in their unit too is flagged
+  (:func:`check_outdoor_unit_mix`).
 - Stuck sensors: a temperature column repeating one exact value for
   :data:`STUCK_DAYS` days or longer is masked over that run with a warning.
 """
@@ -39,6 +48,12 @@ SPIKE_SHARE_MAX = 0.01
 UNIT_HIGH_FACTOR = 1.5
 #: Median airflow while the box runs below this multiple of m_min: the unit is wrong.
 UNIT_LOW_FACTOR = 0.6
+#: Relative tolerance around m_min of the minimum-airflow plateau.
+PLATEAU_TOL = 0.05
+#: The box is "never at its minimum" below this share of its positive samples near m_min ...
+PLATEAU_ABSENT = 0.02
+#: ... while read in another airflow unit at least this share sits at m_min: the unit is wrong.
+PLATEAU_SHARE = 0.2
 #: A temperature sensor repeating one value this long [days] is stuck.
 STUCK_DAYS = 2.0
 #: Canonical prefixes checked for stuck values.
@@ -110,17 +125,46 @@ def check_airflow(si, unit, box, desc, where, problems, warnings):
             "declare the unit in the building's [units] table (or correct m_max)"
         )
     elif box.m_min > 0 and low is not None and low < UNIT_LOW_FACTOR * box.m_min:
-        fits = airflow_unit_candidates(low, unit, box.m_min, box.m_max)
+        fits = airflow_unit_candidates(low, unit, (1 - PLATEAU_TOL) * box.m_min, box.m_max)  # median at m_min
         hint = f"the data look like {' or '.join(fits)}" if fits else "check the column and its unit"
         problems.append(
             f"{desc}: while the box runs, its median airflow is {low:.4g} kg/s (declared {unit}), below "
             f"{UNIT_LOW_FACTOR:g} x m_min = {UNIT_LOW_FACTOR * box.m_min:g} kg/s of box {box.name}: the unit cannot "
             f"be right; {hint}: declare the unit in the building's [units] table (or correct m_min)"
         )
+    else:
+        _check_minimum_plateau(valid, unit, box, desc, problems)
     return si
 
 
-def outdoor_envelope(latitude: float, warm_half: bool) -> tuple[float, float]:
+def minimum_share(values_si, m_min: float) -> float:
+    """Share of the positive samples within ``PLATEAU_TOL`` of ``m_min`` [kg/s] (the box held at its minimum)."""
+    pos = values_si[values_si > 0]
+    return float(np.mean(np.abs(pos - m_min) <= PLATEAU_TOL * m_min)) if len(pos) else 0.0
+
+
+def _check_minimum_plateau(valid, unit, box, desc, problems):
+    """A VAV box rests at its minimum airflow for much of the record; if it never does in the declared unit but
+    does in another airflow unit, the unit is wrong (catches a cfm/L/s mix-up far from the box limits)."""
+    if not box.m_min > 0:
+        return
+    declared = minimum_share(valid, box.m_min)
+    if declared >= PLATEAU_ABSENT:
+        return
+    one = float(to_si(1.0, unit))
+    shares = {u: minimum_share(valid * float(to_si(1.0, u)) / one, box.m_min) for u in KINDS["airflow"][1] if u != unit}
+    best = max(shares, key=lambda u: shares[u]) if shares else None
+    if best is None or shares[best] < PLATEAU_SHARE:
+        return
+    problems.append(
+        f"{desc}: box {box.name} never rests at its minimum airflow m_min = {box.m_min:g} kg/s in the declared "
+        f"unit {unit} ({_pct(declared)} of the samples within {_pct(PLATEAU_TOL)} of it), but read as {best} "
+        f"{_pct(shares[best])} of them sit at m_min, as a VAV box at minimum does: the data look like {best}; "
+        "declare the unit in the building's [units] table (or correct m_min)"
+    )
+
+
+def outdoor_envelope(latitude: float, warm_half: bool, midwinter: bool = False) -> tuple[float, float]:
     """Plausible range of a monthly mean outdoor air temperature [°C] at ``latitude`` [deg].
 
     A deliberately wide envelope around the observed climate extremes (monthly
@@ -128,35 +172,50 @@ def outdoor_envelope(latitude: float, warm_half: bool) -> tuple[float, float]:
     (April-September in the northern hemisphere) never has a monthly mean below
     0 °C equatorward of 45°, -5 °C up to 60° or -20 °C beyond; the cold half
     never below 5 °C within 25° of the equator, -10 °C to 35°, -25 °C to 45°,
-    -50 °C beyond. No monthly mean exceeds 40 °C.
+    -50 °C beyond. No monthly mean exceeds 40 °C; in the three midwinter months
+    (December-February north, June-August south) none exceeds 15 °C poleward of
+    40° (Lisbon, Naples: 9-12 °C), 20 °C poleward of 30° (Cairo, Houston, Perth:
+    11-14 °C) or 26 °C poleward of 23.5° (Miami, Key West: 20-21 °C).
     """
     a = abs(latitude)
     if warm_half:
         lo = 0.0 if a <= 45 else (-5.0 if a <= 60 else -20.0)
     else:
         lo = 5.0 if a <= 25 else (-10.0 if a <= 35 else (-25.0 if a <= 45 else -50.0))
-    return lo, 40.0
+    hi = 40.0
+    if midwinter:
+        hi = 15.0 if a >= 40 else (20.0 if a >= 30 else (26.0 if a >= 23.5 else 40.0))
+    return lo, hi
 
 
-def check_outdoor(si, unit, index, latitude, desc, problems):
-    """Monthly means of the outdoor temperature [°C] against :func:`outdoor_envelope`."""
+def outdoor_months(si, index, latitude) -> list[tuple[int, float, float, float]]:
+    """``(month, mean [°C], lo, hi)`` of every month with at least 5 days of outdoor temperatures."""
     if index is None or not np.isfinite(si).any():
-        return
+        return []
     s = pd.Series(si, index=pd.DatetimeIndex(index))
     s = s[~s.index.isna() & np.isfinite(s.to_numpy())]
-    if s.empty:
-        return
     month = s.index.month.to_numpy()
-    bad = []
+    out = []
     for m in np.unique(month):
         vals = s.to_numpy()[month == m]
         if len(vals) < 2 or (s.index[month == m][-1] - s.index[month == m][0]) < pd.Timedelta(days=5):
             continue
-        warm = (4 <= m <= 9) if latitude >= 0 else not (4 <= m <= 9)
-        lo, hi = outdoor_envelope(latitude, warm)
-        mean = float(np.mean(vals))
-        if not lo <= mean <= hi:
-            bad.append((int(m), mean, lo, hi))
+        north = latitude >= 0
+        warm = (4 <= m <= 9) if north else not (4 <= m <= 9)
+        midwinter = m in ((12, 1, 2) if north else (6, 7, 8))
+        lo, hi = outdoor_envelope(latitude, warm, midwinter)
+        out.append((int(m), float(np.mean(vals)), lo, hi))
+    return out
+
+
+def _months_text(months) -> str:
+    return ", ".join(f"{pd.Timestamp(2001, mm, 1):%b} {mu:.1f} °C" for mm, mu, _, _ in months[:4])
+
+
+def check_outdoor(si, unit, index, latitude, desc, problems):
+    """Monthly means of the outdoor temperature [°C] against :func:`outdoor_envelope`."""
+    months = outdoor_months(si, index, latitude)
+    bad = [x for x in months if not x[2] <= x[1] <= x[3]]
     if not bad:
         return
     m, mean, lo, hi = bad[0]
@@ -164,17 +223,39 @@ def check_outdoor(si, unit, index, latitude, desc, problems):
     alt = others.get(unit)
     hint = ""
     if alt is not None:
-        raw_mean = float(np.mean(s.to_numpy()[month == m]))
         from .units import from_si
 
-        as_alt = float(to_si(from_si(raw_mean, unit), alt))
+        as_alt = float(to_si(from_si(mean, unit), alt))
         if lo <= as_alt <= hi:
             hint = f"; read as {alt} it would be {as_alt:.1f} °C, which fits: the data look like {alt}"
-    months = ", ".join(f"{pd.Timestamp(2001, mm, 1):%b} {mu:.1f} °C" for mm, mu, _, _ in bad[:4])
     problems.append(
-        f"{desc}: monthly mean outdoor temperature ({months}; declared {unit}) is outside {lo:g}..{hi:g} °C, "
-        f"the plausible range at latitude {latitude:g}° in that season{hint}: declare the unit in the "
+        f"{desc}: monthly mean outdoor temperature ({_months_text(bad)}; declared {unit}) is outside {lo:g}..{hi:g} "
+        f"°C, the plausible range at latitude {latitude:g}° in that season{hint}: declare the unit in the "
         "building's [units] table"
+    )
+
+
+def check_outdoor_unit_mix(raw, unit, zone_unit, index, latitude, desc, warnings):
+    """Flag ``T_out`` declared in another temperature unit than the zones when the zones' unit fits it too.
+
+    A BMS exports every temperature in one unit; outdoor air declared apart (e.g.
+    ``T_out = "degF"`` beside ``T_* = "degC"``) is a likely slip that the climate
+    envelope cannot see in a cold month (-5 °C read as °F is -20.5 °C, still a
+    possible Chicago January). Nothing is said when the zones' unit would put
+    the outdoor air outside the envelope (the declaration is then evidently right).
+    """
+    if zone_unit is None or zone_unit == unit:
+        return
+    as_zone = to_si(raw, zone_unit)
+    months = outdoor_months(as_zone, index, latitude)
+    if not months or any(not lo <= mu <= hi for _, mu, lo, hi in months):
+        return
+    declared = outdoor_months(to_si(raw, unit), index, latitude)
+    warnings.append(
+        f"{desc}: declared {unit} while the zone temperatures are declared {zone_unit}; read as {zone_unit} its "
+        f"monthly means ({_months_text(months)}) fit the climate at latitude {latitude:g}° as well as the declared "
+        f"reading ({_months_text(declared)}): a BMS exports one unit for all temperatures, check the building's "
+        "[units] table"
     )
 
 

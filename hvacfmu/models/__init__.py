@@ -21,10 +21,27 @@ def model_class(kind: str):
 
 
 def model_from_dict(d: dict) -> ZoneModel:
-    """Rebuild a model from its JSON mapping (validated)."""
+    """Rebuild a model from its JSON mapping: schema validated by the kind, then plausibility.
+
+    Raises
+    ------
+    ModelError
+        For a wrong schema (naming the key) or a model that cannot be a building
+        (:mod:`hvacfmu.models.loadcheck`: unstable, wrong signs, absurd gains ...).
+    """
+    from .loadcheck import require_plausible
+
     if not isinstance(d, dict) or "kind" not in d:
         raise ModelError("model file has no 'kind'; is this an hvacfmu model?")
-    return model_class(d["kind"]).from_dict(d)
+    try:
+        model = model_class(d["kind"]).from_dict(d)
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(
+            f"malformed {d.get('kind')!r} model file ({type(exc).__name__}: {exc}); refit the model with hvacfmu fit"
+        ) from None
+    return require_plausible(model)
 
 
 def load_model(path) -> ZoneModel:

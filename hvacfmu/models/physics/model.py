@@ -35,6 +35,7 @@ from ..base import (
     ZoneModel,
     check_mapping,
     check_names,
+    check_number,
     check_shape,
     check_version,
     gains_from_json,
@@ -49,6 +50,17 @@ from .network import BilinearMatrices, NetworkTemplate, single_threaded
 #: nodes [K], measurement noise [K], warm-up length [steps].
 DEFAULT_KALMAN = {"observer": "kalman", "q_air": 0.1, "q_mass": 0.05, "r": 0.05, "warmup_steps": 192}
 OBSERVERS = ("gain_injection", "kalman")
+
+
+def _check_options(options: dict) -> None:
+    """Refuse non-numeric, non-finite or negative numbers in a loaded model's ``options`` (ModelError naming the key)."""
+    kalman = check_mapping(options.get("kalman", {}), "options.kalman", "physics model file")
+    numbers = {f"options.{k}": v for k, v in options.items() if k != "kalman" and not isinstance(v, str)}
+    numbers.update({f"options.kalman.{k}": v for k, v in kalman.items() if k not in ("observer", "airflow")})
+    numbers.update({f"options.kalman.airflow[{i}]": v for i, v in enumerate(kalman.get("airflow") or [])})
+    for key, v in numbers.items():
+        if v is not None and check_number(v, key, "physics model file", positive=False) < 0:
+            raise ModelError(f"physics model file: '{key}' must be >= 0, got {v!r}; refit the model")
 
 
 def building_hash(building_dict: dict) -> str:
@@ -429,8 +441,15 @@ class PhysicsModel(ZoneModel):
         require_keys(d, ["kind", "step", "building", "building_sha256", "params", "gains"], "physics model file")
         if d["kind"] != cls.kind:
             raise ModelError(f"not a physics model file (kind {d['kind']!r})")
-        if building_hash(d["building"]) != d["building_sha256"]:
-            raise ModelError("physics model file: the embedded building does not match its sha256 (file edited?)")
+        try:
+            same = isinstance(d["building"], dict) and building_hash(d["building"]) == d["building_sha256"]
+        except (TypeError, ValueError):  # a NaN/inf or a non-JSON value in the embedded building
+            same = False
+        if not same:
+            raise ModelError(
+                "physics model file: the embedded building does not match its sha256 (file edited?); "
+                "refit the model (hvacfmu fit --model physics) instead of editing the file"
+            )
         try:
             building = building_from_dict(d["building"])
         except BuildingError as exc:
@@ -453,8 +472,9 @@ class PhysicsModel(ZoneModel):
             if isinstance(exc, ModelError):
                 raise
             raise ModelError(f"malformed physics model file: {exc}") from None
+        _check_options(model.options)
         for key in ("outputs", "inputs", "disturbances", "q_names"):
-            if key in d and tuple(d[key]) != tuple(getattr(model, key)):
+            if key in d and check_names(d[key], key, "physics model file") != tuple(getattr(model, key)):
                 raise ModelError(
                     f"physics model file: {key} {d[key]} do not match the rebuilt model's {list(getattr(model, key))}"
                 )

@@ -1,0 +1,191 @@
+"""Plausibility of a model read from a file: the checks of a fresh fit, applied again on load (issue 17 p.2, p.5).
+
+A model file is JSON and can be edited, truncated or written by another tool. Its schema
+(names, shapes, finite numbers, ``format_version``) is validated by each kind's ``from_dict``;
+this module then refuses a model that parses but cannot be a building, so that no command
+ever runs an unstable or absurd model and reports its numbers:
+
+- Model A (``lumped``, ``zones``) and the base of an ``extended`` model: every check of
+  :func:`~hvacfmu.models.plausibility.linear_problems` (finite, spectral radius < 1, slowest
+  time constant, signs of couplings, weather and airflow), plus the internal-gain profile,
+  whose steady-state offset ``max |g| / (1 - rho)`` must stay under ``MAX_GAIN_OFFSET_K``
+  (fitted six-zone models on the emulator: 31 K), output weights that are area shares, a 0/1
+  box-to-state map, and coefficients whose steady-state response to a generous swing of every
+  input stays under ``MAX_RESPONSE_K`` (:func:`response_k`; fitted models: under 15 K);
+- ``extended``: the spectral radius of the augmented matrix form at zero airflow
+  (coupling, thermal-mass and delay terms) must stay below 1;
+- Model B (``physics``): positive finite parameters (a passive RC network with positive
+  conductances and capacities is stable, so no eigenvalues are computed at load), finite gains,
+  and internal gains of at most ``MAX_GAIN_W_PER_M2`` per zone floor area.
+
+Other kinds (plugins) are loaded as their ``from_dict`` allows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError, problems_message
+
+#: Largest steady-state offset [K] the internal-gain profile of a linear model may cause.
+MAX_GAIN_OFFSET_K = 200.0
+#: Largest steady-state response [K] of a linear model's state to a generous swing of all its inputs.
+MAX_RESPONSE_K = 500.0
+#: Largest internal gain [W/m²] of a physics model's zone (a dense server room is about 1000).
+MAX_GAIN_W_PER_M2 = 3000.0
+
+
+def model_problems(model) -> list[str]:
+    """Reasons why a loaded ``model`` cannot be a building (empty when plausible)."""
+    kind = getattr(model, "kind", None)
+    if kind in ("lumped", "zones"):
+        return _linear(model)
+    if kind == "extended":
+        return _extended(model)
+    if kind == "physics":
+        return _physics(model)
+    return []
+
+
+def require_plausible(model, source: str = "model file"):
+    """Return ``model``; raise :class:`ModelError` naming ``source``, every reason and the fix otherwise."""
+    problems = model_problems(model)
+    if problems:
+        raise ModelError(
+            problems_message(
+                f"{source}: the {getattr(model, 'kind', '?')} model it holds cannot be a building (edited or "
+                "corrupted file?); refit it with hvacfmu fit, or restore the file that fit wrote",
+                problems,
+            )
+        )
+    return model
+
+
+def _linear(model) -> list[str]:
+    from .plausibility import linear_problems
+
+    problems, numbers = linear_problems(model)
+    problems += _maps(model)
+    rho = numbers.get("spectral_radius")
+    if not model.gains:
+        problems.append("gains: no internal-gain profile for any season (the model cannot predict)")
+    if problems or rho is None:
+        return problems
+    problems += _response(model)
+    for season, g in model.gains.items():
+        g = np.asarray(g, float)
+        offset = float(np.max(np.abs(g))) / max(1.0 - rho, 1e-12) if g.size else 0.0
+        if offset > MAX_GAIN_OFFSET_K:
+            problems.append(
+                f"gains[{season!r}]: the internal-gain profile (up to {np.max(np.abs(g)):.3g} K per step) moves "
+                f"the steady state by {offset:.3g} K, above {MAX_GAIN_OFFSET_K:g} K"
+            )
+    return problems
+
+
+def _maps(model) -> list[str]:
+    """Output weights (area shares: >= 0, rows summing to 1) and the box-to-state map (0/1, one state per box)."""
+    problems = []
+    W = np.asarray(model.output_weights, float)
+    if np.any(W < 0) or not np.allclose(W.sum(axis=1), 1.0, rtol=0, atol=1e-6):
+        problems.append("output_weights: each row must hold shares >= 0 summing to 1 (zone area weights)")
+    M = np.asarray(model.input_map, float)
+    if not np.all(np.isin(M, (0.0, 1.0))) or not np.all(M.sum(axis=0) == 1.0):
+        problems.append("input_map: every VAV box must feed exactly one state (entries 0 or 1)")
+    return problems
+
+
+def _signal_scale(name: str) -> float:
+    """A generous swing of one input [its unit]: 50 K for temperatures, 1000 W/m² for irradiance, 1 otherwise."""
+    if name.startswith("T"):
+        return 50.0
+    if name.startswith(("I_", "ghi")):
+        return 1000.0
+    return 1.0
+
+
+def response_k(eq) -> np.ndarray:
+    """Steady-state response [K] of each state to every input swinging by its :func:`_signal_scale`, all at once.
+
+    ``(I - A)^-1`` times the absolute input matrices: ``|Bu|`` at 1 kg/s per box, ``|Bv|`` at the
+    disturbance scale, the bilinear ``|Bxu|``, ``|Bvu|`` at 1 kg/s times 50 K or the disturbance scale,
+    and the switches' gains. Fitted models on the emulator: under 15 K.
+    """
+    nx = eq.A.shape[0]
+    sv = np.array([_signal_scale(d) for d in eq.disturbances])
+    drive = np.abs(eq.Bu).sum(axis=1) + np.abs(eq.Bv) @ sv
+    for M in eq.Bxu:
+        drive = drive + 50.0 * np.abs(np.asarray(M, float)).sum(axis=1)
+    for M in eq.Bvu:
+        drive = drive + np.abs(np.asarray(M, float)) @ sv
+    for sw in eq.switches:
+        scale = sv[sw.scale_by] if sw.scale_by is not None else 1.0
+        drive = drive + np.abs(np.asarray(sw.gain, float)) * scale
+    return np.abs(np.linalg.solve(np.eye(nx) - eq.A, np.eye(nx))) @ drive
+
+
+def _response(model) -> list[str]:
+    try:
+        eq = model.equations()
+    except ModelError:  # calendar terms: no time-invariant matrices
+        return []
+    with np.errstate(all="ignore"):
+        r = response_k(eq)
+    worst = int(np.argmax(np.where(np.isfinite(r), r, np.inf))) if r.size else 0
+    if r.size and not (np.isfinite(r[worst]) and r[worst] <= MAX_RESPONSE_K):
+        return [
+            f"coefficients too large: the steady state of state {worst} moves by {r[worst]:.3g} K for a 1 kg/s, "
+            f"50 K, 1000 W/m² swing of the inputs, above {MAX_RESPONSE_K:g} K"
+        ]
+    return []
+
+
+def _extended(model) -> list[str]:
+    problems = [f"base: {p}" for p in _linear(model.base)]
+    if problems:
+        return problems
+    try:
+        eq = model.equations()
+    except ModelError:  # calendar terms: no time-invariant matrices; their coefficients were checked on load
+        return []
+    rho = float(np.max(np.abs(np.linalg.eigvals(eq.A)))) if eq.A.size else 0.0
+    if not np.isfinite(rho) or rho >= 1.0:
+        problems.append(
+            f"unstable: the spectral radius of the extended model's state matrix is {rho:.6g} >= 1 "
+            "(an extension term's coefficient makes temperatures grow without bound)"
+        )
+    return problems + _response(model)
+
+
+def _physics(model) -> list[str]:
+    # A passive RC network with positive conductances and capacities is stable, and its exact
+    # discretisation too: positive finite parameters are the stability check (no eigenvalues here,
+    # which would cost seconds at every load of a 270-state model).
+    problems = []
+    bad = {k: v for k, v in model.params.items() if not (np.isfinite(v) and v > 0)}
+    if bad:
+        problems.append(f"params {bad} must be finite and > 0")
+    if not np.all(np.isfinite(model.f_ig_const)):
+        problems.append("f_ig_const: constant internal gains are not finite")
+    areas = np.array([model.building.zone(z).area for z in model.outputs], float)
+    for season, g in model.gains.items():
+        g = np.asarray(g, float)
+        if g.ndim == 2 and g.shape[1] >= len(areas):
+            per_area = np.max(np.abs(g[:, : len(areas)]), axis=0) / areas
+            if np.any(per_area > MAX_GAIN_W_PER_M2):
+                i = int(np.argmax(per_area))
+                problems.append(
+                    f"gains[{season!r}]: internal gain of zone {model.outputs[i]} reaches {per_area[i]:.3g} W/m², "
+                    f"above {MAX_GAIN_W_PER_M2:g} W/m²"
+                )
+    return problems
+
+
+__all__ = [
+    "MAX_GAIN_OFFSET_K",
+    "MAX_GAIN_W_PER_M2",
+    "MAX_RESPONSE_K",
+    "model_problems",
+    "require_plausible",
+    "response_k",
+]
