@@ -315,6 +315,22 @@ def test_fold_scores_equal_the_step_by_step_simulation(terms, zones_idx, affine)
     assert any(np.isnan(f).any() for f in fast)  # the gaps make some windows unusable
 
 
+def test_windows_and_time_constants_are_durations_not_step_counts():
+    """At 5 min the cross-validation predicts 24 h (288 steps), not 8 h, and the thermal-mass
+    candidates try the same time constants [h] as at 15 min (every 5-min mass was missed when
+    both were step counts)."""
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, horizon_steps
+    from hvacfmu.models.causes.thermal_mass import TIME_CONSTANTS_H, alphas
+
+    assert DEFAULT_OPTIONS["horizon"] is None
+    assert horizon_steps(900.0) == 96 and horizon_steps(300.0) == 288 and horizon_steps(3600.0) == 24
+    assert horizon_steps(300.0, 50) == 50  # an explicit option stays a step count
+    assert alphas(900.0) == (0.002, 0.005, 0.01, 0.02, 0.05, 0.1)  # 15-min grid unchanged
+    for step in (60.0, 300.0, 900.0):
+        taus = [step / a / 3600.0 for a in alphas(step)]
+        assert np.allclose(taus, TIME_CONSTANTS_H)
+
+
 def test_calendar_term_is_tested_on_its_active_days():
     """A term acting on 10 of 65 days: its gain is measured on those days, not diluted by the rest."""
     from hvacfmu.diagnosis.crossval import CVPlan, paired_test, paired_test_days

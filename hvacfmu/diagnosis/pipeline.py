@@ -14,7 +14,7 @@ from ..models.extended import ExtendedModel
 from . import residuals as R
 from .design import make_signals
 from .report import DiagnosisReport
-from .selection import DEFAULT_OPTIONS, forward_select, one_step_residuals
+from .selection import DEFAULT_OPTIONS, forward_select, horizon_steps, one_step_residuals
 
 
 def diagnose(dataset, model=None, plots=None, progress=True, **options) -> DiagnosisReport:
@@ -40,7 +40,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
-        ``coupling_min_gain_percent`` (3.0), ``horizon`` (96 steps), ``cv_folds`` (10 blocks of whole
+        ``coupling_min_gain_percent`` (3.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0) and ``cv_min_t`` (2.0, week-clustered paired t).
 
     Returns
@@ -52,6 +52,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     if unknown:
         raise TypeError(f"unknown diagnosis options {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
     opts = {**DEFAULT_OPTIONS, **options}
+    opts["horizon"] = horizon_steps(dataset.step, opts["horizon"])
 
     def say(msg):
         if progress:

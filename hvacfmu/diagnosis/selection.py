@@ -67,11 +67,26 @@ DEFAULT_OPTIONS = {
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
-    "horizon": 96,
+    "horizon": None,
     "cv_folds": 10,
     "cv_min_gain_percent": 1.0,
     "cv_min_t": 2.0,
 }
+
+
+#: Open-loop prediction window of the cross-validation and the held-out scores [h].
+HORIZON_H = 24.0
+
+
+def horizon_steps(step: float, horizon=None) -> int:
+    """Open-loop window [steps]: ``horizon`` when given, else :data:`HORIZON_H` at model step ``step`` [s].
+
+    The window is a duration: 96 steps at 15 min, 288 at 5 min (a fixed step count scored
+    only the night hours at 5 min, where a slow mass or a daytime delay cannot show).
+    """
+    if horizon is not None:
+        return int(horizon)
+    return max(1, int(round(HORIZON_H * 3600.0 / float(step))))
 
 
 def _active_on(sig: Signals, term, which: str) -> bool:
@@ -259,13 +274,13 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
     return out
 
 
-def heldout_rms(model, dataset, horizon=96):
+def heldout_rms(model, dataset, horizon=None):
     """Held-out 24-hour RMS per test window (W, ny) [K] and the window starts, via :func:`hvacfmu.evaluation.evaluate`."""
     from ..evaluation import evaluate
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = evaluate(model, dataset, horizon=horizon)
+        res = evaluate(model, dataset, horizon=horizon_steps(dataset.step, horizon))
     sc = res.scores[0]
     return {
         "starts": list(sc.starts),
@@ -328,6 +343,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     progress : callable(str) or None
     """
     opts = {**DEFAULT_OPTIONS, **(options or {})}
+    opts["horizon"] = horizon_steps(sig.step, opts["horizon"])
     rows = sig.rows("train")
     terms = list(initial_terms)
     W = Within(sig.group, rows)
@@ -710,6 +726,7 @@ __all__ = [
     "compare_heldout",
     "forward_select",
     "heldout_rms",
+    "horizon_steps",
     "one_step_residuals",
     "score_candidate",
 ]

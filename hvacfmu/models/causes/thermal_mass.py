@@ -2,7 +2,7 @@
 
 Term: ``s(k+1) = s + alpha (x_z − s)``, ``x_z(k+1) += beta (s − x_z)`` (``alpha``, ``beta``
 [1/step]); one hidden state. Screen: one candidate per zone with time constants from
-2.5 h to 125 h (:data:`ALPHAS` at 15 min); evidence: correlation of the residual with the
+2.5 h to 125 h (:data:`TIME_CONSTANTS_H`, the same durations at every model step); evidence: correlation of the residual with the
 filtered temperature departure by time constant, and the slow mode of the residual's
 response (the diagnosis adds the share of the residual's low-frequency power).
 """
@@ -17,8 +17,13 @@ import numpy as np
 from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
 from .signals import ema_last, ema_series
 
-#: Thermal-mass filter constants tried [1/step] (time constants 125 h ... 2.5 h at 15 min).
-ALPHAS = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1)
+#: Thermal-mass time constants tried [h] (filter constants ``alpha = step / tau``: 0.002 ... 0.1 at 15 min).
+TIME_CONSTANTS_H = (125.0, 50.0, 25.0, 12.5, 5.0, 2.5)
+
+
+def alphas(step: float) -> tuple:
+    """Filter constants [1/step] of :data:`TIME_CONSTANTS_H` at model step ``step`` [s] (at most 1)."""
+    return tuple(min(float(step) / (tau * 3600.0), 1.0) for tau in TIME_CONSTANTS_H)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,14 +96,15 @@ class ThermalMass(Term):
             if z in have:
                 continue
             cors = {}
-            for al in ALPHAS:
+            grid = alphas(sig.step)
+            for al in grid:
                 f = cls(zone=z, alpha=al).features(sig, None)[0][2]
                 cors[f"{al:g}"] = corr(resid[:, zi], W(f))
             out.append(
                 Candidate(
                     cls.cause,
                     {"zone": z},
-                    [cls(zone=z, alpha=al) for al in ALPHAS],
+                    [cls(zone=z, alpha=al) for al in grid],
                     1,
                     evidence=slow_mode_evidence(cors, sig.step),
                 )
