@@ -141,10 +141,15 @@ class InternalGainSchedule(Term):
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
         out = []
+        # days already explained by a holiday term, or picked by this round's holiday screen, are not
+        # ordinary weekdays: a quiet week after the change looks like a shifted morning ramp
+        unusual = {d for t in terms if isinstance(t, cls) and t.variant == "holiday" for d in t.dates}
         if not any(isinstance(t, cls) and t.variant == "holiday" for t in terms):
-            out.append(holiday_candidate(sig, W, options))
+            hc = holiday_candidate(sig, W, options)
+            unusual |= set((hc.location or {}).get("dates", []))
+            out.append(hc)
         if not any(isinstance(t, cls) and t.variant == "dst_shift" for t in terms):
-            out.append(dst_candidate(sig, W, options))
+            out.append(dst_candidate(sig, W, options, exclude_dates=unusual))
         return out
 
 
@@ -414,14 +419,15 @@ def shifted_clock_profiles(sig, gains: np.ndarray, rows: np.ndarray, shift: int)
     return out
 
 
-def dst_candidate(sig, W, options: dict) -> Candidate:
+def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
     """Daylight-saving shift of the gain schedule: a one-hour jump of the weekday profile at the change.
 
     Evidence: the lag aligning the weekday gain profiles of daylight-saving and
     standard-time weekdays of the same season (:func:`dst_profile_lag`). A lag of at
     least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read one
     hour earlier while daylight saving is on for ``L > 0``, later for ``L < 0``), with the
-    profile re-estimated on the clock the gains follow.
+    profile re-estimated on the clock the gains follow. ``exclude_dates`` (ISO dates: holidays)
+    are left out of the profile comparison.
     """
     on = dst_active(sig.index)
     onw = W(on.astype(float))
@@ -440,7 +446,13 @@ def dst_candidate(sig, W, options: dict) -> Candidate:
             InternalGainSchedule.cause, loc, status="untestable", evidence=ev, reason="no one-step residuals"
         )
     gains = apparent_gains(sig, resid_all)
-    ev.update(dst_profile_lag(sig, gains, W.rows))
+    rows = W.rows
+    if exclude_dates:
+        iso = np.array([d.isoformat() for d in sig.index.date])
+        keep = ~np.isin(iso[rows], sorted(exclude_dates))
+        rows = rows[keep]
+        ev["excluded_days"] = len(set(exclude_dates))
+    ev.update(dst_profile_lag(sig, gains, rows))
     if not ev["seasons"]:
         return Candidate(
             InternalGainSchedule.cause,
