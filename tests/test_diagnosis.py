@@ -894,9 +894,8 @@ def _battery():
     "case_id",
     [
         0,  # row4, 15 min, clean
+        12,  # row4, 15 min, holiday weeks 10 + 12 after the DST change + slow mass in R2 (no false dst_shift)
         13,  # core9, 15 min, holiday week + solar gain of NE's east facade
-        14,  # sdh, 5 min, solar gain + 45-min delay (9 steps)
-        21,  # core9, 15 min, holiday weeks 2 + 3
         22,  # row4, 15 min, reheat in R1
         pytest.param(
             25,
@@ -905,6 +904,7 @@ def _battery():
                 reason="known miss: the row4 R1+R4 coupling (928 W/K) scores -0.1 % cross-validated (README battery)",
             ),
         ),
+        35,  # row4, 5 min, slow mass behind R1 (missed while windows and time constants were step counts)
     ],
 )
 def test_battery_slice(case_id):
