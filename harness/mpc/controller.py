@@ -271,7 +271,9 @@ class MPCController:
         if not self.bilinear:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
+                self._problem = CondensedProblem(
+                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, constant_G=True
+                )
             self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
@@ -407,6 +409,7 @@ class MPCController:
             "steps": len(self.plans),
             "failures": self.n_failures,
             "frozen_fallbacks": self.n_frozen_fallbacks,
+            "solver_fallbacks": int(getattr(self._problem, "n_solver_fallbacks", 0)),
             "not_converged": int(sum(1 for p in self.plans if p.found and not p.converged)),
             "projected_steps": self.n_projected,
             "projected_max": self.projected_max,

@@ -315,6 +315,43 @@ class LinearPredictor(AffinePredictor):
     def step(self, x, u, v, q):
         return self._offset(self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q)
 
+    def simulate(self, x0, U, V, Qg) -> np.ndarray:
+        """Exact model trajectory X (N+1, nx) for moves U (N, nu): the input terms of all steps at once."""
+        return self.free_trajectory(x0, self.drift(V, Qg) + U @ self.B.T)
+
+    #: largest N*nx for which the trajectory is one product with cached (N nx)-sized matrices
+    LIFTED_MAX = 512
+
+    def free_trajectory(self, x0, W) -> np.ndarray:
+        """Trajectory of ``x+ = A x + w`` (N+1, nx): ``[x0; Φ x0 + Γ vec(W)]`` for small ``N nx``
+        (``Φ = [A; ...; A^N]``, ``Γ`` block lower triangular of powers of A), the recursion otherwise."""
+        N, nx = W.shape[0], self.nx
+        if N * nx > self.LIFTED_MAX:
+            return super().free_trajectory(x0, W)
+        key = ("lifted", N)
+        if key not in self._markov:
+            Q, _ = self.markov(N + 1)  # Q_j = A^j (basis = I)
+            Phi = Q[1:].reshape(N * nx, nx)
+            Gam = np.zeros((N, nx, N, nx))
+            for i in range(N):
+                for j in range(i + 1):
+                    Gam[i, :, j, :] = Q[i - j]
+            self._markov[key] = (Phi, Gam.reshape(N * nx, N * nx))
+        Phi, Gam = self._markov[key]
+        X = np.empty((N + 1, nx))
+        X[0] = x0
+        X[1:] = (Phi @ x0 + Gam @ W.ravel()).reshape(N, nx)
+        return X
+
+    def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):
+        """Prediction ``Y = y0 + G U_b`` (see :meth:`AffinePredictor.affine_prediction`; exact, G cached)."""
+        N = V.shape[0]
+        key = (N, tuple(lengths))
+        if key not in self._G:
+            self._G[key] = AffinePredictor.sensitivity(self, np.broadcast_to(self.B, (N,) + self.B.shape), lengths)
+        Xf = self.free_trajectory(x0, self.drift(V, Qg))
+        return (Xf[1:] @ self.C.T).ravel(), self._G[key]
+
     def sensitivity(self, beta, lengths, theta=None):
         key = (beta.shape[0], tuple(lengths))
         if key not in self._G:  # constant: built once per horizon and blocking
