@@ -105,8 +105,9 @@ def test_failed_dense_solve_falls_back_to_clarabel(monkeypatch):
     assert_allclose(plan.obj, dense[0].obj, rtol=2e-7)
 
 
-def test_auto_picks_dense_only_for_linear_qp():
-    """``solver="auto"``: daqp for a linear model's QP; clarabel for the SOCP and for bilinear models."""
+def test_auto_picks_dense_for_condensed_qp_only():
+    """``solver="auto"``: daqp for the condensed QP (linear and bilinear models); clarabel for the SOCP
+    and for the reduced prediction of long horizons."""
     _, c = plans("auto", steps=STATES[:1])
     assert c._problem.dense is not None
     _, c_socp = plans("clarabel", steps=STATES[:1])
@@ -115,9 +116,12 @@ def test_auto_picks_dense_only_for_linear_qp():
     V, Q = linear_preview(3)
     assert c_socp.plan(STATES[0], V, Q).found and c_socp._problem.dense is None
     m = random_rc_network(n_zones=2, n_boxes=3, n_states=10, seed=3)
+    V, Q = synthetic_week(m, 30, seed=2)
+    x0 = steady_state_at(m, V[0], Q[0], 21.0)
     cb = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=3, formulation="qp"))
-    V, Q = synthetic_week(m, 3, seed=2)
-    assert cb.plan(steady_state_at(m, V[0], Q[0], 21.0), V, Q).found and cb._problem.dense is None
+    assert cb.plan(x0, V[:3], Q[:3]).found and cb._problem.dense is not None
+    cr = MPCController(m, m.m_min, m.m_max, MPCSettings(horizon=30, formulation="qp", prediction="reduced"))
+    assert cr.plan(x0, V, Q).found and cr.reduced and not hasattr(cr._problem, "dense")
 
 
 def test_dense_on_bilinear_model_matches_clarabel():

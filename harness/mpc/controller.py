@@ -271,9 +271,7 @@ class MPCController:
         if not self.bilinear:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
-                self._problem = CondensedProblem(
-                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, constant_G=True
-                )
+                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
             self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:

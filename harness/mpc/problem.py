@@ -146,9 +146,10 @@ class MPCSettings:
         ``"daqp"``: the condensed ``"qp"`` form in dense variables, solved by a
         warm-started dual active-set method (:mod:`harness.mpc.dense`; falls
         back to clarabel, counted, when it fails). ``"auto"`` (default): daqp
-        for linear models with ``formulation="qp"`` and the condensed
-        prediction when the package is installed (measured 15-30x faster on
-        Model A, README "MPC"), clarabel otherwise.
+        for ``formulation="qp"`` with the condensed prediction when the package
+        is installed (measured 15-30x faster on Model A, 2-3x on Model B at
+        N = 12, README "MPC"), clarabel otherwise (the SOCP, the reduced
+        prediction of long horizons).
     """
 
     horizon: int = 3
@@ -556,21 +557,21 @@ class CondensedProblem(_MPCProblem):
     dense block and was 4x slower with clarabel at N = 96.)
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None, constant_G=False):
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None):
         G = np.asarray(G, dtype=float)
         super().__init__(u_min, u_max, ny, settings, weights=weights)
         if G.shape != (self.N * self.ny, self.nb * self.nu):
             raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         self.G = G
         self._assemble()
-        self.dense = DenseQP(self) if self._wants_dense(constant_G) else None
+        self.dense = DenseQP(self) if self._wants_dense() else None
         self.n_solver_fallbacks = 0  #: dense solves that failed and were solved again with clarabel
 
-    def _wants_dense(self, constant_G) -> bool:
+    def _wants_dense(self) -> bool:
         s = self.settings.solver
         if s == "daqp":
             return True
-        return s == "auto" and constant_G and not self.socp and daqp_available()
+        return s == "auto" and not self.socp and daqp_available()
 
     def set_previous(self, u_prev) -> None:
         super().set_previous(u_prev)
@@ -617,8 +618,8 @@ class CondensedProblem(_MPCProblem):
             raise SolverError(f"G has shape {G.shape}, expected {self.G.shape}")
         self._update_slots(G=-G)
         self.G = G
-        if self.dense is not None:  # solver="daqp" on a changing G: a new workspace
-            self.dense = DenseQP(self)
+        if self.dense is not None:  # solver="daqp" on a changing G: new data, the active set is kept
+            self.dense.update_G(G)
 
 
 class ReducedProblem(_MPCProblem):
