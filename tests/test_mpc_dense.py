@@ -151,3 +151,12 @@ def test_dense_on_bilinear_model_matches_clarabel():
 def test_bad_solver_settings(kwargs, message):
     with pytest.raises(SolverError, match=message):
         MPCSettings(**kwargs)
+
+
+def test_projection_counts_real_limit_excess_not_rounding():
+    """An active-set plan sits on a limit to ~1e-14 kg/s: clipped, but only a real excess is counted."""
+    c = MPCController(linear_model(), LIN_UMIN, LIN_UMAX, MPCSettings(horizon=3, formulation="qp"))
+    assert_allclose(c._project(LIN_UMAX + 4e-14), LIN_UMAX, rtol=0, atol=0)
+    assert c.stats()["projected_steps"] == 0
+    assert_allclose(c._project(LIN_UMAX + np.array([0.0, 2e-6, 0.0])), LIN_UMAX, rtol=0, atol=0)
+    assert c.stats()["projected_steps"] == 1 and c.stats()["projected_max"] == pytest.approx(2e-6)

@@ -242,11 +242,14 @@ class MPCController:
             raise ModelError(f"{name} preview contains NaN or infinite values")
         return A[: self.N]
 
+    #: [kg/s] projections smaller than this are rounding (an active-set plan sits on a limit to ~1e-14), not counted
+    PROJECT_TOL = 1.0e-9
+
     def _project(self, u) -> np.ndarray:
-        """The move made feasible: clipped to ``[u_min, u_max]``; the difference is counted."""
+        """The move made feasible: clipped to ``[u_min, u_max]``; a difference over :attr:`PROJECT_TOL` is counted."""
         applied = np.clip(u, self.u_min, self.u_max)
         diff = np.abs(np.asarray(u, dtype=float) - applied)
-        if float(diff.max(initial=0.0)) > 0.0:
+        if float(diff.max(initial=0.0)) > self.PROJECT_TOL:
             self.n_projected += 1
             self.projected_max = max(self.projected_max, float(diff.max()))
             self.projected_sum += float(diff.sum())
@@ -397,9 +400,12 @@ class MPCController:
         """Solve-time, iteration and limit statistics over the steps so far.
 
         ``projected_steps``: steps whose planned move used the softened input
-        limits and was projected onto ``[u_min, u_max]``; ``projected_max``
+        limits and was projected onto ``[u_min, u_max]`` (by more than
+        :attr:`PROJECT_TOL`); ``projected_max``
         [kg/s] the largest difference of one input, ``projected_sum``
         [kg/s · steps] the summed differences.
+        ``solver_fallbacks``: dense (DAQP) solves that failed and were solved
+        again by clarabel (:mod:`harness.mpc.dense`).
         """
         st = np.array([p.step_time for p in self.plans]) if self.plans else np.zeros(1)
         it = np.array([p.iterations for p in self.plans]) if self.plans else np.zeros(1)
