@@ -160,3 +160,24 @@ def test_projection_counts_real_limit_excess_not_rounding():
     assert c.stats()["projected_steps"] == 0
     assert_allclose(c._project(LIN_UMAX + np.array([0.0, 2e-6, 0.0])), LIN_UMAX, rtol=0, atol=0)
     assert c.stats()["projected_steps"] == 1 and c.stats()["projected_max"] == pytest.approx(2e-6)
+
+
+@pytest.mark.parametrize("N", [1, 12, 200])  # 200 x 3 states is past LIFTED_MAX: the recursion
+def test_lifted_linear_trajectory_equals_the_recursion(N):
+    """The linear predictor's one-product trajectory and simulation equal the step-by-step model, with
+    an offset-free drift too."""
+    from harness.mpc.predict import AffinePredictor, make_predictor
+
+    m = linear_model()
+    pred = make_predictor(m)
+    V, Q = linear_preview(N, seed=3)
+    U = np.random.default_rng(0).uniform(LIN_UMIN, LIN_UMAX, (N, 3))
+    x0 = np.array([21.0, 22.5, 19.5])
+    for offset in (None, np.array([0.05, -0.02, 0.1])):
+        pred.offset = offset
+        W = pred.drift(V, Q)
+        assert_allclose(pred.free_trajectory(x0, W), AffinePredictor.free_trajectory(pred, x0, W), rtol=0, atol=1e-11)
+        X = AffinePredictor.simulate(pred, x0, U, V, Q)  # step() by step()
+        assert_allclose(pred.simulate(x0, U, V, Q), X, rtol=0, atol=1e-11)
+    pred.offset = None
+    assert_allclose(pred.simulate(x0, U, V, Q), m.simulate(x0, U, V, Q)[0], rtol=0, atol=1e-11)
