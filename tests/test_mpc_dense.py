@@ -181,3 +181,17 @@ def test_lifted_linear_trajectory_equals_the_recursion(N):
         assert_allclose(pred.simulate(x0, U, V, Q), X, rtol=0, atol=1e-11)
     pred.offset = None
     assert_allclose(pred.simulate(x0, U, V, Q), m.simulate(x0, U, V, Q)[0], rtol=0, atol=1e-11)
+
+
+def test_one_blas_thread_limits_and_restores_the_pool():
+    """Model B's algebra runs BLAS on one thread (same plans, no thread synchronisation); the pool is restored."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from harness.mpc.controller import one_blas_thread
+
+    def blas_threads():
+        return [p["num_threads"] for p in threadpoolctl.threadpool_info() if p["user_api"] == "blas"]
+
+    before = blas_threads()
+    with one_blas_thread():
+        assert set(blas_threads()) <= {1}
+    assert blas_threads() == before
