@@ -1411,7 +1411,9 @@ def _refined(prep: _Prepared, opts, model):
     if form is False or (form == "auto" and excited and not delivered):
         why = "option open_loop=False" if form is False else "excitation periods in the training weeks"
         return dataclasses.replace(model, meta=_jsonable({**model.meta, "open_loop": {"used": False, "reason": why}}))
+    t0 = time.perf_counter()
     new, info = refine_open_loop(model, prep)
+    info["seconds"] = round(time.perf_counter() - t0, 3)  # not in fit_seconds, which times the one-step fit
     info["why"] = (
         "option open_loop=True"
         if form is True
