@@ -4,6 +4,8 @@
    the data came from, injected effects included: a facade's extra solar gain and an
    undeclared zone coupling act on the plant as on the emulator's dataset, so MPC with
    a model that knows them has something to gain on the plant.
+2. :func:`hvacfmu.diagnosis.control.terms_on_base`: the diagnosis's terms refitted on the base
+   Model A's own dynamics (``A, B, C`` kept), the extended model to control with.
 """
 
 from __future__ import annotations
@@ -98,3 +100,48 @@ def test_plant_fmu_takes_the_effects(effect_truth, tmp_path):
     assert_allclose(np.array(Y), np.array(Yref), rtol=0, atol=1e-9)
     w = plant.zones.index("W")
     assert np.array(Y)[-1, w] - np.array(Yclean)[-1, w] > 0.3  # [K] the FMU carries the west sun
+
+
+# --------------------------------------------------------------------------- 2. the terms on the base's dynamics
+@pytest.fixture(scope="module")
+def solar_case():
+    """12 weeks (fall into winter) with extra solar gain on the south facade of S; the paper's base Model A."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.fitting import fit
+
+    paths = cached_dataset(weeks=12, seed=0, effects=["solar_gain:zone=S,facade=S"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = prepare(paths.measurements, paths.building, seed=0)
+        base = fit(ds, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)
+    return ds, base
+
+
+@pytest.mark.slow
+def test_terms_on_base_keep_the_base_dynamics(solar_case):
+    """A, B, C stay the base's; the solar term is fitted warming; it lowers S's one-step error on test weeks."""
+    from hvacfmu.diagnosis.control import terms_on_base
+    from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.diagnosis.selection import one_step_residuals
+    from hvacfmu.models.causes import SolarGain
+
+    ds, base = solar_case
+    plain = terms_on_base(ds, base, ())
+    ext = terms_on_base(ds, base, [SolarGain(zone="S", facade="S")])
+    for m in (plain, ext):
+        for name in ("A", "B", "C"):
+            assert_allclose(getattr(m.base, name), getattr(base, name), rtol=0, atol=0)
+    (term,) = ext.terms
+    assert term.coef > 5 * term.std["coef"] > 0.0  # [K/step per W/m²] warming, well determined
+    sig = make_signals(ds, base)
+    test = sig.rows("test")
+    s = sig.zones.index("S")
+    rms = [float(np.sqrt(np.nanmean(one_step_residuals(sig, m)[test, s] ** 2))) for m in (plain, ext)]
+    assert rms[1] < 0.9 * rms[0], rms
+    others = [z for z in range(sig.nz) if z != s]
+    r0, r1 = (one_step_residuals(sig, m)[test][:, others] for m in (plain, ext))
+    assert_allclose(np.nanmean(r1**2), np.nanmean(r0**2), rtol=0.02)  # the other zones are not touched
