@@ -208,22 +208,37 @@ def run_fmu(path, model, building, m, v, y0, raw, costs=None):
     return dt, Y
 
 
-def c_master_us_per_step(path, model, building, m, v, tmp):
-    """Wall-clock microseconds per step of the native FMU in the C master (None without gcc)."""
+def c_master_us_per_step(path, model, building, m, v, tmp, python=False):
+    """Process CPU microseconds per step of an FMU in the C master (None without gcc or, for ``python``, libpython).
+
+    With ``python`` the FMU is a pythonfmu one: the master loads the shared libpython first (``RTLD_GLOBAL``), passes
+    the unzipped resources and gets this interpreter's ``sys.path`` as ``PYTHONPATH``. Returns ``(us, outputs)``.
+    """
+    import os
     import shutil
     import subprocess
+    import sys
+    import sysconfig
     import zipfile
 
     from fmpy import read_model_description
 
     if shutil.which("gcc") is None:
-        return None
+        return None, None
+    env = dict(os.environ)
+    if python:
+        lib_python = Path(sysconfig.get_config_var("LIBDIR") or "") / (sysconfig.get_config_var("INSTSONAME") or "")
+        if not lib_python.is_file():
+            return None, None
+        env["FMI_MASTER_PRELOAD"] = str(lib_python)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
     src = Path(__file__).resolve().parents[1] / "tests" / "data" / "fmi2_master.c"
-    exe, unz = Path(tmp) / "master", Path(tmp) / f"unz_{model.kind}"
+    exe, unz = Path(tmp) / "master", Path(tmp) / f"unz_{model.kind}_{'py' if python else 'native'}"
     if not exe.is_file():
         subprocess.run(["gcc", "-std=c99", "-O2", "-o", str(exe), str(src), "-ldl"], check=True)
     with zipfile.ZipFile(path) as z:
         z.extractall(unz)
+    env["FMI_MASTER_RESOURCES"] = (unz / "resources").resolve().as_uri()
     md = read_model_description(str(path))
     vr = {x.name: x.valueReference for x in md.modelVariables}
     names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
@@ -237,8 +252,10 @@ def c_master_us_per_step(path, model, building, m, v, tmp):
         capture_output=True,
         text=True,
         check=True,
+        env=env,
     )
-    return float(run.stderr.split("us_per_step")[1].split()[0])
+    outputs = np.loadtxt(run.stdout.splitlines(), ndmin=2)
+    return float(run.stderr.split("us_per_step")[1].split()[0]), outputs
 
 
 def compare_native(kinds, models, building, n, repeats, tmp):
@@ -253,11 +270,14 @@ def compare_native(kinds, models, building, n, repeats, tmp):
         "loop: setReal + doStep + getReal through FMPy's FMU2Slave.fmi2* on ctypes arrays; doStep: loop minus the same\n"
         "loop without doStep; floor: an FMPy call that does nothing in the FMU (fmi2SetDebugLogging), the least any\n"
         "FMU's doStep can cost from Python; cap: pythonfmu doStep / native floor, the largest ratio FMPy allows;\n"
-        "C master: fmi2GetReal + fmi2SetReal + fmi2DoStep per step in tests/data/fmi2_master.c (no Python)."
+        "C master: fmi2GetReal + fmi2SetReal + fmi2DoStep per step in tests/data/fmi2_master.c, native FMU (no Python);\n"
+        "C py: the same for the pythonfmu FMU (libpython preloaded by the master), ratio: C py / C master, the FMUs'\n"
+        "own per-step costs without FMPy's per-call overhead; max |dT|: native FMU against the Python model and\n"
+        "against the pythonfmu FMU in the C master."
     )
     print(
         f"{'model':8s} {'loop py':>8s} {'loop nat':>8s} {'ratio':>6s} {'doStep py':>9s} {'doStep nat':>10s} {'ratio':>6s} "
-        f"{'floor':>6s} {'cap':>5s} {'C master':>9s} {'max |dT| [K]':>12s} {'export [s]':>10s} form"
+        f"{'floor':>6s} {'cap':>5s} {'C master':>9s} {'C py':>9s} {'ratio':>6s} {'max |dT| [K]':>12s} {'export [s]':>10s} form"
     )
     for kind in kinds:
         model = models[kind]
@@ -283,12 +303,16 @@ def compare_native(kinds, models, building, n, repeats, tmp):
             {k: 1e6 * statistics.median(x) for k, x in nat.items()},
         )
         err = float(np.max(np.abs(Y - Yref[1:])))
-        c_us = c_master_us_per_step(native, model, building, m, v, tmp)
+        c_us, c_nat = c_master_us_per_step(native, model, building, m, v, tmp)
+        c_py, c_pyo = c_master_us_per_step(python_fmu, model, building, m, v, tmp, python=True)
         c_txt = f"{c_us:9.2f}" if c_us is not None else f"{'(no gcc)':>9s}"
+        c_py_txt = f"{c_py:9.2f} {c_py / c_us:6.0f}" if c_py is not None and c_us else f"{'(none)':>9s} {'':6s}"
+        if c_nat is not None and c_pyo is not None:
+            err = max(err, float(np.max(np.abs(c_nat - c_pyo))))
         print(
             f"{kind:8s} {med[0]['loop']:8.2f} {med[1]['loop']:8.2f} {med[0]['loop'] / med[1]['loop']:6.1f} "
             f"{med[0]['doStep']:9.2f} {med[1]['doStep']:10.2f} {med[0]['doStep'] / med[1]['doStep']:6.1f} "
-            f"{med[1]['floor']:6.2f} {med[0]['doStep'] / med[1]['floor']:5.0f} {c_txt} {err:12.2e} {build:10.2f} {form}"
+            f"{med[1]['floor']:6.2f} {med[0]['doStep'] / med[1]['floor']:5.0f} {c_txt} {c_py_txt} {err:12.2e} {build:10.2f} {form}"
         )
 
 

@@ -1,7 +1,10 @@
 /* Minimal FMI 2.0 co-simulation master in C (tests/test_fmu_native.py): dlopen an FMU binary, run steps, print outputs.
  * Usage: master LIB GUID NSTEPS STEP NIN NOUT vr_in... vr_out...; NSTEPS rows of NIN input values on stdin.
  * Prints the outputs at t = 0, STEP, ..., NSTEPS*STEP (one line each) and "us_per_step" on stderr: process CPU time
- * of fmi2GetReal + fmi2SetReal + fmi2DoStep per step (outputs are kept in memory and printed after the timed loop). */
+ * of fmi2GetReal + fmi2SetReal + fmi2DoStep per step (outputs are kept in memory and printed after the timed loop).
+ * Optional environment: FMI_MASTER_RESOURCES, the resources URI passed to fmi2Instantiate (default ""), and
+ * FMI_MASTER_PRELOAD, a library loaded with RTLD_GLOBAL first (libpython, for a pythonfmu FMU in
+ * benchmarks/bench_fmu.py; a native FMU needs neither). */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
 #include <stdio.h>
@@ -34,6 +37,11 @@ static void logger(void *env, const char *name, int status, const char *cat, con
 int main(int argc, char **argv) {
     /* usage: master LIB GUID NSTEPS STEP NIN NOUT vr_in... vr_out... then per step NIN input values on stdin */
     if (argc < 7) return 2;
+    const char *pre = getenv("FMI_MASTER_PRELOAD");
+    if (pre && !dlopen(pre, RTLD_NOW | RTLD_GLOBAL)) {
+        fprintf(stderr, "dlopen %s: %s\n", pre, dlerror());
+        return 2;
+    }
     void *lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
     if (!lib) {
         fprintf(stderr, "dlopen: %s\n", dlerror());
@@ -62,7 +70,8 @@ int main(int argc, char **argv) {
     for (int i = 0; i < nin; ++i) vin[i] = (unsigned)atoi(argv[7 + i]);
     for (int i = 0; i < nout; ++i) vout[i] = (unsigned)atoi(argv[7 + nin + i]);
     callbacks_t cb = {logger, calloc, free, NULL, NULL};
-    comp_t c = inst("master", 1 /* fmi2CoSimulation */, argv[2], "", &cb, 0, 0);
+    const char *res_uri = getenv("FMI_MASTER_RESOURCES");
+    comp_t c = inst("master", 1 /* fmi2CoSimulation */, argv[2], res_uri ? res_uri : "", &cb, 0, 0);
     if (!c) return 3;
     if (setup(c, 0, 0.0, 0.0, 0, 0.0) || enter(c)) return 4;
     double *all = malloc(sizeof(double) * (size_t)(nsteps > 0 ? nsteps : 1) * (nin > 0 ? nin : 1));
