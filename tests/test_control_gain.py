@@ -167,14 +167,30 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
     paths = cached_dataset(weeks=12, seed=0, effects=["solar_gain:zone=S,facade=S"])
     fmu = export_plant_fmu(paths.truth, tmp_path / "Plant.fmu")
     (week,) = ds.test_weeks()
-    res = {}
-    for name, terms in (("base", ()), ("extended", [SolarGain(zone="S", facade="S")])):
+    res, runs = {}, {}
+    for name, kind, terms in (("base", "zones", ()), ("extended", "control", [SolarGain(zone="S", facade="S")])):
         model = terms_on_base(ds, base, terms)
         ctrl = make_controller("mpc", model, ds.building, {"horizon": 12})
         r = run_cosim(fmu, ds, ctrl, start=week.start, stop=week.start + pd.Timedelta(days=2), model=model)
         assert r.covered and r.summary["controller_stats"]["failures"] == 0
         res[name] = r.summary
+        runs[f"MPC {name} on the plant"] = {"result": r, "kind": kind, "controller": "mpc"}
     b, e = res["base"], res["extended"]
     assert e["comfort_violation_Kh"] < b["comfort_violation_Kh"] - 0.2, (b, e)
     assert e["energy_proxy"] <= b["energy_proxy"]
     assert e["heating_kWh"] <= b["heating_kWh"]
+    # the demo report's section: the numbers are these runs', the figure is drawn
+    from types import SimpleNamespace
+
+    from hvacfmu.cli.demo_report import _section_control_gain
+    from hvacfmu.cli.report import Report
+
+    rep = Report("control gain")
+    found = SimpleNamespace(findings=[{"cause": "solar_gain", "location": {"zone": "S", "facade": "S"}}])
+    _section_control_gain(
+        rep, {"diagnosis": {"report": found, "control_model": model}, "mpc": {"runs": runs}}, tmp_path
+    )
+    saved = b["comfort_violation_Kh"] - e["comfort_violation_Kh"]
+    assert rep.numbers["control_gain.saved_Kh"] == pytest.approx(saved, abs=1e-12)
+    assert rep.numbers["control_gain.runs"]["data"][1][0] == pytest.approx(e["comfort_violation_Kh"], rel=1e-9)
+    assert (tmp_path / "control_gain.png").stat().st_size > 5000
