@@ -51,6 +51,8 @@ DEFAULT_CASES = (
     "1:solar_gain:zone=S,facade=S",
     "2:solar_gain:zone=E,facade=E",
     "0:zone_coupling:zones=W+E",
+    "3:solar_gain:zone=E,facade=E,shgc=0.1",
+    "3:solar_gain:zone=W,facade=W,shgc=0.1",
 )
 
 
