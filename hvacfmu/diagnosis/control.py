@@ -5,8 +5,8 @@ least-squares refit of the base structure. On closed-loop data that refit has a 
 airflow response an order of magnitude below the building's (measured on the emulator's
 plant: −0.09 … −0.15 K per step per kg/s against −1.3 … −1.6 for the plant and −0.43 …
 −0.63 for the fitted Model A), because the airflow follows the zone temperature; its
-steady-state gain is right, so it forecasts well open loop, but an MPC that trusts its
-first steps commands bang-bang moves (README "Control gain of the diagnosis").
+steady-state gain is of the right order, so it forecasts well open loop, but an MPC that
+trusts its first steps commands bang-bang moves (README "Control gain of the diagnosis").
 
 :func:`terms_on_base` keeps the base model's state, input and disturbance matrices
 ``A, B, C`` as they are and re-estimates only the diagnosed terms' coefficients and the
