@@ -17,7 +17,10 @@ flagged first with the missing ``Td_`` columns. Bounds: every kind and zone beat
 lumped and six-zone beat the time-of-week mean everywhere, physics in at least 4 of 6 zones; without
 ``Td`` the six-zone model loses to persistence in at least 4 of 6 zones and physics to the time-of-week
 mean in at least 4. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
-mean in winter: the 10-week export is the one that is asserted.
+mean in winter: the 10-week export is the one that is asserted. Physics' losses are on Mondays (the
+weekend's heat store): with the floor and ceiling slabs declared against the storeys below and above
+(a constant-temperature boundary) instead of adiabatic, its RMS drops in every zone (0.114-0.174 K) and
+it loses to the time-of-week mean by 5 % in NE and C (README "Where physics loses").
 """
 
 from __future__ import annotations
@@ -133,6 +136,7 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     assert all(m == "physics" for m, *_ in tow) and len(tow) <= 2, tow
     assert "WORSE THAN PERSISTENCE" not in ev.stdout
     assert ev.stdout.splitlines()[0].startswith("lumped: beats persistence in 1/1 zones")
+    _floors_against_storeys_beat_adiabatic(export, [r for r in rows if r["model"] == "physics"])
     # logger outages no longer skip most windows (inputs filled up to 2 h, errors on measured steps):
     # both seasons are scored, and the verdict says how many windows it stands on and why the others went
     cov = verdict["coverage"]["zones"]
@@ -169,6 +173,37 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     )
     assert "completed       672 / 672 steps" in run.stdout, run.stdout
     assert "\r" not in run.stderr
+
+
+def _floors_against_storeys_beat_adiabatic(export, adiabatic_rows):
+    """The README's building-file fix: floor and ceiling slabs against the storeys below and above.
+
+    The export declares them adiabatic; the emulated building's slabs face the neighbouring storeys
+    (about 22 °C). Declared against a boundary at a constant temperature (``ground`` with
+    ``[physics].ground_temperature``; the value is absorbed by the fitted constant gains: 20.6 and
+    22 °C give the same RMS to 1e-3 K), physics has a smaller 24-h RMS in every zone (seed 0:
+    0.114-0.174 K against 0.136-0.192 K) and loses to the time-of-week mean by 5 % in NE and C
+    instead of 25 % and 11 %.
+    """
+    bld = export / "building_storeys.toml"
+    text = (export / "building.toml").read_text()
+    assert text.count('side2 = "adiabatic"') == 12, "the walkthrough floor has 6 floor and 6 ceiling slabs"
+    text = text.replace('side2 = "adiabatic"', 'side2 = "ground"')
+    text = "".join(
+        "ground_temperature = 21.0\n" if line.startswith("ground_temperature") else line
+        for line in text.splitlines(True)
+    )
+    bld.write_text(text)
+    data, model = export / "measurements.parquet", export / "physics_storeys.json"
+    hvacfmu("fit", data, "-b", bld, "--model", "physics", "-o", model)
+    hvacfmu("evaluate", data, "-b", bld, "--model", model, "--json", export / "eval_storeys.json")
+    rows = {r["output"]: r for r in _verdict(export / "eval_storeys.json")["zones"]}
+    before = {r["output"]: r for r in adiabatic_rows}
+    assert set(rows) == set(before) and len(rows) == 6
+    worse = [(z, rows[z]["rms"], before[z]["rms"]) for z in rows if not rows[z]["rms"] < before[z]["rms"] - 0.005]
+    assert not worse, worse
+    losing = [z for z in rows if not rows[z]["beats_time_of_week"]]
+    assert len(losing) <= 2 and all(rows[z]["rms"] < 1.1 * rows[z]["time_of_week"] for z in rows), rows
 
 
 def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input(export, tmp_path):
