@@ -6,11 +6,21 @@ climate, °F / CFM / %, naive local timestamps, logger outages, 15-minute trend 
 naive UTC timestamps declared as local must make ``check`` warn with the offset; without the ``Td_``
 columns the verdict must say the models lose and name the missing input.
 
-Measured (8 weeks from 2025-11-03, seed 0; 11 of 14 test windows scored, fall 6 and winter 5, inputs
-filled across gaps up to 2 h): with ``Td`` the 24-h open-loop RMS is 0.13-0.33 K (six-zone) and
-0.18-0.30 K (physics) against persistence 0.59-0.81 K in every zone (lumped 0.19 against 0.67 K);
-without ``Td`` the lumped and six-zone models are worse than persistence everywhere. Bounds: every model and zone beats persistence with ``Td``; without ``Td`` the six-zone
-model loses in at least 4 of 6 zones.
+Measured (10 weeks from 2025-11-03, seed 0, the README's export; 10 of 14 test windows scored, fall 5
+and winter 5, inputs filled across gaps up to 2 h): with ``Td`` the 24-h open-loop RMS is 0.10-0.19 K
+(six-zone) and 0.14-0.19 K (physics) against persistence 0.53-0.90 K in every zone (lumped 0.117 against
+0.642 K); against the time-of-week mean the lumped model wins by 26 %, the six-zone model in every zone
+(by 1 % in C to 45 % in S), physics in 4 of 6 (it loses in NE by 25 % and in C by 11 %: internal gains the
+reheat loops cancel, see README). Without ``Td`` the lumped and six-zone models are worse than persistence
+everywhere (1.9-2.6 K) and physics is worse than the time-of-week mean in 5 of 6 zones; every kind is
+flagged first with the missing ``Td_`` columns. Bounds: every kind and zone beats persistence with ``Td``;
+lumped and six-zone beat the time-of-week mean everywhere, physics in at least 4 of 6 zones; without
+``Td`` the six-zone model loses to persistence in at least 4 of 6 zones and physics to the time-of-week
+mean in at least 4. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
+mean in winter: the 10-week export is the one that is asserted. Physics' losses are on Mondays (the
+weekend's heat store): with the floor and ceiling slabs declared against the storeys below and above
+(a constant-temperature boundary) instead of adiabatic, its RMS drops in every zone (0.114-0.174 K) and
+it loses to the time-of-week mean by 5 % in NE and C (README "Where physics loses").
 """
 
 from __future__ import annotations
@@ -41,7 +51,7 @@ EXPORT = [
     "--start",
     "2025-11-03",
     "--weeks",
-    "8",
+    "10",
     "--export-step",
     "900",
     "--seed",
@@ -113,14 +123,20 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
         fit = hvacfmu("fit", data, "-b", bld, "--model", kind, "-o", export / f"{kind}.json")
         assert "\r" not in fit.stderr  # Model B's progress is log lines when stderr is a pipe
         models += ["--model", export / f"{kind}.json"]
+        if kind != "physics":  # the delivered-heat form is refined for 24-h prediction, and says so
+            assert "refined for 24-h open-loop prediction (delivered heat" in fit.stdout, fit.stdout[-1500:]
     ev = hvacfmu("evaluate", data, "-b", bld, *models, "--json", export / "eval.json")
     verdict = _verdict(export / "eval.json")
     rows = verdict["zones"]
     assert {r["model"] for r in rows} == {"lumped", "zones", "physics"} and len(rows) == 13
     losing = [(r["model"], r["output"], r["rms"], r["persistence"]) for r in rows if r["rms"] >= r["persistence"]]
     assert not losing, losing
+    # the time-of-week mean too: the Model A kinds in every zone; physics in at least 4 of 6 (see the docstring)
+    tow = [(r["model"], r["output"], r["rms"], r["time_of_week"]) for r in rows if not r["beats_time_of_week"]]
+    assert all(m == "physics" for m, *_ in tow) and len(tow) <= 2, tow
     assert "WORSE THAN PERSISTENCE" not in ev.stdout
     assert ev.stdout.splitlines()[0].startswith("lumped: beats persistence in 1/1 zones")
+    _floors_against_storeys_beat_adiabatic(export, [r for r in rows if r["model"] == "physics"])
     # logger outages no longer skip most windows (inputs filled up to 2 h, errors on measured steps):
     # both seasons are scored, and the verdict says how many windows it stands on and why the others went
     cov = verdict["coverage"]["zones"]
@@ -159,17 +175,59 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     assert "\r" not in run.stderr
 
 
+def _floors_against_storeys_beat_adiabatic(export, adiabatic_rows):
+    """The README's building-file fix: floor and ceiling slabs against the storeys below and above.
+
+    The export declares them adiabatic; the emulated building's slabs face the neighbouring storeys
+    (about 22 °C). Declared against a boundary at a constant temperature (``ground`` with
+    ``[physics].ground_temperature``; the value is absorbed by the fitted constant gains: 20.6 and
+    22 °C give the same RMS to 1e-3 K), physics has a smaller 24-h RMS in every zone (seed 0:
+    0.114-0.174 K against 0.136-0.192 K) and loses to the time-of-week mean by 5 % in NE and C
+    instead of 25 % and 11 %.
+    """
+    bld = export / "building_storeys.toml"
+    text = (export / "building.toml").read_text()
+    assert text.count('side2 = "adiabatic"') == 12, "the walkthrough floor has 6 floor and 6 ceiling slabs"
+    text = text.replace('side2 = "adiabatic"', 'side2 = "ground"')
+    text = "".join(
+        "ground_temperature = 21.0\n" if line.startswith("ground_temperature") else line
+        for line in text.splitlines(True)
+    )
+    bld.write_text(text)
+    data, model = export / "measurements.parquet", export / "physics_storeys.json"
+    hvacfmu("fit", data, "-b", bld, "--model", "physics", "-o", model)
+    hvacfmu("evaluate", data, "-b", bld, "--model", model, "--json", export / "eval_storeys.json")
+    rows = {r["output"]: r for r in _verdict(export / "eval_storeys.json")["zones"]}
+    before = {r["output"]: r for r in adiabatic_rows}
+    assert set(rows) == set(before) and len(rows) == 6
+    worse = [(z, rows[z]["rms"], before[z]["rms"]) for z in rows if not rows[z]["rms"] < before[z]["rms"] - 0.005]
+    assert not worse, worse
+    losing = [z for z in rows if not rows[z]["beats_time_of_week"]]
+    assert len(losing) <= 2 and all(rows[z]["rms"] < 1.1 * rows[z]["time_of_week"] for z in rows), rows
+
+
 def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input(export, tmp_path):
     frame = pd.read_parquet(export / "measurements.parquet")
     frame.drop(columns=[c for c in frame.columns if c.startswith("Td_")]).to_parquet(tmp_path / "m.parquet")
     data, bld = tmp_path / "m.parquet", export / "building.toml"
     models = []
-    for kind in ("lumped", "zones"):
+    for kind in ("lumped", "zones", "physics"):
         hvacfmu("fit", data, "-b", bld, "--model", kind, "-o", tmp_path / f"{kind}.json")
         models += ["--model", tmp_path / f"{kind}.json"]
     ev = hvacfmu("evaluate", data, "-b", bld, *models, "--json", tmp_path / "eval.json")
-    first = ev.stdout.splitlines()[:2]
+    first = ev.stdout.splitlines()[:3]
     assert first[0].startswith("!! lumped: beats persistence in 0/1") and first[1].startswith("!! zones:"), first
+    # every kind is flagged on its first line, with the missing input named there
+    assert first[2].startswith("!! physics:"), first
+    assert all("missing input: Td_VAV_NW_1, Td_VAV_NW_2, Td_VAV_NW_3, Td_VAV_W_1 and 17 more" in f for f in first)
+    # physics still beats persistence without Td (its RC structure keeps the sign of the heat right) but loses
+    # to the time-of-week mean, and the verdict says so
+    verdict = _verdict(tmp_path / "eval.json")
+    phys = [r for r in verdict["zones"] if r["model"] == "physics"]
+    assert sum(not r["beats_time_of_week"] for r in phys) >= 4, phys
+    assert "!! physics: WORSE THAN THE TIME-OF-WEEK MEAN in " in ev.stdout
+    assert set(verdict["missing_inputs"]) == {"lumped", "zones", "physics"}
+    assert verdict["likely_causes"]["physics"][0].startswith("missing input: the boxes reheat"), verdict
     zones = [r for r in _verdict(tmp_path / "eval.json")["zones"] if r["model"] == "zones"]
     assert sum(r["rms"] > r["persistence"] for r in zones) >= 4, zones
     causes = _verdict(tmp_path / "eval.json")["likely_causes"]["zones"]

@@ -28,11 +28,12 @@ def _prepare(weeks):
 def test_reheat_data_delivered_model_beats_baselines():
     """16 weeks fall-spring, two air handlers, reheat at minimum airflow; 24-hour open-loop RMS per zone.
 
-    Measured here: Model A with Td 0.24 K mean (fall 0.21, winter 0.22, spring 0.29), persistence 1.02 K,
-    time-of-week mean 0.28 K. Against time-of-week it wins 22 of 24 zone-season cells; it loses winter NE
-    (0.145 against 0.136 K) and ties winter C (0.111 against 0.112 K).
+    Measured here: Model A with Td 0.18 K mean (fall 0.18, winter 0.14, spring 0.22), persistence 1.02 K,
+    time-of-week mean 0.28 K; against time-of-week it wins all 24 zone-season cells, by 7 % (fall NE) to
+    59 % (winter S). Before the delivered form was refined for 24-h prediction by default (the training weeks
+    hold airflow experiments): 0.24 K, losing winter NE (0.145 against 0.136 K) and tying winter C.
     Bounds: below persistence by at least 30 % in every zone and season; below time-of-week in every zone
-    over all seasons and in every season's mean.
+    and season.
     Also measured, and stated rather than asserted as a loss: the airflow form without the Td columns
     reaches 0.25 K on these data; the delivered form must not be worse than it.
     """
@@ -53,7 +54,7 @@ def test_reheat_data_delivered_model_beats_baselines():
     pers = res.table("Td", which="persistence").loc[rms.index, rms.columns]
     assert np.all(rms.to_numpy() < 0.7 * pers.to_numpy()), (rms, pers)
     tow = res.table("Td", which="time-of-week mean").loc[rms.index, rms.columns]
-    assert np.all(rms.loc["all"] < tow.loc["all"]) and np.all(rms["mean"] < tow["mean"]), (rms, tow)
+    assert np.all(rms.to_numpy() < tow.to_numpy()), (rms, tow)
     assert rms.loc["all", "mean"] <= res.table("no Td").loc["all", "mean"] + 1e-3
 
 

@@ -126,3 +126,28 @@ def test_report_mpc_numbers_match_saved_runs(demo_out):
         assert match, f"no saved run matches the report's energy proxy of {label!r}"
         assert_allclose(row["comfort violation [K·h]"], match[0]["comfort_violation_Kh"], rtol=0, atol=1e-9)
         assert row["steps"] == f"{match[0]['steps_completed']}/{match[0]['steps_requested']}"
+
+
+def test_report_control_gain_is_the_saved_runs(demo_out):
+    """The control gain section: Model A's plant run against Model A + the diagnosed terms, numbers from the runs."""
+    from hvacfmu.models import load_model
+
+    out, _ = demo_out
+    numbers = json.loads((out / "report_numbers.json").read_text())
+    findings = json.loads((out / "results" / "diagnosis.json").read_text())["findings"]
+    if not findings:  # nothing diagnosed: no control model, no section
+        assert not (out / "models" / "extended_control.json").exists() and "control_gain.runs" not in numbers
+        return
+    control = load_model(out / "models" / "extended_control.json")
+    extended = load_model(out / "models" / "extended.json")
+    assert [t.location() for t in control.terms] == [t.location() for t in extended.terms]
+    zones = load_model(out / "models" / "zones.json")
+    assert_allclose(control.base.A, zones.A, rtol=0, atol=0)  # Model A's own dynamics
+    runs = _table(numbers, "control_gain.runs")
+    assert len(runs) == 2 and all("plant" in k for k in runs)
+    (b, e) = runs.values()
+    assert_allclose(numbers["control_gain.saved_Kh"], b["comfort violation [K·h]"] - e["comfort violation [K·h]"])
+    mpc = _table(numbers, "mpc.runs")
+    for label, row in runs.items():
+        assert_allclose(row["comfort violation [K·h]"], mpc[label]["comfort violation [K·h]"], rtol=0, atol=1e-12)
+    assert (out / "figures" / "control_gain.png").stat().st_size > 5000

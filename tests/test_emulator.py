@@ -1157,8 +1157,9 @@ def test_dual_maximum_winter_data_need_the_discharge_temperatures():
     """Issue 13's trap, reproduced: on dual-maximum reheat data in a cold winter the six-zone model beats
     persistence with the Td columns and loses to it without them (more air looks like more cooling).
 
-    Measured (10 weeks from 2025-11-03, cold climate, seed 0): with Td 0.17-0.30 K against persistence
-    0.57-0.95 K in every zone; without Td 1.38-1.58 K, worse than persistence in 6/6 zones.
+    Measured (10 weeks from 2025-11-03, cold climate, seed 0): with Td 0.11-0.20 K against persistence
+    0.63-0.89 K in every zone (0.17-0.30 K before the delivered form was refined for 24-h prediction by
+    default); without Td 1.38-1.58 K, worse than persistence in 6/6 zones.
     Bounds: with Td below 0.7 x persistence in every zone; without Td worse than persistence in >= 4 zones.
     """
     import warnings

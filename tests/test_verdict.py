@@ -215,3 +215,45 @@ def test_season_causes_need_a_drift():
     assert season_causes(score(noise), dataclasses.replace(sv, rms=1.0)) == []
     one_week = season_causes(score(noise), dataclasses.replace(sv, rms=1.0, n_weeks=1))
     assert len(one_week) == 1 and "one held-out week" in one_week[0]
+
+
+def test_missing_discharge_air_is_said_first_when_a_model_loses_without_it(truth, frame, building):
+    """Boxes report reheat (``rh_``) but no discharge air (``Td_``): a losing model is flagged on its first
+    line with the missing columns, and the missing input is the first likely cause (text and JSON)."""
+    weak = dataclasses.replace(truth, B=truth.B * 1e-5)  # blind to the airflow: loses to persistence
+    f = frame.copy()
+    for v in building.vav_names:
+        f[f"rh_{v}"] = 0.0
+    res = evaluate(weak, _dataset(f, building))
+    v = res.verdict
+    assert v.missing["zones"] == [f"Td_{b}" for b in building.vav_names]
+    text = res.format().splitlines()
+    assert text[0].startswith("!! zones:") and text[0].endswith(
+        "; missing input: Td_V_NW_0, Td_V_NW_1, Td_V_W_0, Td_V_W_1 and 8 more not measured (discharge air unknown)"
+    ), text[0]
+    assert any(t.startswith("!! zones: the discharge air temperatures (Td_V_NW_0") for t in text), text
+    assert v.causes["zones"][0].startswith("missing input: the boxes reheat (rh_ columns)"), v.causes
+    d = res.to_dict()["verdict"]
+    assert d["missing_inputs"]["zones"][0] == "Td_V_NW_0" and d["likely_causes"]["zones"][0].startswith("missing")
+    # the true model wins without Td on the same data: no flag (a missing column alone is no verdict)
+    assert not evaluate(truth, _dataset(f, building)).verdict.missing
+    # with the Td columns in the data, nothing is missing (an unused Td is named by correlation instead)
+    for b in building.vav_names:
+        f[f"Td_{b}"] = 20.0
+    assert not evaluate(weak, _dataset(f, building)).verdict.missing
+
+
+def test_a_model_worse_than_the_time_of_week_mean_without_td_says_so():
+    from hvacfmu.evaluation.verdict import Verdict, ZoneVerdict
+
+    zones = (
+        ZoneVerdict("physics", "NW", 0.25, 0.53, 0.24, 0.1, 1.0, 100),
+        ZoneVerdict("physics", "S", 0.32, 0.90, 0.35, 0.1, 1.0, 100),
+    )
+    v = Verdict(zones=zones, causes={"physics": ["missing input: ..."]}, missing={"physics": ["Td_A", "Td_B"]})
+    lines = v.format().splitlines()
+    assert lines[0].startswith("!! physics: beats persistence in 2/2 zones, the time-of-week mean in 1/2")
+    assert lines[0].endswith("; missing input: Td_A, Td_B not measured (discharge air unknown)")
+    assert lines[1] == "!! physics: WORSE THAN THE TIME-OF-WEEK MEAN in NW 0.250 K against 0.240 K"
+    assert lines[2].startswith("!! physics: the discharge air temperatures (Td_A, Td_B) are not measured")
+    assert lines[4] == "   - missing input: ..."

@@ -147,7 +147,7 @@ class AffinePredictor:
             L = np.zeros((N, r, N, r))
             for k in range(1, N):
                 # L[k, m] = Θ_k Q_{k-1-m}, m = 0..k-1
-                L[k, :, :k, :] = np.moveaxis(np.einsum("an,jnb->jab", theta[k], Q[k - 1 :: -1][:k]), 0, 1)
+                L[k, :, :k, :] = np.moveaxis(theta[k] @ Q[k - 1 :: -1][:k], 0, 1)
             Lm = np.eye(N * r) - L.reshape(N * r, N * r)
             Bm = np.linalg.solve(Lm, Bm)  # (scipy's solve_triangular is ~100x slower at this size)
         return H @ Bm
@@ -315,6 +315,43 @@ class LinearPredictor(AffinePredictor):
     def step(self, x, u, v, q):
         return self._offset(self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q)
 
+    def simulate(self, x0, U, V, Qg) -> np.ndarray:
+        """Exact model trajectory X (N+1, nx) for moves U (N, nu): the input terms of all steps at once."""
+        return self.free_trajectory(x0, self.drift(V, Qg) + U @ self.B.T)
+
+    #: largest N*nx for which the trajectory is one product with cached (N nx)-sized matrices
+    LIFTED_MAX = 512
+
+    def free_trajectory(self, x0, W) -> np.ndarray:
+        """Trajectory of ``x+ = A x + w`` (N+1, nx): ``[x0; Φ x0 + Γ vec(W)]`` for small ``N nx``
+        (``Φ = [A; ...; A^N]``, ``Γ`` block lower triangular of powers of A), the recursion otherwise."""
+        N, nx = W.shape[0], self.nx
+        if N * nx > self.LIFTED_MAX:
+            return super().free_trajectory(x0, W)
+        key = ("lifted", N)
+        if key not in self._markov:
+            Q, _ = self.markov(N + 1)  # Q_j = A^j (basis = I)
+            Phi = Q[1:].reshape(N * nx, nx)
+            Gam = np.zeros((N, nx, N, nx))
+            for i in range(N):
+                for j in range(i + 1):
+                    Gam[i, :, j, :] = Q[i - j]
+            self._markov[key] = (Phi, Gam.reshape(N * nx, N * nx))
+        Phi, Gam = self._markov[key]
+        X = np.empty((N + 1, nx))
+        X[0] = x0
+        X[1:] = (Phi @ x0 + Gam @ W.ravel()).reshape(N, nx)
+        return X
+
+    def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):
+        """Prediction ``Y = y0 + G U_b`` (see :meth:`AffinePredictor.affine_prediction`; exact, G cached)."""
+        N = V.shape[0]
+        key = (N, tuple(lengths))
+        if key not in self._G:
+            self._G[key] = AffinePredictor.sensitivity(self, np.broadcast_to(self.B, (N,) + self.B.shape), lengths)
+        Xf = self.free_trajectory(x0, self.drift(V, Qg))
+        return (Xf[1:] @ self.C.T).ravel(), self._G[key]
+
     def sensitivity(self, beta, lengths, theta=None):
         key = (beta.shape[0], tuple(lengths))
         if key not in self._G:  # constant: built once per horizon and blocking
@@ -407,14 +444,18 @@ class BilinearPredictor(AffinePredictor):
             W = W + self._switch_terms(np.zeros((V.shape[0], self.nu)) if Ubar is None else Ubar, V)
         return self._offset(W)
 
+    # contractions as matrix products (BLAS; einsum without path optimisation was 5-10x slower here)
     def beta(self, Xbar, V):
-        return self.PtBu[None] + np.einsum("irn,kn->kri", self.PtBxu, Xbar) + np.einsum("irv,kv->kri", self.PtBvu, V)
+        nu, r = self.nu, self.r
+        xt = (self.PtBxu.reshape(nu * r, -1) @ Xbar.T).reshape(nu, r, -1)
+        vt = (self.PtBvu.reshape(nu * r, -1) @ V.T).reshape(nu, r, -1)
+        return self.PtBu[None] + (xt + vt).transpose(2, 1, 0)
 
     def theta(self, Ubar):
-        return np.einsum("ki,irn->krn", Ubar, self.PtBxu)
+        return (Ubar @ self.PtBxu.reshape(self.nu, -1)).reshape(Ubar.shape[0], self.r, self.nx)
 
     def step(self, x, u, v, q):
-        bu = self.PtBu + np.einsum("irn,n->ri", self.PtBxu, x) + np.einsum("irv,v->ri", self.PtBvu, v)
+        bu = self.PtBu + (self.PtBxu @ x + self.PtBvu @ v).T
         out = self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
         if self.switches:
             out = out + self._switch_terms(np.asarray(u, dtype=float), np.asarray(v, dtype=float))

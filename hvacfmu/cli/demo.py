@@ -9,7 +9,8 @@ Stages (each timed and shown as it runs):
 5. diagnose  what the six-zone model gets wrong, the cause, the extension and its gain;
 6. export    one FMU per model (and the emulator plant), validated with FMPy;
 7. mpc       a closed-loop MPC week for both models through the FMPy harness,
-             against each model's own FMU and against the emulator plant;
+             against each model's own FMU and against the emulator plant, and on the
+             plant with the diagnosed terms on Model A (the control gain of the diagnosis);
 8. report    ``report.html`` / ``report.md`` with PNG figures.
 
 Every number in the report comes from the objects these stages return; the
@@ -265,12 +266,17 @@ def _stage_evaluate(out, ds, r):
 
 def _stage_diagnose(out, ds, r):
     from ..diagnosis import diagnose
+    from ..diagnosis.control import terms_on_base
 
     base = r["model_a"]["zones"]["model"]
     rep = diagnose(ds, model=base, plots=None, progress=False)
     rep.save_json(out / "results" / "diagnosis.json")
     path = rep.model.save(out / "models" / "extended.json")
-    return {"report": rep, "path": path}
+    res = {"report": rep, "path": path}
+    if rep.findings:  # the found terms on Model A's own dynamics: the model the MPC stage controls with
+        res["control_model"] = terms_on_base(ds, base, rep.model.terms, meta={"name": "extended (control)"})
+        res["control_path"] = res["control_model"].save(out / "models" / "extended_control.json")
+    return res
 
 
 def _stage_export(out, r):
@@ -314,6 +320,10 @@ def _stage_mpc(out, ds, r, horizon):
         for kind in ("zones", "physics"):
             if kind in models:
                 runs.append((f"MPC {label(kind)} on the plant", plant, "mpc", kind))
+        control = (r.get("diagnosis") or {}).get("control_model")
+        if control is not None and "zones" in models:  # the control gain of the diagnosis (issue 18 p.5)
+            models = {**models, "control": {"model": control}}
+            runs.append((f"MPC {label('zones')} + diagnosed terms on the plant", plant, "mpc", "control"))
     for run_label, fmu, ctrl, kind in runs:
         model = models[kind]["model"] if kind else None
         options = {"horizon": horizon} if ctrl == "mpc" else {}

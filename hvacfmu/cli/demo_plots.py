@@ -86,3 +86,31 @@ def plot_mpc(runs, measured, zones, vavs_of_zone, path_temp, path_flow, band=(20
         fig.autofmt_xdate()
         paths.append(save_figure(plt, fig, path, dpi=100))
     return tuple(paths)
+
+
+def plot_control_gain(rows: dict, path, title: str) -> Path:
+    """Base against extended MPC on the plant: one bar panel per figure (comfort, fan/cooling, reheat).
+
+    Parameters
+    ----------
+    rows : dict label -> dict with ``"comfort violation [K·h]"``, ``"energy proxy Σu² [(kg/s)²]"``,
+        ``"reheat [kWh]"``
+    path : path of the PNG
+    title : str
+    """
+    metrics = ("comfort violation [K·h]", "energy proxy Σu² [(kg/s)²]", "reheat [kWh]")
+    plt, fig, axes, panels = panel_grid(len(metrics), len(metrics), (3.2, 3.0))
+    labels = list(rows)
+    colors = ["tab:blue", "tab:green", "tab:orange", "tab:red"]
+    for ax, mname in zip(panels, metrics):
+        vals = [float(rows[k][mname]) for k in labels]
+        ax.bar(range(len(labels)), vals, color=colors[: len(labels)])
+        for i, v in enumerate(vals):
+            ax.annotate(f"{v:.1f}", (i, v), ha="center", va="bottom", fontsize="small")
+        short = [lab.removeprefix("MPC ").removesuffix(" on the plant").replace(" + ", "\n+ ") for lab in labels]
+        ax.set_xticks(range(len(labels)), short, fontsize="x-small")
+        ax.margins(y=0.12)
+        ax.set_title(mname, fontsize="medium")
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle(title, fontsize="medium")
+    return save_figure(plt, fig, path, dpi=100)

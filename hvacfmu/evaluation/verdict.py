@@ -9,8 +9,12 @@ For each model and output (zone) over all evaluated windows:
   of measured and predicted temperature over every window step, relative to the mean
   measured temperature [°C] (so they read small for temperatures), with the Guideline's
   calibration thresholds for hourly data: |NMBE| <= 10 % and CV(RMSE) <= 30 %;
-- when the model is worse than persistence in a zone, the **likely causes the data can
-  test**: measured columns the model does not use that explain its residuals (``Td_*``
+- when the data lack an input the building needs (``Td_<vav>`` of boxes that report reheat,
+  ``rh_<vav>``) and a model without it loses to either baseline in a zone, the verdict flags the
+  model (``!!``), names the missing columns on its first line and says it is worse than the
+  time-of-week mean where it is (:attr:`Verdict.missing`);
+- when the model is worse than persistence in a zone (or in the case above), the **likely causes the data can
+  test** (a missing input first): measured columns the model does not use that explain its residuals (``Td_*``
   discharge temperatures, ``rh_*`` reheat, ...), sparse columns, an airflow gain too small
   to be identified from closed-loop data, a LOESS bandwidth at the edge of its grid, and
   clock or unit warnings from loading.
@@ -156,6 +160,9 @@ class Verdict:
     coverage: dict = dataclasses.field(default_factory=dict)
     #: per model, output and season (:class:`SeasonVerdict`)
     seasons: tuple = ()
+    #: model -> measured-input columns the data lack although the building needs them (``Td_<vav>`` of boxes
+    #: that reheat), for models that lose to a baseline without them
+    missing: dict = dataclasses.field(default_factory=dict)
 
     def losing(self, model: str | None = None) -> list:
         """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
@@ -173,7 +180,7 @@ class Verdict:
         t = sum(z.beats_time_of_week for z in mine)
         c = sum(z.calibrated for z in mine)
         lost = self.losing_seasons(model)
-        flag = "!! " if p < n or lost else ""
+        flag = "!! " if p < n or lost or self.missing.get(model) else ""
         cov = self.coverage.get(model)
         on = ""
         if cov and cov["skipped"]:  # say what the verdict stands on when windows were skipped
@@ -185,10 +192,27 @@ class Verdict:
             seasons = (
                 f"; worse than persistence in a season in {zs}/{n} ({', '.join(sorted({v.season for v in lost}))})"
             )
+        missing = ""
+        if self.missing.get(model):
+            missing = f"; missing input: {_names(self.missing[model])} not measured (discharge air unknown)"
         return (
             f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
-            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}{seasons}"
+            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}{seasons}{missing}"
         )
+
+    def missing_lines(self) -> list[str]:
+        """``!!`` lines of the models that lose to a baseline without an input the building needs."""
+        out = []
+        for model, cols in self.missing.items():
+            worse = [z for z in self.zones if z.model == model and z.beats_persistence and not z.beats_time_of_week]
+            if worse:
+                rms = ", ".join(f"{z.output} {z.rms:.3f} K against {z.time_of_week:.3f} K" for z in worse)
+                out.append(f"!! {model}: WORSE THAN THE TIME-OF-WEEK MEAN in {rms}")
+            out.append(
+                f"!! {model}: the discharge air temperatures ({_names(cols)}) are not measured, so the heat the "
+                "boxes deliver is unknown: the likely cause (see below)"
+            )
+        return out
 
     def thin(self, model: str) -> str:
         """A warning when most test windows were skipped or a test season has none scored, else ''."""
@@ -237,6 +261,7 @@ class Verdict:
                 f"!! {v.model}: WORSE THAN PERSISTENCE in {v.output} in {v.season}: {v.rms:.3f} K against "
                 f"{v.persistence:.3f} K ({-100 * v.margin():.0f} % worse; {v.n_windows} windows, {week})"
             )
+        lines += self.missing_lines()
         thin: dict = {}  # models with the same windows share one line
         for m in names:
             if self.thin(m):
@@ -268,6 +293,7 @@ class Verdict:
             "zones": [z.to_dict() for z in self.zones],
             "seasons": [v.to_dict() for v in self.seasons],
             "likely_causes": {k: list(v) for k, v in self.causes.items()},
+            "missing_inputs": {k: list(v) for k, v in self.missing.items()},
             "coverage": {k: dict(v) for k, v in self.coverage.items()},
             "thresholds": {
                 "nmbe_percent": G14_NMBE_MAX,
@@ -301,7 +327,7 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
 def make_verdict(scores, models, dataset) -> Verdict:
     """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
     zones, seasons = [], []
-    causes, coverage = {}, {}
+    causes, coverage, missing = {}, {}, {}
     for sc, model in zip(scores, models):
         if not sc.starts:
             continue
@@ -312,13 +338,17 @@ def make_verdict(scores, models, dataset) -> Verdict:
         coverage[sc.name] = _coverage(sc, dataset)
         losing = [z.output for z in mine if not z.beats_persistence]
         lost = [v for v in per_season if not v.beats_persistence]
+        absent = missing_discharge_columns(model, dataset)
+        if absent and any(not (z.beats_persistence and z.beats_time_of_week) for z in mine):
+            missing[sc.name] = absent
+            losing += [z.output for z in mine if z.beats_persistence and not z.beats_time_of_week]
         if losing or lost:
             by_season = [c for v in lost for c in season_causes(sc, v)]
             general = likely_causes(model, sc, dataset, list(dict.fromkeys(losing + [v.output for v in lost])))
             if by_season and general[-1].startswith("none of the cheap checks fired"):
                 general = general[:-1]
             causes[sc.name] = general + by_season
-    return Verdict(zones=tuple(zones), causes=causes, coverage=coverage, seasons=tuple(seasons))
+    return Verdict(zones=tuple(zones), causes=causes, coverage=coverage, seasons=tuple(seasons), missing=missing)
 
 
 def _zone_verdicts(sc) -> list:
@@ -383,8 +413,9 @@ _LOADING_CAUSES = ("clock", "offset", "its unit", "the unit", "look like", "time
 
 
 def likely_causes(model, score, dataset, losing) -> list[str]:
-    """Causes the data can test for a model worse than persistence in the outputs ``losing``."""
-    out = []
+    """Causes the data can test for a model worse than persistence (or, without an input the building
+    needs, worse than the time-of-week mean) in the outputs ``losing``; a missing input comes first."""
+    out = _missing_discharge(model, dataset)  # first: without it the other checks read a model of the wrong heat
     out += _unused_columns(model, score, dataset, losing)
     out += _sparse_columns(model, score, dataset)
     out += _airflow_gain(model, dataset)
@@ -479,18 +510,30 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
                 f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
                 f"({r_txt}): the model does not see it{_column_hint(c)}"
             )
-    return found + _missing_discharge(model, dataset)
+    return found
+
+
+def missing_discharge_columns(model, dataset) -> list[str]:
+    """``Td_<vav>`` of the boxes whose reheat is measured (``rh_<vav>``) but whose discharge air is not
+    (empty when the model uses a ``Td_`` column or no box reports reheat)."""
+    if any(str(c).startswith("Td_") for c in _used_columns(model)):
+        return []
+    columns = set(dataset.frame.columns)
+    return [f"Td_{v}" for v in dataset.building.vav_names if f"rh_{v}" in columns and f"Td_{v}" not in columns]
+
+
+def _names(cols) -> str:
+    """The first four column names and how many more."""
+    cols = list(cols)
+    return ", ".join(cols[:4]) + (f" and {len(cols) - 4} more" if len(cols) > 4 else "")
 
 
 def _missing_discharge(model, dataset) -> list[str]:
     """Boxes whose reheat is measured (``rh_<vav>``) but whose discharge air temperature is not."""
-    if any(str(c).startswith("Td_") for c in _used_columns(model)):
+    cols = missing_discharge_columns(model, dataset)
+    if not cols:
         return []
-    columns = set(dataset.frame.columns)
-    boxes = [v for v in dataset.building.vav_names if f"rh_{v}" in columns and f"Td_{v}" not in columns]
-    if not boxes:
-        return []
-    names = ", ".join(f"Td_{v}" for v in boxes[:4]) + (f" and {len(boxes) - 4} more" if len(boxes) > 4 else "")
+    names = _names(cols)
     return [
         f"missing input: the boxes reheat (rh_ columns) but the data hold no discharge air temperature "
         f"({names}): the heat a box delivers is m·cp·(Td − T_zone), and without Td more air looks like "

@@ -260,6 +260,13 @@ class LinearZoneModel(ZoneModel):
         bw = (self.meta.get("smoothing") or {}).get("bandwidth_h")
         if bw:
             lines.append("LOESS bandwidths [h]: " + ", ".join(f"{k}={v:g}" for k, v in bw.items()))
+        ol = self.meta.get("open_loop") or {}
+        if ol.get("used") and "rms_before" in ol:
+            lines.append(
+                f"refined for 24-h open-loop prediction ({ol.get('why', '')}): training RMS "
+                f"{ol['rms_before']:.3f} -> {ol['rms_after']:.3f} K on {ol.get('windows', '?')} windows"
+                + (f", {ol['seconds']:g} s" if "seconds" in ol else "")
+            )
         for k in ("data_sha256", "fit_time", "fit_seconds"):
             if k in self.meta:
                 lines.append(f"{k}: {self.meta[k]}")
