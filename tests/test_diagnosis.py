@@ -634,10 +634,15 @@ def test_cli_diagnose_then_evaluate(solar_case, tmp_path):
         str(tmp_path / "r.json"),
         "-o",
         str(out),
+        "--control-output",
+        str(tmp_path / "control.json"),
     ]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "solar_gain" in r.stdout and "Verdict: found" in r.stdout
+    control, base = json.loads((tmp_path / "control.json").read_text()), json.loads((folder / "base.json").read_text())
+    assert control["kind"] == "extended" and [t["cause"] for t in control["terms"]] == ["solar_gain"]
+    assert control["base"]["A"] == base["A"] and control["base"]["B"] == base["B"]
     assert json.loads((tmp_path / "r.json").read_text())["findings"][0]["location"] == {"zone": "A", "facade": "S"}
     saved = json.loads(out.read_text())
     assert saved["kind"] == "extended" and saved["terms"][0]["cause"] == "solar_gain"

@@ -191,6 +191,16 @@ def _cmd_diagnose(args):
     if args.output:
         report.model.save(args.output)
         print(f"saved extended model to {args.output}")
+    if args.control_output:
+        from ..diagnosis.control import terms_on_base
+
+        terms = report.model.terms if report.findings else ()
+        control = terms_on_base(dataset, report.base_model, terms, meta={"name": "extended (control)"})
+        control.save(args.control_output)
+        print(
+            f"saved the model to control with to {args.control_output}: the {len(terms)} found term(s) refitted on "
+            "the base model's own dynamics (README 'Control gain of the diagnosis')"
+        )
     return 0
 
 
@@ -439,6 +449,12 @@ def _add_diagnose_parser(sub) -> None:
     p.add_argument("--json", help="write the report as JSON")
     p.add_argument("--plots", help="folder for diagnostic figures")
     p.add_argument("--output", "-o", help="write the extended model (JSON)")
+    p.add_argument(
+        "--control-output",
+        help="write the found terms refitted on the base model's own dynamics (JSON): the model for "
+        "`cosim --controller mpc`; the one-step refit of --output forecasts well but has too small a "
+        "first-step airflow response to control with",
+    )
     p.set_defaults(func=_cmd_diagnose)
 
 
