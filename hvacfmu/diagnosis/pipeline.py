@@ -72,13 +72,9 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
 
     # --- residuals of the base model -------------------------------------------------
     ctx = R.make_context(sig)
-    r1_base = one_step_residuals(sig, base_model)
     starts, seasons = R.day_starts(sig.index, sig.week, sig.season)
-    rol_base = R.open_loop_residuals(base_model, dataset.frame, starts, seasons, opts["horizon"])
     train_rows = sig.valid & sig.train
-    white_before = {
-        z: R.whiteness(np.where(train_rows, r1_base[:, j], np.nan), sig.step) for j, z in enumerate(sig.zones)
-    }
+    r1_base, rol_base, white_before = _residuals(sig, base_model, dataset, starts, seasons, opts["horizon"], train_rows)
     errors = {
         "one_step": R.breakdown(r1_base, ctx, sig.zones, sig.week >= 0),
         "open_loop": R.breakdown(rol_base, ctx, sig.zones, sig.week >= 0),
@@ -92,11 +88,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     final = _final_model(sel, sig, initial_terms, base_model, dataset, opts)
 
     # --- residuals of the final model ------------------------------------------------------
-    r1_final = one_step_residuals(sig, final)
-    rol_final = R.open_loop_residuals(final, dataset.frame, starts, seasons, opts["horizon"])
-    white_after = {
-        z: R.whiteness(np.where(train_rows, r1_final[:, j], np.nan), sig.step) for j, z in enumerate(sig.zones)
-    }
+    r1_final, rol_final, white_after = _residuals(sig, final, dataset, starts, seasons, opts["horizon"], train_rows)
     after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)
     errors["open_loop_after"] = {"zone": after["zone"], "hour": after["hour"]}
     unexplained = _unexplained(white_after)
@@ -109,11 +101,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         heldout["original_given"] = given  # a base model passed by the caller, or diagnose's own fit
 
     verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
-    fdicts = []
-    for c in findings:
-        d = c.to_dict()
-        d["parameters"] = _params_of(final, c.term)
-        fdicts.append(d)
+    fdicts = [{**c.to_dict(), "parameters": _params_of(final, c.term)} for c in findings]
     cdicts = [c.to_dict() for c in sel.candidates]
     data = _data_summary(dataset, sig, n_train)
     report = DiagnosisReport(
@@ -146,6 +134,14 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         report.plot(plots)
     say(f"done: {report.summary()}")
     return report
+
+
+def _residuals(sig, model, dataset, starts, seasons, horizon, train_rows) -> tuple:
+    """One-step residuals, 24-h open-loop residuals from ``starts`` and per-zone whiteness on the training rows."""
+    r1 = one_step_residuals(sig, model)
+    rol = R.open_loop_residuals(model, dataset.frame, starts, seasons, horizon)
+    white = {z: R.whiteness(np.where(train_rows, r1[:, j], np.nan), sig.step) for j, z in enumerate(sig.zones)}
+    return r1, rol, white
 
 
 def _base_model(dataset, model, say, notes) -> tuple:

@@ -369,10 +369,6 @@ def _fit_physics(
     step = float(dataset.step)
     building = dataset.building
     _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor)
-    if solar is None:
-        solar = bool(getattr(dataset, "has_solar", False))
-    if solar and not getattr(dataset, "has_solar", False):
-        raise FitError("solar=True needs facade irradiance (I_N..I_W) in the data; this dataset has none")
     options = {
         k: v
         for k, v in (
@@ -382,19 +378,10 @@ def _fit_physics(
         )
         if v is not None
     }
-    inlets, notes = _training_inputs(dataset, options, kalman, warmup_hours)
-    spec = parse_physics(building, **{k: v for k, v in options.items() if k != "kalman"})
-    nominal = dict(spec.nominal)
-    start = dict(nominal)
-    if initial:
-        start.update(initial)
-    zero_gains = _zero_gains(dataset, spec)
-    model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options, inlets=inlets)
+    solar, inlets, notes, nominal, start, zero_gains, model = _fit_setup(
+        dataset, solar, options, kalman, warmup_hours, initial
+    )
     template = model._template
-    if solar:
-        missing = [c for c in model.disturbances if c not in dataset.frame.columns]
-        if missing:
-            raise FitError(f"solar=True but the data lack {missing}")
 
     nw = int(model.options["kalman"]["warmup_steps"])
     ns = int(round(segment_hours * 3600 / step))
@@ -419,24 +406,18 @@ def _fit_physics(
     )
     rms = float(np.sqrt(np.mean(r**2)))
 
-    # --- step 2: seasonal time-of-week gains --------------------------------------
-    fitted = PhysicsModel(
-        building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
+    # --- step 2: seasonal time-of-week gains, meta record ------------------------------
+    settings = dict(
+        segment_hours=segment_hours,
+        warmup_hours=warmup_hours,
+        max_segments=max_segments,
+        free_modes=int(free_modes),
+        segment_observer=segment_observer,
+        bound_factor=bound_factor,
+        max_nfev=max_nfev,
+        solar=bool(solar),
     )
-    gains, gain_info = _seasonal_gains(dataset, fitted, f_c, nw)
-    meta = _fit_meta(
-        dataset,
-        t_start,
-        dict(
-            segment_hours=segment_hours,
-            warmup_hours=warmup_hours,
-            max_segments=max_segments,
-            free_modes=int(free_modes),
-            segment_observer=segment_observer,
-            bound_factor=bound_factor,
-            max_nfev=max_nfev,
-            solar=bool(solar),
-        ),
+    record = dict(
         nominal=nominal,
         initial=start,
         estimates=estimates,
@@ -448,11 +429,47 @@ def _fit_physics(
         nw=nw,
         results=results,
         nfev=nfev,
-        gain_info=gain_info,
         n_states=model.n_states,
         inlets=dict(zip(building.vav_names, inlets)),
         notes=notes,
     )
+    return _fit_finish(dataset, model, params, zero_gains, f_c, inlets, solar, t_start, settings, record)
+
+
+def _fit_setup(dataset, solar, options, kalman, warmup_hours, initial):
+    """The model to optimise: the solar choice checked, training inlets, nominal and start parameters, zero gains.
+
+    Returns ``(solar, inlets, notes, nominal, start, zero_gains, model)``.
+    """
+    building = dataset.building
+    if solar is None:
+        solar = bool(getattr(dataset, "has_solar", False))
+    if solar and not getattr(dataset, "has_solar", False):
+        raise FitError("solar=True needs facade irradiance (I_N..I_W) in the data; this dataset has none")
+    inlets, notes = _training_inputs(dataset, options, kalman, warmup_hours)
+    spec = parse_physics(building, **{k: v for k, v in options.items() if k != "kalman"})
+    nominal = dict(spec.nominal)
+    start = dict(nominal)
+    if initial:
+        start.update(initial)
+    zero_gains = _zero_gains(dataset, spec)
+    step = float(dataset.step)
+    model = PhysicsModel(building, start, zero_gains, step=step, solar=solar, options=options, inlets=inlets)
+    if solar:
+        missing = [c for c in model.disturbances if c not in dataset.frame.columns]
+        if missing:
+            raise FitError(f"solar=True but the data lack {missing}")
+    return solar, inlets, notes, nominal, start, zero_gains, model
+
+
+def _fit_finish(dataset, model, params, zero_gains, f_c, inlets, solar, t_start, settings, record):
+    """Step 2 (seasonal time-of-week gains) and the final model with its meta record and plausibility check."""
+    building, step = dataset.building, float(dataset.step)
+    fitted = PhysicsModel(
+        building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
+    )
+    gains, gain_info = _seasonal_gains(dataset, fitted, f_c, record["nw"])
+    meta = _fit_meta(dataset, t_start, settings, gain_info=gain_info, **record)
     final = PhysicsModel(
         building,
         params,
@@ -466,7 +483,7 @@ def _fit_physics(
     )
     meta["plausibility"] = check_physics(final)
     meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
-    log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], rms)
+    log.info("Model B identified in %.1f s, weekend RMS %.3f K", meta["fit_seconds"], record["rms"])
     return final
 
 
