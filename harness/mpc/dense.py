@@ -120,12 +120,9 @@ class DenseQP:
 
     def _set_band(self, y0):
         b, nY = self._band, self.nY
-        if self.p.soft:
-            self.bu[b : b + nY] = self.p.T_max - y0
-            self.bl[b + nY : b + 2 * nY] = self.p.T_min - y0
-        else:
-            self.bu[b : b + nY] = self.p.T_max - y0
-            self.bl[b : b + nY] = self.p.T_min - y0
+        lo = b + nY if self.p.soft else b  # the soft band's lower rows follow its upper rows; a hard band is one row
+        self.bu[b : b + nY] = self.p.T_max - y0
+        self.bl[lo : lo + nY] = self.p.T_min - y0
 
     def _setup(self):
         import daqp

@@ -345,12 +345,8 @@ class LinearPredictor(AffinePredictor):
 
     def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):
         """Prediction ``Y = y0 + G U_b`` (see :meth:`AffinePredictor.affine_prediction`; exact, G cached)."""
-        N = V.shape[0]
-        key = (N, tuple(lengths))
-        if key not in self._G:
-            self._G[key] = AffinePredictor.sensitivity(self, np.broadcast_to(self.B, (N,) + self.B.shape), lengths)
         Xf = self.free_trajectory(x0, self.drift(V, Qg))
-        return (Xf[1:] @ self.C.T).ravel(), self._G[key]
+        return (Xf[1:] @ self.C.T).ravel(), self.sensitivity(self.beta(None, V), lengths)
 
     def sensitivity(self, beta, lengths, theta=None):
         key = (beta.shape[0], tuple(lengths))
