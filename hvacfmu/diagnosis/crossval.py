@@ -99,16 +99,22 @@ def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horiz
     Windows with a missing value are NaN.
     """
     starts = np.asarray(starts, int)
+    U, V, Q = sig.U, _disturbances(sig, model), _gains(sig, model)
+    x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
+    return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[k], V[k], Q[k]))
+
+
+def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> np.ndarray:
+    """RMS over ``horizon`` steps (n_windows, len(zones_idx)) [K] of the states ``advance(x, k, h)`` from ``x`` at
+    rows ``starts`` (``k = starts + h``), the other zones reset to their measurements each step; NaN where a value
+    is missing."""
     zones_idx = list(zones_idx)
     other = [j for j in range(sig.nz) if j not in zones_idx]
-    U, V, Q = sig.U, _disturbances(sig, model), _gains(sig, model)
-    X0 = model.teacher_forced(sig.Y, sig.U)
-    x = X0[starts].copy()
     err2 = np.zeros((len(starts), len(zones_idx)))
     bad = ~np.isfinite(x).all(axis=1)
     for h in range(horizon):
         k = starts + h
-        x = model.step_state(x, U[k], V[k], Q[k])
+        x = advance(x, k, h)
         y = sig.Y[k + 1]
         if other:
             x[:, other] = y[:, other]
@@ -189,24 +195,13 @@ def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
 
 def _simulate_affine(sig: Signals, maps: list, zones_idx, horizon: int) -> list:
     """24-hour RMS of ``zones_idx`` for every fold's windows at once (other zones measured)."""
-    zones_idx = list(zones_idx)
-    other = [j for j in range(sig.nz) if j not in zones_idx]
     M = np.concatenate([a[0] for _, _, a in maps])
     c = np.concatenate([a[1] for _, _, a in maps])
     x = np.concatenate([a[2] for _, _, a in maps])
     starts = np.concatenate([st for _, st, _ in maps])
-    bad = ~np.isfinite(x).all(axis=1)
-    err2 = np.zeros((len(starts), len(zones_idx)))
-    for h in range(horizon):
-        x = np.einsum("wij,wj->wi", M[:, h], x) + c[:, h]
-        y = sig.Y[starts + h + 1]
-        if other:
-            x[:, other] = y[:, other]
-        e = x[:, zones_idx] - y[:, zones_idx]
-        bad |= ~np.isfinite(e).all(axis=1)
-        err2 += np.nan_to_num(e) ** 2
-    rms = np.sqrt(err2 / horizon)
-    rms[bad] = np.nan
+    rms = _rollout_rms(
+        sig, x, starts, zones_idx, horizon, lambda x, k, h: np.einsum("wij,wj->wi", M[:, h], x) + c[:, h]
+    )
     return np.split(rms, np.cumsum([len(st) for _, st, _ in maps])[:-1])
 
 
