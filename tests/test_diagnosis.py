@@ -33,6 +33,7 @@ from hvacfmu.models.causes import Candidate, Term, register_cause, unregister_ca
 from hvacfmu.models.extended import (
     ActuationDelay,
     ExtendedModel,
+    InternalGainSchedule,
     Reheat,
     SolarGain,
     SupplyAirBilinear,
@@ -352,6 +353,45 @@ def test_calendar_term_is_tested_on_its_active_days():
     assert every["t"] < days["t"] / 5
     none = paired_test_days(plan, before, before, [np.zeros(len(f), bool) for f in folds])
     assert none["gain_percent"] is None
+
+
+def test_day_plan_leaves_out_one_active_day_at_a_time():
+    """Each fold of a calendar term's day plan holds out exactly its 24-hour window's rows."""
+    from hvacfmu.diagnosis.crossval import day_plan
+    from hvacfmu.diagnosis.design import make_signals
+
+    ds = simulate_dataset(row_model(), weeks=6, seed=1)
+    sig = make_signals(ds, row_model())
+    rows = sig.rows("train")
+    starts = [s for s in np.flatnonzero((sig.index.hour == 0) & (sig.index.minute == 0)) if s in set(rows)][:3]
+    plan = day_plan(sig, starts, 96)
+    assert len(plan.folds) == 3
+    for st, fr, w in zip(starts, plan.fit_rows, plan.week_of_start):
+        held = set(rows) - set(fr)
+        assert held == set(range(st, st + 96)) & set(rows) and len(held) == 96
+        assert list(w) == [sig.week[st]]
+
+
+@pytest.mark.slow
+def test_one_week_holiday_is_cross_validated_day_by_day():
+    """A holiday in one training week: each of its days is predicted by a fit on the others.
+
+    With every active day in one block, the block test compared two equal predictions (gain
+    0 ± 0); left out one at a time, the week's days are predicted far better with the term.
+    """
+    import datetime as dt
+
+    base = row_model()
+    dates = tuple((dt.date(2025, 10, 6) + dt.timedelta(days=i)).isoformat() for i in range(5))
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B", "C"), coef=(0.8, 0.8, 0.8), dates=dates)
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(hol,)), weeks=12, seed=4)
+    rep = diagnose(ds, model=base, progress=False)
+    assert rep.causes == ["internal_gain_schedule"]
+    f = rep.to_dict()["findings"][0]
+    assert f["location"]["dates"] == list(dates)
+    assert f["cv"]["folds"] == "one per active day" and f["cv"]["n_days"] == 5
+    assert f["cv"]["gain_percent"] > 30 and f["cv"]["t"] > 5
+    assert f["evidence"]["cv_blocks"]["n_folds_active"] == 1
 
 
 def test_two_synthetic_effects_are_both_found():

@@ -67,6 +67,26 @@ def make_plan(sig: Signals, n_folds: int = 10, horizon: int = 96) -> CVPlan | No
     return plan if len(plan.folds) >= 3 else None
 
 
+def day_plan(sig: Signals, starts, horizon: int) -> CVPlan:
+    """One fold per window start (an active day of a calendar term): fitted on every other training row.
+
+    A holiday acting on one training week has all its days in one block of :func:`make_plan`:
+    refitted without that block, its coefficient has no day to be learned from, and the block
+    test measures nothing. Here each active day is held out alone (its 24-hour window's rows
+    left out of the fit), so its coefficient is learned from the other active days.
+    """
+    rows = sig.rows("train")
+    plan = CVPlan([], [], [], [], [], horizon)
+    for st in np.asarray(starts, int):
+        fr = rows[(rows < st) | (rows >= st + horizon)]
+        plan.folds.append(np.array([sig.week[st]]))
+        plan.fit_rows.append(fr)
+        plan.within.append(Within(sig.group, fr))
+        plan.starts.append(np.array([st]))
+        plan.week_of_start.append(np.array([sig.week[st]]))
+    return plan
+
+
 def _disturbances(sig: Signals, model) -> np.ndarray:
     cols = []
     for c in model.disturbances:
@@ -276,6 +296,7 @@ def paired_test_days(plan: CVPlan, before: list, after: list, active: list) -> d
 __all__ = [
     "CVPlan",
     "affine_steps",
+    "day_plan",
     "fold_fits",
     "fold_scores",
     "make_plan",

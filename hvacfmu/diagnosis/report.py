@@ -37,7 +37,8 @@ def _clean(x):
 def _cv_units(cv: dict) -> str:
     """ "13 weeks" (week-clustered test) or "10 active days" (calendar terms)."""
     if cv.get("unit") == "active day":
-        return f"{cv['n_days']} active days"
+        each = ", each left out alone" if cv.get("folds") == "one per active day" else ""
+        return f"{cv['n_days']} active days{each}"
     return f"{cv['n_weeks']} weeks"
 
 

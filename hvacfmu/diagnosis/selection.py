@@ -39,7 +39,7 @@ from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .report import _cv_units
-from .crossval import fold_fits, fold_scores, make_plan, paired_test, paired_test_days
+from .crossval import day_plan, fold_fits, fold_scores, make_plan, paired_test, paired_test_days
 from .design import (
     Signals,
     Within,
@@ -63,6 +63,7 @@ DEFAULT_OPTIONS = {
     "holiday_z": 4.0,
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
+    "holiday_min_scale": 0.5,
     "dst_min_r2": 0.2,
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
@@ -365,8 +366,11 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             or sig0.base_profiles,
         )
         cands = _score_round(sig, W, terms, cur, opts)
+        # a significant holiday (dated days of every zone) is tried first: behind any other term it
+        # waits for a round where no zone is taken, and its screen may not pick it again by then
         ranked = sorted(
-            [c for c in cands if c.variants and c.status == "not tested"], key=lambda c: -c.test["delta_bic"]
+            [c for c in cands if c.variants and c.status == "not tested"],
+            key=lambda c: (not _is_holiday(c.term), -c.test["delta_bic"]),
         )
         accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows)
         _name_competitors(cands, accepted)
@@ -453,17 +457,22 @@ def _gate(c, opts) -> None:
             f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
             f"not a heat exchange between them"
         )
-    elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < opts["schedule_min_scale"]:
+    elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < _schedule_min_scale(c, opts):
         c.status = "not significant"
         c.reason = (
             f"mean scale {c.evidence['scale_mean']:.2f} of the schedule change < "
-            f"{opts['schedule_min_scale']:g}: too small for a schedule change (another "
+            f"{_schedule_min_scale(c, opts):g}: too small for a schedule change (another "
             f"daily effect correlates with it)"
         )
     if c.cause == "actuation_delay":
         # evidence only: in closed loop a real delay also shows in the future airflow (the emulator's
         # 30-min delay in C failed a hard past-over-future rule), so the cross-validation decides
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
+
+
+def _schedule_min_scale(c, opts) -> float:
+    """Scale gate of a schedule change: ``holiday_min_scale`` for holidays, ``schedule_min_scale`` otherwise."""
+    return opts["holiday_min_scale"] if _is_holiday(c.term) else opts["schedule_min_scale"]
 
 
 def _delay_is_causal(c) -> bool:
@@ -565,6 +574,28 @@ def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
     active = [(cum[np.minimum(st + plan.horizon, len(on))] - cum[st]) > 0 for st in plan.starts]
     c.cv = paired_test_days(plan, base_scores[key], after, active)
     c.evidence["cv_all_weeks"] = weeks
+    if c.cv.get("n_folds_active", 0) == 1:
+        _cv_days_one_by_one(sig, plan, terms, c, key, np.concatenate([st[a] for st, a in zip(plan.starts, active)]))
+
+
+def _cv_days_one_by_one(sig, plan, terms, c, key, starts) -> None:
+    """Holiday days all in one block: each active day held out alone (``c.cv``, in place).
+
+    Refitted without their block, the term's coefficients have no active day left to be
+    learned from, so the block test compares two equal predictions (gain 0 ± 0). Each active
+    day is then predicted by the structure refitted on every other training row
+    (:func:`~hvacfmu.diagnosis.crossval.day_plan`); the block test is kept as
+    ``evidence["cv_blocks"]``.
+    """
+    dplan = day_plan(sig, starts, plan.horizon)
+    sig_c = sig_for(sig, c, c.term)
+    before = fold_scores(sig, dplan, fold_fits(sig, dplan, terms, key), key)
+    after = fold_scores(sig_c, dplan, fold_fits(sig_c, dplan, list(terms) + [c.term], key), key)
+    c.evidence["cv_blocks"] = c.cv
+    c.cv = {
+        **paired_test_days(dplan, before, after, [np.ones(1, bool)] * len(starts)),
+        "folds": "one per active day",
+    }
 
 
 def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
@@ -617,6 +648,11 @@ def _found_reason(c, opts) -> str:
     if not c.cv or c.cv.get("gain_percent") is None:
         return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
     cv = c.cv
+    every = c.evidence.get("cv_all_weeks") or {}
+    if every.get("t") is not None and not (
+        cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"]
+    ):  # a calendar term accepted by the test over every week, not on its own days
+        cv = every
     return (
         f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
         f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {_cv_units(cv)}, paired t = {cv['t']:.1f}"

@@ -245,6 +245,7 @@ def holiday_candidate(sig, W, options) -> Candidate:
         "gamma_robust_std": mad,
         "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
         "weeks": weeks,
+        "week_means": {str(wk): round(g, 4) for wk, g in sorted(wmean.items())},
         "week_mean_median": w_med,
         "week_mean_robust_std": w_scale,
         "rule": (
