@@ -38,7 +38,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         Overrides of :data:`hvacfmu.diagnosis.selection.DEFAULT_OPTIONS`:
         ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
         ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
-        ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5), ``dst_min_r2`` (0.2) and ``dst_min_scale``
+        ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5, daylight-saving shift),
+        ``holiday_min_scale`` (0.33, mean scale of a holiday term), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
         ``coupling_min_gain_percent`` (3.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0) and ``cv_min_t`` (2.0, week-clustered paired t).

@@ -63,7 +63,7 @@ DEFAULT_OPTIONS = {
     "holiday_z": 4.0,
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
-    "holiday_min_scale": 0.5,
+    "holiday_min_scale": 0.33,
     "dst_min_r2": 0.2,
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
