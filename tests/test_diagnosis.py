@@ -360,7 +360,7 @@ def test_day_plan_leaves_out_one_active_day_at_a_time():
     from hvacfmu.diagnosis.crossval import day_plan
     from hvacfmu.diagnosis.design import make_signals
 
-    ds = simulate_dataset(row_model(), weeks=6, seed=1)
+    ds = simulate_dataset(row_model(), weeks=4, seed=1)
     sig = make_signals(ds, row_model())
     rows = sig.rows("train")
     starts = [s for s in np.flatnonzero((sig.index.hour == 0) & (sig.index.minute == 0)) if s in set(rows)][:3]
@@ -370,6 +370,26 @@ def test_day_plan_leaves_out_one_active_day_at_a_time():
         held = set(rows) - set(fr)
         assert held == set(range(st, st + 96)) & set(rows) and len(held) == 96
         assert list(w) == [sig.week[st]]
+
+
+def test_holiday_and_dst_scale_gates():
+    """A holiday needs mean scale >= holiday_min_scale (0.33), a daylight-saving shift >= 0.5.
+
+    Measured (README, calendar terms): spurious holiday weeks 0.24-0.30, injected ones 0.35-0.54.
+    """
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _gate
+
+    def gated(variant, scale):
+        term = InternalGainSchedule(variant=variant, zone_names=("A",), coef=(scale,), dates=("2025-10-06",))
+        c = Candidate("internal_gain_schedule", {"variant": variant}, [term], 1, evidence={"scale_mean": scale})
+        c.term, c.test = term, {"delta_bic": 50.0}
+        _gate(c, DEFAULT_OPTIONS)
+        return c.status
+
+    assert DEFAULT_OPTIONS["holiday_min_scale"] == 0.33 and DEFAULT_OPTIONS["schedule_min_scale"] == 0.5
+    assert gated("holiday", 0.35) == "not tested"  # case 27's week 4 goes on to the cross-validation
+    assert gated("holiday", 0.30) == "not significant"  # the largest spurious week measured
+    assert gated("dst_shift", 0.45) == "not significant"
 
 
 @pytest.mark.slow
