@@ -425,7 +425,7 @@ def test_couplings_a_shared_driver_passes_the_one_step_screen_and_closed_loop_hi
        of the pair barely changes: the controllers hold both zones at the same temperature, so the
        conductance carries almost no heat (the emulator's missed couplings).
     """
-    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _cv_accepts
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _cv_accepts, _rejected_reason
 
     c, alone = _coupling_evidence(simulate_dataset(_SharedDriver(row_model(), 12, 0), weeks=12, seed=0))
     # measured: ΔBIC 253, symmetry 0.78, alone +24.4 % (t 10.0) / +27.7 % (t 12.7), pair +1.1 % (t 0.5)
@@ -434,6 +434,8 @@ def test_couplings_a_shared_driver_passes_the_one_step_screen_and_closed_loop_hi
     assert all(r["gain_percent"] > 10 and r["t"] > 4 for r in alone)
     assert c.cv["gain_percent"] < DEFAULT_OPTIONS["coupling_min_gain_percent"]
     assert not _cv_accepts(c, DEFAULT_OPTIONS)
+    assert "not decided, not absent" in _rejected_reason(c, DEFAULT_OPTIONS)
+    assert 0.05 < c.evidence["dT_within_std_K"] < 1.0
 
     true = ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.04, coef_ba=0.04)
     c2, _ = _coupling_evidence(closed_loop_dataset(ExtendedModel(base=row_model(), terms=(true,))), alone=False)
@@ -442,6 +444,7 @@ def test_couplings_a_shared_driver_passes_the_one_step_screen_and_closed_loop_hi
     for z in "AC":
         assert abs(c2.evidence[f"untied_coef_{z}"] - 0.04) < 0.01
     assert abs(c2.cv["gain_percent"]) < 1.0
+    assert c2.evidence["dT_within_std_K"] < 0.1  # held together by the controllers (open loop: 0.17 K)
 
 
 # ---------------------------------------------------------------------------------------------
