@@ -6,6 +6,8 @@
    a model that knows them has something to gain on the plant.
 2. :func:`hvacfmu.diagnosis.control.terms_on_base`: the diagnosis's terms refitted on the base
    Model A's own dynamics (``A, B, C`` kept), the extended model to control with.
+3. "At equal or lower energy" (:mod:`harness.energy`): neither more fan/cooling Σu² nor more
+   reheat; the closed-loop gain on the plant FMU.
 """
 
 from __future__ import annotations
@@ -148,6 +150,30 @@ def test_terms_on_base_keep_the_base_dynamics(solar_case):
 
 
 # --------------------------------------------------------------------------- 3. the control gain, closed loop
+def _run(kh, su2, kwh, weight=None):
+    return {"comfort_violation_Kh": kh, "energy_proxy": su2, "heating_kWh": kwh, "weight": weight}
+
+
+def test_no_more_energy_is_neither_more_airflow_nor_more_reheat():
+    """The one energy order of the project: a run that saves Σu² but spends more reheat is not 'no more'."""
+    from harness.energy import EnergyUse, frontier_gain
+
+    base = _run(10.0, 1000.0, 50.0)
+    assert EnergyUse.of(base) == EnergyUse(1000.0, 50.0)
+    assert EnergyUse.of({"energy_proxy": 3.0, "comfort_violation_Kh": 0.0}).reheat_kWh == 0.0  # no discharge air
+    assert EnergyUse(1000.0, 50.0).at_most(EnergyUse(1000.0, 50.0))  # equal is allowed
+    assert not EnergyUse(900.0, 50.1).at_most(EnergyUse(1000.0, 50.0))  # less airflow, more reheat
+    assert not EnergyUse(1000.1, 0.0).at_most(EnergyUse(1000.0, 50.0))  # less reheat, more airflow
+    assert EnergyUse(1010.0, 40.0).change(EnergyUse(1000.0, 50.0)) == "+1.0 % Σu², -10.0 kWh reheat"
+    # the claim picks the real run with the fewest K·h among those at no more energy, never an interpolation
+    runs = [_run(8.0, 1001.0, 40.0, 1e4), _run(9.0, 990.0, 50.0, 30.0), _run(9.5, 900.0, 45.0, 10.0)]
+    g = frontier_gain(base, runs)
+    assert g["run"]["weight"] == 30.0 and g["saved_Kh"] == pytest.approx(1.0)
+    assert frontier_gain(base, runs[:1]) is None  # the only candidate spends more airflow
+    g = frontier_gain(base, [_run(12.0, 900.0, 40.0)])
+    assert g["saved_Kh"] == pytest.approx(-2.0)  # at no more energy but worse: the caller sees a negative gain
+
+
 @pytest.mark.slow
 def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_path):
     """Two November days on the plant FMU with the effect: MPC with the term has less violation, no more energy.
@@ -158,6 +184,7 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
     import pandas as pd
 
     from harness.cosim import make_controller, run_cosim
+    from harness.energy import EnergyUse
     from hvacfmu.diagnosis.control import terms_on_base
     from hvacfmu.emulator import cached_dataset
     from hvacfmu.fmu import export_plant_fmu
@@ -177,8 +204,7 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
         runs[f"MPC {name} on the plant"] = {"result": r, "kind": kind, "controller": "mpc"}
     b, e = res["base"], res["extended"]
     assert e["comfort_violation_Kh"] < b["comfort_violation_Kh"] - 0.2, (b, e)
-    assert e["energy_proxy"] <= b["energy_proxy"]
-    assert e["heating_kWh"] <= b["heating_kWh"]
+    assert EnergyUse.of(e).at_most(EnergyUse.of(b)), (b, e)
     # the demo report's section: the numbers are these runs', the figure is drawn
     from types import SimpleNamespace
 
