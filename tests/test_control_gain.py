@@ -220,3 +220,29 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
     assert rep.numbers["control_gain.saved_Kh"] == pytest.approx(saved, abs=1e-12)
     assert rep.numbers["control_gain.runs"]["data"][1][0] == pytest.approx(e["comfort_violation_Kh"], rel=1e-9)
     assert (tmp_path / "control_gain.png").stat().st_size > 5000
+
+
+def test_demo_report_claims_the_gain_at_no_more_energy(tmp_path):
+    """The report's claim uses the lower-weight run that spends no more energy, not the default one."""
+    from types import SimpleNamespace
+
+    from hvacfmu.cli.demo_report import _section_control_gain
+    from hvacfmu.cli.report import Report
+
+    def run(kind, kh, su2, kwh):
+        return {"result": SimpleNamespace(summary=_run(kh, su2, kwh)), "kind": kind, "controller": "mpc"}
+
+    runs = {
+        "MPC Model A on the plant": run("zones", 2.0, 500.0, 900.0),
+        "MPC Model A + diagnosed terms on the plant": run("control", 1.5, 520.0, 890.0),  # more Σu²
+        "MPC Model A + diagnosed terms on the plant, comfort weight 50": run("control", 1.8, 495.0, 899.0),
+    }
+    found = SimpleNamespace(findings=[{"cause": "solar_gain", "location": {"zone": "W", "facade": "W"}}])
+    rep = Report("control gain")
+    _section_control_gain(rep, {"diagnosis": {"report": found, "control_model": None}, "mpc": {"runs": runs}}, tmp_path)
+    assert rep.numbers["control_gain.saved_Kh"] == pytest.approx(0.5)  # at the default weight, more energy
+    assert rep.numbers["control_gain.saved_Kh_equal_energy"] == pytest.approx(0.2)  # the weight-50 run
+    table = rep.numbers["control_gain.runs"]
+    assert [row[-1] for row in table["data"]] == ["-", "no", "yes"]
+    text = " ".join(str(b.content) for b in rep.blocks if b.kind == "paragraph")
+    assert "comfort weight 50" in text and "saves 0.20 K·h" in text
