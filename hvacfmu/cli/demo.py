@@ -10,7 +10,8 @@ Stages (each timed and shown as it runs):
 6. export    one FMU per model (and the emulator plant), validated with FMPy;
 7. mpc       a closed-loop MPC week for both models through the FMPy harness,
              against each model's own FMU and against the emulator plant, and on the
-             plant with the diagnosed terms on Model A (the control gain of the diagnosis);
+             plant with the diagnosed terms on Model A (the control gain of the diagnosis;
+             at lower comfort weights too when that run spends more energy than Model A's);
 8. report    ``report.html`` / ``report.md`` with PNG figures.
 
 Every number in the report comes from the objects these stages return; the
