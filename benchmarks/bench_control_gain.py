@@ -63,6 +63,7 @@ DEFAULT_CASES = (
     "0:zone_coupling:zones=W+E",
     "3:solar_gain:zone=E,facade=E,shgc=0.1",
     "3:solar_gain:zone=W,facade=W,shgc=0.1",
+    "1:solar_gain:zone=S,facade=S,shgc=0.1",
 )
 #: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
 DEFAULT_WEIGHT = 1.0e4
