@@ -279,6 +279,41 @@ def print_tables(rows) -> None:
         )
 
 
+def plot_frontiers(rows, path) -> None:
+    """One panel per case and week: K·h against Σu² for both models (reheat in the point labels)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    vs = verdicts(rows)
+    ncol = 4
+    nrow = -(-len(vs) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.2 * nrow), squeeze=False)
+    for ax, v in zip(axes.ravel(), vs):
+        for name, color in (("base", "tab:blue"), ("extended", "tab:orange")):
+            pts = sorted(v[name], key=lambda r: r["energy_proxy"])
+            x = [r["energy_proxy"] for r in pts]
+            y = [r["comfort_violation_Kh"] for r in pts]
+            ax.plot(x, y, "o-", color=color, label=name, ms=4)
+            for r in pts:
+                ax.annotate(f"{r['weight']:g}", (r["energy_proxy"], r["comfort_violation_Kh"]), fontsize=6, color=color)
+        b0 = v["default_pair"][0]
+        ax.axvline(b0["energy_proxy"], color="tab:blue", lw=0.6, ls=":")
+        case = v["effect"].replace("solar_gain:", "solar ").replace("zone_coupling:", "coupling ")
+        ax.set_title(f"{case} s{v['seed']} {v['season']}: {'yes' if v['holds'] else 'no'}", fontsize=7)
+        ax.set_xlabel("Σu² [(kg/s)²]", fontsize=7)
+        ax.set_ylabel("K·h", fontsize=7)
+        ax.tick_params(labelsize=6)
+    for ax in axes.ravel()[len(vs) :]:
+        ax.axis("off")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    print(f"frontier figure: {path}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="seed:effect, e.g. 0:solar_gain:zone=W")
@@ -295,9 +330,13 @@ def main(argv=None) -> int:
     ap.add_argument("--joint", action="store_true", help="also control with the diagnosis's own extended model")
     ap.add_argument("--json", help="write every run's figures here (rewritten after each run)")
     ap.add_argument("--from-json", nargs="+", help="print the tables of --json files (joined) without running")
+    ap.add_argument("--plot", help="also draw the frontiers (K·h against Σu², labelled by weight) into this PNG")
     args = ap.parse_args(argv)
     if args.from_json:
-        print_tables([r for f in args.from_json for r in json.loads(Path(f).read_text(encoding="utf-8"))])
+        rows = [r for f in args.from_json for r in json.loads(Path(f).read_text(encoding="utf-8"))]
+        print_tables(rows)
+        if args.plot:
+            plot_frontiers(rows, args.plot)
         return 0
     print(
         f"plant FMU per dataset, MPC N={args.horizon}; machine load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
@@ -306,6 +345,8 @@ def main(argv=None) -> int:
     for case in args.cases:
         rows += run_case(case, args.seasons, args.horizon, args.days, args.joint, args.weights, args.json)
     print_tables(rows)
+    if args.plot:
+        plot_frontiers(rows, args.plot)
     return 0
 
 
