@@ -22,10 +22,10 @@ Step 2: ``f_IG,m,w^v(k)`` by ordinary least squares from
 (eq. ig(k-1)) for every training week, averaged per season and time of week
 (eq. fixed_ig). The state ``x(k)`` carried from step to step is the prediction
 plus the estimated gains' effect, ``x~(k) + B_IG f(k-1)``, which puts the zone
-air at the measured temperatures and lets the walls follow physically. By default
-(``gain_days="workdays"``) Monday to Friday share one daily profile (the mean of
-every training workday of the season), Saturday and Sunday keep their own; the
-paper's profile per time of week is ``gain_days="week"``.
+air at the measured temperatures and lets the walls follow physically. With
+``gain_days="workdays"`` Monday to Friday share one daily profile (the mean of
+every training workday of the season), Saturday and Sunday keep their own
+(the default ``"week"`` is the paper's profile per time of week).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -264,7 +264,7 @@ def fit_physics(
     initial: dict | None = None,
     free_modes: int = 3,
     segment_observer: str = "gain_injection",
-    gain_days: str = "workdays",
+    gain_days: str = "week",
 ) -> PhysicsModel:
     """Identify Model B on ``dataset``'s training weeks (two steps, see the module docstring).
 
@@ -316,16 +316,18 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
-    gain_days : {"workdays", "week"}
-        Day types of step 2's seasonal gain profile. ``"workdays"`` (default):
-        Monday to Friday share one daily profile [W] averaged over every
-        training workday of the season, Saturday and Sunday have their own.
-        ``"week"``: the paper's profile per time of week (eq. fixed_ig), from
-        the few training weeks of a season per slot, so one unusual day (a
-        holiday, a change of occupancy level) weighs a third of its weekday
-        with three training weeks. Measured (README "Model B", 24-h open-loop
-        RMS): the workday profile wins in every zone of the BMS exports where
-        the per-week profile loses to the time-of-week mean in two zones.
+    gain_days : {"week", "workdays"}
+        Day types of step 2's seasonal gain profile. ``"week"`` (default): the
+        paper's profile per time of week (eq. fixed_ig), each slot the mean of
+        the few training weeks of the season, so one unusual day (a holiday, a
+        change of occupancy level) weighs a third of its weekday with three
+        training weeks, and a weekday's own pattern (Monday's recovery from
+        the weekend) is kept. ``"workdays"``: Monday to Friday share one daily
+        profile [W] averaged over every training workday of the season,
+        Saturday and Sunday have their own. Measured (README "Where physics
+        lost"): on the BMS exports it beats the time-of-week mean in every zone
+        where ``"week"`` loses in two, but it loses a zone-season cell of the
+        16-week reheat data (fall E, -3.3 %), so it is not the default.
 
     Returns
     -------
