@@ -15,15 +15,25 @@ whole loop:
    effect) for a summer and a winter held-out week, horizon 12 (the demo's, ``"plant"``
    preset).
 
-Prints per case, week and model the fan/cooling energy proxy Σu² [(kg/s)²], the commanded
-reheat [kWh], the comfort violation [K·h] outside [20, 22] °C and the week time, then
-extended against base: K·h saved and energy change. Diagnoses are cached in
+Energy is :class:`harness.energy.EnergyUse`: the fan/cooling proxy Σu² [(kg/s)²] and the
+commanded reheat [kWh], both reported; "no more energy" means neither more (no factor
+between them is invented). MPC's comfort weight (``comfort_penalty``, 1e4 by default) trades
+K·h against energy, so one run per model says little: every week is run with both models
+at each weight of ``--weights``, which gives two K·h-against-energy frontiers. The claim
+"extended beats base in comfort at equal or lower energy" holds in a week when a real run
+of the extended model uses no more energy than the base model's run at the default weight
+and has fewer K·h (:func:`harness.energy.frontier_gain`; no interpolation). Printed per run:
+Σu², reheat, K·h outside [20, 22] °C, the K·h spent while every box of the zone was at its
+maximum airflow (capacity-limited: no controller could cool more at that moment) and the CPU
+and wall time; then the frontiers and the verdict per case and week (with how many base runs
+of any weight an extended run beats). Diagnoses are cached in
 ``$HVACFMU_CACHE/bench_control_gain/`` (keyed by the dataset and the diagnosis sources).
 
 Usage::
 
     python3 benchmarks/bench_control_gain.py [--cases 0:solar_gain:zone=W,facade=W ...]
-        [--seasons summer winter] [--horizon 12] [--days 7] [--joint]
+        [--seasons summer winter] [--horizon 12] [--days 7] [--weights 10000 50 30 10] [--joint]
+        [--json runs.json] [--from-json runs.json ...]
 """
 
 from __future__ import annotations
@@ -53,7 +63,12 @@ DEFAULT_CASES = (
     "0:zone_coupling:zones=W+E",
     "3:solar_gain:zone=E,facade=E,shgc=0.1",
     "3:solar_gain:zone=W,facade=W,shgc=0.1",
+    "1:solar_gain:zone=S,facade=S,shgc=0.1",
 )
+#: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
+DEFAULT_WEIGHT = 1.0e4
+#: the comfort weights swept per model (the default first)
+DEFAULT_WEIGHTS = (DEFAULT_WEIGHT, 50.0, 30.0, 10.0)
 
 
 def _source_hash() -> str:
@@ -113,30 +128,34 @@ def capacity_limited_Kh(table, building, band=(20.0, 22.0)) -> float:
     return total
 
 
-def run_week(fmu, ds, model, week, horizon, days):
+def run_week(fmu, ds, model, week, horizon, days, weight=None):
+    """One closed-loop week (or ``days``) of MPC on the plant FMU; ``weight``: comfort penalty (None: default)."""
     import pandas as pd
 
     from harness.cosim import make_controller, run_cosim
 
-    t0 = time.perf_counter()
-    ctrl = make_controller("mpc", model, ds.building, {"horizon": horizon})
+    t0, w0 = time.process_time(), time.perf_counter()
+    opts = {"horizon": horizon} if weight is None else {"horizon": horizon, "comfort_penalty": weight}
+    ctrl = make_controller("mpc", model, ds.building, opts)
     span = {"week": week.number} if days >= 7 else {"start": week.start, "stop": week.start + pd.Timedelta(days=days)}
     r = run_cosim(fmu, ds, ctrl, model=model, **span)
     s = r.summary
     st = s.get("controller_stats") or {}
     return {
-        "energy": s["energy_proxy"],
-        "heat": s.get("heating_kWh", 0.0),
-        "viol": s["comfort_violation_Kh"],
+        "weight": DEFAULT_WEIGHT if weight is None else float(weight),
+        "energy_proxy": s["energy_proxy"],
+        "heating_kWh": s.get("heating_kWh", 0.0),
+        "comfort_violation_Kh": s["comfort_violation_Kh"],
         "viol_at_max": capacity_limited_Kh(r.table.iloc[1:], ds.building),
-        "wall": time.perf_counter() - t0,
+        "cpu": time.process_time() - t0,
+        "wall": time.perf_counter() - w0,
         "failures": st.get("failures", 0),
         "not_converged": st.get("not_converged", 0),
     }
 
 
-def run_case(case: str, seasons, horizon: int, days: float, joint: bool) -> list:
-    """Rows (effect, found, season, week, model, figures) of one ``seed:effect`` case."""
+def run_case(case: str, seasons, horizon: int, days: float, joint: bool, weights, out=None) -> list:
+    """Rows (effect, found, season, week, model, weight, figures) of one ``seed:effect`` case."""
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis.control import terms_on_base
     from hvacfmu.emulator import cached_dataset
@@ -153,48 +172,146 @@ def run_case(case: str, seasons, horizon: int, days: float, joint: bool) -> list
     if joint:
         models["joint refit"] = ext_joint
     print(
-        f"case seed {seed} {spec}: diagnosis {time.perf_counter() - t0:.1f} s, {len(findings)} findings, "
-        f"injected effect: {found}",
+        f"case seed {seed} {spec}: diagnosis {time.perf_counter() - t0:.1f} s, {len(findings)} findings "
+        f"({', '.join(sorted({f['cause'] for f in findings}))}), injected effect: {found}",
         flush=True,
     )
     fmu = export_plant_fmu(paths.truth, Path(tempfile.mkdtemp()) / "Plant.fmu")
     rows = []
     for season, week in pick_weeks(ds, seasons).items():
         for name, model in models.items():
-            r = run_week(fmu, ds, model, week, horizon, days)
-            rows.append({"effect": spec, "seed": int(seed), "found": found, "season": season, "model": name, **r})
-            print(
-                f"  {season:<6} week {week.number:2d} {name:<11} Σu² {r['energy']:7.1f}  reheat {r['heat']:7.1f} kWh  "
-                f"outside band {r['viol']:6.2f} K·h (at max airflow {r['viol_at_max']:6.2f})  {r['wall']:5.1f} s  failures {r['failures']} "
-                f"not converged {r['not_converged']}",
-                flush=True,
-            )
+            for w in weights:
+                r = run_week(fmu, ds, model, week, horizon, days, None if w == DEFAULT_WEIGHT else w)
+                row = {"effect": spec, "seed": int(seed), "found": found, "season": season, "week": week.number}
+                rows.append({**row, "model": name, **r})
+                print(
+                    f"  {season:<6} week {week.number:2d} {name:<11} weight {r['weight']:7g}  "
+                    f"Σu² {r['energy_proxy']:7.1f}  reheat {r['heating_kWh']:7.1f} kWh  outside band "
+                    f"{r['comfort_violation_Kh']:6.2f} K·h (at max airflow {r['viol_at_max']:6.2f})  "
+                    f"{r['cpu']:5.1f} s CPU ({r['wall']:5.1f} s wall)  failures {r['failures']} not converged {r['not_converged']}",
+                    flush=True,
+                )
+                if out:
+                    Path(out).write_text(json.dumps((_previous(out, case) + rows), indent=0), encoding="utf-8")
     return rows
 
 
+def _previous(out, case) -> list:
+    """Rows of other cases already in the ``--json`` file."""
+    p = Path(out)
+    if not p.is_file():
+        return []
+    seed, _, spec = case.partition(":")
+    return [r for r in json.loads(p.read_text(encoding="utf-8")) if (str(r["seed"]), r["effect"]) != (seed, spec)]
+
+
 def verdicts(rows) -> list:
-    """Per case and week: extended against base (K·h saved, energy and reheat change)."""
+    """Per case and week: the two frontiers, and the claim at the base's default-weight energy.
+
+    The claim holds when a real extended run uses no more energy than the base model's run at
+    the default comfort weight (:meth:`harness.energy.EnergyUse.at_most`: neither more Σu² nor
+    more reheat) and has fewer K·h (:func:`harness.energy.frontier_gain`). ``dominated`` counts
+    the base runs (of every weight) that some extended run beats that way.
+    """
+    from harness.energy import frontier_gain
+
     out = []
     keys = sorted({(r["effect"], r["seed"], r["season"]) for r in rows}, key=str)
     for effect, seed, season in keys:
-        by = {r["model"]: r for r in rows if (r["effect"], r["seed"], r["season"]) == (effect, seed, season)}
-        b, e = by.get("base"), by.get("extended")
-        if b and e:
-            out.append(
-                {
-                    "effect": effect,
-                    "seed": seed,
-                    "season": season,
-                    "found": b["found"],
-                    "saved_Kh": b["viol"] - e["viol"],
-                    "energy_change_percent": 100.0 * (e["energy"] / b["energy"] - 1.0),
-                    "reheat_change_kWh": e["heat"] - b["heat"],
-                    "better": e["viol"] < b["viol"]
-                    and e["energy"] <= b["energy"] * 1.005
-                    and e["heat"] <= b["heat"] + 1.0,
-                }
-            )
+        mine = [r for r in rows if (r["effect"], r["seed"], r["season"]) == (effect, seed, season)]
+        base = sorted((r for r in mine if r["model"] == "base"), key=lambda r: r["weight"])
+        ext = sorted((r for r in mine if r["model"] == "extended"), key=lambda r: r["weight"])
+        b0 = next((r for r in base if r["weight"] == DEFAULT_WEIGHT), None)
+        if b0 is None or not ext:
+            continue
+        e0 = next((r for r in ext if r["weight"] == DEFAULT_WEIGHT), None)
+        gain = frontier_gain(b0, ext)
+        dominated = sum(1 for b in base if (g := frontier_gain(b, ext)) is not None and g["saved_Kh"] > 0)
+        out.append(
+            {
+                "effect": effect,
+                "seed": seed,
+                "season": season,
+                "week": b0["week"],
+                "found": b0["found"],
+                "base": base,
+                "extended": ext,
+                "default_pair": (b0, e0),
+                "gain": gain,
+                "dominated": dominated,
+                "holds": gain is not None and gain["saved_Kh"] > 0,
+            }
+        )
     return out
+
+
+def _point(r) -> str:
+    return f"{r['comfort_violation_Kh']:.2f} K·h @ {r['energy_proxy']:.0f} / {r['heating_kWh']:.0f} kWh"
+
+
+def print_tables(rows) -> None:
+    """The frontier table (every weight, both models) and the verdict per case and week."""
+    from harness.energy import EnergyUse
+
+    print("\nfrontiers: K·h outside [20, 22] °C @ Σu² [(kg/s)²] / reheat [kWh], per comfort weight")
+    for v in verdicts(rows):
+        print(f"{v['effect']} (seed {v['seed']}), {v['season']} week {v['week']}, injected effect: {v['found']}")
+        for name in ("base", "extended"):
+            pts = "; ".join(f"w={r['weight']:g}: {_point(r)} ({r['viol_at_max']:.2f} at max)" for r in v[name])
+            print(f"  {name:<8} {pts}")
+    print(
+        "\neffect | seed | found | week | default weight: base -> extended | extended at no more energy than the "
+        "base's default run | saved K·h | base runs beaten | holds"
+    )
+    for v in verdicts(rows):
+        b0, e0 = v["default_pair"]
+        pair = f"{_point(b0)} -> {_point(e0)}" if e0 else _point(b0)
+        g = v["gain"]
+        best = (
+            f"w={g['run']['weight']:g}: {_point(g['run'])} ({EnergyUse.of(g['run']).change(EnergyUse.of(b0))})"
+            if g
+            else "none"
+        )
+        saved = f"{g['saved_Kh']:+.2f}" if g else "-"
+        print(
+            f"{v['effect']} | {v['seed']} | {v['found']} | {v['season']} {v['week']} | {pair} | {best} | {saved} | "
+            f"{v['dominated']}/{len(v['base'])} | {'yes' if v['holds'] else 'no'}"
+        )
+
+
+def plot_frontiers(rows, path) -> None:
+    """One panel per case and week: K·h against Σu² for both models (reheat in the point labels)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    vs = verdicts(rows)
+    ncol = 4
+    nrow = -(-len(vs) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.2 * nrow), squeeze=False)
+    for ax, v in zip(axes.ravel(), vs):
+        for name, color in (("base", "tab:blue"), ("extended", "tab:orange")):
+            pts = sorted(v[name], key=lambda r: r["energy_proxy"])
+            x = [r["energy_proxy"] for r in pts]
+            y = [r["comfort_violation_Kh"] for r in pts]
+            ax.plot(x, y, "o-", color=color, label=name, ms=4)
+            for r in pts:
+                ax.annotate(f"{r['weight']:g}", (r["energy_proxy"], r["comfort_violation_Kh"]), fontsize=6, color=color)
+        b0 = v["default_pair"][0]
+        ax.axvline(b0["energy_proxy"], color="tab:blue", lw=0.6, ls=":")
+        case = v["effect"].replace("solar_gain:", "solar ").replace("zone_coupling:", "coupling ")
+        ax.set_title(f"{case} s{v['seed']} {v['season']}: {'yes' if v['holds'] else 'no'}", fontsize=7)
+        ax.set_xlabel("Σu² [(kg/s)²]", fontsize=7)
+        ax.set_ylabel("K·h", fontsize=7)
+        ax.tick_params(labelsize=6)
+    for ax in axes.ravel()[len(vs) :]:
+        ax.axis("off")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    print(f"frontier figure: {path}")
 
 
 def main(argv=None) -> int:
@@ -203,34 +320,33 @@ def main(argv=None) -> int:
     ap.add_argument("--seasons", nargs="+", default=["summer", "winter"])
     ap.add_argument("--horizon", type=int, default=12)
     ap.add_argument("--days", type=float, default=7.0, help="days of each week to run (7: the whole week)")
+    ap.add_argument(
+        "--weights",
+        nargs="+",
+        type=float,
+        default=list(DEFAULT_WEIGHTS),
+        help=f"comfort penalties [1/K per step] to sweep ({DEFAULT_WEIGHT:g}: the MPC default)",
+    )
     ap.add_argument("--joint", action="store_true", help="also control with the diagnosis's own extended model")
+    ap.add_argument("--json", help="write every run's figures here (rewritten after each run)")
+    ap.add_argument("--from-json", nargs="+", help="print the tables of --json files (joined) without running")
+    ap.add_argument("--plot", help="also draw the frontiers (K·h against Σu², labelled by weight) into this PNG")
     args = ap.parse_args(argv)
+    if args.from_json:
+        rows = [r for f in args.from_json for r in json.loads(Path(f).read_text(encoding="utf-8"))]
+        print_tables(rows)
+        if args.plot:
+            plot_frontiers(rows, args.plot)
+        return 0
     print(
         f"plant FMU per dataset, MPC N={args.horizon}; machine load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
     )
     rows = []
     for case in args.cases:
-        rows += run_case(case, args.seasons, args.horizon, args.days, args.joint)
-    print(
-        "\neffect | seed | found | week | K·h base -> extended (of which at max airflow) | Σu² change | reheat change "
-        "| better"
-    )
-    for v in verdicts(rows):
-        b = next(
-            r
-            for r in rows
-            if (r["effect"], r["seed"], r["season"], r["model"]) == (v["effect"], v["seed"], v["season"], "base")
-        )
-        e = next(
-            r
-            for r in rows
-            if (r["effect"], r["seed"], r["season"], r["model"]) == (v["effect"], v["seed"], v["season"], "extended")
-        )
-        print(
-            f"{v['effect']} | {v['seed']} | {v['found']} | {v['season']} | {b['viol']:.2f} -> {e['viol']:.2f} "
-            f"({b['viol_at_max']:.2f} -> {e['viol_at_max']:.2f}) | "
-            f"{v['energy_change_percent']:+.1f} % | {v['reheat_change_kWh']:+.1f} kWh | {'yes' if v['better'] else 'no'}"
-        )
+        rows += run_case(case, args.seasons, args.horizon, args.days, args.joint, args.weights, args.json)
+    print_tables(rows)
+    if args.plot:
+        plot_frontiers(rows, args.plot)
     return 0
 
 

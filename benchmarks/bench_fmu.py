@@ -76,13 +76,18 @@ def make_models(building):
     )
     from hvacfmu.models.physics import PhysicsModel
 
+    t_storeys = building.physics["physics"]["ground_temperature"]
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         physics = PhysicsModel(
             building=building,
             params=dict(building.physics["physics"]["nominal"]),
             solar=True,
-            gains={s: rng.uniform(500, 3000, (672, nz)) for s in building.season_names},
+            gains={  # [W] per zone, then the slabs' boundary (the storeys below and above) [°C]
+                s: np.column_stack([rng.uniform(500, 3000, (672, nz)), np.full(672, t_storeys)])
+                for s in building.season_names
+            },
         )
     from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain, SupplyAirBilinear, ThermalMass
 

@@ -45,7 +45,7 @@ def main(argv=None):
 
     t, net = median_time(lambda: assemble(building, nominal, solar=True), args.repeat)
     print(f"assembly (continuous, sparse):        {1e3 * t:8.2f} ms   ({net.n_states} states)")
-    gains = {s: np.zeros((672, 6)) for s in building.season_names}
+    gains = {s: np.zeros((672, 7)) for s in building.season_names}  # six zones [W], the storeys [°C]
     t, model = median_time(lambda: PhysicsModel(building, nominal, gains, solar=True), args.repeat)
     print(f"assembly + discretisation (model):    {1e3 * t:8.2f} ms")
 

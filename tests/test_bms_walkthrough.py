@@ -8,19 +8,20 @@ columns the verdict must say the models lose and name the missing input.
 
 Measured (10 weeks from 2025-11-03, seed 0, the README's export; 10 of 14 test windows scored, fall 5
 and winter 5, inputs filled across gaps up to 2 h): with ``Td`` the 24-h open-loop RMS is 0.10-0.19 K
-(six-zone) and 0.14-0.19 K (physics) against persistence 0.53-0.90 K in every zone (lumped 0.117 against
+(six-zone) and 0.11-0.17 K (physics) against persistence 0.53-0.90 K in every zone (lumped 0.117 against
 0.642 K); against the time-of-week mean the lumped model wins by 26 %, the six-zone model in every zone
-(by 1 % in C to 45 % in S), physics in 4 of 6 (it loses in NE by 25 % and in C by 11 %: internal gains the
-reheat loops cancel, see README). Without ``Td`` the lumped and six-zone models are worse than persistence
-everywhere (1.9-2.6 K) and physics is worse than the time-of-week mean in 5 of 6 zones; every kind is
-flagged first with the missing ``Td_`` columns. Bounds: every kind and zone beats persistence with ``Td``;
-lumped and six-zone beat the time-of-week mean everywhere, physics in at least 4 of 6 zones; without
+(by 1 % in C to 45 % in S), physics in 4 of 6 (it loses in NE by 5.5 % and in C by 5.0 %: the winter test
+Monday, see README "Where physics lost"). The export declares the floor and ceiling slabs against the
+storeys below and above (a constant-temperature boundary; adiabatic, as up to emulator 1.3, physics lost
+by 25 % in NE and 11 % in C); with step 2's gain profile pooled over the workdays
+(``gain_days="workdays"``, not the default) physics wins in every zone, and that is asserted too. Without
+``Td`` the lumped and six-zone models are worse than persistence everywhere (1.9-2.6 K) and physics is
+worse than the time-of-week mean in 3 of 6 zones (W, E, NE); every kind is flagged first with the missing
+``Td_`` columns. Bounds: every kind and zone beats persistence with ``Td``; lumped and six-zone beat the
+time-of-week mean everywhere, physics in at least 4 of 6 zones and in none loses by 10 % or more; without
 ``Td`` the six-zone model loses to persistence in at least 4 of 6 zones and physics to the time-of-week
-mean in at least 4. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
-mean in winter: the 10-week export is the one that is asserted. Physics' losses are on Mondays (the
-weekend's heat store): with the floor and ceiling slabs declared against the storeys below and above
-(a constant-temperature boundary) instead of adiabatic, its RMS drops in every zone (0.114-0.174 K) and
-it loses to the time-of-week mean by 5 % in NE and C (README "Where physics loses").
+mean in at least 3. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
+mean in winter: the 10-week export is the one that is asserted.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree
@@ -134,9 +136,11 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     # the time-of-week mean too: the Model A kinds in every zone; physics in at least 4 of 6 (see the docstring)
     tow = [(r["model"], r["output"], r["rms"], r["time_of_week"]) for r in rows if not r["beats_time_of_week"]]
     assert all(m == "physics" for m, *_ in tow) and len(tow) <= 2, tow
+    assert all(r["rms"] < 1.1 * r["time_of_week"] for r in rows), rows
     assert "WORSE THAN PERSISTENCE" not in ev.stdout
     assert ev.stdout.splitlines()[0].startswith("lumped: beats persistence in 1/1 zones")
-    _floors_against_storeys_beat_adiabatic(export, [r for r in rows if r["model"] == "physics"])
+    _slabs_face_the_storeys(export)
+    _physics_with_workday_gains_beats_time_of_week_everywhere(export)
     # logger outages no longer skip most windows (inputs filled up to 2 h, errors on measured steps):
     # both seasons are scored, and the verdict says how many windows it stands on and why the others went
     cov = verdict["coverage"]["zones"]
@@ -175,35 +179,40 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     assert "\r" not in run.stderr
 
 
-def _floors_against_storeys_beat_adiabatic(export, adiabatic_rows):
-    """The README's building-file fix: floor and ceiling slabs against the storeys below and above.
+def _slabs_face_the_storeys(export):
+    """The export's building file says what the emulated building is: slabs against the storeys.
 
-    The export declares them adiabatic; the emulated building's slabs face the neighbouring storeys
-    (about 22 °C). Declared against a boundary at a constant temperature (``ground`` with
-    ``[physics].ground_temperature``; the value is absorbed by the fitted constant gains: 20.6 and
-    22 °C give the same RMS to 1e-3 K), physics has a smaller 24-h RMS in every zone (seed 0:
-    0.114-0.174 K against 0.136-0.192 K) and loses to the time-of-week mean by 5 % in NE and C
-    instead of 25 % and 11 %.
+    The emulated floor's slabs face the storeys below and above (about 22 °C); the file declares them
+    against a boundary at a constant temperature (``side2 = "ground"``, ``[physics].ground_temperature``),
+    not adiabatic as up to emulator 1.3 (README "Where physics loses": the margins of both).
     """
-    bld = export / "building_storeys.toml"
     text = (export / "building.toml").read_text()
-    assert text.count('side2 = "adiabatic"') == 12, "the walkthrough floor has 6 floor and 6 ceiling slabs"
-    text = text.replace('side2 = "adiabatic"', 'side2 = "ground"')
-    text = "".join(
-        "ground_temperature = 21.0\n" if line.startswith("ground_temperature") else line
-        for line in text.splitlines(True)
-    )
-    bld.write_text(text)
-    data, model = export / "measurements.parquet", export / "physics_storeys.json"
-    hvacfmu("fit", data, "-b", bld, "--model", "physics", "-o", model)
-    hvacfmu("evaluate", data, "-b", bld, "--model", model, "--json", export / "eval_storeys.json")
-    rows = {r["output"]: r for r in _verdict(export / "eval_storeys.json")["zones"]}
-    before = {r["output"]: r for r in adiabatic_rows}
-    assert set(rows) == set(before) and len(rows) == 6
-    worse = [(z, rows[z]["rms"], before[z]["rms"]) for z in rows if not rows[z]["rms"] < before[z]["rms"] - 0.005]
-    assert not worse, worse
-    losing = [z for z in rows if not rows[z]["beats_time_of_week"]]
-    assert len(losing) <= 2 and all(rows[z]["rms"] < 1.1 * rows[z]["time_of_week"] for z in rows), rows
+    assert text.count('side2 = "ground"') == 12, "the walkthrough floor has 6 floor and 6 ceiling slabs"
+    assert 'side2 = "adiabatic"' not in text and "ground_temperature = 22.0" in text
+
+
+def _physics_with_workday_gains_beats_time_of_week_everywhere(export):
+    """``fit_physics(gain_days="workdays")``: one daily gain profile for Monday to Friday.
+
+    The default per-time-of-week profile averages each winter Monday over three training weeks, one of
+    them at the fall occupancy level (the emulator's season changes on a Tuesday, the data's on a Monday):
+    physics over-predicts the winter test Monday and loses to the time-of-week mean in NE and C by 5 %.
+    Pooled over the 15 training workdays it beats the time-of-week mean in every zone (by 2.6 % in C to
+    54 % in S). Not the default: it loses a zone-season cell of the 16-week reheat data (README).
+    """
+    from hvacfmu.data import prepare
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.models.physics import fit_physics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ds = prepare(export / "measurements.parquet", export / "building.toml")
+        model = fit_physics(ds, progress=False, gain_days="workdays")
+        res = evaluate([model], ds, names=["physics"])
+    assert model.meta["gains"]["day_types"] == "workdays"
+    rms = res.table("physics").loc["all"]
+    tow = res.table("physics", which="time-of-week mean").loc["all", rms.index]
+    assert len(rms) >= 6 and (rms < tow).all(), (rms, tow)
 
 
 def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input(export, tmp_path):
@@ -221,10 +230,11 @@ def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input
     assert first[2].startswith("!! physics:"), first
     assert all("missing input: Td_VAV_NW_1, Td_VAV_NW_2, Td_VAV_NW_3, Td_VAV_W_1 and 17 more" in f for f in first)
     # physics still beats persistence without Td (its RC structure keeps the sign of the heat right) but loses
-    # to the time-of-week mean, and the verdict says so
+    # to the time-of-week mean (in W, E and NE: 3 of 6 with the slabs against the storeys, 5 with them
+    # adiabatic), and the verdict says so
     verdict = _verdict(tmp_path / "eval.json")
     phys = [r for r in verdict["zones"] if r["model"] == "physics"]
-    assert sum(not r["beats_time_of_week"] for r in phys) >= 4, phys
+    assert sum(not r["beats_time_of_week"] for r in phys) >= 3, phys
     assert "!! physics: WORSE THAN THE TIME-OF-WEEK MEAN in " in ev.stdout
     assert set(verdict["missing_inputs"]) == {"lumped", "zones", "physics"}
     assert verdict["likely_causes"]["physics"][0].startswith("missing input: the boxes reheat"), verdict

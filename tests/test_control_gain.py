@@ -6,6 +6,8 @@
    a model that knows them has something to gain on the plant.
 2. :func:`hvacfmu.diagnosis.control.terms_on_base`: the diagnosis's terms refitted on the base
    Model A's own dynamics (``A, B, C`` kept), the extended model to control with.
+3. "At equal or lower energy" (:mod:`harness.energy`): neither more fan/cooling Σu² nor more
+   reheat; the closed-loop gain on the plant FMU.
 """
 
 from __future__ import annotations
@@ -148,6 +150,30 @@ def test_terms_on_base_keep_the_base_dynamics(solar_case):
 
 
 # --------------------------------------------------------------------------- 3. the control gain, closed loop
+def _run(kh, su2, kwh, weight=None):
+    return {"comfort_violation_Kh": kh, "energy_proxy": su2, "heating_kWh": kwh, "weight": weight}
+
+
+def test_no_more_energy_is_neither_more_airflow_nor_more_reheat():
+    """The one energy order of the project: a run that saves Σu² but spends more reheat is not 'no more'."""
+    from harness.energy import EnergyUse, frontier_gain
+
+    base = _run(10.0, 1000.0, 50.0)
+    assert EnergyUse.of(base) == EnergyUse(1000.0, 50.0)
+    assert EnergyUse.of({"energy_proxy": 3.0, "comfort_violation_Kh": 0.0}).reheat_kWh == 0.0  # no discharge air
+    assert EnergyUse(1000.0, 50.0).at_most(EnergyUse(1000.0, 50.0))  # equal is allowed
+    assert not EnergyUse(900.0, 50.1).at_most(EnergyUse(1000.0, 50.0))  # less airflow, more reheat
+    assert not EnergyUse(1000.1, 0.0).at_most(EnergyUse(1000.0, 50.0))  # less reheat, more airflow
+    assert EnergyUse(1010.0, 40.0).change(EnergyUse(1000.0, 50.0)) == "+1.0 % Σu², -10.0 kWh reheat"
+    # the claim picks the real run with the fewest K·h among those at no more energy, never an interpolation
+    runs = [_run(8.0, 1001.0, 40.0, 1e4), _run(9.0, 990.0, 50.0, 30.0), _run(9.5, 900.0, 45.0, 10.0)]
+    g = frontier_gain(base, runs)
+    assert g["run"]["weight"] == 30.0 and g["saved_Kh"] == pytest.approx(1.0)
+    assert frontier_gain(base, runs[:1]) is None  # the only candidate spends more airflow
+    g = frontier_gain(base, [_run(12.0, 900.0, 40.0)])
+    assert g["saved_Kh"] == pytest.approx(-2.0)  # at no more energy but worse: the caller sees a negative gain
+
+
 @pytest.mark.slow
 def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_path):
     """Two November days on the plant FMU with the effect: MPC with the term has less violation, no more energy.
@@ -158,6 +184,7 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
     import pandas as pd
 
     from harness.cosim import make_controller, run_cosim
+    from harness.energy import EnergyUse
     from hvacfmu.diagnosis.control import terms_on_base
     from hvacfmu.emulator import cached_dataset
     from hvacfmu.fmu import export_plant_fmu
@@ -177,8 +204,7 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
         runs[f"MPC {name} on the plant"] = {"result": r, "kind": kind, "controller": "mpc"}
     b, e = res["base"], res["extended"]
     assert e["comfort_violation_Kh"] < b["comfort_violation_Kh"] - 0.2, (b, e)
-    assert e["energy_proxy"] <= b["energy_proxy"]
-    assert e["heating_kWh"] <= b["heating_kWh"]
+    assert EnergyUse.of(e).at_most(EnergyUse.of(b)), (b, e)
     # the demo report's section: the numbers are these runs', the figure is drawn
     from types import SimpleNamespace
 
@@ -194,3 +220,29 @@ def test_mpc_with_the_solar_term_beats_the_base_on_the_plant(solar_case, tmp_pat
     assert rep.numbers["control_gain.saved_Kh"] == pytest.approx(saved, abs=1e-12)
     assert rep.numbers["control_gain.runs"]["data"][1][0] == pytest.approx(e["comfort_violation_Kh"], rel=1e-9)
     assert (tmp_path / "control_gain.png").stat().st_size > 5000
+
+
+def test_demo_report_claims_the_gain_at_no_more_energy(tmp_path):
+    """The report's claim uses the lower-weight run that spends no more energy, not the default one."""
+    from types import SimpleNamespace
+
+    from hvacfmu.cli.demo_report import _section_control_gain
+    from hvacfmu.cli.report import Report
+
+    def run(kind, kh, su2, kwh):
+        return {"result": SimpleNamespace(summary=_run(kh, su2, kwh)), "kind": kind, "controller": "mpc"}
+
+    runs = {
+        "MPC Model A on the plant": run("zones", 2.0, 500.0, 900.0),
+        "MPC Model A + diagnosed terms on the plant": run("control", 1.5, 520.0, 890.0),  # more Σu²
+        "MPC Model A + diagnosed terms on the plant, comfort weight 50": run("control", 1.8, 495.0, 899.0),
+    }
+    found = SimpleNamespace(findings=[{"cause": "solar_gain", "location": {"zone": "W", "facade": "W"}}])
+    rep = Report("control gain")
+    _section_control_gain(rep, {"diagnosis": {"report": found, "control_model": None}, "mpc": {"runs": runs}}, tmp_path)
+    assert rep.numbers["control_gain.saved_Kh"] == pytest.approx(0.5)  # at the default weight, more energy
+    assert rep.numbers["control_gain.saved_Kh_equal_energy"] == pytest.approx(0.2)  # the weight-50 run
+    table = rep.numbers["control_gain.runs"]
+    assert [row[-1] for row in table["data"]] == ["-", "no", "yes"]
+    text = " ".join(str(b.content) for b in rep.blocks if b.kind == "paragraph")
+    assert "comfort weight 50" in text and "saves 0.20 K·h" in text

@@ -93,8 +93,10 @@ def test_physics_equations_match_step_state():
 
     b = sdh_building()
     nominal = b.physics["physics"]["nominal"]
-    nq = 6  # internal gains of the six zones [W]
-    model = PhysicsModel(b, nominal, {"fall": np.zeros((672, nq))})
+    gains = np.zeros((672, 7))  # internal gains of the six zones [W], then the slabs' boundary [°C]
+    gains[:, 6] = b.physics["physics"]["ground_temperature"]
+    model = PhysicsModel(b, nominal, {"fall": gains})
+    assert model.q_names[-1] == "T_ground"  # the floor and ceiling slabs face the storeys below and above
     eq = model.equations()
     assert eq.bilinear
     assert check_equations(model, eq, atol=1e-9) <= 1e-9

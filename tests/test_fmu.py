@@ -88,6 +88,13 @@ def extended_model(building, seed=3):
     )
 
 
+def _storeys(building, gains):
+    """Zone gains [W] and, when slabs face the storeys below/above, their constant temperature [°C]."""
+    if not any(e.get("side2") == "ground" for e in building.physics.get("elements", [])):
+        return gains
+    return np.column_stack([gains, np.full(len(gains), building.physics["physics"]["ground_temperature"])])
+
+
 def physics_model(building, seed=2):
     from hvacfmu.models.physics import PhysicsModel
 
@@ -100,7 +107,7 @@ def physics_model(building, seed=2):
             building=building,
             params=params,
             solar=True,
-            gains={s: rng.uniform(500.0, 3000.0, (672, nz)) for s in building.season_names},
+            gains={s: _storeys(building, rng.uniform(500.0, 3000.0, (672, nz))) for s in building.season_names},
         )
 
 

@@ -651,6 +651,38 @@ def test_fit_bad_options(recovered):
     from hvacfmu.errors import FitError
 
     ds, _, _ = recovered
-    with pytest.raises(FitError, match=r"\(2 problems\)") as info:
-        fit_physics(ds, progress=False, segment_observer="oracle", free_modes=-1)
+    with pytest.raises(FitError, match=r"\(3 problems\)") as info:
+        fit_physics(ds, progress=False, segment_observer="oracle", free_modes=-1, gain_days="monday")
     assert "segment_observer" in str(info.value) and "free_modes" in str(info.value)
+    assert "gain_days must be 'workdays' or 'week', got 'monday'" in str(info.value)
+
+
+def test_step2_gain_profile_per_day_type():
+    """Step 2's default profile: Monday-Friday share the mean over every training workday of the season.
+
+    One unusual Monday (a day at another occupancy level, e.g. the first day of a new season) weighs
+    1/(5 W) of every workday instead of 1/W of the Mondays; weekend days keep their own slots; NaN slots
+    (no data) are left for the caller to fill; the paper's per-time-of-week mean is ``gain_days="week"``.
+    """
+    from hvacfmu.errors import FitError
+    from hvacfmu.models.physics.identification import _profile_of
+
+    per_day, nz = 4, 2
+    rng = np.random.default_rng(0)
+    day = rng.uniform(0, 1000, (per_day, nz))  # [W] the same workday in every week
+    profs = np.zeros((3, 7 * per_day, nz))
+    profs[:, : 5 * per_day] = np.tile(day, (5, 1))
+    profs[:, 5 * per_day :] = [[[-100.0, 50.0]], [[-200.0, 0.0]], [[0.0, 100.0]]]  # weekends differ by week
+    profs[0, :per_day] += 3000.0  # week 0's Monday: far more gains
+    profs[:, 5 * per_day + 2, 1] = np.nan  # a Saturday slot without data in any week
+    week = _profile_of(profs, "week")
+    work = _profile_of(profs, "workdays")
+    assert_allclose(week[:per_day], day + 1000.0)  # one of three Mondays: a third of its excess
+    assert_allclose(week[per_day : 5 * per_day], np.tile(day, (4, 1)))
+    for d in range(5):  # one of 15 workdays: a fifteenth, on every workday
+        assert_allclose(work[d * per_day : (d + 1) * per_day], day + 200.0)
+    assert_allclose(work[5 * per_day :], week[5 * per_day :])
+    assert_allclose(work[5 * per_day :, 0], -100.0)
+    assert np.isnan(work[5 * per_day + 2, 1]) and np.isfinite(np.delete(work, 5 * per_day + 2, axis=0)).all()
+    with pytest.raises(FitError, match="divides a day"):
+        _profile_of(np.zeros((2, 7 * per_day + 1, nz)), "workdays")

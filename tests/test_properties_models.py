@@ -74,7 +74,9 @@ def physics_file(short_paths):
     from hvacfmu.models.physics import PhysicsModel
 
     b = load_building(short_paths.building)
-    model = PhysicsModel(b, b.physics["physics"]["nominal"], {"fall": np.full((672, 6), 800.0)})
+    gains = np.full((672, 7), 800.0)  # [W] six zones, then the slabs' boundary (the storeys) [°C]
+    gains[:, 6] = b.physics["physics"]["ground_temperature"]
+    model = PhysicsModel(b, b.physics["physics"]["nominal"], {"fall": gains})
     return json.loads(json.dumps(model.to_dict()))
 
 

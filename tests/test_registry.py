@@ -175,8 +175,9 @@ def test_state_from_outputs_public_home_matches_fmu_slave():
             building=b,
             params=dict(b.physics["physics"]["nominal"]),
             solar=True,
-            gains={s: np.full((672, len(b.zone_names)), 1000.0) for s in b.season_names},
+            gains={s: np.full((672, len(b.zone_names) + 1), 1000.0) for s in b.season_names},
         )
+    assert model.q_names[-1] == "T_ground"  # the slabs face the storeys (a 1000 °C boundary: a probe only)
     y0 = np.linspace(20.0, 23.0, model.n_outputs)
     u = np.full(model.n_inputs if hasattr(model, "n_inputs") else len(model.inputs), 0.3)
     v = np.array([10.0, 14.0] + [50.0] * (len(model.disturbances) - 2))

@@ -10,7 +10,8 @@ Stages (each timed and shown as it runs):
 6. export    one FMU per model (and the emulator plant), validated with FMPy;
 7. mpc       a closed-loop MPC week for both models through the FMPy harness,
              against each model's own FMU and against the emulator plant, and on the
-             plant with the diagnosed terms on Model A (the control gain of the diagnosis);
+             plant with the diagnosed terms on Model A (the control gain of the diagnosis;
+             at lower comfort weights too when that run spends more energy than Model A's);
 8. report    ``report.html`` / ``report.md`` with PNG figures.
 
 Every number in the report comes from the objects these stages return; the
@@ -27,6 +28,10 @@ import traceback
 from pathlib import Path
 
 from .demo_results import label, stage_models
+
+#: comfort weights [1/K per zone and step] of the extra MPC runs with the diagnosed model when its run at
+#: the default weight (1e4) spends more energy than Model A's (README "Control gain of the diagnosis")
+EQUAL_ENERGY_WEIGHTS = (50.0, 30.0)
 
 #: The paper's Table I (Zhou, Hu, Tomlin), for side-by-side comparison [°C].
 PAPER_TABLE = {
@@ -300,14 +305,11 @@ def _stage_export(out, r):
 
 
 def _stage_mpc(out, ds, r, horizon):
-    from harness.cosim import make_controller, run_cosim
-
     models = stage_models(r)
     week = r["evaluation"]["week"] if r.get("evaluation") else None
     if week is None:
         week = ds.test_weeks()[0]
     res = {"week": week, "runs": {}, "errors": {}}
-    b = ds.building
     # (run label, fmu to run, controller name, controller model)
     runs = []
     for kind in ("zones", "physics"):
@@ -325,21 +327,9 @@ def _stage_mpc(out, ds, r, horizon):
             models = {**models, "control": {"model": control}}
             runs.append((f"MPC {label('zones')} + diagnosed terms on the plant", plant, "mpc", "control"))
     for run_label, fmu, ctrl, kind in runs:
-        model = models[kind]["model"] if kind else None
-        options = {"horizon": horizon} if ctrl == "mpc" else {}
-        try:
-            controller = make_controller(ctrl, model, b, options)
-            # on the plant, the rule and the MPCs heat through the boxes' discharge air commands (Td_<vav>);
-            # only the replay keeps the boxes' own reheat loops (it sets local_reheat itself): both at once
-            # would heat twice
-            result = run_cosim(fmu, ds, controller, week=week.number, model=model, allow_partial=True)
-        except Exception as exc:  # noqa: BLE001 - one failed run must not hide the others
-            traceback.print_exc(file=sys.stderr)
-            res["errors"][run_label] = f"{type(exc).__name__}: {exc}"
-            continue
-        slug = run_label.lower().replace(" ", "_").replace("(", "").replace(")", "")
-        result.save(out / "results" / f"cosim_{slug}.csv")
-        res["runs"][run_label] = {"result": result, "kind": kind, "controller": ctrl, "fmu": str(fmu)}
+        _run_one(out, ds, res, week, run_label, fmu, ctrl, kind, models, horizon)
+    if "control" in models:  # the same comparison at equal or lower energy
+        _equal_energy_runs(out, ds, res, week, plant, models, horizon)
     if res["errors"]:
         raise _PartialFailure(
             "MPC runs failed: "
@@ -348,6 +338,53 @@ def _stage_mpc(out, ds, r, horizon):
             res,
         )
     return res
+
+
+def _run_one(out, ds, res, week, run_label, fmu, ctrl, kind, models, horizon, options=None) -> bool:
+    """One closed-loop week into ``res["runs"]`` (saved as ``results/cosim_<label>.csv``); False when it failed."""
+    from harness.cosim import make_controller, run_cosim
+
+    model = models[kind]["model"] if kind else None
+    options = ({"horizon": horizon} | (options or {})) if ctrl == "mpc" else {}
+    try:
+        controller = make_controller(ctrl, model, ds.building, options)
+        # on the plant, the rule and the MPCs heat through the boxes' discharge air commands (Td_<vav>);
+        # only the replay keeps the boxes' own reheat loops (it sets local_reheat itself): both at once
+        # would heat twice
+        result = run_cosim(fmu, ds, controller, week=week.number, model=model, allow_partial=True)
+    except Exception as exc:  # noqa: BLE001 - one failed run must not hide the others
+        traceback.print_exc(file=sys.stderr)
+        res["errors"][run_label] = f"{type(exc).__name__}: {exc}"
+        return False
+    slug = run_label.lower().replace(" ", "_").replace("(", "").replace(")", "").replace(",", "")
+    result.save(out / "results" / f"cosim_{slug}.csv")
+    res["runs"][run_label] = {"result": result, "kind": kind, "controller": ctrl, "fmu": str(fmu)}
+    return True
+
+
+def _equal_energy_runs(out, ds, res, week, plant, models, horizon) -> None:
+    """The extended model's MPC at lower comfort weights until it uses no more energy than Model A's.
+
+    "At equal or lower energy" (:class:`harness.energy.EnergyUse`): neither more fan/cooling
+    Σu² nor more reheat than Model A's run on the plant at the default weight. When the
+    default-weight run of the diagnosed model spends more, the weights of
+    :data:`EQUAL_ENERGY_WEIGHTS` are tried in turn (each a real run, at most that many).
+    """
+    from harness.energy import EnergyUse
+
+    runs = res["runs"]
+    base = runs.get(f"MPC {label('zones')} on the plant")
+    ext = runs.get(f"MPC {label('zones')} + diagnosed terms on the plant")
+    if base is None or ext is None:
+        return
+    e0 = EnergyUse.of(base["result"].summary)
+    if EnergyUse.of(ext["result"].summary).at_most(e0):
+        return
+    for w in EQUAL_ENERGY_WEIGHTS:
+        lab = f"MPC {label('zones')} + diagnosed terms on the plant, comfort weight {w:g}"
+        ok = _run_one(out, ds, res, week, lab, plant, "mpc", "control", models, horizon, {"comfort_penalty": w})
+        if ok and EnergyUse.of(runs[lab]["result"].summary).at_most(e0):
+            return
 
 
 def _stage_report(out, r):

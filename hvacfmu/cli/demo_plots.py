@@ -106,11 +106,20 @@ def plot_control_gain(rows: dict, path, title: str) -> Path:
         vals = [float(rows[k][mname]) for k in labels]
         ax.bar(range(len(labels)), vals, color=colors[: len(labels)])
         for i, v in enumerate(vals):
-            ax.annotate(f"{v:.1f}", (i, v), ha="center", va="bottom", fontsize="small")
-        short = [lab.removeprefix("MPC ").removesuffix(" on the plant").replace(" + ", "\n+ ") for lab in labels]
+            ax.annotate(
+                f"{v:.2f}" if "K·h" in mname else f"{v:.0f}", (i, v), ha="center", va="bottom", fontsize="small"
+            )
+        short = [_short_label(lab) for lab in labels]
         ax.set_xticks(range(len(labels)), short, fontsize="x-small")
         ax.margins(y=0.12)
         ax.set_title(mname, fontsize="medium")
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle(title, fontsize="medium")
     return save_figure(plt, fig, path, dpi=100)
+
+
+def _short_label(lab: str) -> str:
+    """``"MPC Model A (six zones) + diagnosed terms on the plant, comfort weight 50"`` -> ``"+ terms\nweight 50"``."""
+    lab = lab.removeprefix("MPC ").replace(" on the plant", "").replace(" (six zones)", "")
+    lab = lab.replace("Model A + diagnosed terms", "+ terms").replace(", comfort weight ", "\nweight ")
+    return lab

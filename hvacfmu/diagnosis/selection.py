@@ -251,8 +251,11 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
 
     A heat exchange through a conductance ``UA`` raises each zone's temperature in
     proportion to ``UA / C_zone``; with capacities proportional to the zone volumes the
-    two coefficients, rescaled by ``V̄/V``, must agree. Returns the untied coefficients
-    and ``symmetry_ratio`` (1 for a perfect exchange).
+    two coefficients, rescaled by ``V̄/V``, must agree. Returns the untied coefficients,
+    ``symmetry_ratio`` (1 for a perfect exchange) and ``dT_within_std_K``: the standard
+    deviation [K] of ``T_b − T_a`` on the training rows after its season × time-of-week
+    means (the part the zones' gain profiles cannot absorb; heat a conductance ``UA``
+    carries beyond the profiles is about ``UA`` times it).
     """
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
     U_eff = effective_inputs(sig, terms)
@@ -272,6 +275,7 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
         ks.append(ls.theta[-1] / r)
     ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
     out["symmetry_ratio"] = float(ratio)
+    out["dT_within_std_K"] = float(np.nanstd(W(d)))
     return out
 
 
@@ -664,9 +668,23 @@ def _rejected_reason(c, opts) -> str:
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
-    return (
+    out = (
         f"cross-validated gain {cv['gain_percent']:.2f} ± {cv['se_percent']:.2f} % (t = {cv['t']:.2f}) "
         f"below {need:g} % with t ≥ {opts['cv_min_t']:g}"
+    )
+    return out + (_coupling_undecided(c) if c.cause == "zone_coupling" else "")
+
+
+def _coupling_undecided(c) -> str:
+    """Why a coupling significant one step ahead but not over 24 h is left undecided (README: couplings)."""
+    dt = c.evidence.get("dT_within_std_K")
+    if dt is None:
+        return ""
+    return (
+        f"; significant one step ahead, where it cannot be told from a driver both zones share; the pair's "
+        f"temperature difference varies by {dt:.2f} K (sd) beyond its time-of-week profile, and a real "
+        f"exchange between zones held near one temperature carries little heat over 24 h (not decided, "
+        f"not absent)"
     )
 
 

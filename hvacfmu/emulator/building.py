@@ -184,6 +184,12 @@ TRUE_SHGC = 0.32  # effective, with interior blinds
 NOMINAL_INTERNAL_MASS = 10000.0  # [J/(K m2)] per floor area
 TRUE_INTERNAL_MASS = 16000.0
 AMBIENT_FILM = 25.0  # [W/(m2 K)]
+#: A floor's slabs face the storeys below and above (the emulator's truth: their air at
+#: ``T_fl`` = 21.8 °C + a workday rise + AR(1) noise). The building file declares them against a
+#: boundary at a constant temperature (``side2 = "ground"``, ``[physics].ground_temperature``),
+#: the schema's closest form; adiabatic slabs would cool with the zone over a weekend setback.
+STOREYS_BOUNDARY = "ground"
+STOREYS_TEMPERATURE = 22.0  # [°C] the storeys' mean air temperature, rounded
 
 
 def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "medium") -> dict:
@@ -224,7 +230,7 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
     ]
     physics = {
         "ambient_film": AMBIENT_FILM,
-        "ground_temperature": 15.0,
+        "ground_temperature": STOREYS_TEMPERATURE,
         "internal_mass": mass,
         "nominal": dict(params),
     }
@@ -263,7 +269,7 @@ def _zone_envelope(zname: str, z: dict, lay, u_win: float, shgc: float) -> tuple
             "construction": "floor_slab",
             "area": z["area"],
             "side1": zname,
-            "side2": "adiabatic",
+            "side2": STOREYS_BOUNDARY,
         }
     )
     elements.append(
@@ -272,7 +278,7 @@ def _zone_envelope(zname: str, z: dict, lay, u_win: float, shgc: float) -> tuple
             "construction": "ceiling_slab",
             "area": z["area"],
             "side1": zname,
-            "side2": "adiabatic",
+            "side2": STOREYS_BOUNDARY,
         }
     )
     return windows, elements
@@ -404,9 +410,9 @@ def sdh_building(nominal: bool = True) -> Building:
         True (default): physics tables with nominal handbook values, as written
         to ``building.toml`` and as a user would have them. False: the same
         tables with the emulator's true values. The emulator's truth is richer
-        than this schema (floors and ceilings face the floors below and above
-        instead of being adiabatic, solar absorbed by opaque walls,
-        infiltration); ``truth.json`` records that structure.
+        than this schema (floors and ceilings face the air of the floors below
+        and above, whose temperature varies, where the file has a boundary at
+        a constant temperature; solar absorbed by opaque walls; infiltration); ``truth.json`` records that structure.
 
     Returns
     -------

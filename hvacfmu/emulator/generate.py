@@ -37,8 +37,9 @@ from .plant import DT, stream
 from .simulate import controller_defaults, simulate
 from .thermal import CP_AIR, DEFAULT_EXTRAS
 
-#: Version of the emulator's physics and data; part of the cache key.
-EMULATOR_VERSION = "1.3"
+#: Version of the emulator's physics and data; part of the cache key. 1.4: the building file
+#: declares the slabs against the storeys (a constant-temperature boundary), not adiabatic.
+EMULATOR_VERSION = "1.4"
 DEFAULT_START = "2025-09-01T00:00:00"
 
 NOISE = {

@@ -22,7 +22,10 @@ Step 2: ``f_IG,m,w^v(k)`` by ordinary least squares from
 (eq. ig(k-1)) for every training week, averaged per season and time of week
 (eq. fixed_ig). The state ``x(k)`` carried from step to step is the prediction
 plus the estimated gains' effect, ``x~(k) + B_IG f(k-1)``, which puts the zone
-air at the measured temperatures and lets the walls follow physically.
+air at the measured temperatures and lets the walls follow physically. With
+``gain_days="workdays"`` Monday to Friday share one daily profile (the mean of
+every training workday of the season), Saturday and Sunday keep their own
+(the default ``"week"`` is the paper's profile per time of week).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -261,6 +264,7 @@ def fit_physics(
     initial: dict | None = None,
     free_modes: int = 3,
     segment_observer: str = "gain_injection",
+    gain_days: str = "week",
 ) -> PhysicsModel:
     """Identify Model B on ``dataset``'s training weeks (two steps, see the module docstring).
 
@@ -312,6 +316,18 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
+    gain_days : {"week", "workdays"}
+        Day types of step 2's seasonal gain profile. ``"week"`` (default): the
+        paper's profile per time of week (eq. fixed_ig), each slot the mean of
+        the few training weeks of the season, so one unusual day (a holiday, a
+        change of occupancy level) weighs a third of its weekday with three
+        training weeks, and a weekday's own pattern (Monday's recovery from
+        the weekend) is kept. ``"workdays"``: Monday to Friday share one daily
+        profile [W] averaged over every training workday of the season,
+        Saturday and Sunday have their own. Measured (README "Where physics
+        lost"): on the BMS exports it beats the time-of-week mean in every zone
+        where ``"week"`` loses in two, but it loses a zone-season cell of the
+        16-week reheat data (fall E, -3.3 %), so it is not the default.
 
     Returns
     -------
@@ -343,6 +359,7 @@ def fit_physics(
             initial=initial,
             free_modes=free_modes,
             segment_observer=segment_observer,
+            gain_days=gain_days,
         )
 
 
@@ -364,11 +381,12 @@ def _fit_physics(
     initial,
     free_modes,
     segment_observer,
+    gain_days,
 ):
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
-    _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor)
+    _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor, gain_days)
     options = {
         k: v
         for k, v in (
@@ -416,6 +434,7 @@ def _fit_physics(
         bound_factor=bound_factor,
         max_nfev=max_nfev,
         solar=bool(solar),
+        gain_days=gain_days,
     )
     record = dict(
         nominal=nominal,
@@ -468,7 +487,7 @@ def _fit_finish(dataset, model, params, zero_gains, f_c, inlets, solar, t_start,
     fitted = PhysicsModel(
         building, params, zero_gains, step=step, solar=solar, options=model.options, f_ig_const=f_c, inlets=inlets
     )
-    gains, gain_info = _seasonal_gains(dataset, fitted, f_c, record["nw"])
+    gains, gain_info = _seasonal_gains(dataset, fitted, f_c, record["nw"], settings["gain_days"])
     meta = _fit_meta(dataset, t_start, settings, gain_info=gain_info, **record)
     final = PhysicsModel(
         building,
@@ -542,7 +561,7 @@ def _fit_meta(
     }
 
 
-def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor) -> None:
+def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor, gain_days) -> None:
     """Refuse impossible options of :func:`fit_physics`, all problems at once."""
     problems = []
     if segment_observer not in ("gain_injection", "kalman"):
@@ -553,6 +572,8 @@ def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours
         problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
     if not bound_factor > 1:
         problems.append(f"bound_factor must be > 1, got {bound_factor}")
+    if gain_days not in ("workdays", "week"):
+        problems.append(f"gain_days must be 'workdays' or 'week', got {gain_days!r}")
     if problems:
         from ...errors import problems_message
 
@@ -711,8 +732,9 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
     return estimates, unident, info
 
 
-def _seasonal_gains(dataset, model, f_c, nw):
-    """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks."""
+def _seasonal_gains(dataset, model, f_c, nw, gain_days="workdays"):
+    """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks
+    (per time of week, or per day type: see :func:`_profile_of`)."""
     frame = dataset.frame
     index = frame.index
     step = float(dataset.step)
@@ -766,12 +788,10 @@ def _seasonal_gains(dataset, model, f_c, nw):
         prof = np.full((n_tow, nz), np.nan)
         prof[slots] = fv
         per_season.setdefault(week.season, []).append(prof)
-    gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}}
+    gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}, "day_types": gain_days}
     season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
     for s, profs in per_season.items():
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slots: filled below
-            mean = np.nanmean(np.stack(profs), axis=0)
+        mean = _profile_of(np.stack(profs), gain_days)
         filled = int(np.isnan(mean).any(axis=1).sum())
         mean = _fill_circular(mean)
         info["weeks_per_season"][s] = len(profs)
@@ -791,6 +811,28 @@ def _seasonal_gains(dataset, model, f_c, nw):
             g[:, nz] = model._spec.ground_temperature
         out[s] = g
     return out, info
+
+
+def _profile_of(profs, gain_days):
+    """Mean (n_tow, nz) gain profile [W] of a season from the training weeks' profiles (n_weeks, n_tow, nz).
+
+    ``"week"``: per time-of-week slot over the weeks. ``"workdays"``: Monday to Friday get one daily
+    profile, the mean over the weeks and the five days of each slot of the day; Saturday and Sunday
+    stay per slot. All-NaN slots stay NaN (filled by the caller).
+    """
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slots: filled by the caller
+        mean = np.nanmean(profs, axis=0)
+        if gain_days == "workdays":
+            if profs.shape[1] % 7:
+                raise FitError(
+                    f"step 2: gain_days='workdays' needs a model step that divides a day; the week has "
+                    f"{profs.shape[1]} steps; use gain_days='week' or resample the data"
+                )
+            per_day = profs.shape[1] // 7  # slots of a day; slot 0 is Monday 00:00
+            work = profs[:, : 5 * per_day].reshape(-1, per_day, profs.shape[2])
+            mean[: 5 * per_day] = np.tile(np.nanmean(work, axis=0), (5, 1))
+    return mean
 
 
 def _fill_circular(prof):
