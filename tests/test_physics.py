@@ -686,3 +686,25 @@ def test_step2_gain_profile_per_day_type():
     assert np.isnan(work[5 * per_day + 2, 1]) and np.isfinite(np.delete(work, 5 * per_day + 2, axis=0)).all()
     with pytest.raises(FitError, match="divides a day"):
         _profile_of(np.zeros((2, 7 * per_day + 1, nz)), "workdays")
+
+
+def test_gain_days_from_the_building_file():
+    """``[physics].gain_days`` in the building file chooses step 2's day types; the argument wins; a bad
+    value is refused naming the key, the file and the fix."""
+    import dataclasses
+
+    from hvacfmu.emulator import sdh_building
+    from hvacfmu.errors import FitError
+    from hvacfmu.models.physics.geometry import parse_physics
+    from hvacfmu.models.physics.identification import _gain_days
+
+    b = sdh_building()
+    assert _gain_days(b, None) == "week"  # the paper's profile by default
+    tables = {**b.physics, "physics": {**b.physics.get("physics", {}), "gain_days": "workdays"}}
+    bw = dataclasses.replace(b, physics=tables, source="office.toml")
+    parse_physics(bw)  # a known [physics] key: not refused as unknown
+    assert _gain_days(bw, None) == "workdays"
+    assert _gain_days(bw, "week") == "week"
+    bad = dataclasses.replace(bw, physics={**tables, "physics": {**tables["physics"], "gain_days": "weekdays"}})
+    with pytest.raises(FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'workdays' or 'week'"):
+        _gain_days(bad, None)

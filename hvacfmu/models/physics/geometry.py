@@ -66,6 +66,7 @@ _PHYSICS_KEYS = {
     "internal_mass",
     "nominal",
     "furniture_capacity",
+    "gain_days",
     "max_layer_thickness",
     "solar_air_fraction",
 }

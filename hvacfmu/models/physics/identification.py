@@ -264,7 +264,7 @@ def fit_physics(
     initial: dict | None = None,
     free_modes: int = 3,
     segment_observer: str = "gain_injection",
-    gain_days: str = "week",
+    gain_days: str | None = None,
 ) -> PhysicsModel:
     """Identify Model B on ``dataset``'s training weeks (two steps, see the module docstring).
 
@@ -316,8 +316,9 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
-    gain_days : {"week", "workdays"}
-        Day types of step 2's seasonal gain profile. ``"week"`` (default): the
+    gain_days : {"week", "workdays"} or None
+        Day types of step 2's seasonal gain profile; None (default): the
+        building file's ``[physics].gain_days``, else ``"week"``. ``"week"``: the
         paper's profile per time of week (eq. fixed_ig), each slot the mean of
         the few training weeks of the season, so one unusual day (a holiday, a
         change of occupancy level) weighs a third of its weekday with three
@@ -386,6 +387,7 @@ def _fit_physics(
     t_start = time.perf_counter()
     step = float(dataset.step)
     building = dataset.building
+    gain_days = _gain_days(building, gain_days)
     _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor, gain_days)
     options = {
         k: v
@@ -559,6 +561,17 @@ def _fit_meta(
         "inlets": inlets,
         "inlet_notes": notes,
     }
+
+
+def _gain_days(building, gain_days: str | None) -> str:
+    """Step 2's day types: the argument, else the building file's ``[physics].gain_days``, else ``"week"``."""
+    if gain_days is not None:
+        return gain_days
+    value = ((building.physics or {}).get("physics") or {}).get("gain_days", "week")
+    if value not in ("workdays", "week"):
+        where = f" of {building.source}" if getattr(building, "source", None) else ""
+        raise FitError(f"[physics].gain_days{where} must be 'workdays' or 'week', got {value!r}: fix the building file")
+    return value
 
 
 def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours, bound_factor, gain_days) -> None:
