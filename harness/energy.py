@@ -48,9 +48,13 @@ class EnergyUse:
         """
         return self.airflow <= other.airflow and self.reheat_kWh <= other.reheat_kWh
 
+    def airflow_change_percent(self, base: EnergyUse) -> float:
+        """Change of the fan/cooling proxy against ``base`` [%] (0 when ``base`` has none)."""
+        return 100.0 * (self.airflow / base.airflow - 1.0) if base.airflow > 0 else 0.0
+
     def change(self, base: EnergyUse) -> str:
         """``"+1.2 % Σu², -3.0 kWh reheat"``: this run against ``base``."""
-        rel = 100.0 * (self.airflow / base.airflow - 1.0) if base.airflow > 0 else 0.0
+        rel = self.airflow_change_percent(base)
         return f"{rel:+.1f} % Σu², {self.reheat_kWh - base.reheat_kWh:+.1f} kWh reheat"
 
 

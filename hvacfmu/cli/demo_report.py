@@ -334,7 +334,7 @@ def _section_control_gain(rep, r, figs):
     e = ext[0][1]
     saved = rep.value("control_gain.saved_Kh", b["comfort_violation_Kh"] - e["comfort_violation_Kh"], 2)
     de = EnergyUse.of(e).change(e0)
-    rep.value("control_gain.energy_change_percent", 100.0 * (e["energy_proxy"] / max(b["energy_proxy"], 1e-12) - 1.0))
+    rep.value("control_gain.energy_change_percent", EnergyUse.of(e).airflow_change_percent(e0))
     rep.value("control_gain.reheat_change_kWh", e.get("heating_kWh", 0.0) - b.get("heating_kWh", 0.0))
     g = frontier_gain(b, [s for _, s in ext])
     rep.value("control_gain.saved_Kh_equal_energy", None if g is None else g["saved_Kh"])

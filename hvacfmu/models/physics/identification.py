@@ -563,12 +563,16 @@ def _fit_meta(
     }
 
 
+#: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, or one Mon-Fri profile.
+GAIN_DAYS = ("week", "workdays")
+
+
 def _gain_days(building, gain_days: str | None) -> str:
     """Step 2's day types: the argument, else the building file's ``[physics].gain_days``, else ``"week"``."""
     if gain_days is not None:
         return gain_days
     value = ((building.physics or {}).get("physics") or {}).get("gain_days", "week")
-    if value not in ("workdays", "week"):
+    if value not in GAIN_DAYS:
         where = f" of {building.source}" if getattr(building, "source", None) else ""
         raise FitError(f"[physics].gain_days{where} must be 'workdays' or 'week', got {value!r}: fix the building file")
     return value
@@ -585,7 +589,7 @@ def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours
         problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
     if not bound_factor > 1:
         problems.append(f"bound_factor must be > 1, got {bound_factor}")
-    if gain_days not in ("workdays", "week"):
+    if gain_days not in GAIN_DAYS:
         problems.append(f"gain_days must be 'workdays' or 'week', got {gain_days!r}")
     if problems:
         from ...errors import problems_message
@@ -745,7 +749,7 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
     return estimates, unident, info
 
 
-def _seasonal_gains(dataset, model, f_c, nw, gain_days="workdays"):
+def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks
     (per time of week, or per day type: see :func:`_profile_of`)."""
     frame = dataset.frame
