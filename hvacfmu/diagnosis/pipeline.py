@@ -49,11 +49,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     DiagnosisReport
     """
     t0 = time.perf_counter()
-    unknown = set(options) - set(DEFAULT_OPTIONS)
-    if unknown:
-        raise TypeError(f"unknown diagnosis options {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
-    opts = {**DEFAULT_OPTIONS, **options}
-    opts["horizon"] = horizon_steps(dataset.step, opts["horizon"])
+    opts = _options(dataset, options)
 
     def say(msg):
         if progress:
@@ -101,40 +97,51 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     if heldout:
         heldout["original_given"] = given  # a base model passed by the caller, or diagnose's own fit
 
-    verdict = "found" if findings else ("unexplained" if unexplained else "nothing missing")
-    fdicts = [{**c.to_dict(), "parameters": _params_of(final, c.term)} for c in findings]
-    cdicts = [c.to_dict() for c in sel.candidates]
-    data = _data_summary(dataset, sig, n_train)
     report = DiagnosisReport(
-        verdict=verdict,
-        findings=fdicts,
-        candidates=cdicts,
+        verdict="found" if findings else ("unexplained" if unexplained else "nothing missing"),
+        findings=[{**c.to_dict(), "parameters": _params_of(final, c.term)} for c in findings],
+        candidates=[c.to_dict() for c in sel.candidates],
         unexplained=unexplained,
         whiteness={"before": white_before, "after": white_after},
         errors=errors,
         heldout=heldout,
         model=final,
         base_model=base_model,
-        data=data,
+        data=_data_summary(dataset, sig, n_train),
         options={k: v for k, v in opts.items()},
         rounds=sel.rounds,
         notes=notes,
-        series={
-            "zones": sig.zones,
-            "index": sig.index,
-            "train": train_rows,
-            "one_step_before": r1_base,
-            "one_step_after": r1_final,
-            "open_loop_before": rol_base,
-            "open_loop_after": rol_final,
-            "step": sig.step,
-        },
+        series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
     )
     if plots:
         say(f"writing figures to {plots}")
         report.plot(plots)
     say(f"done: {report.summary()}")
     return report
+
+
+def _options(dataset, options: dict) -> dict:
+    """:data:`DEFAULT_OPTIONS` with the caller's ``options`` (unknown names refused), horizon in steps."""
+    unknown = set(options) - set(DEFAULT_OPTIONS)
+    if unknown:
+        raise TypeError(f"unknown diagnosis options {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
+    opts = {**DEFAULT_OPTIONS, **options}
+    opts["horizon"] = horizon_steps(dataset.step, opts["horizon"])
+    return opts
+
+
+def _series(sig, train_rows, one_step: tuple, open_loop: tuple) -> dict:
+    """The residual series of the report [K] (before and after the extension) for its figures."""
+    return {
+        "zones": sig.zones,
+        "index": sig.index,
+        "train": train_rows,
+        "one_step_before": one_step[0],
+        "one_step_after": one_step[1],
+        "open_loop_before": open_loop[0],
+        "open_loop_after": open_loop[1],
+        "step": sig.step,
+    }
 
 
 def _residuals(sig, model, dataset, starts, seasons, horizon, train_rows) -> tuple:
