@@ -13,7 +13,7 @@ the same baseline:
   days best 24 h open loop (chosen before the cross-validation, like the one-step choice);
 - ``nested``: for each fold, the τ with the best cross-validated gain on the *other* folds (the
   fold's own held-out error never enters its choice);
-- ``best of grid``: the maximum over the grid — a selection on the test folds, not an honest score.
+- ``best t of grid``: the τ with the highest paired t — a selection on the test folds, not an honest score.
 
 Run: ``python3 benchmarks/bench_mass_time_constant.py [--only 16,12,18] [--zones S]`` (cases of
 ``bench_diagnosis_battery.py``; data cached; about 7× the CPU time of the cases' diagnosis).
@@ -72,14 +72,14 @@ def probe(sig, plan, terms, c, base_scores, out: list) -> None:
     ins = _in_sample_choice(sig, plan, terms, c.variants, key)
     nested, picks = _nested(plan, before, afters)
     rn = paired_test(plan, before, nested)
-    best = int(np.argmax([r["gain_percent"] for r in res]))
+    best = int(np.argmax([r["t"] for r in res]))
     print(f"  zone {c.location['zone']} (round with {len(terms)} terms, ΔBIC {c.test['delta_bic']:.1f})")
     for tau, r in zip(taus, res):
         print(f"    τ {tau:6.1f} h: {_fmt(r)}")
     print(f"    one-step       τ {taus[one]:6.1f} h: {_fmt(res[one])}")
     print(f"    in-sample 24 h τ {taus[ins]:6.1f} h: {_fmt(res[ins])}")
     print(f"    nested         τ per fold {[taus[j] for j in picks]}: {_fmt(rn)}")
-    print(f"    best of grid   τ {taus[best]:6.1f} h: {_fmt(res[best])} (selected on the test folds)")
+    print(f"    best t of grid τ {taus[best]:6.1f} h: {_fmt(res[best])} (selected on the test folds)")
     out.append(
         {
             "zone": c.location["zone"],
