@@ -564,7 +564,13 @@ def _fit_meta(
 
 
 #: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, or one Mon-Fri profile.
-GAIN_DAYS = ("week", "workdays")
+GAIN_DAYS = ("week", "workdays", "shrunk")
+
+
+def _one_of() -> str:
+    """``'week', 'workdays' or 'shrunk'``: the values of :data:`GAIN_DAYS` for messages."""
+    names = [repr(g) for g in GAIN_DAYS]
+    return ", ".join(names[:-1]) + " or " + names[-1]
 
 
 def _gain_days(building, gain_days: str | None) -> str:
@@ -574,7 +580,7 @@ def _gain_days(building, gain_days: str | None) -> str:
     value = ((building.physics or {}).get("physics") or {}).get("gain_days", "week")
     if value not in GAIN_DAYS:
         where = f" of {building.source}" if getattr(building, "source", None) else ""
-        raise FitError(f"[physics].gain_days{where} must be 'workdays' or 'week', got {value!r}: fix the building file")
+        raise FitError(f"[physics].gain_days{where} must be {_one_of()}, got {value!r}: fix the building file")
     return value
 
 
@@ -590,7 +596,7 @@ def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours
     if not bound_factor > 1:
         problems.append(f"bound_factor must be > 1, got {bound_factor}")
     if gain_days not in GAIN_DAYS:
-        problems.append(f"gain_days must be 'workdays' or 'week', got {gain_days!r}")
+        problems.append(f"gain_days must be {_one_of()}, got {gain_days!r}")
     if problems:
         from ...errors import problems_message
 
@@ -808,7 +814,10 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}, "day_types": gain_days}
     season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
     for s, profs in per_season.items():
-        mean = _profile_of(np.stack(profs), gain_days)
+        record: dict = {}
+        mean = _profile_of(np.stack(profs), gain_days, record=record)
+        if record:
+            info.setdefault("shrinkage_weight", {})[s] = record["shrinkage_weight"]
         filled = int(np.isnan(mean).any(axis=1).sum())
         mean = _fill_circular(mean)
         info["weeks_per_season"][s] = len(profs)
@@ -830,26 +839,71 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     return out, info
 
 
-def _profile_of(profs, gain_days):
+def _profile_of(profs, gain_days, record=None):
     """Mean (n_tow, nz) gain profile [W] of a season from the training weeks' profiles (n_weeks, n_tow, nz).
 
     ``"week"``: per time-of-week slot over the weeks. ``"workdays"``: Monday to Friday get one daily
-    profile, the mean over the weeks and the five days of each slot of the day; Saturday and Sunday
-    stay per slot. All-NaN slots stay NaN (filled by the caller).
+    profile, the mean over the weeks and the five days of each slot of the day. ``"shrunk"``: each
+    workday's own profile shrunk toward that Monday-Friday profile by :func:`_shrunk_workdays`.
+    Saturday and Sunday stay per slot. All-NaN slots stay NaN (filled by the caller). ``record``
+    (a dict), if given, receives the shrinkage weights (``"shrunk"`` only).
     """
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slots: filled by the caller
         mean = np.nanmean(profs, axis=0)
-        if gain_days == "workdays":
+        if gain_days in ("workdays", "shrunk"):
             if profs.shape[1] % 7:
                 raise FitError(
-                    f"step 2: gain_days='workdays' needs a model step that divides a day; the week has "
+                    f"step 2: gain_days={gain_days!r} needs a model step that divides a day; the week has "
                     f"{profs.shape[1]} steps; use gain_days='week' or resample the data"
                 )
             per_day = profs.shape[1] // 7  # slots of a day; slot 0 is Monday 00:00
-            work = profs[:, : 5 * per_day].reshape(-1, per_day, profs.shape[2])
-            mean[: 5 * per_day] = np.tile(np.nanmean(work, axis=0), (5, 1))
+            days = profs[:, : 5 * per_day].reshape(profs.shape[0], 5, per_day, profs.shape[2])
+            if gain_days == "workdays":
+                work = np.tile(np.nanmean(days, axis=(0, 1)), (5, 1, 1))
+            else:
+                work, weight = _shrunk_workdays(days)
+                if record is not None:
+                    record["shrinkage_weight"] = np.round(weight, 3).tolist()
+            mean[: 5 * per_day] = work.reshape(5 * per_day, -1)
     return mean
+
+
+def _shrunk_workdays(days):
+    """Each workday's profile shrunk toward the Monday-Friday profile by a random-effects estimate.
+
+    Parameters
+    ----------
+    days : array (n_weeks, 5, per_day, nz) [W]
+        The training weeks' one-step gains of Monday..Friday, NaN where not estimated.
+
+    Returns
+    -------
+    profile : array (5, per_day, nz) [W]
+        ``pooled + w_dz (mean_dz - pooled)`` with ``mean_dz`` the mean over the weeks of weekday ``d``,
+        ``pooled`` the mean over every training workday (the ``"workdays"`` profile).
+    weight : array (5, nz) [-]
+        ``w_dz = max(0, 1 - (4/5) s2_dz / V_dz)``: ``V_dz`` the mean square of ``mean_dz - pooled`` over
+        the slots of the day, ``s2_dz`` the mean over the slots of the squared standard error of
+        ``mean_dz`` (the between-week variance of the slot over its number of weeks; the factor 4/5
+        because the pooled mean holds the day too). A weekday whose profile differs from the others by
+        more than its own week-to-week scatter explains keeps it (``w`` near 1, Monday's recovery from
+        the weekend); one unusual day in a training week raises the scatter and is pooled (``w`` near
+        0). With fewer than two training weeks the scatter is unknown and every workday is pooled.
+    """
+    pooled = np.nanmean(days, axis=(0, 1))  # (per_day, nz)
+    own = np.nanmean(days, axis=0)  # (5, per_day, nz)
+    count = np.isfinite(days).sum(axis=0)  # weeks per slot
+    diff = np.where(np.isfinite(own), own - pooled, 0.0)
+    spread = np.nanmean(diff**2, axis=1)  # V (5, nz)
+    var = np.nanvar(days, axis=0, ddof=1) / np.maximum(count, 1)
+    noise = np.nanmean(np.where(count >= 2, var, np.nan), axis=1)  # s2 (5, nz)
+    with np.errstate(all="ignore"):
+        weight = 1.0 - (4.0 / 5.0) * noise / spread
+    weight = np.clip(np.nan_to_num(weight, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
+    if days.shape[0] < 2:
+        weight[:] = 0.0
+    return pooled[None] + weight[:, None, :] * diff, weight
 
 
 def _fill_circular(prof):
