@@ -413,11 +413,9 @@ def _fit_physics(
         np.log(template.params_vector(nominal) * bound_factor),
     )
     theta0 = np.clip(np.log(template.params_vector(start)), bounds[0] + 1e-9, bounds[1] - 1e-9)
-    theta, K, results, nfev = _optimise(
+    theta, K, results, nfev, f_c, r = _step1(
         model, segs, theta0, bounds, progress, segment_observer, kalman_rounds, free_modes, max_nfev
     )
-    Y0, S, Phi = _simulate_segments(template, theta, step, segs, K, free_modes)
-    f_c, r = _solve_gains(Y0, S, Phi, segs)
     params = dict(zip(PARAM_NAMES, map(float, np.exp(theta))))
 
     # --- uncertainty ------------------------------------------------------------
@@ -438,23 +436,24 @@ def _fit_physics(
         solar=bool(solar),
         gain_days=gain_days,
     )
-    record = dict(
-        nominal=nominal,
-        initial=start,
-        estimates=estimates,
-        unident=unident,
-        jac_info=jac_info,
-        rms=rms,
-        segs=segs,
-        ns=ns,
-        nw=nw,
-        results=results,
-        nfev=nfev,
-        n_states=model.n_states,
-        inlets=dict(zip(building.vav_names, inlets)),
-        notes=notes,
-    )
+    record = dict(nominal=nominal, initial=start, estimates=estimates, unident=unident, jac_info=jac_info, rms=rms)
+    record.update(segs=segs, ns=ns, nw=nw, results=results, nfev=nfev, n_states=model.n_states, notes=notes)
+    record["inlets"] = dict(zip(building.vav_names, inlets))
     return _fit_finish(dataset, model, params, zero_gains, f_c, inlets, solar, t_start, settings, record)
+
+
+def _step1(model, segs, theta0, bounds, progress, observer, kalman_rounds, free_modes, max_nfev):
+    """Step 1: the log-parameters ``theta`` on the weekend segments, then the constant gains ``f_c`` [W].
+
+    Returns ``(theta, K, results, nfev, f_c, r)``: the Kalman gain of the last round, the rounds'
+    results, the residual evaluations and the weekend residuals [K] at the optimum.
+    """
+    theta, K, results, nfev = _optimise(
+        model, segs, theta0, bounds, progress, observer, kalman_rounds, free_modes, max_nfev
+    )
+    Y0, S, Phi = _simulate_segments(model._template, theta, float(model.step), segs, K, free_modes)
+    f_c, r = _solve_gains(Y0, S, Phi, segs)
+    return theta, K, results, nfev, f_c, r
 
 
 def _fit_setup(dataset, solar, options, kalman, warmup_hours, initial):
