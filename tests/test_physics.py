@@ -657,6 +657,29 @@ def test_fit_bad_options(recovered):
     assert "gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'" in str(info.value)
 
 
+def test_refit_gains_redoes_step_2_only(recovered):
+    """``refit_gains``: step 2 again with other day types, step 1 kept; the fit's own day types give its gains
+    back exactly; a bad value, a model without a fit record and data of another building are refused."""
+    import dataclasses
+
+    from hvacfmu.errors import FitError
+    from hvacfmu.models.physics import refit_gains
+
+    ds, _, model = recovered
+    same = refit_gains(model, ds, "week")
+    assert all(np.array_equal(same.gains[s], model.gains[s]) for s in model.gains)
+    shrunk = refit_gains(model, ds, "shrunk")
+    assert shrunk.params == model.params and np.array_equal(shrunk.f_ig_const, model.f_ig_const)
+    assert shrunk.meta["fit_options"]["gain_days"] == "shrunk" and "shrinkage_weight" in shrunk.meta["gains"]
+    assert model.meta["fit_options"]["gain_days"] == "week"  # the fitted model is not changed
+    with pytest.raises(FitError, match=r"gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'"):
+        refit_gains(model, ds, "monday")
+    with pytest.raises(FitError, match="not fitted by fit_physics"):
+        refit_gains(dataclasses.replace(model, meta={}), ds, "workdays")
+    with pytest.raises(FitError, match=r"step 1800 s.* use the dataset the model was fitted on"):
+        refit_gains(model, dataclasses.replace(ds, step=1800.0), "workdays")
+
+
 def test_step2_gain_profile_per_day_type():
     """Step 2's default profile: Monday-Friday share the mean over every training workday of the season.
 

@@ -24,8 +24,10 @@ Step 2: ``f_IG,m,w^v(k)`` by ordinary least squares from
 plus the estimated gains' effect, ``x~(k) + B_IG f(k-1)``, which puts the zone
 air at the measured temperatures and lets the walls follow physically. With
 ``gain_days="workdays"`` Monday to Friday share one daily profile (the mean of
-every training workday of the season), Saturday and Sunday keep their own
-(the default ``"week"`` is the paper's profile per time of week).
+every training workday of the season), Saturday and Sunday keep their own;
+with ``"shrunk"`` each workday's profile is shrunk toward that Monday-Friday
+profile by a random-effects weight from the training weeks' scatter (the
+default ``"week"`` is the paper's profile per time of week).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -39,6 +41,7 @@ a bound.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -316,7 +319,7 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
-    gain_days : {"week", "workdays"} or None
+    gain_days : {"week", "workdays", "shrunk"} or None
         Day types of step 2's seasonal gain profile; None (default): the
         building file's ``[physics].gain_days``, else ``"week"``. ``"week"``: the
         paper's profile per time of week (eq. fixed_ig), each slot the mean of
@@ -325,10 +328,16 @@ def fit_physics(
         training weeks, and a weekday's own pattern (Monday's recovery from
         the weekend) is kept. ``"workdays"``: Monday to Friday share one daily
         profile [W] averaged over every training workday of the season,
-        Saturday and Sunday have their own. Measured (README "Where physics
-        lost"): on the BMS exports it beats the time-of-week mean in every zone
-        where ``"week"`` loses in two, but it loses a zone-season cell of the
-        16-week reheat data (fall E, -3.3 %), so it is not the default.
+        Saturday and Sunday have their own. ``"shrunk"``: each workday's own
+        profile shrunk toward that Monday-Friday profile, by a weight per
+        weekday and zone from the training weeks' scatter (a random-effects
+        estimate, see :func:`_shrunk_workdays`): a weekday that differs
+        consistently keeps its pattern, one unusual day is pooled. Measured
+        (README "Where physics loses"): both options beat the time-of-week
+        mean in every zone of the BMS exports where ``"week"`` loses in two,
+        but both lose a zone-season cell of the 16-week reheat data (fall E,
+        -3.3 % and -2.2 %: one test week whose random day levels sat near the
+        training Wednesdays' and Fridays' means), so neither is the default.
 
     Returns
     -------
@@ -362,6 +371,51 @@ def fit_physics(
             segment_observer=segment_observer,
             gain_days=gain_days,
         )
+
+
+def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
+    """``model`` with step 2 (the seasonal gain profile) redone on ``dataset`` with other day types.
+
+    Step 1's parameters and constant gains ``f_IG^c`` are kept, so the result is what
+    :func:`fit_physics` gives with ``gain_days`` on the same data (step 1 does not depend on it),
+    in seconds instead of a refit.
+
+    Parameters
+    ----------
+    model : PhysicsModel
+        A model fitted by :func:`fit_physics` (it carries ``f_IG^c`` and the filter warm-up).
+    dataset : hvacfmu.data.Dataset
+        The data it was fitted on (its training weeks give the profile).
+    gain_days : {"week", "workdays", "shrunk"}
+        See :func:`fit_physics`.
+
+    Returns
+    -------
+    PhysicsModel
+        With the new ``gains`` [W], ``meta["gains"]``, ``meta["fit_options"]["gain_days"]`` and
+        ``meta["plausibility"]``.
+    """
+    problems = []
+    if gain_days not in GAIN_DAYS:
+        problems.append(f"gain_days must be {_one_of()}, got {gain_days!r}")
+    if model.f_ig_const is None or "warmup_steps" not in model.meta:
+        problems.append("the model was not fitted by fit_physics (no f_IG^c or warm-up in its meta): fit it first")
+    if float(dataset.step) != float(model.step) or tuple(dataset.building.zone_names) != tuple(model.outputs):
+        problems.append(
+            f"the data (step {float(dataset.step):g} s, zones {list(dataset.building.zone_names)}) are not the "
+            f"model's (step {model.step:g} s, zones {list(model.outputs)}): use the dataset the model was fitted on"
+        )
+    if problems:
+        from ...errors import problems_message
+
+        raise FitError(problems_message("refit_gains: cannot redo step 2", problems))
+    f_c = np.asarray(model.f_ig_const, dtype=float)
+    with single_threaded():
+        gains, info = _seasonal_gains(dataset, model, f_c, int(model.meta["warmup_steps"]), gain_days)
+    meta = {**model.meta, "gains": info, "fit_options": {**model.meta.get("fit_options", {}), "gain_days": gain_days}}
+    out = dataclasses.replace(model, gains=gains, meta=meta)
+    meta["plausibility"] = check_physics(out)
+    return out
 
 
 def _fit_physics(
@@ -562,7 +616,8 @@ def _fit_meta(
     }
 
 
-#: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, or one Mon-Fri profile.
+#: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, one Mon-Fri profile, or
+#: each workday's profile shrunk toward the Mon-Fri one.
 GAIN_DAYS = ("week", "workdays", "shrunk")
 
 
