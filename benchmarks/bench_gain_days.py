@@ -9,11 +9,12 @@ against the time-of-week mean [%], 1 - model/baseline) and the mean RMS [K]. The
 Data sets (generated once into the cache): ``bms<seed>`` the README's BMS export (10 weeks from
 2025-11-03, reheat-dual, cold, °F/CFM, naive local, outages, 15-min), ``floor8`` the default floor 8
 weeks, ``reheat16`` / ``reheat16s<seed>`` the 16-week reheat data of ``tests/test_delivered_emulator.py``,
-``office`` the EnergyPlus medium office (mid floor, a year; needs pyenergyplus, minutes on first use).
+``office`` the EnergyPlus medium office (mid floor, a year), ``restaurant`` the fast-food restaurant (a
+year; both need pyenergyplus, minutes on first use).
 
 Usage::
 
-    python3 benchmarks/bench_gain_days.py [bms0 bms1 ... floor8 reheat16 reheat16s1 office]
+    python3 benchmarks/bench_gain_days.py [bms0 bms1 ... floor8 reheat16 reheat16s1 office restaurant]
 """
 
 from __future__ import annotations
@@ -53,7 +54,13 @@ def paths_of(name: str):
         from hvacfmu.energyplus import cached_export
 
         return cached_export("ASHRAE901_OfficeMedium_STD2019_Denver", floor="mid", weeks=None)
-    raise SystemExit(f"unknown data set {name!r}; known: bms<seed>, floor8, reheat16, reheat16s<seed>, office")
+    if name == "restaurant":
+        from hvacfmu.energyplus import cached_export
+
+        return cached_export("ASHRAE901_RestaurantFastFood_STD2019_Denver", floor=None, weeks=None)
+    raise SystemExit(
+        f"unknown data set {name!r}; known: bms<seed>, floor8, reheat16, reheat16s<seed>, office, restaurant"
+    )
 
 
 def run(name: str) -> None:
