@@ -167,11 +167,13 @@ def run_week(fmu, ds, model, week, horizon, days, weight=None):
 
 
 def control_models(ds, base0, ext_joint, names) -> dict:
-    """The models to control with, by name: ``base``, ``extended``, ``joint refit``, ``without:<cause>``.
+    """The models to control with, by name: ``base``, ``extended``, ``joint refit``, ``kept:<cause>``, ``without:<cause>``.
 
     ``without:<cause>`` is the extended model without the found terms of that cause (the
     others refitted the same way): controlling with it against ``extended`` isolates what the
     cause's terms bring (e.g. the coupling, beside the solar terms found with it).
+    ``kept:<cause>`` is the extended model with that cause's terms at the diagnosis's own
+    coefficients (not refitted on the base's dynamics; the others refitted around them).
     """
     from hvacfmu.diagnosis.control import terms_on_base
 
@@ -183,11 +185,13 @@ def control_models(ds, base0, ext_joint, names) -> dict:
             out[name] = terms_on_base(ds, base0, ext_joint.terms)
         elif name == "joint refit":
             out[name] = ext_joint
+        elif name.startswith("kept:"):
+            out[name] = terms_on_base(ds, base0, ext_joint.terms, keep=(name.partition(":")[2],))
         elif name.startswith("without:"):
             cause = name.partition(":")[2]
             out[name] = terms_on_base(ds, base0, [t for t in ext_joint.terms if t.cause != cause])
         else:
-            raise SystemExit(f"unknown model {name!r}: base, extended, joint refit or without:<cause>")
+            raise SystemExit(f"unknown model {name!r}: base, extended, joint refit, kept:<cause> or without:<cause>")
     return out
 
 
@@ -302,7 +306,7 @@ def print_tables(rows) -> None:
         for name in ("base", "extended"):
             pts = "; ".join(f"w={r['weight']:g}: {_point(r)} ({r['viol_at_max']:.2f} at max)" for r in v[name])
             print(f"  {name:<8} {pts}")
-        for ref in sorted({r["model"] for r in rows if r["model"].startswith("without:")}):
+        for ref in sorted({r["model"] for r in rows if r["model"].startswith(("without:", "kept:"))}):
             for w in verdicts(rows, ref=ref):
                 if (w["effect"], w["seed"], w["season"]) == (v["effect"], v["seed"], v["season"]):
                     pts = "; ".join(
@@ -312,16 +316,19 @@ def print_tables(rows) -> None:
     _print_verdicts(rows, "base")
     for ref in sorted({r["model"] for r in rows if r["model"].startswith("without:")}):
         _print_verdicts(rows, ref)
+        kept = "kept:" + ref.partition(":")[2]
+        if any(r["model"] == kept for r in rows):
+            _print_verdicts(rows, ref, kept)
 
 
-def _print_verdicts(rows, ref: str) -> None:
+def _print_verdicts(rows, ref: str, model: str = "extended") -> None:
     from harness.energy import EnergyUse
 
     print(
-        f"\neffect | seed | found | week | default weight: {ref} -> extended | extended at no more energy than the "
+        f"\neffect | seed | found | week | default weight: {ref} -> {model} | {model} at no more energy than the "
         f"{ref} default run | saved K·h | {ref} runs beaten | holds"
     )
-    for v in verdicts(rows, ref=ref):
+    for v in verdicts(rows, model=model, ref=ref):
         b0, e0 = v["default_pair"]
         pair = f"{_point(b0)} -> {_point(e0)}" if e0 else _point(b0)
         g = v["gain"]

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -147,6 +148,20 @@ def test_terms_on_base_keep_the_base_dynamics(solar_case):
     others = [z for z in range(sig.nz) if z != s]
     r0, r1 = (one_step_residuals(sig, m)[test][:, others] for m in (plain, ext))
     assert_allclose(np.nanmean(r1**2), np.nanmean(r0**2), rtol=0.02)  # the other zones are not touched
+    # keep=: a term pinned at the refitted value gives the refitted model; pinned at twice it, S fits worse
+    same = terms_on_base(ds, base, ext.terms, keep=("solar_gain",))
+    assert same.terms[0] is ext.terms[0]
+    assert_allclose(one_step_residuals(sig, same), one_step_residuals(sig, ext), rtol=0, atol=1e-9)
+    doubled = terms_on_base(ds, base, [dataclasses.replace(term, coef=2 * term.coef)], keep=("solar_gain",))
+    assert doubled.terms[0].coef == 2 * term.coef
+    rms2 = float(np.sqrt(np.nanmean(one_step_residuals(sig, doubled)[test, s] ** 2)))
+    assert rms2 > 1.05 * rms[1], (rms, rms2)
+    # a coupling keeps its conductance: the design value maps back to the same coefficients
+    from hvacfmu.diagnosis.control import _kept_values
+    from hvacfmu.models.causes import ZoneCoupling
+
+    pair = ZoneCoupling(zone_a="W", zone_b="E").with_fit(sig, {"k": 0.04}, {})
+    assert _kept_values(sig, pair) == {"k": pytest.approx(0.04, rel=1e-12)}
 
 
 # --------------------------------------------------------------------------- 3. the control gain, closed loop
