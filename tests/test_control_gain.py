@@ -261,3 +261,32 @@ def test_demo_report_claims_the_gain_at_no_more_energy(tmp_path):
     assert [row[-1] for row in table["data"]] == ["-", "no", "yes"]
     text = " ".join(str(b.content) for b in rep.blocks if b.kind == "paragraph")
     assert "comfort weight 50" in text and "saves 0.20 K·h" in text
+
+
+def test_bench_cases_on_other_layouts_and_ablation_verdicts():
+    """``layout/seed:effect`` cases; the ablation verdict compares the extended model with ``without:<cause>``."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_control_gain import parse_case, verdicts
+
+    assert parse_case("3:solar_gain:zone=W,facade=W") == (
+        "sdh",
+        3,
+        "solar_gain:zone=W,facade=W",
+        "solar_gain:zone=W,facade=W",
+    )
+    spec = "zone_coupling:zones=N+SE,ua=1051"
+    assert parse_case(f"core9/3:{spec}") == ("core9", 3, spec, f"core9/{spec}")
+    case = {"effect": f"core9/{spec}", "seed": 3, "season": "winter", "week": 20, "found": "zone_coupling N+SE"}
+    rows = [
+        {**case, **_run(6.70, 590.0, 892.0, 1e4), "model": "base"},
+        {**case, **_run(6.06, 605.0, 885.0, 1e4), "model": "extended"},
+        {**case, **_run(6.31, 571.0, 881.0, 50.0), "model": "extended"},
+        {**case, **_run(6.06, 605.0, 885.0, 1e4), "model": "without:zone_coupling"},
+    ]
+    (v,) = verdicts(rows)
+    assert v["holds"] and v["gain"]["run"]["weight"] == 50.0 and v["gain"]["saved_Kh"] == pytest.approx(0.39)
+    (a,) = verdicts(rows, ref="without:zone_coupling")  # the coupling's own share: the same run, nothing saved
+    assert not a["holds"] and a["gain"]["saved_Kh"] == pytest.approx(0.0)
