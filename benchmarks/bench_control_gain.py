@@ -33,7 +33,13 @@ Usage::
 
     python3 benchmarks/bench_control_gain.py [--cases 0:solar_gain:zone=W,facade=W ...]
         [--seasons summer winter] [--horizon 12] [--days 7] [--weights 10000 50 30 10] [--joint]
+        [--models base extended without:zone_coupling kept:zone_coupling]
         [--json runs.json] [--from-json runs.json ...]
+
+Cases on another floor layout are written ``layout/seed:effect`` (``core9/3:zone_coupling:zones=N+SE,ua=1051``,
+the coupling the diagnosis finds). ``without:<cause>`` controls with the extended model without that
+cause's terms, ``kept:<cause>`` with them at the diagnosis's own coefficients: their verdicts against
+each other and the extended model say what the cause's terms themselves bring.
 """
 
 from __future__ import annotations
@@ -64,6 +70,7 @@ DEFAULT_CASES = (
     "3:solar_gain:zone=E,facade=E,shgc=0.1",
     "3:solar_gain:zone=W,facade=W,shgc=0.1",
     "1:solar_gain:zone=S,facade=S,shgc=0.1",
+    "core9/3:zone_coupling:zones=N+SE,ua=1051",
 )
 #: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
 DEFAULT_WEIGHT = 1.0e4
