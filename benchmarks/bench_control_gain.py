@@ -71,6 +71,7 @@ DEFAULT_CASES = (
     "3:solar_gain:zone=W,facade=W,shgc=0.1",
     "1:solar_gain:zone=S,facade=S,shgc=0.1",
     "core9/3:zone_coupling:zones=N+SE,ua=1051",
+    "core9/3:zone_coupling:zones=SW+NW,ua=1554",
 )
 #: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
 DEFAULT_WEIGHT = 1.0e4
