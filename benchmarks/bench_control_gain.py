@@ -353,7 +353,7 @@ def _print_verdicts(rows, ref: str, model: str = "extended") -> None:
 
 
 def plot_frontiers(rows, path) -> None:
-    """One panel per case and week: K·h against Σu² for both models (reheat in the point labels)."""
+    """One panel per case and week: K·h against Σu² for both models (and ``without:<cause>`` ablations, grey)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -371,6 +371,11 @@ def plot_frontiers(rows, path) -> None:
             ax.plot(x, y, "o-", color=color, label=name, ms=4)
             for r in pts:
                 ax.annotate(f"{r['weight']:g}", (r["energy_proxy"], r["comfort_violation_Kh"]), fontsize=6, color=color)
+        same = [r for r in rows if (r["effect"], r["seed"], r["season"]) == (v["effect"], v["seed"], v["season"])]
+        for name in sorted({r["model"] for r in same if r["model"].startswith("without:")}):
+            pts = sorted((r for r in same if r["model"] == name), key=lambda r: r["energy_proxy"])
+            ax.plot([r["energy_proxy"] for r in pts], [r["comfort_violation_Kh"] for r in pts], "s--", color="grey",
+                    label=name, ms=3)  # fmt: skip
         b0 = v["default_pair"][0]
         ax.axvline(b0["energy_proxy"], color="tab:blue", lw=0.6, ls=":")
         case = v["effect"].replace("solar_gain:", "solar ").replace("zone_coupling:", "coupling ")
