@@ -123,11 +123,35 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
         ``random_rc_network(6, 21, 289)`` has Model B's size (289 states, 21 boxes, 6 zones).
     """
     rng = np.random.default_rng(seed)
-    nz = n_zones
-    area = rng.uniform(80.0, 400.0, nz)  # floor area [m2]
+    area = rng.uniform(80.0, 400.0, n_zones)  # floor area [m2]
+    caps, edges = _random_walls(rng, area, n_states, layers)
+    box_zone = np.arange(n_boxes) % n_zones
+    cont = _continuous_matrices(np.asarray(caps), edges, n_zones, box_zone)
+    per_zone = np.bincount(box_zone, minlength=n_zones)
+    m_max = 3.0e-3 * area[box_zone] / per_zone[box_zone]  # ~ design airflow [kg/s]
+    return RCNetworkModel(
+        step=float(step),
+        outputs=tuple(f"Z{z}" for z in range(n_zones)),
+        inputs=tuple(f"m_V{b}" for b in range(n_boxes)),
+        continuous=cont,
+        discrete=_discretise(cont, step),
+        box_zone=box_zone,
+        m_min=0.15 * m_max,
+        m_max=m_max,
+        zone_area=area,
+    )
+
+
+def _random_walls(rng, area, n_states, layers):
+    """Node capacities [J/K] and edges ``(i, j, conductance [W/K])`` (``j = -1``: ambient).
+
+    Zone air nodes come first (air + furniture), each with a window to the
+    outside; walls of ``layers`` nodes are added round-robin until ``n_states``.
+    """
+    nz = len(area)
     cap = 1.2 * CP_AIR * 3.0 * area + 10000.0 * area  # air + furniture [J/K]
     caps = list(cap)
-    edges = []  # (i, j, conductance [W/K]); j = -1 ambient
+    edges = []
     for z in range(nz):  # windows
         edges.append((z, -1, 2.6 * rng.uniform(0.05, 0.12) * area[z]))
     n = nz
@@ -153,7 +177,12 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
         # slab: the far side is adiabatic
         n += L
         w += 1
-    nx = n
+    return caps, edges
+
+
+def _continuous_matrices(capv, edges, nz, box_zone) -> BilinearMatrices:
+    """Continuous-time bilinear matrices [1/s] of the network; the zone air nodes are the outputs."""
+    nx = len(capv)
     Ac = np.zeros((nx, nx))
     Bvc = np.zeros((nx, 2))
     for i, j, g in edges:
@@ -164,15 +193,12 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
             Ac[j, i] += g
         else:
             Bvc[i, 0] += g
-    capv = np.asarray(caps)
     Ac /= capv[:, None]
     Bvc /= capv[:, None]
     Bqc = np.zeros((nx, nz))
     Bqc[np.arange(nz), np.arange(nz)] = 1.0 / capv[:nz]
-    box_zone = np.arange(n_boxes) % nz
     Bxuc, Bvuc = [], []
-    for b in range(n_boxes):
-        z = box_zone[b]
+    for z in box_zone:
         M = np.zeros((nx, nx))
         M[z, z] = -CP_AIR / capv[z]
         Bxuc.append(M)
@@ -181,26 +207,20 @@ def random_rc_network(n_zones=3, n_boxes=5, n_states=30, layers=(3, 6), step=900
         Bvuc.append(Mv)
     Cm = np.zeros((nz, nx))
     Cm[np.arange(nz), np.arange(nz)] = 1.0
-    # exact exponential and its integral from the augmented matrix
+    return BilinearMatrices(Ac, Bvc, Bqc, Bxuc, Bvuc, Cm)
+
+
+def _discretise(cont: BilinearMatrices, step: float) -> BilinearMatrices:
+    """Zero-order-hold discretisation over ``step`` [s]: exact exponential and its integral."""
+    Ac = cont.A
+    nx = Ac.shape[0]
     aug = np.zeros((2 * nx, 2 * nx))
     aug[:nx, :nx] = Ac * step
     aug[:nx, nx:] = np.eye(nx) * step
     E = scipy.linalg.expm(aug)
     Ad, Gam = E[:nx, :nx], E[:nx, nx:]
-    disc = BilinearMatrices(Ad, Gam @ Bvc, Gam @ Bqc, [Gam @ M for M in Bxuc], [Gam @ M for M in Bvuc], Cm)
-    cont = BilinearMatrices(Ac, Bvc, Bqc, Bxuc, Bvuc, Cm)
-    per_zone = np.bincount(box_zone, minlength=nz)
-    m_max = 3.0e-3 * area[box_zone] / per_zone[box_zone]  # ~ design airflow [kg/s]
-    return RCNetworkModel(
-        step=float(step),
-        outputs=tuple(f"Z{z}" for z in range(nz)),
-        inputs=tuple(f"m_V{b}" for b in range(n_boxes)),
-        continuous=cont,
-        discrete=disc,
-        box_zone=box_zone,
-        m_min=0.15 * m_max,
-        m_max=m_max,
-        zone_area=area,
+    return BilinearMatrices(
+        Ad, Gam @ cont.Bv, Gam @ cont.Bq, [Gam @ M for M in cont.Bxu], [Gam @ M for M in cont.Bvu], cont.C
     )
 
 
