@@ -654,7 +654,30 @@ def test_fit_bad_options(recovered):
     with pytest.raises(FitError, match=r"\(3 problems\)") as info:
         fit_physics(ds, progress=False, segment_observer="oracle", free_modes=-1, gain_days="monday")
     assert "segment_observer" in str(info.value) and "free_modes" in str(info.value)
-    assert "gain_days must be 'workdays' or 'week', got 'monday'" in str(info.value)
+    assert "gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'" in str(info.value)
+
+
+def test_refit_gains_redoes_step_2_only(recovered):
+    """``refit_gains``: step 2 again with other day types, step 1 kept; the fit's own day types give its gains
+    back exactly; a bad value, a model without a fit record and data of another building are refused."""
+    import dataclasses
+
+    from hvacfmu.errors import FitError
+    from hvacfmu.models.physics import refit_gains
+
+    ds, _, model = recovered
+    same = refit_gains(model, ds, "week")
+    assert all(np.array_equal(same.gains[s], model.gains[s]) for s in model.gains)
+    shrunk = refit_gains(model, ds, "shrunk")
+    assert shrunk.params == model.params and np.array_equal(shrunk.f_ig_const, model.f_ig_const)
+    assert shrunk.meta["fit_options"]["gain_days"] == "shrunk" and "shrinkage_weight" in shrunk.meta["gains"]
+    assert model.meta["fit_options"]["gain_days"] == "week"  # the fitted model is not changed
+    with pytest.raises(FitError, match=r"gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'"):
+        refit_gains(model, ds, "monday")
+    with pytest.raises(FitError, match="not fitted by fit_physics"):
+        refit_gains(dataclasses.replace(model, meta={}), ds, "workdays")
+    with pytest.raises(FitError, match=r"step 1800 s.* use the dataset the model was fitted on"):
+        refit_gains(model, dataclasses.replace(ds, step=1800.0), "workdays")
 
 
 def test_step2_gain_profile_per_day_type():
@@ -688,6 +711,41 @@ def test_step2_gain_profile_per_day_type():
         _profile_of(np.zeros((2, 7 * per_day + 1, nz)), "workdays")
 
 
+def test_step2_shrunk_profile_keeps_a_consistent_weekday_and_pools_an_unusual_day():
+    """``gain_days="shrunk"``: each workday's profile shrunk toward the Monday-Friday mean by the share of
+    its difference that the training weeks' scatter does not explain (random-effects estimate).
+
+    Zone 0: every Monday carries 800 W more than the other workdays in every week (a weekday's own
+    pattern, like the recovery from the weekend) -> kept, weight near 1. Zone 1: one Monday of five weeks
+    at another level (a holiday, a change of season) and the same day otherwise -> pooled, weight 0, as
+    ``"workdays"``. Day-to-day scatter of 100 W on every day. With one training week the scatter is
+    unknown and every workday is pooled; the weekend keeps its own slots.
+    """
+    from hvacfmu.models.physics.identification import _profile_of
+
+    per_day, n_weeks = 24, 5
+    rng = np.random.default_rng(1)
+    hours = np.arange(per_day)
+    day = 1000.0 * ((hours >= 8) & (hours < 18))  # [W]
+    profs = np.tile(day, (n_weeks, 7))[:, :, None].repeat(2, axis=2)
+    profs[:, 5 * per_day :] *= 0.1  # weekend
+    profs += rng.normal(0.0, 100.0, profs.shape)
+    profs[:, :per_day, 0] += 800.0 * (day > 0)  # zone 0: every Monday
+    profs[2, :per_day, 1] += 3000.0 * (day > 0)  # zone 1: one Monday of five
+    record: dict = {}
+    shrunk = _profile_of(profs, "shrunk", record=record)
+    week, work = _profile_of(profs, "week"), _profile_of(profs, "workdays")
+    weight = np.array(record["shrinkage_weight"])  # (5 workdays, 2 zones)
+    assert weight.shape == (5, 2) and weight[0, 0] > 0.95 and weight[0, 1] == 0.0, weight
+    monday = slice(8, 18)
+    assert np.abs(shrunk[monday, 0] - week[monday, 0]).max() < 0.05 * 800.0  # kept: the Mondays' own mean
+    assert work[monday, 0].mean() < week[monday, 0].mean() - 500.0  # pooled would lose 4/5 of it
+    assert_allclose(shrunk[:per_day, 1], work[:per_day, 1])  # the unusual Monday: pooled
+    assert_allclose(shrunk[5 * per_day :], week[5 * per_day :])
+    one = _profile_of(profs[:1], "shrunk")
+    assert_allclose(one, _profile_of(profs[:1], "workdays"))
+
+
 def test_gain_days_from_the_building_file():
     """``[physics].gain_days`` in the building file chooses step 2's day types; the argument wins; a bad
     value is refused naming the key, the file and the fix."""
@@ -706,5 +764,7 @@ def test_gain_days_from_the_building_file():
     assert _gain_days(bw, None) == "workdays"
     assert _gain_days(bw, "week") == "week"
     bad = dataclasses.replace(bw, physics={**tables, "physics": {**tables["physics"], "gain_days": "weekdays"}})
-    with pytest.raises(FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'workdays' or 'week'"):
+    with pytest.raises(
+        FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'week', 'workdays' or 'shrunk'"
+    ):
         _gain_days(bad, None)

@@ -11,7 +11,7 @@
 from __future__ import annotations
 
 from .geometry import PARAM_NAMES, PhysicsSpec, parse_physics, physics_problems
-from .identification import fit_physics
+from .identification import fit_physics, refit_gains
 from .model import PhysicsModel, kalman_gain
 from .network import BilinearMatrices, DiscreteBilinear, NetworkTemplate, RCNetwork
 
@@ -51,6 +51,7 @@ __all__ = [
     "RCNetwork",
     "assemble",
     "fit_physics",
+    "refit_gains",
     "kalman_gain",
     "parse_physics",
     "physics_problems",
