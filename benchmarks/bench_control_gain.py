@@ -33,7 +33,13 @@ Usage::
 
     python3 benchmarks/bench_control_gain.py [--cases 0:solar_gain:zone=W,facade=W ...]
         [--seasons summer winter] [--horizon 12] [--days 7] [--weights 10000 50 30 10] [--joint]
+        [--models base extended without:zone_coupling kept:zone_coupling]
         [--json runs.json] [--from-json runs.json ...]
+
+Cases on another floor layout are written ``layout/seed:effect`` (``core9/3:zone_coupling:zones=N+SE,ua=1051``,
+the coupling the diagnosis finds). ``without:<cause>`` controls with the extended model without that
+cause's terms, ``kept:<cause>`` with them at the diagnosis's own coefficients: their verdicts against
+each other and the extended model say what the cause's terms themselves bring.
 """
 
 from __future__ import annotations
@@ -64,11 +70,25 @@ DEFAULT_CASES = (
     "3:solar_gain:zone=E,facade=E,shgc=0.1",
     "3:solar_gain:zone=W,facade=W,shgc=0.1",
     "1:solar_gain:zone=S,facade=S,shgc=0.1",
+    "core9/3:zone_coupling:zones=N+SE,ua=1051",
+    "core9/3:zone_coupling:zones=SW+NW,ua=1554",
 )
 #: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
 DEFAULT_WEIGHT = 1.0e4
 #: the comfort weights swept per model (the default first)
 DEFAULT_WEIGHTS = (DEFAULT_WEIGHT, 50.0, 30.0, 10.0)
+
+
+def parse_case(case: str):
+    """``[layout/]seed:effect`` -> (layout, seed, effect spec, row label); the layout defaults to ``sdh``.
+
+    The row label is the effect spec, prefixed by the layout when it is not the default
+    (``core9/zone_coupling:zones=N+SE,ua=1051``).
+    """
+    head, _, spec = case.partition(":")
+    layout, _, seed = head.rpartition("/")
+    layout = layout or "sdh"
+    return layout, int(seed), spec, spec if layout == "sdh" else f"{layout}/{spec}"
 
 
 def _source_hash() -> str:
@@ -154,25 +174,51 @@ def run_week(fmu, ds, model, week, horizon, days, weight=None):
     }
 
 
-def run_case(case: str, seasons, horizon: int, days: float, joint: bool, weights, out=None) -> list:
-    """Rows (effect, found, season, week, model, weight, figures) of one ``seed:effect`` case."""
-    from hvacfmu.data import prepare
+def control_models(ds, base0, ext_joint, names) -> dict:
+    """The models to control with, by name: ``base``, ``extended``, ``joint refit``, ``kept:<cause>``, ``without:<cause>``.
+
+    ``without:<cause>`` is the extended model without the found terms of that cause (the
+    others refitted the same way): controlling with it against ``extended`` isolates what the
+    cause's terms bring (e.g. the coupling, beside the solar terms found with it).
+    ``kept:<cause>`` is the extended model with that cause's terms at the diagnosis's own
+    coefficients (not refitted on the base's dynamics; the others refitted around them).
+    """
     from hvacfmu.diagnosis.control import terms_on_base
+
+    out = {}
+    for name in names:
+        if name == "base":
+            out[name] = terms_on_base(ds, base0, ())
+        elif name == "extended":
+            out[name] = terms_on_base(ds, base0, ext_joint.terms)
+        elif name == "joint refit":
+            out[name] = ext_joint
+        elif name.startswith("kept:"):
+            out[name] = terms_on_base(ds, base0, ext_joint.terms, keep=(name.partition(":")[2],))
+        elif name.startswith("without:"):
+            cause = name.partition(":")[2]
+            out[name] = terms_on_base(ds, base0, [t for t in ext_joint.terms if t.cause != cause])
+        else:
+            raise SystemExit(f"unknown model {name!r}: base, extended, joint refit, kept:<cause> or without:<cause>")
+    return out
+
+
+def run_case(case: str, seasons, horizon: int, days: float, names, weights, out=None) -> list:
+    """Rows (effect, found, season, week, model, weight, figures) of one ``[layout/]seed:effect`` case."""
+    from hvacfmu.data import prepare
     from hvacfmu.emulator import cached_dataset
     from hvacfmu.fmu import export_plant_fmu
 
-    seed, _, spec = case.partition(":")
-    paths = cached_dataset(weeks=51, seed=int(seed), effects=[spec])
-    ds = prepare(paths.measurements, paths.building, seed=int(seed))
+    layout, seed, spec, label = parse_case(case)
+    paths = cached_dataset(weeks=51, seed=seed, effects=[spec], **({} if layout == "sdh" else {"layout": layout}))
+    ds = prepare(paths.measurements, paths.building, seed=seed)
     effect = json.loads(Path(paths.truth).read_text(encoding="utf-8"))["effects"][0]
     t0 = time.perf_counter()
     base0, findings, ext_joint = diagnosed(paths, ds)
     found = injected_found(effect, findings)
-    models = {"base": terms_on_base(ds, base0, ()), "extended": terms_on_base(ds, base0, ext_joint.terms)}
-    if joint:
-        models["joint refit"] = ext_joint
+    models = control_models(ds, base0, ext_joint, names)
     print(
-        f"case seed {seed} {spec}: diagnosis {time.perf_counter() - t0:.1f} s, {len(findings)} findings "
+        f"case seed {seed} {label}: diagnosis {time.perf_counter() - t0:.1f} s, {len(findings)} findings "
         f"({', '.join(sorted({f['cause'] for f in findings}))}), injected effect: {found}",
         flush=True,
     )
@@ -182,7 +228,7 @@ def run_case(case: str, seasons, horizon: int, days: float, joint: bool, weights
         for name, model in models.items():
             for w in weights:
                 r = run_week(fmu, ds, model, week, horizon, days, None if w == DEFAULT_WEIGHT else w)
-                row = {"effect": spec, "seed": int(seed), "found": found, "season": season, "week": week.number}
+                row = {"effect": label, "seed": seed, "found": found, "season": season, "week": week.number}
                 rows.append({**row, "model": name, **r})
                 print(
                     f"  {season:<6} week {week.number:2d} {name:<11} weight {r['weight']:7g}  "
@@ -192,21 +238,28 @@ def run_case(case: str, seasons, horizon: int, days: float, joint: bool, weights
                     flush=True,
                 )
                 if out:
-                    Path(out).write_text(json.dumps((_previous(out, case) + rows), indent=0), encoding="utf-8")
+                    Path(out).write_text(json.dumps(_previous(out, rows) + rows, indent=0), encoding="utf-8")
     return rows
 
 
-def _previous(out, case) -> list:
-    """Rows of other cases already in the ``--json`` file."""
+def _previous(out, rows) -> list:
+    """Rows already in the ``--json`` file that ``rows`` do not replace (same case, week, model and weight)."""
     p = Path(out)
     if not p.is_file():
         return []
-    seed, _, spec = case.partition(":")
-    return [r for r in json.loads(p.read_text(encoding="utf-8")) if (str(r["seed"]), r["effect"]) != (seed, spec)]
+    new = {_key(r) for r in rows}
+    return [r for r in json.loads(p.read_text(encoding="utf-8")) if _key(r) not in new]
 
 
-def verdicts(rows) -> list:
-    """Per case and week: the two frontiers, and the claim at the base's default-weight energy.
+def _key(r) -> tuple:
+    return (r["seed"], r["effect"], r["season"], r["model"], r["weight"])
+
+
+def verdicts(rows, model: str = "extended", ref: str = "base") -> list:
+    """Per case and week: the two frontiers, and the claim at the reference's default-weight energy.
+
+    ``model`` is compared with ``ref`` (default: the extended model with the base; with
+    ``ref="without:<cause>"`` the claim is what that cause's terms add to the other terms).
 
     The claim holds when a real extended run uses no more energy than the base model's run at
     the default comfort weight (:meth:`harness.energy.EnergyUse.at_most`: neither more Σu² nor
@@ -219,8 +272,8 @@ def verdicts(rows) -> list:
     keys = sorted({(r["effect"], r["seed"], r["season"]) for r in rows}, key=str)
     for effect, seed, season in keys:
         mine = [r for r in rows if (r["effect"], r["seed"], r["season"]) == (effect, seed, season)]
-        base = sorted((r for r in mine if r["model"] == "base"), key=lambda r: r["weight"])
-        ext = sorted((r for r in mine if r["model"] == "extended"), key=lambda r: r["weight"])
+        base = sorted((r for r in mine if r["model"] == ref), key=lambda r: r["weight"])
+        ext = sorted((r for r in mine if r["model"] == model), key=lambda r: r["weight"])
         b0 = next((r for r in base if r["weight"] == DEFAULT_WEIGHT), None)
         if b0 is None or not ext:
             continue
@@ -250,20 +303,40 @@ def _point(r) -> str:
 
 
 def print_tables(rows) -> None:
-    """The frontier table (every weight, both models) and the verdict per case and week."""
-    from harness.energy import EnergyUse
+    """The frontier table (every weight, both models) and the verdict per case and week.
 
+    When ``without:<cause>`` runs are present, a second verdict compares the extended model
+    with each of them (what the cause's terms add at no more energy).
+    """
     print("\nfrontiers: K·h outside [20, 22] °C @ Σu² [(kg/s)²] / reheat [kWh], per comfort weight")
     for v in verdicts(rows):
         print(f"{v['effect']} (seed {v['seed']}), {v['season']} week {v['week']}, injected effect: {v['found']}")
         for name in ("base", "extended"):
             pts = "; ".join(f"w={r['weight']:g}: {_point(r)} ({r['viol_at_max']:.2f} at max)" for r in v[name])
             print(f"  {name:<8} {pts}")
+        for ref in sorted({r["model"] for r in rows if r["model"].startswith(("without:", "kept:"))}):
+            for w in verdicts(rows, ref=ref):
+                if (w["effect"], w["seed"], w["season"]) == (v["effect"], v["seed"], v["season"]):
+                    pts = "; ".join(
+                        f"w={r['weight']:g}: {_point(r)} ({r['viol_at_max']:.2f} at max)" for r in w["base"]
+                    )
+                    print(f"  {ref} {pts}")
+    _print_verdicts(rows, "base")
+    for ref in sorted({r["model"] for r in rows if r["model"].startswith("without:")}):
+        _print_verdicts(rows, ref)
+        kept = "kept:" + ref.partition(":")[2]
+        if any(r["model"] == kept for r in rows):
+            _print_verdicts(rows, ref, kept)
+
+
+def _print_verdicts(rows, ref: str, model: str = "extended") -> None:
+    from harness.energy import EnergyUse
+
     print(
-        "\neffect | seed | found | week | default weight: base -> extended | extended at no more energy than the "
-        "base's default run | saved K·h | base runs beaten | holds"
+        f"\neffect | seed | found | week | default weight: {ref} -> {model} | {model} at no more energy than the "
+        f"{ref} default run | saved K·h | {ref} runs beaten | holds"
     )
-    for v in verdicts(rows):
+    for v in verdicts(rows, model=model, ref=ref):
         b0, e0 = v["default_pair"]
         pair = f"{_point(b0)} -> {_point(e0)}" if e0 else _point(b0)
         g = v["gain"]
@@ -280,7 +353,7 @@ def print_tables(rows) -> None:
 
 
 def plot_frontiers(rows, path) -> None:
-    """One panel per case and week: K·h against Σu² for both models (reheat in the point labels)."""
+    """One panel per case and week: K·h against Σu² for both models (and ``without:<cause>`` ablations, grey)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -298,6 +371,11 @@ def plot_frontiers(rows, path) -> None:
             ax.plot(x, y, "o-", color=color, label=name, ms=4)
             for r in pts:
                 ax.annotate(f"{r['weight']:g}", (r["energy_proxy"], r["comfort_violation_Kh"]), fontsize=6, color=color)
+        same = [r for r in rows if (r["effect"], r["seed"], r["season"]) == (v["effect"], v["seed"], v["season"])]
+        for name in sorted({r["model"] for r in same if r["model"].startswith("without:")}):
+            pts = sorted((r for r in same if r["model"] == name), key=lambda r: r["energy_proxy"])
+            ax.plot([r["energy_proxy"] for r in pts], [r["comfort_violation_Kh"] for r in pts], "s--", color="grey",
+                    label=name, ms=3)  # fmt: skip
         b0 = v["default_pair"][0]
         ax.axvline(b0["energy_proxy"], color="tab:blue", lw=0.6, ls=":")
         case = v["effect"].replace("solar_gain:", "solar ").replace("zone_coupling:", "coupling ")
@@ -316,7 +394,12 @@ def plot_frontiers(rows, path) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES), help="seed:effect, e.g. 0:solar_gain:zone=W")
+    ap.add_argument(
+        "--cases",
+        nargs="+",
+        default=list(DEFAULT_CASES),
+        help="[layout/]seed:effect, e.g. 0:solar_gain:zone=W or core9/3:zone_coupling:zones=N+SE,ua=1051",
+    )
     ap.add_argument("--seasons", nargs="+", default=["summer", "winter"])
     ap.add_argument("--horizon", type=int, default=12)
     ap.add_argument("--days", type=float, default=7.0, help="days of each week to run (7: the whole week)")
@@ -328,6 +411,13 @@ def main(argv=None) -> int:
         help=f"comfort penalties [1/K per step] to sweep ({DEFAULT_WEIGHT:g}: the MPC default)",
     )
     ap.add_argument("--joint", action="store_true", help="also control with the diagnosis's own extended model")
+    ap.add_argument(
+        "--models",
+        nargs="+",
+        default=["base", "extended"],
+        help="models to control with: base, extended, 'joint refit', without:<cause> (the extended model "
+        "without that cause's terms, e.g. without:zone_coupling)",
+    )
     ap.add_argument("--json", help="write every run's figures here (rewritten after each run)")
     ap.add_argument("--from-json", nargs="+", help="print the tables of --json files (joined) without running")
     ap.add_argument("--plot", help="also draw the frontiers (K·h against Σu², labelled by weight) into this PNG")
@@ -341,9 +431,10 @@ def main(argv=None) -> int:
     print(
         f"plant FMU per dataset, MPC N={args.horizon}; machine load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
     )
+    names = list(args.models) + (["joint refit"] if args.joint and "joint refit" not in args.models else [])
     rows = []
     for case in args.cases:
-        rows += run_case(case, args.seasons, args.horizon, args.days, args.joint, args.weights, args.json)
+        rows += run_case(case, args.seasons, args.horizon, args.days, names, args.weights, args.json)
     print_tables(rows)
     if args.plot:
         plot_frontiers(rows, args.plot)

@@ -17,6 +17,14 @@ diagnosis found (its accepted terms), it prints:
 
 Run: ``python3 benchmarks/bench_coupling_evidence.py [--only 25,37,15,7,0]`` (row4 15-min
 cases of ``bench_diagnosis_battery.py``; about 30 s of CPU per case; data cached).
+
+``--pairs`` instead prints, without a diagnosis, what differs between the battery's injected pairs
+(every coupling case by default) and, for comparison, every non-adjacent pair of the clean cases
+of the same layouts: the pair's distance (zone centres) [m], volumes [m³] and fast capacitances
+(air + furniture) [MJ/K], the conductance per step ``ua·step/C`` [1/step], ``sd(T_b − T_a)`` raw and
+after the season × time-of-week means [K], each zone's own temperature sd after those means
+(how tightly its boxes hold it) [K], the coupling heat this carries ``ua · sd_within`` [W] and
+the temperature change per step it makes ``ua · step · sd_within / C`` [mK/step].
 """
 
 from __future__ import annotations
@@ -159,15 +167,101 @@ def run_case(case, weeks):
                 print(f"    {name:24s} {val}")
 
 
+def pair_properties(case, weeks, ua_clean=1200.0) -> list:
+    """Rows of ``--pairs`` for one case: its injected pairs, or every non-adjacent pair of a clean case."""
+    from battery_oracle import fast_capacitance
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.emulator.layouts import get_layout
+    from hvacfmu.models.causes.signals import Within
+
+    paths = cached_dataset(weeks=weeks, seed=case["seed"], effects=case["effects"], layout=case["layout"])
+    ds = prepare(paths.measurements, paths.building, step=case["step"])
+    truth = json.loads(paths.truth.read_text())
+    lay = get_layout(case["layout"])
+    injected = [(e["zones"], float(e["ua"])) for e in truth.get("effects", []) if e["name"] == "zone_coupling"]
+    if not case["effects"]:
+        b = ds.building
+        adj = {frozenset((z.name, n)) for z in b.zones for n in z.adjacent}
+        names = [z.name for z in b.zones]
+        injected = [
+            ([a, c], ua_clean) for i, a in enumerate(names) for c in names[i + 1 :] if frozenset((a, c)) not in adj
+        ]
+    fr = ds.frame
+    train = np.isin(np.asarray(ds.week_of_row), [w.number for w in ds.weeks if w.train])
+    idx = fr.index
+    tow = ((np.asarray(idx.dayofweek) * 24 + np.asarray(idx.hour)) * 3600 + np.asarray(idx.minute) * 60) // int(ds.step)
+    season = np.unique(ds.season_of_row, return_inverse=True)[1]
+    group = season * 10000 + tow
+    temps = fr[[f"T_{z.name}" for z in ds.building.zones]].to_numpy(float)
+    rows = np.flatnonzero(train & np.isfinite(temps).all(axis=1))
+    W = Within(group, rows)
+    vol = {z.name: z.volume for z in ds.building.zones}
+    out = []
+    for (za, zb), ua in injected:
+        ta, tb = fr[f"T_{za}"].to_numpy(float), fr[f"T_{zb}"].to_numpy(float)
+        d = tb - ta
+        ca, cb = fast_capacitance(truth, za), fast_capacitance(truth, zb)
+        (ax0, ax1, ay0, ay1), (bx0, bx1, by0, by1) = lay.rects[za], lay.rects[zb]
+        dist = float(np.hypot((ax0 + ax1 - bx0 - bx1) / 2, (ay0 + ay1 - by0 - by1) / 2))
+        sw = float(np.std(W(d)))
+        out.append(
+            {
+                "case": case["id"],
+                "layout": case["layout"],
+                "pair": f"{za}+{zb}",
+                "ua": ua,
+                "injected": bool(case["effects"]),
+                "distance_m": dist,
+                "volume_m3": (vol[za], vol[zb]),
+                "C_MJ_per_K": (ca / 1e6, cb / 1e6),
+                "k_per_step": (ua * ds.step / ca, ua * ds.step / cb),
+                "sd_dT_K": float(np.nanstd(d[rows])),
+                "sd_dT_within_K": sw,
+                "sd_zone_within_K": (float(np.std(W(ta))), float(np.std(W(tb)))),
+                "heat_W": ua * sw,
+                "dT_per_step_mK": (1e3 * ua * ds.step * sw / ca, 1e3 * ua * ds.step * sw / cb),
+            }
+        )
+    return out
+
+
+def _pair_line(r) -> str:
+    def two(v, f):
+        return "/".join(format(x, f) for x in v)
+
+    return (
+        f"case {r['case']:3d} {r['layout']:5s} {r['pair']:7s} {'injected' if r['injected'] else 'clean   '} "
+        f"ua {r['ua']:5.0f} W/K  dist {r['distance_m']:5.1f} m  V {two(r['volume_m3'], '.0f')} m3  "
+        f"C {two(r['C_MJ_per_K'], '.1f')} MJ/K  k {two(r['k_per_step'], '.3f')}/step  "
+        f"sd dT {r['sd_dT_K']:.2f}, within {r['sd_dT_within_K']:.3f} K  "
+        f"zones within {two(r['sd_zone_within_K'], '.3f')} K  heat {r['heat_W']:4.0f} W  "
+        f"dT/step {two(r['dT_per_step_mK'], '.1f')} mK"
+    )
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="25,37,15,7,0", help="battery case ids (row4, 15 min)")
+    ap.add_argument(
+        "--only",
+        default=None,
+        help="battery case ids (default 25,37,15,7,0; with --pairs every "
+        "coupling case and every 15-min clean row4/core9 case)",
+    )
     ap.add_argument("--weeks", type=int, default=16)
+    ap.add_argument("--pairs", action="store_true", help="pair properties only (no diagnosis)")
     args = ap.parse_args()
     from bench_diagnosis_battery import make_cases
 
-    keep = [int(x) for x in args.only.split(",")]
     cases = {c["id"]: c for c in make_cases(48, 2026)}
+    if args.pairs:
+        ids = [int(x) for x in args.only.split(",")] if args.only else [15, 25, 37, 31, 43, 0, 1, 3, 6, 7, 10]
+        for cid in ids:
+            for r in pair_properties(cases[cid], args.weeks):
+                print(_pair_line(r), flush=True)
+        return
+    keep = [int(x) for x in (args.only or "25,37,15,7,0").split(",")]
     for cid in keep:
         c0 = time.process_time()
         run_case(cases[cid], args.weeks)

@@ -194,9 +194,36 @@ def confusion(results: list) -> tuple:
     return conf, tot
 
 
-def print_summary(results: list) -> None:
+def _oracle_counts(conf, results, oracle):
+    """Add the oracle columns to ``conf`` and the oracle totals (``--oracle``; benchmarks/battery_oracle.py)."""
+    import battery_oracle as bo
+
+    clean = bo.best_clean(list(oracle.values()))
+    tot = collections.Counter()
+    for r in results:
+        rec = oracle.get(r["case"]["id"])
+        if rec is None or "effects" not in rec:
+            continue
+        found = set(r["found"])
+        for e in rec["effects"]:
+            a, b = bo.detectable(e, "a"), bo.detectable(e, "b")
+            key = "zone_coupling (a) alone" if e["name"] == "zone_coupling" else e["name"]
+            g = max(e["alone"].values(), key=lambda g: g["gain_percent"]) if e["name"] == "zone_coupling" else e["gain"]
+            above = bool(a) and key in clean and g["gain_percent"] > clean[key][0]["gain_percent"]
+            for col, ok in (("oracle a", a), ("oracle b", b), ("above clean", above)):
+                if ok:
+                    conf[e["name"]][col] += 1
+                    tot[col] += 1
+                    tot[col + " found"] += e["name"] in found
+    return tot
+
+
+def print_summary(results: list, oracle: dict | None = None) -> None:
     conf, tot = confusion(results)
     cols = ["right place", "elsewhere", "missed", "false findings", "cases"]
+    otot = _oracle_counts(conf, results, oracle) if oracle else None
+    if otot is not None:
+        cols += ["oracle a", "oracle b", "above clean"]
     print(f"\nconfusion matrix by cause over {tot['cases']} cases (rows: injected cause; columns: outcome)")
     print(f"{'':24s}" + "".join(f"{k:>16s}" for k in cols))
     for r in [c for c in CAUSES if c in conf] + (["clean"] if "clean" in conf else []):
@@ -215,6 +242,24 @@ def print_summary(results: list) -> None:
         f"false findings: {tot['false']} in total, {tot['clean_false']} on clean cases "
         f"({tot['clean_cases_with_false']} of {conf['clean'].get('cases', 0)} clean cases; goal 0)"
     )
+    if otot is not None:
+        import battery_oracle as bo
+
+        print(
+            "ADDITIONAL, not the recall of issue 15 (oracle: benchmarks/battery_oracle.py): effects detectable "
+            "by the true regressor (gain >= the rule's floor, t >= 2)"
+        )
+        for col, what in (
+            ("oracle a", "(a) true term fitted, affected zone(s) alone"),
+            ("oracle b", "(b) as (a); a coupling: pair together at its true conductance"),
+            ("above clean", "(a) and above every uninjected candidate of its cause on the clean cases"),
+        ):
+            n, f = otot[col], otot[col + " found"]
+            print(
+                f"  recall among oracle-detectable effects, {what}: {f}/{n}" + (f" = {100 * f / n:.0f} %" if n else "")
+            )
+        for line in bo.clean_lines(list(oracle.values())):
+            print(line)
     cpu = [r["diagnose_cpu_s"] for r in results]
     if cpu:
         print(f"diagnose CPU time per case: median {np.median(cpu):.1f} s, max {max(cpu):.1f} s")
@@ -248,6 +293,13 @@ def main():
     )
     ap.add_argument("--list", action="store_true", help="print the cases and stop")
     ap.add_argument("--summary", action="store_true", help="only print the matrix of the results file")
+    ap.add_argument(
+        "--oracle",
+        action="store_true",
+        help="also the detectability oracle of each case (benchmarks/battery_oracle.py): printed per case and "
+        "as columns of the matrix; with --summary only the cases already in --oracle-results",
+    )
+    ap.add_argument("--oracle-results", default="battery-oracle.jsonl", help="JSON-lines file of oracle records")
     args = ap.parse_args()
     cases = make_cases(args.cases, args.seed)[args.start : args.stop]
     if args.only:
@@ -279,7 +331,31 @@ def main():
                 results.append(r)
                 print(_case_line(r), flush=True)
     results.sort(key=lambda r: r["case"]["id"])
-    print_summary(results)
+    oracle = _run_oracle(cases, args) if args.oracle else None
+    print_summary(results, oracle)
+
+
+def _run_oracle(cases, args) -> dict:
+    """Oracle records of ``cases`` (from ``--oracle-results``, computed and appended when missing)."""
+    import battery_oracle as bo
+
+    done = {k: r for k, r in _load(args.oracle_results).items() if r["weeks"] == args.weeks}
+    out = {}
+    for c in cases:
+        r = done.get(c["id"])
+        if (r is None or r["case"] != c) and not args.summary:
+            r = bo.oracle_case(c, args.weeks)
+            with open(args.oracle_results, "a") as f:
+                f.write(json.dumps(r, default=float) + "\n")
+        if r is None or r["case"] != c:
+            continue
+        out[c["id"]] = r
+        print(f"oracle case {c['id']:3d} {c['layout']:5s} {c['step'] / 60:.0f} min ({r.get('cpu_s', 0):.0f} s CPU)")
+        for e in r.get("effects", []):
+            print(bo.effect_line(e))
+        if "clean" in r:
+            print("\n".join(bo.clean_lines([r])[1:]))
+    return out
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import dataclasses
 import numpy as np
 
 from ..errors import FitError
-from ..models.causes.signals import Within, effective_inputs
+from ..models.causes.signals import Within, coupling_ratios, effective_inputs
 from ..models.extended import ExtendedModel
 from .design import _gains_from_fit, base_linear, bounded_ls, coupled_blocks, make_signals, term_features, zone_design
 
@@ -46,7 +46,35 @@ def _term_columns(sig, terms, U_eff, feats, z):
     )
 
 
-def terms_on_base(dataset, base, terms=(), meta=None) -> ExtendedModel:
+def _kept_values(sig, term) -> dict:
+    """The design coefficients (feature name -> value) of a term whose fitted coefficients are kept."""
+    if term.cause == "zone_coupling":
+        ra, _ = coupling_ratios(sig, sig.zones.index(term.zone_a), sig.zones.index(term.zone_b))
+        return {"k": term.coef_ab / ra}
+    if hasattr(term, "coef"):
+        return {"coef": term.coef}
+    raise FitError(f"terms_on_base: cannot keep the coefficients of a {term.cause} term; refit it instead")
+
+
+def _solve(sig, terms, keep, keys, X, y, lo, hi, dof_extra):
+    """(θ, 1-σ) of the block's least squares, with the kept terms' coefficients fixed at their values."""
+    pinned = {j: _kept_values(sig, terms[own])[nm] for j, (own, nm) in enumerate(keys) if terms[own].cause in keep}
+    if not pinned:
+        ls = bounded_ls(X, y, lo, hi, dof_extra=dof_extra)
+        return ls.theta, np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
+    free = [j for j in range(len(keys)) if j not in pinned]
+    theta, sd = np.zeros(len(keys)), np.zeros(len(keys))
+    for j, v in pinned.items():
+        theta[j] = v
+        y = y - X[:, j] * v
+    if free:
+        ls = bounded_ls(X[:, free], y, [lo[j] for j in free], [hi[j] for j in free], dof_extra=dof_extra)
+        theta[free] = ls.theta
+        sd[free] = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
+    return theta, sd
+
+
+def terms_on_base(dataset, base, terms=(), meta=None, keep=()) -> ExtendedModel:
     """The base model (``A, B, C`` kept) with ``terms`` refitted on it, and its gain profiles re-estimated.
 
     Parameters
@@ -59,6 +87,10 @@ def terms_on_base(dataset, base, terms=(), meta=None) -> ExtendedModel:
         The diagnosis's terms (e.g. ``report.model.terms``); their structural parameters
         (zone, facade, delay, slow-mass rate ...) are kept, their coefficients refitted.
     meta : dict, optional
+    keep : sequence of str
+        Causes whose terms keep the coefficients they come with (e.g. the diagnosis's
+        ``zone_coupling`` conductance) instead of being refitted; the other terms and the gain
+        profiles are fitted around them.
 
     Returns
     -------
@@ -96,12 +128,11 @@ def terms_on_base(dataset, base, terms=(), meta=None) -> ExtendedModel:
             Xw = W(cols[z][1])
             for j, (nm, own) in enumerate(zip(cols[z][0], cols[z][4])):
                 X[i * n : (i + 1) * n, keys.index((own, nm))] = Xw[:, j]
-        ls = bounded_ls(X, y, lo, hi, dof_extra=W.n_groups * len(block))
-        sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
-        for (own, nm), th, s in zip(keys, ls.theta, sd):
+        theta, sd = _solve(sig, terms, keep, keys, X, y, lo, hi, W.n_groups * len(block))
+        for (own, nm), th, s in zip(keys, theta, sd):
             coefs[own][nm], stds[own][nm] = float(th), float(s)
         for z in block:
-            th = np.array([ls.theta[keys.index((own, nm))] for nm, own in zip(cols[z][0], cols[z][4])])
+            th = np.array([theta[keys.index((own, nm))] for nm, own in zip(cols[z][0], cols[z][4])])
             with np.errstate(invalid="ignore"):
                 yhat[:, z] = cols[z][1] @ th
     gains = _gains_from_fit(sig, rows, target - yhat, W)
@@ -110,5 +141,5 @@ def terms_on_base(dataset, base, terms=(), meta=None) -> ExtendedModel:
         gains=gains,
         meta={**{k: v for k, v in base.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
     )
-    new_terms = tuple(t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
+    new_terms = tuple(t if t.cause in keep else t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
     return ExtendedModel(base=new_base, terms=new_terms, meta=dict(meta or {}))
