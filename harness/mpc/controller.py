@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import functools
 import time
 from pathlib import Path
 
@@ -30,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from hvacfmu.errors import ModelError
+from hvacfmu.threads import one_blas_thread
 
 from .predict import KalmanFilter, make_predictor
 from .problem import CondensedProblem, MPCSettings, ReducedProblem, save_problem
@@ -67,29 +67,6 @@ class Plan:
     solve_time: float
     step_time: float = 0.0
     merit: float = float("nan")
-
-
-@functools.lru_cache(maxsize=1)
-def _threadpools():
-    """The process's BLAS thread pools (threadpoolctl), found once; None without threadpoolctl."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-        return None
-    return ThreadpoolController()
-
-
-def one_blas_thread():
-    """Context running BLAS on one thread (about 10 µs to enter).
-
-    The MPC's algebra is small (72 x 105 products, 269-state matrix-vector
-    products): a second BLAS thread only adds synchronisation, and on a shared
-    machine it waits for a core. Measured with the default two OpenBLAS threads
-    under a load of ~10: one 72 x 72 by 72 x 105 product 0.46 ms instead of
-    0.07 ms, Model B's condensed sensitivity 22 ms instead of 1 ms.
-    """
-    pools = _threadpools()
-    return contextlib.nullcontext() if pools is None else pools.limit(limits=1, user_api="blas")
 
 
 def _block_starts(lengths):

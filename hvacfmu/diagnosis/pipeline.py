@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
+from ..threads import one_blas_thread
 from . import residuals as R
 from .design import make_signals
 from .report import DiagnosisReport
@@ -47,7 +48,18 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     Returns
     -------
     DiagnosisReport
+
+    Notes
+    -----
+    BLAS runs on one thread meanwhile (:func:`hvacfmu.threads.one_blas_thread`):
+    the algebra is small, and a second thread costs CPU for no speed.
     """
+    with one_blas_thread():
+        return _diagnose(dataset, model, plots, progress, options)
+
+
+def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
+    """:func:`diagnose`'s work, on the caller's BLAS threads."""
     t0 = time.perf_counter()
     opts = _options(dataset, options)
 

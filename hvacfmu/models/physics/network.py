@@ -54,31 +54,20 @@ import scipy.sparse.linalg as spla
 
 from ...building import ORIENTATIONS
 from ...errors import ModelError
+from ...threads import one_blas_thread
 from .geometry import CP_AIR, FILM_PARAMS, PARAM_NAMES, RHO_AIR, PhysicsSpec
 
 _AMBIENT, _GROUND = -1, -2
-_CONTROLLER = []
 
 
 def single_threaded():
-    """Context manager limiting BLAS to one thread.
+    """Context manager limiting BLAS to one thread (:func:`hvacfmu.threads.one_blas_thread`).
 
     The dense kernels here are small (a few hundred states); with several BLAS
     threads on a busy 2-core machine they run slower and with erratic timing
     (measured: a 181-state eigendecomposition took 2 ms to 0.6 s).
     """
-    if not _CONTROLLER:
-        try:
-            from threadpoolctl import ThreadpoolController
-
-            _CONTROLLER.append(ThreadpoolController())
-        except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-            _CONTROLLER.append(None)
-    if _CONTROLLER[0] is None:  # pragma: no cover
-        import contextlib
-
-        return contextlib.nullcontext()
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
+    return one_blas_thread()
 
 
 @dataclasses.dataclass(frozen=True)
