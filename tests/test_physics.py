@@ -768,3 +768,28 @@ def test_gain_days_from_the_building_file():
         FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'week', 'workdays' or 'shrunk'"
     ):
         _gain_days(bad, None)
+
+
+def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_week_mean(recovered):
+    """A physics model fitted with the paper's per-time-of-week gains that beats persistence but not the
+    time-of-week mean gets a hint naming the zones and ``gain_days = "shrunk"``; not a model that loses to
+    persistence there, not one fitted with another profile, not another model kind."""
+    from hvacfmu.evaluation.verdict import Verdict, ZoneVerdict, gain_profile_hint
+    from hvacfmu.models.physics import refit_gains
+
+    ds, _, model = recovered
+    a, b = model.outputs[0], model.outputs[1]
+    zones = [
+        ZoneVerdict("physics", a, 0.20, 0.30, 0.18, 0.0, 5.0, 100),  # beats persistence, trails time-of-week
+        ZoneVerdict("physics", b, 0.20, 0.30, 0.25, 0.0, 5.0, 100),  # beats both
+    ]
+    hint = gain_profile_hint(model, zones)
+    assert f"loses to the time-of-week mean in {a} " in hint and b not in hint.split(" with ")[0]
+    assert 'gain_days = "shrunk"' in hint
+    assert gain_profile_hint(model, zones[1:]) == ""
+    worse = [ZoneVerdict("physics", a, 0.40, 0.30, 0.18, 0.0, 5.0, 100)]  # loses to persistence: causes, not this
+    assert gain_profile_hint(model, worse) == ""
+    assert gain_profile_hint(refit_gains(model, ds, "shrunk"), zones) == ""
+    assert gain_profile_hint(object(), zones) == ""
+    v = Verdict(zones=tuple(zones), causes={}, hints={"physics": [hint]})
+    assert f"to try for physics: {hint}" in v.format() and v.to_dict()["hints"] == {"physics": [hint]}
