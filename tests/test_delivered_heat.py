@@ -274,7 +274,8 @@ def test_diagnosis_refuses_a_delivered_model_and_fits_the_airflow_form(fit, data
 
 
 def test_cli_fit_heat_option(dataset, tmp_path):
-    """`hvacfmu fit --heat airflow|delivered` forces the form of Model A; the physics model refuses the option."""
+    """`hvacfmu fit --heat airflow|delivered` forces the form of Model A; the physics model refuses the option,
+    and Model A refuses the physics model's ``--gain-days``."""
     import os
     import subprocess
     import sys
@@ -305,3 +306,6 @@ def test_cli_fit_heat_option(dataset, tmp_path):
     assert load_model(tmp_path / "a.json").heat == "airflow"
     r = run("--model", "physics", "--heat", "airflow", "-o", str(tmp_path / "p.json"))
     assert r.returncode == 2 and "--heat applies to Model A" in r.stderr and "Traceback" not in r.stderr
+    r = run("--model", "zones", "--gain-days", "shrunk", "-o", str(tmp_path / "g.json"))
+    assert r.returncode == 2 and "--gain-days applies to the physics model" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "g.json").exists()

@@ -123,6 +123,15 @@ def _cmd_fit(args):
             )
             return 2
         options["heat"] = args.heat
+    if args.gain_days is not None:
+        if args.model != "physics":
+            print(
+                f"hvacfmu: error: --gain-days applies to the physics model (its step 2 gain profile), not "
+                f"{args.model}; drop the option, or fit --model physics",
+                file=sys.stderr,
+            )
+            return 2
+        options["gain_days"] = args.gain_days
     dataset = _load_dataset(args)
     model = hf.fit(dataset, args.model, progress=not args.quiet, **options)
     path = model.save(args.output)
@@ -351,6 +360,7 @@ def _add_generate_fleet_parser(sub) -> None:
 
 def _add_fit_parser(sub) -> None:
     """The ``fit`` subcommand."""
+    from ..models.physics.identification import GAIN_DAYS
     from ..models.registry import fittable_kinds
 
     p = sub.add_parser("fit", help="identify a model from data")
@@ -368,6 +378,13 @@ def _add_fit_parser(sub) -> None:
         choices=("auto", "airflow", "delivered"),
         help="Model A: how the boxes act (default auto: delivered heat m*cp*(Td - T_zone) when Td_<vav> "
         "are measured or an air handler is often off, else the paper's airflow form)",
+    )
+    p.add_argument(
+        "--gain-days",
+        choices=GAIN_DAYS,
+        help="physics: step 2's internal-gain profile (default: the building file's [physics].gain_days, else "
+        "'week', the paper's per time of week; 'workdays' pools Monday-Friday; 'shrunk' pools them where the "
+        "training weeks show no weekday pattern)",
     )
     p.set_defaults(func=_cmd_fit)
 

@@ -382,8 +382,8 @@ def gain_profile_hint(model, zones) -> str:
     return (
         f"it loses to the time-of-week mean in {', '.join(behind)} with step 2's per-time-of-week gain profile "
         "(a few training weeks per slot); refit the gains pooled over workdays where the data allow: "
-        '`[physics].gain_days = "shrunk"` in the building file (or hvacfmu.models.physics.refit_gains(model, '
-        'dataset, "shrunk")), and compare'
+        '`hvacfmu fit --model physics --gain-days shrunk`, or `[physics].gain_days = "shrunk"` in the building '
+        'file (in Python: hvacfmu.models.physics.refit_gains(model, dataset, "shrunk")), and compare'
     )
 
 
