@@ -9,7 +9,8 @@ the two-thread run took 110 s wall / 72.5 s CPU against 32 s / 22 s
 show the same: with the default two OpenBLAS threads under a load of ~10, one
 72 x 72 by 72 x 105 product took 0.46 ms instead of 0.07 ms and Model B's
 condensed sensitivity 22 ms instead of 1 ms; a 181-state eigendecomposition
-took 2 ms to 0.6 s (``hvacfmu.models.physics``, ``harness.mpc.controller``).
+took 2 ms to 0.6 s, with erratic timing (``hvacfmu.models.physics``,
+``harness.mpc.controller``).
 """
 
 from __future__ import annotations

@@ -53,12 +53,12 @@ import scipy.optimize as so
 
 from ...errors import FitError, HvacfmuWarning
 from ...progress import Progress
+from ...threads import one_blas_thread
 from ...timeutil import n_time_of_week, time_of_week
 from ..heat import inlet_columns
 from ..plausibility import check_physics
 from .geometry import PARAM_NAMES, parse_physics
 from .model import PhysicsModel, fill_signals, kalman_gain
-from .network import single_threaded
 
 log = logging.getLogger(__name__)
 
@@ -351,7 +351,7 @@ def fit_physics(
     physical model for simulating HVAC systems", eqs. (physics_opt),
     (ig(k-1)), (fixed_ig).
     """
-    with single_threaded():
+    with one_blas_thread():
         return _fit_physics(
             dataset,
             progress=progress,
@@ -395,9 +395,7 @@ def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
         With the new ``gains`` [W], ``meta["gains"]``, ``meta["fit_options"]["gain_days"]`` and
         ``meta["plausibility"]``.
     """
-    problems = []
-    if gain_days not in GAIN_DAYS:
-        problems.append(f"gain_days must be {_one_of()}, got {gain_days!r}")
+    problems = _gain_days_problems(gain_days)
     if model.f_ig_const is None or "warmup_steps" not in model.meta:
         problems.append("the model was not fitted by fit_physics (no f_IG^c or warm-up in its meta): fit it first")
     if float(dataset.step) != float(model.step) or tuple(dataset.building.zone_names) != tuple(model.outputs):
@@ -410,7 +408,7 @@ def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
 
         raise FitError(problems_message("refit_gains: cannot redo step 2", problems))
     f_c = np.asarray(model.f_ig_const, dtype=float)
-    with single_threaded():
+    with one_blas_thread():
         gains, info = _seasonal_gains(dataset, model, f_c, int(model.meta["warmup_steps"]), gain_days)
     meta = {**model.meta, "gains": info, "fit_options": {**model.meta.get("fit_options", {}), "gain_days": gain_days}}
     out = dataclasses.replace(model, gains=gains, meta=meta)
@@ -627,6 +625,11 @@ def _one_of() -> str:
     return ", ".join(names[:-1]) + " or " + names[-1]
 
 
+def _gain_days_problems(gain_days) -> list[str]:
+    """The refusal of a ``gain_days`` argument outside :data:`GAIN_DAYS` (empty when it is one of them)."""
+    return [] if gain_days in GAIN_DAYS else [f"gain_days must be {_one_of()}, got {gain_days!r}"]
+
+
 def _gain_days(building, gain_days: str | None) -> str:
     """Step 2's day types: the argument, else the building file's ``[physics].gain_days``, else ``"week"``."""
     if gain_days is not None:
@@ -649,8 +652,7 @@ def _check_fit_options(segment_observer, free_modes, segment_hours, warmup_hours
         problems.append(f"need segment_hours > 0 and warmup_hours >= 0, got {segment_hours}, {warmup_hours}")
     if not bound_factor > 1:
         problems.append(f"bound_factor must be > 1, got {bound_factor}")
-    if gain_days not in GAIN_DAYS:
-        problems.append(f"gain_days must be {_one_of()}, got {gain_days!r}")
+    problems += _gain_days_problems(gain_days)
     if problems:
         from ...errors import problems_message
 

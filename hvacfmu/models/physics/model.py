@@ -29,6 +29,7 @@ import pandas as pd
 
 from ...building import Building, building_from_dict
 from ...errors import BuildingError, ModelError
+from ...threads import one_blas_thread
 from ...timeutil import n_time_of_week, time_of_week
 from ..base import (
     FORMAT_VERSION,
@@ -44,7 +45,7 @@ from ..base import (
     require_keys,
 )
 from .geometry import PARAM_NAMES, parse_physics
-from .network import BilinearMatrices, NetworkTemplate, single_threaded
+from .network import BilinearMatrices, NetworkTemplate
 
 #: Default Kalman filter settings: process noise per step on air and on other
 #: nodes [K], measurement noise [K], warm-up length [steps].
@@ -101,7 +102,7 @@ def kalman_gain(disc, airflow, q_air, q_mass, r) -> np.ndarray:
     C[np.arange(nz), np.arange(nz)] = 1.0
     Q = np.diag(np.r_[np.full(nz, q_air**2), np.full(nx - nz, q_mass**2)])
     R = np.eye(nz) * r**2
-    with single_threaded():
+    with one_blas_thread():
         P = sl.solve_discrete_are(A.T, C.T, Q, R)
     S = P[:nz, :nz] + R
     return np.linalg.solve(S, P[:nz, :]).T
@@ -343,7 +344,7 @@ class PhysicsModel(ZoneModel):
         u, v, q = (np.asarray(a, dtype=float) for a in (u, v, q))
         m = u @ d.zone_vav.T
         _, Z, _, _ = d.run(x0 @ d.W.T, m, v, q, record_states=True, mt=d.inlet_flux(u, v))
-        with single_threaded():
+        with one_blas_thread():
             X = Z @ d.V.T
         return X, self.output(X)
 

@@ -60,16 +60,6 @@ from .geometry import CP_AIR, FILM_PARAMS, PARAM_NAMES, RHO_AIR, PhysicsSpec
 _AMBIENT, _GROUND = -1, -2
 
 
-def single_threaded():
-    """Context manager limiting BLAS to one thread (:func:`hvacfmu.threads.one_blas_thread`).
-
-    The dense kernels here are small (a few hundred states); with several BLAS
-    threads on a busy 2-core machine they run slower and with erratic timing
-    (measured: a 181-state eigendecomposition took 2 ms to 0.6 s).
-    """
-    return one_blas_thread()
-
-
 @dataclasses.dataclass(frozen=True)
 class BilinearMatrices:
     """Matrices of the bilinear model ``x+ = A x + Bv v + Bq q + sum_i u_i (Bxu[i] x + Bvu[i] v)``, ``y = C x``.
@@ -321,7 +311,7 @@ class RCNetwork:
         s = np.sqrt(self.template.capacity)
         S = -(self.L.toarray() / s[:, None]) / s[None, :]
         S = 0.5 * (S + S.T)
-        with single_threaded():
+        with one_blas_thread():
             lam, Q = np.linalg.eigh(S)
         V = Q / s[:, None]
         W = Q.T * s[None, :]
@@ -497,7 +487,7 @@ class DiscreteBilinear:
         z : array (..., nx)
             The final modal state (after the correction at row n, if any).
         """
-        with single_threaded():
+        with one_blas_thread():
             return self._run(z0, m, v, q, y, Kz, n_correct, record_states, record_pred, mt)
 
     def _run(self, z0, m, v, q, y, Kz, n_correct, record_states, record_pred, mt):
