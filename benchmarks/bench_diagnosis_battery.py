@@ -300,11 +300,22 @@ def main():
         "as columns of the matrix; with --summary only the cases already in --oracle-results",
     )
     ap.add_argument("--oracle-results", default="battery-oracle.jsonl", help="JSON-lines file of oracle records")
+    ap.add_argument(
+        "--detectable",
+        metavar="FILE",
+        default=None,
+        help="run the detectability-checked battery: every injected effect made stronger until its true term "
+        "passes the gate of benchmarks/battery_oracle.py (records kept in FILE, JSON lines; the oracle records "
+        "of --oracle-results are reused for the first try)",
+    )
     args = ap.parse_args()
     cases = make_cases(args.cases, args.seed)[args.start : args.stop]
     if args.only:
         keep = {int(x) for x in args.only.split(",")}
         cases = [c for c in cases if c["id"] in keep]
+    gated = None
+    if args.detectable:
+        cases, gated = _checked_cases(cases, args)
     if args.list:
         for c in cases:
             print(c)
@@ -333,6 +344,71 @@ def main():
     results.sort(key=lambda r: r["case"]["id"])
     oracle = _run_oracle(cases, args) if args.oracle else None
     print_summary(results, oracle)
+    if gated is not None:
+        print_gate(results, gated)
+
+
+def print_gate(results: list, gated: dict) -> None:
+    """The detectability gate's lines: effects made stronger, effects still failing, recall over those passing."""
+    import battery_oracle as bo
+
+    strong = sorted(i for i, g in gated.items() if g["checked"] != g["case"])
+    failing = {i: [x["name"] for x in g["tries"][-1]["gate"] if not x["passes"]] for i, g in gated.items()}
+    failing = {i: v for i, v in failing.items() if v}
+    redrawn = {i: g["redraws"] for i, g in sorted(gated.items()) if g.get("redraws")}
+    n = f = 0
+    for r in results:
+        skip = list(failing.get(r["case"]["id"], []))
+        for name, hit in [(e, True) for e in r["found"]] + [(e["name"], False) for e in r["missed"]]:
+            if name in skip:
+                skip.remove(name)
+                continue
+            n, f = n + 1, f + hit
+    print(
+        "detectability gate (benchmarks/battery_oracle.py: the true term gains >= the rule's floor at t >= 2; a "
+        f"failing effect made {bo.GATE_SCALE:g}x stronger, {bo.GATE_TRIES} tries at most): {len(gated)} effect cases, made stronger: "
+        f"{strong or 'none'}; drawn anew (same cause, {bo.REDRAWS} times at most): {redrawn or 'none'}; "
+        f"still not detectable: {failing or 'none'}"
+    )
+    if n:
+        print(f"recall with the right location over the effects that pass the gate: {f}/{n} = {100 * f / n:.0f} %")
+
+
+def _checked_cases(cases, args) -> tuple:
+    """``cases`` with each effect case replaced by its detectability-checked version (``--detectable``), and the
+    gate records by case id."""
+    import battery_oracle as bo
+
+    done = {k: r for k, r in _load(args.detectable).items() if r["weeks"] == args.weeks}
+    first = {k: r for k, r in _load(args.oracle_results).items() if r["weeks"] == args.weeks}
+    todo = [c for c in cases if c["effects"] and (c["id"] not in done or done[c["id"]]["case"] != c)]
+    if todo and not args.summary:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:
+            futs = [ex.submit(bo.checked_case, c, args.weeks, first.get(c["id"])) for c in todo]
+            for fut in concurrent.futures.as_completed(futs):
+                r = fut.result()
+                with open(args.detectable, "a") as f:
+                    f.write(json.dumps(r, default=float) + "\n")
+                done[r["case"]["id"]] = r
+                print(f"checked case {r['case']['id']:3d}: {len(r['tries'])} tries, detectable {r['detectable']}")
+    out = []
+    for c in cases:
+        r = done.get(c["id"])
+        if c["effects"] and r is not None and r["case"] == c:
+            if r["checked"] != c:
+                print(f"case {c['id']:3d} checked: {c['effects']} -> {r['checked']['effects']} ({_gate_line(r)})")
+            out.append(r["checked"])
+        else:
+            out.append(c)
+    return out, {c["id"]: done[c["id"]] for c in cases if c["effects"] and c["id"] in done}
+
+
+def _gate_line(r: dict) -> str:
+    last = r["tries"][-1]["gate"]
+    return ", ".join(
+        f"{g['name']} {g['gain_percent']:+.1f} % t {g['t']:.1f}" + ("" if g["passes"] else " NOT DETECTABLE")
+        for g in last
+    )
 
 
 def _run_oracle(cases, args) -> dict:

@@ -1063,3 +1063,29 @@ def test_battery_slice(case_id):
     assert r["unsupported"] == [], f"false finding(s) on {case}: {r['unsupported']}"
     assert r["missed"] == [], f"missed on {case}: {r['missed']}"
     assert len(r["found"]) == len(case["effects"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "case_id",
+    [
+        25,  # row4 coupling redrawn by the detectability gate: R2+R4 at 2871 W/K (the R1+R4 pair never passes)
+        42,  # row4 north-window solar gain, made 1.5x stronger three times (shgc 0.675)
+    ],
+)
+def test_detectability_checked_battery_slice(case_id):
+    """The battery with every effect checked detectable (``--detectable``, README "Battery and speed"): the
+    gated case as recorded in benchmarks/battery_checked_cases.jsonl is found at its place, nothing else."""
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "battery_checked_cases.jsonl"
+    (rec,) = [r for r in map(json.loads, path.read_text().splitlines()) if r["case"]["id"] == case_id]
+    bat = _battery()
+    assert rec["case"] == bat.make_cases(48, 2026)[case_id] and rec["detectable"]
+    case = rec["checked"]
+    assert case != rec["case"]  # the gate changed it
+    r = bat.run_case(case, weeks=16)
+    assert r["unsupported"] == [], f"false finding(s) on {case}: {r['unsupported']}"
+    assert r["missed"] == [], f"missed on {case}: {r['missed']}"
+    assert len(r["found"]) == len(case["effects"])
