@@ -614,13 +614,16 @@ def _fit_meta(
     }
 
 
-#: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, one Mon-Fri profile, or
-#: each workday's profile shrunk toward the Mon-Fri one.
-GAIN_DAYS = ("week", "workdays", "shrunk")
+#: Step 2's gain profiles: the paper's per time of week, one Mon-Fri profile, or each workday's profile shrunk
+#: toward the Mon-Fri one.
+GAIN_PROFILES = ("week", "workdays", "shrunk")
+#: Values of ``gain_days``: a profile of :data:`GAIN_PROFILES`, or ``"auto"`` (the one with the lowest blocked
+#: cross-validated 24-h open-loop RMS over the training weeks, :func:`.gaincv.choose_gain_days`).
+GAIN_DAYS = (*GAIN_PROFILES, "auto")
 
 
 def _one_of() -> str:
-    """``'week', 'workdays' or 'shrunk'``: the values of :data:`GAIN_DAYS` for messages."""
+    """``'week', 'workdays', 'shrunk' or 'auto'``: the values of :data:`GAIN_DAYS` for messages."""
     names = [repr(g) for g in GAIN_DAYS]
     return ", ".join(names[:-1]) + " or " + names[-1]
 
@@ -813,8 +816,25 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
 
 def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks
-    (per time of week, or per day type: see :func:`_profile_of`)."""
-    frame = dataset.frame
+    (per time of week, or per day type: see :func:`_profile_of`; ``"auto"``: the day types chosen by
+    blocked cross-validation over the training weeks, :func:`.gaincv.choose_gain_days`)."""
+    auto = None
+    if gain_days == "auto":
+        from .gaincv import choose_gain_days
+
+        auto = choose_gain_days(dataset, model, f_c, nw)
+        gain_days = auto["chosen"]
+    profiles = _week_profiles(dataset, model, f_c, nw)
+    out, info = _gains_of_profiles(dataset, model, f_c, profiles, gain_days)
+    if auto is not None:
+        info["auto"] = auto
+    return out, info
+
+
+def _week_profiles(dataset, model, f_c, nw, frame=None) -> list:
+    """Step 2's one-step gains of every training week: a list of ``(week, profile (n_tow, nz) [W])``,
+    NaN where not estimated. ``frame`` (default the dataset's) gives the measurements."""
+    frame = dataset.frame if frame is None else frame
     index = frame.index
     step = float(dataset.step)
     n_tow = n_time_of_week(step)
@@ -832,7 +852,7 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     # temperatures are added (x(k) = x~(k) + B_IG f(k-1), the paper's eq. ig(k-1)); walls follow physically.
     # (A Kalman correction here would let the walls soak up part of persistent gains.)
     Kz = disc.Pq[:, :nz] @ CB_inv
-    per_season: dict[str, list] = {}
+    out = []
     for week in dataset.weeks:
         if not week.train:
             continue
@@ -846,12 +866,12 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
             continue
         y = y_all[rows]
         u = fill_signals(u_all[rows[:-1]], 0.0)
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a week without any measured zone: NaN gains
             v = fill_signals(v_all[rows[:-1]], np.nanmean(y))
-        q = q_all[rows[:-1]]
-        with np.errstate(all="ignore"):
             ymean = np.nanmean(y[: w + 1], axis=0)
-        ymean = np.where(np.isnan(ymean), np.nanmean(y), ymean)
+            ymean = np.where(np.isnan(ymean), np.nanmean(y), ymean)
+        q = q_all[rows[:-1]]
         x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
         x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
         m = u @ disc.zone_vav.T
@@ -866,6 +886,16 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
         slots = time_of_week(index[rows[w:-1]], step)
         prof = np.full((n_tow, nz), np.nan)
         prof[slots] = fv
+        out.append((week, prof))
+    return out
+
+
+def _gains_of_profiles(dataset, model, f_c, profiles, gain_days):
+    """The seasonal gain profiles ``{season: (n_tow, nq)}`` [W] and their record from the training weeks'
+    one-step gains ``profiles`` (:func:`_week_profiles`) with day types ``gain_days`` (not ``"auto"``)."""
+    nz = len(model.outputs)
+    per_season: dict[str, list] = {}
+    for week, prof in profiles:
         per_season.setdefault(week.season, []).append(prof)
     gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}, "day_types": gain_days}
     season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
@@ -887,7 +917,7 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
             info.setdefault("borrowed", []).append(s)
     out = {}
     for s, fv in gains.items():
-        g = np.zeros((n_tow, len(model.q_names)))
+        g = np.zeros((fv.shape[0], len(model.q_names)))
         g[:, :nz] = f_c[None, :] + fv
         if len(model.q_names) > nz:
             g[:, nz] = model._spec.ground_temperature
