@@ -27,7 +27,9 @@ air at the measured temperatures and lets the walls follow physically. With
 every training workday of the season), Saturday and Sunday keep their own;
 with ``"shrunk"`` each workday's profile is shrunk toward that Monday-Friday
 profile by a random-effects weight from the training weeks' scatter (the
-default ``"week"`` is the paper's profile per time of week).
+default ``"week"`` is the paper's profile per time of week); with ``"auto"`` the
+one of the three with the lowest 24-h open-loop RMS in blocked cross-validation
+over the training weeks (module :mod:`.gaincv`).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -319,7 +321,7 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
-    gain_days : {"week", "workdays", "shrunk"} or None
+    gain_days : {"week", "workdays", "shrunk", "auto"} or None
         Day types of step 2's seasonal gain profile; None (default): the
         building file's ``[physics].gain_days``, else ``"week"``. ``"week"``: the
         paper's profile per time of week (eq. fixed_ig), each slot the mean of
@@ -338,6 +340,13 @@ def fit_physics(
         but both lose a zone-season cell of the 16-week reheat data (fall E,
         -3.3 % and -2.2 %: one test week whose random day levels sat near the
         training Wednesdays' and Fridays' means), so neither is the default.
+        ``"auto"``: the one of the three with the lowest 24-h open-loop RMS in
+        blocked cross-validation over the training weeks (whole weeks held out,
+        test weeks never used; :func:`.gaincv.choose_gain_days`, about a second),
+        recorded in ``meta["gains"]["auto"]`` (``chosen``, ``cv_rms``, ...). It
+        chose ``"workdays"`` or ``"shrunk"`` on every emulated data set of
+        ``benchmarks/bench_gain_days.py`` and so loses the same reheat cell; not
+        the default either (README "A profile between the two").
 
     Returns
     -------
@@ -386,8 +395,8 @@ def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
         A model fitted by :func:`fit_physics` (it carries ``f_IG^c`` and the filter warm-up).
     dataset : hvacfmu.data.Dataset
         The data it was fitted on (its training weeks give the profile).
-    gain_days : {"week", "workdays", "shrunk"}
-        See :func:`fit_physics`.
+    gain_days : {"week", "workdays", "shrunk", "auto"}
+        See :func:`fit_physics` (``"auto"``: the cross-validated choice, step 1 kept).
 
     Returns
     -------
