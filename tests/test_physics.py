@@ -824,6 +824,10 @@ def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered):
     again = refit_gains(model, ds, "auto").meta["gains"]["auto"]
     assert {k: v for k, v in again.items() if k != "seconds"} == {k: v for k, v in rec.items() if k != "seconds"}
     assert f"auto -> {rec['chosen']}" in auto.summary()
+    fitted = fit_physics(ds, progress=False, max_segments=None, max_nfev=30, gain_days="auto")
+    assert fitted.params == model.params and fitted.meta["fit_options"]["gain_days"] == "auto"
+    assert all(np.array_equal(fitted.gains[s], auto.gains[s]) for s in auto.gains)
+    assert fitted.meta["gains"]["auto"]["cv_rms"] == rec["cv_rms"]
     assert "gain profile: week" in model.summary()
 
 
