@@ -654,7 +654,7 @@ def test_fit_bad_options(recovered):
     with pytest.raises(FitError, match=r"\(3 problems\)") as info:
         fit_physics(ds, progress=False, segment_observer="oracle", free_modes=-1, gain_days="monday")
     assert "segment_observer" in str(info.value) and "free_modes" in str(info.value)
-    assert "gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'" in str(info.value)
+    assert "gain_days must be 'week', 'workdays', 'shrunk' or 'auto', got 'monday'" in str(info.value)
 
 
 def test_refit_gains_redoes_step_2_only(recovered):
@@ -672,7 +672,7 @@ def test_refit_gains_redoes_step_2_only(recovered):
     assert shrunk.params == model.params and np.array_equal(shrunk.f_ig_const, model.f_ig_const)
     assert shrunk.meta["fit_options"]["gain_days"] == "shrunk" and "shrinkage_weight" in shrunk.meta["gains"]
     assert model.meta["fit_options"]["gain_days"] == "week"  # the fitted model is not changed
-    with pytest.raises(FitError, match=r"gain_days must be 'week', 'workdays' or 'shrunk', got 'monday'"):
+    with pytest.raises(FitError, match=r"gain_days must be 'week', 'workdays', 'shrunk' or 'auto', got 'monday'"):
         refit_gains(model, ds, "monday")
     with pytest.raises(FitError, match="not fitted by fit_physics"):
         refit_gains(dataclasses.replace(model, meta={}), ds, "workdays")
@@ -763,9 +763,11 @@ def test_gain_days_from_the_building_file():
     parse_physics(bw)  # a known [physics] key: not refused as unknown
     assert _gain_days(bw, None) == "workdays"
     assert _gain_days(bw, "week") == "week"
+    ba = dataclasses.replace(b, physics={**tables, "physics": {**tables["physics"], "gain_days": "auto"}})
+    assert _gain_days(ba, None) == "auto"  # every value of GAIN_DAYS is accepted from the file
     bad = dataclasses.replace(bw, physics={**tables, "physics": {**tables["physics"], "gain_days": "weekdays"}})
     with pytest.raises(
-        FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'week', 'workdays' or 'shrunk'"
+        FitError, match=r"\[physics\]\.gain_days of office\.toml must be 'week', 'workdays', 'shrunk' or 'auto'"
     ):
         _gain_days(bad, None)
 
@@ -790,6 +792,86 @@ def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_
     worse = [ZoneVerdict("physics", a, 0.40, 0.30, 0.18, 0.0, 5.0, 100)]  # loses to persistence: causes, not this
     assert gain_profile_hint(model, worse) == ""
     assert gain_profile_hint(refit_gains(model, ds, "shrunk"), zones) == ""
+    auto = refit_gains(model, ds, "auto")
+    assert gain_profile_hint(auto, zones) == ""  # a profile chosen by cross-validation: no "try shrunk"
+    assert gain_profile_hint(refit_gains(auto, ds, "week"), zones) == hint
     assert gain_profile_hint(object(), zones) == ""
     v = Verdict(zones=tuple(zones), causes={}, hints={"physics": [hint]})
     assert f"to try for physics: {hint}" in v.format() and v.to_dict()["hints"] == {"physics": [hint]}
+
+
+def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered):
+    """``gain_days="auto"``: step 2's profile with the lowest blocked-CV 24-h open-loop RMS over the training
+    weeks, recorded in ``meta["gains"]["auto"]``; its gains are exactly the chosen profile's; the same call
+    gives the same choice and scores; ``fit_physics(gain_days="auto")`` gives what ``refit_gains`` gives."""
+    from hvacfmu.models.physics import refit_gains
+    from hvacfmu.models.physics.identification import GAIN_PROFILES
+
+    ds, _, model = recovered
+    auto = refit_gains(model, ds, "auto")
+    rec = auto.meta["gains"]["auto"]
+    assert auto.meta["fit_options"]["gain_days"] == "auto" and auto.meta["gains"]["day_types"] == rec["chosen"]
+    assert set(rec["cv_rms"]) == set(GAIN_PROFILES) and rec["chosen"] in GAIN_PROFILES
+    assert all(np.isfinite(v) and v > 0 for v in rec["cv_rms"].values())
+    assert rec["cv_rms"][rec["chosen"]] == min(rec["cv_rms"].values())  # not worse in CV than the others
+    assert rec["folds"] >= 2 and rec["windows"] >= 7 * (rec["folds"] - 1)
+    train = {w.number for w in ds.weeks if w.train}
+    assert rec["folds"] <= len(train)
+    for g in GAIN_PROFILES:  # the score is the mean over the zones
+        assert np.isclose(np.mean(list(rec["cv_rms_by_zone"][g].values())), rec["cv_rms"][g], atol=1e-4)
+    chosen = refit_gains(model, ds, rec["chosen"])
+    assert all(np.array_equal(auto.gains[s], chosen.gains[s]) for s in chosen.gains)
+    again = refit_gains(model, ds, "auto").meta["gains"]["auto"]
+    assert {k: v for k, v in again.items() if k != "seconds"} == {k: v for k, v in rec.items() if k != "seconds"}
+    assert f"auto -> {rec['chosen']}" in auto.summary()
+    fitted = fit_physics(ds, progress=False, max_segments=None, max_nfev=30, gain_days="auto")
+    assert fitted.params == model.params and fitted.meta["fit_options"]["gain_days"] == "auto"
+    assert all(np.array_equal(fitted.gains[s], auto.gains[s]) for s in auto.gains)
+    assert fitted.meta["gains"]["auto"]["cv_rms"] == rec["cv_rms"]
+    assert "gain profile: week" in model.summary()
+
+
+def test_gain_days_auto_uses_no_test_week(recovered):
+    """The choice and its CV scores do not change when the test weeks' data change (zone temperatures,
+    airflows, weather: all of it), and they do change when a training week's data change (the CV uses them)."""
+    import dataclasses
+
+    from hvacfmu.models.physics import refit_gains
+
+    ds, _, model = recovered
+    rec = refit_gains(model, ds, "auto").meta["gains"]["auto"]
+    frame = ds.frame
+    test = [w for w in ds.weeks if not w.train]
+    train = [w for w in ds.weeks if w.train]
+    assert test and train
+    rng = np.random.default_rng(1)
+
+    def perturbed(weeks):
+        f = frame.copy()
+        for w in weeks:
+            rows = (f.index >= w.start) & (f.index < w.end)
+            f.loc[rows] = f.loc[rows].to_numpy() * rng.uniform(0.8, 1.2, (int(rows.sum()), f.shape[1]))
+        return dataclasses.replace(ds, frame=f)
+
+    other = refit_gains(model, perturbed(test), "auto").meta["gains"]["auto"]
+    assert other["chosen"] == rec["chosen"] and other["cv_rms"] == rec["cv_rms"]
+    assert other["cv_rms_by_zone"] == rec["cv_rms_by_zone"]
+    changed = refit_gains(model, perturbed(train[1:3]), "auto").meta["gains"]["auto"]
+    assert changed["cv_rms"] != rec["cv_rms"]
+
+
+def test_cli_fit_accepts_every_gain_days_value(capsys):
+    """``hvacfmu fit --gain-days`` takes every value of ``GAIN_DAYS`` (``auto`` included) and refuses another,
+    listing the values."""
+    from hvacfmu.cli.commands import build_parser
+    from hvacfmu.models.physics.identification import GAIN_DAYS
+
+    parser = build_parser()
+    base = ["fit", "data.csv", "--building", "b.toml", "--model", "physics", "-o", "m.json", "--gain-days"]
+    for g in GAIN_DAYS:
+        assert parser.parse_args([*base, g]).gain_days == g
+    assert "auto" in GAIN_DAYS
+    with pytest.raises(SystemExit):
+        parser.parse_args([*base, "monday"])
+    err = capsys.readouterr().err
+    assert "invalid choice: 'monday'" in err and all(repr(g) in err for g in GAIN_DAYS)

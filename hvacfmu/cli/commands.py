@@ -384,7 +384,8 @@ def _add_fit_parser(sub) -> None:
         choices=GAIN_DAYS,
         help="physics: step 2's internal-gain profile (default: the building file's [physics].gain_days, else "
         "'week', the paper's per time of week; 'workdays' pools Monday-Friday; 'shrunk' pools them where the "
-        "training weeks show no weekday pattern)",
+        "training weeks show no weekday pattern; 'auto' takes the one of the three with the lowest 24-h open-loop "
+        "RMS in blocked cross-validation over the training weeks)",
     )
     p.set_defaults(func=_cmd_fit)
 

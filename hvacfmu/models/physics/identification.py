@@ -27,7 +27,9 @@ air at the measured temperatures and lets the walls follow physically. With
 every training workday of the season), Saturday and Sunday keep their own;
 with ``"shrunk"`` each workday's profile is shrunk toward that Monday-Friday
 profile by a random-effects weight from the training weeks' scatter (the
-default ``"week"`` is the paper's profile per time of week).
+default ``"week"`` is the paper's profile per time of week); with ``"auto"`` the
+one of the three with the lowest 24-h open-loop RMS in blocked cross-validation
+over the training weeks (module :mod:`.gaincv`).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -319,7 +321,7 @@ def fit_physics(
         the segment itself on top of the Kalman filter's estimate (0: filter only).
         The slow wall modes are barely observable over a warm-up of a day; left
         to the filter, their errors bias the parameters.
-    gain_days : {"week", "workdays", "shrunk"} or None
+    gain_days : {"week", "workdays", "shrunk", "auto"} or None
         Day types of step 2's seasonal gain profile; None (default): the
         building file's ``[physics].gain_days``, else ``"week"``. ``"week"``: the
         paper's profile per time of week (eq. fixed_ig), each slot the mean of
@@ -338,6 +340,13 @@ def fit_physics(
         but both lose a zone-season cell of the 16-week reheat data (fall E,
         -3.3 % and -2.2 %: one test week whose random day levels sat near the
         training Wednesdays' and Fridays' means), so neither is the default.
+        ``"auto"``: the one of the three with the lowest 24-h open-loop RMS in
+        blocked cross-validation over the training weeks (whole weeks held out,
+        test weeks never used; :func:`.gaincv.choose_gain_days`, about a second),
+        recorded in ``meta["gains"]["auto"]`` (``chosen``, ``cv_rms``, ...). It
+        chose ``"workdays"`` or ``"shrunk"`` on every emulated data set of
+        ``benchmarks/bench_gain_days.py`` and so loses the same reheat cell; not
+        the default either (README "A profile between the two").
 
     Returns
     -------
@@ -386,8 +395,8 @@ def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
         A model fitted by :func:`fit_physics` (it carries ``f_IG^c`` and the filter warm-up).
     dataset : hvacfmu.data.Dataset
         The data it was fitted on (its training weeks give the profile).
-    gain_days : {"week", "workdays", "shrunk"}
-        See :func:`fit_physics`.
+    gain_days : {"week", "workdays", "shrunk", "auto"}
+        See :func:`fit_physics` (``"auto"``: the cross-validated choice, step 1 kept).
 
     Returns
     -------
@@ -614,13 +623,16 @@ def _fit_meta(
     }
 
 
-#: Day types of step 2's gain profile (``gain_days``): the paper's per time of week, one Mon-Fri profile, or
-#: each workday's profile shrunk toward the Mon-Fri one.
-GAIN_DAYS = ("week", "workdays", "shrunk")
+#: Step 2's gain profiles: the paper's per time of week, one Mon-Fri profile, or each workday's profile shrunk
+#: toward the Mon-Fri one.
+GAIN_PROFILES = ("week", "workdays", "shrunk")
+#: Values of ``gain_days``: a profile of :data:`GAIN_PROFILES`, or ``"auto"`` (the one with the lowest blocked
+#: cross-validated 24-h open-loop RMS over the training weeks, :func:`.gaincv.choose_gain_days`).
+GAIN_DAYS = (*GAIN_PROFILES, "auto")
 
 
 def _one_of() -> str:
-    """``'week', 'workdays' or 'shrunk'``: the values of :data:`GAIN_DAYS` for messages."""
+    """``'week', 'workdays', 'shrunk' or 'auto'``: the values of :data:`GAIN_DAYS` for messages."""
     names = [repr(g) for g in GAIN_DAYS]
     return ", ".join(names[:-1]) + " or " + names[-1]
 
@@ -813,8 +825,25 @@ def _uncertainty(template, theta, f_c, step, segs, K, lo, hi, zones, free_modes)
 
 def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     """Step 2: f_IG,m^v(k) per season by one-step OLS on the filtered states, averaged over training weeks
-    (per time of week, or per day type: see :func:`_profile_of`)."""
-    frame = dataset.frame
+    (per time of week, or per day type: see :func:`_profile_of`; ``"auto"``: the day types chosen by
+    blocked cross-validation over the training weeks, :func:`.gaincv.choose_gain_days`)."""
+    auto = None
+    if gain_days == "auto":
+        from .gaincv import choose_gain_days
+
+        auto = choose_gain_days(dataset, model, f_c, nw)
+        gain_days = auto["chosen"]
+    profiles = _week_profiles(dataset, model, f_c, nw)
+    out, info = _gains_of_profiles(dataset, model, f_c, profiles, gain_days)
+    if auto is not None:
+        info["auto"] = auto
+    return out, info
+
+
+def _week_profiles(dataset, model, f_c, nw, frame=None) -> list:
+    """Step 2's one-step gains of every training week: a list of ``(week, profile (n_tow, nz) [W])``,
+    NaN where not estimated. ``frame`` (default the dataset's) gives the measurements."""
+    frame = dataset.frame if frame is None else frame
     index = frame.index
     step = float(dataset.step)
     n_tow = n_time_of_week(step)
@@ -832,7 +861,7 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
     # temperatures are added (x(k) = x~(k) + B_IG f(k-1), the paper's eq. ig(k-1)); walls follow physically.
     # (A Kalman correction here would let the walls soak up part of persistent gains.)
     Kz = disc.Pq[:, :nz] @ CB_inv
-    per_season: dict[str, list] = {}
+    out = []
     for week in dataset.weeks:
         if not week.train:
             continue
@@ -846,12 +875,12 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
             continue
         y = y_all[rows]
         u = fill_signals(u_all[rows[:-1]], 0.0)
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a week without any measured zone: NaN gains
             v = fill_signals(v_all[rows[:-1]], np.nanmean(y))
-        q = q_all[rows[:-1]]
-        with np.errstate(all="ignore"):
             ymean = np.nanmean(y[: w + 1], axis=0)
-        ymean = np.where(np.isnan(ymean), np.nanmean(y), ymean)
+            ymean = np.where(np.isnan(ymean), np.nanmean(y), ymean)
+        q = q_all[rows[:-1]]
         x0 = disc.network.wall_steady_state(ymean[None], v[: max(w, 1), 0].mean()[None], q[:1])[0]
         x0[:nz] = np.where(np.isnan(y[0]), ymean, y[0])
         m = u @ disc.zone_vav.T
@@ -866,6 +895,16 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
         slots = time_of_week(index[rows[w:-1]], step)
         prof = np.full((n_tow, nz), np.nan)
         prof[slots] = fv
+        out.append((week, prof))
+    return out
+
+
+def _gains_of_profiles(dataset, model, f_c, profiles, gain_days):
+    """The seasonal gain profiles ``{season: (n_tow, nq)}`` [W] and their record from the training weeks'
+    one-step gains ``profiles`` (:func:`_week_profiles`) with day types ``gain_days`` (not ``"auto"``)."""
+    nz = len(model.outputs)
+    per_season: dict[str, list] = {}
+    for week, prof in profiles:
         per_season.setdefault(week.season, []).append(prof)
     gains, info = {}, {"weeks_per_season": {}, "filled_slots": {}, "day_types": gain_days}
     season_names = list(dict.fromkeys(w.season for w in dataset.weeks))
@@ -887,7 +926,7 @@ def _seasonal_gains(dataset, model, f_c, nw, gain_days):
             info.setdefault("borrowed", []).append(s)
     out = {}
     for s, fv in gains.items():
-        g = np.zeros((n_tow, len(model.q_names)))
+        g = np.zeros((fv.shape[0], len(model.q_names)))
         g[:, :nz] = f_c[None, :] + fv
         if len(model.q_names) > nz:
             g[:, nz] = model._spec.ground_temperature

@@ -508,6 +508,9 @@ class PhysicsModel(ZoneModel):
             lines.append(s)
         if self.inlets and set(self.inlets) != {"T_supply"}:
             lines.append("  box inlet air: " + ", ".join(f"{b}<-{c}" for b, c in zip(self.inputs, self.inlets)))
+        gain_line = _gain_profile_line(self.meta)
+        if gain_line:
+            lines.append(gain_line)
         flagged = self.meta.get("unidentifiable", [])
         if flagged:
             lines.append("  not identifiable from these data: " + ", ".join(flagged))
@@ -517,6 +520,24 @@ class PhysicsModel(ZoneModel):
                 f"({self.meta.get('n_segments', '?')} segments)"
             )
         return "\n".join(lines)
+
+
+def _gain_profile_line(meta: dict) -> str:
+    """The fit report's line on step 2's gain profile (``gain_days``; with ``"auto"`` the choice and its CV scores)."""
+    asked = (meta.get("fit_options") or {}).get("gain_days")
+    if asked is None:
+        return ""
+    auto = (meta.get("gains") or {}).get("auto")
+    if asked != "auto" or not auto:
+        return f"  step-2 gain profile: {asked}"
+    scores = ", ".join(f"{g} {v:.3f}" for g, v in auto.get("cv_rms", {}).items())
+    line = f"  step-2 gain profile: auto -> {auto['chosen']}"
+    if scores:
+        return line + (
+            f" (blocked CV over {auto['folds']} training weeks, {auto['windows']} windows; 24-h open-loop RMS "
+            f"{scores} K)"
+        )
+    return line + f" ({auto.get('note', 'no CV score')})"
 
 
 def filter_windows(disc, K, y, u, v, q):
