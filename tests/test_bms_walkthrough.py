@@ -142,6 +142,7 @@ def test_every_model_beats_persistence_with_td_then_export_and_cosim(export):
     assert ev.stdout.splitlines()[0].startswith("lumped: beats persistence in 1/1 zones")
     _slabs_face_the_storeys(export)
     _physics_with_workday_gains_beats_time_of_week_everywhere(export)
+    _cli_physics_with_auto_gain_days(export)
     # logger outages no longer skip most windows (inputs filled up to 2 h, errors on measured steps):
     # both seasons are scored, and the verdict says how many windows it stands on and why the others went
     cov = verdict["coverage"]["zones"]
@@ -221,6 +222,24 @@ def _physics_with_workday_gains_beats_time_of_week_everywhere(export):
         rms = res.table(name).loc["all"]
         tow = res.table(name, which="time-of-week mean").loc["all", rms.index]
         assert len(rms) >= 6 and (rms < tow).all(), (name, rms, tow)
+
+
+def _cli_physics_with_auto_gain_days(export):
+    """``hvacfmu fit --model physics --gain-days auto``: step 2's profile chosen by blocked CV on the training
+    weeks (README "Chosen by cross-validation"); on this export it picks a pooled profile (measured: workdays),
+    and the refit beats the time-of-week mean in every zone, as the pooled profiles above do."""
+    from hvacfmu.models import load_model
+
+    data, bld = export / "measurements.parquet", export / "building.toml"
+    out = export / "physics_auto.json"
+    fit = hvacfmu("fit", data, "-b", bld, "--model", "physics", "--gain-days", "auto", "-o", out)
+    m = load_model(out)
+    auto = m.meta["gains"]["auto"]
+    assert m.meta["fit_options"]["gain_days"] == "auto" and auto["chosen"] in ("workdays", "shrunk"), auto
+    assert f"auto -> {auto['chosen']}" in fit.stdout, fit.stdout[-1500:]
+    hvacfmu("evaluate", data, "-b", bld, "--model", out, "--json", export / "eval_auto.json")
+    rows = _verdict(export / "eval_auto.json")["zones"]
+    assert len(rows) == 6 and all(r["beats_time_of_week"] and r["rms"] < r["persistence"] for r in rows), rows
 
 
 def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input(export, tmp_path):
