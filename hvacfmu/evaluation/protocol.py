@@ -44,7 +44,7 @@ from ..errors import DataError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
-from .windows import FILL_INPUTS_H, MIN_OUTPUT_SHARE, fill_inputs, plan_windows, skip_reasons
+from .windows import FILL_INPUTS_H, MIN_OUTPUT_SHARE, fill_inputs, plan_windows, skip_reasons, window_starts
 
 
 # =============================================================================
@@ -144,7 +144,7 @@ def evaluate(
     test_weeks = dataset.test_weeks()
     if not test_weeks:
         raise DataError("the dataset has no test week: nothing to evaluate (need at least two weeks in a season)")
-    starts = _window_starts(dataset.frame.index, test_weeks)
+    starts = window_starts(test_weeks)
     scores = []
     failures = []
     for model, name in zip(models, names):
@@ -199,19 +199,6 @@ def _season_notes(dataset):
     for n in notes:
         warnings.warn(n, HvacfmuWarning, stacklevel=3)
     return notes
-
-
-def _window_starts(index, weeks):
-    """(week, local midnight) pairs: every midnight of every test week."""
-    out = []
-    for w in weeks:
-        tz = w.start.tz
-        day0 = w.start.tz_localize(None)
-        for d in range(7):
-            t = (day0 + pd.Timedelta(days=d)).tz_localize(tz, nonexistent="shift_forward", ambiguous=False)
-            if t < w.end:
-                out.append((w, t))
-    return out
 
 
 def _score_model(model, name, dataset, starts, horizon, filled):

@@ -5,7 +5,7 @@ among :data:`~.identification.GAIN_PROFILES` (``"week"``, ``"workdays"``, ``"shr
 step 2 alone. Blocks are whole training weeks: for every training week ``h`` of a season with at
 least two training weeks, each candidate's seasonal profile is rebuilt from the one-step gains of the
 season's *other* training weeks, and the 24-h open-loop prediction of every local midnight of ``h``
-is scored exactly as the evaluation scores a test window (:mod:`hvacfmu.evaluation.windows`):
+is scored exactly as the evaluation scores a test window (:mod:`hvacfmu.data.windows`):
 inputs filled across gaps of at most 2 h, the start shifted up to 1 h to the first step with every
 zone measured, a window skipped when an output is measured in under 75 % of its steps or an input
 gap is longer; the initial state from the model's filter over the preceding warm-up with the fold's
@@ -29,15 +29,10 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from ...data.resample import interpolate_gaps
+from ...data.windows import FILL_INPUTS_H, MIN_OUTPUT_SHARE, fill_inputs, plan_windows, window_starts
 from ...timeutil import time_of_week
+from .model import gains_for_rows
 
-#: Inputs are filled across gaps of at most this many hours, as by the evaluation [h]
-FILL_INPUTS_H = 2.0
-#: A window is scored only when every zone is measured in at least this share of its steps [-]
-MIN_OUTPUT_SHARE = 0.75
-#: Latest start of a window whose zone temperatures are not all measured at midnight [h]
-START_SHIFT_MAX_H = 1.0
 #: Open-loop horizon of a window [h]
 HORIZON_H = 24.0
 
@@ -68,7 +63,11 @@ def choose_gain_days(dataset, model, f_c, nw) -> dict:
     t0 = time.perf_counter()
     frame = _without_test_weeks(dataset)
     profiles = _week_profiles(dataset, model, f_c, nw, frame=frame)
-    windows = _cv_windows(dataset, model, frame, profiles, nw)
+    step = float(dataset.step)
+    filled = fill_inputs(frame, dataset.building.zone_names, step, FILL_INPUTS_H, MIN_OUTPUT_SHARE)
+    Y = model.measured_outputs(frame)
+    u, v = (np.asarray(a, float) for a in model.signals(filled.frame))
+    windows = _cv_windows(frame.index, profiles, Y, u, v, nw, step)
     record: dict = {
         "score": "mean 24-h open-loop RMS over the windows and zones of each held-out training week [K] "
         "(blocked CV: whole training weeks, profile from the season's other training weeks; test weeks unused)",
@@ -87,7 +86,7 @@ def choose_gain_days(dataset, model, f_c, nw) -> dict:
             h: _gains_of_profiles(dataset, model, f_c, [(w, p) for w, p in profiles if w.number != h], g)[0]
             for h in folds
         }
-        by_zone[g] = _window_rms(model, dataset, frame, windows, fold_gains, nw).mean(axis=0)
+        by_zone[g] = _window_rms(model, dataset, frame.index, windows, fold_gains, nw, (Y, u, v)).mean(axis=0)
     cv = {g: float(np.mean(r)) for g, r in by_zone.items()}
     record["chosen"] = min(GAIN_PROFILES, key=lambda g: (cv[g], GAIN_PROFILES.index(g)))
     record["cv_rms"] = {g: round(v, 5) for g, v in cv.items()}
@@ -108,89 +107,35 @@ def _without_test_weeks(dataset) -> pd.DataFrame:
     return frame
 
 
-def _midnights(week) -> list:
-    """Every local midnight of ``week`` (DST-safe, as the evaluation's windows)."""
-    tz = week.start.tz
-    day0 = week.start.tz_localize(None)
-    out = []
-    for d in range(7):
-        t = (day0 + pd.Timedelta(days=d)).tz_localize(tz, nonexistent="shift_forward", ambiguous=False)
-        if t < week.end:
-            out.append(t)
-    return out
-
-
-def _cv_windows(dataset, model, frame, profiles, nw) -> list:
-    """``(week number, start row)`` of every scored window of the training weeks that can be held out
-    (their season keeps another training week with one-step gains), under the evaluation's rules."""
-    step = float(dataset.step)
-    index = frame.index
-    n, N = len(frame), int(round(HORIZON_H * 3600.0 / step))
-    shift_max = int(round(START_SHIFT_MAX_H * 3600.0 / step))
+def _cv_windows(index, profiles, Y, u, v, nw, step) -> list:
+    """``(week number, start row)`` of every scored window of the training weeks that can be held out (their
+    season keeps another training week with one-step gains), under the evaluation's rules
+    (:func:`hvacfmu.data.windows.plan_windows`) and after a full filter warm-up of ``nw`` steps."""
     per_season: dict = {}
     for w, _ in profiles:
         per_season[w.season] = per_season.get(w.season, 0) + 1
-    Y = model.measured_outputs(frame)
-    u, v = _filled_signals(model, frame, step)
-    y_ok = np.isfinite(Y)
-    row_ok = y_ok.all(axis=1)
-    obs = np.r_[np.zeros((1, Y.shape[1]), np.int64), np.cumsum(y_ok, axis=0)]
-    bad_in = np.r_[0, np.cumsum(~(np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)))]
-    out = []
-    for week, _ in profiles:
-        if per_season[week.season] < 2:
-            continue
-        for t in _midnights(week):
-            k0 = index.get_indexer([t])[0]
-            ok = np.flatnonzero(row_ok[k0 : k0 + shift_max + 1]) if k0 >= 0 else []
-            if not len(ok):
-                continue
-            k = k0 + int(ok[0])
-            if k < nw or k + N >= n or np.any(obs[k + N + 1] - obs[k + 1] < MIN_OUTPUT_SHARE * N):
-                continue
-            if bad_in[k + N] - bad_in[k]:
-                continue
-            out.append((week.number, k))
-    return out
-
-
-def _filled_signals(model, frame, step):
-    """The model's inputs and disturbances (n, .) with gaps of at most :data:`FILL_INPUTS_H` interpolated."""
-    u, v = model.signals(frame)
-    cols = list(model.inputs) + list(model.disturbances)
-    raw = pd.DataFrame(np.c_[u, v], index=frame.index, columns=range(len(cols)))
-    if not raw.isna().to_numpy().any():
-        return np.asarray(u, float), np.asarray(v, float)
-    filled = interpolate_gaps(raw, FILL_INPUTS_H * 60.0, native_step=step).reindex(frame.index).to_numpy(float)
-    return filled[:, : u.shape[1]], filled[:, u.shape[1] :]
+    seasons = {s: True for s, count in per_season.items() if count >= 2}
+    starts = window_starts([w for w, _ in profiles])
+    N = int(round(HORIZON_H * 3600.0 / step))
+    plan = plan_windows(starts, index, Y, u, v, N, seasons, FILL_INPUTS_H, MIN_OUTPUT_SHARE, step)
+    return [(w.number, k) for w, k in plan.kept if k >= nw]
 
 
 def _q_rows(model, gains, index, season=None) -> np.ndarray:
-    """``q`` (n, nq) at ``index`` from ``gains``: ``season``'s profile, or (None) each row's calendar season
-    as :meth:`PhysicsModel.gains_for_rows` (the mean profile for a season without one)."""
-    slots = time_of_week(index, float(model.step))
-    if season is not None:
-        prof = np.asarray(gains[season])
-        return prof[slots % prof.shape[0]]
-    md = index.month.to_numpy() * 100 + index.day.to_numpy()
-    out = np.empty((len(index), len(model.q_names)))
-    mean = np.mean([np.asarray(g) for g in gains.values()], axis=0)
-    for key in np.unique(md):
-        s = model.building.season_of(pd.Timestamp(2001, key // 100, key % 100))
-        prof = np.asarray(gains[s]) if s in gains else mean
-        rows = md == key
-        out[rows] = prof[slots[rows] % prof.shape[0]]
-    return out
+    """``q`` (n, nq) at ``index`` from ``gains``: ``season``'s profile, or (None) each row's calendar season."""
+    if season is None:
+        return gains_for_rows(gains, model.building, float(model.step), index)
+    prof = np.asarray(gains[season])
+    return prof[time_of_week(index, float(model.step)) % prof.shape[0]]
 
 
-def _window_rms(model, dataset, frame, windows, fold_gains, nw) -> np.ndarray:
-    """RMS (W, nz) [K] of the 24-h open-loop windows, each with its held-out week's fold gains."""
+def _window_rms(model, dataset, index, windows, fold_gains, nw, signals) -> np.ndarray:
+    """RMS (W, nz) [K] of the 24-h open-loop windows, each with its held-out week's fold gains; ``signals``:
+    the measured outputs and the gap-filled inputs and disturbances ``(Y, u, v)``."""
     step = float(model.step)
     N = int(round(HORIZON_H * 3600.0 / step))
-    index = frame.index
     season = {w.number: w.season for w in dataset.weeks}
-    Y = model.measured_outputs(frame)
-    u, v = _filled_signals(model, frame, step)
+    Y, u, v = signals
     k0s = np.array([k for _, k in windows])
     warm = k0s[:, None] + np.arange(-nw, 1)[None, :]  # (W, nw+1) rows of the filter warm-up
     rng = k0s[:, None] + np.arange(N)[None, :]  # (W, N) rows k0..k0+N-1

@@ -292,21 +292,7 @@ class PhysicsModel(ZoneModel):
 
     def gains_for_rows(self, index: pd.DatetimeIndex) -> np.ndarray:
         """``q`` (n, nq) at each timestamp, each row in its own season (mean profile if a season is missing)."""
-        index = pd.DatetimeIndex(index)
-        md = index.month.to_numpy() * 100 + index.day.to_numpy()
-        out = np.empty((len(index), len(self.q_names)))
-        seasons = {}
-        for key in np.unique(md):
-            s = self.building.season_of(pd.Timestamp(2001, key // 100, key % 100))
-            seasons.setdefault(s, []).append(key)
-        for s, keys in seasons.items():
-            rows = np.isin(md, keys)
-            if s in self.gains:
-                out[rows] = self.gains_at(index[rows], s)
-            else:
-                prof = np.mean([np.asarray(g) for g in self.gains.values()], axis=0)
-                out[rows] = prof[time_of_week(index[rows], self.step) % prof.shape[0]]
-        return out
+        return gains_for_rows(self.gains, self.building, float(self.step), index)
 
     # --- dynamics -----------------------------------------------------------------
     def step_state(self, x, u, v, q):
@@ -520,6 +506,24 @@ class PhysicsModel(ZoneModel):
                 f"({self.meta.get('n_segments', '?')} segments)"
             )
         return "\n".join(lines)
+
+
+def gains_for_rows(gains, building, step: float, index) -> np.ndarray:
+    """``q`` (n, nq) from the seasonal profiles ``gains`` at each timestamp of ``index``, each row in its own
+    season of ``building`` (the mean profile for a season without one)."""
+    index = pd.DatetimeIndex(index)
+    md = index.month.to_numpy() * 100 + index.day.to_numpy()
+    first = np.asarray(next(iter(gains.values())))
+    out = np.empty((len(index), first.shape[1]))
+    seasons: dict = {}
+    for key in np.unique(md):
+        s = building.season_of(pd.Timestamp(2001, key // 100, key % 100))
+        seasons.setdefault(s, []).append(key)
+    for s, keys in seasons.items():
+        rows = np.isin(md, keys)
+        prof = np.asarray(gains[s]) if s in gains else np.mean([np.asarray(g) for g in gains.values()], axis=0)
+        out[rows] = prof[time_of_week(index[rows], step) % prof.shape[0]]
+    return out
 
 
 def _gain_profile_line(meta: dict) -> str:
