@@ -210,11 +210,16 @@ def detectable(r: dict, which: str = "a") -> bool | None:
     floor = DETECT_GAIN.get(r["name"], DEFAULT_GAIN)
 
     def ok(g):
-        return bool(g and g.get("t") is not None and g["gain_percent"] >= floor and g["t"] >= DETECT_T)
+        return _passes(g, floor)
 
     if r["name"] == "zone_coupling":
         return ok(r["pair_true_k"]) if which == "b" else any(ok(g) for g in r["alone"].values())
     return None if r.get("gain") is None else ok(r["gain"])
+
+
+def _passes(g: dict | None, floor: float) -> bool:
+    """An oracle gain record at or above ``floor`` [%] with t >= :data:`DETECT_T`."""
+    return bool(g and g.get("t") is not None and g["gain_percent"] >= floor and g["t"] >= DETECT_T)
 
 
 def _adjacent(sig, a, b) -> bool:
@@ -337,8 +342,7 @@ REDRAW_SEED = 15  # seeds the new draws: np.random.default_rng([REDRAW_SEED, cas
 def gate_passes(r: dict) -> bool:
     """Whether an oracle record of one effect passes the battery's detectability gate (see above)."""
     if r["name"] == "zone_coupling":
-        g = r["pair_fitted"]
-        return bool(g.get("t") is not None and g["gain_percent"] >= DETECT_GAIN["zone_coupling"] and g["t"] >= DETECT_T)
+        return _passes(r["pair_fitted"], DETECT_GAIN["zone_coupling"])
     return bool(detectable(r, "a"))
 
 
