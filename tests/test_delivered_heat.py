@@ -207,7 +207,9 @@ def test_closed_loop_airflow_not_identifiable_is_flagged(building, tmp_path):
 
 
 def test_bandwidth_on_grid_edge_is_named(dataset):
-    with pytest.warns(HvacfmuWarning, match=r"LOESS bandwidth 2 h .* every series is on the lower edge"):
+    with pytest.warns(
+        HvacfmuWarning, match=r"LOESS bandwidth 2 h .* all \d+ series \(T_\w+, .*\) is on the lower edge"
+    ):
         m = fit_zones(dataset, open_loop=False)
     assert any("lower edge" in w for w in m.meta["warnings"])
 

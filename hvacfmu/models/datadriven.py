@@ -839,7 +839,14 @@ def _warn_grid_edge(prep: _Prepared, names, bws, grid):
         at = [nm for nm, bw in zip(names, bws) if bw == edge]
         if not at:
             continue
-        what = "every series" if len(at) == len(names) else ", ".join(at)
+        # the lumped and the six-zone fit both warn: say which series, so the two are told apart
+        what = (
+            f"every series ({', '.join(names)})"
+            if len(at) == len(names) and len(names) <= 6
+            else f"all {len(names)} series ({', '.join(names[:3])}, ...)"
+            if len(at) == len(names)
+            else ", ".join(at)
+        )
         hint = (
             "(it cannot go lower than the CV block, option cv_block): the de-smoothed series may be dominated "
             "by fast variations such as a thermostat loop; see the identifiability check, or fix option "
