@@ -378,6 +378,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
         )
         accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows)
         _name_competitors(cands, accepted)
+        _carry_displaced_dst(ranked, opts)
         rounds.append(
             {
                 "round": len(rounds) + 1,
@@ -406,6 +407,28 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             )
     others = [c for c in last_cands if c not in findings]
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
+
+
+def _carry_displaced_dst(ranked, opts: dict) -> None:
+    """Keep a daylight-saving shift that a rival of another cause displaced as a candidate of the next rounds.
+
+    It passed its screen and its cross-validation and lost only to a rival at the same zones
+    (a shift acts on every zone, so any zone's stronger term is a rival); the rival's term
+    changes the residuals the shift's screen reads, so the next rounds retest the shift
+    against the model with the rival in without repeating the screen (``opts["_dst_retest"]``:
+    the shift and the screen numbers of the round it passed, read by the screen). Cleared
+    once the shift is decided by its own cross-validation.
+    """
+    for c in ranked:
+        if not _is_dst(c.term):
+            continue
+        rival = (c.evidence.get("rival") or {}).get("favoured")
+        if c.status == "no evidence" and rival not in (None, c.cause):
+            ev = c.evidence
+            passed = ev.get("screen_passed") or {k: ev[k] for k in ("lag_steps", "lag_h", "r2_at_lag", "scale_at_lag")}
+            opts["_dst_retest"] = {"shift": int(c.term.shift), "screen_passed": passed}
+        elif c.status in ("found", "no cross-validated gain"):
+            opts.pop("_dst_retest", None)
 
 
 def fit_consistent(sig: Signals, terms, rows, refresh_profiles: bool = True):

@@ -464,7 +464,19 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
         )
     steps = int(round(3600 / sig.step))
     L = ev["lag_steps"]
-    if 2 * abs(L) < steps:
+    retest = options.get("_dst_retest")
+    kept = retest["shift"] if retest else None
+    if kept is not None:
+        # it passed this screen and its cross-validation in an earlier round and lost only to a rival
+        # of another cause: the rival's term changes the residuals this screen reads, so the shift is
+        # retested against the model with the rival in rather than screened out again
+        ev["retested"] = (
+            "passed its screen and cross-validation in an earlier round and was displaced by a rival; "
+            "retested against the model with the rival in (screen not repeated)"
+        )
+        ev["screen_passed"] = retest["screen_passed"]
+        L = -int(kept)
+    elif 2 * abs(L) < steps:
         return Candidate(
             InternalGainSchedule.cause,
             loc,
@@ -474,7 +486,7 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             f"{L * sig.step / 60:+.0f} min (under half an hour)",
         )
     r2_min, g_min = options["dst_min_r2"], options["dst_min_scale"]
-    if ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min:
+    if kept is None and (ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min):
         return Candidate(
             InternalGainSchedule.cause,
             loc,
