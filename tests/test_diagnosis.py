@@ -1106,3 +1106,14 @@ def test_displaced_dst_shift_is_carried_to_the_next_round_until_decided():
     assert opts["_dst_retest"]["screen_passed"] == screen
     _carry_displaced_dst([cand("no cross-validated gain", None)], opts)
     assert "_dst_retest" not in opts
+
+
+def test_retested_dst_evidence_prints_the_screen_it_passed():
+    from hvacfmu.diagnosis.report import _short_evidence
+
+    ev = {"lag_h": 0.25, "r2_at_lag": 0.23, "scale_at_lag": 1.43, "dst_fraction_of_training_rows": 0.68}
+    f = {"cause": "internal_gain_schedule", "location": {"variant": "dst_shift", "shift": -4}, "evidence": ev}
+    assert "+15 min later" in _short_evidence(f) and "retested" not in _short_evidence(f)
+    ev["screen_passed"] = {"lag_steps": 5, "lag_h": 1.25, "r2_at_lag": 0.36, "scale_at_lag": 0.41}
+    text = _short_evidence(f)
+    assert "+75 min later" in text and "R² 0.36, scale 0.41" in text and "retested" in text, text

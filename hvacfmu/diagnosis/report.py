@@ -393,10 +393,15 @@ def _short_evidence(f: dict) -> str:
         if "days" in ev:
             return f"{len(f['location'].get('dates', []))} weekdays with weekend-like gains ({ev.get('rule')})"
         if "lag_h" in ev:
+            # a shift retested after a rival was accepted: the screen numbers of the round it passed
+            sc = ev.get("screen_passed") or ev
+            when = (
+                " in the round its screen passed; retested after a rival was accepted" if "screen_passed" in ev else ""
+            )
             return (
-                f"weekday morning gains {60 * ev['lag_h']:+.0f} min later under daylight saving "
-                f"(R² {ev.get('r2_at_lag', 0):.2f}, scale {ev.get('scale_at_lag', 0):.2f}); daylight-saving rows "
-                f"{100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
+                f"weekday morning gains {60 * sc['lag_h']:+.0f} min later under daylight saving "
+                f"(R² {sc.get('r2_at_lag', 0):.2f}, scale {sc.get('scale_at_lag', 0):.2f}{when}); daylight-saving "
+                f"rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
             )
         return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
     return ""
