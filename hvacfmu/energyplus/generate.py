@@ -2,8 +2,9 @@
 
 Files written to ``outdir``: ``measurements.parquet`` (or ``.csv``),
 ``building.toml`` and ``energyplus.json`` (what was run: IDF, weather, period,
-the IDF names behind every zone/box/unit column, the changes made to the IDF,
-the approximations). See :mod:`hvacfmu.energyplus` for the columns.
+the IDF names behind every zone/box/unit column, the conditioned zones left out
+because no box serves them, the changes made to the IDF, the warnings — weather
+of another site than the IDF's design days —, the approximations). See :mod:`hvacfmu.energyplus` for the columns.
 """
 
 from __future__ import annotations
@@ -16,13 +17,14 @@ import logging
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from .. import building as _building
-from ..errors import DataError
+from ..errors import DataError, HvacfmuWarning
 from . import geometry, hvac, inputs, physics
 from .idf import read_idf
 from .run import Probe, simulate, step_times
@@ -30,7 +32,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.2"
+EXPORT_VERSION = "1.3"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -77,6 +79,22 @@ def select_boxes(boxes, floor, zones):
             f"no conditioned zone matches floor={floor!r} zones={zones!r}; the IDF's conditioned zones are {names}"
         )
     return sel
+
+
+def _zones_left_out(idf, all_boxes, floor, zones) -> dict:
+    """Conditioned zones (zone equipment) of the selection that are not exported because no box serves them."""
+    out = {}
+    for zone, equipment in hvac.zones_without_boxes(idf, all_boxes).items():
+        if zones and zone.lower() not in {z.lower() for z in zones}:
+            continue
+        if not zones and floor and floor.lower() not in zone.lower():
+            continue
+        out[zone] = (
+            f"zone equipment {', '.join(equipment) or 'none'} but no air terminal on an AirLoopHVAC: not exported "
+            "(no T_ column; its surfaces towards exported zones are adiabatic in the physics tables)"
+        )
+        log.info("EnergyPlus zone %s: %s", zone, out[zone])
+    return out
 
 
 def export_probes(boxes, ahus, zones):
@@ -221,7 +239,9 @@ def generate(
     site = inputs.read_site(epw, timezone)
     first, last = inputs.run_dates(year, start, weeks, days)
     idf = read_idf(idf_path)
-    boxes = select_boxes(hvac.air_boxes(idf), floor, zones)
+    all_boxes = hvac.air_boxes(idf)
+    boxes = select_boxes(all_boxes, floor, zones)
+    left_out = _zones_left_out(idf, all_boxes, floor, zones)
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))
@@ -229,6 +249,9 @@ def generate(
     # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
     run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
     notes = inputs.prepare_idf(idf, run_first, last, site)
+    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name),) if w]
+    for w in warned:
+        warnings.warn(w, HvacfmuWarning, stacklevel=2)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
@@ -263,7 +286,9 @@ def generate(
             "zones": {hvac.sanitise(z): z for z in zone_names},
             "boxes": [dataclasses.asdict(b) for b in boxes],
             "air_density": hvac.std_air_density(site.elevation),
+            "zones_left_out": left_out,
             "idf_changes": notes,
+            "warnings": warned,
             "approximations": list(APPROXIMATIONS),
             "export_version": EXPORT_VERSION,
         },
