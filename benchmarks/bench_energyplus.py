@@ -8,9 +8,8 @@ the zones model against the smallest physically plausible gain.
 
 Usage::
 
-    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor]] ... [--weather KEY] [--verdict]
-        [--kinds lumped,zones,physics]
-        [--weeks N]
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor][@weather]] ... [--unseen] [--weather KEY]
+        [--verdict] [--kinds lumped,zones,physics] [--weeks N]
 """
 
 from __future__ import annotations
@@ -31,6 +30,14 @@ DEFAULT_PROTOTYPES = (
     "ASHRAE901_RestaurantFastFood_STD2019_Denver",
     "ASHRAE901_OfficeSmall_STD2019_Denver",
 )
+#: Buildings and climates never used to design anything here (issue 13 point 8; benchmarks/energyplus_unseen.md);
+#: run with --unseen. ``@KEY`` is the weather (pyenergyplus.dataset key).
+UNSEEN_PROTOTYPES = (
+    "ASHRAE901_RetailStandalone_STD2019_Denver",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_fl_miami",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_il_chicago",
+    "RefBldgMediumOfficeNew2004_Chicago:mid",
+)
 
 
 def run(prototype: str, kinds, weeks, weather=None, verdict=False):
@@ -38,6 +45,8 @@ def run(prototype: str, kinds, weeks, weather=None, verdict=False):
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fitting import fit
 
+    prototype, _, at = prototype.partition("@")
+    weather = at or weather
     name, _, floor = prototype.partition(":")
     t0 = time.perf_counter()
     # the slow tests use the same options; weather only when given, so the Denver/Chicago defaults keep their key
@@ -71,13 +80,14 @@ def run(prototype: str, kinds, weeks, weather=None, verdict=False):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--prototype", action="append", help="prototype[:floor] (repeatable)")
+    ap.add_argument("--prototype", action="append", help="prototype[:floor][@weather] (repeatable)")
+    ap.add_argument("--unseen", action="store_true", help="the buildings and climates never used here")
     ap.add_argument("--weather", help="EPW file or pyenergyplus.dataset weather key (default: the prototype's city)")
     ap.add_argument("--verdict", action="store_true", help="also print the verdict evaluate prints first")
     ap.add_argument("--kinds", default="lumped,zones,physics")
     ap.add_argument("--weeks", type=int, default=None, help="weeks from 1 January (default: the whole year)")
     args = ap.parse_args(argv)
-    for p in args.prototype or DEFAULT_PROTOTYPES:
+    for p in args.prototype or (UNSEEN_PROTOTYPES if args.unseen else DEFAULT_PROTOTYPES):
         run(p, args.kinds.split(","), args.weeks, args.weather, args.verdict)
 
 
