@@ -350,3 +350,23 @@ def test_splitter_outlet_given_as_a_node_list_still_maps_the_box():
     assert len(kitchen) == 1 and kitchen[0].ahu == "CAV_KITCHEN"
     assert kitchen[0].terminal_type == "AirTerminal:SingleDuct:ConstantVolume:NoReheat"
     assert len(boxes) == 55 and zones_without_boxes(idf, boxes) == {}
+
+
+def test_heating_limit_is_what_the_controls_allow():
+    # the stand-alone retail's packaged units heat up to 50 C (SetpointManager:SingleZone:Heating; the year's data
+    # reach 48.0 C) although its zones' heating design supply temperature is 40 C: T_supply_max must be 50, not 40
+    from hvacfmu.energyplus.generate import _heating_limit
+    from hvacfmu.energyplus.hvac import air_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    def limits(name):
+        idf = read_idf(resolve_prototype(name))
+        boxes = air_boxes(idf)
+        return {a: _heating_limit(idf, [b for b in boxes if b.ahu == a]) for a in dict.fromkeys(b.ahu for b in boxes)}
+
+    assert set(limits("ASHRAE901_RetailStandalone_STD2019_Denver").values()) == {50.0}
+    assert set(limits("ASHRAE901_OfficeSmall_STD2019_Denver").values()) == {40.0}  # its managers allow 40 C
+    assert set(limits("ASHRAE901_OfficeMedium_STD2019_Denver").values()) == {40.0}  # VAV reheat terminals: 40 C
+    # the DOE reference office's reheat terminals give no maximum: the zones' heating design temperature stays
+    assert set(limits("RefBldgMediumOfficeNew2004_Chicago").values()) == {50.0}

@@ -141,15 +141,39 @@ def _sizing_limits(idf, boxes, eio, rho):
     return hvac.box_limits(idf, boxes, hvac.read_sizing(eio), rho)
 
 
-def _heating_limit(idf, zones):
-    """Highest zone heating design supply air temperature [°C] of ``zones`` (Sizing:Zone), or None."""
-    vals = []
-    for s in idf.all("Sizing:Zone"):
-        if s.get(0).lower() in {z.lower() for z in zones} and s.get(4).lower().startswith("supplyairtemperature"):
-            v = s.number(5)
-            if v is not None:
-                vals.append(v)
-    t = max(vals) if vals else None
+#: Setpoint managers of single-zone units whose field 3 is the maximum supply air temperature and field 4 the zone.
+_SZ_HEATING = ("SetpointManager:SingleZone:Heating", "SetpointManager:SingleZone:Reheat")
+#: Field of ``AirTerminal:SingleDuct:VAV:Reheat``: Maximum Reheat Air Temperature [°C].
+_MAX_REHEAT_FIELD = 18
+
+
+def _control_limit(idf, box) -> float | None:
+    """Highest discharge air temperature [°C] the controls of ``box`` allow: its VAV reheat terminal's maximum
+    reheat air temperature, else its zone's single-zone heating setpoint manager's maximum; None when neither."""
+    if box.terminal_type.lower() == "airterminal:singleduct:vav:reheat":
+        term = idf.by_name(box.terminal_type).get(box.terminal.lower())
+        return term.number(_MAX_REHEAT_FIELD) if term is not None else None
+    vals = [s.number(3) for cls in _SZ_HEATING for s in idf.all(cls) if s.get(4).lower() == box.zone.lower()]
+    vals = [v for v in vals if v is not None]
+    return max(vals) if vals else None
+
+
+def _heating_limit(idf, boxes):
+    """Heating limit [°C] of the discharge air of one unit's ``boxes``: what its controls allow when every box has
+    a limit (:func:`_control_limit`), else the highest zone heating design supply air temperature (Sizing:Zone);
+    None when neither is known or plausible (15..80 °C)."""
+    limits = [_control_limit(idf, b) for b in boxes]
+    if limits and all(v is not None for v in limits):
+        t = max(limits)
+    else:
+        zones = {b.zone.lower() for b in boxes}
+        vals = []
+        for s in idf.all("Sizing:Zone"):
+            if s.get(0).lower() in zones and s.get(4).lower().startswith("supplyairtemperature"):
+                v = s.number(5)
+                if v is not None:
+                    vals.append(v)
+        t = max(vals) if vals else None
     return t if t is not None and 15.0 <= t <= 80.0 else None
 
 
@@ -176,7 +200,7 @@ def _building_dict(idf, site, boxes, ahus, limits, label):
     d["ahus"] = []
     for name in ahus:
         a = {"name": hvac.sanitise(name)}
-        t = _heating_limit(idf, [b.zone for b in boxes if b.ahu == name])
+        t = _heating_limit(idf, [b for b in boxes if b.ahu == name])
         if t is not None:
             a["T_supply_max"] = t
         d["ahus"].append(a)
