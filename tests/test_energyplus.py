@@ -319,7 +319,7 @@ def test_generate_with_another_city_warns_and_records_it(tmp_path):
     assert info["site"]["timezone"] == "America/Chicago"
 
 
-def test_conditioned_zone_without_a_box_is_named_not_dropped_silently():
+def test_conditioned_zone_without_a_box_is_named_not_dropped_silently(caplog):
     # the stand-alone retail's vestibule is heated by a unit heater, not by an air handler: it cannot be exported,
     # and the export says which zone was left out and why
     from hvacfmu.energyplus.generate import _zones_left_out
@@ -336,6 +336,12 @@ def test_conditioned_zone_without_a_box_is_named_not_dropped_silently():
     assert _zones_left_out(idf, boxes, "retail", None) == {}  # not part of the selection: not reported
     office = read_idf(resolve_prototype("ASHRAE901_OfficeMedium_STD2019_Denver"))
     assert zones_without_boxes(office, air_boxes(office)) == {}  # plenums have no zone equipment
+    hotel = read_idf(resolve_prototype("hotel_small"))  # 39 PTAC guest rooms and 9 unit heaters: one log line
+    caplog.clear()
+    with caplog.at_level("INFO", logger="hvacfmu.energyplus.generate"):
+        assert len(_zones_left_out(hotel, air_boxes(hotel), None, None)) == 48
+    assert len(caplog.records) == 1 and "48 conditioned zone(s)" in caplog.records[0].getMessage()
+    assert "ZoneHVAC:PackagedTerminalAirConditioner: GuestRoom101" in caplog.records[0].getMessage()
 
 
 def test_splitter_outlet_given_as_a_node_list_still_maps_the_box():

@@ -83,17 +83,28 @@ def select_boxes(boxes, floor, zones):
 
 def _zones_left_out(idf, all_boxes, floor, zones) -> dict:
     """Conditioned zones (zone equipment) of the selection that are not exported because no box serves them."""
-    out = {}
+    out, kinds = {}, {}
     for zone, equipment in hvac.zones_without_boxes(idf, all_boxes).items():
         if zones and zone.lower() not in {z.lower() for z in zones}:
             continue
         if not zones and floor and floor.lower() not in zone.lower():
             continue
+        what = ", ".join(equipment) or "none"
         out[zone] = (
-            f"zone equipment {', '.join(equipment) or 'none'} but no air terminal on an AirLoopHVAC: not exported "
+            f"zone equipment {what} but no air terminal on an AirLoopHVAC: not exported "
             "(no T_ column; its surfaces towards exported zones are adiabatic in the physics tables)"
         )
-        log.info("EnergyPlus zone %s: %s", zone, out[zone])
+        kinds.setdefault(what, []).append(zone)
+    if out:  # one line, however many zones (the 90.1 small hotel has 48)
+        log.info(
+            "EnergyPlus: %d conditioned zone(s) not exported, zone equipment but no air terminal on an AirLoopHVAC "
+            "(see energyplus.json zones_left_out): %s",
+            len(out),
+            "; ".join(
+                f"{w}: {', '.join(zs[:5])}" + (f" and {len(zs) - 5} more" if len(zs) > 5 else "")
+                for w, zs in kinds.items()
+            ),
+        )
     return out
 
 
