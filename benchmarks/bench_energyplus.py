@@ -8,7 +8,8 @@ the zones model against the smallest physically plausible gain.
 
 Usage::
 
-    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor]] ... [--kinds lumped,zones,physics] [--weeks N]
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor][@weather]] ... [--unseen] [--weather KEY]
+        [--verdict] [--kinds lumped,zones,physics] [--weeks N]
 """
 
 from __future__ import annotations
@@ -29,16 +30,28 @@ DEFAULT_PROTOTYPES = (
     "ASHRAE901_RestaurantFastFood_STD2019_Denver",
     "ASHRAE901_OfficeSmall_STD2019_Denver",
 )
+#: Buildings and climates never used to design anything here (issue 13 point 8; benchmarks/energyplus_unseen.md);
+#: run with --unseen. ``@KEY`` is the weather (pyenergyplus.dataset key).
+UNSEEN_PROTOTYPES = (
+    "ASHRAE901_RetailStandalone_STD2019_Denver",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_fl_miami",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_il_chicago",
+    "RefBldgMediumOfficeNew2004_Chicago:mid",
+)
 
 
-def run(prototype: str, kinds, weeks):
+def run(prototype: str, kinds, weeks, weather=None, verdict=False):
     from hvacfmu.data import prepare
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fitting import fit
 
+    prototype, _, at = prototype.partition("@")
+    weather = at or weather
     name, _, floor = prototype.partition(":")
     t0 = time.perf_counter()
-    paths = cached_export(name, floor=floor or None, weeks=weeks)  # the slow tests use the same options
+    # the slow tests use the same options; weather only when given, so the Denver/Chicago defaults keep their key
+    opts = {"weather": weather} if weather else {}
+    paths = cached_export(name, floor=floor or None, weeks=weeks, **opts)
     t_gen = time.perf_counter() - t0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -50,7 +63,9 @@ def run(prototype: str, kinds, weeks):
             t_fit[k] = time.perf_counter() - t0
         res = evaluate(list(models.values()), ds, names=list(models))
     print(
-        f"\n=== {prototype}: {len(ds.building.zones)} zones, {len(ds.building.vavs)} boxes, "
+        f"\n=== {prototype}"
+        + (f" with {weather}" if weather else "")
+        + f": {len(ds.building.zones)} zones, {len(ds.building.vavs)} boxes, "
         f"{len(ds.building.ahus)} air handler(s), {len(ds.weeks)} weeks "
         f"(export {t_gen:.1f} s incl. cache; fit " + ", ".join(f"{k} {t:.1f} s" for k, t in t_fit.items()) + ")"
     )
@@ -58,17 +73,22 @@ def run(prototype: str, kinds, weeks):
     if "zones" in models:
         for line in airflow_identifiability(models["zones"], ds.building):
             print("  " + line)
+    if verdict and res.verdict is not None:
+        print(res.verdict.format())
     return res
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--prototype", action="append", help="prototype[:floor] (repeatable)")
+    ap.add_argument("--prototype", action="append", help="prototype[:floor][@weather] (repeatable)")
+    ap.add_argument("--unseen", action="store_true", help="the buildings and climates never used here")
+    ap.add_argument("--weather", help="EPW file or pyenergyplus.dataset weather key (default: the prototype's city)")
+    ap.add_argument("--verdict", action="store_true", help="also print the verdict evaluate prints first")
     ap.add_argument("--kinds", default="lumped,zones,physics")
     ap.add_argument("--weeks", type=int, default=None, help="weeks from 1 January (default: the whole year)")
     args = ap.parse_args(argv)
-    for p in args.prototype or DEFAULT_PROTOTYPES:
-        run(p, args.kinds.split(","), args.weeks)
+    for p in args.prototype or (UNSEEN_PROTOTYPES if args.unseen else DEFAULT_PROTOTYPES):
+        run(p, args.kinds.split(","), args.weeks, args.weather, args.verdict)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,7 +19,7 @@ from hvacfmu.energyplus import cached_export, generate
 from hvacfmu.energyplus.geometry import orientation, polygon_area
 from hvacfmu.energyplus.idf import parse_idf
 from hvacfmu.energyplus.run import CallbackError, Probe, simulate
-from hvacfmu.errors import BuildingError, DataError
+from hvacfmu.errors import BuildingError, DataError, HvacfmuWarning
 
 PROTOTYPE = "ASHRAE901_OfficeSmall_STD2019_Denver"
 ZONES = ("Core_ZN", "Perimeter_ZN_1", "Perimeter_ZN_2", "Perimeter_ZN_3", "Perimeter_ZN_4")
@@ -290,3 +291,88 @@ def test_delivered_heat_is_energyplus_system_heat_and_the_door_is_the_unmeasured
     others = [oa_sd[z] for z in ZONES[2:]]
     assert oa_sd["Core_ZN"] < 1.0  # [W] no exterior wall, no infiltration
     assert oa_sd["Perimeter_ZN_1"] > 3 * max(others), oa_sd
+
+
+def test_weather_of_another_city_is_reported_not_silent():
+    # a Denver prototype with Miami weather is the Denver design (design days, ground temperatures) in Miami's
+    # climate; the export must say so instead of passing it off as a building designed for Miami
+    import pyenergyplus.dataset as ds
+
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import read_site, resolve_prototype, site_mismatch
+
+    idf = read_idf(resolve_prototype("ASHRAE901_OfficeMedium_STD2019_Denver"))
+    miami = read_site(Path(ds.weather_files["usa_fl_miami"]))
+    msg = site_mismatch(idf, miami, "USA_FL_Miami.epw")
+    assert msg is not None
+    assert "Miami" in msg and "Denver-Aurora-Buckley.AFB_CO_USA WMO=724695" in msg
+    assert "2 design day(s)" in msg and "Ann Clg .4% Condns DB=>MWB" in msg and "autosized" in msg
+    for same in ("usa_co_denver", "usa_co_golden"):  # Golden is 20 km from Denver's airport: the same climate
+        assert site_mismatch(idf, read_site(Path(ds.weather_files[same])), same) is None
+
+
+def test_generate_with_another_city_warns_and_records_it(tmp_path):
+    with pytest.warns(HvacfmuWarning, match="is not at the IDF's Site:Location"):
+        paths = generate(tmp_path, PROTOTYPE, weather="usa_il_chicago", days=1, start="01-02")
+    info = json.loads(paths.info.read_text())
+    assert len(info["warnings"]) == 1 and "Chicago" in info["warnings"][0]
+    assert info["site"]["timezone"] == "America/Chicago"
+
+
+def test_conditioned_zone_without_a_box_is_named_not_dropped_silently(caplog):
+    # the stand-alone retail's vestibule is heated by a unit heater, not by an air handler: it cannot be exported,
+    # and the export says which zone was left out and why
+    from hvacfmu.energyplus.generate import _zones_left_out
+    from hvacfmu.energyplus.hvac import air_boxes, zones_without_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    idf = read_idf(resolve_prototype("ASHRAE901_RetailStandalone_STD2019_Denver"))
+    boxes = air_boxes(idf)
+    assert [b.zone for b in boxes] == ["Back_Space", "Core_Retail", "Point_Of_Sale", "Front_Retail"]
+    assert zones_without_boxes(idf, boxes) == {"Front_Entry": ["ZoneHVAC:UnitHeater"]}
+    left = _zones_left_out(idf, boxes, None, None)
+    assert list(left) == ["Front_Entry"] and "ZoneHVAC:UnitHeater" in left["Front_Entry"]
+    assert _zones_left_out(idf, boxes, "retail", None) == {}  # not part of the selection: not reported
+    office = read_idf(resolve_prototype("ASHRAE901_OfficeMedium_STD2019_Denver"))
+    assert zones_without_boxes(office, air_boxes(office)) == {}  # plenums have no zone equipment
+    hotel = read_idf(resolve_prototype("hotel_small"))  # 39 PTAC guest rooms and 9 unit heaters: one log line
+    caplog.clear()
+    with caplog.at_level("INFO", logger="hvacfmu.energyplus.generate"):
+        assert len(_zones_left_out(hotel, air_boxes(hotel), None, None)) == 48
+    assert len(caplog.records) == 1 and "48 conditioned zone(s)" in caplog.records[0].getMessage()
+    assert "ZoneHVAC:PackagedTerminalAirConditioner: GuestRoom101" in caplog.records[0].getMessage()
+
+
+def test_splitter_outlet_given_as_a_node_list_still_maps_the_box():
+    # the 90.1 hospital's kitchen CAV box hangs on its splitter through a NodeList; it was silently dropped
+    from hvacfmu.energyplus.hvac import air_boxes, zones_without_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    idf = read_idf(resolve_prototype("hospital"))
+    boxes = air_boxes(idf)
+    kitchen = [b for b in boxes if b.zone == "Kitchen_Flr_5"]
+    assert len(kitchen) == 1 and kitchen[0].ahu == "CAV_KITCHEN"
+    assert kitchen[0].terminal_type == "AirTerminal:SingleDuct:ConstantVolume:NoReheat"
+    assert len(boxes) == 55 and zones_without_boxes(idf, boxes) == {}
+
+
+def test_heating_limit_is_what_the_controls_allow():
+    # the stand-alone retail's packaged units heat up to 50 C (SetpointManager:SingleZone:Heating; the year's data
+    # reach 48.0 C) although its zones' heating design supply temperature is 40 C: T_supply_max must be 50, not 40
+    from hvacfmu.energyplus.generate import _heating_limit
+    from hvacfmu.energyplus.hvac import air_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    def limits(name):
+        idf = read_idf(resolve_prototype(name))
+        boxes = air_boxes(idf)
+        return {a: _heating_limit(idf, [b for b in boxes if b.ahu == a]) for a in dict.fromkeys(b.ahu for b in boxes)}
+
+    assert set(limits("ASHRAE901_RetailStandalone_STD2019_Denver").values()) == {50.0}
+    assert set(limits("ASHRAE901_OfficeSmall_STD2019_Denver").values()) == {40.0}  # its managers allow 40 C
+    assert set(limits("ASHRAE901_OfficeMedium_STD2019_Denver").values()) == {40.0}  # VAV reheat terminals: 40 C
+    # the DOE reference office's reheat terminals give no maximum: the zones' heating design temperature stays
+    assert set(limits("RefBldgMediumOfficeNew2004_Chicago").values()) == {50.0}

@@ -28,8 +28,10 @@ zones (floor area from floor polygons, volume), adjacency (interzone surfaces),
 facades (exterior wall and window areas by orientation), boxes with limits
 (``m_max`` = autosized or given maximum flow × standard air density at the
 site's altitude; ``m_min`` = the terminal's constant, fixed or scheduled
-minimum), ``[[ahus]]`` with each box's unit and the zones' heating design supply
-temperature as ``T_supply_max``, and the physics tables (materials,
+minimum), ``[[ahus]]`` with each box's unit and as ``T_supply_max`` the highest
+discharge temperature the unit's controls allow (VAV reheat terminals' maximum
+reheat air temperature, single-zone heating setpoint managers' maximum supply air
+temperature; else the zones' heating design supply temperature), and the physics tables (materials,
 constructions, windows, elements; see :mod:`hvacfmu.energyplus.geometry`).
 Box names are ``VAV_<zone>``; IDF names are sanitised to letters, digits and
 ``_``; ``energyplus.json`` maps them back.

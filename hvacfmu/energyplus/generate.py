@@ -2,8 +2,9 @@
 
 Files written to ``outdir``: ``measurements.parquet`` (or ``.csv``),
 ``building.toml`` and ``energyplus.json`` (what was run: IDF, weather, period,
-the IDF names behind every zone/box/unit column, the changes made to the IDF,
-the approximations). See :mod:`hvacfmu.energyplus` for the columns.
+the IDF names behind every zone/box/unit column, the conditioned zones left out
+because no box serves them, the changes made to the IDF, the warnings — weather
+of another site than the IDF's design days —, the approximations). See :mod:`hvacfmu.energyplus` for the columns.
 """
 
 from __future__ import annotations
@@ -16,13 +17,14 @@ import logging
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from .. import building as _building
-from ..errors import DataError
+from ..errors import DataError, HvacfmuWarning
 from . import geometry, hvac, inputs, physics
 from .idf import read_idf
 from .run import Probe, simulate, step_times
@@ -30,7 +32,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.2"
+EXPORT_VERSION = "1.3"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -79,6 +81,33 @@ def select_boxes(boxes, floor, zones):
     return sel
 
 
+def _zones_left_out(idf, all_boxes, floor, zones) -> dict:
+    """Conditioned zones (zone equipment) of the selection that are not exported because no box serves them."""
+    out, kinds = {}, {}
+    for zone, equipment in hvac.zones_without_boxes(idf, all_boxes).items():
+        if zones and zone.lower() not in {z.lower() for z in zones}:
+            continue
+        if not zones and floor and floor.lower() not in zone.lower():
+            continue
+        what = ", ".join(equipment) or "none"
+        out[zone] = (
+            f"zone equipment {what} but no air terminal on an AirLoopHVAC: not exported "
+            "(no T_ column; its surfaces towards exported zones are adiabatic in the physics tables)"
+        )
+        kinds.setdefault(what, []).append(zone)
+    if out:  # one line, however many zones (the 90.1 small hotel has 48)
+        log.info(
+            "EnergyPlus: %d conditioned zone(s) not exported, zone equipment but no air terminal on an AirLoopHVAC "
+            "(see energyplus.json zones_left_out): %s",
+            len(out),
+            "; ".join(
+                f"{w}: {', '.join(zs[:5])}" + (f" and {len(zs) - 5} more" if len(zs) > 5 else "")
+                for w, zs in kinds.items()
+            ),
+        )
+    return out
+
+
 def export_probes(boxes, ahus, zones):
     """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
     p = [
@@ -123,15 +152,39 @@ def _sizing_limits(idf, boxes, eio, rho):
     return hvac.box_limits(idf, boxes, hvac.read_sizing(eio), rho)
 
 
-def _heating_limit(idf, zones):
-    """Highest zone heating design supply air temperature [°C] of ``zones`` (Sizing:Zone), or None."""
-    vals = []
-    for s in idf.all("Sizing:Zone"):
-        if s.get(0).lower() in {z.lower() for z in zones} and s.get(4).lower().startswith("supplyairtemperature"):
-            v = s.number(5)
-            if v is not None:
-                vals.append(v)
-    t = max(vals) if vals else None
+#: Setpoint managers of single-zone units whose field 3 is the maximum supply air temperature and field 4 the zone.
+_SZ_HEATING = ("SetpointManager:SingleZone:Heating", "SetpointManager:SingleZone:Reheat")
+#: Field of ``AirTerminal:SingleDuct:VAV:Reheat``: Maximum Reheat Air Temperature [°C].
+_MAX_REHEAT_FIELD = 18
+
+
+def _control_limit(idf, box) -> float | None:
+    """Highest discharge air temperature [°C] the controls of ``box`` allow: its VAV reheat terminal's maximum
+    reheat air temperature, else its zone's single-zone heating setpoint manager's maximum; None when neither."""
+    if box.terminal_type.lower() == "airterminal:singleduct:vav:reheat":
+        term = idf.by_name(box.terminal_type).get(box.terminal.lower())
+        return term.number(_MAX_REHEAT_FIELD) if term is not None else None
+    vals = [s.number(3) for cls in _SZ_HEATING for s in idf.all(cls) if s.get(4).lower() == box.zone.lower()]
+    vals = [v for v in vals if v is not None]
+    return max(vals) if vals else None
+
+
+def _heating_limit(idf, boxes):
+    """Heating limit [°C] of the discharge air of one unit's ``boxes``: what its controls allow when every box has
+    a limit (:func:`_control_limit`), else the highest zone heating design supply air temperature (Sizing:Zone);
+    None when neither is known or plausible (15..80 °C)."""
+    limits = [_control_limit(idf, b) for b in boxes]
+    if limits and all(v is not None for v in limits):
+        t = max(limits)
+    else:
+        zones = {b.zone.lower() for b in boxes}
+        vals = []
+        for s in idf.all("Sizing:Zone"):
+            if s.get(0).lower() in zones and s.get(4).lower().startswith("supplyairtemperature"):
+                v = s.number(5)
+                if v is not None:
+                    vals.append(v)
+        t = max(vals) if vals else None
     return t if t is not None and 15.0 <= t <= 80.0 else None
 
 
@@ -158,7 +211,7 @@ def _building_dict(idf, site, boxes, ahus, limits, label):
     d["ahus"] = []
     for name in ahus:
         a = {"name": hvac.sanitise(name)}
-        t = _heating_limit(idf, [b.zone for b in boxes if b.ahu == name])
+        t = _heating_limit(idf, [b for b in boxes if b.ahu == name])
         if t is not None:
             a["T_supply_max"] = t
         d["ahus"].append(a)
@@ -221,7 +274,9 @@ def generate(
     site = inputs.read_site(epw, timezone)
     first, last = inputs.run_dates(year, start, weeks, days)
     idf = read_idf(idf_path)
-    boxes = select_boxes(hvac.air_boxes(idf), floor, zones)
+    all_boxes = hvac.air_boxes(idf)
+    boxes = select_boxes(all_boxes, floor, zones)
+    left_out = _zones_left_out(idf, all_boxes, floor, zones)
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))
@@ -229,6 +284,9 @@ def generate(
     # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
     run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
     notes = inputs.prepare_idf(idf, run_first, last, site)
+    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name),) if w]
+    for w in warned:
+        warnings.warn(w, HvacfmuWarning, stacklevel=2)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
@@ -263,7 +321,9 @@ def generate(
             "zones": {hvac.sanitise(z): z for z in zone_names},
             "boxes": [dataclasses.asdict(b) for b in boxes],
             "air_density": hvac.std_air_density(site.elevation),
+            "zones_left_out": left_out,
             "idf_changes": notes,
+            "warnings": warned,
             "approximations": list(APPROXIMATIONS),
             "export_version": EXPORT_VERSION,
         },

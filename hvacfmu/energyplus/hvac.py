@@ -87,7 +87,8 @@ def _ahu_of_terminal(idf, typ: str, name: str):
     loops = {lp.get(8).lower(): lp for lp in idf.all("AirLoopHVAC")}  # demand side inlet node -> loop
     paths = {p.get(1).lower(): p for p in idf.all("AirLoopHVAC:SupplyPath")}
     for sp in idf.all("AirLoopHVAC:ZoneSplitter"):
-        outlets = {f.strip().lower() for f in sp.fields[2:] if f.strip()}
+        # an outlet may name a NodeList (the 90.1 hospital's kitchen unit): compare the nodes it lists
+        outlets = {n.lower() for f in sp.fields[2:] if f.strip() for n in _node_list(idf, f.strip())}
         if outlets & term_nodes:
             inlet = sp.get(1).lower()
             loop = loops.get(inlet)
@@ -122,6 +123,26 @@ def air_boxes(idf) -> list:
             "AirLoopHVAC:ZoneSplitter); hvacfmu needs air-side boxes to export airflows"
         )
     return boxes
+
+
+def zones_without_boxes(idf, boxes) -> dict:
+    """``{IDF zone: [zone equipment types]}`` of the zones that have zone equipment but no exported box.
+
+    Such a zone (a vestibule with a unit heater, a zone with baseboards or a fan coil only) is conditioned in the
+    simulation but is not a zone of the export: no temperature column, and its surfaces towards exported zones are
+    adiabatic in the physics tables. Zones without ``ZoneHVAC:EquipmentConnections`` (plenums, attics) are left out.
+    """
+    exported = {b.zone.lower() for b in boxes}
+    lists = idf.by_name("ZoneHVAC:EquipmentList")
+    out = {}
+    for c in idf.all("ZoneHVAC:EquipmentConnections"):
+        zone = c.get(0)
+        if zone.lower() in exported:
+            continue
+        eq = lists.get(c.get(1).lower())
+        fields = eq.fields[2:] if eq is not None else []
+        out[zone] = [fields[k].strip() for k in range(0, len(fields) - 1, 6) if fields[k].strip()]
+    return out
 
 
 def std_air_density(elevation: float) -> float:

@@ -52,6 +52,8 @@ US_STATE_TIMEZONES = {
     "AK": "America/Anchorage",
 }
 STEPS_PER_HOUR = 4
+#: Latitude/longitude difference [deg] above which the weather file is another site than the IDF's Site:Location.
+SITE_TOLERANCE_DEG = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -205,3 +207,28 @@ def prepare_idf(idf: Idf, first: _dt.date, last: _dt.date, site: Site) -> list:
             "on standard time"
         )
     return notes
+
+
+def site_mismatch(idf: Idf, site: Site, epw_name: str) -> str | None:
+    """A warning when the weather file is not at the IDF's ``Site:Location`` (None when it is, or the IDF has none).
+
+    EnergyPlus then runs at the weather file's site, but the IDF's design days (``SizingPeriod:DesignDay``), hence
+    the autosized boxes and air handlers, and its ground temperatures stay those of the IDF's city: the export is
+    that city's design in another climate.
+    """
+    loc = idf.one("Site:Location")
+    if loc is None:
+        return None
+    lat, lon = loc.number(1), loc.number(2)
+    if lat is None or lon is None:
+        return None
+    if abs(lat - site.latitude) <= SITE_TOLERANCE_DEG and abs(lon - site.longitude) <= SITE_TOLERANCE_DEG:
+        return None
+    days = [d.name for d in idf.all("SizingPeriod:DesignDay")]
+    return (
+        f"weather file {epw_name} ({site.label}, {site.latitude:.2f}, {site.longitude:.2f}) is not at the IDF's "
+        f"Site:Location {loc.name!r} ({lat:.2f}, {lon:.2f}): EnergyPlus runs at the weather file's site, but the "
+        f"HVAC is autosized on the IDF's {len(days)} design day(s) ({'; '.join(days) or 'none'}) and the IDF's "
+        "ground temperatures are kept, so the data are that design in this climate (boxes and units may be "
+        "too small or too large for it); give an IDF sized for the site to export a building designed for it"
+    )
