@@ -1117,3 +1117,23 @@ def test_retested_dst_evidence_prints_the_screen_it_passed():
     ev["screen_passed"] = {"lag_steps": 5, "lag_h": 1.25, "r2_at_lag": 0.36, "scale_at_lag": 0.41}
     text = _short_evidence(f)
     assert "+75 min later" in text and "R² 0.36, scale 0.41" in text and "retested" in text, text
+
+
+def test_reheat_heat_of_each_box_is_against_its_own_units_supply():
+    """Two air handlers: a box whose discharge air is its own unit's supply (a packaged unit without a
+    coil) has no reheat heat, though its unit runs 5 K warmer than the other (and the mean)."""
+    from hvacfmu.models.causes.signals import make_signals
+
+    ds = simulate_dataset(row_model(), weeks=2, seed=3, ghi=False)
+    d = json.loads(json.dumps(ROW))
+    d["ahus"] = [{"name": "U1"}, {"name": "U2"}]
+    for v in d["vavs"]:
+        v["ahu"] = "U1" if v["name"] == "V1" else "U2"
+    frame = ds.frame.copy()
+    frame["T_supply_U1"], frame["T_supply_U2"], frame["T_supply"] = 18.0, 13.0, 13.0
+    frame["Td_V1"], frame["Td_V2"], frame["Td_V3"] = 18.0, 25.0, 13.0
+    ds2 = Dataset.from_frame(frame, building_from_dict(d), step=900.0, seed=3)
+    sig = make_signals(ds2, row_model())
+    assert sig.supply_of == {"V1": "T_supply_U1", "V2": "T_supply_U2", "V3": "T_supply_U2"}
+    assert np.nanmax(np.abs(sig.V["Qrh_A"])) == 0.0  # before: m cp (18 - 13) on every row
+    np.testing.assert_allclose(sig.V["Qrh_B"], frame["m_V2"].to_numpy() * 1005.0 * 12.0 / 1000.0)

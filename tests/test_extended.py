@@ -356,6 +356,30 @@ def test_discharge_reheat_reads_td_columns():
         m.signals(_frame())
 
 
+def test_discharge_reheat_reads_each_box_against_its_own_unit(tmp_path):
+    """Two units: a box whose discharge air is its own unit's supply (a packaged unit, no coil) has no
+    reheat, however warm that unit runs against the mean ``T_supply``; the mapping survives the file."""
+    f = _frame()
+    f["T_supply_U1"], f["T_supply_U2"], f["T_supply"] = 18.0, 13.0, 13.0  # U1 warmer than the (flow-weighted) mean
+    f["Td_V1"], f["Td_V2"] = 18.0, 25.0  # V1: U1's air, untouched; V2 (on U2): heated by 12 K
+    term = Reheat(zone="A", coef=0.03, variant="discharge", supply=(("V1", "T_supply_U1"), ("V2", "T_supply_U2")))
+    m = ExtendedModel(base=_base(), terms=(term,))
+    q = m.signals(f)[1][:, m.disturbances.index("Qrh_A")]
+    assert_allclose(q, f["m_V2"].to_numpy() * 1005.0 * 12.0 / 1000.0, rtol=1e-12, atol=0)
+    # against the mean supply temperature V1 would "reheat" by 5 K in every row
+    q_mean = ExtendedModel(base=_base(), terms=(Reheat(zone="A", coef=0.03, variant="discharge"),)).signals(f)[1]
+    assert_allclose(q_mean[:, m.disturbances.index("Qrh_A")] - q, f["m_V1"].to_numpy() * 1005.0 * 5.0 / 1000.0)
+    path = tmp_path / "x.json"
+    m.save(path)
+    back = load_model(path)
+    assert back.terms[0].supply == term.supply
+    assert_allclose(back.signals(f)[1], m.signals(f)[1])
+    bad = json.loads(path.read_text())
+    bad["terms"][0]["supply"] = ["T_supply_U1"]
+    with pytest.raises(ModelError, match="supply must map box names"):
+        model_from_dict(bad)
+
+
 def test_delivered_heat_base_keeps_its_form_in_the_extended_model():
     """A base in the delivered-heat form (Td inlets): the extended model steps it through the base's
     own equations, and its matrix form carries the base's bilinear terms."""

@@ -52,27 +52,40 @@ def reheat_column(zone: str) -> str:
     return f"Qrh_{zone}"
 
 
-def reheat_heat(frame, vavs) -> np.ndarray | None:
+def reheat_heat(frame, vavs, supply=None) -> np.ndarray | None:
     """``Σ m cp (Td − T_supply)⁺`` [kW] over boxes ``vavs``, or None without their ``Td_<vav>`` columns.
 
-    The supply temperature is the frame's ``T_supply`` (the air entering the coils).
+    The supply temperature of a box is the air entering its coil: the column of its own unit,
+    ``supply[vav]`` (``T_supply_<ahu>``), when the frame has it, else the frame's ``T_supply``.
+    With several units the mean ``T_supply`` is not any box's inlet: a packaged unit's box
+    (discharge = its unit's supply) would show "reheat" whenever its unit runs warmer than the mean.
     """
     if not len(vavs) or not all(f"Td_{v}" in frame.columns for v in vavs):
         return None
-    ts = frame["T_supply"].to_numpy(float)
+    supply = dict(supply or {})
     out = np.zeros(len(frame))
     for v in vavs:
+        col = supply.get(v, "T_supply")
+        ts = frame[col if col in frame.columns else "T_supply"].to_numpy(float)
         td = frame[f"Td_{v}"].to_numpy(float)
         out += frame[f"m_{v}"].to_numpy(float) * CP_AIR * np.maximum(td - ts, 0.0) / 1000.0
     return out
 
 
-def zone_reheat_columns(frame, base) -> dict:
-    """``{Qrh_<zone>: array [kW]}`` for every output of a linear model whose boxes all have ``Td_``."""
+def zone_boxes(base, zone: str) -> list:
+    """The boxes of a linear model ``base`` that feed output ``zone``."""
+    i = list(base.outputs).index(zone)
+    return [v for j, v in enumerate(base.vavs) if base.input_map[i, j] > 0]
+
+
+def zone_reheat_columns(frame, base, supply=None) -> dict:
+    """``{Qrh_<zone>: array [kW]}`` for every output of a linear model whose boxes all have ``Td_``.
+
+    ``supply``: ``{vav: supply column}`` of each box's unit (see :func:`reheat_heat`).
+    """
     out = {}
-    for i, z in enumerate(base.outputs):
-        vavs = [v for j, v in enumerate(base.vavs) if base.input_map[i, j] > 0]
-        q = reheat_heat(frame, vavs)
+    for z in base.outputs:
+        q = reheat_heat(frame, zone_boxes(base, z), supply)
         if q is not None:
             out[reheat_column(z)] = q
     return out
@@ -89,6 +102,8 @@ class Reheat(Term):
     u_min: float = 0.0
     T_threshold: float = 12.0
     variant: str = "switch"
+    #: ``variant="discharge"``: ``(vav, supply column)`` of each box of the zone (its unit's inlet air)
+    supply: tuple = ()
 
     def columns(self):
         return ("T_out",) if self.variant == "switch" else (reheat_column(self.zone),)
@@ -98,6 +113,12 @@ class Reheat(Term):
 
     def location(self):
         return {"zone": self.zone} if self.variant == "switch" else {"zone": self.zone, "variant": self.variant}
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        if self.variant == "discharge" and self.supply:
+            d["supply"] = dict(self.supply)
+        return d
 
     def coefficients(self):
         if self.variant == "switch":
@@ -112,7 +133,12 @@ class Reheat(Term):
             problems.append(f"{what}: variant must be 'switch' or 'discharge', got {variant!r}")
         z = zone_of(d, "zone", zone_names, what, problems)
         if variant == "discharge":
-            return cls(zone=z, coef=num(d, "coef", what, problems), variant="discharge", std=std)
+            sup = d.get("supply", {})
+            if not isinstance(sup, dict) or not all(isinstance(k, str) and isinstance(c, str) for k, c in sup.items()):
+                problems.append(f"{what}: supply must map box names to supply temperature columns, got {sup!r}")
+                sup = {}
+            supply = tuple(sorted(sup.items()))
+            return cls(zone=z, coef=num(d, "coef", what, problems), variant="discharge", supply=supply, std=std)
         return cls(
             zone=z,
             coef=num(d, "coef", what, problems),
@@ -128,7 +154,10 @@ class Reheat(Term):
         return [(i, "coef", reheat_feature(U_eff[:, i], sig.V["T_out"], self.u_min, self.T_threshold), 0.0, np.inf)]
 
     def derive(self, frame, base) -> dict:
-        return zone_reheat_columns(frame, base) if self.variant == "discharge" else {}
+        if self.variant != "discharge":
+            return {}
+        q = reheat_heat(frame, zone_boxes(base, self.zone), dict(self.supply))
+        return {} if q is None else {reheat_column(self.zone): q}
 
     def contribute(self, c: StepContext) -> None:
         zi = c.zi[self.zone]
@@ -188,7 +217,7 @@ class Reheat(Term):
                         Candidate(
                             cls.cause,
                             {"zone": z, "variant": "discharge"},
-                            [cls(zone=z, variant="discharge")],
+                            [cls(zone=z, variant="discharge", supply=_zone_supply(sig, z))],
                             0,
                             evidence=ev,
                         )
@@ -217,3 +246,8 @@ class Reheat(Term):
             else:
                 out.append(Candidate(cls.cause, {"zone": z}, variants, 1, evidence=ev))
         return out
+
+
+def _zone_supply(sig, zone: str) -> tuple:
+    """``(vav, supply column)`` of the boxes of ``zone`` (the unit each box is fed by)."""
+    return tuple((v, sig.supply_of.get(v, "T_supply")) for v in zone_boxes(sig.base, zone))

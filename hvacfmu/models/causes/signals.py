@@ -96,6 +96,8 @@ class Signals:
     extra: dict = dataclasses.field(default_factory=dict)
     extra_zones: dict = dataclasses.field(default_factory=dict)
     extra_coverage: dict = dataclasses.field(default_factory=dict)
+    #: ``{vav: supply temperature column of its unit}`` (``T_supply_<ahu>`` when the frame has it)
+    supply_of: dict = dataclasses.field(default_factory=dict)
 
     @property
     def nz(self) -> int:
@@ -141,7 +143,11 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
     extra, extra_zones, coverage = unused_columns(dataset, base)
     from .reheat import zone_reheat_columns
 
-    for c, q in zone_reheat_columns(frame, base).items():
+    supply_of = {}
+    for v in base.vavs:
+        col = b.supply_column(v) if hasattr(b, "supply_column") and v in b.vav_names else "T_supply"
+        supply_of[v] = col if col in frame.columns else "T_supply"
+    for c, q in zone_reheat_columns(frame, base, supply_of).items():
         if np.isfinite(q).mean() >= MIN_COVERAGE:
             V[c] = pd.Series(q).ffill().bfill().fillna(0.0).to_numpy()
     return Signals(
@@ -173,6 +179,7 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
         extra=extra,
         extra_zones=extra_zones,
         extra_coverage=coverage,
+        supply_of=supply_of,
     )
 
 
