@@ -167,6 +167,8 @@ def test_a_season_lost_to_persistence_shows_although_the_year_is_won(truth, fram
     c = v.losing_seasons()[0]
     assert c.rms > c.persistence and c.n_windows == 7 and c.n_weeks == 1
     text = res.format().splitlines()
+    # a season behind the time-of-week mean is named too (before: only seasons lost to persistence)
+    assert "; behind the time-of-week mean in a season in 1/6 (winter: C);" in text[0], text[0]
     assert text[0].startswith("!! zones: beats persistence in 6/6 zones") and text[0].endswith(
         "; worse than persistence in a season in 1/6 (winter)"
     ), text[0]
@@ -180,6 +182,8 @@ def test_a_season_lost_to_persistence_shows_although_the_year_is_won(truth, fram
     assert any(c.startswith("C in winter: judged on 7 windows of one held-out week") for c in causes)
     d = res.to_dict()["verdict"]
     assert {(s["output"], s["season"]) for s in d["seasons"] if not s["beats_persistence"]} == {("C", "winter")}
+    assert {(s["output"], s["season"]) for s in d["seasons"] if not s["beats_time_of_week"]} == {("C", "winter")}
+    assert [(v.output, v.season) for v in v.behind_time_of_week_seasons("zones")] == [("C", "winter")]
     assert len(d["seasons"]) == 12  # 6 zones x 2 seasons
 
 

@@ -131,6 +131,10 @@ class SeasonVerdict:
     def beats_persistence(self) -> bool:
         return bool(self.rms < self.persistence)
 
+    @property
+    def beats_time_of_week(self) -> bool:
+        return bool(self.rms < self.time_of_week)
+
     def margin(self) -> float:
         """``1 - rms / persistence`` [-]."""
         return float(1.0 - self.rms / self.persistence) if self.persistence else float("nan")
@@ -145,6 +149,8 @@ class SeasonVerdict:
             "time_of_week": _num(self.time_of_week),
             "margin_persistence": _num(self.margin()),
             "beats_persistence": self.beats_persistence,
+            "margin_time_of_week": _num(1.0 - self.rms / self.time_of_week if self.time_of_week else float("nan")),
+            "beats_time_of_week": self.beats_time_of_week,
             "n_windows": self.n_windows,
             "n_weeks": self.n_weeks,
         }
@@ -174,6 +180,15 @@ class Verdict:
         """:class:`SeasonVerdict` of every zone and season where a model (or ``model``) is worse than persistence."""
         return [v for v in self.seasons if not v.beats_persistence and (model is None or v.model == model)]
 
+    def behind_time_of_week_seasons(self, model: str | None = None) -> list:
+        """:class:`SeasonVerdict` of every zone and season where a model (or ``model``) is worse than the
+        time-of-week mean (it may still beat persistence there)."""
+        return [
+            v
+            for v in self.seasons
+            if np.isfinite(v.time_of_week) and not v.beats_time_of_week and (model is None or v.model == model)
+        ]
+
     def summary(self, model: str) -> str:
         """One line: in how many zones ``model`` beats each baseline and meets Guideline 14."""
         mine = [z for z in self.zones if z.model == model]
@@ -194,12 +209,23 @@ class Verdict:
             seasons = (
                 f"; worse than persistence in a season in {zs}/{n} ({', '.join(sorted({v.season for v in lost}))})"
             )
+        behind = self.behind_time_of_week_seasons(model)
+        tow = ""
+        if behind:
+            by = {}
+            for v in behind:
+                by.setdefault(v.season, []).append(v.output)
+            tow = (
+                f"; behind the time-of-week mean in a season in {len({v.output for v in behind})}/{n} ("
+                + "; ".join(f"{s_}: {', '.join(o)}" for s_, o in sorted(by.items()))
+                + ")"
+            )
         missing = ""
         if self.missing.get(model):
             missing = f"; missing input: {_names(self.missing[model])} not measured (discharge air unknown)"
         return (
             f"{flag}{model}: beats persistence in {p}/{n} zones, the time-of-week mean in {t}/{n}; "
-            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}{seasons}{missing}"
+            f"ASHRAE Guideline 14 hourly calibration met in {c}/{n}{on}{tow}{seasons}{missing}"
         )
 
     def missing_lines(self) -> list[str]:
