@@ -261,3 +261,28 @@ def test_a_model_worse_than_the_time_of_week_mean_without_td_says_so():
     assert lines[1] == "!! physics: WORSE THAN THE TIME-OF-WEEK MEAN in NW 0.250 K against 0.240 K"
     assert lines[2].startswith("!! physics: the discharge air temperatures (Td_A, Td_B) are not measured")
     assert lines[4] == "   - missing input: ..."
+
+
+def test_a_column_that_duplicates_a_used_one_is_not_called_unused():
+    """A packaged unit's supply temperature is its one box's discharge air: when the model reads the
+    discharge column, the supply column under another name is not an unused input."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from hvacfmu.evaluation.verdict import _duplicate_of, _unused_columns
+
+    rng = np.random.default_rng(0)
+    idx = pd.date_range("2025-01-06", periods=500, freq="15min", tz="UTC")
+    td = 30 + rng.normal(0, 2, 500)
+    frame = pd.DataFrame(
+        {"Td_V1": td, "T_supply_U1": td + 0.0006, "rh_V1": td / 40 + rng.normal(0, 0.01, 500)}, index=idx
+    )
+    frame.iloc[::7, 1] = np.nan  # the supply logged less often
+    model = SimpleNamespace(disturbances=("Td_V1",), outputs=("A",), measured_zones=("A",))
+    score = SimpleNamespace(residuals=pd.DataFrame({"A": td - td.mean()}, index=idx))
+    data = SimpleNamespace(frame=frame, building=SimpleNamespace(zone_names=("A",)))
+    assert _duplicate_of(frame["T_supply_U1"].to_numpy(), frame, {"Td_V1"}) == "Td_V1"
+    assert _duplicate_of(frame["rh_V1"].to_numpy(), frame, {"Td_V1"}) is None
+    lines = _unused_columns(model, score, data, ["A"])
+    assert len(lines) == 1 and "'rh_V1'" in lines[0], lines  # before: T_supply_U1 was named too

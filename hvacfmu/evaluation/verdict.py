@@ -566,6 +566,9 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
         x = frame[c].to_numpy(float)
         hits = {z: _best_correlation(x, res[z].to_numpy(float)) for z in losing}
         hits = {z: r for z, r in hits.items() if np.isfinite(r) and abs(r) >= CORRELATION_MIN}
+        twin = _duplicate_of(x, frame, used) if hits else None
+        if twin is not None:  # the same values under another name, which the model reads
+            continue
         if hits:  # one line per column, naming every zone it explains
             rs = sorted(hits.values())
             r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
@@ -574,6 +577,23 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
                 f"({r_txt}): the model does not see it{_column_hint(c)}"
             )
     return found
+
+
+#: a column within this of a used column on every row both measure is the same signal [its unit]
+DUPLICATE_TOL = 0.01
+
+
+def _duplicate_of(x, frame, used) -> str | None:
+    """A column the model uses that holds the same values as ``x`` (a packaged unit's supply temperature
+    is its one box's discharge air), or None."""
+    for c in sorted(used):
+        if c not in frame.columns:
+            continue
+        y = frame[c].to_numpy(float)
+        both = np.isfinite(x) & np.isfinite(y)
+        if both.sum() >= 0.9 * np.isfinite(x).sum() > 0 and np.max(np.abs(x[both] - y[both])) <= DUPLICATE_TOL:
+            return c
+    return None
 
 
 def missing_discharge_columns(model, dataset) -> list[str]:
