@@ -1137,3 +1137,27 @@ def test_reheat_heat_of_each_box_is_against_its_own_units_supply():
     assert sig.supply_of == {"V1": "T_supply_U1", "V2": "T_supply_U2", "V3": "T_supply_U2"}
     assert np.nanmax(np.abs(sig.V["Qrh_A"])) == 0.0  # before: m cp (18 - 13) on every row
     np.testing.assert_allclose(sig.V["Qrh_B"], frame["m_V2"].to_numpy() * 1005.0 * 12.0 / 1000.0)
+
+
+def test_rival_with_higher_t_that_fails_its_own_rule_does_not_read_as_favoured():
+    from hvacfmu.diagnosis.report import _finding_lines
+
+    f = {
+        "cause": "solar_gain",
+        "location": {"zone": "P", "facade": "S"},
+        "test": {"lr": 127.3, "lr_adjusted": 123.1, "dof": 1, "delta_bic": 112.8},
+        "evidence": {
+            "rival": {
+                "cause": "zone_coupling",
+                "location": {"zones": ["P", "F"]},
+                "cv_gain_percent": 2.1,
+                "cv_t": 4.7,
+                "favoured": "zone_coupling",
+            }
+        },
+    }
+    line = next(x for x in _finding_lines(1, f) if "competing cause" in x)
+    assert "the data favour" not in line and "fails its own acceptance rule (cross-validated gain 2.1 %)" in line
+    f["evidence"]["rival"]["favoured"] = "solar_gain"
+    line = next(x for x in _finding_lines(1, f) if "competing cause" in x)
+    assert line.endswith("the data favour solar_gain")

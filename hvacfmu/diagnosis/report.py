@@ -306,9 +306,16 @@ def _finding_lines(i: int, f: dict) -> list:
     rv = (f.get("evidence") or {}).get("rival")
     if rv:
         t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
+        why = f"the data favour {rv['favoured']}"
+        if rv["favoured"] != f["cause"]:  # the rival's t is higher, but it failed its own acceptance
+            g = rv.get("cv_gain_percent")
+            why = (
+                f"its paired t is higher, but it fails its own acceptance rule"
+                f"{'' if g is None else f' (cross-validated gain {g:.1f} %)'}, so this finding stands"
+            )
         L.append(
             f"    competing cause for this gain: {rv['cause']} at {_loc(rv['location'])} "
-            f"(cross-validated paired t {t}); the data favour {rv['favoured']}"
+            f"(cross-validated paired t {t}); {why}"
         )
     for o in f.get("competitors") or []:
         L.append(
