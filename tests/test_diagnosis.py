@@ -332,6 +332,32 @@ def test_windows_and_time_constants_are_durations_not_step_counts():
         assert np.allclose(taus, TIME_CONSTANTS_H)
 
 
+def test_one_step_residuals_use_the_column_of_an_unused_input_term():
+    """An accepted ``unused_input`` term reads a column the base model ignores (``sig.extra``, not
+    ``sig.V``). The one-step residuals that feed the holiday and daylight-saving screens and the final
+    whiteness must use it: they were NaN on every row, so on four of four BMS-like buildings of a
+    12-building fleet (seed 7001) every later round said "holiday untestable: only 0 weekdays with data"."""
+    from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.diagnosis.selection import one_step_residuals
+    from hvacfmu.models.extended import UnusedInput
+
+    ds = simulate_dataset(row_model(), weeks=3, seed=1)
+    rh = np.clip(np.sin(np.arange(len(ds.frame)) / 40.0), 0.0, 1.0)
+    ds = Dataset.from_frame(ds.frame.assign(rh_V2=rh), ds.building, step=900.0, seed=1)
+    sig = make_signals(ds, row_model())
+    assert "rh_V2" in sig.extra and "rh_V2" not in sig.V
+    before = one_step_residuals(sig, ExtendedModel(base=row_model(), terms=()))
+    after = one_step_residuals(
+        sig, ExtendedModel(base=row_model(), terms=(UnusedInput(zone="B", column="rh_V2", coef=0.1),))
+    )
+    ok = np.isfinite(before).all(axis=1)
+    assert ok.sum() > 1000
+    assert np.array_equal(np.isfinite(after).all(axis=1), ok)
+    # the term moves zone B's prediction by 0.1 K per unit of rh_V2 and nothing else
+    assert np.allclose(after[ok, 1], before[ok, 1] - 0.1 * rh[ok], atol=1e-12)
+    assert np.allclose(after[ok][:, [0, 2]], before[ok][:, [0, 2]], atol=1e-12)
+
+
 def test_calendar_term_is_tested_on_its_active_days():
     """A term acting on 10 of 65 days: its gain is measured on those days, not diluted by the rest."""
     from hvacfmu.diagnosis.crossval import CVPlan, paired_test, paired_test_days

@@ -39,7 +39,15 @@ from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .report import _cv_units
-from .crossval import day_plan, fold_fits, fold_scores, make_plan, paired_test, paired_test_days
+from .crossval import (
+    day_plan,
+    disturbance_matrix,
+    fold_fits,
+    fold_scores,
+    make_plan,
+    paired_test,
+    paired_test_days,
+)
 from .design import (
     Signals,
     Within,
@@ -753,7 +761,7 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
     if isinstance(model, ExtendedModel):
         X = _teacher_forced(sig, model)
         u = sig.U
-        v = np.column_stack([sig.V[c] if c in sig.V else np.full(n, np.nan) for c in model.disturbances])
+        v = disturbance_matrix(sig, model)  # an unused_input term's column is in sig.extra, not sig.V
         q = np.zeros((n, sig.nz))
         for s in sig.seasons:
             m = sig.season == s
