@@ -398,6 +398,36 @@ def test_day_plan_leaves_out_one_active_day_at_a_time():
         assert list(w) == [sig.week[st]]
 
 
+def test_holiday_with_too_few_scored_days_is_decided_by_the_every_week_test():
+    """A holiday is accepted when it is better on its active days, **or** when it passes the week test
+    over every week (README, calendar terms). With fewer than 3 of its days scored (gaps in their
+    24-h windows: fleet building b006, seed 7001, 2 of 4 days) the day test has no gain; the week test
+    (+1.2 ± 0.6 %, t 2.06 there) must still decide, and the reasons must quote it."""
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _cv_accepts, _found_reason, _rejected_reason
+
+    def candidate(every_t):
+        term = InternalGainSchedule(variant="holiday", zone_names=("A",), coef=(0.4,), dates=("2025-10-06",))
+        c = Candidate("internal_gain_schedule", {"variant": "holiday"}, [term], 1)
+        c.term, c.test = term, {"delta_bic": 50.0}
+        c.cv = {"n_days": 2, "gain_percent": None, "se_percent": None, "t": None, "unit": "active day"}
+        c.evidence["cv_all_weeks"] = {
+            "n_weeks": 22,
+            "n_folds": 10,
+            "gain_abs": 0.0035,
+            "gain_percent": 1.2,
+            "se_percent": 0.58,
+            "t": every_t,
+        }
+        return c
+
+    ok = candidate(2.06)
+    assert _cv_accepts(ok, DEFAULT_OPTIONS)
+    assert "cross-validated gain 1.2 ± 0.6 % over 22 weeks, paired t = 2.1" in _found_reason(ok, DEFAULT_OPTIONS)
+    weak = candidate(1.0)
+    assert not _cv_accepts(weak, DEFAULT_OPTIONS)
+    assert "(t = 1.00) below 1 % with t ≥ 2" in _rejected_reason(weak, DEFAULT_OPTIONS)
+
+
 def test_holiday_and_dst_scale_gates():
     """A holiday needs mean scale >= holiday_min_scale (0.33), a daylight-saving shift >= 0.5.
 

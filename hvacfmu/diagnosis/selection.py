@@ -640,31 +640,36 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
 
 def _cv_accepts(c, opts) -> bool:
     cv = c.cv
-    if cv.get("gain_percent") is None:
-        return False
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
 
     def passes(r):
-        return r["gain_percent"] >= need and r["gain_abs"] >= opts["min_gain_abs"] and r["t"] >= opts["cv_min_t"]
+        return (
+            r.get("gain_percent") is not None
+            and r["gain_percent"] >= need
+            and r["gain_abs"] >= opts["min_gain_abs"]
+            and r["t"] >= opts["cv_min_t"]
+        )
 
     every = c.evidence.get("cv_all_weeks") or {}
     if every.get("t") is None:
         return passes(cv)
     # a holiday term: better on the days it acts on without making the other weeks worse, or better
     # over every week (its own days cannot be predicted when all of them fall in one fold, but the
-    # seasonal profile freed from them predicts the ordinary weeks better)
+    # seasonal profile freed from them predicts the ordinary weeks better); the week test also decides
+    # when fewer than 3 active days could be scored (gaps in the holiday's windows)
     return (passes(cv) and every["t"] > -opts["cv_min_t"]) or passes(every)
 
 
 def _found_reason(c, opts) -> str:
-    if not c.cv or c.cv.get("gain_percent") is None:
-        return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
-    cv = c.cv
+    cv = c.cv or {}
     every = c.evidence.get("cv_all_weeks") or {}
-    if every.get("t") is not None and not (
-        cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"]
+    if every.get("t") is not None and (
+        cv.get("gain_percent") is None
+        or not (cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"])
     ):  # a calendar term accepted by the test over every week, not on its own days
         cv = every
+    if cv.get("gain_percent") is None:
+        return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
     return (
         f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
         f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {_cv_units(cv)}, paired t = {cv['t']:.1f}"
@@ -673,6 +678,9 @@ def _found_reason(c, opts) -> str:
 
 def _rejected_reason(c, opts) -> str:
     cv = c.cv or {}
+    every = (c.evidence or {}).get("cv_all_weeks") or {}
+    if cv.get("gain_percent") is None and every.get("t") is not None:
+        cv = every  # fewer than 3 active days scored: the test over every week decided
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
