@@ -428,6 +428,26 @@ def test_holiday_with_too_few_scored_days_is_decided_by_the_every_week_test():
     assert "(t = 1.00) below 1 % with t ≥ 2" in _rejected_reason(weak, DEFAULT_OPTIONS)
 
 
+def test_a_holiday_accepted_by_the_week_test_competes_as_a_rival_with_that_test():
+    """Once such a holiday can be accepted it can be the rival of another finding: the comparison and the
+    reasons use the test that decided it (``decisive_cv``), not the empty day test (fleet b010, seed 7001:
+    ``TypeError`` formatting its t = None, the whole diagnosis failed)."""
+    from types import SimpleNamespace
+
+    from hvacfmu.diagnosis.selection import _cv_rival, decisive_cv
+
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(0.4, 0.4), dates=("2025-10-06",))
+    o = Candidate("internal_gain_schedule", {"variant": "holiday"}, [hol], 1)
+    o.term, o.cv = hol, {"n_days": 2, "gain_percent": None, "se_percent": None, "t": None, "unit": "active day"}
+    o.evidence["cv_all_weeks"] = {"n_weeks": 22, "gain_abs": 0.004, "gain_percent": 1.2, "se_percent": 0.6, "t": 2.5}
+    solar = SolarGain(zone="A", facade="S")
+    c = Candidate("solar_gain", {"zone": "A", "facade": "S"}, [solar], 1)
+    c.term, c.cv = solar, {"n_weeks": 22, "gain_abs": 0.004, "gain_percent": 1.5, "se_percent": 0.7, "t": 2.1}
+    assert decisive_cv(o)["t"] == 2.5 and decisive_cv(c) is c.cv
+    assert _cv_rival(SimpleNamespace(zones=("A", "B")), None, [], c, [c, o], None, {}) is o
+    assert c.evidence["rival"]["cv_t"] == 2.5 and c.evidence["rival"]["favoured"] == "internal_gain_schedule"
+
+
 def test_holiday_and_dst_scale_gates():
     """A holiday needs mean scale >= holiday_min_scale (0.33), a daylight-saving shift >= 0.5.
 

@@ -544,14 +544,14 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
                 o.evidence["rival"] = {
                     "cause": c.cause,
                     "location": c.location,
-                    "cv_gain_percent": c.cv.get("gain_percent"),
-                    "cv_t": c.cv.get("t"),
+                    "cv_gain_percent": decisive_cv(c).get("gain_percent"),
+                    "cv_t": decisive_cv(c).get("t"),
                     "favoured": o.cause,
                 }
                 c.status = "no evidence"
                 c.reason = (
                     f"a {o.cause} at {o.location} explains the same gain better on the same folds "
-                    f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})"
+                    f"(paired t {decisive_cv(o)['t']:.1f} vs {decisive_cv(c)['t']:.1f})"
                 )
                 accepted[i] = o
     return accepted
@@ -627,15 +627,25 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     o = rivals[0]
     if o.cv is None:
         cross_validate(sig, plan, terms, o, base_scores)
-    ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
+    ct, ot = decisive_cv(c).get("t") or 0.0, decisive_cv(o).get("t") or 0.0
     c.evidence["rival"] = {
         "cause": o.cause,
         "location": o.location,
-        "cv_gain_percent": o.cv.get("gain_percent"),
-        "cv_t": o.cv.get("t"),
+        "cv_gain_percent": decisive_cv(o).get("gain_percent"),
+        "cv_t": decisive_cv(o).get("t"),
         "favoured": c.cause if ct >= ot else o.cause,
     }
     return o
+
+
+def decisive_cv(c) -> dict:
+    """The cross-validation that decides candidate ``c``: ``c.cv``, or for a holiday whose active-day test
+    scored fewer than 3 days (no gain), the test over every week (``evidence["cv_all_weeks"]``)."""
+    cv = c.cv or {}
+    every = (c.evidence or {}).get("cv_all_weeks") or {}
+    if cv.get("gain_percent") is None and every.get("t") is not None:
+        return every
+    return cv
 
 
 def _cv_accepts(c, opts) -> bool:
@@ -661,11 +671,10 @@ def _cv_accepts(c, opts) -> bool:
 
 
 def _found_reason(c, opts) -> str:
-    cv = c.cv or {}
+    cv = decisive_cv(c)
     every = c.evidence.get("cv_all_weeks") or {}
-    if every.get("t") is not None and (
-        cv.get("gain_percent") is None
-        or not (cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"])
+    if every.get("t") is not None and not (
+        cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"]
     ):  # a calendar term accepted by the test over every week, not on its own days
         cv = every
     if cv.get("gain_percent") is None:
@@ -677,10 +686,7 @@ def _found_reason(c, opts) -> str:
 
 
 def _rejected_reason(c, opts) -> str:
-    cv = c.cv or {}
-    every = (c.evidence or {}).get("cv_all_weeks") or {}
-    if cv.get("gain_percent") is None and every.get("t") is not None:
-        cv = every  # fewer than 3 active days scored: the test over every week decided
+    cv = decisive_cv(c)
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
