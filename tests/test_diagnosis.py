@@ -332,6 +332,32 @@ def test_windows_and_time_constants_are_durations_not_step_counts():
         assert np.allclose(taus, TIME_CONSTANTS_H)
 
 
+def test_one_step_residuals_use_the_column_of_an_unused_input_term():
+    """An accepted ``unused_input`` term reads a column the base model ignores (``sig.extra``, not
+    ``sig.V``). The one-step residuals that feed the holiday and daylight-saving screens and the final
+    whiteness must use it: they were NaN on every row, so on four of four BMS-like buildings of a
+    12-building fleet (seed 7001) every later round said "holiday untestable: only 0 weekdays with data"."""
+    from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.diagnosis.selection import one_step_residuals
+    from hvacfmu.models.extended import UnusedInput
+
+    ds = simulate_dataset(row_model(), weeks=3, seed=1)
+    rh = np.clip(np.sin(np.arange(len(ds.frame)) / 40.0), 0.0, 1.0)
+    ds = Dataset.from_frame(ds.frame.assign(rh_V2=rh), ds.building, step=900.0, seed=1)
+    sig = make_signals(ds, row_model())
+    assert "rh_V2" in sig.extra and "rh_V2" not in sig.V
+    before = one_step_residuals(sig, ExtendedModel(base=row_model(), terms=()))
+    after = one_step_residuals(
+        sig, ExtendedModel(base=row_model(), terms=(UnusedInput(zone="B", column="rh_V2", coef=0.1),))
+    )
+    ok = np.isfinite(before).all(axis=1)
+    assert ok.sum() > 1000
+    assert np.array_equal(np.isfinite(after).all(axis=1), ok)
+    # the term moves zone B's prediction by 0.1 K per unit of rh_V2 and nothing else
+    assert np.allclose(after[ok, 1], before[ok, 1] - 0.1 * rh[ok], atol=1e-12)
+    assert np.allclose(after[ok][:, [0, 2]], before[ok][:, [0, 2]], atol=1e-12)
+
+
 def test_calendar_term_is_tested_on_its_active_days():
     """A term acting on 10 of 65 days: its gain is measured on those days, not diluted by the rest."""
     from hvacfmu.diagnosis.crossval import CVPlan, paired_test, paired_test_days
@@ -370,6 +396,56 @@ def test_day_plan_leaves_out_one_active_day_at_a_time():
         held = set(rows) - set(fr)
         assert held == set(range(st, st + 96)) & set(rows) and len(held) == 96
         assert list(w) == [sig.week[st]]
+
+
+def test_holiday_with_too_few_scored_days_is_decided_by_the_every_week_test():
+    """A holiday is accepted when it is better on its active days, **or** when it passes the week test
+    over every week (README, calendar terms). With fewer than 3 of its days scored (gaps in their
+    24-h windows: fleet building b006, seed 7001, 2 of 4 days) the day test has no gain; the week test
+    (+1.2 ± 0.6 %, t 2.06 there) must still decide, and the reasons must quote it."""
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _cv_accepts, _found_reason, _rejected_reason
+
+    def candidate(every_t):
+        term = InternalGainSchedule(variant="holiday", zone_names=("A",), coef=(0.4,), dates=("2025-10-06",))
+        c = Candidate("internal_gain_schedule", {"variant": "holiday"}, [term], 1)
+        c.term, c.test = term, {"delta_bic": 50.0}
+        c.cv = {"n_days": 2, "gain_percent": None, "se_percent": None, "t": None, "unit": "active day"}
+        c.evidence["cv_all_weeks"] = {
+            "n_weeks": 22,
+            "n_folds": 10,
+            "gain_abs": 0.0035,
+            "gain_percent": 1.2,
+            "se_percent": 0.58,
+            "t": every_t,
+        }
+        return c
+
+    ok = candidate(2.06)
+    assert _cv_accepts(ok, DEFAULT_OPTIONS)
+    assert "cross-validated gain 1.2 ± 0.6 % over 22 weeks, paired t = 2.1" in _found_reason(ok, DEFAULT_OPTIONS)
+    weak = candidate(1.0)
+    assert not _cv_accepts(weak, DEFAULT_OPTIONS)
+    assert "(t = 1.00) below 1 % with t ≥ 2" in _rejected_reason(weak, DEFAULT_OPTIONS)
+
+
+def test_a_holiday_accepted_by_the_week_test_competes_as_a_rival_with_that_test():
+    """Once such a holiday can be accepted it can be the rival of another finding: the comparison and the
+    reasons use the test that decided it (``decisive_cv``), not the empty day test (fleet b010, seed 7001:
+    ``TypeError`` formatting its t = None, the whole diagnosis failed)."""
+    from types import SimpleNamespace
+
+    from hvacfmu.diagnosis.selection import _cv_rival, decisive_cv
+
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(0.4, 0.4), dates=("2025-10-06",))
+    o = Candidate("internal_gain_schedule", {"variant": "holiday"}, [hol], 1)
+    o.term, o.cv = hol, {"n_days": 2, "gain_percent": None, "se_percent": None, "t": None, "unit": "active day"}
+    o.evidence["cv_all_weeks"] = {"n_weeks": 22, "gain_abs": 0.004, "gain_percent": 1.2, "se_percent": 0.6, "t": 2.5}
+    solar = SolarGain(zone="A", facade="S")
+    c = Candidate("solar_gain", {"zone": "A", "facade": "S"}, [solar], 1)
+    c.term, c.cv = solar, {"n_weeks": 22, "gain_abs": 0.004, "gain_percent": 1.5, "se_percent": 0.7, "t": 2.1}
+    assert decisive_cv(o)["t"] == 2.5 and decisive_cv(c) is c.cv
+    assert _cv_rival(SimpleNamespace(zones=("A", "B")), None, [], c, [c, o], None, {}) is o
+    assert c.evidence["rival"]["cv_t"] == 2.5 and c.evidence["rival"]["favoured"] == "internal_gain_schedule"
 
 
 def test_holiday_and_dst_scale_gates():

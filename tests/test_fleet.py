@@ -124,3 +124,34 @@ def test_cli_fleet_subprocess(small_fleet, tmp_path):
     assert "bad: check failed" in p.stdout
     assert "Traceback" not in p.stderr
     assert (out / "fleet.parquet").exists()
+
+
+def test_a_season_lost_to_persistence_shows_in_the_table_and_summary(tmp_path):
+    """A model that beats persistence over all windows but loses in one season: the fleet row's verdict is
+    the all-windows one, so the table must carry both baselines per season and the seasons lost, and the
+    summary must count and name them (before, only ``persistence_all`` was kept: the loss was invisible)."""
+    from types import SimpleNamespace
+
+    from hvacfmu.fleet.run import FleetResult
+    from hvacfmu.fleet.task import _zone_rows
+
+    def table(values):  # Table I: rows seasons + all, columns outputs
+        return pd.DataFrame({"R1": values}, index=["fall", "winter", "all"])
+
+    tables = {
+        "model": table([0.20, 0.90, 0.40]),
+        "persistence": table([1.00, 0.80, 0.93]),
+        "time-of-week mean": table([0.15, 1.20, 0.50]),
+    }
+    score = SimpleNamespace(outputs=("R1",), table=lambda which, order: tables[which])
+    ev = SimpleNamespace(verdict=None, season_order=("fall", "winter"), score=lambda name: score)
+    rows = _zone_rows(ev, ["zones"])
+    assert rows[0]["verdict"] == "beats persistence"  # over all windows
+    assert rows[0]["persistence_winter"] == 0.80 and rows[0]["time_of_week_fall"] == 0.15
+    assert rows[0]["seasons_worse_than_persistence"] == "winter"
+    assert rows[0]["seasons_worse_than_time_of_week"] == "fall"
+    result = {"name": "b1", "status": "ok", "failed_stage": None, "error": None, "zones": rows}
+    t = fleet_table([result])
+    text = FleetResult(t, [result], 1.0, 1, tmp_path).summary()
+    assert "!! zones worse than persistence in a season: 1 of 1 rows (b1 zones R1: winter)" in text
+    assert "zones worse than the time-of-week mean in a season: 1 of 1 rows (b1 zones R1: fall)" in text

@@ -87,7 +87,9 @@ def day_plan(sig: Signals, starts, horizon: int) -> CVPlan:
     return plan
 
 
-def _disturbances(sig: Signals, model) -> np.ndarray:
+def disturbance_matrix(sig: Signals, model) -> np.ndarray:
+    """``model.disturbances`` as columns (n, nv): from ``sig.V``, else the unused columns ``sig.extra``
+    (an ``unused_input`` term's), else NaN."""
     cols = []
     for c in model.disturbances:
         if c in sig.V:
@@ -119,7 +121,7 @@ def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horiz
     Windows with a missing value are NaN.
     """
     starts = np.asarray(starts, int)
-    U, V, Q = sig.U, _disturbances(sig, model), _gains(sig, model)
+    U, V, Q = sig.U, disturbance_matrix(sig, model), _gains(sig, model)
     x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
     return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[k], V[k], Q[k]))
 
@@ -193,7 +195,7 @@ def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
     rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()
     X = model.teacher_forced(sig.Y, sig.U)
     nx = X.shape[1]
-    U, V, Q = sig.U[rows], _disturbances(sig, model)[rows], _gains(sig, model)[rows]
+    U, V, Q = sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model)[rows]
     P = np.zeros((nx + 1, len(rows), nx))
     for j in range(nx):
         P[j + 1, :, j] = 1.0

@@ -39,7 +39,15 @@ from ..errors import DataError
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .report import _cv_units
-from .crossval import day_plan, fold_fits, fold_scores, make_plan, paired_test, paired_test_days
+from .crossval import (
+    day_plan,
+    disturbance_matrix,
+    fold_fits,
+    fold_scores,
+    make_plan,
+    paired_test,
+    paired_test_days,
+)
 from .design import (
     Signals,
     Within,
@@ -559,14 +567,14 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
                 o.evidence["rival"] = {
                     "cause": c.cause,
                     "location": c.location,
-                    "cv_gain_percent": c.cv.get("gain_percent"),
-                    "cv_t": c.cv.get("t"),
+                    "cv_gain_percent": decisive_cv(c).get("gain_percent"),
+                    "cv_t": decisive_cv(c).get("t"),
                     "favoured": o.cause,
                 }
                 c.status = "no evidence"
                 c.reason = (
                     f"a {o.cause} at {o.location} explains the same gain better on the same folds "
-                    f"(paired t {o.cv['t']:.1f} vs {c.cv['t']:.1f})"
+                    f"(paired t {decisive_cv(o)['t']:.1f} vs {decisive_cv(c)['t']:.1f})"
                 )
                 accepted[i] = o
     return accepted
@@ -642,44 +650,58 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     o = rivals[0]
     if o.cv is None:
         cross_validate(sig, plan, terms, o, base_scores)
-    ct, ot = c.cv.get("t") or 0.0, (o.cv or {}).get("t") or 0.0
+    ct, ot = decisive_cv(c).get("t") or 0.0, decisive_cv(o).get("t") or 0.0
     c.evidence["rival"] = {
         "cause": o.cause,
         "location": o.location,
-        "cv_gain_percent": o.cv.get("gain_percent"),
-        "cv_t": o.cv.get("t"),
+        "cv_gain_percent": decisive_cv(o).get("gain_percent"),
+        "cv_t": decisive_cv(o).get("t"),
         "favoured": c.cause if ct >= ot else o.cause,
     }
     return o
 
 
+def decisive_cv(c) -> dict:
+    """The cross-validation that decides candidate ``c``: ``c.cv``, or for a holiday whose active-day test
+    scored fewer than 3 days (no gain), the test over every week (``evidence["cv_all_weeks"]``)."""
+    cv = c.cv or {}
+    every = (c.evidence or {}).get("cv_all_weeks") or {}
+    if cv.get("gain_percent") is None and every.get("t") is not None:
+        return every
+    return cv
+
+
 def _cv_accepts(c, opts) -> bool:
     cv = c.cv
-    if cv.get("gain_percent") is None:
-        return False
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
 
     def passes(r):
-        return r["gain_percent"] >= need and r["gain_abs"] >= opts["min_gain_abs"] and r["t"] >= opts["cv_min_t"]
+        return (
+            r.get("gain_percent") is not None
+            and r["gain_percent"] >= need
+            and r["gain_abs"] >= opts["min_gain_abs"]
+            and r["t"] >= opts["cv_min_t"]
+        )
 
     every = c.evidence.get("cv_all_weeks") or {}
     if every.get("t") is None:
         return passes(cv)
     # a holiday term: better on the days it acts on without making the other weeks worse, or better
     # over every week (its own days cannot be predicted when all of them fall in one fold, but the
-    # seasonal profile freed from them predicts the ordinary weeks better)
+    # seasonal profile freed from them predicts the ordinary weeks better); the week test also decides
+    # when fewer than 3 active days could be scored (gaps in the holiday's windows)
     return (passes(cv) and every["t"] > -opts["cv_min_t"]) or passes(every)
 
 
 def _found_reason(c, opts) -> str:
-    if not c.cv or c.cv.get("gain_percent") is None:
-        return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
-    cv = c.cv
+    cv = decisive_cv(c)
     every = c.evidence.get("cv_all_weeks") or {}
     if every.get("t") is not None and not (
         cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"]
     ):  # a calendar term accepted by the test over every week, not on its own days
         cv = every
+    if cv.get("gain_percent") is None:
+        return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
     return (
         f"ΔBIC {c.test['delta_bic']:.1f} > {opts['bic_margin']:g}; cross-validated gain "
         f"{cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over {_cv_units(cv)}, paired t = {cv['t']:.1f}"
@@ -687,7 +709,7 @@ def _found_reason(c, opts) -> str:
 
 
 def _rejected_reason(c, opts) -> str:
-    cv = c.cv or {}
+    cv = decisive_cv(c)
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
     need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
@@ -776,7 +798,7 @@ def one_step_residuals(sig: Signals, model) -> np.ndarray:
     if isinstance(model, ExtendedModel):
         X = _teacher_forced(sig, model)
         u = sig.U
-        v = np.column_stack([sig.V[c] if c in sig.V else np.full(n, np.nan) for c in model.disturbances])
+        v = disturbance_matrix(sig, model)  # an unused_input term's column is in sig.extra, not sig.V
         q = np.zeros((n, sig.nz))
         for s in sig.seasons:
             m = sig.season == s

@@ -48,6 +48,8 @@ def write_report(result, path) -> Path:
             "rms_all",
             "persistence_all",
             "time_of_week_all",
+            "seasons_worse_than_persistence",
+            "seasons_worse_than_time_of_week",
             "nmbe_percent",
             "cvrmse_percent",
             "zone_findings",

@@ -66,7 +66,26 @@ class FleetResult:
         if "verdict" in t and len(t):
             losing = t[t["verdict"].astype(str).str.startswith("WORSE")]
             lines.append(f"zones worse than persistence: {len(losing)} of {len(t)} (building, model, zone) rows")
+        lines += _season_lines(t)
         return "\n".join(lines)
+
+
+def _season_lines(t: pd.DataFrame, shown: int = 12) -> list[str]:
+    """How many (building, model, zone) rows lose to persistence / the time-of-week mean in some season, and which."""
+    lines = []
+    for col, what in (
+        ("seasons_worse_than_persistence", "persistence"),
+        ("seasons_worse_than_time_of_week", "the time-of-week mean"),
+    ):
+        if col not in t or not len(t):
+            continue
+        rows = t[t[col].fillna("").astype(str) != ""]
+        cases = "; ".join(f"{r.building} {r.model} {r.zone}: {r[col]}" for _, r in rows.head(shown).iterrows())
+        more = f" and {len(rows) - shown} more" if len(rows) > shown else ""
+        flag = "!! " if len(rows) and col.endswith("persistence") else ""
+        listed = f" ({cases}{more})" if len(rows) else ""
+        lines.append(f"{flag}zones worse than {what} in a season: {len(rows)} of {len(t)} rows{listed}")
+    return lines
 
 
 def fleet(

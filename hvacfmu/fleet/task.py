@@ -27,7 +27,7 @@ STAGES = ("check", "fit", "evaluate", "diagnose", "export")
 #: Model kinds fitted by default.
 DEFAULT_KINDS = ("lumped", "zones")
 #: Version of the cached result layout; part of the cache key.
-RESULT_VERSION = 1
+RESULT_VERSION = 2  # 2: per-season baselines and the seasons lost (_season_columns)
 
 
 def stage_list(stages) -> tuple:
@@ -204,6 +204,7 @@ def _zone_rows(ev, names) -> list:
                 row[f"rms_{season}"] = _finite(value)
             row["persistence_all"] = _finite(tables["persistence"][zone].get("all", np.nan))
             row["time_of_week_all"] = _finite(tables["time-of-week mean"][zone].get("all", np.nan))
+            row.update(_season_columns(tables, zone))
             v = verdicts.get((name, zone))
             if v is not None:
                 row.update(
@@ -221,6 +222,27 @@ def _zone_rows(ev, names) -> list:
                 )
             rows.append(row)
     return rows
+
+
+def _season_columns(tables: dict, zone: str) -> dict:
+    """Both baselines per season and the seasons where the model loses to each.
+
+    A model may beat persistence over all windows and still lose in one season; the row's ``verdict``
+    is the all-windows one, so the season losses get their own columns (comma-separated season names).
+    """
+    out: dict = {}
+    worse: dict = {"persistence": [], "time-of-week mean": []}
+    for season, rms in tables["model"][zone].items():
+        if season == "all":
+            continue
+        for which, key in (("persistence", "persistence"), ("time-of-week mean", "time_of_week")):
+            base = _finite(tables[which][zone].get(season, np.nan))
+            out[f"{key}_{season}"] = base
+            if base is not None and np.isfinite(rms) and rms >= base:
+                worse[which].append(str(season))
+    out["seasons_worse_than_persistence"] = ", ".join(worse["persistence"])
+    out["seasons_worse_than_time_of_week"] = ", ".join(worse["time-of-week mean"])
+    return out
 
 
 def _stage_diagnose(spec, state, result, options):
