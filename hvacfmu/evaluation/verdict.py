@@ -212,7 +212,7 @@ class Verdict:
         behind = self.behind_time_of_week_seasons(model)
         tow = ""
         if behind:
-            by = {}
+            by: dict[str, list[str]] = {}
             for v in behind:
                 by.setdefault(v.season, []).append(v.output)
             tow = (
