@@ -1237,3 +1237,19 @@ def test_rival_with_higher_t_that_fails_its_own_rule_does_not_read_as_favoured()
     f["evidence"]["rival"]["favoured"] = "solar_gain"
     line = next(x for x in _finding_lines(1, f) if "competing cause" in x)
     assert line.endswith("the data favour solar_gain")
+
+
+def test_bounded_ls_with_an_all_zero_regressor_says_unidentified_without_overflow(rng):
+    """A regressor that is zero on every row of a fold: coefficient 0, infinite variance, no overflow warning."""
+    import warnings as _w
+
+    from hvacfmu.diagnosis.design import bounded_ls
+
+    X = np.column_stack([rng.normal(size=200), np.zeros(200), rng.normal(size=200)])
+    y = X @ np.array([0.5, 0.0, -0.2]) + 0.01 * rng.normal(size=200)
+    with _w.catch_warnings():
+        _w.simplefilter("error")
+        ls = bounded_ls(X, y, [-1, -1, -1], [1, 1, 1])
+    assert ls.theta[1] == 0.0 and np.isinf(ls.cov[1, 1]) and ls.cov[0, 1] == 0.0
+    np.testing.assert_allclose(ls.theta[[0, 2]], [0.5, -0.2], atol=0.01)
+    assert np.isfinite(ls.cov[[0, 2]][:, [0, 2]]).all()

@@ -134,7 +134,9 @@ def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0)
     variance after ``dof_extra`` further degrees of freedom (the group means).
     """
     n, p = Xw.shape
-    scale = np.sqrt(np.maximum((Xw * Xw).sum(axis=0), 1e-300))
+    ss = (Xw * Xw).sum(axis=0)
+    zero = ~(ss > 1e-300)  # a regressor that is zero on every row (e.g. in one fold): not identified
+    scale = np.where(zero, 1.0, np.sqrt(np.where(zero, 1.0, ss)))
     Xs = Xw / scale
     G = Xs.T @ Xs
     r = Xs.T @ yw
@@ -158,6 +160,10 @@ def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0)
     sigma2 = rss / dof
     Ginv = np.linalg.inv(G + ridge * np.eye(p))
     cov = sigma2 * Ginv / np.outer(scale, scale)
+    if zero.any():  # its variance is unbounded; said so without an overflow in the division
+        cov[zero, :] = 0.0
+        cov[:, zero] = 0.0
+        cov[zero, zero] = np.inf
     return LSResult(theta, rss, n, cov, sigma2)
 
 
