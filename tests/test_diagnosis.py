@@ -1253,3 +1253,24 @@ def test_bounded_ls_with_an_all_zero_regressor_says_unidentified_without_overflo
     assert ls.theta[1] == 0.0 and np.isinf(ls.cov[1, 1]) and ls.cov[0, 1] == 0.0
     np.testing.assert_allclose(ls.theta[[0, 2]], [0.5, -0.2], atol=0.01)
     assert np.isfinite(ls.cov[[0, 2]][:, [0, 2]]).all()
+
+
+@pytest.mark.slow
+def test_heat_outside_the_discharge_air_is_found_where_td_is_measured():
+    """Reheat-mode data (every box's discharge air measured) with an extra 3 kW heater in W at minimum
+    airflow in cold weather that does not pass through the discharge air (a perimeter heater): the on/off
+    reheat variant is still offered beside the discharge one, and finds it (before, only the discharge
+    variant was tried where Td is measured, and it was missed; fleet sweep b006)."""
+    from hvacfmu.data import prepare
+
+    paths = emulator.cached_dataset(
+        weeks=16, seed=0, effects=["reheat:zone=W"], hvac="reheat", start="2025-11-03T00:00:00"
+    )
+    ds = prepare(paths.measurements, paths.building)
+    rep = diagnose(ds, progress=False)
+    cmp = compare_with_truth(rep, json.loads(paths.truth.read_text()))
+    assert [e["name"] for e in cmp["found"]] == ["reheat"] and cmp["missed"] == [], cmp
+    assert {"zone": "W"} in [f["location"] for f in rep.findings if f["cause"] == "reheat"]
+    # the truth file has no rule for unused_input: those name measured Td_/rh_ columns of boxes that reheat
+    others = [u for u in cmp["unsupported"] if u["cause"] != "unused_input"]
+    assert others == [] and all(u["location"]["column"][:3] in ("Td_", "rh_") for u in cmp["unsupported"]), cmp

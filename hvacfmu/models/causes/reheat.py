@@ -222,7 +222,8 @@ class Reheat(Term):
                             evidence=ev,
                         )
                     )
-                    continue
+                # heat that does not pass through the discharge air (a perimeter heater, a coil after the
+                # sensor) is still the on/off variant below
             umin = float(sig.u_min[zi] * 1.05 + 1e-6)
             u = U_eff[:, zi]
             variants, regime = [], {}
