@@ -566,16 +566,15 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
         x = frame[c].to_numpy(float)
         hits = {z: _best_correlation(x, res[z].to_numpy(float)) for z in losing}
         hits = {z: r for z, r in hits.items() if np.isfinite(r) and abs(r) >= CORRELATION_MIN}
-        twin = _duplicate_of(x, frame, used) if hits else None
-        if twin is not None:  # the same values under another name, which the model reads
+        # nothing explained, or the same values under another name, which the model reads
+        if not hits or _duplicate_of(x, frame, used) is not None:
             continue
-        if hits:  # one line per column, naming every zone it explains
-            rs = sorted(hits.values())
-            r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
-            found.append(
-                f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
-                f"({r_txt}): the model does not see it{_column_hint(c)}"
-            )
+        rs = sorted(hits.values())  # one line per column, naming every zone it explains
+        r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
+        found.append(
+            f"unused measured column {c!r} correlates with the residuals of {', '.join(hits)} "
+            f"({r_txt}): the model does not see it{_column_hint(c)}"
+        )
     return found
 
 

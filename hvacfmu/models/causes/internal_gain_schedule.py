@@ -465,8 +465,7 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
     steps = int(round(3600 / sig.step))
     L = ev["lag_steps"]
     retest = options.get("_dst_retest")
-    kept = retest["shift"] if retest else None
-    if kept is not None:
+    if retest:
         # it passed this screen and its cross-validation in an earlier round and lost only to a rival
         # of another cause: the rival's term changes the residuals this screen reads, so the shift is
         # retested against the model with the rival in rather than screened out again
@@ -475,8 +474,8 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             "retested against the model with the rival in (screen not repeated)"
         )
         ev["screen_passed"] = retest["screen_passed"]
-        L = -int(kept)
-    elif 2 * abs(L) < steps:
+        return _dst_shift_candidate(sig, gains, W, loc, ev, int(retest["shift"]))
+    if 2 * abs(L) < steps:
         return Candidate(
             InternalGainSchedule.cause,
             loc,
@@ -486,7 +485,7 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             f"{L * sig.step / 60:+.0f} min (under half an hour)",
         )
     r2_min, g_min = options["dst_min_r2"], options["dst_min_scale"]
-    if kept is None and (ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min):
+    if ev["r2_at_lag"] < r2_min or ev["scale_at_lag"] < g_min:
         return Candidate(
             InternalGainSchedule.cause,
             loc,
@@ -499,13 +498,13 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
         )
     # the clock moves by the legal hour; the estimated lag (often 60-90 min: the ramp of a
     # partly shifted profile looks wider) gives the direction and is reported as evidence
-    shifts = [-int(np.sign(L)) * steps]
-    variants = []
-    for sh in shifts:
-        t = InternalGainSchedule(
-            variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones), shift=sh
-        )
-        variants.append(t)
-    c = Candidate(InternalGainSchedule.cause, loc, variants, 1, evidence=ev)
-    c.profiles = {sh: shifted_clock_profiles(sig, gains, W.rows, sh) for sh in shifts}
+    return _dst_shift_candidate(sig, gains, W, loc, ev, -int(np.sign(L)) * steps)
+
+
+def _dst_shift_candidate(sig, gains, W, loc, ev, shift: int) -> Candidate:
+    """The ``dst_shift`` candidate reading the profile ``shift`` steps later under daylight saving, on the
+    profile of the clock the gains follow."""
+    t = InternalGainSchedule(variant="dst_shift", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones), shift=shift)
+    c = Candidate(InternalGainSchedule.cause, loc, [t], 1, evidence=ev)
+    c.profiles = {shift: shifted_clock_profiles(sig, gains, W.rows, shift)}
     return c

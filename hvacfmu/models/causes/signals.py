@@ -109,6 +109,14 @@ class Signals:
         return np.flatnonzero(m)
 
 
+def box_supply_columns(building, vavs) -> dict:
+    """``{vav: supply temperature column of the unit feeding it}`` (``T_supply`` for a box the building
+    does not know, or a building without per-unit columns)."""
+    known = set(getattr(building, "vav_names", ()))
+    has = hasattr(building, "supply_column")
+    return {v: building.supply_column(v) if has and v in known else "T_supply" for v in vavs}
+
+
 def make_signals(dataset, base: LinearZoneModel) -> Signals:
     """Collect the arrays of ``dataset`` that the diagnosis of the linear model ``base`` needs."""
     frame = dataset.frame
@@ -143,10 +151,7 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
     extra, extra_zones, coverage = unused_columns(dataset, base)
     from .reheat import zone_reheat_columns
 
-    supply_of = {}
-    for v in base.vavs:
-        col = b.supply_column(v) if hasattr(b, "supply_column") and v in b.vav_names else "T_supply"
-        supply_of[v] = col if col in frame.columns else "T_supply"
+    supply_of = {v: c if c in frame.columns else "T_supply" for v, c in box_supply_columns(b, base.vavs).items()}
     for c, q in zone_reheat_columns(frame, base, supply_of).items():
         if np.isfinite(q).mean() >= MIN_COVERAGE:
             V[c] = pd.Series(q).ffill().bfill().fillna(0.0).to_numpy()
@@ -256,9 +261,7 @@ def unused_columns(dataset, base):
     for j, v in enumerate(base.vavs):
         zone_of_vav[v] = tuple(base.outputs[i] for i in range(len(base.outputs)) if base.input_map[i, j] > 0)
     ahu_zones: dict = {}
-    b = dataset.building
-    for v in base.vavs:
-        col = b.supply_column(v) if hasattr(b, "supply_column") else "T_supply"
+    for v, col in box_supply_columns(dataset.building, base.vavs).items():
         ahu_zones.setdefault(col, set()).update(zone_of_vav[v])
     has_facades = all(f"I_{o}" in frame.columns for o in "NESW")
     extra, zones, coverage = {}, {}, {}
