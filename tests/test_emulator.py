@@ -516,6 +516,7 @@ def test_cached_dataset_concurrent(tmp_path, monkeypatch):
 
 
 # --------------------------------------------------------------------------- CLI
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_cli_generate(tmp_path):
     out = tmp_path / "cli"
     proc = subprocess.run(

@@ -214,6 +214,7 @@ def test_bad_arguments(data, truth, kwargs, exc, message):
         evaluate(truth, data, **kwargs)
 
 
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_cli_fit_and_evaluate(data, tmp_path):
     src = data.source
     bpath = tmp_path / "b.toml"

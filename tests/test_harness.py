@@ -221,6 +221,7 @@ def test_cosim_command_line(zones, short_paths, tmp_path):
     assert len(tab) == 673 and json.loads(out.with_suffix(".json").read_text())["controller"] == "rule"
 
 
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_cli_reports_plant_stopping_early(tmp_path, short_paths):
     """A plant FMU whose emulated span ends inside the requested span: exit 1, loud message, partial table."""
     from hvacfmu.emulator import cached_dataset

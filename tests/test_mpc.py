@@ -552,6 +552,7 @@ def test_reduced_prediction_matches_condensed(rc_medium, linearisation):
         assert y1.max() <= 22.0 + FEAS_TOL and y1.min() >= 20.0 - FEAS_TOL
 
 
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_closed_loop_reduced_long_horizon_keeps_band(rc_medium):
     m = rc_medium
     N = 48

@@ -593,6 +593,7 @@ def test_model_file_errors(recovered):
 
 
 # --------------------------------------------------------------------------- the emulator's default dataset
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_default_dataset_evaluation(default_dataset):
     """Model B on the default 51-week emulated dataset: a complete Table I that beats persistence.
 
@@ -616,6 +617,7 @@ def test_default_dataset_evaluation(default_dataset):
     assert np.all(tab.loc["all"] < 0.5 * pers.loc["all"])  # every zone at least twice better than persistence
 
 
+@pytest.mark.slow  # over 15 s: keeps the not-slow tier under 3 min
 def test_cli_fit_and_evaluate(two_zone, tmp_path):
     """``hvacfmu fit --model physics`` and ``hvacfmu evaluate`` as a user runs them."""
     import subprocess

@@ -93,7 +93,11 @@ def _two_days(dataset, model):
     pytest.skip("no test week without a DST change in the short dataset")  # pragma: no cover
 
 
-@pytest.mark.parametrize("kind", kind_names())
+@pytest.mark.parametrize(
+    "kind",
+    # physics takes over 20 s: slow tier (the not-slow tier stays under 3 min)
+    [pytest.param(k, marks=pytest.mark.slow) if k == "physics" else k for k in kind_names()],
+)
 def test_every_kind_fit_save_load_evaluate_export_fmu(kind, short_dataset, tmp_path):
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fmu import export_fmu, validate
