@@ -132,6 +132,15 @@ def _cmd_fit(args):
             )
             return 2
         options["gain_days"] = args.gain_days
+    if args.couplings:
+        if args.model != "zones":
+            print(
+                f"hvacfmu: error: --couplings applies to the six-zone Model A (zones), not {args.model}; "
+                "drop the option, or fit --model zones",
+                file=sys.stderr,
+            )
+            return 2
+        options["open_loop_couplings"] = True
     dataset = _load_dataset(args)
     model = hf.fit(dataset, args.model, progress=not args.quiet, **options)
     path = model.save(args.output)
@@ -386,6 +395,12 @@ def _add_fit_parser(sub) -> None:
         "'week', the paper's per time of week; 'workdays' pools Monday-Friday; 'shrunk' pools them where the "
         "training weeks show no weekday pattern; 'auto' takes the one of the three with the lowest 24-h open-loop "
         "RMS in blocked cross-validation over the training weeks)",
+    )
+    p.add_argument(
+        "--couplings",
+        action="store_true",
+        help="zones: the open-loop refinement also re-fits the couplings of adjacent zones (off-diagonal A; "
+        "better perimeter zones on EnergyPlus years, worse cores in summer: see README, Model A step 4)",
     )
     p.set_defaults(func=_cmd_fit)
 

@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .heat import CP_AIR
+
 #: Open-loop horizon of the refinement criterion [steps] (24 h at 15 minutes).
 HORIZON_STEPS = 96
 
@@ -62,9 +64,21 @@ def training_windows(prep, horizon: int):
 
 
 class _Problem:
-    """Simulation of a LinearZoneModel's windows with free parameters theta (diag A, drive, C entries)."""
+    """Open-loop simulation of a LinearZoneModel's windows with free parameters theta, and its exact Jacobian.
 
-    def __init__(self, model, prep, starts, horizon):
+    theta = (diag A, drive, non-zero entries of C, off-diagonal entries of A between adjacent zones when
+    ``couplings``). Every parameter acts on one state row ``i_p`` through a feature ``phi_p(x, u, v)``:
+    ``x_i`` (diag A), ``x_j`` (A_ij), ``v_c`` (C_ic), the delivered heat ``H_i - M_i x_i`` (beta_i;
+    ``H_i = sum_b m_b c_p T_in,b``, ``M_i = sum_b m_b c_p`` over the boxes of state i) or the zone airflow
+    ``u_i`` (B_ii), so one step is ``x+ = F x + G u + sum_p theta_p phi_p e_(i_p) + q`` with the entries
+    that are not free in ``F``, ``G``. The gain profile ``q`` re-estimated for theta (eq. qig_estimation:
+    the per-slot mean of the one-step residuals of the training rows) is then affine in theta,
+    ``q = q0 - sum_p theta_p q_p``, so it costs one product per candidate, and the sensitivities
+    ``S = dx/dtheta`` follow ``S+ = J S + E`` with ``J = dx+/dx``: the Jacobian of the window errors is exact
+    (no finite differences) and costs about one simulation.
+    """
+
+    def __init__(self, model, prep, starts, horizon, couplings=False):
         self.model, self.prep, self.horizon = model, prep, horizon
         frame = prep.frame
         self.Y = np.asarray(model.measured_outputs(frame), float)
@@ -79,16 +93,28 @@ class _Problem:
         self.weight = np.array([1.0 / np.sqrt(count[s]) for s in ws])[:, None, None]
         self.slots = prep.slots
         nx = model.A.shape[0]
+        self.nx = nx
         self.delivered = model.beta is not None
         drive = model.beta if self.delivered else np.diag(model.B)
         self.cmask = model.C != 0.0
-        self.theta0 = np.r_[np.diag(model.A), drive, model.C[self.cmask]]
-        off = np.abs(model.A).sum(axis=1) - np.abs(np.diag(model.A))
-        a_hi = np.maximum(1.0 - 1e-3 - off, 2e-4)
+        self.omask = _adjacent_mask(model, prep.building) if couplings else np.zeros((nx, nx), bool)
+        ci, cc = np.nonzero(self.cmask)
+        oi, oj = np.nonzero(self.omask)
+        self.c_col, self.o_col = cc, oj
+        self.row = np.r_[np.arange(nx), np.arange(nx), ci, oi].astype(np.int64)  # state row of each parameter
+        self.n_par = self.row.size
+        self.theta0 = np.r_[np.diag(model.A), drive, model.C[self.cmask], model.A[self.omask]]
+        free_a = np.eye(nx, dtype=bool) | self.omask
+        self.A_fixed = np.where(free_a, 0.0, model.A)
+        self.B_fixed = model.B.copy()
+        if not self.delivered:
+            self.B_fixed[np.arange(nx), np.arange(nx)] = 0.0
+        a_hi = np.maximum(1.0 - 1e-3 - np.abs(self.A_fixed).sum(axis=1), 2e-4)  # the fixed entries' share
+        self.row_limit = 1.0 - 1e-3 - np.abs(self.A_fixed).sum(axis=1)
         d_lo, d_hi = (np.zeros(nx), np.full(nx, np.inf)) if self.delivered else (np.full(nx, -np.inf), np.zeros(nx))
-        nc = int(self.cmask.sum())
-        self.lb = np.r_[np.full(nx, 1e-4), d_lo, np.zeros(nc)]
-        self.ub = np.r_[a_hi, d_hi, np.full(nc, np.inf)]
+        nc, no = ci.size, oi.size
+        self.lb = np.r_[np.full(nx, 1e-4), d_lo, np.zeros(nc), np.zeros(no)]
+        self.ub = np.r_[a_hi, d_hi, np.full(nc, np.inf), np.ones(no)]
         self.theta0 = np.clip(self.theta0, self.lb, np.where(np.isfinite(self.ub), self.ub - 1e-9, self.ub))
         rows = np.flatnonzero(
             prep.train[:-1]
@@ -98,22 +124,71 @@ class _Problem:
             & np.all(np.isfinite(self.Y[1:]), axis=1)
         )
         self.rows = rows
+        if self.delivered:
+            hm = np.asarray(model.heat_map, float)
+            cp = CP_AIR / 1000.0
+            self.M = (self.u * cp) @ hm.T  # (n, nx) [kW/K]
+            self.H = (self.u * cp * self.v[:, model._inlet_idx]) @ hm.T  # (n, nx) [kW]
+        self._gain_parts()
 
+    # --- the one-step map, linear in theta --------------------------------------------------------------------
+    def _features(self, x, k):
+        """phi (..., P) at states x (..., nx) and rows k (...)."""
+        drive = self.H[k] - self.M[k] * x if self.delivered else self.u[k][..., : self.nx]
+        return np.concatenate([x, drive, self.v[k][..., self.c_col], x[..., self.o_col]], axis=-1)
+
+    def _fixed(self, x, k):
+        """The part of x+ that no parameter moves: the fixed entries of A and B."""
+        return x @ self.A_fixed.T + self.u[k] @ self.B_fixed.T
+
+    def _scatter(self, phi_theta):
+        """sum_p phi_p theta_p e_(i_p): (..., P) -> (..., nx)."""
+        out = np.zeros(phi_theta.shape[:-1] + (self.nx,))
+        for i in range(self.nx):
+            out[..., i] = phi_theta[..., self.row == i].sum(axis=-1)
+        return out
+
+    def _gain_parts(self):
+        """Per season: q0 (n_slots, nx) and q_p (n_slots, P) with gains(theta) = q0 - q_p theta on rows i_p."""
+        from .datadriven import estimate_gains
+
+        r = self.rows
+        y0, y1 = self.Y[r], self.Y[r + 1]
+        base = y1 - self._fixed(y0, r)
+        phi = self._features(y0, r)
+        self.q0, self.qp = {}, {}
+        for s, prof in self.model.gains.items():
+            sel = self.seasons[r] == s
+            if sel.any():
+                est, _ = estimate_gains(np.c_[base[sel], phi[sel]], self.slots[r][sel], self.prep.n_slots)
+                self.q0[s], self.qp[s] = est[:, : self.nx], est[:, self.nx :]
+            else:
+                self.q0[s], self.qp[s] = np.asarray(prof, float), np.zeros((len(prof), self.n_par))
+
+    def gains_of(self, theta):
+        """Season -> gains profile (n_slots, nx) for theta (the linear form of :meth:`gains_for`)."""
+        return {s: self.q0[s] - self._scatter(self.qp[s] * theta) for s in self.q0}
+
+    # --- model and errors -------------------------------------------------------------------------------------
     def with_theta(self, theta, gains=None):
         """A copy of the model with parameters ``theta`` (and the given or re-estimated gains)."""
         import dataclasses
 
         m = self.model
-        nx = m.A.shape[0]
+        nx = self.nx
         A = m.A.copy()
         A[np.diag_indices(nx)] = theta[:nx]
+        nc = int(self.cmask.sum())
         C = m.C.copy()
-        C[self.cmask] = theta[2 * nx :]
+        C[self.cmask] = theta[2 * nx : 2 * nx + nc]
+        A[self.omask] = theta[2 * nx + nc :]
         kw = {"A": A, "C": C}
         if self.delivered:
             kw["beta"] = theta[nx : 2 * nx].copy()
         else:
-            kw["B"] = np.diag(theta[nx : 2 * nx])
+            B = m.B.copy()
+            B[np.arange(nx), np.arange(nx)] = theta[nx : 2 * nx]
+            kw["B"] = B
         new = dataclasses.replace(m, **kw)
         if gains is None:
             gains = self.gains_for(new)
@@ -135,20 +210,100 @@ class _Problem:
                 gains[s] = prof
         return gains
 
+    def _simulate(self, theta, sensitivities=False):
+        """States x(1..H) of every window (W, H, nx) and, optionally, dx/dtheta (W, H, nx, P)."""
+        rng, nx, P = self.rng, self.nx, self.n_par
+        W, Hn = rng.shape
+        gains = self._window_gains(theta)
+        qp = self._window_qp() if sensitivities else None
+        onehot = (self.row[None, :] == np.arange(nx)[:, None]).astype(float)  # (nx, P)
+        A_full = self.A_fixed.copy()
+        A_full[np.diag_indices(nx)] += theta[:nx]
+        A_full[self.omask] += theta[2 * nx + int(self.cmask.sum()) :]
+        beta = theta[nx : 2 * nx]
+        x = self.Y[rng[:, 0]]
+        X = np.empty((W, Hn, nx))
+        S = np.zeros((W, nx, P)) if sensitivities else None
+        SS = np.empty((W, Hn, nx, P)) if sensitivities else None
+        for k in range(Hn):
+            kk = rng[:, k]
+            phi = self._features(x, kk)
+            xn = self._fixed(x, kk) + self._scatter(phi * theta) + gains[:, k]
+            if sensitivities:  # S+ = (A - diag(beta M)) S + (phi - dq/dtheta) on each parameter's row
+                Sn = np.matmul(A_full, S)
+                if self.delivered:
+                    Sn -= (beta * self.M[kk])[:, :, None] * S
+                S = Sn + (phi - qp[:, k])[:, None, :] * onehot[None]
+                SS[:, k] = S
+            x = xn
+            X[:, k] = x
+        return X, SS
+
+    def _window_gains(self, theta):
+        """Gains at every window step (W, H, nx) for theta (each window in the season of its start)."""
+        out = np.zeros(self.rng.shape + (self.nx,))
+        season0 = self.seasons[self.rng[:, 0]]
+        for s, prof in self.gains_of(theta).items():
+            sel = season0 == s
+            if sel.any():
+                out[sel] = prof[self.slots[self.rng[sel]] % len(prof)]
+        return out
+
+    def _window_qp(self):
+        """d gains / d theta_p at every window step (W, H, P) on row i_p, gathered once (it does not move)."""
+        if getattr(self, "_qp_cache", None) is None:
+            out = np.zeros(self.rng.shape + (self.n_par,))
+            season0 = self.seasons[self.rng[:, 0]]
+            for s, qp in self.qp.items():
+                sel = season0 == s
+                if sel.any():
+                    out[sel] = qp[self.slots[self.rng[sel]] % len(qp)]
+            self._qp_cache = out
+        return self._qp_cache
+
+    def _penalty(self, theta):
+        """Stability: each row of |A| sums below 1 (hinge; only with free couplings)."""
+        nx, nc = self.nx, int(self.cmask.sum())
+        rowsum = np.zeros(nx)
+        np.add.at(rowsum, np.arange(nx), theta[:nx])
+        np.add.at(rowsum, np.nonzero(self.omask)[0], theta[2 * nx + nc :])
+        return 1e3 * np.maximum(rowsum - self.row_limit, 0.0)
+
     def residuals(self, theta):
-        """Open-loop errors of every training window [K], flattened."""
-        model = self.with_theta(theta)
-        rng = self.rng
-        q = np.zeros(rng.shape + (self.Y.shape[1],))
-        for s, prof in model.gains.items():
-            sel = self.seasons[rng[:, 0]] == s
-            q[sel] = np.asarray(prof)[self.slots[rng[sel]] % len(prof)]
-        _, Yp = model.simulate(self.Y[rng[:, 0]], self.u[rng], self.v[rng], q)
-        err = (self.Y[rng + 1] - Yp[:, 1:, :]) * self.weight
-        return np.nan_to_num(err, nan=0.0, posinf=1e3, neginf=-1e3).ravel()
+        """Open-loop errors of every training window [K] (flattened), then the stability hinge when couplings."""
+        X, _ = self._simulate(theta)
+        err = (self.Y[self.rng + 1] - X) * self.weight
+        err = np.nan_to_num(err, nan=0.0, posinf=1e3, neginf=-1e3).ravel()
+        return np.r_[err, self._penalty(theta)] if self.omask.any() else err
+
+    def jacobian(self, theta):
+        """d residuals / d theta, exact (sensitivity recursion)."""
+        _, SS = self._simulate(theta, sensitivities=True)
+        Jm = -(SS * self.weight[..., None]).reshape(-1, self.n_par)
+        if not self.omask.any():
+            return Jm
+        nx, nc = self.nx, int(self.cmask.sum())
+        excess = self._penalty(theta) > 0
+        Jp = np.zeros((nx, self.n_par))
+        a_par = np.r_[np.arange(nx), 2 * nx + nc + np.arange(int(self.omask.sum()))]
+        for p in a_par:
+            if excess[self.row[p]]:
+                Jp[self.row[p], p] = 1e3
+        return np.vstack([Jm, Jp])
 
 
-def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 60):
+def _adjacent_mask(model, building):
+    """(nx, nx) True where two states are adjacent zones of ``building`` (never the diagonal)."""
+    nx = model.A.shape[0]
+    mask = np.zeros((nx, nx), bool)
+    names = {z: i for i, z in enumerate(model.outputs)}
+    for a, b in building.adjacency_pairs():
+        if a in names and b in names:
+            mask[names[a], names[b]] = mask[names[b], names[a]] = True
+    return mask
+
+
+def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 60, couplings: bool = False):
     """Re-fit ``model``'s coefficients for open-loop prediction over ``horizon`` steps (see module docstring).
 
     Parameters
@@ -180,10 +335,10 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
             "reason": f"only {starts.size} complete training days",
             "windows": int(starts.size),
         }
-    pb = _Problem(model, prep, starts, horizon)
+    pb = _Problem(model, prep, starts, horizon, couplings=couplings)
     r0 = pb.residuals(pb.theta0)
     sol = least_squares(
-        pb.residuals, pb.theta0, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev, diff_step=1e-4
+        pb.residuals, pb.theta0, jac=pb.jacobian, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev
     )
     w2 = np.broadcast_to(pb.weight**2, (starts.size, horizon, pb.Y.shape[1])).ravel()
     rms0 = float(np.sqrt(np.sum(r0**2) / np.sum(w2)))
