@@ -210,11 +210,12 @@ class _Problem:
                 gains[s] = prof
         return gains
 
-    def _simulate(self, theta, sensitivities=False):
-        """States x(1..H) of every window (W, H, nx) and, optionally, dx/dtheta (W, H, nx, P)."""
+    def _simulate(self, theta, jac=None):
+        """States x(1..H) of every window (W, H, nx); with ``jac`` (W, H, nx, P), fills it with -w dx/dtheta."""
         rng, nx, P = self.rng, self.nx, self.n_par
         W, Hn = rng.shape
         gains = self._window_gains(theta)
+        sensitivities = jac is not None
         qp = self._window_qp() if sensitivities else None
         onehot = (self.row[None, :] == np.arange(nx)[:, None]).astype(float)  # (nx, P)
         A_full = self.A_fixed.copy()
@@ -224,7 +225,6 @@ class _Problem:
         x = self.Y[rng[:, 0]]
         X = np.empty((W, Hn, nx))
         S = np.zeros((W, nx, P)) if sensitivities else None
-        SS = np.empty((W, Hn, nx, P)) if sensitivities else None
         for k in range(Hn):
             kk = rng[:, k]
             phi = self._features(x, kk)
@@ -234,10 +234,10 @@ class _Problem:
                 if self.delivered:
                     Sn -= (beta * self.M[kk])[:, :, None] * S
                 S = Sn + (phi - qp[:, k])[:, None, :] * onehot[None]
-                SS[:, k] = S
+                np.multiply(S, -self.weight, out=jac[:, k])  # weight (W, 1, 1)
             x = xn
             X[:, k] = x
-        return X, SS
+        return X
 
     def _window_gains(self, theta):
         """Gains at every window step (W, H, nx) for theta (each window in the season of its start)."""
@@ -271,15 +271,16 @@ class _Problem:
 
     def residuals(self, theta):
         """Open-loop errors of every training window [K] (flattened), then the stability hinge when couplings."""
-        X, _ = self._simulate(theta)
+        X = self._simulate(theta)
         err = (self.Y[self.rng + 1] - X) * self.weight
         err = np.nan_to_num(err, nan=0.0, posinf=1e3, neginf=-1e3).ravel()
         return np.r_[err, self._penalty(theta)] if self.omask.any() else err
 
     def jacobian(self, theta):
         """d residuals / d theta, exact (sensitivity recursion)."""
-        _, SS = self._simulate(theta, sensitivities=True)
-        Jm = -(SS * self.weight[..., None]).reshape(-1, self.n_par)
+        Jm = np.empty(self.rng.shape + (self.nx, self.n_par))
+        self._simulate(theta, jac=Jm)
+        Jm = Jm.reshape(-1, self.n_par)
         if not self.omask.any():
             return Jm
         nx, nc = self.nx, int(self.cmask.sum())
