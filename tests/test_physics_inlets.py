@@ -131,7 +131,9 @@ def test_gap_in_unused_supply_column_skips_no_window(building):
     assert "T_supply" not in model.inlets and "T_supply" in model.disturbances
     ds = _reheat_dataset(building, weeks=3)
     frame = ds.frame.copy()
-    day = [t for t in frame.index if t.hour == 0 and t.minute == 0 and any(w.start <= t < w.end for w in ds.test_weeks())]
+    day = [
+        t for t in frame.index if t.hour == 0 and t.minute == 0 and any(w.start <= t < w.end for w in ds.test_weeks())
+    ]
     gap = (frame.index >= day[1] + pd.Timedelta(hours=6)) & (frame.index < day[1] + pd.Timedelta(hours=10))
     frame.loc[gap, "T_supply"] = np.nan  # 4 h, longer than the 2 h that inputs are filled across
     holed = dataclasses.replace(ds, frame=frame)
