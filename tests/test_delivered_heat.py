@@ -206,6 +206,38 @@ def test_closed_loop_airflow_not_identifiable_is_flagged(building, tmp_path):
     assert any("thermostat loop" in w for w in m.meta["warnings"])
 
 
+@pytest.mark.parametrize("heat", ["auto", "airflow"])
+def test_not_identifiable_message_says_what_the_data_hold(building, tmp_path, heat):
+    """The identifiability warning must not ask for what the data already have: these data hold excitation
+    experiments (Saturdays) and every box's Td_, so neither 'without excitation' nor 'add discharge air
+    temperatures' is true; a fit in the airflow form (as diagnose's base) is told that it ignores the Td_ columns
+    (seven-winter-week BMS exports, benchmarks/short_winter_s8.md)."""
+    t = delivered_truth(building)
+    loop = dataclasses.replace(t, beta=np.full(6, 1e-6), A=np.diag(np.full(6, 0.5)))
+    frame = simulate_frame(loop, building, seed=4, weeks=6)
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict())
+    exc = ds.frame["excitation"].to_numpy(float) == 1.0
+    train = np.zeros(len(ds.frame), bool)
+    for w in ds.train_weeks():
+        train |= (ds.frame.index >= w.start) & (ds.frame.index < w.end)
+    hours = (exc & train).sum() * ds.step / 3600.0
+    assert hours > 0  # the premise: excitation experiments in the training weeks
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = fit_zones(ds, heat=heat, mu_b=1e-6, open_loop=False)
+    msg = [str(w.message) for w in caught if "not identifiable from these data" in str(w.message)]
+    assert len(msg) == 1, [str(w.message) for w in caught]
+    assert "without excitation" not in msg[0] and "Add excitation experiments" not in msg[0], msg[0]
+    assert "Add discharge air temperatures" not in msg[0], msg[0]
+    assert f"{hours:.0f} h of excitation experiments in the training weeks" in msg[0], msg[0]
+    if heat == "auto":
+        assert all(c.startswith("Td_") for c in m.inlets)
+        assert "Add longer or more frequent excitation experiments, or use the physics model" in msg[0], msg[0]
+    else:
+        assert m.beta is None
+        assert "This fit does not read the data's discharge air temperatures (Td_<vav>)" in msg[0], msg[0]
+
+
 def test_bandwidth_on_grid_edge_is_named(dataset):
     with pytest.warns(
         HvacfmuWarning, match=r"LOESS bandwidth 2 h .* all \d+ series \(T_\w+, .*\) is on the lower edge"

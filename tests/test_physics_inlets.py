@@ -118,6 +118,34 @@ def _reheat_dataset(building, weeks, seed=0, drop_td=False):
         return Dataset.from_frame(pd.DataFrame(cols, index=idx), building, step=900.0, seed=seed)
 
 
+def test_gap_in_unused_supply_column_skips_no_window(building):
+    """Every box on its own inlet column: ``T_supply`` has no coefficient, so a gap in it (the airflow-weighted
+    mean of the units, missing when one unit's logger is) must neither stop a simulation nor skip a test window.
+    On a seven-week BMS export it skipped 2 of the physics model's 11 windows that the Model A kinds, which do
+    not list it, scored (benchmarks/short_winter_s8.md)."""
+    import dataclasses
+
+    from hvacfmu.evaluation import evaluate
+
+    model = PhysicsModel(building, TRUE, zero_gains(3, value=[300.0, 300.0, 14.0]), step=900.0, inlets=INLETS)
+    assert "T_supply" not in model.inlets and "T_supply" in model.disturbances
+    ds = _reheat_dataset(building, weeks=3)
+    frame = ds.frame.copy()
+    day = [
+        t for t in frame.index if t.hour == 0 and t.minute == 0 and any(w.start <= t < w.end for w in ds.test_weeks())
+    ]
+    gap = (frame.index >= day[1] + pd.Timedelta(hours=6)) & (frame.index < day[1] + pd.Timedelta(hours=10))
+    frame.loc[gap, "T_supply"] = np.nan  # 4 h, longer than the 2 h that inputs are filled across
+    holed = dataclasses.replace(ds, frame=frame)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        full, with_gap = evaluate(model, ds), evaluate(model, holed)
+    assert with_gap.scores[0].starts == full.scores[0].starts and len(full.scores[0].starts) >= 5
+    assert_allclose(with_gap.scores[0].rms, full.scores[0].rms, rtol=0, atol=1e-12)  # [K]: T_supply has no effect
+    u, v = model.signals(frame)
+    assert np.isfinite(v).all() and np.isfinite(u).all()
+
+
 @pytest.mark.slow
 def test_fit_uses_discharge_air_and_beats_the_fit_without_it(building):
     """Fitted on reheat data, Model B picks the Td columns and recovers the films; without Td it cannot.

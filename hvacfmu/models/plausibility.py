@@ -122,6 +122,47 @@ def drive_effect_k(model, frame) -> dict:
     return out
 
 
+def _identifiability_advice(model, frame, fast) -> str:
+    """The end of the not-identifiable warning: what the (training) ``frame`` holds and what would help.
+
+    It names only what the data lack: "without excitation" and "add excitation experiments" only when the
+    training rows have none (else how many hours they have), "add discharge air temperatures" only when the
+    data have no ``Td_<vav>`` column (a fit that ignores the data's ``Td_`` columns is told so instead).
+    """
+    exc = frame["excitation"].to_numpy(float) == 1.0 if "excitation" in frame.columns else np.zeros(len(frame), bool)
+    hours = float(exc.sum()) * float(model.step) / 3600.0
+    reads_td = any(str(c).startswith("Td_") for c in (getattr(model, "inlets", None) or ()))
+    data_td = any(str(c).startswith("Td_") for c in frame.columns)
+    out = ""
+    if fast:
+        data = (
+            f"closed-loop data: the {hours:.0f} h of excitation experiments in the training weeks did not separate it"
+            if hours > 0
+            else "closed-loop data without excitation"
+        )
+        out += (
+            f"; with time constants under {FAST_TIME_CONSTANT_H:g} h in {', '.join(fast)}, the model "
+            f"learned the thermostat loop ({data}), not the building"
+        )
+    elif hours > 0:
+        out += f" (the training weeks hold {hours:.0f} h of excitation experiments)"
+    add = ["excitation experiments (column 'excitation')"] if hours == 0 else []
+    if not data_td:
+        add.append("discharge air temperatures (Td_<vav>)")
+    elif reads_td and hours > 0:
+        add.append("longer or more frequent excitation experiments")
+    sentences = [f"Add {' or '.join(add)}"] if add else []
+    if data_td and not reads_td:
+        sentences.append(
+            "This fit does not read the data's discharge air temperatures (Td_<vav>): the delivered-heat form "
+            "(heat='auto' or 'delivered') does"
+        )
+    elif reads_td and hours > 0:
+        sentences[-1] += ", or use the physics model (its box heat m·c_p·(T_in − T_zone) is not a fitted gain)"
+    out += "".join(f". {s}" for s in sentences)
+    return out
+
+
 def check_fitted(
     model,
     dataset=None,
@@ -176,12 +217,7 @@ def check_fitted(
                 f"the temperature by less than {min_effect_k:g} K in steady state in "
                 + ", ".join(f"{z} ({e:.2g} K)" for z, e in weak.items())
             )
-            if fast:
-                msg += (
-                    f"; with time constants under {FAST_TIME_CONSTANT_H:g} h in {', '.join(fast)}, the model "
-                    "learned the thermostat loop (closed-loop data without excitation), not the building"
-                )
-            msg += ". Add excitation experiments (column 'excitation') or discharge air temperatures (Td_<vav>)"
+            msg += _identifiability_advice(model, frame, fast)
             notes.append(msg)
     numbers["identifiable"] = not notes
     for msg in notes:

@@ -288,7 +288,13 @@ class PhysicsModel(ZoneModel):
         require_columns(frame, self.inputs, self, "VAV airflow")
         require_columns(frame, self.disturbances, self, "disturbance")
         u = frame[list(self.inputs)].to_numpy(dtype=float)
-        return u, frame[list(self.disturbances)].to_numpy(dtype=float)
+        v = frame[list(self.disturbances)].to_numpy(dtype=float, copy=True)
+        if self.inlets and "T_supply" not in self.inlets:
+            # every box takes its own inlet column, so T_supply has no coefficient (its Bv and Bvu columns are
+            # zero): a gap in it must neither turn a simulation into NaN nor skip an evaluation window
+            j = self.disturbances.index("T_supply")
+            v[:, j] = np.where(np.isfinite(v[:, j]), v[:, j], 0.0)
+        return u, v
 
     def gains_for_rows(self, index: pd.DatetimeIndex) -> np.ndarray:
         """``q`` (n, nq) at each timestamp, each row in its own season (mean profile if a season is missing)."""
