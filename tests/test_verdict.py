@@ -286,3 +286,22 @@ def test_a_column_that_duplicates_a_used_one_is_not_called_unused():
     assert _duplicate_of(frame["rh_V1"].to_numpy(), frame, {"Td_V1"}) is None
     lines = _unused_columns(model, score, data, ["A"])
     assert len(lines) == 1 and "'rh_V1'" in lines[0], lines  # before: T_supply_U1 was named too
+
+
+def test_a_loss_to_a_schedule_held_by_a_loop_is_explained_as_a_data_limit():
+    """A zone-season lost to a time-of-week mean within 0.1 K (the loop holds the zone on its schedule) gets a
+    line saying so; one lost to a time-of-week mean of 0.3 K, or lost to persistence, does not."""
+    from hvacfmu.evaluation.verdict import LOOP_HELD_TOW_K, SeasonVerdict, Verdict, loop_held_lines
+
+    held = SeasonVerdict("zones", "C", "winter", 0.084, 0.62, 0.048, 7, 1)
+    loose = SeasonVerdict("zones", "S", "winter", 0.35, 0.90, 0.30, 7, 1)
+    lost = SeasonVerdict("zones", "E", "winter", 0.70, 0.60, 0.05, 7, 1)
+    won = SeasonVerdict("zones", "N", "winter", 0.04, 0.60, 0.05, 7, 1)
+    (line,) = loop_held_lines([held, loose, lost, won])
+    assert line.startswith("C in winter 0.084 K against 0.048 K: there a control loop holds the zone")
+    assert "behind by at most 0.036 K" in line and f"within {LOOP_HELD_TOW_K:g} K" in line
+    assert "S in" not in line and "E in" not in line and "N in" not in line
+    assert loop_held_lines([loose, lost, won]) == []
+    v = Verdict(zones=(), causes={}, seasons=(held,), loop_held={"zones": [line]})
+    assert f"   behind the time-of-week mean for zones: {line}" in v.format().splitlines()
+    assert v.to_dict()["loop_held"] == {"zones": [line]}
