@@ -17,11 +17,12 @@ by 25 % in NE and 11 % in C); with step 2's gain profile pooled over the workday
 (``gain_days="workdays"``, not the default) or shrunk toward it (``"shrunk"``) physics wins in every
 zone, and that is asserted too. Without
 ``Td`` the lumped and six-zone models are worse than persistence everywhere (1.9-2.6 K) and physics is
-worse than the time-of-week mean in 3 of 6 zones (W, E, NE); every kind is flagged first with the missing
+worse than the time-of-week mean in 1 of 6 zones (3 of 6, W, E, NE, with the paper's ``gain_days="week"``,
+the default before session 8); every kind is flagged first with the missing
 ``Td_`` columns. Bounds: every kind and zone beats persistence with ``Td``; lumped and six-zone beat the
 time-of-week mean everywhere, physics in at least 4 of 6 zones and in none loses by 10 % or more; without
 ``Td`` the six-zone model loses to persistence in at least 4 of 6 zones and physics to the time-of-week
-mean in at least 3. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
+mean in at least 1. With 8 weeks (one winter training week) the Model A kinds lose to the time-of-week
 mean in winter: the 10-week export is the one that is asserted.
 """
 
@@ -257,11 +258,11 @@ def test_without_td_the_verdict_says_the_models_lose_and_names_the_missing_input
     assert first[2].startswith("!! physics:"), first
     assert all("missing input: Td_VAV_NW_1, Td_VAV_NW_2, Td_VAV_NW_3, Td_VAV_W_1 and 17 more" in f for f in first)
     # physics still beats persistence without Td (its RC structure keeps the sign of the heat right) but loses
-    # to the time-of-week mean (in W, E and NE: 3 of 6 with the slabs against the storeys, 5 with them
-    # adiabatic), and the verdict says so
+    # to the time-of-week mean (with the default gain_days="auto" in 1 of 6 zones; with the paper's "week"
+    # profile, the default before session 8, in W, E and NE), and the verdict says so
     verdict = _verdict(tmp_path / "eval.json")
     phys = [r for r in verdict["zones"] if r["model"] == "physics"]
-    assert sum(not r["beats_time_of_week"] for r in phys) >= 3, phys
+    assert sum(not r["beats_time_of_week"] for r in phys) >= 1, phys
     assert "!! physics: WORSE THAN THE TIME-OF-WEEK MEAN in " in ev.stdout
     assert set(verdict["missing_inputs"]) == {"lumped", "zones", "physics"}
     assert verdict["likely_causes"]["physics"][0].startswith("missing input: the boxes reheat"), verdict

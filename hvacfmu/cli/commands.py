@@ -392,9 +392,9 @@ def _add_fit_parser(sub) -> None:
         "--gain-days",
         choices=GAIN_DAYS,
         help="physics: step 2's internal-gain profile (default: the building file's [physics].gain_days, else "
-        "'week', the paper's per time of week; 'workdays' pools Monday-Friday; 'shrunk' pools them where the "
-        "training weeks show no weekday pattern; 'auto' takes the one of the three with the lowest 24-h open-loop "
-        "RMS in blocked cross-validation over the training weeks)",
+        "'auto': the one of 'week' (the paper's per time of week), 'workdays' (Monday-Friday pooled) and 'shrunk' "
+        "(pooled where the training weeks show no weekday pattern) with the lowest 24-h open-loop RMS in blocked "
+        "cross-validation over the training weeks)",
     )
     p.add_argument(
         "--couplings",

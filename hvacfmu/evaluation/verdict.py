@@ -447,7 +447,8 @@ def gain_profile_hint(model, zones) -> str:
     where the training weeks show no weekday pattern (``gain_days = "shrunk"``) won every zone of five of
     the six emulated BMS exports (``"week"``: two of six) and gave the lowest RMS on both EnergyPlus
     buildings, but lost one zone-season cell of the 16-week reheat data that ``"week"`` won (README,
-    "Your own BMS export"); so it is a hint, and the default stays the paper's. A model fitted with another
+    "Your own BMS export"). Since session 8 the default is ``"auto"`` (the profile chosen by cross-validation), so
+    the hint reaches a model fitted with ``gain_days="week"`` on purpose. A model fitted with another
     ``gain_days``, ``"auto"`` included (the profile chosen by cross-validation on the training weeks), gets none.
     """
     if getattr(model, "kind", None) != "physics":

@@ -26,10 +26,10 @@ air at the measured temperatures and lets the walls follow physically. With
 ``gain_days="workdays"`` Monday to Friday share one daily profile (the mean of
 every training workday of the season), Saturday and Sunday keep their own;
 with ``"shrunk"`` each workday's profile is shrunk toward that Monday-Friday
-profile by a random-effects weight from the training weeks' scatter (the
-default ``"week"`` is the paper's profile per time of week); with ``"auto"`` the
-one of the three with the lowest 24-h open-loop RMS in blocked cross-validation
-over the training weeks (module :mod:`.gaincv`).
+profile by a random-effects weight from the training weeks' scatter
+(``"week"`` is the paper's profile per time of week); with ``"auto"``, the
+default since session 8, the one of the three with the lowest 24-h open-loop
+RMS in blocked cross-validation over the training weeks (module :mod:`.gaincv`).
 
 Uncertainty: the covariance ``s^2 (J^T J)^{-1}`` of all parameters from the
 Jacobian at the optimum, with the residual variance inflated by
@@ -323,7 +323,7 @@ def fit_physics(
         to the filter, their errors bias the parameters.
     gain_days : {"week", "workdays", "shrunk", "auto"} or None
         Day types of step 2's seasonal gain profile; None (default): the
-        building file's ``[physics].gain_days``, else ``"week"``. ``"week"``: the
+        building file's ``[physics].gain_days``, else ``"auto"``. ``"week"``: the
         paper's profile per time of week (eq. fixed_ig), each slot the mean of
         the few training weeks of the season, so one unusual day (a holiday, a
         change of occupancy level) weighs a third of its weekday with three
@@ -345,8 +345,10 @@ def fit_physics(
         test weeks never used; :func:`.gaincv.choose_gain_days`, about a second),
         recorded in ``meta["gains"]["auto"]`` (``chosen``, ``cv_rms``, ...). It
         chose ``"workdays"`` or ``"shrunk"`` on every emulated data set of
-        ``benchmarks/bench_gain_days.py`` and so loses the same reheat cell; not
-        the default either (README "A profile between the two").
+        ``benchmarks/bench_gain_days.py`` and so loses the same reheat cell, but
+        the pooled profiles had the lower RMS in 10 of 10 seven-week winter
+        exports never used before (``benchmarks/short_winter_s8.md``): the
+        default since session 8 (README, Model B).
 
     Returns
     -------
@@ -643,10 +645,10 @@ def _gain_days_problems(gain_days) -> list[str]:
 
 
 def _gain_days(building, gain_days: str | None) -> str:
-    """Step 2's day types: the argument, else the building file's ``[physics].gain_days``, else ``"week"``."""
+    """Step 2's day types: the argument, else the building file's ``[physics].gain_days``, else ``"auto"``."""
     if gain_days is not None:
         return gain_days
-    value = ((building.physics or {}).get("physics") or {}).get("gain_days", "week")
+    value = ((building.physics or {}).get("physics") or {}).get("gain_days", "auto")
     if value not in GAIN_DAYS:
         where = f" of {building.source}" if getattr(building, "source", None) else ""
         raise FitError(f"[physics].gain_days{where} must be {_one_of()}, got {value!r}: fix the building file")
