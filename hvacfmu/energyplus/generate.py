@@ -264,7 +264,8 @@ def generate(
         IDF objects (text) added to the run's IDF after its export edits, e.g. an effect a test bed injects: an
         ``InternalMass``, a ``ZoneCrossMixing``, an ``ElectricEquipment`` on a ``Schedule:File``, a
         ``RunPeriodControl:SpecialDays``. The building file is still read from the unedited IDF, so what is added
-        here is invisible to it (as a hidden effect is to a BMS). ``{run_dir}`` in the text is replaced by the
+        here is invisible to its zones, facades and physics tables (as a hidden effect is to a BMS); EnergyPlus's
+        autosizing does see it, so the boxes' ``m_min``/``m_max`` are those of the edited building. ``{run_dir}`` in the text is replaced by the
         folder ``files`` are written to.
     files : mapping of str to str, optional
         ``{file name: text}`` written into the run's folder before EnergyPlus starts (``Schedule:File`` data of
