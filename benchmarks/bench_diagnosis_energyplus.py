@@ -373,7 +373,9 @@ def _place(f: dict) -> str:
     loc = f["location"]
     if f["cause"] == "internal_gain_schedule" and loc.get("dates"):
         return f"{loc.get('variant')} {loc['dates'][0]}..{loc['dates'][-1]} ({len(loc['dates'])} d)"
-    return ", ".join(f"{k}={'+'.join(v) if isinstance(v, list) else v}" for k, v in loc.items())
+    return ", ".join(
+        f"{k}={'+'.join(map(str, v)) if isinstance(v, list) else v}" for k, v in loc.items() if k != "cause"
+    )
 
 
 def print_summary(results: dict) -> None:
@@ -393,6 +395,16 @@ def print_summary(results: dict) -> None:
             print(
                 f"    {f['cause']:24s} {_place(f):55s} cv {f['cv_gain_percent'] or 0:+6.1f} % t {f['cv_t'] or 0:5.1f}  {tag}"
             )
+        base = next(
+            (b for b in results.values() if b["case"]["effect"] is None and b["case"]["weather"] == c["weather"]), None
+        )
+        for f in row["false"]:
+            same = [g for g in (base or {}).get("candidates", []) if same_cause_place(f, g)]
+            was = "; ".join(
+                f"{g['status']} (dBIC {g['delta_bic'] or 0:.0f}, cv {g['cv_gain_percent'] or 0:+.1f} % t {g['cv_t'] or 0:.1f})"
+                for g in same
+            )
+            print(f"      FALSE {f['cause']} {_place(f)}: in the clean run {was or 'not a screened candidate'}")
         if row.get("gone"):
             print("    clean-run findings absent here: " + "; ".join(f"{g['cause']} {_place(g)}" for g in row["gone"]))
         print(
