@@ -137,11 +137,52 @@ def test_idf_parser_and_geometry():
         ({"prototype": PROTOTYPE, "floor": "nope"}, DataError, "no conditioned zone matches"),
         ({"prototype": PROTOTYPE, "start": "12-20", "weeks": 2}, DataError, "one calendar year"),
         ({"prototype": PROTOTYPE, "weather": "mars.epw"}, DataError, "weather file 'mars.epw' not found"),
+        (
+            {"prototype": PROTOTYPE, "days": 1, "extra_idf": "InternalMass, m, c, Core_ZN,, 10"},
+            BuildingError,
+            "missing",
+        ),
+        ({"prototype": PROTOTYPE, "days": 1, "extra_idf": "! only a comment"}, BuildingError, "no IDF object"),
+        ({"prototype": PROTOTYPE, "days": 1, "files": {"../x.csv": "1"}}, DataError, "plain file names"),
     ],
 )
 def test_bad_requests(tmp_path, kwargs, exc, match):
     with pytest.raises(exc, match=match):
         generate(tmp_path, **kwargs)
+
+
+def test_extra_idf_objects_are_added_to_the_run_idf_and_keyed_in_the_cache():
+    """The IDF-edit hook of a diagnosis test bed: the run's IDF gets the objects after the export's edits, the
+    building file's IDF does not, and the cache key changes with the text and with a file's content."""
+    import datetime as dt
+
+    from hvacfmu.energyplus import inputs
+    from hvacfmu.energyplus.generate import cache_key
+    from hvacfmu.energyplus.idf import read_idf
+
+    path = inputs.resolve_prototype(PROTOTYPE)
+    idf = read_idf(path)
+    n = len(idf.objects)
+    site = inputs.read_site(inputs.resolve_weather(None, path))
+    inputs.prepare_idf(idf, dt.date(2017, 1, 1), dt.date(2017, 1, 2), site)
+    extra = "Construction, heavy, Concrete;\nInternalMass, hvacfmu_mass, heavy, Core_ZN, , 120.0; ! 120 m2\n"
+    notes = inputs.add_objects(idf, extra)
+    assert notes == ["added Construction 'heavy' (extra_idf)", "added InternalMass 'hvacfmu_mass' (extra_idf)"]
+    text = idf.text()
+    assert "InternalMass,hvacfmu_mass,heavy,Core_ZN,,120.0;" in text
+    assert text.index("RunPeriod,hvacfmu") < text.index("InternalMass,hvacfmu_mass")  # after the export's edits
+    assert len(idf.all("RunPeriod")) == 1 and idf.by_name("InternalMass")["hvacfmu_mass"].number(4) == 120.0
+    assert len(read_idf(path).objects) == n  # the file itself is untouched
+    keys = {
+        cache_key(PROTOTYPE, days=2),
+        cache_key(PROTOTYPE, days=2, extra_idf=extra),
+        cache_key(PROTOTYPE, days=2, extra_idf=extra, files={"a.csv": "1\n"}),
+        cache_key(PROTOTYPE, days=2, extra_idf=extra, files={"a.csv": "2\n"}),
+    }
+    assert len(keys) == 4
+    assert cache_key(PROTOTYPE, days=2, files={"a.csv": "1", "b.csv": "2"}) == cache_key(
+        PROTOTYPE, days=2, files={"b.csv": "2", "a.csv": "1"}
+    )
 
 
 def test_callback_exception_stops_the_run(tmp_path):

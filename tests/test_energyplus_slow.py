@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -188,3 +189,31 @@ def test_export_is_deterministic(tmp_path):
     b = generate(tmp_path / "b", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
     assert a.measurements.read_bytes() == b.measurements.read_bytes()
     assert a.building.read_bytes() == b.building.read_bytes()
+
+
+def test_injected_equipment_heat_shows_in_the_export(tmp_path):
+    """A 12 kW ElectricEquipment on a Schedule:File (given through ``files``) added with ``extra_idf`` warms its
+    zone while the HVAC is off (1 January 2017 is a Sunday); the building file's zones, facades and physics tables
+    do not see it (EnergyPlus's autosizing does: the boxes' limits come from the run's sizing)."""
+    import tomllib
+
+    from hvacfmu.energyplus import generate
+
+    sched = "Schedule:File,hvacfmu_on,,{run_dir}/on.csv,1,0,8760,Comma,No,60,No;\n"
+    extra = sched + "ElectricEquipment,hvacfmu_heater,Perimeter_mid_ZN_3,hvacfmu_on,EquipmentLevel,12000,,,0,0,0,x;\n"
+    files = {"on.csv": "1\n" * 8760}
+    base = generate(tmp_path / "base", VAV_OFFICE[0], floor=VAV_OFFICE[1], days=2)
+    hot = generate(tmp_path / "hot", VAV_OFFICE[0], floor=VAV_OFFICE[1], days=2, extra_idf=extra, files=files)
+    a, b = pd.read_parquet(base.measurements), pd.read_parquet(hot.measurements)
+    sunday = slice(0, 96)  # local 1 January, HVAC off all day
+    rise = (b["T_Perimeter_mid_ZN_3"] - a["T_Perimeter_mid_ZN_3"]).iloc[sunday]
+    others = (b["T_Perimeter_mid_ZN_1"] - a["T_Perimeter_mid_ZN_1"]).iloc[sunday]
+    assert rise.mean() > 3.0  # [K] 12 kW in a 569 m3 zone over a day
+    assert rise.mean() > 5 * abs(others.mean())
+    tables = [tomllib.loads(p.building.read_text()) for p in (base, hot)]
+    for t in tables:
+        t.pop("vavs")
+    assert tables[0] == tables[1]
+    info = json.loads(hot.info.read_text())
+    assert "added ElectricEquipment 'hvacfmu_heater' (extra_idf)" in info["idf_changes"]
+    assert list(info["files"]) == ["on.csv"]

@@ -18,6 +18,7 @@ import os
 import shutil
 import tempfile
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -232,6 +233,8 @@ def generate(
     zones=None,
     timezone: str | None = None,
     fmt: str = "parquet",
+    extra_idf: str | None = None,
+    files: Mapping[str, str] | None = None,
 ) -> EnergyPlusPaths:
     """Run an EnergyPlus building and write what its BMS would export.
 
@@ -257,6 +260,16 @@ def generate(
     timezone : str, optional
         IANA time zone of the site; default from the weather file's state.
     fmt : {"parquet", "csv"}
+    extra_idf : str, optional
+        IDF objects (text) added to the run's IDF after its export edits, e.g. an effect a test bed injects: an
+        ``InternalMass``, a ``ZoneCrossMixing``, an ``ElectricEquipment`` on a ``Schedule:File``, a
+        ``RunPeriodControl:SpecialDays``. The building file is still read from the unedited IDF, so what is added
+        here is invisible to its zones, facades and physics tables (as a hidden effect is to a BMS); EnergyPlus's
+        autosizing does see it, so the boxes' ``m_min``/``m_max`` are those of the edited building. ``{run_dir}`` in the text is replaced by the
+        folder ``files`` are written to.
+    files : mapping of str to str, optional
+        ``{file name: text}`` written into the run's folder before EnergyPlus starts (``Schedule:File`` data of
+        ``extra_idf``, referenced as ``{run_dir}/name``). Names are plain file names.
 
     Returns
     -------
@@ -284,6 +297,10 @@ def generate(
     # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
     run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
     notes = inputs.prepare_idf(idf, run_first, last, site)
+    files = dict(files or {})
+    bad = [n for n in files if not n or Path(n).name != n or n in (".", "..")]
+    if bad:
+        raise DataError(f"files: names must be plain file names (no folder), got {bad}")
     warned = [w for w in (inputs.site_mismatch(idf, site, epw.name),) if w]
     for w in warned:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
@@ -291,6 +308,10 @@ def generate(
     outdir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hvacfmu-eplus-") as work:
         run_idf = Path(work) / "in.idf"
+        if extra_idf:
+            notes += inputs.add_objects(idf, extra_idf.replace("{run_dir}", work))
+        for name, text in files.items():
+            (Path(work) / name).write_text(text, encoding="latin-1")
         run_idf.write_text(idf.text(), encoding="latin-1")
         probes = export_probes(boxes, ahus, zone_names)
         log.info("EnergyPlus: %s with %s, %s to %s", idf_path.name, epw.name, first, last)
@@ -322,7 +343,8 @@ def generate(
             "boxes": [dataclasses.asdict(b) for b in boxes],
             "air_density": hvac.std_air_density(site.elevation),
             "zones_left_out": left_out,
-            "idf_changes": notes,
+            "idf_changes": [n.replace(work, "{run_dir}") for n in notes],
+            "files": {n: hashlib.sha256(t.encode("latin-1")).hexdigest() for n, t in files.items()},
             "warnings": warned,
             "approximations": list(APPROXIMATIONS),
             "export_version": EXPORT_VERSION,
@@ -352,7 +374,7 @@ def cache_key(prototype, **options) -> str:
     idf_path = inputs.resolve_prototype(prototype)
     epw = inputs.resolve_weather(options.get("weather"), idf_path)
     h = hashlib.sha256()
-    h.update(json.dumps({k: options[k] for k in sorted(options)}, default=str).encode())
+    h.update(json.dumps({k: options[k] for k in sorted(options)}, sort_keys=True, default=str).encode())
     h.update(idf_path.read_bytes())
     h.update(epw.read_bytes())
     return f"energyplus-v{EXPORT_VERSION}-{idf_path.stem}-{h.hexdigest()[:12]}"

@@ -16,7 +16,7 @@ import zoneinfo
 from pathlib import Path
 
 from ..errors import BuildingError, DataError
-from .idf import Idf
+from .idf import Idf, parse_idf
 
 #: IANA time zone of the US states of the weather files shipped with EnergyPlus (and their neighbours).
 US_STATE_TIMEZONES = {
@@ -232,3 +232,18 @@ def site_mismatch(idf: Idf, site: Site, epw_name: str) -> str | None:
         "ground temperatures are kept, so the data are that design in this climate (boxes and units may be "
         "too small or too large for it); give an IDF sized for the site to export a building designed for it"
     )
+
+
+def add_objects(idf: Idf, text: str) -> list:
+    """Append the IDF objects of ``text`` to ``idf`` (in place); returns one note per object added.
+
+    Raises
+    ------
+    BuildingError
+        When ``text`` ends inside an object (a missing ``;``) or holds no object.
+    """
+    extra = parse_idf(text, source="extra_idf")
+    if not extra.objects:
+        raise BuildingError("extra_idf holds no IDF object (objects are 'Class, field, ...;')")
+    idf.objects.extend(extra.objects)
+    return [f"added {o.cls} {o.name!r} (extra_idf)" for o in extra.objects]
