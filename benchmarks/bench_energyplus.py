@@ -8,7 +8,7 @@ the zones model against the smallest physically plausible gain.
 
 Usage::
 
-    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor][@weather]] ... [--unseen] [--weather KEY]
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor][@weather]] ... [--unseen | --unseen2] [--weather KEY]
         [--verdict] [--kinds lumped,zones,physics] [--weeks N]
 """
 
@@ -37,6 +37,16 @@ UNSEEN_PROTOTYPES = (
     "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_fl_miami",
     "ASHRAE901_OfficeMedium_STD2019_Denver:mid@usa_il_chicago",
     "RefBldgMediumOfficeNew2004_Chicago:mid",
+)
+#: Second round, chosen before any run (benchmarks/energyplus_unseen2.md); run with --unseen2.
+UNSEEN2_PROTOTYPES = (
+    "ASHRAE901_SchoolPrimary_STD2019_Denver:Pod_1",
+    "ASHRAE901_OfficeLarge_STD2019_Denver:mid@usa_nj_newark",
+    "RefBldgSmallOfficeNew2004_Chicago",
+    "ASHRAE901_RetailStripmall_STD2019_Denver@usa_fl_tampa",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:bot@usa_az_phoenix",
+    "ASHRAE901_OfficeMedium_STD2019_Denver:top@usa_ca_san_francisco",
+    "ASHRAE901_HotelLarge_STD2019_Denver:Flr_6",
 )
 
 
@@ -82,12 +92,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--prototype", action="append", help="prototype[:floor][@weather] (repeatable)")
     ap.add_argument("--unseen", action="store_true", help="the buildings and climates never used here")
+    ap.add_argument("--unseen2", action="store_true", help="the second round of them (energyplus_unseen2.md)")
     ap.add_argument("--weather", help="EPW file or pyenergyplus.dataset weather key (default: the prototype's city)")
     ap.add_argument("--verdict", action="store_true", help="also print the verdict evaluate prints first")
     ap.add_argument("--kinds", default="lumped,zones,physics")
     ap.add_argument("--weeks", type=int, default=None, help="weeks from 1 January (default: the whole year)")
     args = ap.parse_args(argv)
-    for p in args.prototype or (UNSEEN_PROTOTYPES if args.unseen else DEFAULT_PROTOTYPES):
+    default = UNSEEN2_PROTOTYPES if args.unseen2 else UNSEEN_PROTOTYPES if args.unseen else DEFAULT_PROTOTYPES
+    for p in args.prototype or default:
         run(p, args.kinds.split(","), args.weeks, args.weather, args.verdict)
 
 
