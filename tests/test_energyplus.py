@@ -376,3 +376,37 @@ def test_heating_limit_is_what_the_controls_allow():
     assert set(limits("ASHRAE901_OfficeMedium_STD2019_Denver").values()) == {40.0}  # VAV reheat terminals: 40 C
     # the DOE reference office's reheat terminals give no maximum: the zones' heating design temperature stays
     assert set(limits("RefBldgMediumOfficeNew2004_Chicago").values()) == {50.0}
+
+
+def test_zone_multipliers_divide_the_box_limits():
+    # the 90.1 large office's mid floor stands for 10 floors (Zone Multiplier 10): its terminals are sized for ten
+    # zones (Core_mid 60 kg/s), which the building file refused as "more than any VAV box delivers"; the
+    # mid-rise apartment's middle floor is multiplied through a ZoneGroup (Zone List Multiplier 2)
+    from hvacfmu.energyplus.hvac import air_boxes, box_limits, zone_multipliers
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    office = read_idf(resolve_prototype("office_large"))
+    mult = zone_multipliers(office)
+    assert mult["core_mid"] == 10.0 and mult["datacenter_mid_zn_6"] == 10.0 and mult["core_top"] == 1.0
+    boxes = {b.zone: b for b in air_boxes(office)}
+    assert boxes["Core_mid"].multiplier == 10.0 and boxes["Perimeter_top_ZN_1"].multiplier == 1.0
+    apartment = zone_multipliers(read_idf(resolve_prototype("apartment_mid_rise")))
+    assert apartment["m sw apartment"] == 2.0 and apartment["g sw apartment"] == 1.0
+    hotel = zone_multipliers(read_idf(resolve_prototype("hotel_large")))
+    assert hotel["room_3_mult9_flr_6"] == 9.0 and hotel["room_3_mult19_flr_3"] == 76.0
+    # sizing results as eplusout.eio gives them [m3/s]: for all ten copies
+    sizing = {
+        ("airterminal:singleduct:vav:reheat", "core_mid vav box component"): {
+            "Design Size Maximum Air Flow Rate [m3/s]": 61.6
+        },
+        ("airterminal:singleduct:vav:reheat", "core_top vav box component"): {
+            "Design Size Maximum Air Flow Rate [m3/s]": 6.9
+        },
+    }
+    sel = [boxes["Core_mid"], boxes["Core_top"]]
+    assert {b.terminal.lower() for b in sel} == {k[1] for k in sizing}
+    limits = box_limits(office, sel, sizing, 1.0)
+    assert limits[boxes["Core_mid"].name][1] == pytest.approx(6.16, abs=1e-6)  # [kg/s] one floor's core
+    assert limits[boxes["Core_top"].name][1] == pytest.approx(6.9, abs=1e-6)
+    assert limits[boxes["Core_mid"].name][0] == pytest.approx(0.261 * 6.16, abs=1e-4)  # constant minimum fraction

@@ -188,3 +188,55 @@ def test_export_is_deterministic(tmp_path):
     b = generate(tmp_path / "b", "restaurant_fast_food", days=2, start="07-10", fmt="csv")
     assert a.measurements.read_bytes() == b.measurements.read_bytes()
     assert a.building.read_bytes() == b.building.read_bytes()
+
+
+def test_multiplied_zones_export_one_copy_and_its_heat_balance_closes(tmp_path):
+    """The 90.1 large office's mid floor is one floor simulated for ten (Zone Multiplier 10). Its inlet nodes carry
+    the air of all ten and its terminals are sized for ten: the export refused the building (Core_mid m_max 60 kg/s,
+    "more than any VAV box delivers") and, for a smaller multiplied zone (the large hotel's Room_3_Mult9_Flr_6),
+    would have passed ten times the air into one zone silently. The exported m·cp·(Td − T_zone) must close the one
+    zone's air heat balance."""
+    import datetime as dt
+
+    from hvacfmu.building import load_building
+    from hvacfmu.energyplus import generate, hvac
+    from hvacfmu.energyplus.generate import _frame, export_probes, select_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import prepare_idf, read_site, resolve_prototype, resolve_weather
+    from hvacfmu.energyplus.run import Probe, simulate
+
+    paths = generate(tmp_path / "export", "office_large", floor="mid", days=2, start="01-17")
+    b = load_building(paths.building)
+    frame = pd.read_parquet(paths.measurements)
+    for v in b.vavs:
+        assert v.m_max < 10.0, v  # [kg/s] one floor's box
+        assert frame[f"m_{v.name}"].max() <= 1.05 * v.m_max, v.name
+
+    idf_path = resolve_prototype("office_large")
+    epw = resolve_weather(None, idf_path)
+    site = read_site(epw)
+    idf = read_idf(idf_path)
+    boxes = select_boxes(hvac.air_boxes(idf), "mid", None)
+    assert {bx.multiplier for bx in boxes} == {10.0}
+    ahus = {bx.ahu: bx.supply_node for bx in boxes}
+    zones = [bx.zone for bx in boxes]
+    prepare_idf(idf, dt.date(2017, 1, 17), dt.date(2017, 1, 18), site)
+    (tmp_path / "in.idf").write_text(idf.text(), encoding="latin-1")
+    probes = export_probes(boxes, ahus, zones)
+    terms = {
+        "sto": "Zone Air Heat Balance Air Energy Storage Rate",
+        "int": "Zone Air Heat Balance Internal Convective Heat Gain Rate",
+        "surf": "Zone Air Heat Balance Surface Convection Rate",
+        "iz": "Zone Air Heat Balance Interzone Air Transfer Rate",
+        "oa": "Zone Air Heat Balance Outdoor Air Transfer Rate",
+    }
+    probes += [Probe(f"{k}_{z}", var, z) for z in zones for k, var in terms.items()]
+    values, times, _ = simulate(tmp_path / "in.idf", epw, tmp_path / "out", probes)
+    df = _frame(values, times, probes, site, boxes, ahus)  # the export's own mapping
+    for bx in boxes:
+        z = bx.zone
+        delivered = df[f"m_{bx.name}"] * 1005.0 * (df[f"Td_{bx.name}"] - df[f"T_{hvac.sanitise(z)}"])  # [W]
+        rest = df[f"sto_{z}"] - df[f"int_{z}"] - df[f"surf_{z}"] - df[f"iz_{z}"] - df[f"oa_{z}"]
+        assert rest.std() > 300, z  # [W] the box works
+        # closes within a quarter of the spread (node values are step averages); ten times the air would not
+        assert np.sqrt(np.mean((delivered - rest) ** 2)) < 0.25 * rest.std(), z

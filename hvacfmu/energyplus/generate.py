@@ -32,7 +32,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.3"
+EXPORT_VERSION = "1.4"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -43,6 +43,10 @@ APPROXIMATIONS = (
     "T_supply_<ahu> is the air handler's supply outlet node temperature; it holds an idle value when the unit is off",
     "T_supply is the airflow-weighted mean of the units' supply temperatures (plain mean when no air flows)",
     "ghi = direct normal x sin(solar altitude) + diffuse horizontal, from EnergyPlus's site variables",
+    (
+        "a zone with a multiplier is one copy: its box's airflow and limits are the node's and the sizing's "
+        "divided by the multiplier (boxes[].multiplier)"
+    ),
     "surfaces towards unselected zones (plenums, attics, other floors) are adiabatic in the physics tables",
     "F-factor ground floors are a 15 cm concrete slab facing the ground at the annual mean ground temperature",
 )
@@ -128,6 +132,9 @@ def export_probes(boxes, ahus, zones):
 def _frame(values, times, probes, site, boxes, ahus) -> pd.DataFrame:
     utc = step_times(times, site.tz_hours, STEP_HOURS)
     df = pd.DataFrame(values, columns=[p.column for p in probes], index=utc.tz_convert(site.timezone))
+    for b in boxes:  # the node carries the air of every copy of a multiplied zone: keep one zone's (hvac docstring)
+        if b.multiplier != 1.0:
+            df[f"m_{b.name}"] = df[f"m_{b.name}"] / b.multiplier
     alt = np.radians(df.pop("_alt").to_numpy())
     ghi = df.pop("_dni").to_numpy() * np.clip(np.sin(alt), 0.0, None) + df.pop("_dhi").to_numpy()
     df["ghi"] = np.clip(ghi, 0.0, None)
@@ -277,6 +284,13 @@ def generate(
     all_boxes = hvac.air_boxes(idf)
     boxes = select_boxes(all_boxes, floor, zones)
     left_out = _zones_left_out(idf, all_boxes, floor, zones)
+    multiplied = {b.zone: b.multiplier for b in boxes if b.multiplier != 1.0}
+    if multiplied:
+        log.info(
+            "EnergyPlus: %d zone(s) with a zone multiplier, exported as one copy (airflow and box limits divided): %s",
+            len(multiplied),
+            ", ".join(f"{z} x{m:g}" for z, m in multiplied.items()),
+        )
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))

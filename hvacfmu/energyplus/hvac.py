@@ -13,6 +13,12 @@ Box limits come from the sizing results EnergyPlus writes to ``eplusout.eio``
 flow [m3/s]), converted to mass flow with the standard air density at the site's
 altitude; ``m_min`` is the terminal's constant minimum flow fraction times that
 maximum (VAV terminals), 0 for constant-volume terminals whose fan cycles.
+
+A zone with a multiplier (``Zone`` field Multiplier times its ``ZoneGroup``'s zone list multiplier: the 90.1 large
+office's mid floor stands for 10 floors, the large hotel's ``Room_3_Mult9_Flr_6`` for 9 rooms) is simulated once,
+but its inlet node carries the air of all its copies and its terminal is sized for all of them: a box's airflow
+and limits are that divided by the multiplier (``Box.multiplier``), the air of the one zone whose temperature,
+surfaces and volume are exported.
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ STD_T = 20.0
 @dataclasses.dataclass(frozen=True)
 class Box:
     """One air terminal: ``name`` (sanitised), ``zone`` (IDF zone name), terminal class and name,
-    ``outlet_node`` (the zone inlet node), ``ahu`` (IDF AirLoopHVAC name) and its ``supply_node``."""
+    ``outlet_node`` (the zone inlet node), ``ahu`` (IDF AirLoopHVAC name) and its ``supply_node``;
+    ``multiplier``: the zone's multiplier (its node flow and sizing are for that many copies of the zone)."""
 
     name: str
     zone: str
@@ -39,6 +46,7 @@ class Box:
     outlet_node: str
     ahu: str
     supply_node: str
+    multiplier: float = 1.0
 
 
 def sanitise(name: str) -> str:
@@ -99,6 +107,20 @@ def _ahu_of_terminal(idf, typ: str, name: str):
     return None
 
 
+def zone_multipliers(idf) -> dict:
+    """``{IDF zone name lower: multiplier}``: each zone's ``Multiplier`` field times the ``Zone List Multiplier`` of
+    every ``ZoneGroup`` whose ``ZoneList`` holds it (1 when unset)."""
+    out = {z.name.lower(): (z.number(6) or 1.0) for z in idf.all("Zone")}
+    lists = idf.by_name("ZoneList")
+    for group in idf.all("ZoneGroup"):
+        zl = lists.get(group.get(1).lower())
+        factor = group.number(2) or 1.0
+        for f in zl.fields[1:] if zl is not None else []:
+            if f.strip().lower() in out:
+                out[f.strip().lower()] *= factor
+    return out
+
+
 def air_boxes(idf) -> list:
     """Every air terminal fed by an air handler, in the IDF's zone order.
 
@@ -108,6 +130,7 @@ def air_boxes(idf) -> list:
         When no zone of the IDF has an air terminal on an ``AirLoopHVAC``.
     """
     boxes = []
+    multipliers = zone_multipliers(idf)
     for zone in idf.all("Zone"):
         terms = _terminals_of_zone(idf, zone.name)
         for i, (typ, name, node) in enumerate(terms):
@@ -115,7 +138,8 @@ def air_boxes(idf) -> list:
             if ahu is None:
                 continue
             suffix = "" if len(terms) == 1 else f"_{i + 1}"
-            boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1]))
+            mult = multipliers.get(zone.name.lower(), 1.0)
+            boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1], mult))
     if not boxes:
         raise BuildingError(
             f"IDF file {idf.source}: no zone has an air terminal fed by an AirLoopHVAC "
@@ -194,7 +218,8 @@ def _schedule_max(idf, name: str) -> float:
 
 
 def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
-    """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs.
+    """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs, for one copy of the
+    box's zone (sized flows divided by ``Box.multiplier``).
 
     Raises
     ------
@@ -224,7 +249,8 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
                 frac = (term.number(7) or 0.0) / v_max
             elif method == "scheduled":
                 frac = _schedule_max(idf, term.get(8))
-        limits[b.name] = (round(frac * v_max * rho, 5), round(v_max * rho, 5))
+        m_max = v_max * rho / b.multiplier
+        limits[b.name] = (round(frac * m_max, 5), round(m_max, 5))
     if problems:
         raise BuildingError(problems_message("Box limits could not be read", problems))
     return limits
