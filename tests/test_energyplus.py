@@ -410,3 +410,48 @@ def test_zone_multipliers_divide_the_box_limits():
     assert limits[boxes["Core_mid"].name][1] == pytest.approx(6.16, abs=1e-6)  # [kg/s] one floor's core
     assert limits[boxes["Core_top"].name][1] == pytest.approx(6.9, abs=1e-6)
     assert limits[boxes["Core_mid"].name][0] == pytest.approx(0.261 * 6.16, abs=1e-4)  # constant minimum fraction
+
+
+def test_zone_equipment_beside_the_box_is_exported_or_named():
+    # the large hotel's guest rooms get a DOAS box and a four-pipe fan coil that does most of their heating and
+    # cooling: the fan coil's air must be a box of the zone (its own unit), not silently missing from the data
+    from hvacfmu.energyplus.generate import _unmeasured_warning
+    from hvacfmu.energyplus.hvac import air_boxes, unmeasured_equipment, zones_without_boxes
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    hotel = read_idf(resolve_prototype("hotel_large"))
+    boxes = air_boxes(hotel)
+    room = [b for b in boxes if b.zone == "Room_1_Flr_6"]
+    assert [b.name for b in room] == ["VAV_Room_1_Flr_6", "FCU_Room_1_Flr_6"]
+    fcu = room[1]
+    assert fcu.terminal_type == "ZoneHVAC:FourPipeFanCoil" and fcu.ahu == "Room_1_Flr_6 fan coil"
+    assert fcu.outlet_node == fcu.supply_node == "Room_1_Flr_6 FCU Exhaust Node"  # its air outlet: a zone inlet
+    assert sum(b.name.startswith("FCU_") for b in boxes) == 9 and unmeasured_equipment(hotel, boxes) == {}
+    assert zones_without_boxes(hotel, boxes) == {}
+    # exhaust fans carry no heat of their own: nothing to report (restaurant kitchen and dining)
+    restaurant = read_idf(resolve_prototype("restaurant_fast_food"))
+    assert unmeasured_equipment(restaurant, air_boxes(restaurant)) == {}
+    # equipment without a zone inlet node of its own is named, not dropped silently
+    office = read_idf(resolve_prototype("ASHRAE901_OfficeSmall_STD2019_Denver"))
+    core = office.by_name("ZoneHVAC:EquipmentList")["core_zn equipment"]
+    core.fields[2:] = [
+        *core.fields[2:6],
+        "",
+        "",
+        "ZoneHVAC:Baseboard:Convective:Electric",
+        "Core_ZN Baseboard",
+        "2",
+        "2",
+    ]
+    office.add(
+        "ZoneHVAC:Baseboard:Convective:Electric", "Core_ZN Baseboard", "ALWAYS_ON", "HeatingDesignCapacity", "1000"
+    )
+    office_boxes = air_boxes(office)
+    assert [b.name for b in office_boxes if b.zone == "Core_ZN"] == ["VAV_Core_ZN"]
+    assert unmeasured_equipment(office, office_boxes) == {"Core_ZN": ["ZoneHVAC:Baseboard:Convective:Electric"]}
+    msg = _unmeasured_warning(office, office_boxes)
+    assert msg is not None and "1 exported zone(s)" in msg and "Core_ZN: ZoneHVAC:Baseboard:Convective:Electric" in msg
+    apartment = read_idf(resolve_prototype("apartment_mid_rise"))  # the ERV's nodes are its fans': named
+    found = unmeasured_equipment(apartment, air_boxes(apartment))
+    assert len(found) == 23 and set(map(tuple, found.values())) == {("ZoneHVAC:EnergyRecoveryVentilator",)}

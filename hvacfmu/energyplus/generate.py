@@ -112,6 +112,19 @@ def _zones_left_out(idf, all_boxes, floor, zones) -> dict:
     return out
 
 
+def _unmeasured_warning(idf, boxes) -> str | None:
+    """A warning naming the exported zones whose other zone equipment the export cannot measure (None if none)."""
+    found = hvac.unmeasured_equipment(idf, boxes)
+    if not found:
+        return None
+    listed = "; ".join(f"{z}: {', '.join(kinds)}" for z, kinds in list(found.items())[:5])
+    more = f" and {len(found) - 5} more" if len(found) > 5 else ""
+    return (
+        f"{len(found)} exported zone(s) have zone equipment whose heat no column carries (no zone inlet node of "
+        f"its own): {listed}{more}; the data miss that heat, models fitted on them see it as a disturbance"
+    )
+
+
 def export_probes(boxes, ahus, zones):
     """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
     p = [
@@ -298,7 +311,7 @@ def generate(
     # daylight saving time) is covered, then keep whole local days [first 00:00, last + 1 day 00:00).
     run_first = max(first - _dt.timedelta(days=1), _dt.date(first.year, 1, 1))
     notes = inputs.prepare_idf(idf, run_first, last, site)
-    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name),) if w]
+    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name), _unmeasured_warning(idf, boxes)) if w]
     for w in warned:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     outdir = Path(outdir)

@@ -6,7 +6,11 @@ node: ``ZoneHVAC:EquipmentConnections`` (zone -> inlet nodes) and
 the ``AirLoopHVAC`` whose supply path splitter (``AirLoopHVAC:ZoneSplitter``)
 feeds the terminal's inlet node; the unit's supply temperature is its supply
 side outlet node. Zones without an air terminal (plenums, attics, zones with
-only unit heaters) are not conditioned zones of the exported building.
+only unit heaters) are not conditioned zones of the exported building. Other
+zone equipment of an exported zone that blows air through one of its inlet nodes
+(a fan coil beside a DOAS box) is a box too, of its own one-box unit whose supply
+node is that inlet node; equipment that names no inlet node (a baseboard, an
+energy recovery ventilator) is listed by :func:`unmeasured_equipment`.
 
 Box limits come from the sizing results EnergyPlus writes to ``eplusout.eio``
 (``Component Sizing Information`` lines: design or user-specified maximum air
@@ -86,6 +90,40 @@ def _terminals_of_zone(idf, zone_name: str) -> list:
     return found
 
 
+#: Zone equipment that moves zone air out without conditioning it: no heat of its own for the data to carry.
+NO_HEAT_EQUIPMENT = ("fan:zoneexhaust",)
+#: Box name prefix of zone equipment that blows air into a zone beside its air terminal (fallback ``UNIT``).
+UNIT_PREFIXES = {
+    "zonehvac:fourpipefancoil": "FCU",
+    "zonehvac:unitheater": "UH",
+    "zonehvac:unitventilator": "UV",
+    "zonehvac:packagedterminalairconditioner": "PTAC",
+    "zonehvac:packagedterminalheatpump": "PTHP",
+    "zonehvac:windowairconditioner": "WAC",
+    "zonehvac:energyrecoveryventilator": "ERV",
+}
+
+
+def _other_equipment(idf, zone_name: str) -> list:
+    """(type, name, zone inlet node or "") of each zone equipment of ``zone_name`` that is not an air terminal: the
+    zone inlet node it blows its air into, "" when it has none (a baseboard, a radiant panel, an exhaust fan)."""
+    conns = [c for c in idf.all("ZoneHVAC:EquipmentConnections") if c.get(0).lower() == zone_name.lower()]
+    eq_list = idf.by_name("ZoneHVAC:EquipmentList").get(conns[0].get(1).lower()) if conns else None
+    if eq_list is None:
+        return []
+    inlet_nodes = {n.lower() for n in _node_list(idf, conns[0].get(2))}
+    found = []
+    fields = eq_list.fields[2:]
+    for k in range(0, len(fields) - 1, 6):
+        typ, name = fields[k].strip(), fields[k + 1].strip()
+        if not typ or typ.lower() == "zonehvac:airdistributionunit" or typ.lower().startswith("airterminal:"):
+            continue
+        obj = idf.by_name(typ).get(name.lower())
+        nodes = [f.strip() for f in obj.fields[1:] if f.strip().lower() in inlet_nodes] if obj is not None else []
+        found.append((typ, name, nodes[0] if nodes else ""))
+    return found
+
+
 def _ahu_of_terminal(idf, typ: str, name: str):
     """(AirLoopHVAC name, supply outlet node) feeding terminal ``name``, or None."""
     term = idf.by_name(typ).get(name.lower())
@@ -140,6 +178,17 @@ def air_boxes(idf) -> list:
             suffix = "" if len(terms) == 1 else f"_{i + 1}"
             mult = multipliers.get(zone.name.lower(), 1.0)
             boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1], mult))
+        if not boxes or boxes[-1].zone != zone.name:
+            continue
+        # a zone of the air loops whose other zone equipment blows air into it too (the large hotel's guest rooms:
+        # a DOAS box and a four-pipe fan coil): that air is part of the zone's heat balance, export it as a box of
+        # its own unit (its supply temperature is its outlet node, as for a packaged single-zone unit)
+        units = [u for u in _other_equipment(idf, zone.name) if u[2]]
+        for i, (typ, name, node) in enumerate(units):
+            prefix = UNIT_PREFIXES.get(typ.lower(), "UNIT")
+            suffix = "" if len(units) == 1 else f"_{i + 1}"
+            mult = multipliers.get(zone.name.lower(), 1.0)
+            boxes.append(Box(f"{prefix}_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, name, node, mult))
     if not boxes:
         raise BuildingError(
             f"IDF file {idf.source}: no zone has an air terminal fed by an AirLoopHVAC "
@@ -147,6 +196,18 @@ def air_boxes(idf) -> list:
             "AirLoopHVAC:ZoneSplitter); hvacfmu needs air-side boxes to export airflows"
         )
     return boxes
+
+
+def unmeasured_equipment(idf, boxes) -> dict:
+    """``{IDF zone: [zone equipment types]}`` of the exported zones with zone equipment (other than an exhaust fan)
+    that names none of the zone's inlet nodes (a baseboard, a radiant panel; an energy recovery ventilator, whose
+    nodes are its fans'): its heat is in the zone but in no column of the export."""
+    out = {}
+    for zone in dict.fromkeys(b.zone for b in boxes):
+        kinds = [t for t, _, node in _other_equipment(idf, zone) if not node and t.lower() not in NO_HEAT_EQUIPMENT]
+        if kinds:
+            out[zone] = kinds
+    return out
 
 
 def zones_without_boxes(idf, boxes) -> dict:
@@ -217,6 +278,10 @@ def _schedule_max(idf, name: str) -> float:
     return 0.0
 
 
+#: Sizing descriptions of a zone unit's supply air flow (``Design Size ...`` / ``User-Specified ...``).
+_UNIT_FLOWS = ("Maximum Supply Air Flow Rate", "Cooling Supply Air Flow Rate", "Heating Supply Air Flow Rate")
+
+
 def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
     """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs, for one copy of the
     box's zone (sized flows divided by ``Box.multiplier``).
@@ -232,6 +297,9 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
         v_max = _sized(sizing, b.terminal_type, b.terminal, "Maximum Air Flow Rate")
         if v_max is None:
             v_max = _sized(sizing, "AirTerminal:SingleDuct:VAV:Reheat", b.terminal, "Maximum Air Flow Rate")
+        if v_max is None:  # zone equipment (fan coil, unit heater, PTAC): its supply air flow, the larger one
+            sized = [_sized(sizing, b.terminal_type, b.terminal, p) for p in _UNIT_FLOWS]
+            v_max = max((v for v in sized if v is not None), default=None)
         if v_max is None or v_max <= 0:
             problems.append(
                 f"box {b.name} ({b.terminal_type} {b.terminal!r}): no maximum air flow rate in the IDF "
