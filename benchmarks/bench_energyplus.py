@@ -8,7 +8,7 @@ the zones model against the smallest physically plausible gain.
 
 Usage::
 
-    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor][@weather]] ... [--unseen | --unseen2] [--weather KEY]
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor|:zone,zone,...][@weather]] ... [--unseen | --unseen2] [--weather KEY]
         [--verdict] [--kinds lumped,zones,physics] [--weeks N]
 """
 
@@ -42,6 +42,9 @@ UNSEEN_PROTOTYPES = (
 UNSEEN2_PROTOTYPES = (
     "ASHRAE901_SchoolPrimary_STD2019_Denver:Pod_1",
     "ASHRAE901_OfficeLarge_STD2019_Denver:mid@usa_nj_newark",
+    # replacement of the case above, whose data centre (held at exactly 27 C) is masked as a stuck sensor
+    "ASHRAE901_OfficeLarge_STD2019_Denver:Core_mid,Perimeter_mid_ZN_1,Perimeter_mid_ZN_2,Perimeter_mid_ZN_3,"
+    "Perimeter_mid_ZN_4@usa_nj_newark",
     "RefBldgSmallOfficeNew2004_Chicago",
     "ASHRAE901_RetailStripmall_STD2019_Denver@usa_fl_tampa",
     "ASHRAE901_OfficeMedium_STD2019_Denver:bot@usa_az_phoenix",
@@ -52,24 +55,32 @@ UNSEEN2_PROTOTYPES = (
 
 def run(prototype: str, kinds, weeks, weather=None, verdict=False):
     from hvacfmu.data import prepare
+    from hvacfmu.errors import FitError
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fitting import fit
 
     prototype, _, at = prototype.partition("@")
     weather = at or weather
     name, _, floor = prototype.partition(":")
+    zones = floor.split(",") if "," in floor else None  # NAME:zone,zone,... keeps those IDF zones
+    floor = None if zones else floor
     t0 = time.perf_counter()
     # the slow tests use the same options; weather only when given, so the Denver/Chicago defaults keep their key
     opts = {"weather": weather} if weather else {}
+    if zones:
+        opts["zones"] = zones
     paths = cached_export(name, floor=floor or None, weeks=weeks, **opts)
     t_gen = time.perf_counter() - t0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ds = prepare(paths.measurements, paths.building)
-        models, t_fit = {}, {}
+        models, t_fit, refused = {}, {}, {}
         for k in kinds:
             t0 = time.perf_counter()
-            models[k] = fit(ds, k, progress=False)
+            try:
+                models[k] = fit(ds, k, progress=False)
+            except FitError as exc:  # one kind refused (e.g. Model B unstable): say why, score the others
+                refused[k] = str(exc)
             t_fit[k] = time.perf_counter() - t0
         res = evaluate(list(models.values()), ds, names=list(models))
     print(
@@ -79,6 +90,8 @@ def run(prototype: str, kinds, weeks, weather=None, verdict=False):
         f"{len(ds.building.ahus)} air handler(s), {len(ds.weeks)} weeks "
         f"(export {t_gen:.1f} s incl. cache; fit " + ", ".join(f"{k} {t:.1f} s" for k, t in t_fit.items()) + ")"
     )
+    for k, why in refused.items():
+        print(f"{k}: REFUSED by the fit: {why}")
     print(margins_table(res).to_string(float_format=lambda x: f"{x:.3f}"))
     if "zones" in models:
         for line in airflow_identifiability(models["zones"], ds.building):
