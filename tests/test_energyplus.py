@@ -455,3 +455,38 @@ def test_zone_equipment_beside_the_box_is_exported_or_named():
     apartment = read_idf(resolve_prototype("apartment_mid_rise"))  # the ERV's nodes are its fans': named
     found = unmeasured_equipment(apartment, air_boxes(apartment))
     assert len(found) == 23 and set(map(tuple, found.values())) == {("ZoneHVAC:EnergyRecoveryVentilator",)}
+
+
+def test_ffactor_ground_floor_keeps_its_insulation():
+    # EnergyPlus builds an F-factor ground floor as a fictitious insulation layer under 15 cm of concrete, with a total
+    # resistance A / (P F) including the inside film (measured in EnergyPlus on the primary school's floors: 9.5 and
+    # 5.2 m2 K/W face to face against A / (P F) = 10.0 and 5.5); the export made it a bare 15 cm slab (0.11 m2 K/W):
+    # 50 to 500 times the heat loss to the ground
+    from hvacfmu.energyplus import geometry
+    from hvacfmu.energyplus.idf import IdfObject, read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+    from hvacfmu.energyplus.physics import physics_tables
+
+    def floor_resistance(prototype, zone):
+        idf = read_idf(resolve_prototype(prototype))
+        t = physics_tables(idf, [zone], geometry.surfaces(idf), geometry.windows(idf))
+        mats = {m["name"]: m for m in t["materials"]}
+        cons = {c["name"]: c for c in t["constructions"]}
+        (el,) = [e for e in t["elements"] if e["side1"] == "ground"]
+        total = 0.0
+        for layer in cons[el["construction"]]["layers"]:
+            m = mats[layer["material"]]
+            total += m["r_value"] if "r_value" in m else layer["thickness"] / m["conductivity"]
+        return total + 0.135  # [m2 K/W] EnergyPlus's inside film of an F-factor floor
+
+    school = "ASHRAE901_SchoolPrimary_STD2019_Denver"
+    assert floor_resistance(school, "Mult_Class_1_Pod_1_ZN_1_FLR_1") == pytest.approx(
+        477.0 / (53.0 * 0.90012), rel=1e-3
+    )
+    assert floor_resistance(school, "Corner_Class_1_Pod_1_ZN_1_FLR_1") == pytest.approx(
+        99.0 / (20.0 * 0.90012), rel=1e-3
+    )
+    # no exposed perimeter: next to no heat to the ground (the small office makes its core's floor adiabatic itself)
+    from hvacfmu.energyplus.physics import ffactor_resistance
+
+    assert ffactor_resistance(IdfObject("Construction:FfactorGroundFloor", ["core", "0.9", "150", "0"])) > 100.0

@@ -32,7 +32,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.4"
+EXPORT_VERSION = "1.5"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -48,7 +48,10 @@ APPROXIMATIONS = (
         "divided by the multiplier (boxes[].multiplier)"
     ),
     "surfaces towards unselected zones (plenums, attics, other floors) are adiabatic in the physics tables",
-    "F-factor ground floors are a 15 cm concrete slab facing the ground at the annual mean ground temperature",
+    (
+        "F-factor ground floors are a 15 cm concrete slab under a no-mass insulation layer giving EnergyPlus's "
+        "resistance A / (P F) with the inside film, facing the ground at the annual mean ground temperature"
+    ),
 )
 
 
