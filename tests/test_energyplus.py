@@ -490,3 +490,26 @@ def test_ffactor_ground_floor_keeps_its_insulation():
     from hvacfmu.energyplus.physics import ffactor_resistance
 
     assert ffactor_resistance(IdfObject("Construction:FfactorGroundFloor", ["core", "0.9", "150", "0"])) > 100.0
+
+
+def test_a_zone_held_exactly_at_its_setpoint_is_said_at_export():
+    # the 90.1 large office's data centre is held at exactly 27 C for 87 % of a year by EnergyPlus's ideal control;
+    # hvacfmu's data check then masks it as a stuck sensor ('fix or drop the sensor') and most windows are skipped:
+    # the export, which knows why, must say so
+    from hvacfmu.energyplus.generate import _held_warning
+
+    idx = pd.date_range("2017-01-01", periods=5 * 96, freq="15min", tz="America/New_York")
+    rng = np.random.default_rng(0)
+    frame = pd.DataFrame(
+        {
+            "T_Office": 21 + rng.normal(0, 0.3, len(idx)),
+            "T_DataCenter": np.r_[np.full(3 * 96, 27.0), 27 + rng.normal(0, 0.1, 2 * 96)],
+            "m_VAV_DataCenter": np.full(len(idx), 0.52),  # a constant airflow is not a temperature
+            "Td_VAV_Office": 14 + rng.normal(0, 1, len(idx)),
+        },
+        index=idx,
+    )
+    msg = _held_warning(frame)
+    assert msg is not None and "1 temperature column(s)" in msg and "T_DataCenter (27 °C in 60 % of the steps)" in msg
+    assert "T_Office" not in msg and "m_VAV" not in msg and "--zone" in msg
+    assert _held_warning(frame.drop(columns="T_DataCenter")) is None

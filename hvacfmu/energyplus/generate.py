@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from .. import building as _building
+from ..data.plausibility import STUCK_DAYS, STUCK_PREFIXES, stuck_runs
 from ..errors import DataError, HvacfmuWarning
 from . import geometry, hvac, inputs, physics
 from .idf import read_idf
@@ -32,7 +33,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.5"
+EXPORT_VERSION = "1.6"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -125,6 +126,33 @@ def _unmeasured_warning(idf, boxes) -> str | None:
     return (
         f"{len(found)} exported zone(s) have zone equipment whose heat no column carries (no zone inlet node of "
         f"its own): {listed}{more}; the data miss that heat, models fitted on them see it as a disturbance"
+    )
+
+
+def _held_warning(frame: pd.DataFrame) -> str | None:
+    """A warning naming the temperature columns EnergyPlus holds at exactly one value for ``STUCK_DAYS`` or longer.
+
+    EnergyPlus's ideal control can hold a zone exactly at its setpoint for days (the 90.1 large office's data centre
+    at 27 C for 87 % of a year); a real sensor never repeats one value that long, and hvacfmu's data check masks such
+    runs as a stuck sensor. Said here, where the cause is known, rather than left to that check. None when no column
+    has such a run.
+    """
+    times = pd.DatetimeIndex(frame.index).as_unit("ns").asi8
+    held = []
+    for col in frame.columns:
+        if not col.startswith(STUCK_PREFIXES):
+            continue
+        values = frame[col].to_numpy(dtype=float)
+        runs = stuck_runs(values, times, STUCK_DAYS * 86400)
+        n = sum(b - a for a, b in runs)
+        if n:
+            held.append(f"{col} ({values[runs[0][0]]:g} °C in {100 * n / len(values):.0f} % of the steps)")
+    if not held:
+        return None
+    return (
+        f"EnergyPlus holds {len(held)} temperature column(s) at exactly one value for {STUCK_DAYS:g} days or longer "
+        f"(ideal control at the setpoint): {', '.join(held)}; hvacfmu's data check masks such runs as a stuck sensor, "
+        "so those steps count as missing (a zone's windows are then skipped): leave such zones out (--zone)"
     )
 
 
@@ -331,6 +359,10 @@ def generate(
     lo = pd.Timestamp(first).tz_localize(site.timezone)
     hi = pd.Timestamp(last + _dt.timedelta(days=1)).tz_localize(site.timezone)
     frame = frame[(frame.index >= lo) & (frame.index < hi)]
+    held = _held_warning(frame)
+    if held:
+        warnings.warn(held, HvacfmuWarning, stacklevel=2)
+        warned.append(held)
     limits = _sizing_limits(read_idf(idf_path), boxes, eio, hvac.std_air_density(site.elevation))
     label = f"{idf_path.stem} ({site.label})" + (f", zones with {floor!r}" if floor else "")
     d = _building_dict(read_idf(idf_path), site, boxes, ahus, limits, label)
