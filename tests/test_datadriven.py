@@ -547,6 +547,24 @@ def test_thin_season_warns(tmp_path, six_building, zone_truth):
     assert m.meta["gain_coverage"]["winter"] < 0.5
 
 
+def test_season_without_a_zone_temperature_warns_instead_of_crashing(tmp_path, six_building, zone_truth):
+    """A zone sensor without a value in a whole season's training weeks (the 90.1 large office's data centre held
+    at exactly 27 C is masked as stuck in all of fall): the floor temperature of the lumped model needs every zone,
+    so that season has no regression row. The fit crashed in numpy ('cannot reshape array of size 0'); it must
+    warn, naming the season and the zone, and fit the other seasons."""
+    frame = simulate_frame(zone_truth, six_building, weeks=4, start="2025-11-24", seed=7)
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict())
+    fall = [w for w in ds.weeks if w.season == "fall"]
+    assert fall and any(w.train for w in ds.weeks if w.season == "winter")
+    frame.loc[frame.index < fall[-1].end + pd.Timedelta(hours=6), "T_NW"] = np.nan  # all of fall, and a bit more
+    ds = write_dataset(tmp_path, frame, six_zone_building_dict(), "nofall")
+    with pytest.warns(HvacfmuWarning, match=r"season fall: no usable rows .*T_NW has no value in 100 %"):
+        m = fit_lumped(ds, open_loop=False)
+    assert "fall" not in m.gains and np.all(np.isfinite(m.gains["winter"]))
+    empty, cov = estimate_gains(np.empty((0, 2)), np.empty(0, dtype=int), 12)
+    assert cov == 0.0 and empty.shape == (12, 2) and np.isnan(empty).all()
+
+
 def test_common_bandwidth_is_the_better_choice(lumped_dataset, lumped_truth, lumped_fit):
     """Per-series bandwidths break the de-smoothed identity and bias b; one common bandwidth does not."""
     with warnings.catch_warnings():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 import warnings
 
 import numpy as np
@@ -878,3 +879,20 @@ def test_cli_fit_accepts_every_gain_days_value(capsys):
         parser.parse_args([*base, "monday"])
     err = capsys.readouterr().err
     assert "invalid choice: 'monday'" in err and all(repr(g) in err for g in GAIN_DAYS)
+
+
+def test_unstable_fast_air_names_the_zone_and_a_shorter_step(two_zone):
+    """The large hotel's kitchen (2.0 kg/s into 315 m3) renews its air node's heat capacity 2.6 times per 900 s
+    step: the fitted Model B was refused as 'unstable: spectral radius 1.14571 >= 1' with no cause and no way out;
+    the message must name the zone and the shorter step that fits (it did at 300 s)."""
+    from hvacfmu.errors import FitError
+    from hvacfmu.models.plausibility import check_physics
+
+    ok = PhysicsModel(two_zone, NOMINAL, zero_gains(3), options={"kalman": {"airflow": [0.3, 0.2]}})
+    assert check_physics(ok)["spectral_radius"] < 1.0
+    fast = PhysicsModel(two_zone, NOMINAL, zero_gains(3), options={"kalman": {"airflow": [0.3, 1.5]}})
+    with pytest.raises(FitError, match=r"unstable: spectral radius [\d.]+ >= 1") as info:
+        check_physics(fast)
+    msg = str(info.value)
+    assert re.search(r"the unstable mode is the air of B \(1\.5 kg/s, [\d.]+ times\)", msg), msg
+    assert "A (" not in msg and "step=300" in msg and "--step 300" in msg

@@ -33,7 +33,12 @@ discharge temperature the unit's controls allow (VAV reheat terminals' maximum
 reheat air temperature, single-zone heating setpoint managers' maximum supply air
 temperature; else the zones' heating design supply temperature), and the physics tables (materials,
 constructions, windows, elements; see :mod:`hvacfmu.energyplus.geometry`).
-Box names are ``VAV_<zone>``; IDF names are sanitised to letters, digits and
+Box names are ``VAV_<zone>``; zone equipment that blows air into a zone beside
+its air terminal (the large hotel's fan coils) is a box of its own single-box
+unit, ``FCU_<zone>`` (``UH_``, ``PTAC_``, ... ``UNIT_``), whose supply temperature
+is its outlet node; equipment whose heat has no zone inlet node of its own (a
+baseboard) is named in a warning; a zone with a zone multiplier is one copy
+(airflows and limits divided). IDF names are sanitised to letters, digits and
 ``_``; ``energyplus.json`` maps them back.
 
 What it approximates

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from .. import building as _building
+from ..data.plausibility import STUCK_DAYS, STUCK_PREFIXES, stuck_runs
 from ..errors import DataError, HvacfmuWarning
 from . import geometry, hvac, inputs, physics
 from .idf import read_idf
@@ -33,7 +34,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.3"
+EXPORT_VERSION = "1.6"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -44,8 +45,15 @@ APPROXIMATIONS = (
     "T_supply_<ahu> is the air handler's supply outlet node temperature; it holds an idle value when the unit is off",
     "T_supply is the airflow-weighted mean of the units' supply temperatures (plain mean when no air flows)",
     "ghi = direct normal x sin(solar altitude) + diffuse horizontal, from EnergyPlus's site variables",
+    (
+        "a zone with a multiplier is one copy: its box's airflow and limits are the node's and the sizing's "
+        "divided by the multiplier (boxes[].multiplier)"
+    ),
     "surfaces towards unselected zones (plenums, attics, other floors) are adiabatic in the physics tables",
-    "F-factor ground floors are a 15 cm concrete slab facing the ground at the annual mean ground temperature",
+    (
+        "F-factor ground floors are a 15 cm concrete slab under a no-mass insulation layer giving EnergyPlus's "
+        "resistance A / (P F) with the inside film, facing the ground at the annual mean ground temperature"
+    ),
 )
 
 
@@ -109,6 +117,46 @@ def _zones_left_out(idf, all_boxes, floor, zones) -> dict:
     return out
 
 
+def _unmeasured_warning(idf, boxes) -> str | None:
+    """A warning naming the exported zones whose other zone equipment the export cannot measure (None if none)."""
+    found = hvac.unmeasured_equipment(idf, boxes)
+    if not found:
+        return None
+    listed = "; ".join(f"{z}: {', '.join(kinds)}" for z, kinds in list(found.items())[:5])
+    more = f" and {len(found) - 5} more" if len(found) > 5 else ""
+    return (
+        f"{len(found)} exported zone(s) have zone equipment whose heat no column carries (no zone inlet node of "
+        f"its own): {listed}{more}; the data miss that heat, models fitted on them see it as a disturbance"
+    )
+
+
+def _held_warning(frame: pd.DataFrame) -> str | None:
+    """A warning naming the temperature columns EnergyPlus holds at exactly one value for ``STUCK_DAYS`` or longer.
+
+    EnergyPlus's ideal control can hold a zone exactly at its setpoint for days (the 90.1 large office's data centre
+    at 27 C for 87 % of a year); a real sensor never repeats one value that long, and hvacfmu's data check masks such
+    runs as a stuck sensor. Said here, where the cause is known, rather than left to that check. None when no column
+    has such a run.
+    """
+    times = pd.DatetimeIndex(frame.index).as_unit("ns").asi8
+    held = []
+    for col in frame.columns:
+        if not col.startswith(STUCK_PREFIXES):
+            continue
+        values = frame[col].to_numpy(dtype=float)
+        runs = stuck_runs(values, times, STUCK_DAYS * 86400)
+        n = sum(b - a for a, b in runs)
+        if n:
+            held.append(f"{col} ({values[runs[0][0]]:g} °C in {100 * n / len(values):.0f} % of the steps)")
+    if not held:
+        return None
+    return (
+        f"EnergyPlus holds {len(held)} temperature column(s) at exactly one value for {STUCK_DAYS:g} days or longer "
+        f"(ideal control at the setpoint): {', '.join(held)}; hvacfmu's data check masks such runs as a stuck sensor, "
+        "so those steps count as missing (a zone's windows are then skipped): leave such zones out (--zone)"
+    )
+
+
 def export_probes(boxes, ahus, zones):
     """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
     p = [
@@ -129,6 +177,9 @@ def export_probes(boxes, ahus, zones):
 def _frame(values, times, probes, site, boxes, ahus) -> pd.DataFrame:
     utc = step_times(times, site.tz_hours, STEP_HOURS)
     df = pd.DataFrame(values, columns=[p.column for p in probes], index=utc.tz_convert(site.timezone))
+    for b in boxes:  # the node carries the air of every copy of a multiplied zone: keep one zone's (hvac docstring)
+        if b.multiplier != 1.0:
+            df[f"m_{b.name}"] = df[f"m_{b.name}"] / b.multiplier
     alt = np.radians(df.pop("_alt").to_numpy())
     ghi = df.pop("_dni").to_numpy() * np.clip(np.sin(alt), 0.0, None) + df.pop("_dhi").to_numpy()
     df["ghi"] = np.clip(ghi, 0.0, None)
@@ -290,6 +341,13 @@ def generate(
     all_boxes = hvac.air_boxes(idf)
     boxes = select_boxes(all_boxes, floor, zones)
     left_out = _zones_left_out(idf, all_boxes, floor, zones)
+    multiplied = {b.zone: b.multiplier for b in boxes if b.multiplier != 1.0}
+    if multiplied:
+        log.info(
+            "EnergyPlus: %d zone(s) with a zone multiplier, exported as one copy (airflow and box limits divided): %s",
+            len(multiplied),
+            ", ".join(f"{z} x{m:g}" for z, m in multiplied.items()),
+        )
     ahus = dict.fromkeys(b.ahu for b in boxes)
     ahus = {a: next(b.supply_node for b in boxes if b.ahu == a) for a in ahus}
     zone_names = list(dict.fromkeys(b.zone for b in boxes))
@@ -301,7 +359,7 @@ def generate(
     bad = [n for n in files if not n or Path(n).name != n or n in (".", "..")]
     if bad:
         raise DataError(f"files: names must be plain file names (no folder), got {bad}")
-    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name),) if w]
+    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name), _unmeasured_warning(idf, boxes)) if w]
     for w in warned:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     outdir = Path(outdir)
@@ -322,6 +380,10 @@ def generate(
     lo = pd.Timestamp(first).tz_localize(site.timezone)
     hi = pd.Timestamp(last + _dt.timedelta(days=1)).tz_localize(site.timezone)
     frame = frame[(frame.index >= lo) & (frame.index < hi)]
+    held = _held_warning(frame)
+    if held:
+        warnings.warn(held, HvacfmuWarning, stacklevel=2)
+        warned.append(held)
     limits = _sizing_limits(read_idf(idf_path), boxes, eio, hvac.std_air_density(site.elevation))
     label = f"{idf_path.stem} ({site.label})" + (f", zones with {floor!r}" if floor else "")
     d = _building_dict(read_idf(idf_path), site, boxes, ahus, limits, label)

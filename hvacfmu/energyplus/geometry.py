@@ -17,7 +17,10 @@ What is read (for the selected conditioned zones):
 What is approximated: surfaces towards zones outside the selection (plenums,
 attics, other floors) are adiabatic; ground contact (``Ground*`` and F-factor
 floors) faces ``ground`` at the annual mean of the IDF's ground temperatures,
-with F-factor floors as a 15 cm concrete slab; roofs facing outdoors are treated
+with F-factor floors as a 15 cm concrete slab under a no-mass layer that gives
+EnergyPlus's resistance ``A / (P F)`` (inside film included; the layer EnergyPlus
+adds itself); C-factor underground walls stay a 10 cm slab without insulation
+(none in the exported example floors); roofs facing outdoors are treated
 as exterior elements with the ``ceiling`` film; windows with other glazing
 objects get U = 2.5 W/(m2 K), SHGC = 0.4; internal mass is the zones'
 ``InternalMass`` heat capacity per floor area; film coefficients start at

@@ -6,13 +6,23 @@ node: ``ZoneHVAC:EquipmentConnections`` (zone -> inlet nodes) and
 the ``AirLoopHVAC`` whose supply path splitter (``AirLoopHVAC:ZoneSplitter``)
 feeds the terminal's inlet node; the unit's supply temperature is its supply
 side outlet node. Zones without an air terminal (plenums, attics, zones with
-only unit heaters) are not conditioned zones of the exported building.
+only unit heaters) are not conditioned zones of the exported building. Other
+zone equipment of an exported zone that blows air through one of its inlet nodes
+(a fan coil beside a DOAS box) is a box too, of its own one-box unit whose supply
+node is that inlet node; equipment that names no inlet node (a baseboard, an
+energy recovery ventilator) is listed by :func:`unmeasured_equipment`.
 
 Box limits come from the sizing results EnergyPlus writes to ``eplusout.eio``
 (``Component Sizing Information`` lines: design or user-specified maximum air
 flow [m3/s]), converted to mass flow with the standard air density at the site's
 altitude; ``m_min`` is the terminal's constant minimum flow fraction times that
 maximum (VAV terminals), 0 for constant-volume terminals whose fan cycles.
+
+A zone with a multiplier (``Zone`` field Multiplier times its ``ZoneGroup``'s zone list multiplier: the 90.1 large
+office's mid floor stands for 10 floors, the large hotel's ``Room_3_Mult9_Flr_6`` for 9 rooms) is simulated once,
+but its inlet node carries the air of all its copies and its terminal is sized for all of them: a box's airflow
+and limits are that divided by the multiplier (``Box.multiplier``), the air of the one zone whose temperature,
+surfaces and volume are exported.
 """
 
 from __future__ import annotations
@@ -30,7 +40,8 @@ STD_T = 20.0
 @dataclasses.dataclass(frozen=True)
 class Box:
     """One air terminal: ``name`` (sanitised), ``zone`` (IDF zone name), terminal class and name,
-    ``outlet_node`` (the zone inlet node), ``ahu`` (IDF AirLoopHVAC name) and its ``supply_node``."""
+    ``outlet_node`` (the zone inlet node), ``ahu`` (IDF AirLoopHVAC name) and its ``supply_node``;
+    ``multiplier``: the zone's multiplier (its node flow and sizing are for that many copies of the zone)."""
 
     name: str
     zone: str
@@ -39,6 +50,7 @@ class Box:
     outlet_node: str
     ahu: str
     supply_node: str
+    multiplier: float = 1.0
 
 
 def sanitise(name: str) -> str:
@@ -78,6 +90,40 @@ def _terminals_of_zone(idf, zone_name: str) -> list:
     return found
 
 
+#: Zone equipment that moves zone air out without conditioning it: no heat of its own for the data to carry.
+NO_HEAT_EQUIPMENT = ("fan:zoneexhaust",)
+#: Box name prefix of zone equipment that blows air into a zone beside its air terminal (fallback ``UNIT``).
+UNIT_PREFIXES = {
+    "zonehvac:fourpipefancoil": "FCU",
+    "zonehvac:unitheater": "UH",
+    "zonehvac:unitventilator": "UV",
+    "zonehvac:packagedterminalairconditioner": "PTAC",
+    "zonehvac:packagedterminalheatpump": "PTHP",
+    "zonehvac:windowairconditioner": "WAC",
+    "zonehvac:energyrecoveryventilator": "ERV",
+}
+
+
+def _other_equipment(idf, zone_name: str) -> list:
+    """(type, name, zone inlet node or "") of each zone equipment of ``zone_name`` that is not an air terminal: the
+    zone inlet node it blows its air into, "" when it has none (a baseboard, a radiant panel, an exhaust fan)."""
+    conns = [c for c in idf.all("ZoneHVAC:EquipmentConnections") if c.get(0).lower() == zone_name.lower()]
+    eq_list = idf.by_name("ZoneHVAC:EquipmentList").get(conns[0].get(1).lower()) if conns else None
+    if eq_list is None:
+        return []
+    inlet_nodes = {n.lower() for n in _node_list(idf, conns[0].get(2))}
+    found = []
+    fields = eq_list.fields[2:]
+    for k in range(0, len(fields) - 1, 6):
+        typ, name = fields[k].strip(), fields[k + 1].strip()
+        if not typ or typ.lower() == "zonehvac:airdistributionunit" or typ.lower().startswith("airterminal:"):
+            continue
+        obj = idf.by_name(typ).get(name.lower())
+        nodes = [f.strip() for f in obj.fields[1:] if f.strip().lower() in inlet_nodes] if obj is not None else []
+        found.append((typ, name, nodes[0] if nodes else ""))
+    return found
+
+
 def _ahu_of_terminal(idf, typ: str, name: str):
     """(AirLoopHVAC name, supply outlet node) feeding terminal ``name``, or None."""
     term = idf.by_name(typ).get(name.lower())
@@ -99,6 +145,20 @@ def _ahu_of_terminal(idf, typ: str, name: str):
     return None
 
 
+def zone_multipliers(idf) -> dict:
+    """``{IDF zone name lower: multiplier}``: each zone's ``Multiplier`` field times the ``Zone List Multiplier`` of
+    every ``ZoneGroup`` whose ``ZoneList`` holds it (1 when unset)."""
+    out = {z.name.lower(): (z.number(6) or 1.0) for z in idf.all("Zone")}
+    lists = idf.by_name("ZoneList")
+    for group in idf.all("ZoneGroup"):
+        zl = lists.get(group.get(1).lower())
+        factor = group.number(2) or 1.0
+        for f in zl.fields[1:] if zl is not None else []:
+            if f.strip().lower() in out:
+                out[f.strip().lower()] *= factor
+    return out
+
+
 def air_boxes(idf) -> list:
     """Every air terminal fed by an air handler, in the IDF's zone order.
 
@@ -108,6 +168,7 @@ def air_boxes(idf) -> list:
         When no zone of the IDF has an air terminal on an ``AirLoopHVAC``.
     """
     boxes = []
+    multipliers = zone_multipliers(idf)
     for zone in idf.all("Zone"):
         terms = _terminals_of_zone(idf, zone.name)
         for i, (typ, name, node) in enumerate(terms):
@@ -115,7 +176,19 @@ def air_boxes(idf) -> list:
             if ahu is None:
                 continue
             suffix = "" if len(terms) == 1 else f"_{i + 1}"
-            boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1]))
+            mult = multipliers.get(zone.name.lower(), 1.0)
+            boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1], mult))
+        if not boxes or boxes[-1].zone != zone.name:
+            continue
+        # a zone of the air loops whose other zone equipment blows air into it too (the large hotel's guest rooms:
+        # a DOAS box and a four-pipe fan coil): that air is part of the zone's heat balance, export it as a box of
+        # its own unit (its supply temperature is its outlet node, as for a packaged single-zone unit)
+        units = [u for u in _other_equipment(idf, zone.name) if u[2]]
+        for i, (typ, name, node) in enumerate(units):
+            prefix = UNIT_PREFIXES.get(typ.lower(), "UNIT")
+            suffix = "" if len(units) == 1 else f"_{i + 1}"
+            mult = multipliers.get(zone.name.lower(), 1.0)
+            boxes.append(Box(f"{prefix}_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, name, node, mult))
     if not boxes:
         raise BuildingError(
             f"IDF file {idf.source}: no zone has an air terminal fed by an AirLoopHVAC "
@@ -123,6 +196,18 @@ def air_boxes(idf) -> list:
             "AirLoopHVAC:ZoneSplitter); hvacfmu needs air-side boxes to export airflows"
         )
     return boxes
+
+
+def unmeasured_equipment(idf, boxes) -> dict:
+    """``{IDF zone: [zone equipment types]}`` of the exported zones with zone equipment (other than an exhaust fan)
+    that names none of the zone's inlet nodes (a baseboard, a radiant panel; an energy recovery ventilator, whose
+    nodes are its fans'): its heat is in the zone but in no column of the export."""
+    out = {}
+    for zone in dict.fromkeys(b.zone for b in boxes):
+        kinds = [t for t, _, node in _other_equipment(idf, zone) if not node and t.lower() not in NO_HEAT_EQUIPMENT]
+        if kinds:
+            out[zone] = kinds
+    return out
 
 
 def zones_without_boxes(idf, boxes) -> dict:
@@ -193,8 +278,13 @@ def _schedule_max(idf, name: str) -> float:
     return 0.0
 
 
+#: Sizing descriptions of a zone unit's supply air flow (``Design Size ...`` / ``User-Specified ...``).
+_UNIT_FLOWS = ("Maximum Supply Air Flow Rate", "Cooling Supply Air Flow Rate", "Heating Supply Air Flow Rate")
+
+
 def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
-    """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs.
+    """``{box name: (m_min, m_max)}`` [kg/s] from the sizing results and the terminals' inputs, for one copy of the
+    box's zone (sized flows divided by ``Box.multiplier``).
 
     Raises
     ------
@@ -207,6 +297,9 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
         v_max = _sized(sizing, b.terminal_type, b.terminal, "Maximum Air Flow Rate")
         if v_max is None:
             v_max = _sized(sizing, "AirTerminal:SingleDuct:VAV:Reheat", b.terminal, "Maximum Air Flow Rate")
+        if v_max is None:  # zone equipment (fan coil, unit heater, PTAC): its supply air flow, the larger one
+            sized = [_sized(sizing, b.terminal_type, b.terminal, p) for p in _UNIT_FLOWS]
+            v_max = max((v for v in sized if v is not None), default=None)
         if v_max is None or v_max <= 0:
             problems.append(
                 f"box {b.name} ({b.terminal_type} {b.terminal!r}): no maximum air flow rate in the IDF "
@@ -224,7 +317,8 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
                 frac = (term.number(7) or 0.0) / v_max
             elif method == "scheduled":
                 frac = _schedule_max(idf, term.get(8))
-        limits[b.name] = (round(frac * v_max * rho, 5), round(v_max * rho, 5))
+        m_max = v_max * rho / b.multiplier
+        limits[b.name] = (round(frac * m_max, 5), round(m_max, 5))
     if problems:
         raise BuildingError(problems_message("Box limits could not be read", problems))
     return limits

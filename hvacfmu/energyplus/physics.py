@@ -138,10 +138,35 @@ def physics_tables(idf, zones: list, surfs: list, wins: list) -> dict:
     return _tables(idf, mats, groups, win_groups, zones, surfs)
 
 
+#: EnergyPlus's F-factor ground floor: a fictitious insulation layer under 15 cm of concrete, whose total resistance
+#: with the inside film (0.135 m2 K/W) is ``A / (P F)`` (area, exposed perimeter, F-factor); no exposed perimeter:
+#: this resistance [m2 K/W] (the floor exchanges next to no heat with the ground).
+FFACTOR_INSIDE_FILM = 0.135
+FFACTOR_NO_PERIMETER_R = 1000.0
+
+
+def ffactor_resistance(ff) -> float:
+    """Resistance [m2 K/W] of the fictitious layer of a ``Construction:FfactorGroundFloor`` under the export's 15 cm
+    slab: ``A / (P F)`` minus the inside film and the slab, as EnergyPlus builds it (>= 0)."""
+    f, area, perimeter = ff.number(1), ff.number(2), ff.number(3)
+    if f and area and perimeter and f > 0 and area > 0 and perimeter > 0:
+        r_eff = area / (perimeter * f)
+    else:
+        r_eff = FFACTOR_NO_PERIMETER_R
+    return max(r_eff - FFACTOR_INSIDE_FILM - 0.15 / SLAB["conductivity"], 0.0)
+
+
 def _construction_layers(idf, name: str, mats: dict, used: dict) -> list:
-    if idf.by_name("Construction:FfactorGroundFloor").get(name.lower()) is not None:
+    ff = idf.by_name("Construction:FfactorGroundFloor").get(name.lower())
+    if ff is not None:
         used[SLAB["name"]] = dict(SLAB)
-        return [{"material": SLAB["name"], "thickness": 0.15}]
+        layers = [{"material": SLAB["name"], "thickness": 0.15}]
+        r_fic = ffactor_resistance(ff)
+        if r_fic > 0:  # side 1 is the ground: the insulation first, then the slab towards the zone
+            row = {"name": f"{sanitise(name)}_ffactor_insulation", "r_value": round(r_fic, 4)}
+            used[row["name"]] = row
+            layers.insert(0, {"material": row["name"], "thickness": 0.0})
+        return layers
     c = idf.by_name("Construction").get(name.lower())
     layers = []
     for layer in c.fields[1:] if c else []:

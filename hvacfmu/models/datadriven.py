@@ -531,7 +531,11 @@ def estimate_gains(q_rows, slots, n_slots):
     coverage : float
         Fraction of slots with at least one estimate (before filling).
     """
-    q_rows = np.asarray(q_rows, dtype=float).reshape(len(slots), -1)
+    q_rows = np.asarray(q_rows, dtype=float)
+    # no row at all (a season whose training rows all miss a value): an empty (0, nq) table, coverage 0 below
+    q_rows = (
+        q_rows.reshape(len(slots), -1) if q_rows.size else q_rows.reshape(0, q_rows.shape[-1] if q_rows.ndim else 1)
+    )
     slots = np.asarray(slots, dtype=np.int64)
     nq = q_rows.shape[1]
     prof = np.full((n_slots, nq), np.nan)
@@ -894,6 +898,17 @@ def _provenance(prep: _Prepared, opts, t0, kind):
     }
 
 
+def _missing_in_season(prep: _Prepared, season: str) -> str:
+    """`` (T_x has no value in 100 % of them, ...)``: zone temperatures missing in most training rows of a season."""
+    sel = (prep.season == season) & prep.train
+    if not sel.any():
+        return ""
+    share = np.mean(~np.isfinite(prep.T[sel]), axis=0)
+    names = [f"T_{z} has no value in {100 * share[j]:.0f} %" for j, z in enumerate(prep.building.zone_names)]
+    worst = [names[j] for j in np.argsort(-share) if share[j] >= 0.5]
+    return f" ({', '.join(worst)} of them)" if worst else ""
+
+
 def _gains_by_season(prep: _Prepared, q_rows, rows, nq):
     """Season -> (672, nq) profile from per-row gain estimates; warns about thin seasons."""
     gains, coverage = {}, {}
@@ -912,7 +927,10 @@ def _gains_by_season(prep: _Prepared, q_rows, rows, nq):
         sel = prep.season[rows] == s
         prof, cov = estimate_gains(q_rows[sel], prep.slots[rows][sel], prep.n_slots)
         if cov == 0.0:
-            prep.warn(f"season {s}: no usable rows (missing data) in its training weeks; no internal-gain profile")
+            prep.warn(
+                f"season {s}: no usable rows (missing data) in its training weeks{_missing_in_season(prep, s)}; "
+                "no internal-gain profile"
+            )
             continue
         if cov < prep.min_cov:
             prep.warn(

@@ -259,14 +259,43 @@ def check_physics(model) -> dict:
         d = model.discrete
         A = d.Ad.copy()
         nz = d.Vz.shape[0]
-        A[:, :nz] -= CP_AIR * d.physical_inputs[2] * np.asarray(model.options["kalman"]["airflow"], float)[None, :]
-        rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+        airflow = np.asarray(model.options["kalman"]["airflow"], float)
+        A[:, :nz] -= CP_AIR * d.physical_inputs[2] * airflow[None, :]
+        eig, vec = np.linalg.eig(A)
+        rho = float(np.max(np.abs(eig)))
         numbers = {"spectral_radius": rho, "time_constants_h": time_constants_h(A, model.step)[:5].tolist()}
         if not rho < 1.0:
-            problems.append(f"unstable: spectral radius {rho:.6g} >= 1 at the training mean airflow")
+            problems.append(
+                f"unstable: spectral radius {rho:.6g} >= 1 at the training mean airflow"
+                + _fast_air_hint(model, vec[:nz, int(np.argmax(np.abs(eig)))], airflow, d.network.template.capacity)
+            )
     if problems:
         raise FitError(problems_message("The fitted physics model is implausible and was refused", problems))
     return _plain(numbers)
+
+
+def _fast_air_hint(model, mode, airflow, capacity) -> str:
+    """Why a Model B is unstable when a zone's airflow renews its air node's heat capacity more than once per step.
+
+    The discrete model holds each box's bilinear airflow term over the step (zero-order hold, first order in
+    ``c_p m h / C``): past a ratio of about 2 the zone's air node overshoots and oscillates. Names the zones of the
+    unstable ``mode`` (their share of it >= 0.5) whose ratio exceeds 1, and what to do; "" when none does.
+    """
+    from .heat import CP_AIR
+
+    nz = len(model.outputs)
+    share = np.abs(mode[:nz]) / max(float(np.max(np.abs(mode[:nz]))), 1e-300)
+    ratio = CP_AIR * airflow[:nz] * model.step / np.asarray(capacity, float)[:nz]
+    zones = [i for i in range(nz) if share[i] >= 0.5 and ratio[i] > 1.0]
+    if not zones:
+        return ""
+    named = ", ".join(f"{model.outputs[i]} ({airflow[i]:.3g} kg/s, {ratio[i]:.2f} times)" for i in zones)
+    return (
+        f"; the unstable mode is the air of {named}: the mean airflow carries more than its air node's heat "
+        f"capacity (air and furniture) per {model.step:g} s step, faster than the step resolves (the model holds "
+        "each box's airflow over the step); fit on a shorter step (prepare(..., step=300), hvacfmu fit --step 300) "
+        "or use a Model A kind (zones, lumped)"
+    )
 
 
 def _plain(x):
