@@ -302,6 +302,11 @@ def test_a_loss_to_a_schedule_held_by_a_loop_is_explained_as_a_data_limit():
     assert "behind by at most 0.036 K" in line and f"within {LOOP_HELD_TOW_K:g} K" in line
     assert "S in" not in line and "E in" not in line and "N in" not in line
     assert loop_held_lines([loose, lost, won]) == []
+    kitchen = SeasonVerdict("zones", "Kitchen", "summer", 0.036, 0.009, 0.02, 14, 2)  # held within 0.01 K
+    (held_line, const_line) = loop_held_lines([held, kitchen, lost])
+    assert held_line == line
+    assert const_line.startswith("Kitchen in summer 0.036 K against 0.009 K (persistence): the zone is held")
+    assert "off by at most 0.027 K more" in const_line and "E in" not in const_line
     v = Verdict(zones=(), causes={}, seasons=(held,), loop_held={"zones": [line]})
     assert f"   behind the time-of-week mean for zones: {line}" in v.format().splitlines()
     assert v.to_dict()["loop_held"] == {"zones": [line]}
