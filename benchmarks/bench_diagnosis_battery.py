@@ -108,10 +108,21 @@ def _brief(c: dict) -> dict:
     }
 
 
-def run_case(case, weeks):
-    """Generate (cached), diagnose and compare one case; a JSON-ready result record."""
+def git_commit() -> str:
+    """The short hash of the checked-out commit ("" when git cannot say), recorded with each result."""
     import os
     import subprocess
+
+    try:
+        return subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=os.path.dirname(__file__)
+        ).stdout.strip()
+    except OSError:
+        return ""
+
+
+def run_case(case, weeks):
+    """Generate (cached), diagnose and compare one case; a JSON-ready result record."""
 
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
@@ -128,16 +139,10 @@ def run_case(case, weeks):
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     cmp = compare_with_truth(rep, truth)
     d = rep.to_dict()
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=os.path.dirname(__file__)
-        ).stdout.strip()
-    except OSError:
-        commit = ""
     return {
         "case": case,
         "weeks": weeks,
-        "commit": commit,
+        "commit": git_commit(),
         "found": [e["name"] for e in cmp["found"]],
         "missed": cmp["missed"],
         "unsupported": [{"cause": f["cause"], "location": f["location"]} for f in cmp["unsupported"]],

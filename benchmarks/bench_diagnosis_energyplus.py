@@ -41,12 +41,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench_diagnosis_battery import _brief as _battery_brief  # noqa: E402
+from bench_diagnosis_battery import git_commit  # noqa: E402
+
+from hvacfmu.models.heat import CP_AIR  # noqa: E402
 
 PROTOTYPE = "ASHRAE901_OfficeMedium_STD2019_Denver"
 FLOOR = "mid"
@@ -54,7 +61,6 @@ WEEKS = 26
 YEAR = 2017
 WEATHERS = {"denver": "usa_co_denver", "chicago": "usa_il_chicago"}
 TIMEZONES = {"denver": "America/Denver", "chicago": "America/Chicago"}
-CP_AIR = 1005.0  # [J/(kg K)]
 #: HVAC operating hours of the prototype (HVACOperationSchd): weekdays 6-22 h, Saturday 6-18 h, local clock.
 OCCUPIED = {0: (6, 22), 1: (6, 22), 2: (6, 22), 3: (6, 22), 4: (6, 22), 5: (6, 18)}
 Z = "Perimeter_mid_ZN_{}".format
@@ -285,18 +291,9 @@ def same_cause_place(f: dict, g: dict) -> bool:
 
 
 def _brief(c: dict) -> dict:
-    cv = c.get("cv") or {}
+    """The battery's record of a finding / candidate, with the rival it was compared with and its parameters."""
     ev = c.get("evidence") or {}
-    out = {
-        "cause": c["cause"],
-        "location": c["location"],
-        "status": c.get("status"),
-        "reason": c.get("reason"),
-        "delta_bic": (c.get("test") or {}).get("delta_bic"),
-        "cv_gain_percent": cv.get("gain_percent"),
-        "cv_se_percent": cv.get("se_percent"),
-        "cv_t": cv.get("t"),
-    }
+    out = _battery_brief(c)
     if isinstance(ev, dict) and ev.get("rival"):
         out["rival"] = ev["rival"]
     params = c.get("parameters")
@@ -319,12 +316,7 @@ def run_case(case: dict) -> dict:
     rep = diagnose(ds, progress=False)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     d = rep.to_dict()
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=os.path.dirname(__file__)
-        ).stdout.strip()
-    except OSError:
-        commit = ""
+    commit = git_commit()
     return {
         "case": case,
         "truth": {k: v for k, v in truth.items() if k != "hourly_W"},
