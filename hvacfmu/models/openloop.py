@@ -32,6 +32,8 @@ coefficients are judged together with the gains they imply.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .heat import CP_AIR
@@ -103,14 +105,18 @@ class _Problem:
         self.c_col, self.o_col = cc, oj
         self.row = np.r_[np.arange(nx), np.arange(nx), ci, oi].astype(np.int64)  # state row of each parameter
         self.n_par = self.row.size
+        self.onehot = (self.row[None, :] == np.arange(nx)[:, None]).astype(float)  # (nx, P): parameter p on row i_p
+        self.c0, self.o0 = 2 * nx, 2 * nx + ci.size  # where the C entries and the couplings start in theta
+        self.is_a = np.zeros(self.n_par, bool)  # entries of A: the diagonal and the couplings
+        self.is_a[:nx] = self.is_a[self.o0 :] = True
         self.theta0 = np.r_[np.diag(model.A), drive, model.C[self.cmask], model.A[self.omask]]
         free_a = np.eye(nx, dtype=bool) | self.omask
         self.A_fixed = np.where(free_a, 0.0, model.A)
         self.B_fixed = model.B.copy()
         if not self.delivered:
             self.B_fixed[np.arange(nx), np.arange(nx)] = 0.0
-        a_hi = np.maximum(1.0 - 1e-3 - np.abs(self.A_fixed).sum(axis=1), 2e-4)  # the fixed entries' share
-        self.row_limit = 1.0 - 1e-3 - np.abs(self.A_fixed).sum(axis=1)
+        self.row_limit = 1.0 - 1e-3 - np.abs(self.A_fixed).sum(axis=1)  # what the fixed entries leave of a row
+        a_hi = np.maximum(self.row_limit, 2e-4)
         d_lo, d_hi = (np.zeros(nx), np.full(nx, np.inf)) if self.delivered else (np.full(nx, -np.inf), np.zeros(nx))
         nc, no = ci.size, oi.size
         self.lb = np.r_[np.full(nx, 1e-4), d_lo, np.zeros(nc), np.zeros(no)]
@@ -143,10 +149,7 @@ class _Problem:
 
     def _scatter(self, phi_theta):
         """sum_p phi_p theta_p e_(i_p): (..., P) -> (..., nx)."""
-        out = np.zeros(phi_theta.shape[:-1] + (self.nx,))
-        for i in range(self.nx):
-            out[..., i] = phi_theta[..., self.row == i].sum(axis=-1)
-        return out
+        return phi_theta @ self.onehot.T
 
     def _gain_parts(self):
         """Per season: q0 (n_slots, nx) and q_p (n_slots, P) with gains(theta) = q0 - q_p theta on rows i_p."""
@@ -178,10 +181,9 @@ class _Problem:
         nx = self.nx
         A = m.A.copy()
         A[np.diag_indices(nx)] = theta[:nx]
-        nc = int(self.cmask.sum())
         C = m.C.copy()
-        C[self.cmask] = theta[2 * nx : 2 * nx + nc]
-        A[self.omask] = theta[2 * nx + nc :]
+        C[self.cmask] = theta[self.c0 : self.o0]
+        A[self.omask] = theta[self.o0 :]
         kw = {"A": A, "C": C}
         if self.delivered:
             kw["beta"] = theta[nx : 2 * nx].copy()
@@ -216,11 +218,10 @@ class _Problem:
         W, Hn = rng.shape
         gains = self._window_gains(theta)
         sensitivities = jac is not None
-        qp = self._window_qp() if sensitivities else None
-        onehot = (self.row[None, :] == np.arange(nx)[:, None]).astype(float)  # (nx, P)
+        qp = self._window_qp if sensitivities else None
         A_full = self.A_fixed.copy()
         A_full[np.diag_indices(nx)] += theta[:nx]
-        A_full[self.omask] += theta[2 * nx + int(self.cmask.sum()) :]
+        A_full[self.omask] += theta[self.o0 :]
         beta = theta[nx : 2 * nx]
         x = self.Y[rng[:, 0]]
         X = np.empty((W, Hn, nx))
@@ -233,40 +234,35 @@ class _Problem:
                 Sn = np.matmul(A_full, S)
                 if self.delivered:
                     Sn -= (beta * self.M[kk])[:, :, None] * S
-                S = Sn + (phi - qp[:, k])[:, None, :] * onehot[None]
+                S = Sn + (phi - qp[:, k])[:, None, :] * self.onehot[None]
                 np.multiply(S, -self.weight, out=jac[:, k])  # weight (W, 1, 1)
             x = xn
             X[:, k] = x
         return X
 
-    def _window_gains(self, theta):
-        """Gains at every window step (W, H, nx) for theta (each window in the season of its start)."""
-        out = np.zeros(self.rng.shape + (self.nx,))
+    def _at_windows(self, profiles, width):
+        """Season profiles (n_slots, width) gathered at every window step (W, H, width), each window in its start's
+        season (zeros where the season has none)."""
+        out = np.zeros(self.rng.shape + (width,))
         season0 = self.seasons[self.rng[:, 0]]
-        for s, prof in self.gains_of(theta).items():
+        for s, prof in profiles.items():
             sel = season0 == s
             if sel.any():
                 out[sel] = prof[self.slots[self.rng[sel]] % len(prof)]
         return out
 
+    def _window_gains(self, theta):
+        """Gains at every window step (W, H, nx) for theta."""
+        return self._at_windows(self.gains_of(theta), self.nx)
+
+    @functools.cached_property
     def _window_qp(self):
-        """d gains / d theta_p at every window step (W, H, P) on row i_p, gathered once (it does not move)."""
-        if getattr(self, "_qp_cache", None) is None:
-            out = np.zeros(self.rng.shape + (self.n_par,))
-            season0 = self.seasons[self.rng[:, 0]]
-            for s, qp in self.qp.items():
-                sel = season0 == s
-                if sel.any():
-                    out[sel] = qp[self.slots[self.rng[sel]] % len(qp)]
-            self._qp_cache = out
-        return self._qp_cache
+        """d gains / d theta_p at every window step (W, H, P) on row i_p (it does not depend on theta)."""
+        return self._at_windows(self.qp, self.n_par)
 
     def _penalty(self, theta):
-        """Stability: each row of |A| sums below 1 (hinge; only with free couplings)."""
-        nx, nc = self.nx, int(self.cmask.sum())
-        rowsum = np.zeros(nx)
-        np.add.at(rowsum, np.arange(nx), theta[:nx])
-        np.add.at(rowsum, np.nonzero(self.omask)[0], theta[2 * nx + nc :])
+        """Stability: each row of |A| sums below 1 (hinge; only with free couplings; the entries are >= 0)."""
+        rowsum = self.onehot[:, self.is_a] @ theta[self.is_a]
         return 1e3 * np.maximum(rowsum - self.row_limit, 0.0)
 
     def residuals(self, theta):
@@ -283,13 +279,8 @@ class _Problem:
         Jm = Jm.reshape(-1, self.n_par)
         if not self.omask.any():
             return Jm
-        nx, nc = self.nx, int(self.cmask.sum())
         excess = self._penalty(theta) > 0
-        Jp = np.zeros((nx, self.n_par))
-        a_par = np.r_[np.arange(nx), 2 * nx + nc + np.arange(int(self.omask.sum()))]
-        for p in a_par:
-            if excess[self.row[p]]:
-                Jp[self.row[p], p] = 1e3
+        Jp = 1e3 * self.onehot * (self.is_a[None, :] & excess[:, None])
         return np.vstack([Jm, Jp])
 
 
