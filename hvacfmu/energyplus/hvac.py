@@ -171,12 +171,12 @@ def air_boxes(idf) -> list:
     multipliers = zone_multipliers(idf)
     for zone in idf.all("Zone"):
         terms = _terminals_of_zone(idf, zone.name)
+        mult = multipliers.get(zone.name.lower(), 1.0)
         for i, (typ, name, node) in enumerate(terms):
             ahu = _ahu_of_terminal(idf, typ, name)
             if ahu is None:
                 continue
             suffix = "" if len(terms) == 1 else f"_{i + 1}"
-            mult = multipliers.get(zone.name.lower(), 1.0)
             boxes.append(Box(f"VAV_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, ahu[0], ahu[1], mult))
         if not boxes or boxes[-1].zone != zone.name:
             continue
@@ -187,7 +187,6 @@ def air_boxes(idf) -> list:
         for i, (typ, name, node) in enumerate(units):
             prefix = UNIT_PREFIXES.get(typ.lower(), "UNIT")
             suffix = "" if len(units) == 1 else f"_{i + 1}"
-            mult = multipliers.get(zone.name.lower(), 1.0)
             boxes.append(Box(f"{prefix}_{sanitise(zone.name)}{suffix}", zone.name, typ, name, node, name, node, mult))
     if not boxes:
         raise BuildingError(

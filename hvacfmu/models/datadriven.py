@@ -1450,7 +1450,7 @@ def _refined(prep: _Prepared, opts, model):
         why = "option open_loop=False" if form is False else "excitation periods in the training weeks"
         return dataclasses.replace(model, meta=_jsonable({**model.meta, "open_loop": {"used": False, "reason": why}}))
     t0 = time.perf_counter()
-    couplings = bool(opts["open_loop_couplings"]) and model.kind == "zones"
+    couplings = opts["open_loop_couplings"] and model.kind == "zones"  # a bool (checked by _options)
     new, info = refine_open_loop(model, prep, couplings=couplings, max_nfev=100 if couplings else 60)
     info["couplings"] = couplings
     info["seconds"] = round(time.perf_counter() - t0, 3)  # not in fit_seconds, which times the one-step fit
