@@ -176,8 +176,11 @@ class Verdict:
     #: model -> what to try where a model beats persistence but not the time-of-week mean (:func:`gain_profile_hint`)
     hints: dict = dataclasses.field(default_factory=dict)
     #: model -> the zone-seasons it loses to a time-of-week mean that is within :data:`LOOP_HELD_TOW_K` (a control
-    #: loop holds the zone on its schedule; :func:`loop_held_lines`)
+    #: loop holds the zone on its schedule; :func:`schedule_held_line`)
     loop_held: dict = dataclasses.field(default_factory=dict)
+    #: model -> the zone-seasons it loses to a persistence that is within :data:`LOOP_HELD_TOW_K` (the zone is held at
+    #: one temperature; :func:`constant_held_line`)
+    held_constant: dict = dataclasses.field(default_factory=dict)
 
     def losing(self, model: str | None = None) -> list:
         """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
@@ -308,6 +311,8 @@ class Verdict:
                 lines += [f"   - {c}" for c in causes]
         for model, held in self.loop_held.items():
             lines += [f"   behind the time-of-week mean for {model}: {h}" for h in held]
+        for model, held in self.held_constant.items():
+            lines += [f"   behind persistence for {model}: {h}" for h in held]
         for model, hints in self.hints.items():
             lines += [f"   to try for {model}: {h}" for h in hints]
         if lines:
@@ -334,6 +339,7 @@ class Verdict:
             "likely_causes": {k: list(v) for k, v in self.causes.items()},
             "hints": {k: list(v) for k, v in self.hints.items()},
             "loop_held": {k: list(v) for k, v in self.loop_held.items()},
+            "held_constant": {k: list(v) for k, v in self.held_constant.items()},
             "missing_inputs": {k: list(v) for k, v in self.missing.items()},
             "coverage": {k: dict(v) for k, v in self.coverage.items()},
             "thresholds": {
@@ -368,7 +374,7 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
 def make_verdict(scores, models, dataset) -> Verdict:
     """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
     zones, seasons = [], []
-    causes, coverage, missing, hints, held = {}, {}, {}, {}, {}
+    causes, coverage, missing, hints, held, constant = {}, {}, {}, {}, {}, {}
     for sc, model in zip(scores, models):
         if not sc.starts:
             continue
@@ -392,9 +398,12 @@ def make_verdict(scores, models, dataset) -> Verdict:
         hint = "" if sc.name in missing else gain_profile_hint(model, mine)  # a missing input explains it first
         if hint:
             hints[sc.name] = [hint]
-        lines = [] if sc.name in missing else loop_held_lines(per_season)
-        if lines:
-            held[sc.name] = lines
+        schedule = "" if sc.name in missing else schedule_held_line(per_season)
+        if schedule:
+            held[sc.name] = [schedule]
+        steady = "" if sc.name in missing else constant_held_line(per_season)
+        if steady:
+            constant[sc.name] = [steady]
     return Verdict(
         zones=tuple(zones),
         causes=causes,
@@ -403,28 +412,28 @@ def make_verdict(scores, models, dataset) -> Verdict:
         missing=missing,
         hints=hints,
         loop_held=held,
+        held_constant=constant,
     )
 
 
 def loop_held_lines(seasons) -> list[str]:
-    """Why a model loses to a baseline in zone-seasons that a control loop holds to a sensor's resolution.
+    """:func:`schedule_held_line` and :func:`constant_held_line` of one model's :class:`SeasonVerdict` list, the
+    ones that apply (``[]`` when neither does)."""
+    return [line for line in (schedule_held_line(seasons), constant_held_line(seasons)) if line]
 
-    ``seasons``: one model's :class:`SeasonVerdict` list. Two cases, each at most one line:
 
-    - the model beats persistence but not the time-of-week mean, whose RMS is at most :data:`LOOP_HELD_TOW_K`:
-      the zone repeats its schedule to the sensor's resolution, so the schedule is the forecast, while what the
-      loop compensates (occupancy, a meeting, a loop that modulates within the model step) is not in the data.
-      Measured on the emulator's seven-week winter exports (``benchmarks/short_winter_s8.md``): its own plant
-      with the true parameters and internal gains, fed the 15-minute export, loses to the time-of-week mean in
-      26 such zones, and tracks them within 0.03-0.04 K from the 1-minute export;
-    - the model loses to persistence, whose RMS is at most :data:`LOOP_HELD_TOW_K`: the zone is held at one
-      temperature (EnergyPlus's ideal thermostat holds the 90.1 large hotel's kitchen within 0.01 K, so a model
-      0.036 K off reads "305 % worse"); the ``!!`` line stays first, this says how much the percentage means.
+def schedule_held_line(seasons) -> str:
+    """Why a model loses to the time-of-week mean in zone-seasons that a control loop holds on their schedule.
 
-    ``[]`` when there is no such zone-season.
+    ``seasons``: one model's :class:`SeasonVerdict` list. A zone-season counts when the model beats persistence
+    there but not the time-of-week mean, whose RMS is at most :data:`LOOP_HELD_TOW_K`: the zone repeats its
+    schedule to the sensor's resolution, so the schedule is the forecast, while what the loop compensates
+    (occupancy, a meeting, a loop that modulates within the model step) is not in the data. Measured on the
+    emulator's seven-week winter exports (``benchmarks/short_winter_s8.md``): its own plant with the true parameters
+    and internal gains, fed the 15-minute export, loses to the time-of-week mean in 26 such zones, and tracks them
+    within 0.03-0.04 K from the 1-minute export. ``""`` when there is no such zone-season.
     """
-    out = []
-    schedule = [
+    held = [
         v
         for v in seasons
         if v.beats_persistence
@@ -432,27 +441,38 @@ def loop_held_lines(seasons) -> list[str]:
         and not v.beats_time_of_week
         and v.time_of_week <= LOOP_HELD_TOW_K
     ]
-    if schedule:
-        cells = ", ".join(f"{v.output} in {v.season} {v.rms:.3f} K against {v.time_of_week:.3f} K" for v in schedule)
-        worst = max(v.rms - v.time_of_week for v in schedule)
-        out.append(
-            f"{cells}: there a control loop holds the zone on its schedule (time-of-week mean within "
-            f"{LOOP_HELD_TOW_K:g} K, a zone sensor's resolution), so the schedule is the forecast and what the loop "
-            "compensates (occupancy, meetings, modulation within the model step) is not in the data; the model "
-            f"is behind by at most {worst:.3f} K, less than the sensor resolves: a limit of the data, not of the fit "
-            "(for control in a comfort band of a kelvin or more it does not matter)"
-        )
-    constant = [v for v in seasons if not v.beats_persistence and v.persistence <= LOOP_HELD_TOW_K]
-    if constant:
-        cells = ", ".join(f"{v.output} in {v.season} {v.rms:.3f} K against {v.persistence:.3f} K" for v in constant)
-        worst = max(v.rms - v.persistence for v in constant)
-        out.append(
-            f"{cells} (persistence): the zone is held at one temperature (persistence within {LOOP_HELD_TOW_K:g} K, "
-            "a zone sensor's resolution: an ideal thermostat, a server room), so holding the last value is the "
-            f"forecast; the model is off by at most {worst:.3f} K more, and the percentage is large only because "
-            "the baseline's error is tiny"
-        )
-    return out
+    if not held:
+        return ""
+    cells = ", ".join(f"{v.output} in {v.season} {v.rms:.3f} K against {v.time_of_week:.3f} K" for v in held)
+    worst = max(v.rms - v.time_of_week for v in held)
+    return (
+        f"{cells}: there a control loop holds the zone on its schedule (time-of-week mean within "
+        f"{LOOP_HELD_TOW_K:g} K, a zone sensor's resolution), so the schedule is the forecast and what the loop "
+        "compensates (occupancy, meetings, modulation within the model step) is not in the data; the model "
+        f"is behind by at most {worst:.3f} K, less than the sensor resolves: a limit of the data, not of the fit "
+        "(for control in a comfort band of a kelvin or more it does not matter)"
+    )
+
+
+def constant_held_line(seasons) -> str:
+    """How little a loss to persistence means in zone-seasons held at one temperature.
+
+    ``seasons``: one model's :class:`SeasonVerdict` list. A zone-season counts when the model loses to a persistence
+    whose RMS is at most :data:`LOOP_HELD_TOW_K` (EnergyPlus's ideal thermostat holds the 90.1 large hotel's kitchen
+    within 0.01 K, so a model 0.036 K off reads "305 % worse"); the ``!!`` line stays first, this says how much the
+    percentage means. ``""`` when there is no such zone-season.
+    """
+    held = [v for v in seasons if not v.beats_persistence and v.persistence <= LOOP_HELD_TOW_K]
+    if not held:
+        return ""
+    cells = ", ".join(f"{v.output} in {v.season} {v.rms:.3f} K against {v.persistence:.3f} K" for v in held)
+    worst = max(v.rms - v.persistence for v in held)
+    return (
+        f"{cells} (persistence): the zone is held at one temperature (persistence within {LOOP_HELD_TOW_K:g} K, "
+        "a zone sensor's resolution: an ideal thermostat, a server room), so holding the last value is the "
+        f"forecast; the model is off by at most {worst:.3f} K more, and the percentage is large only because "
+        "the baseline's error is tiny"
+    )
 
 
 def gain_profile_hint(model, zones) -> str:
