@@ -195,3 +195,50 @@ def test_one_blas_thread_limits_and_restores_the_pool():
     with one_blas_thread():
         assert set(blas_threads()) <= {1}
     assert blas_threads() == before
+
+
+@pytest.mark.parametrize("slack", ["shared", "per_step"])
+def test_hard_inputs_keep_their_limits_on_both_paths(slack):
+    """An input declared hard (the harness's reheat) has no slack: its plan stays in [u_min, u_max] where the
+    softened plan left them, DAQP and clarabel agree on the optimum, and the other inputs keep their slack."""
+    kw = {"slack": slack, "blocks": (1, 2, 3)}
+
+    def run(solver, hard):
+        c = MPCController(
+            linear_model(),
+            LIN_UMIN,
+            LIN_UMAX,
+            MPCSettings(horizon=6, formulation="qp", solver=solver, **kw),
+            hard_inputs=hard,
+        )
+        out = []
+        for k, x0 in enumerate(STATES):
+            V, Q = linear_preview(6, seed=k)
+            p = c.plan(x0, V, Q)
+            p.merit = c.merit(p.U, p.X) if p.found else np.nan
+            out.append(p)
+            if p.found:
+                c._last = (p.U[0], V[0], Q[0])
+        return out, c
+
+    soft, _ = run("daqp", None)
+    over = np.max([np.max(p.U - LIN_UMAX, axis=0) for p in soft], axis=0)
+    i = int(np.argmax(over))
+    assert over[i] > 1e-3, "an input must leave its limit in the softened plans for the test to mean anything"
+    hard = np.arange(len(LIN_UMAX)) == i
+    dense, c = run("daqp", hard)
+    ref, c_ref = run("clarabel", hard)
+    n_soft = len(LIN_UMAX) - 1
+    assert c._problem.ne == (c._problem.nb * n_soft if slack == "per_step" else n_soft)  # no slack for the hard input
+    assert c._problem.dense.soft_U.size == c._problem.nb * (len(LIN_UMAX) - 1)  # no limit rows for the hard input
+    assert c._problem.n_solver_fallbacks == 0
+    used_eps = False
+    for p, r in zip(dense, ref):
+        assert p.found and r.found
+        for q in (p, r):
+            assert np.all(q.U[:, i] <= LIN_UMAX[i] + 1e-6) and np.all(q.U[:, i] >= LIN_UMIN[i] - 1e-6)
+            assert np.all(np.asarray(q.eps)[..., i] == 0.0)
+        assert_allclose(p.merit, p.obj, rtol=1e-6, atol=1e-9)
+        assert_allclose(p.obj, r.obj, rtol=1e-6, atol=1e-9)
+        used_eps |= bool(np.max(p.eps) > 1e-3)
+    assert used_eps, "the other inputs keep their softened limits"

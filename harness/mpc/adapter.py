@@ -141,7 +141,7 @@ class CosimMPC:
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
         self.n_air = u_min.size
-        controlled, weights, self.heat = model, None, None
+        controlled, weights, hard, self.heat = model, None, None, None
         if self.heating and context.discharge:
             controlled, self.heat, _ = heat_plan(
                 model, building, context.vavs, context.discharge, context.heating_limits(), context.frame
@@ -150,6 +150,10 @@ class CosimMPC:
             h_max = self.heat.limits(T_ref)  # [kW] at the run's median supply air (applied: clipped per box)
             u_min, u_max = np.concatenate([u_min, np.zeros_like(h_max)]), np.concatenate([u_max, h_max])
             weights = np.concatenate([np.ones(self.n_air), np.full(h_max.size, HEAT_WEIGHT)])
+            # a coil's capacity is hard (a soft comfort band keeps the problem feasible); the airflow limits stay
+            # softened as in the paper, and a hard band keeps the reheat's softened too (else a cold start
+            # could have no solution)
+            hard = np.arange(u_min.size) >= self.n_air if self.settings.comfort_penalty is not None else None
             self._td_boxes = [list(context.vavs).index(b) for b in context.discharge]
         self.mpc = MPCController(
             controlled,
@@ -160,6 +164,7 @@ class CosimMPC:
             kalman_r_std=self.kalman[1],
             failure_dir=self.failure_dir,
             input_weights=weights,
+            hard_inputs=hard,
         )
         N = self.mpc.N
         frame = context.frame

@@ -97,6 +97,12 @@ class MPCController:
         keeps them in :attr:`failed_problems`.
     input_weights : array (n_inputs,) or None
         Cost weight of each input (default ones, the paper's ``Σ ||u||²``).
+    hard_inputs : array of bool (n_inputs,) or None
+        Inputs whose limits the optimiser keeps as they are, without the
+        slack ``eps`` of the paper's softened limits (default none: every
+        input's limits are softened). The harness makes the reheat inputs hard
+        (:class:`~harness.mpc.adapter.MPCAdapter`): a coil's capacity is a
+        limit no plan can exceed.
     """
 
     name = "mpc"
@@ -112,6 +118,7 @@ class MPCController:
         kalman_r_std=0.05,
         failure_dir=None,
         input_weights=None,
+        hard_inputs=None,
     ):
         self.model = model
         self.settings = settings or MPCSettings()
@@ -123,6 +130,9 @@ class MPCController:
                 f"input limits have {self.u_min.size}/{self.u_max.size} entries, model has {self.pred.nu} inputs"
             )
         self.weights = np.ones(self.pred.nu) if input_weights is None else np.asarray(input_weights, float).ravel()
+        self.hard = np.zeros(self.pred.nu, dtype=bool) if hard_inputs is None else np.asarray(hard_inputs, bool).ravel()
+        if self.hard.size != self.pred.nu:
+            raise ModelError(f"hard_inputs has {self.hard.size} entries, model has {self.pred.nu} inputs")
         self.lengths = np.asarray(self.settings.block_lengths)
         self.N = int(self.lengths.sum())
         self.bilinear = not self.pred.linear
@@ -287,7 +297,9 @@ class MPCController:
         if not self.bilinear:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
             if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
+                self._problem = CondensedProblem(
+                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
+                )
             self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
@@ -344,14 +356,26 @@ class MPCController:
             if self._problem is None:
                 rom = self.pred.reduced_model(s.rom_tol)
                 self._problem = ReducedProblem(
-                    rom["Ar"], rom["Br"], rom["Cr"], rom["D0"], beta, theta, self.u_min, self.u_max, s, self.weights
+                    rom["Ar"],
+                    rom["Br"],
+                    rom["Cr"],
+                    rom["D0"],
+                    beta,
+                    theta,
+                    self.u_min,
+                    self.u_max,
+                    s,
+                    self.weights,
+                    self.hard,
                 )
             else:
                 self._problem.update_blocks(beta, theta)
         else:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=mode)
             if self._problem is None:
-                self._problem = CondensedProblem(G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights)
+                self._problem = CondensedProblem(
+                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
+                )
             else:
                 self._problem.update_G(G)
         self._problem.set_previous(self._u_prev())

@@ -81,11 +81,16 @@ class DenseQP:
 
     def _constraint_matrix(self, G) -> np.ndarray:
         p, nU, ne, nY, nS = self.p, self.nU, self.ne, self.nY, self.nS
-        eps_of = np.arange(nU) if p.per_step else np.tile(np.arange(p.nu), p.nb)
-        E = np.zeros((nU, ne))
-        E[np.arange(nU), eps_of] = 1.0
-        limits_hi = np.hstack([np.eye(nU), -E, np.zeros((nU, nS))])  # U - eps <= u_max
-        limits_lo = np.hstack([np.eye(nU), E, np.zeros((nU, nS))])  # U + eps >= u_min
+        rows, cols = p._eps_rows()
+        # the softened limits are rows (U and its slack); a hard input's limits are simple bounds on U
+        self.soft_U = np.unique(rows)
+        nL = self.soft_U.size
+        E = np.zeros((nL, ne))
+        E[np.searchsorted(self.soft_U, rows), cols - p.i_eps] = 1.0
+        IU = np.zeros((nL, nU))
+        IU[np.arange(nL), self.soft_U] = 1.0
+        limits_hi = np.hstack([IU, -E, np.zeros((nL, nS))])  # U - eps <= u_max
+        limits_lo = np.hstack([IU, E, np.zeros((nL, nS))])  # U + eps >= u_min
         if not p.soft:  # T_min - y0 <= G U <= T_max - y0
             return np.vstack([limits_hi, limits_lo, np.hstack([G, np.zeros((nY, ne))])])
         band_hi = np.hstack([G, np.zeros((nY, ne)), -np.eye(nY)])  # G U - s <= T_max - y0
@@ -94,20 +99,24 @@ class DenseQP:
 
     def _bounds_template(self):
         """Upper/lower bounds with every state-independent entry filled; the band rows are set per solve."""
-        p, nU, ne, nY = self.p, self.nU, self.ne, self.nY
+        p, nU, ne, nY, nL = self.p, self.nU, self.ne, self.nY, self.soft_U.size
         floor = -_INF if p.settings.u_floor is None else float(p.settings.u_floor)
         simple_lo = np.concatenate([np.full(nU, floor), np.zeros(ne + self.nS)])
-        rows = 2 * nU + (2 * nY if p.soft else nY)
-        self.bu = np.concatenate([np.full(self.n, _INF), np.full(rows, _INF)])
+        simple_hi = np.full(self.n, _INF)
+        hard = np.tile(p.hard, p.nb)
+        simple_lo[:nU][hard] = np.maximum(simple_lo[:nU][hard], np.tile(p.u_min, p.nb)[hard])
+        simple_hi[:nU][hard] = np.tile(p.u_max, p.nb)[hard]
+        rows = 2 * nL + (2 * nY if p.soft else nY)
+        self.bu = np.concatenate([simple_hi, np.full(rows, _INF)])
         self.bl = np.concatenate([simple_lo, np.full(rows, -_INF)])
         r = self.n
-        self.bu[r : r + nU] = np.tile(p.u_max, p.nb)
-        self.bl[r + nU : r + 2 * nU] = np.tile(p.u_min, p.nb)
-        self._band = r + 2 * nU  # first band row
+        self.bu[r : r + nL] = np.tile(p.u_max, p.nb)[self.soft_U]
+        self.bl[r + nL : r + 2 * nL] = np.tile(p.u_min, p.nb)[self.soft_U]
+        self._band = r + 2 * nL  # first band row
 
     def update_G(self, G) -> None:
         """A new output sensitivity (bilinear models: a new linearisation); the active set is kept."""
-        nY, nU, b = self.nY, self.nU, 2 * self.nU
+        nY, nU, b = self.nY, self.nU, 2 * self.soft_U.size
         self.A[b : b + nY, :nU] = G
         if self.p.soft:
             self.A[b + nY : b + 2 * nY, :nU] = G

@@ -292,7 +292,7 @@ class _MPCProblem:
 
     n_extra = 0
 
-    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None):
+    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None, hard=None):
         self.settings = settings
         self.lengths = np.asarray(settings.block_lengths)
         self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
@@ -304,15 +304,27 @@ class _MPCProblem:
             problems.append(f"u_min has {self.u_min.size} entries, u_max {self.u_max.size}")
         elif np.any(self.u_min > self.u_max):
             problems.append(f"u_min > u_max for inputs {np.flatnonzero(self.u_min > self.u_max).tolist()}")
+        self.hard = np.zeros(self.nu, dtype=bool) if hard is None else np.asarray(hard, dtype=bool).ravel()
+        if self.hard.shape != (self.nu,):
+            problems.append(f"hard has {self.hard.size} entries, expected one per input ({self.nu})")
         if problems:
             raise SolverError(problems_message("invalid MPC problem", problems))
         self.soft = settings.comfort_penalty is not None
         self.socp = settings.formulation == "socp"
         nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
         self.per_step = settings.slack == "per_step"
-        self.ne = nU if self.per_step else nu  # slack entries: per block and input, or per input
+        # inputs with softened limits (the paper's eps); hard inputs keep u_min <= u <= u_max as it is
+        self.soft_inputs = np.flatnonzero(~self.hard)
+        ns = self.soft_inputs.size
+        self.ne = self.nb * ns if self.per_step else ns  # slack entries: per block and soft input, or per soft input
         # weight of each slack entry: the number of steps it covers (per_step), so ||eps|| is over steps
-        self.eps_w = np.repeat(self.lengths, nu).astype(float) if self.per_step else np.ones(nu)
+        self.eps_w = np.repeat(self.lengths, ns).astype(float) if self.per_step else np.ones(ns)
+        # the U entry (block-major) of every slack entry
+        self.eps_entry = (
+            (np.arange(self.nb)[:, None] * nu + self.soft_inputs[None, :]).ravel()
+            if self.per_step
+            else self.soft_inputs
+        )
         self.i_eps = nU
         self.i_t = nU + self.ne
         self.i_s = self.i_t + (1 if self.socp else 0)
@@ -363,7 +375,7 @@ class _MPCProblem:
         raise NotImplementedError
 
     def _assemble(self):
-        nU, nu, nY = self.nb * self.nu, self.nu, self.N * self.ny
+        nU, nY = self.nb * self.nu, self.N * self.ny
         rows, cols, vals = [], [], []
         self._slots = {}
         state = {"r0": 0, "n": 0}
@@ -383,13 +395,13 @@ class _MPCProblem:
         state["r0"] = n_eq
         self.n_eq = n_eq
         iU = np.arange(nU)
-        eps_of = self.i_eps + (iU if self.per_step else np.tile(np.arange(nu), self.nb))
+        rows_eps, cols_eps = self._eps_rows()
         iY = np.arange(nY)
-        put(iU, iU, 1.0)  # U - eps <= u_max
-        put(iU, eps_of, -1.0)
+        put(iU, iU, 1.0)  # U - eps <= u_max (hard inputs: U <= u_max)
+        put(rows_eps, cols_eps, -1.0)
         state["r0"] += nU
         put(iU, iU, -1.0)  # -U - eps <= -u_min
-        put(iU, eps_of, -1.0)
+        put(rows_eps, cols_eps, -1.0)
         state["r0"] += nU
         put(np.arange(self.ne), self.i_eps + np.arange(self.ne), -1.0)  # -eps <= 0
         state["r0"] += self.ne
@@ -429,6 +441,26 @@ class _MPCProblem:
                 np.zeros(1 + self.ne if self.socp else 0),
             ]
         )
+
+    def _eps_rows(self):
+        """``(U entries, slack columns)``: the U entry (block-major) of each softened limit row and its slack."""
+        ns = self.soft_inputs.size
+        if self.per_step:
+            return self.eps_entry, self.i_eps + np.arange(self.ne)
+        # shared: one slack per soft input, in every block's row of that input
+        rows = (np.arange(self.nb)[:, None] * self.nu + self.soft_inputs[None, :]).ravel()
+        cols = self.i_eps + np.tile(np.arange(ns), self.nb)
+        return rows, cols
+
+    def full_eps(self, eps) -> np.ndarray:
+        """Slack values per input: (nu,) shared or (N, nu) per step, zero for hard inputs."""
+        if self.per_step:
+            out = np.zeros(self.nb * self.nu)
+            out[self.eps_entry] = eps
+            return np.repeat(out.reshape(self.nb, self.nu), self.lengths, axis=0)
+        out = np.zeros(self.nu)
+        out[self.soft_inputs] = eps
+        return out
 
     def _update_slots(self, **blocks):
         for name, values in blocks.items():
@@ -504,8 +536,7 @@ class _MPCProblem:
         obj = 0.5 * float(z @ (self.P @ z)) + float(self.q @ z) + self._move_const if found else float("nan")
         if found and self.socp:  # report ρ||eps||_2 itself, not the cone variable t
             obj += self.settings.rho * (float(np.linalg.norm(np.sqrt(self.eps_w) * eps)) - float(z[self.i_t]))
-        if self.per_step:  # per step (N, nu), like U
-            eps = np.repeat(eps.reshape(self.nb, nu), self.lengths, axis=0)
+        eps = self.full_eps(eps)  # per input (nu,), or per step (N, nu) like U
         Y = z[self.i_y : self.i_x].reshape(self.N, self.ny)
         return QPSolution(found, status, U, eps, s, Y, obj, dt, z)
 
@@ -557,9 +588,9 @@ class CondensedProblem(_MPCProblem):
     dense block and was 4x slower with clarabel at N = 96.)
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None):
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None, hard=None):
         G = np.asarray(G, dtype=float)
-        super().__init__(u_min, u_max, ny, settings, weights=weights)
+        super().__init__(u_min, u_max, ny, settings, weights=weights, hard=hard)
         if G.shape != (self.N * self.ny, self.nb * self.nu):
             raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         self.G = G
@@ -590,9 +621,7 @@ class CondensedProblem(_MPCProblem):
             Y = (y0 + self.G @ z[:nU]).reshape(self.N, self.ny)
             s = z[nU + ne :].reshape(self.N, self.ny) if self.soft else np.zeros((self.N, self.ny))
             U = np.repeat(z[:nU].reshape(self.nb, self.nu), self.lengths, axis=0)
-            eps = z[nU : nU + ne]
-            if self.per_step:
-                eps = np.repeat(eps.reshape(self.nb, self.nu), self.lengths, axis=0)
+            eps = self.full_eps(z[nU : nU + ne])
             return QPSolution(True, "Solved", U, eps, s, Y, fval + self._move_const, dt, z, solver="daqp")
         self.n_solver_fallbacks += 1
         sol = super().solve(y0)
@@ -643,13 +672,13 @@ class ReducedProblem(_MPCProblem):
     u_min, u_max, settings, weights : as :class:`CondensedProblem`
     """
 
-    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None):
+    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None, hard=None):
         self.Ar, self.Br = np.asarray(Ar, float), np.asarray(Br, float)
         self.Cr, self.D0 = np.asarray(Cr, float), np.asarray(D0, float)
         self.nr, self.r = self.Br.shape
         self.has_theta = theta is not None
         self.n_extra = settings.horizon * (self.nr + self.r)
-        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights)
+        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights, hard=hard)
         self._beta = np.asarray(beta, float)
         self._theta = None if theta is None else np.asarray(theta, float)
         self._check_blocks(beta=self._beta, theta=self._theta)
