@@ -33,6 +33,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import scipy.linalg
 
 from hvacfmu.errors import SolverError
 
@@ -69,62 +70,83 @@ class DenseQP:
         self.nU, self.ne, self.nY = nU, ne, nY
         self.nS = nY if p.soft else 0
         self.n = nU + ne + self.nS
-        self.H = np.zeros((self.n, self.n))
-        self.H[:nU, :nU] = p.P[:nU, :nU].toarray()
-        self.f = np.asarray(p.q[: nU + ne], dtype=float).copy()
+        # U = T v with vᵀv = Uᵀ H_UU U (T = R⁻¹, H_UU = RᵀR): DAQP's Hessian is then diagonal, and DAQP recomputes
+        # a changed constraint matrix in O(m n) instead of O(m n²) (with the move penalty's off-diagonal terms a
+        # new G took 17 ms of DAQP's time against 0.45 ms, Model B on the plant: 354 rows, 387 variables)
+        R = scipy.linalg.cholesky(p.P[:nU, :nU].toarray(), lower=False)
+        self.T = scipy.linalg.solve_triangular(R, np.eye(nU), lower=False)
+        self.H = np.diag(np.concatenate([np.ones(nU), np.zeros(ne + self.nS)]))
+        # the linear term in U coordinates (the move penalty changes its first block); DAQP gets Tᵀ f_U
+        self.f_U = np.asarray(p.q[:nU], dtype=float).copy()
+        rest = np.asarray(p.q[nU : nU + ne], dtype=float)
         if p.soft:
-            self.f = np.concatenate([self.f, p.q[p.i_s : p.i_y]])
+            rest = np.concatenate([rest, p.q[p.i_s : p.i_y]])
+        self.f = np.concatenate([self.T.T @ self.f_U, rest])
+        self._rows_of_U()
         self.A = self._constraint_matrix(p.G)
         self._bounds_template()
         self._model = None
         self._f_changed = self._A_changed = False
 
-    def _constraint_matrix(self, G) -> np.ndarray:
-        p, nU, ne, nY, nS = self.p, self.nU, self.ne, self.nY, self.nS
-        rows, cols = p._eps_rows()
-        # the softened limits are rows (U and its slack); a hard input's limits are simple bounds on U
+    def _rows_of_U(self) -> None:
+        """Which U entries have softened limit rows (``soft_U``) and which have bounds of their own (``bound_U``)."""
+        p = self.p
+        rows, self._eps_cols = p._eps_rows()
+        self._eps_U = rows
         self.soft_U = np.unique(rows)
+        hard = np.tile(p.hard, p.nb)
+        # every U entry is bounded below by the floor; hard entries also by their limits (one two-sided row)
+        self.bound_U = np.arange(self.nU) if p.settings.u_floor is not None else np.flatnonzero(hard)
+
+    def _constraint_matrix(self, G) -> np.ndarray:
+        """Rows in the variables ``[v, eps, s]``: softened limits, U's own bounds, then the band."""
+        p, ne, nY, nS, T = self.p, self.ne, self.nY, self.nS, self.T
         nL = self.soft_U.size
         E = np.zeros((nL, ne))
-        E[np.searchsorted(self.soft_U, rows), cols - p.i_eps] = 1.0
-        IU = np.zeros((nL, nU))
-        IU[np.arange(nL), self.soft_U] = 1.0
-        limits_hi = np.hstack([IU, -E, np.zeros((nL, nS))])  # U - eps <= u_max
-        limits_lo = np.hstack([IU, E, np.zeros((nL, nS))])  # U + eps >= u_min
+        E[np.searchsorted(self.soft_U, self._eps_U), self._eps_cols - p.i_eps] = 1.0
+        TU = T[self.soft_U]
+        limits_hi = np.hstack([TU, -E, np.zeros((nL, nS))])  # U - eps <= u_max
+        limits_lo = np.hstack([TU, E, np.zeros((nL, nS))])  # U + eps >= u_min
+        nB = self.bound_U.size
+        bounds = np.hstack([T[self.bound_U], np.zeros((nB, ne + nS))])  # lo <= U <= hi
+        GT = G @ T
         if not p.soft:  # T_min - y0 <= G U <= T_max - y0
-            return np.vstack([limits_hi, limits_lo, np.hstack([G, np.zeros((nY, ne))])])
-        band_hi = np.hstack([G, np.zeros((nY, ne)), -np.eye(nY)])  # G U - s <= T_max - y0
-        band_lo = np.hstack([G, np.zeros((nY, ne)), np.eye(nY)])  # G U + s >= T_min - y0
-        return np.vstack([limits_hi, limits_lo, band_hi, band_lo])
+            return np.vstack([limits_hi, limits_lo, bounds, np.hstack([GT, np.zeros((nY, ne))])])
+        band_hi = np.hstack([GT, np.zeros((nY, ne)), -np.eye(nY)])  # G U - s <= T_max - y0
+        band_lo = np.hstack([GT, np.zeros((nY, ne)), np.eye(nY)])  # G U + s >= T_min - y0
+        return np.vstack([limits_hi, limits_lo, bounds, band_hi, band_lo])
 
     def _bounds_template(self):
         """Upper/lower bounds with every state-independent entry filled; the band rows are set per solve."""
-        p, nU, ne, nY, nL = self.p, self.nU, self.ne, self.nY, self.soft_U.size
-        floor = -_INF if p.settings.u_floor is None else float(p.settings.u_floor)
-        simple_lo = np.concatenate([np.full(nU, floor), np.zeros(ne + self.nS)])
-        simple_hi = np.full(self.n, _INF)
-        hard = np.tile(p.hard, p.nb)
-        simple_lo[:nU][hard] = np.maximum(simple_lo[:nU][hard], np.tile(p.u_min, p.nb)[hard])
-        simple_hi[:nU][hard] = np.tile(p.u_max, p.nb)[hard]
-        rows = 2 * nL + (2 * nY if p.soft else nY)
-        self.bu = np.concatenate([simple_hi, np.full(rows, _INF)])
+        p, nU, ne, nY, nL, nB = self.p, self.nU, self.ne, self.nY, self.soft_U.size, self.bound_U.size
+        simple_lo = np.concatenate([np.full(nU, -_INF), np.zeros(ne + self.nS)])  # v is free; eps, s >= 0
+        rows = 2 * nL + nB + (2 * nY if p.soft else nY)
+        self.bu = np.concatenate([np.full(self.n, _INF), np.full(rows, _INF)])
         self.bl = np.concatenate([simple_lo, np.full(rows, -_INF)])
         r = self.n
-        self.bu[r : r + nL] = np.tile(p.u_max, p.nb)[self.soft_U]
-        self.bl[r + nL : r + 2 * nL] = np.tile(p.u_min, p.nb)[self.soft_U]
-        self._band = r + 2 * nL  # first band row
+        u_min, u_max = np.tile(p.u_min, p.nb), np.tile(p.u_max, p.nb)
+        self.bu[r : r + nL] = u_max[self.soft_U]
+        self.bl[r + nL : r + 2 * nL] = u_min[self.soft_U]
+        r += 2 * nL
+        floor = -_INF if p.settings.u_floor is None else float(p.settings.u_floor)
+        hard = np.tile(p.hard, p.nb)[self.bound_U]
+        self.bl[r : r + nB] = np.where(hard, np.maximum(floor, u_min[self.bound_U]), floor)
+        self.bu[r : r + nB] = np.where(hard, u_max[self.bound_U], _INF)
+        self._band = r + nB  # first band row
 
     def update_G(self, G) -> None:
         """A new output sensitivity (bilinear models: a new linearisation); the active set is kept."""
-        nY, nU, b = self.nY, self.nU, 2 * self.soft_U.size
-        self.A[b : b + nY, :nU] = G
+        nY, nU, b = self.nY, self.nU, self._band - self.n
+        GT = G @ self.T
+        self.A[b : b + nY, :nU] = GT
         if self.p.soft:
-            self.A[b + nY : b + 2 * nY, :nU] = G
+            self.A[b + nY : b + 2 * nY, :nU] = GT
         self._A_changed = True
 
     def set_linear_term(self, q_U) -> None:
         """The move penalty's linear term on the first block (nu,) (see ``CondensedProblem.set_previous``)."""
-        self.f[: self.p.nu] = q_U
+        self.f_U[: self.p.nu] = q_U
+        self.f[: self.nU] = self.T.T @ self.f_U
         self._f_changed = True
 
     def _set_band(self, y0):
@@ -175,4 +197,7 @@ class DenseQP:
         found = flag == _OPTIMAL and bool(np.all(np.isfinite(z)))
         if not found:
             self._model = None  # start the next solve from scratch
+        # the objective of the returned point itself (DAQP's value carries its proximal regularisation)
+        fval = 0.5 * float(z[: self.nU] @ z[: self.nU]) + float(self.f @ z)
+        z[: self.nU] = self.T @ z[: self.nU]  # back to U
         return found, f"daqp exitflag {flag}", z, float(fval), time.perf_counter() - t0
