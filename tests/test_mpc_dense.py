@@ -29,10 +29,11 @@ STATES = (
 )
 
 
-def plans(solver, N=6, steps=STATES, **kw):
+def plans(solver, N=6, steps=STATES, hard_inputs=None, **kw):
     """Plans of one controller over a sequence of states (the dense path warm-starts from the previous
     one), each with its cost on the model's own trajectory (``MPCController.merit``)."""
-    c = MPCController(linear_model(), LIN_UMIN, LIN_UMAX, MPCSettings(horizon=N, formulation="qp", solver=solver, **kw))
+    settings = MPCSettings(horizon=N, formulation="qp", solver=solver, **kw)
+    c = MPCController(linear_model(), LIN_UMIN, LIN_UMAX, settings, hard_inputs=hard_inputs)
     out = []
     for k, x0 in enumerate(steps):
         V, Q = linear_preview(N, seed=k)
@@ -202,32 +203,13 @@ def test_hard_inputs_keep_their_limits_on_both_paths(slack):
     """An input declared hard (the harness's reheat) has no slack: its plan stays in [u_min, u_max] where the
     softened plan left them, DAQP and clarabel agree on the optimum, and the other inputs keep their slack."""
     kw = {"slack": slack, "blocks": (1, 2, 3)}
-
-    def run(solver, hard):
-        c = MPCController(
-            linear_model(),
-            LIN_UMIN,
-            LIN_UMAX,
-            MPCSettings(horizon=6, formulation="qp", solver=solver, **kw),
-            hard_inputs=hard,
-        )
-        out = []
-        for k, x0 in enumerate(STATES):
-            V, Q = linear_preview(6, seed=k)
-            p = c.plan(x0, V, Q)
-            p.merit = c.merit(p.U, p.X) if p.found else np.nan
-            out.append(p)
-            if p.found:
-                c._last = (p.U[0], V[0], Q[0])
-        return out, c
-
-    soft, _ = run("daqp", None)
+    soft, _ = plans("daqp", **kw)
     over = np.max([np.max(p.U - LIN_UMAX, axis=0) for p in soft], axis=0)
     i = int(np.argmax(over))
     assert over[i] > 1e-3, "an input must leave its limit in the softened plans for the test to mean anything"
     hard = np.arange(len(LIN_UMAX)) == i
-    dense, c = run("daqp", hard)
-    ref, c_ref = run("clarabel", hard)
+    dense, c = plans("daqp", hard_inputs=hard, **kw)
+    ref, _ = plans("clarabel", hard_inputs=hard, **kw)
     n_soft = len(LIN_UMAX) - 1
     assert c._problem.ne == (c._problem.nb * n_soft if slack == "per_step" else n_soft)  # no slack for the hard input
     assert c._problem.dense.soft_U.size == c._problem.nb * (len(LIN_UMAX) - 1)  # no limit rows for the hard input
