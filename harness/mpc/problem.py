@@ -281,7 +281,8 @@ class QPSolution:
 class _MPCProblem:
     """The MPC problem with the prediction as equality rows; subclasses define those rows.
 
-    Variables ``z = [U_b (n_blocks*nu), eps (nu), t (socp only), s (N*ny, soft band only),
+    Variables ``z = [U_b (n_blocks*nu), eps (one per softened input, or per block and softened input
+    with ``slack="per_step"``; none for ``hard`` inputs), t (socp only), s (N*ny, soft band only),
     y (N*ny), extra]``; constraints ``A z + slack = b`` with ``slack`` in the
     zero cone (prediction rows), the nonnegative cone (limits, band) and, for
     ``"socp"``, the second-order cone ``(t, eps)``. Only the prediction rows'
