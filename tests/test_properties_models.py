@@ -235,7 +235,7 @@ def _scaled_A(d, rho):
     [
         ("zones", lambda d: _scaled_A(d, 1.02), "spectral radius of A is 1.02"),
         ("zones", lambda d: _edit(d, ("A", 0, 1), -0.05), r"coupling A\[NW, W\] = -0.05 < 0"),
-        ("lumped", lambda d: _edit(d, ("B", 0, 0), 0.3), "airflow warms the zone"),
+        ("lumped", lambda d: _edit(d, ("B", 0, 0), 0.3), "airflow warms zone"),
         ("lumped", lambda d: _edit(d, ("gains", "fall", 5, 0), 500.0), r"gains\['fall'\].*above 50 K per step"),
         ("zones", lambda d: _edit(d, ("A",), [[0.5]]), r"A has shape \(1, 1\), expected \(6, 6\)"),
         ("zones", lambda d: _edit(d, ("step",), True), "'step' must be a finite number, got True"),
@@ -257,6 +257,30 @@ def test_implausible_model_files_are_refused_with_the_reason(tmp_path, model_fil
     with pytest.raises(ModelError, match=message) as info:
         load_model(path)
     assert str(path) in str(info.value)
+
+
+def test_extended_base_airflow_may_warm_only_where_a_supply_air_term_cools(tmp_path, model_files):
+    """The diagnosis fits a zone's base airflow coefficient free of sign when a ``supply_air_bilinear`` term
+    carries the supply air's cooling there (B + coef (T_supply - T_zone): B is the delivered air's offset);
+    the saved model must load (an emulated core9 floor's diagnosis wrote B = 0.337 that its export refused).
+    Elsewhere a warming airflow stays refused, naming the zone."""
+    d = copy.deepcopy(model_files["extended"])
+    base = d["base"]
+    i = base["outputs"].index("S")
+    j = int(np.argmax(np.abs(base["B"][i])))
+    base["B"][i][j] = 0.3
+    path = tmp_path / "warm.json"
+    path.write_text(json.dumps(d), encoding="utf-8")
+    with pytest.raises(ModelError, match="airflow warms zone S"):
+        load_model(path)
+    d["terms"].append({"cause": "supply_air_bilinear", "zone": "S", "coef": 0.05})
+    path.write_text(json.dumps(d), encoding="utf-8")
+    model = load_model(path)
+    assert model.base.B[i, j] == 0.3
+    d["terms"][-1]["zone"] = "E"  # the term in another zone does not free S
+    path.write_text(json.dumps(d), encoding="utf-8")
+    with pytest.raises(ModelError, match="airflow warms zone S"):
+        load_model(path)
 
 
 def test_model_for_other_zones_is_refused_with_both_zone_lists(tmp_path, model_files, short_dataset):

@@ -44,8 +44,13 @@ def time_constants_h(A, step) -> np.ndarray:
     return np.sort(tau)[::-1] / 3600.0
 
 
-def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H) -> tuple[list[str], dict]:
+def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H, free_airflow=()) -> tuple[list[str], dict]:
     """Reasons why a :class:`~hvacfmu.models.linear.LinearZoneModel` cannot be a building, and the numbers.
+
+    ``free_airflow``: states (output names) whose airflow coefficient ``B`` may have either sign, because
+    an extension term carries the supply air's cooling there (``supply_air_bilinear``: the airflow's
+    effect is ``B + coef (T_supply - T_zone)``; a positive ``B`` is then the delivered air's offset over
+    the air handler's supply, as the diagnosis fits it).
 
     Returns
     -------
@@ -84,9 +89,11 @@ def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H) -> 
             f"C[{model.outputs[i]}, {model.disturbances[j]}] = {model.C[i, j]:.3g} < 0 "
             "(warmer weather or more sun would cool the zone)"
         )
-    if model.beta is None and np.any(model.B > 0):
+    B = np.where(np.isin(np.asarray(model.outputs), list(free_airflow))[:, None], 0.0, model.B)
+    if model.beta is None and np.any(B > 0):
+        i = int(np.unravel_index(np.argmax(B), B.shape)[0])
         problems.append(
-            f"airflow warms the zone (B up to {np.max(model.B):.3g} > 0); in the airflow form the "
+            f"airflow warms zone {model.outputs[i]} (B up to {np.max(B):.3g} > 0); in the airflow form the "
             "supply air must cool (use the delivered-heat form for heating with reheat)"
         )
     if model.beta is not None and np.any(model.beta < 0):
