@@ -228,15 +228,15 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
         "p_value": float(stats.chi2.sf(max(lr_adj, 0.0), k)) if k > 0 else None,
         "coefficients": {n: {"value": v, "std": s} for n, (v, s) in coefs.items()},
     }
-    _term_evidence(c, sig, W, terms, t, coefs)
+    _term_evidence(c, sig, W, terms, t, coefs, {**DEFAULT_OPTIONS, **(options or {})})
 
 
-def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict) -> None:
+def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: dict) -> None:
     """Location details and cause-specific evidence of the best variant ``t`` of candidate ``c`` (in place)."""
     if isinstance(t, ActuationDelay):
         c.location = {**c.location, "delay": int(t.delay)}
     if isinstance(t, ZoneCoupling):
-        c.evidence.update(coupling_symmetry(sig, W, terms, t))
+        c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
@@ -254,16 +254,33 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict) -> None:
         c.evidence["scale_by_zone"] = dict(zip(sig.zones, (float(x) for x in g)))
 
 
-def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
-    """Untied fit of a coupling: each zone's own coefficient on the temperature difference.
+def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0) -> dict:
+    """Untied fit of a coupling: each zone's own coefficient on the temperature difference, and its uncertainty.
 
     A heat exchange through a conductance ``UA`` raises each zone's temperature in
     proportion to ``UA / C_zone``; with capacities proportional to the zone volumes the
-    two coefficients, rescaled by ``V̄/V``, must agree. Returns the untied coefficients,
-    ``symmetry_ratio`` (1 for a perfect exchange) and ``dT_within_std_K``: the standard
-    deviation [K] of ``T_b − T_a`` on the training rows after its season × time-of-week
-    means (the part the zones' gain profiles cannot absorb; heat a conductance ``UA``
-    carries beyond the profiles is about ``UA`` times it).
+    two coefficients, rescaled by ``V̄/V``, agree, up to the capacity that is not the air's
+    (furniture, slab): ``tolerance`` (``coupling_max_asymmetry``, 4) is the factor allowed
+    between them. Each zone's equation is refitted with its own coefficient ``c_z`` on the
+    difference toward the other zone (``untied_coef_<zone>``: bound ``0 ≤ c_z ≤ 1``;
+    ``symmetry_ratio`` of the two, volume-scaled: 1 for a perfect exchange; the gate reads
+    it) and once with ``c_z`` free (``untied_free_<zone>``): at a bound the bounded value
+    says nothing about how far the data are from it.
+
+    ``asymmetry_t``: the larger of the two one-sided t-statistics of ``k_a − m k_b > 0`` and
+    ``k_b − m k_a > 0`` (``k_z = c_z V_z/V̄`` free, ``m = tolerance``): how far, in standard
+    errors, the pair is outside the symmetric cone ``k_a ≤ m k_b, k_b ≤ m k_a`` (both
+    non-negative, ratio within ``[1/m, m]``). The standard error is week-clustered (sandwich
+    over the training weeks of both zones' per-row influences, by Frisch–Waugh–Lovell on the
+    regressors not at a bound, with the small-sample factor ``G/(G − 1)``): it holds for the
+    serially correlated residuals of closed-loop data and for residuals the two zones share,
+    as the cross-validation's week-clustered paired test does. ``asymmetry_weeks``: ``G``.
+    Evidence only: a gate "asymmetric when ``asymmetry_t ≥ 2``" instead of the ratio was
+    measured in session 9 and not adopted (``benchmarks/diagnosis_energyplus_s8.md``, case 2:
+    it let a false coupling through on battery case 31 and lost that case's real one).
+    ``dT_within_std_K``: the standard deviation [K] of ``T_b − T_a`` on the training rows
+    after its season × time-of-week means (the part the zones' gain profiles cannot absorb;
+    heat a conductance ``UA`` carries beyond the profiles is about ``UA`` times it).
     """
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
     U_eff = effective_inputs(sig, terms)
@@ -272,19 +289,67 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t) -> dict:
     ra, rb = coupling_ratios(sig, a, b)
     d = sig.Y[:, b] - sig.Y[:, a]
     out = {}
-    ks = []
+    ks, kfree, infl = [], [], []
     for z, col, r in ((a, d, ra), (b, -d, rb)):
         D = zone_design(sig, z, terms, U_eff, feats)
-        X = np.column_stack([D.X, col])
-        ls = bounded_ls(
-            W(X), W(target[:, z] - D.offset), np.r_[D.lower, 0.0], np.r_[D.upper, 1.0], dof_extra=W.n_groups
-        )
-        out[f"untied_coef_{sig.zones[z]}"] = float(ls.theta[-1])
-        ks.append(ls.theta[-1] / r)
+        Xw = W(np.column_stack([D.X, col]))
+        yw = W(target[:, z] - D.offset)
+        ls = bounded_ls(Xw, yw, np.r_[D.lower, 0.0], np.r_[D.upper, 1.0], dof_extra=W.n_groups)
+        cb = float(ls.theta[-1])
+        # the free fit is the bounded one unless the coefficient sits at a bound
+        free = ls if 0.0 < cb < 1.0 else bounded_ls(Xw, yw, np.r_[D.lower, -np.inf], np.r_[D.upper, np.inf])
+        cf = float(free.theta[-1])
+        out[f"untied_coef_{sig.zones[z]}"] = cb
+        out[f"untied_free_{sig.zones[z]}"] = cf
+        ks.append(cb / r)
+        kfree.append(cf / r)
+        infl.append(_coefficient_influence(Xw, yw, free.theta, D.lower, D.upper) / r)
     ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
     out["symmetry_ratio"] = float(ratio)
+    week = sig.week[W.rows]
+    m = float(tolerance)
+    tstats = []
+    for (k1, u1), (k2, u2) in (((kfree[0], infl[0]), (kfree[1], infl[1])), ((kfree[1], infl[1]), (kfree[0], infl[0]))):
+        se = _clustered_se(u1 - m * u2, week)
+        g = k1 - m * k2
+        tstats.append(g / se if se > 0 else (np.inf if g > 0 else -np.inf))
+    out["asymmetry_t"] = float(max(tstats))
+    out["asymmetry_weeks"] = int(len(np.unique(week)))
     out["dT_within_std_K"] = float(np.nanstd(W(d)))
     return out
+
+
+def _coefficient_influence(Xw: np.ndarray, yw: np.ndarray, theta: np.ndarray, lower, upper) -> np.ndarray:
+    """Per-row influence ``u_t`` on the last coefficient of a bounded least-squares fit (``ĉ − c ≈ Σ u_t``).
+
+    Frisch–Waugh–Lovell: the last column residualised on the other columns whose coefficients are
+    not at a bound (those at a bound are fixed), ``u_t = d̃_t e_t / d̃ᵀd̃``.
+    """
+    th = theta[:-1]
+    lo, hi = np.asarray(lower, float), np.asarray(upper, float)
+    tol = 1e-9 * (1.0 + np.abs(th))
+    at_bound = (np.isfinite(lo) & (np.abs(th - lo) <= tol)) | (np.isfinite(hi) & (np.abs(th - hi) <= tol))
+    Xo = Xw[:, :-1][:, ~at_bound]
+    col = Xw[:, -1]
+    if Xo.shape[1]:
+        Xo = Xo / np.maximum(np.sqrt((Xo * Xo).sum(axis=0)), 1e-300)  # unit columns: a well-scaled Gram matrix
+        G = Xo.T @ Xo
+        dt = col - Xo @ np.linalg.solve(G + 1e-10 * np.eye(len(G)), Xo.T @ col)
+    else:
+        dt = col
+    e = yw - Xw @ theta
+    den = float(dt @ dt)
+    return dt * e / den if den > 0 else np.zeros_like(e)
+
+
+def _clustered_se(u: np.ndarray, cluster: np.ndarray) -> float:
+    """Cluster-robust standard error of ``Σ u_t`` (sums per cluster, small-sample factor ``G/(G − 1)``)."""
+    _, inv = np.unique(cluster, return_inverse=True)
+    s = np.bincount(inv, weights=u)
+    g = len(s)
+    if g < 2:
+        return np.inf
+    return float(np.sqrt(g / (g - 1.0) * float(s @ s)))
 
 
 def heldout_rms(model, dataset, horizon=None):
@@ -490,7 +555,8 @@ def _gate(c, opts) -> None:
             f"asymmetric: the zones' own coefficients differ by a factor "
             f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
             f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
-            f"not a heat exchange between them"
+            f"not a heat exchange between them (t = {c.evidence['asymmetry_t']:.1f} beyond the factor, "
+            f"week-clustered)"
         )
     elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < _schedule_min_scale(c, opts):
         c.status = "not significant"
