@@ -785,6 +785,18 @@ def test_feedback_is_not_delay(seed):
     assert rep.findings == [], rep.summary()
 
 
+def test_an_extended_model_that_would_not_load_is_said(monkeypatch):
+    """The model a report saves goes through the load checks first: one that export, evaluate and cosim would
+    refuse is named in a warning and the report's notes (a diagnosis once wrote such a file without a word)."""
+    import hvacfmu.diagnosis.pipeline as pipeline
+    from hvacfmu.errors import HvacfmuWarning
+
+    monkeypatch.setattr(pipeline, "model_problems", lambda m: ["base: airflow warms zone A"])
+    with pytest.warns(HvacfmuWarning, match="will refuse it: base: airflow warms zone A"):
+        rep = diagnose(closed_loop_dataset(row_model(), seed=0), model=row_model(), progress=False)
+    assert any("will refuse it: base: airflow warms zone A" in n for n in rep.notes)
+
+
 @pytest.mark.parametrize(
     "past, future, causal",
     [
@@ -987,6 +999,9 @@ def _diagnosed(seed, effects=(), weeks=16):
 
 
 def _assert_truthful(rep, truth):
+    from hvacfmu.models.loadcheck import model_problems
+
+    assert model_problems(rep.model) == [], "the saved extended model would be refused on load"
     cmp = compare_with_truth(rep, truth)
     assert cmp["unsupported"] == [], f"false alarm(s): {cmp['unsupported']}"
     return cmp

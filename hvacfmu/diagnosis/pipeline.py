@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
+from ..models.loadcheck import model_problems
 from ..threads import one_blas_thread
 from . import residuals as R
 from .design import make_signals
@@ -95,6 +96,15 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
     findings = sel.findings
     final = _final_model(sel, sig, initial_terms, base_model, dataset, opts)
+    # the model this report saves must load again (export, evaluate, cosim read it through the same checks)
+    bad = model_problems(final)
+    if bad:
+        msg = (
+            "the extended model fails the checks every model file passes on load, so hvacfmu export, evaluate "
+            "and cosim will refuse it: " + "; ".join(bad)
+        )
+        warnings.warn(msg, HvacfmuWarning, stacklevel=2)
+        notes.append(msg)
 
     # --- residuals of the final model ------------------------------------------------------
     r1_final, rol_final, white_after = _residuals(sig, final, dataset, starts, seasons, opts["horizon"], train_rows)
