@@ -1,5 +1,7 @@
 """Benchmark: our MPC against CasADi + IPOPT on the identical per-step problem (issue 18 p.6).
 
+Needs CasADi (``pip install -e '.[bench]'``).
+
 Both solve, at every step of a closed-loop week (the model as its own plant,
 exact state, perfect forecast), the same problem built from the same
 ``model.equations()`` matrices:
@@ -61,7 +63,13 @@ class CasadiMPC:
     """The per-step problem of :class:`~harness.mpc.controller.MPCController` (``formulation="qp"``) in CasADi + IPOPT."""
 
     def __init__(self, eq, u_min, u_max, settings: MPCSettings):
-        import casadi as ca
+        try:
+            import casadi as ca
+        except ImportError:
+            raise SystemExit(
+                "this benchmark compares with CasADi + IPOPT: install it with  pip install -e '.[bench]'  "
+                "(or pip install casadi)"
+            ) from None
 
         s = settings
         lengths = np.asarray(s.block_lengths)
