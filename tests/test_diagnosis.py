@@ -513,6 +513,20 @@ def test_holiday_under_a_dst_shift_reads_the_reference_day_on_the_clock_the_gain
     assert back.shift == shift and back.dates == hol.dates
 
 
+def test_a_holiday_found_before_a_dst_shift_moves_to_its_clock():
+    """Found first (on the local clock), a holiday takes the shift of a ``dst_shift`` term accepted later, so
+    the final model's holiday replaces the gains the model reads that day (forward selection applies it
+    after every round)."""
+    from hvacfmu.models.causes.internal_gain_schedule import on_gain_clock
+
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(0.5, 0.5), dates=("2017-04-10",))
+    dst = InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4)
+    mass = ThermalMass(zone="A", alpha=0.05, beta=0.01)
+    out = on_gain_clock([hol, mass, dst])
+    assert out[0].shift == -4 and out[0].dates == hol.dates and out[1] is mass and out[2] is dst
+    assert on_gain_clock([hol, mass])[0] is hol
+
+
 def test_holiday_screen_reads_the_days_on_the_dst_clock_of_the_model():
     """The holiday screen's departure scale of a daylight-saving holiday is ~1 when read on the clock of the
     model's ``dst_shift`` (``shift``), not an hour off it (case 9 of the EnergyPlus test bed: 10-12 April

@@ -173,6 +173,22 @@ def dst_shift_of(terms) -> int:
     return next((int(t.shift) for t in terms if isinstance(t, InternalGainSchedule) and t.variant == "dst_shift"), 0)
 
 
+def on_gain_clock(terms) -> list:
+    """``terms`` with every holiday on the clock of the ``dst_shift`` term among them (``shift`` set to its shift).
+
+    A holiday found before a daylight-saving shift was screened and fitted on the local clock;
+    once the shift is in, the model's gains follow the shifted clock while daylight saving is
+    on, and the holiday must replace those gains, not the ones an hour away.
+    """
+    shift = dst_shift_of(terms)
+    return [
+        dataclasses.replace(t, shift=shift)
+        if isinstance(t, InternalGainSchedule) and t.variant == "holiday" and t.shift != shift
+        else t
+        for t in terms
+    ]
+
+
 def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, shift: int = 0) -> list:
     """Per weekday date: the scale ``gamma`` of the departure of the residual toward ``ref_weekday``'s profile.
 
