@@ -513,6 +513,54 @@ def test_holiday_under_a_dst_shift_reads_the_reference_day_on_the_clock_the_gain
     assert back.shift == shift and back.dates == hol.dates
 
 
+def test_holiday_screen_proposes_a_week_that_shows_in_one_zone_only():
+    """A holiday week whose departure shows in one zone while the others read the opposite (EnergyPlus case 9:
+    the core at 0.82 in January, the perimeters heated by the night cycle through boxes the model reads as
+    cooling; battery case 19: zone C at 0.77): pooled over the zones the week's scale is negative, zone by
+    zone it is the week the screen must propose (``holiday_gamma`` at ``holiday_z`` among that zone's weeks)."""
+    import types
+
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
+    from hvacfmu.models.causes.internal_gain_schedule import holiday_candidate
+    from hvacfmu.timeutil import time_of_week
+
+    step, n_tow, nz = 900.0, 672, 3
+    prof = _weekday_profile(n_tow, nz)
+    idx = pd.date_range("2025-09-01", periods=12 * n_tow, freq="15min", tz="UTC")
+    week = np.asarray((idx - idx[0]).days // 7)
+    hol = InternalGainSchedule(
+        variant="holiday",
+        zone_names=("A", "B", "C"),
+        coef=(1.0, -0.5, -0.5),  # A departs fully toward Sunday, B and C the other way
+        dates=tuple(f"2025-10-{d:02d}" for d in range(6, 11)),
+    )
+    noise = np.random.default_rng(1).normal(0.0, 2e-3, (len(idx), nz))
+    resid = hol.adjustment(idx, prof, step) + noise
+    sig = types.SimpleNamespace(
+        index=idx,
+        n_tow=n_tow,
+        step=step,
+        tow=time_of_week(idx, step) % n_tow,
+        week=week,
+        zones=("A", "B", "C"),
+        nz=nz,
+        seasons=("fall",),
+        season=np.array(["fall"] * len(idx)),
+        base_profiles={"fall": prof},
+    )
+    W = types.SimpleNamespace(rows=np.arange(len(idx) - 1))
+    c = holiday_candidate(sig, W, {**DEFAULT_OPTIONS, "_resid_all": resid})
+    assert c.location["dates"] == list(hol.dates)
+    assert c.evidence["weeks"] == []  # the pooled week rule does not see it
+    assert c.evidence["week_means"]["5"] < 0
+    (zw,) = c.evidence["zone_weeks"]
+    assert zw["week"] == 5 and list(zw["zones"]) == ["A"] and zw["zones"]["A"]["gamma"] == pytest.approx(1.0, abs=0.05)
+    assert c.hyper == 1
+    # without the holiday the screen proposes nothing
+    quiet = holiday_candidate(sig, W, {**DEFAULT_OPTIONS, "_resid_all": noise})
+    assert quiet.status == "not significant" and quiet.evidence["zone_weeks"] == []
+
+
 def test_a_holiday_found_before_a_dst_shift_moves_to_its_clock():
     """Found first (on the local clock), a holiday takes the shift of a ``dst_shift`` term accepted later, so
     the final model's holiday replaces the gains the model reads that day (forward selection applies it
