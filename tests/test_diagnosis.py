@@ -468,6 +468,149 @@ def test_holiday_and_dst_scale_gates():
     assert gated("dst_shift", 0.45) == "not significant"
 
 
+def _weekday_profile(n_tow: int, nz: int) -> np.ndarray:
+    """A season profile (n_tow, nz) [K/step]: weekday occupancy 8-18 h with one-hour ramps, Sunday low."""
+    per_day = n_tow // 7
+    h = np.arange(per_day) * 24.0 / per_day
+    day = np.clip(np.minimum(h - 7.0, 19.0 - h), 0.0, 1.0)
+    prof = np.zeros((n_tow, nz))
+    for d in range(7):
+        level = 1.0 if d < 5 else (0.4 if d == 5 else 0.1)
+        prof[d * per_day : (d + 1) * per_day] = 0.01 * level * day[:, None] * np.arange(1, nz + 1)
+    return prof
+
+
+def test_holiday_under_a_dst_shift_reads_the_reference_day_on_the_clock_the_gains_follow():
+    """Case 9 of the EnergyPlus test bed (s9): once a ``dst_shift`` term reads the gain profile an hour
+    later while daylight saving is on, a holiday on a daylight-saving weekday must give the gains of the
+    reference Sunday *as the model reads them that day*. On the local clock (before) the holiday's
+    replacement was an hour off the gains it replaces: at the ramps the day kept a slice of the weekday
+    profile and lost a slice of Sunday's."""
+    from hvacfmu.timeutil import time_of_week
+
+    step, n_tow, nz, shift = 900.0, 672, 2, -4
+    prof = _weekday_profile(n_tow, nz)
+    idx = pd.date_range("2017-04-10 02:00", "2017-04-10 22:00", freq="15min", tz="America/Chicago")
+    sun = idx + pd.Timedelta(days=6)  # the Sunday of the same week, same local times
+    dst = InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=shift)
+    hol = InternalGainSchedule(
+        variant="holiday", zone_names=("A", "B"), coef=(1.0, 1.0), dates=("2017-04-10",), shift=shift
+    )
+
+    def gains(index, terms):
+        q = prof[time_of_week(index, step) % n_tow]
+        return q + sum(t.adjustment(index, prof, step) for t in terms)
+
+    np.testing.assert_allclose(gains(idx, (dst, hol)), gains(sun, (dst,)), atol=1e-12)
+    # on a standard-time day the shift changes nothing
+    jan = pd.date_range("2017-01-23 02:00", "2017-01-23 22:00", freq="15min", tz="America/Chicago")
+    local = dataclasses.replace(hol, dates=("2017-01-23",), shift=0)
+    np.testing.assert_allclose(
+        dataclasses.replace(hol, dates=("2017-01-23",)).adjustment(jan, prof, step), local.adjustment(jan, prof, step)
+    )
+    assert hol.location()["shift"] == shift and "shift" not in local.location()
+    back = InternalGainSchedule.from_dict(hol.to_dict(), ("A", "B"), [], {})
+    assert back.shift == shift and back.dates == hol.dates
+
+
+def test_holiday_screen_proposes_a_week_that_shows_in_one_zone_only():
+    """A holiday week whose departure shows in one zone while the others read the opposite (EnergyPlus case 9:
+    the core at 0.82 in January, the perimeters heated by the night cycle through boxes the model reads as
+    cooling; battery case 19: zone C at 0.77): pooled over the zones the week's scale is negative, zone by
+    zone it is the week the screen must propose (``holiday_gamma`` at ``holiday_z`` among that zone's weeks)."""
+    import types
+
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
+    from hvacfmu.models.causes.internal_gain_schedule import holiday_candidate
+    from hvacfmu.timeutil import time_of_week
+
+    step, n_tow, nz = 900.0, 672, 3
+    prof = _weekday_profile(n_tow, nz)
+    idx = pd.date_range("2025-09-01", periods=12 * n_tow, freq="15min", tz="UTC")
+    week = np.asarray((idx - idx[0]).days // 7)
+    hol = InternalGainSchedule(
+        variant="holiday",
+        zone_names=("A", "B", "C"),
+        coef=(1.0, -0.5, -0.5),  # A departs fully toward Sunday, B and C the other way
+        dates=tuple(f"2025-10-{d:02d}" for d in range(6, 11)),
+    )
+    noise = np.random.default_rng(1).normal(0.0, 2e-3, (len(idx), nz))
+    resid = hol.adjustment(idx, prof, step) + noise
+    sig = types.SimpleNamespace(
+        index=idx,
+        n_tow=n_tow,
+        step=step,
+        tow=time_of_week(idx, step) % n_tow,
+        week=week,
+        zones=("A", "B", "C"),
+        nz=nz,
+        seasons=("fall",),
+        season=np.array(["fall"] * len(idx)),
+        base_profiles={"fall": prof},
+    )
+    W = types.SimpleNamespace(rows=np.arange(len(idx) - 1))
+    c = holiday_candidate(sig, W, {**DEFAULT_OPTIONS, "_resid_all": resid})
+    assert c.location["dates"] == list(hol.dates)
+    assert c.evidence["weeks"] == []  # the pooled week rule does not see it
+    assert c.evidence["week_means"]["5"] < 0
+    (zw,) = c.evidence["zone_weeks"]
+    assert zw["week"] == 5 and list(zw["zones"]) == ["A"] and zw["zones"]["A"]["gamma"] == pytest.approx(1.0, abs=0.05)
+    assert c.hyper == 1
+    # without the holiday the screen proposes nothing
+    quiet = holiday_candidate(sig, W, {**DEFAULT_OPTIONS, "_resid_all": noise})
+    assert quiet.status == "not significant" and quiet.evidence["zone_weeks"] == []
+
+
+def test_a_holiday_found_before_a_dst_shift_moves_to_its_clock():
+    """Found first (on the local clock), a holiday takes the shift of a ``dst_shift`` term accepted later, so
+    the final model's holiday replaces the gains the model reads that day (forward selection applies it
+    after every round)."""
+    from hvacfmu.models.causes.internal_gain_schedule import on_gain_clock
+
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(0.5, 0.5), dates=("2017-04-10",))
+    dst = InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4)
+    mass = ThermalMass(zone="A", alpha=0.05, beta=0.01)
+    out = on_gain_clock([hol, mass, dst])
+    assert out[0].shift == -4 and out[0].dates == hol.dates and out[1] is mass and out[2] is dst
+    assert on_gain_clock([hol, mass])[0] is hol
+
+
+def test_holiday_screen_reads_the_days_on_the_dst_clock_of_the_model():
+    """The holiday screen's departure scale of a daylight-saving holiday is ~1 when read on the clock of the
+    model's ``dst_shift`` (``shift``), not an hour off it (case 9 of the EnergyPlus test bed: 10-12 April
+    read 0.1-0.2 on the local clock, 0.7 on the model's)."""
+    import types
+
+    from hvacfmu.models.causes.internal_gain_schedule import day_departures
+    from hvacfmu.timeutil import time_of_week
+
+    step, n_tow, nz, shift = 900.0, 672, 2, -4
+    prof = _weekday_profile(n_tow, nz)
+    idx = pd.date_range("2017-04-03", "2017-04-23 23:45", freq="15min", tz="America/Chicago")
+    tow = time_of_week(idx, step) % n_tow
+    hol = InternalGainSchedule(
+        variant="holiday", zone_names=("A", "B"), coef=(1.0, 1.0), dates=("2017-04-11", "2017-04-12"), shift=shift
+    )
+    noise = np.random.default_rng(0).normal(0.0, 1e-4, (len(idx), nz))
+    resid = hol.adjustment(idx, prof, step) + noise  # the gains the model misses on the holiday
+    sig = types.SimpleNamespace(
+        index=idx,
+        n_tow=n_tow,
+        step=step,
+        tow=tow,
+        week=np.asarray((idx - idx[0]).days // 7),
+        seasons=("spring",),
+        season=np.array(["spring"] * len(idx)),
+        base_profiles={"spring": prof},
+    )
+    on_model = {d["date"]: d["gamma"] for d in day_departures(sig, resid, shift=shift)}
+    on_local = {d["date"]: d["gamma"] for d in day_departures(sig, resid)}
+    assert on_model["2017-04-11"] == pytest.approx(1.0, abs=0.02)
+    assert on_model["2017-04-12"] == pytest.approx(1.0, abs=0.02)
+    assert abs(on_model["2017-04-10"]) < 0.02 and abs(on_model["2017-04-13"]) < 0.02
+    assert on_local["2017-04-11"] < 0.95  # an hour off: the ramps of the departure are missed
+
+
 @pytest.mark.slow
 def test_one_week_holiday_is_cross_validated_day_by_day():
     """A holiday in one training week: each of its days is predicted by a fit on the others.

@@ -36,6 +36,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import DataError
+from ..models.causes.internal_gain_schedule import on_gain_clock
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
 from .report import _cv_units
@@ -468,6 +469,12 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             findings.append(c)
             terms = terms + [c.term]
             sig_fit = sig_for(sig_fit, c, c.term)
+        # a holiday found before a daylight-saving shift moves to the shift's clock with it
+        synced = on_gain_clock(terms)
+        for c in findings:
+            if c.term in terms and synced[terms.index(c.term)] is not c.term:
+                c.term = synced[terms.index(c.term)]
+        terms = synced
         if sig_fit is not sig:
             fixed_profiles = sig_fit.base_profiles
         prev_ho = cur_ho

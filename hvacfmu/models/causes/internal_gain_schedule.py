@@ -1,7 +1,8 @@
 """Cause ``internal_gain_schedule``: internal gains that depart from the seasonal time-of-week profile.
 
 ``variant="holiday"``: on listed dates the profile of ``ref_weekday`` (default Sunday)
-replaces the day's profile, scaled by ``coef`` per zone. Screened on the training rows only
+replaces the day's profile, scaled by ``coef`` per zone; with ``shift`` (the model's ``dst_shift``),
+both are read on the clock the gains follow while daylight saving is on. Screened on the training rows only
 (weekdays whose one-step residual departs toward the weekend profile, single days or
 whole weeks); the dates of the term are those training dates (a calendar seen in held-out
 weeks would be a leak).
@@ -35,7 +36,11 @@ class InternalGainSchedule(Term):
 
     ``variant="holiday"``: on ``dates`` (ISO ``YYYY-MM-DD``, local) the profile of
     ``ref_weekday`` (0 = Monday ... 6 = Sunday) replaces the day's profile, scaled by
-    ``coef`` (one value per zone, 1 = fully replaced).
+    ``coef`` (one value per zone, 1 = fully replaced). ``shift`` (steps, 0 by default) is
+    the shift of the model's ``dst_shift`` term: while daylight saving is in effect the
+    model's gains follow the profile ``shift`` steps later, so the day's profile and the
+    reference day's are read on that clock (on the local clock they would be an hour apart
+    from the gains the holiday replaces).
     ``variant="dst_shift"``: while daylight-saving time is in effect the profile is
     read ``shift`` steps later (negative: earlier), scaled by ``coef`` per zone.
     """
@@ -60,6 +65,8 @@ class InternalGainSchedule(Term):
         if self.variant == "holiday":
             loc["dates"] = list(self.dates)
             loc["ref_weekday"] = int(self.ref_weekday)
+            if self.shift:
+                loc["shift"] = int(self.shift)
         else:
             loc["shift"] = int(self.shift)
         return loc
@@ -78,9 +85,10 @@ class InternalGainSchedule(Term):
             days = np.array([d.isoformat() for d in index.date]) if len(index) else np.array([], dtype=str)
             on = np.isin(days, np.asarray(self.dates, dtype=str))
             if on.any():
+                clock = gain_clock(index[on], tow[on], n_tow, self.shift)
                 per_day = n_tow // 7
-                ref = self.ref_weekday * per_day + tow[on] % per_day
-                out[on] = (profile[ref] - profile[tow[on]]) * coef
+                ref = self.ref_weekday * per_day + clock % per_day
+                out[on] = (profile[ref] - profile[clock]) * coef
         else:
             on = dst_active(index)
             if on.any():
@@ -145,7 +153,7 @@ class InternalGainSchedule(Term):
         # ordinary weekdays: a quiet week after the change looks like a shifted morning ramp
         unusual = {d for t in terms if isinstance(t, cls) and t.variant == "holiday" for d in t.dates}
         if not any(isinstance(t, cls) and t.variant == "holiday" for t in terms):
-            hc = holiday_candidate(sig, W, options)
+            hc = holiday_candidate(sig, W, options, shift=dst_shift_of(terms))
             unusual |= set((hc.location or {}).get("dates", []))
             out.append(hc)
         if not any(isinstance(t, cls) and t.variant == "dst_shift" for t in terms):
@@ -153,23 +161,52 @@ class InternalGainSchedule(Term):
         return out
 
 
-def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None) -> list:
+def gain_clock(index: pd.DatetimeIndex, tow: np.ndarray, n_tow: int, shift: int) -> np.ndarray:
+    """Profile slots the gains follow at ``index``: ``tow`` read ``shift`` steps later while daylight saving is on."""
+    if not shift:
+        return tow
+    return np.where(dst_active(index), (tow + shift) % n_tow, tow)
+
+
+def dst_shift_of(terms) -> int:
+    """The shift [steps] of the ``dst_shift`` term among ``terms`` (0 without one)."""
+    return next((int(t.shift) for t in terms if isinstance(t, InternalGainSchedule) and t.variant == "dst_shift"), 0)
+
+
+def on_gain_clock(terms) -> list:
+    """``terms`` with every holiday on the clock of the ``dst_shift`` term among them (``shift`` set to its shift).
+
+    A holiday found before a daylight-saving shift was screened and fitted on the local clock;
+    once the shift is in, the model's gains follow the shifted clock while daylight saving is
+    on, and the holiday must replace those gains, not the ones an hour away.
+    """
+    shift = dst_shift_of(terms)
+    return [
+        dataclasses.replace(t, shift=shift)
+        if isinstance(t, InternalGainSchedule) and t.variant == "holiday" and t.shift != shift
+        else t
+        for t in terms
+    ]
+
+
+def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, shift: int = 0) -> list:
     """Per weekday date: the scale ``gamma`` of the departure of the residual toward ``ref_weekday``'s profile.
 
     For each weekday (Monday–Friday) with data, the one-step residuals of all zones over
     the day are regressed on ``q_ref − q_day`` (the reference day's gain profile minus
     the day's own, from the season's profile): ``gamma ≈ 1`` means the day's gains
-    looked like the reference day (a holiday), ``gamma ≈ 0`` an ordinary day.
+    looked like the reference day (a holiday), ``gamma ≈ 0`` an ordinary day; ``gamma_by_zone``
+    is the same regression zone by zone (None for a zone whose profiles do not differ). ``shift``:
+    the model's ``dst_shift`` (its gains read the profile ``shift`` steps later while
+    daylight saving is on), so both profiles are read on that clock.
 
     Returns
     -------
-    list of dict with ``date``, ``gamma``, ``t``, ``n``.
+    list of dict with ``date``, ``gamma``, ``t``, ``n``, ``gamma_by_zone``.
     """
     idx = sig.index
     per_day = sig.n_tow // 7
-    tow = np.zeros(len(idx), dtype=int)
-
-    tow = time_of_week(idx, sig.step) % sig.n_tow
+    tow = gain_clock(idx, time_of_week(idx, sig.step) % sig.n_tow, sig.n_tow, shift)
     dates = np.array(idx.date)
     wd = idx.day_of_week.to_numpy()
     out = []
@@ -195,26 +232,76 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None) 
         g = (h @ r) / hh
         e = r - g * h
         s2 = (e @ e) / max(len(r) - 1, 1)
-        out.append({"date": d.isoformat(), "gamma": float(g), "t": float(g / np.sqrt(s2 / hh)), "n": int(m.sum())})
+        hz = (h_all[m] ** 2).sum(axis=0)
+        gz = (h_all[m] * resid_all[m]).sum(axis=0) / np.where(hz > 0, hz, 1.0)
+        out.append(
+            {
+                "date": d.isoformat(),
+                "gamma": float(g),
+                "t": float(g / np.sqrt(s2 / hh)),
+                "n": int(m.sum()),
+                "gamma_by_zone": [float(x) if w > 0 else None for x, w in zip(gz, hz)],
+            }
+        )
     return out
 
 
-def holiday_candidate(sig, W, options) -> Candidate:
+def zone_week_departures(zones, by_week: dict, g_min: float, z_min: float) -> list:
+    """Weeks whose mean departure scale in one zone reaches ``g_min`` at ``z_min`` robust deviations among that
+    zone's week means (``by_week``: week -> :func:`day_departures` records of its weekdays, at least 3 each, at
+    least 4 weeks). Returns ``[{"week", "zones": {zone: {"gamma", "z_week"}}}]``."""
+    if len(by_week) < 4:
+        return []
+    weeks = list(by_week)
+    G = np.array(
+        [
+            [
+                np.mean(v)
+                if (v := [d["gamma_by_zone"][j] for d in by_week[wk] if d["gamma_by_zone"][j] is not None])
+                else np.nan
+                for j in range(len(zones))
+            ]
+            for wk in weeks
+        ]
+    )
+    out = []
+    for j, z in enumerate(zones):
+        col = G[:, j]
+        ok = np.isfinite(col)
+        if ok.sum() < 4:
+            continue
+        med = float(np.median(col[ok]))
+        scale = max(float(1.4826 * np.median(np.abs(col[ok] - med))), 0.03)
+        for i in np.flatnonzero(ok & (col >= g_min) & ((col - med) / scale >= z_min)):
+            hit = next((x for x in out if x["week"] == weeks[i]), None)
+            if hit is None:
+                hit = {"week": weeks[i], "zones": {}}
+                out.append(hit)
+            hit["zones"][z] = {"gamma": float(col[i]), "z_week": float((col[i] - med) / scale)}
+    return sorted(out, key=lambda x: x["week"])
+
+
+def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     """Weekdays whose gains looked like a weekend day: single days and whole weeks.
 
     A weekday is picked when its departure scale ``gamma`` (see :func:`day_departures`)
     reaches ``holiday_gamma`` and lies ``holiday_z`` robust standard deviations above the
     median of all weekdays; the weekdays of a week are picked together when the week's
     mean ``gamma`` reaches ``holiday_week_gamma`` (holiday weeks: the building's mass
-    makes the first days of a quiet week look less quiet). Only the training rows ``W.rows``
-    are screened: dates in held-out weeks are not looked at (that would be a leak).
+    makes the first days of a quiet week look less quiet), or when, in one zone, the week's
+    mean departure reaches ``holiday_gamma`` at ``holiday_z`` among that zone's week means
+    (:func:`zone_week_departures`: the other zones can hide a holiday in the pooled scale).
+    Only the training rows ``W.rows`` are screened: dates in held-out weeks are not looked at
+    (that would be a leak). ``shift``:
+    the model's ``dst_shift`` (0 without one); the days are screened, and the term built, on
+    the clock the model's gains follow (:func:`day_departures`).
     """
     resid_all = options.get("_resid_all")
     if resid_all is None or sig.n_tow % 7:
         return Candidate(
             InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", reason="no one-step residuals"
         )
-    deps = day_departures(sig, resid_all, rows=W.rows)
+    deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
     gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
     med = float(np.median(gam)) if len(gam) else 0.0
     mad = float(1.4826 * np.median(np.abs(gam - med))) if len(gam) else 0.0
@@ -239,18 +326,28 @@ def holiday_candidate(sig, W, options) -> Candidate:
         if (g >= gw_min and (g - med) / scale >= z_min / 2) or (g >= gw_min / 2 and z_w >= z_min):
             weeks.append({"week": wk, "gamma": g, "z_week": z_w})
             picked |= {d["date"] for d in by_week[wk]}
+    # a holiday week may show in one zone only: the one whose balance the internal gains dominate, where the
+    # HVAC's other operation that week is not itself misread (pooled over the zones, the others can cancel it)
+    zone_weeks = zone_week_departures(sig.zones, {wk: ds for wk, ds in by_week.items() if wk in wmean}, g_min, z_min)
+    for zw in zone_weeks:
+        picked |= {d["date"] for d in by_week[zw["week"]]}
     ev = {
         "weekdays_checked": len(deps),
         "gamma_median": med,
         "gamma_robust_std": mad,
-        "days": sorted([d for d in deps if d["date"] in picked], key=lambda d: d["date"])[:40],
+        "days": sorted(
+            [{k: v for k, v in d.items() if k != "gamma_by_zone"} for d in deps if d["date"] in picked],
+            key=lambda d: d["date"],
+        )[:40],
         "weeks": weeks,
+        "zone_weeks": zone_weeks,
         "week_means": {str(wk): round(g, 4) for wk, g in sorted(wmean.items())},
         "week_mean_median": w_med,
         "week_mean_robust_std": w_scale,
         "rule": (
             f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g} (z >= {z_min / 2:g}), "
-            f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means"
+            f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, "
+            f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means"
         ),
     }
     if len(deps) < 10:
@@ -271,10 +368,16 @@ def holiday_candidate(sig, W, options) -> Candidate:
         )
     dates = tuple(sorted(picked))
     term = InternalGainSchedule(
-        variant="holiday", zone_names=sig.zones, coef=tuple(0.0 for _ in sig.zones), dates=dates, ref_weekday=6
+        variant="holiday",
+        zone_names=sig.zones,
+        coef=tuple(0.0 for _ in sig.zones),
+        dates=dates,
+        ref_weekday=6,
+        shift=shift,
     )
-    n_choices = len(weeks) + len(
-        [d for d in dates if not any(d in {x["date"] for x in by_week[w["week"]]} for w in weeks)]
+    in_weeks = {w["week"] for w in weeks} | {w["week"] for w in zone_weeks}
+    n_choices = len(in_weeks) + len(
+        [d for d in dates if not any(d in {x["date"] for x in by_week[w]} for w in in_weeks)]
     )
     return Candidate(
         InternalGainSchedule.cause, {"variant": "holiday", "dates": list(dates)}, [term], max(n_choices, 1), evidence=ev
