@@ -670,10 +670,10 @@ class _SharedDriver:
         return self.model.gains_at(index, season) + self.driver.reindex(index).to_numpy()[:, None] * self.loads
 
 
-def _coupling_evidence(ds, alone=True):
-    """Screen, untied symmetry and cross-validation of the A+C coupling on ``ds`` (base: :func:`row_model`)."""
+def _scored_coupling(ds):
+    """``(signals, the A+C coupling candidate)`` of ``ds`` screened and scored on the training rows (base:
+    :func:`row_model`)."""
     from hvacfmu.diagnosis import selection as S
-    from hvacfmu.diagnosis.crossval import fold_fits, fold_scores, make_plan, paired_test
     from hvacfmu.diagnosis.design import Within, fit_structure, make_signals
 
     sig = make_signals(ds, row_model())
@@ -683,6 +683,15 @@ def _coupling_evidence(ds, alone=True):
     (c,) = [c for c in ZoneCoupling.screen(sig, [], W, cur.resid, {}) if c.location["zones"] == ["A", "C"]]
     factors = [S.ess_factor(S.lag1(cur.resid[:, z])) for z in range(sig.nz)]
     S.score_candidate(sig, W, [], [ls.rss for ls in cur.zone_ls], factors, c, S.DEFAULT_OPTIONS)
+    return sig, c
+
+
+def _coupling_evidence(ds, alone=True):
+    """Screen, untied symmetry and cross-validation of the A+C coupling on ``ds`` (base: :func:`row_model`)."""
+    from hvacfmu.diagnosis import selection as S
+    from hvacfmu.diagnosis.crossval import fold_fits, fold_scores, make_plan, paired_test
+
+    sig, c = _scored_coupling(ds)
     plan = make_plan(sig, 10, 96)
     S.cross_validate(sig, plan, [], c, {})
     scores = []
@@ -738,15 +747,8 @@ class _NoisyZone(_SharedDriver):
 def _coupling_gate(ds):
     """The A+C coupling candidate of ``ds`` screened, scored and gated (base: :func:`row_model`), no CV."""
     from hvacfmu.diagnosis import selection as S
-    from hvacfmu.diagnosis.design import Within, fit_structure, make_signals
 
-    sig = make_signals(ds, row_model())
-    rows = sig.rows("train")
-    W = Within(sig.group, rows)
-    cur = fit_structure(sig, [], rows)
-    (c,) = [c for c in ZoneCoupling.screen(sig, [], W, cur.resid, {}) if c.location["zones"] == ["A", "C"]]
-    factors = [S.ess_factor(S.lag1(cur.resid[:, z])) for z in range(sig.nz)]
-    S.score_candidate(sig, W, [], [ls.rss for ls in cur.zone_ls], factors, c, S.DEFAULT_OPTIONS)
+    _, c = _scored_coupling(ds)
     S._gate(c, S.DEFAULT_OPTIONS)
     return c
 
