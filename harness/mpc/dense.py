@@ -91,9 +91,7 @@ class DenseQP:
     def _rows_of_U(self) -> None:
         """Which U entries have softened limit rows (``soft_U``) and which have bounds of their own (``bound_U``)."""
         p = self.p
-        rows, self._eps_cols = p._eps_rows()
-        self._eps_U = rows
-        self.soft_U = np.unique(rows)
+        self.soft_U = p.soft_entries
         hard = np.tile(p.hard, p.nb)
         # every U entry is bounded below by the floor; hard entries also by their limits (one two-sided row)
         self.bound_U = np.arange(self.nU) if p.settings.u_floor is not None else np.flatnonzero(hard)
@@ -103,7 +101,7 @@ class DenseQP:
         p, ne, nY, nS, T = self.p, self.ne, self.nY, self.nS, self.T
         nL = self.soft_U.size
         E = np.zeros((nL, ne))
-        E[np.searchsorted(self.soft_U, self._eps_U), self._eps_cols - p.i_eps] = 1.0
+        E[np.arange(nL), p.eps_columns() - p.i_eps] = 1.0
         TU = T[self.soft_U]
         limits_hi = np.hstack([TU, -E, np.zeros((nL, nS))])  # U - eps <= u_max
         limits_lo = np.hstack([TU, E, np.zeros((nL, nS))])  # U + eps >= u_min

@@ -320,12 +320,8 @@ class _MPCProblem:
         self.ne = self.nb * ns if self.per_step else ns  # slack entries: per block and soft input, or per soft input
         # weight of each slack entry: the number of steps it covers (per_step), so ||eps|| is over steps
         self.eps_w = np.repeat(self.lengths, ns).astype(float) if self.per_step else np.ones(ns)
-        # the U entry (block-major) of every slack entry
-        self.eps_entry = (
-            (np.arange(self.nb)[:, None] * nu + self.soft_inputs[None, :]).ravel()
-            if self.per_step
-            else self.soft_inputs
-        )
+        # the U entries (block-major, ascending) whose limits are softened: one row each, per side
+        self.soft_entries = (np.arange(self.nb)[:, None] * nu + self.soft_inputs[None, :]).ravel()
         self.i_eps = nU
         self.i_t = nU + self.ne
         self.i_s = self.i_t + (1 if self.socp else 0)
@@ -396,7 +392,7 @@ class _MPCProblem:
         state["r0"] = n_eq
         self.n_eq = n_eq
         iU = np.arange(nU)
-        rows_eps, cols_eps = self._eps_rows()
+        rows_eps, cols_eps = self.soft_entries, self.eps_columns()
         iY = np.arange(nY)
         put(iU, iU, 1.0)  # U - eps <= u_max (hard inputs: U <= u_max)
         put(rows_eps, cols_eps, -1.0)
@@ -443,21 +439,17 @@ class _MPCProblem:
             ]
         )
 
-    def _eps_rows(self):
-        """``(U entries, slack columns)``: the U entry (block-major) of each softened limit row and its slack."""
-        ns = self.soft_inputs.size
-        if self.per_step:
-            return self.eps_entry, self.i_eps + np.arange(self.ne)
-        # shared: one slack per soft input, in every block's row of that input
-        rows = (np.arange(self.nb)[:, None] * self.nu + self.soft_inputs[None, :]).ravel()
-        cols = self.i_eps + np.tile(np.arange(ns), self.nb)
-        return rows, cols
+    def eps_columns(self) -> np.ndarray:
+        """The slack variable (column of ``z``) in the softened limit row of each of :attr:`soft_entries`: its own
+        (per step), or its input's in every block (shared)."""
+        per_row = np.arange(self.ne) if self.per_step else np.tile(np.arange(self.soft_inputs.size), self.nb)
+        return self.i_eps + per_row
 
     def full_eps(self, eps) -> np.ndarray:
         """Slack values per input: (nu,) shared or (N, nu) per step, zero for hard inputs."""
         if self.per_step:
             out = np.zeros(self.nb * self.nu)
-            out[self.eps_entry] = eps
+            out[self.soft_entries] = eps
             return np.repeat(out.reshape(self.nb, self.nu), self.lengths, axis=0)
         out = np.zeros(self.nu)
         out[self.soft_inputs] = eps
