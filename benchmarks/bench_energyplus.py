@@ -8,7 +8,7 @@ the zones model against the smallest physically plausible gain.
 
 Usage::
 
-    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor|:zone,zone,...][@weather]] ... [--unseen | --unseen2] [--weather KEY]
+    python3 benchmarks/bench_energyplus.py [--prototype NAME[:floor|:zone,zone,...][@weather]] ... [--unseen | --unseen2 | --unseen3] [--weather KEY]
         [--verdict] [--kinds lumped,zones,physics] [--weeks N]
 """
 
@@ -50,6 +50,18 @@ UNSEEN2_PROTOTYPES = (
     "ASHRAE901_OfficeMedium_STD2019_Denver:bot@usa_az_phoenix",
     "ASHRAE901_OfficeMedium_STD2019_Denver:top@usa_ca_san_francisco",
     "ASHRAE901_HotelLarge_STD2019_Denver:Flr_6",
+)
+#: Third round, chosen before any run (benchmarks/energyplus_unseen3.md); run with --unseen3.
+UNSEEN3_PROTOTYPES = (
+    "RefBldgSuperMarketNew2004_Chicago@usa_il_uiw",
+    "ASHRAE901_Warehouse_STD2019_Denver@usa_nv_las_vegas",
+    "ASHRAE901_Hospital_STD2019_Denver:PatRoom1_Mult10_Flr_3,PatRoom2_Flr_3,PatRoom3_Mult10_Flr_3,PatRoom4_Flr_3,"
+    "PhysTherapy_Flr_3,NurseStn_Lobby_Flr_3,Lab_Flr_3,Corridor_SE_Flr_3@usa_fl_orlando",
+    "ASHRAE901_SchoolSecondary_STD2019_Denver:Gym_ZN_1_FLR_1,Aux_Gym_ZN_1_FLR_1,Auditorium_ZN_1_FLR_1,"
+    "Kitchen_ZN_1_FLR_1,Cafeteria_ZN_1_FLR_1,LIBRARY_MEDIA_CENTER_ZN_1_FLR_2,Lobby_ZN_1_FLR_1,"
+    "Main_Corridor_ZN_1_FLR_1@usa_ok_oklahoma",
+    "ASHRAE901_ApartmentMidRise_STD2019_Denver:M_SW_Apartment,M_NW_Apartment,M_SE_Apartment,M_NE_Apartment,"
+    "M_N1_Apartment,M_N2_Apartment,M_S1_Apartment,M_S2_Apartment@usa_va_sterling",
 )
 
 
@@ -106,12 +118,21 @@ def main(argv=None):
     ap.add_argument("--prototype", action="append", help="prototype[:floor][@weather] (repeatable)")
     ap.add_argument("--unseen", action="store_true", help="the buildings and climates never used here")
     ap.add_argument("--unseen2", action="store_true", help="the second round of them (energyplus_unseen2.md)")
+    ap.add_argument("--unseen3", action="store_true", help="the third round of them (energyplus_unseen3.md)")
     ap.add_argument("--weather", help="EPW file or pyenergyplus.dataset weather key (default: the prototype's city)")
     ap.add_argument("--verdict", action="store_true", help="also print the verdict evaluate prints first")
     ap.add_argument("--kinds", default="lumped,zones,physics")
     ap.add_argument("--weeks", type=int, default=None, help="weeks from 1 January (default: the whole year)")
     args = ap.parse_args(argv)
-    default = UNSEEN2_PROTOTYPES if args.unseen2 else UNSEEN_PROTOTYPES if args.unseen else DEFAULT_PROTOTYPES
+    default = (
+        UNSEEN3_PROTOTYPES
+        if args.unseen3
+        else UNSEEN2_PROTOTYPES
+        if args.unseen2
+        else UNSEEN_PROTOTYPES
+        if args.unseen
+        else DEFAULT_PROTOTYPES
+    )
     for p in args.prototype or default:
         run(p, args.kinds.split(","), args.weeks, args.weather, args.verdict)
 
