@@ -609,8 +609,16 @@ def _valid_md(s) -> bool:
         return False
 
 
-#: No VAV box delivers more air than this [kg/s] (about 16 000 cfm).
+#: Few VAV boxes deliver more air than this [kg/s] (about 16 000 cfm); a box above it is refused when it also renews
+#: its zone's air more than :data:`ACH_LIMIT` times an hour (a unit error: cfm, l/s or m3/h read as kg/s multiplies the
+#: air by 800 to 3 000). A large zone's packaged unit can exceed it (the DOE supermarket's sales area: 11.4 kg/s into
+#: 16 000 m3, 2 air changes an hour).
 M_MAX_LIMIT = 10.0
+#: Air changes per hour [1/h] above which a box of more than :data:`M_MAX_LIMIT` is taken for a unit error (mixing
+#: ventilation stays below it: hospital operating rooms 20-25, kitchens up to about 30).
+ACH_LIMIT = 30.0
+#: Air density used to turn a box's mass flow into air changes [kg/m3].
+_RHO_AIR = 1.2
 
 
 def _valid_name(name) -> bool:
@@ -708,6 +716,7 @@ def validate_building(b: Building) -> list[str]:
                 problems.append(f"zone {z.name}: facade orientation {f.orientation!r} is not one of N/E/S/W")
             if f.window_area < 0 or f.wall_area < 0:
                 problems.append(f"zone {z.name}: facade {f.orientation} has a negative area")
+    volumes = {z.name: z.volume for z in b.zones}
     vnames = [v.name for v in b.vavs]
     for n in {n for n in vnames if vnames.count(n) > 1}:
         problems.append(f"VAV name {n!r} is used more than once")
@@ -721,10 +730,14 @@ def validate_building(b: Building) -> list[str]:
         if not v.m_max > 0:
             problems.append(f"VAV {v.name}: m_max must be > 0 kg/s (a box that can deliver no air), got {v.m_max}")
         elif v.m_max > M_MAX_LIMIT:
-            problems.append(
-                f"VAV {v.name}: m_max = {v.m_max:g} kg/s is more than any VAV box delivers (> {M_MAX_LIMIT:g} kg/s, "
-                "about 16 000 cfm); is the value in kg/s?"
-            )
+            volume = volumes.get(v.zone, 0.0)
+            ach = v.m_max / _RHO_AIR * 3600.0 / volume if volume > 0 else float("inf")
+            if ach > ACH_LIMIT:
+                problems.append(
+                    f"VAV {v.name}: m_max = {v.m_max:g} kg/s is more than any VAV box delivers (> {M_MAX_LIMIT:g} "
+                    f"kg/s, about 16 000 cfm) and would renew the air of zone {v.zone} ({volume:g} m3) {ach:.0f} times "
+                    f"an hour (> {ACH_LIMIT:g}); is the value in kg/s?"
+                )
     problems += _validate_ahus(b)
     problems += _validate_columns(b)
     for z in b.zones:

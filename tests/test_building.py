@@ -165,6 +165,19 @@ def test_wrong_types_and_values_are_named(small_building_dict, mutate, message):
         building_from_dict(small_building_dict)
 
 
+def test_a_large_zones_large_unit_is_not_taken_for_a_unit_error(small_building_dict):
+    # the DOE supermarket's sales area (16 000 m3) has one packaged unit of 11.4 kg/s, 2 air changes an hour: the
+    # building file refused it as "more than any VAV box delivers ... is the value in kg/s?" after a year of EnergyPlus
+    d = small_building_dict
+    d["zones"][0].update(area=2600.0, volume=16000.0)
+    d["vavs"][0].update(m_min=0.0, m_max=11.4)
+    assert building_from_dict(d).vavs[0].m_max == 11.4
+    # the same unit in a 300 m3 room would renew its air 114 times an hour: a unit error, still refused
+    d["zones"][0].update(area=100.0, volume=300.0)
+    with pytest.raises(BuildingError, match=r"VAV V1: m_max = 11.4 kg/s .* zone A \(300 m3\) 114 times an hour"):
+        building_from_dict(d)
+
+
 def test_wrong_types_in_toml_file_name_the_file(tmp_path):
     p = tmp_path / "b.toml"
     p.write_text('name = "x"\nlatitude = 1.0\nlongitude = 2.0\ntimezone = "UTC"\nzones = ["A"]\nvavs = ["V"]\n')
