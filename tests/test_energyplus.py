@@ -554,3 +554,30 @@ def test_a_zone_held_exactly_at_its_setpoint_is_said_at_export():
     assert msg is not None and "1 temperature column(s)" in msg and "T_DataCenter (27 °C in 60 % of the steps)" in msg
     assert "T_Office" not in msg and "m_VAV" not in msg and "--zone" in msg
     assert _held_warning(frame.drop(columns="T_DataCenter")) is None
+
+
+def test_refrigerated_cases_in_an_exported_zone_are_said_at_export():
+    # the DOE supermarket's cases take 52 kW (sd 17 kW) of sensible heat out of its sales area in January, against the
+    # 58 kW its unit delivers (measured in EnergyPlus, 17-19 January, 'Refrigeration Zone Case and Walk In Sensible
+    # Cooling Rate'); no column carries it and the export said nothing
+    from hvacfmu.energyplus.generate import _refrigeration_warning
+    from hvacfmu.energyplus.hvac import air_boxes, refrigeration_in_zones
+    from hvacfmu.energyplus.idf import read_idf
+    from hvacfmu.energyplus.inputs import resolve_prototype
+
+    market = read_idf(resolve_prototype("ref:supermarket"))
+    boxes = air_boxes(market)
+    found = refrigeration_in_zones(market, boxes)
+    assert {z: len(v) for z, v in found.items()} == {"Bakery": 1, "Deli": 2, "Produce": 1, "Sales": 7}
+    msg = _refrigeration_warning(found)
+    assert msg is not None and "4 exported zone(s)" in msg and "Sales: 7" in msg and "no column carries" in msg
+    # only the exported zones: without the sales area and the deli, two zones are named
+    assert set(refrigeration_in_zones(market, [b for b in boxes if b.zone not in ("Sales", "Deli")])) == {
+        "Bakery",
+        "Produce",
+    }
+    # a walk-in names its zones in its extensible groups
+    office = read_idf(resolve_prototype("ASHRAE901_OfficeSmall_STD2019_Denver"))
+    office.add("Refrigeration:WalkIn", "Core walk-in", "ALWAYS_ON", "5000", *[""] * 18, "Core_ZN", "10", "0.2")
+    assert refrigeration_in_zones(office, air_boxes(office)) == {"Core_ZN": ["Core walk-in"]}
+    assert _refrigeration_warning({}) is None

@@ -34,7 +34,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.6"
+EXPORT_VERSION = "1.7"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -127,6 +127,20 @@ def _unmeasured_warning(idf, boxes) -> str | None:
     return (
         f"{len(found)} exported zone(s) have zone equipment whose heat no column carries (no zone inlet node of "
         f"its own): {listed}{more}; the data miss that heat, models fitted on them see it as a disturbance"
+    )
+
+
+def _refrigeration_warning(found: dict) -> str | None:
+    """A warning naming the exported zones with refrigerated cases or walk-ins (``found``:
+    :func:`~hvacfmu.energyplus.hvac.refrigeration_in_zones`), whose heat no column carries."""
+    if not found:
+        return None
+    listed = "; ".join(f"{z}: {len(names)}" for z, names in found.items())
+    return (
+        f"{len(found)} exported zone(s) hold refrigerated cases or walk-ins (Refrigeration:Case/WalkIn; cases per "
+        f"zone: {listed}): they take heat out of the zone air all year (case credits, varying with restocking, "
+        "defrost and the zone's air), and no column carries that heat; models fitted on these data see it as a "
+        "disturbance (energyplus.json refrigeration lists the objects)"
     )
 
 
@@ -359,7 +373,16 @@ def generate(
     bad = [n for n in files if not n or Path(n).name != n or n in (".", "..")]
     if bad:
         raise DataError(f"files: names must be plain file names (no folder), got {bad}")
-    warned = [w for w in (inputs.site_mismatch(idf, site, epw.name), _unmeasured_warning(idf, boxes)) if w]
+    refrigeration = hvac.refrigeration_in_zones(idf, boxes)
+    warned = [
+        w
+        for w in (
+            inputs.site_mismatch(idf, site, epw.name),
+            _unmeasured_warning(idf, boxes),
+            _refrigeration_warning(refrigeration),
+        )
+        if w
+    ]
     for w in warned:
         warnings.warn(w, HvacfmuWarning, stacklevel=2)
     outdir = Path(outdir)
@@ -405,6 +428,7 @@ def generate(
             "boxes": [dataclasses.asdict(b) for b in boxes],
             "air_density": hvac.std_air_density(site.elevation),
             "zones_left_out": left_out,
+            "refrigeration": refrigeration,
             "idf_changes": [n.replace(work, "{run_dir}") for n in notes],
             "files": {n: hashlib.sha256(t.encode("latin-1")).hexdigest() for n, t in files.items()},
             "warnings": warned,
