@@ -144,6 +144,23 @@ def _refrigeration_warning(found: dict) -> str | None:
     )
 
 
+def _mixing_warning(found: dict, boxes) -> str | None:
+    """A warning naming the exported zones that receive another zone's air through a (cross) mixing object
+    (``found``: :func:`~hvacfmu.energyplus.hvac.mixing_into_zones`), whose heat no column carries."""
+    if not found:
+        return None
+    exported = {b.zone.lower() for b in boxes}
+    listed = "; ".join(
+        f"{z} from {', '.join(src + ('' if src.lower() in exported else ' (not exported)') for _, src in pairs)}"
+        for z, pairs in found.items()
+    )
+    return (
+        f"{len(found)} exported zone(s) receive another zone's air through ZoneMixing/ZoneCrossMixing ({listed}): its "
+        "heat m cp (T_source - T_zone) is in no column (no airflow of it is exported); models fitted on these data "
+        "see it as a disturbance (energyplus.json mixing lists the objects)"
+    )
+
+
 def _held_warning(frame: pd.DataFrame) -> str | None:
     """A warning naming the temperature columns EnergyPlus holds at exactly one value for ``STUCK_DAYS`` or longer.
 
@@ -374,12 +391,14 @@ def generate(
     if bad:
         raise DataError(f"files: names must be plain file names (no folder), got {bad}")
     refrigeration = hvac.refrigeration_in_zones(idf, boxes)
+    mixing = hvac.mixing_into_zones(idf, boxes)
     warned = [
         w
         for w in (
             inputs.site_mismatch(idf, site, epw.name),
             _unmeasured_warning(idf, boxes),
             _refrigeration_warning(refrigeration),
+            _mixing_warning(mixing, boxes),
         )
         if w
     ]
@@ -429,6 +448,7 @@ def generate(
             "air_density": hvac.std_air_density(site.elevation),
             "zones_left_out": left_out,
             "refrigeration": refrigeration,
+            "mixing": {z: [{"object": n, "source": src} for n, src in pairs] for z, pairs in mixing.items()},
             "idf_changes": [n.replace(work, "{run_dir}") for n in notes],
             "files": {n: hashlib.sha256(t.encode("latin-1")).hexdigest() for n, t in files.items()},
             "warnings": warned,

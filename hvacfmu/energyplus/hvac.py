@@ -228,6 +228,27 @@ def refrigeration_in_zones(idf, boxes) -> dict:
     return out
 
 
+#: Objects that move air from a source zone into a receiving zone (field 1) from a source zone (field 8); a cross
+#: mixing moves it both ways.
+MIXING = ("zonemixing", "zonecrossmixing")
+
+
+def mixing_into_zones(idf, boxes) -> dict:
+    """``{IDF zone: [(object name, source zone)]}`` of the exported zones that receive air from another zone through a
+    ``ZoneMixing`` (transfer air for an exhaust: the DOE supermarket's deli gets 1.08 m3/s of the sales area's air
+    while its HVAC runs, up to 3.8 kW in July) or either side of a ``ZoneCrossMixing``: that heat, m cp (T_source -
+    T_zone), is in no column of the export (the source zone's temperature is, when it is exported)."""
+    zones = {b.zone.lower(): b.zone for b in boxes}
+    out: dict = {}
+    for typ in MIXING:
+        for obj in idf.all(typ):
+            ends = [(obj.get(1), obj.get(8))] + ([(obj.get(8), obj.get(1))] if typ == "zonecrossmixing" else [])
+            for receiving, source in ends:
+                if receiving.lower() in zones:
+                    out.setdefault(zones[receiving.lower()], []).append((obj.name, source))
+    return out
+
+
 def zones_without_boxes(idf, boxes) -> dict:
     """``{IDF zone: [zone equipment types]}`` of the zones that have zone equipment but no exported box.
 
