@@ -660,8 +660,8 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
         x = frame[c].to_numpy(float)
         hits = {z: _best_correlation(x, res[z].to_numpy(float)) for z in losing}
         hits = {z: r for z, r in hits.items() if np.isfinite(r) and abs(r) >= CORRELATION_MIN}
-        # nothing explained, or the same values under another name, which the model reads
-        if not hits or _duplicate_of(x, frame, used) is not None:
+        # nothing explained, or the same values under another name (or mixed from them), which the model reads
+        if not hits or _duplicate_of(x, frame, used) is not None or _flow_mix_of(x, frame, used):
             continue
         rs = sorted(hits.values())  # one line per column, naming every zone it explains
         r_txt = f"r = {rs[0]:+.2f}" if len(rs) == 1 else f"r = {rs[0]:+.2f} .. {rs[-1]:+.2f}"
@@ -674,6 +674,31 @@ def _unused_columns(model, score, dataset, losing) -> list[str]:
 
 #: a column within this of a used column on every row both measure is the same signal [its unit]
 DUPLICATE_TOL = 0.01
+
+
+#: share of a column's finite rows on which air must flow for :func:`_flow_mix_of` to compare it [-]
+FLOW_MIX_MIN_SHARE = 0.1
+
+
+def _flow_mix_of(x, frame, used) -> bool:
+    """True when ``x`` is, wherever air flows, the airflow-weighted mean of the discharge temperatures ``Td_<box>``
+    the model reads (weights ``m_<box>``): the mean supply temperature of packaged units, each unit the air of its one
+    box (the 90.1 warehouse's ``T_supply``, within 0.0007 K). Where no air flows it is an idle node value that carries
+    no heat."""
+    pairs = [c for c in sorted(used) if c.startswith("Td_") and c in frame.columns and f"m_{c[3:]}" in frame.columns]
+    if not pairs:
+        return False
+    m = frame[[f"m_{c[3:]}" for c in pairs]].to_numpy(float)
+    td = frame[pairs].to_numpy(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        total = np.nansum(m, axis=1)
+        mix = np.nansum(np.where(m > 0, m * td, 0.0), axis=1) / total
+    rows = np.isfinite(x) & np.isfinite(mix) & (total > 0) & np.all(np.isfinite(m), axis=1)
+    return bool(
+        rows.sum() >= FLOW_MIX_MIN_SHARE * max(np.isfinite(x).sum(), 1)
+        and rows.sum() > 0
+        and np.max(np.abs(x[rows] - mix[rows])) <= DUPLICATE_TOL
+    )
 
 
 def _duplicate_of(x, frame, used) -> str | None:
