@@ -1465,6 +1465,35 @@ def test_rival_with_higher_t_that_fails_its_own_rule_does_not_read_as_favoured()
     assert line.endswith("the data favour solar_gain")
 
 
+def test_a_competitor_a_gate_turned_down_says_why_not_that_it_was_significant():
+    # the DOE supermarket: "also significant here: internal_gain_schedule at ... dst_shift ... (ΔBIC 5321.1, not
+    # significant)" under three findings, with the gate's reason (too small a schedule change) left out
+    from hvacfmu.diagnosis.report import _finding_lines
+
+    f = {
+        "cause": "thermal_mass",
+        "location": {"zone": "Produce"},
+        "test": {"lr": 544.8, "lr_adjusted": 417.9, "dof": 2, "delta_bic": 397.3},
+        "competitors": [
+            {
+                "cause": "internal_gain_schedule",
+                "location": {"variant": "dst_shift", "shift": 4},
+                "delta_bic": 5321.1,
+                "status": "not significant",
+                "reason": "mean scale 0.12 of the schedule change < 0.5: too small for a schedule change",
+                "cv_gain_percent": None,
+            },
+            {"cause": "reheat", "location": {"zone": "Produce"}, "delta_bic": 62.1, "status": "not tested"},
+        ],
+    }
+    lines = [x for x in _finding_lines(1, f) if "here:" in x]
+    assert lines[0].startswith("    also tested here: internal_gain_schedule")
+    assert lines[0].endswith(
+        "(ΔBIC 5321.1, not significant: mean scale 0.12 of the schedule change < 0.5: too small for a schedule change)"
+    )
+    assert lines[1] == "    also significant here: reheat at zone=Produce (ΔBIC 62.1, not tested)"
+
+
 def test_bounded_ls_with_an_all_zero_regressor_says_unidentified_without_overflow(rng):
     """A regressor that is zero on every row of a fold: coefficient 0, infinite variance, no overflow warning."""
     import warnings as _w

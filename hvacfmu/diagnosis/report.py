@@ -318,10 +318,13 @@ def _finding_lines(i: int, f: dict) -> list:
             f"(cross-validated paired t {t}); {why}"
         )
     for o in f.get("competitors") or []:
-        L.append(
-            f"    also significant here: {o['cause']} at {_loc(o['location'])} "
-            f"(ΔBIC {o['delta_bic']:.1f}, {o['status']})"
+        # a competitor a gate turned down after its fit improved (the supermarket's DST-shift schedule: ΔBIC 5321,
+        # "not significant") reads as a contradiction without the gate's reason
+        why = f": {o['reason']}" if o.get("reason") and o.get("status") != "found" else ""
+        head = (
+            "also significant here" if o.get("status") not in ("not significant", "no evidence") else "also tested here"
         )
+        L.append(f"    {head}: {o['cause']} at {_loc(o['location'])} (ΔBIC {o['delta_bic']:.1f}, {o['status']}{why})")
     h = f.get("heldout") or {}
     if h.get("zones"):
         zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())

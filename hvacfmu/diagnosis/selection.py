@@ -825,6 +825,7 @@ def _name_competitors(cands, accepted) -> None:
                         "location": o.location,
                         "delta_bic": o.test["delta_bic"],
                         "status": o.status,
+                        "reason": o.reason,
                         "cv_gain_percent": (o.cv or {}).get("gain_percent"),
                     }
                 )
