@@ -34,9 +34,15 @@ def test_many_instances_in_one_process_keep_memory_flat(fmus):
 
 @pytest.mark.slow
 def test_processes_that_simulated_the_plant_exit_cleanly(fmus):
-    """100 separate processes simulate the plant FMU (the one that aborted at exit) and all exit 0."""
-    r = processes(fmus["plant"], 100, 2)
-    assert r["ok"] == 100, r
+    """40 separate processes simulate the plant FMU (the one that aborted at exit) and all exit 0.
+
+    The heap corruption this guards against aborted 12 of 50 processes in the issue: 40 clean exits leave it a
+    chance of (38/50)^40 < 1e-4 to pass. The rarer abort of the old slave scripts (1 of 50) is caught by 40 with a
+    chance of 55 % (by 100, 87 %): that needs the benchmark's hundreds (``benchmarks/bench_fmu_lifecycle.py
+    --processes``), not another minute of the suite.
+    """
+    r = processes(fmus["plant"], 40, 2)
+    assert r["ok"] == 40, r
 
 
 @pytest.mark.slow
