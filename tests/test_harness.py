@@ -322,3 +322,33 @@ def test_data_without_solar_keeps_facade_inputs_at_their_start(zones, data):
     with pytest.warns(HvacfmuWarning, match=r"no column for the FMU input\(s\) \['I_N', 'I_E', 'I_S', 'I_W'\]"):
         r = run_cosim(path, dark, ReplayController(), week=1, model=model)
     assert r.covered and r.summary["defaulted_inputs"] == ["I_N", "I_E", "I_S", "I_W"]
+
+
+def test_summary_names_outputs_that_cycle_with_the_plant():
+    """A controller that alternates full heat and full cooling every step (fleet sweep s10: MPC on a model whose
+    first-step heat gain is 14x below its one-step fit, zone E swinging 3 K a step) completed its run with only
+    the comfort figure to show for it. The summary counts, per output, the steps that reverse a move of more
+    than ``OSCILLATION_K`` and the printed summary names them; a smooth run has none."""
+    from types import SimpleNamespace
+
+    from harness.cosim import OSCILLATION_K, oscillation_counts
+
+    k = np.arange(40)
+    smooth = 21.0 + 0.8 * np.sin(2 * np.pi * k / 96)  # a day's swing
+    cycling = 21.0 + 1.5 * (-1.0) ** k  # ±1.5 K every step
+    small = 21.0 + 0.2 * (-1.0) ** k  # sensor-sized alternation
+    Y = np.column_stack([smooth, cycling, small])
+    assert OSCILLATION_K == 0.5
+    assert oscillation_counts(Y, ["T_A", "T_E", "T_C"]) == {"T_E": 38}
+    assert oscillation_counts(Y[:2], ["T_A", "T_E", "T_C"]) == {}
+    s = {
+        "fmu": "Plant.fmu", "controller": "mpc", "start": "a", "end": "b", "steps_requested": 40, "step": 900.0,
+        "steps_completed": 40, "covered": True, "energy_proxy": 1.0, "total_airflow_kg": 1.0, "mean_airflow": 1.0,
+        "comfort_violation_Kh": 0.0, "band": [20.0, 22.0], "step_time_median": 0.0, "step_time_max": 0.0,
+        "controller_time_median": 0.0, "fmu_time_median": 0.0, "oscillation": {"T_E": 38},
+    }  # fmt: skip
+    text = CosimResult.format_summary(SimpleNamespace(summary=s))
+    assert "oscillation     T_E 38 of 39 steps reverse a move of more than 0.5 K: the controller cycles" in text
+    text = CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {"T_E": 2}}))
+    assert text.endswith("T_E 2 of 39 steps reverse a move of more than 0.5 K")  # a few: counted, not judged
+    assert "oscillation" not in CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {}}))
