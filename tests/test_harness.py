@@ -278,6 +278,25 @@ def test_native_fmu_refusing_a_step_stops_the_run_and_names_time_and_status(nati
     assert full.covered and len(full.table) == 673
 
 
+def test_native_fmu_run_starts_from_the_measured_state_season_and_time_of_week(native_zones, zones, data):
+    """``cosim`` on a native FMU sets its start temperatures, season and time of week as on the pythonfmu FMU.
+
+    The native FMU had no ``resources/interface.json``: the harness set no start value and the run started at
+    21 °C in the first season at Monday 00:00 without a word (fleet sweep s10, b000: 116.7 against 172.2 K·h
+    outside the band for the same model and week). Now both FMUs give the same trajectory."""
+    model, path = native_zones
+    week = data.test_weeks()[0]
+    start = week.start + pd.Timedelta(days=2, hours=6)  # a Wednesday morning: the time of week matters
+    span = dict(start=start, stop=start + pd.Timedelta(hours=12), model=model)
+    native = run_cosim(path, data, ReplayController(), **span)
+    python = run_cosim(zones[2], data, ReplayController(), **span)
+    sv = native.summary["start_values"]
+    assert sv == python.summary["start_values"] and sv["start_time_of_week"] == (2 * 24 + 6) * 3600.0
+    assert {f"T_{z}_start" for z in model.outputs} <= set(sv)
+    cols = [f"T_{z}" for z in model.outputs]
+    assert_allclose(native.table[cols].to_numpy(), python.table[cols].to_numpy(), rtol=0, atol=1e-9)
+
+
 def test_checked_simulate_raises_instead_of_truncating(native_zones, zones, tmp_path):
     """An FMU that refuses a step: simulate_fmu_checked raises, naming the time and the value.
 
