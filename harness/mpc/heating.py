@@ -14,7 +14,9 @@ chooses (at least ``m_min``) reaches ``h`` with ``Td <= Td_max``. The applied di
 clipped to ``[T_supply, Td_max]`` (:func:`discharge_commands`).
 
 ``G_h`` (K per step per kW) comes from the model's own equations: a bilinear model that carries
-``m (T_supply - T_zone)`` (Model B, extended supply-air terms) has it in ``Bvu_i[:, T_supply] / c_p``;
+``m (T_in - T_zone)`` per box (Model B, extended supply-air terms, Model A's delivered-heat form) has it in
+``Bvu_i[:, T_in] / c_p`` with ``T_in`` the box's inlet column (:func:`box_inlets`: its measured discharge air
+``Td_<vav>`` where the model reads it, else ``T_supply``);
 a linear model (Model A) only knows the airflow gain ``B``, whose heat per kg/s is
 ``c_p (T_supply - T_zone)`` at the data's typical difference, so ``G_h = B / (c_p ΔT_ref)`` with
 ``ΔT_ref`` the run's median of ``T_supply - T_zone`` (refused when the data give no cooling difference).
