@@ -155,7 +155,7 @@ class CosimResult:
             if worst[0][1] >= 0.1 * n_steps:  # a tenth of the run: sustained, not a few disturbances
                 line += (
                     ": the controller cycles with the plant (for MPC: the model's first-step response is far "
-                    "below the plant's)"
+                    "below the plant's; the offset-free estimate, --option offset_gain, can drive the cycle)"
                 )
             lines.append(line)
         if s.get("filled_inputs"):
