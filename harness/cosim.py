@@ -72,6 +72,10 @@ CP_AIR = 1005.0
 #: warm-up of the plant FMU before the span [s] (its slab and walls settle within days)
 PLANT_WARMUP = 7 * 86400.0
 DEFAULT_BAND = (20.0, 22.0)
+#: [K] a zone temperature that moves more than this in one step and back the next "reverses" (summary
+#: ``oscillation``): a controller cycling with the plant every step (a model whose first-step gain is far
+#: below the plant's, or a rule gain too high for a light zone), not a building's own dynamics at 15 min
+OSCILLATION_K = 0.5
 
 
 # =============================================================================
@@ -141,6 +145,19 @@ class CosimResult:
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
         ]
+        if s.get("oscillation"):
+            worst = sorted(s["oscillation"].items(), key=lambda kv: -kv[1])
+            n_steps = max(s["steps_completed"] - 1, 0)
+            line = (
+                f"  oscillation     {', '.join(f'{k} {n}' for k, n in worst)} of {n_steps} "
+                f"steps reverse a move of more than {OSCILLATION_K:g} K"
+            )
+            if worst[0][1] >= 0.1 * n_steps:  # a tenth of the run: sustained, not a few disturbances
+                line += (
+                    ": the controller cycles with the plant (for MPC: the model's first-step response is far "
+                    "below the plant's; the offset-free estimate, --option offset_gain, can drive the cycle)"
+                )
+            lines.append(line)
         if s.get("filled_inputs"):
             lines.append(f"  gap-filled      {s['filled_inputs']} input values (time interpolation)")
         if s.get("controller_stats"):
@@ -893,6 +910,27 @@ def _heating_kwh(run: _Run, tr: _Trace) -> float:
     return float(np.nansum(q) * run.step / 3.6e6)
 
 
+def oscillation_counts(Y, names, amplitude: float = OSCILLATION_K) -> dict:
+    """``{output: n}`` of the outputs whose step change reverses with both steps above ``amplitude`` [K].
+
+    ``Y`` (steps, outputs) [°C] of the run; ``n`` counts the steps ``k`` with
+    ``|y(k+1) - y(k)| > amplitude``, ``|y(k) - y(k-1)| > amplitude`` and opposite signs. Outputs
+    without such a step are left out (an empty dict: no output cycled).
+    """
+    Y = np.asarray(Y, dtype=float)
+    out = {}
+    if Y.ndim != 2 or Y.shape[0] < 3:
+        return out
+    d = np.diff(Y, axis=0)
+    big = np.abs(d) > amplitude
+    rev = big[1:] & big[:-1] & (np.sign(d[1:]) * np.sign(d[:-1]) < 0)
+    for j, name in enumerate(names):
+        n = int(np.sum(rev[:, j]))
+        if n:
+            out[str(name)] = n
+    return out
+
+
 def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
     c = tr.completed
     Mc, Yc = tr.M[:c, : len(run.vavs)], tr.Y[1 : c + 1]
@@ -927,6 +965,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "fmu_time_median": med(tr.t_fmu[:c]),
         "filled_inputs": run.filled,
         "defaulted_inputs": run.defaulted,
+        "oscillation": oscillation_counts(Yc, run.out_names),
         "controller_stats": stats() if callable(stats) else {},
         "start_values": sv,
         "warmup_steps": run.nw,

@@ -257,10 +257,12 @@ static void step_state(hv_inst *c, const double *x, const double *q, double *xn)
 #define STATE_STEP step_state
 #endif
 
+/* Slot of model step k, the first of the current communication step: the time_of_week input (when set) is the
+ * local time of week at the start of this step, so it gives the slot of step k itself (not of step 0) */
 static long long slot_of_step(hv_inst *c, long long k) {
 #if HV_VR_TOWIN >= 0
     double tow = c->s.r[HV_VR_TOWIN];
-    if (tow >= 0.0) return hv_floor(tow / HV_STEP + 1e-9) + k;
+    if (tow >= 0.0) return hv_floor(tow / HV_STEP + 1e-9);
 #endif
     return c->s.slot0 + k;
 }

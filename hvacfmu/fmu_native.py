@@ -26,6 +26,7 @@ Examples
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 import os
 import shutil
@@ -369,7 +370,7 @@ def export_native_fmu(
         validating failed.
     """
     from .fmu_description import documentation_html, model_description_xml
-    from .fmu_slave import box_limits, zone_model_layout
+    from .fmu_slave import INTERFACE_FILE, box_limits, zone_model_layout
 
     out_path = Path(out_path)
     if out_path.suffix != ".fmu":
@@ -403,6 +404,10 @@ def export_native_fmu(
         (root / "modelDescription.xml").write_bytes(xml)
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(documentation_html(layout, native=True), encoding="utf-8")
+        # the variables' roles (start temperatures, season, time of week) as in the pythonfmu FMU: data, not code;
+        # hosts such as `hvacfmu cosim` set the start values from it (without it they kept the defaults silently)
+        (root / "resources").mkdir()
+        (root / "resources" / INTERFACE_FILE).write_text(json.dumps(layout, indent=1), encoding="utf-8")
         if compile:
             compile_binary(src, identifier, root / "binaries" / "linux64")
         _zip_folder(root, out_path)

@@ -183,3 +183,39 @@ def test_mpc_heats_through_discharge_air(plant_fmu, short_data):
     assert hot.summary["heating_kWh"] > 0.0 and cold.summary["heating_kWh"] == 0.0
     assert hot.summary["comfort_violation_Kh"] < 0.25 * cold.summary["comfort_violation_Kh"]
     assert f"Td_{vavs[0]}" not in cold.table
+
+
+def test_mpc_heats_with_a_model_that_reads_the_discharge_air(plant_fmu, short_data):
+    """A model fitted where the discharge air ``Td_<vav>`` is measured (Model A's delivered-heat form, the
+    default fit of every reheat building; Model B likewise) reads each box's inlet at ``Td_<vav>``. The MPC's
+    reheat acts through that inlet's coefficient (a kW is ``beta`` of the box's zone), and on a plant that takes
+    discharge commands the preview replaces the data's recorded ``Td`` (the building's own reheat, never applied
+    to the plant) with the supply air. Before: refused ("needs the model's supply air input 'T_supply'") for
+    Model A, "not a warming one" for Model B (fleet sweep s10, b000), and with ``heating=0`` the model silently
+    previewed the recorded reheat."""
+    from harness.cosim import make_controller
+    from harness.mpc.heating import heat_plan
+    from hvacfmu.models.datadriven import fit_zones
+
+    vavs = short_data.building.vav_names
+    frame = short_data.frame.assign(**{f"Td_{v}": short_data.frame["T_supply"] for v in vavs})
+    model = fit_zones(dataclasses.replace(short_data, frame=frame), heat="delivered", open_loop=False)
+    for v in vavs:
+        frame[f"Td_{v}"] = frame["T_supply"] + 10.0  # the run's data: a recorded reheat the plant never gets
+    data = dataclasses.replace(short_data, frame=frame)
+    assert model.inlets == tuple(f"Td_{v}" for v in vavs)
+    _, plan, names = heat_plan(model, data.building, vavs, vavs, np.full(len(vavs), 35.0), frame)
+    zone_of = {v.name: v.zone for v in data.building.vavs}
+    rows = list(model.outputs)
+    assert names == list(vavs) and np.all(model.beta > 0.0)
+    for i, v in enumerate(vavs):
+        assert_allclose(plan.G[rows.index(zone_of[v]), i], model.beta[rows.index(zone_of[v])], rtol=1e-9)
+    span = day_span(data)
+    span["stop"] = span["start"] + pd.Timedelta(hours=3)  # the night: heat needed (21 boxes + 21 reheats)
+    ctrl = make_controller("mpc", model, data.building, {"horizon": 6})
+    run = run_cosim(plant_fmu, data, ctrl, model=model, band=BAND, **span)
+    assert sorted(ctrl.replaced_inlets) == sorted(f"Td_{v}" for v in vavs)
+    for col in ctrl.replaced_inlets:
+        assert_allclose(ctrl.V[:, list(model.disturbances).index(col)], ctrl._T_supply, rtol=0, atol=0)
+    assert run.summary["controller_stats"]["failures"] == 0
+    assert run.summary["heating_kWh"] > 0.0

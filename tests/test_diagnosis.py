@@ -468,6 +468,24 @@ def test_holiday_and_dst_scale_gates():
     assert gated("dst_shift", 0.45) == "not significant"
 
 
+def test_coupling_gate_reason_names_the_zone_at_zero_instead_of_a_factor_inf():
+    """One zone's own coupling coefficient at its bound 0 makes the symmetry ratio infinite; the reason
+    said "differ by a factor inf" (fleet sweep s10, b000 R1+R3). It names the zone instead."""
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS, _gate
+
+    ev = {"symmetry_ratio": float("inf"), "asymmetry_t": 3.1, "untied_coef_R1": 0.0123, "untied_coef_R3": 0.0}
+    c = Candidate("zone_coupling", {"zones": "R1+R3"}, [], 1, evidence=ev)
+    c.test = {"delta_bic": 50.0}
+    _gate(c, DEFAULT_OPTIONS)
+    assert c.status == "no evidence"
+    assert "inf" not in c.reason and "R3's own coefficient is at its bound 0 (R1's 0.0123)" in c.reason
+    ev = {**ev, "symmetry_ratio": 10.49, "untied_coef_R3": 0.001}
+    c = Candidate("zone_coupling", {"zones": "R1+R3"}, [], 1, evidence=ev)
+    c.test = {"delta_bic": 50.0}
+    _gate(c, DEFAULT_OPTIONS)
+    assert "differ by a factor 10.49 (volume-scaled)" in c.reason
+
+
 def _weekday_profile(n_tow: int, nz: int) -> np.ndarray:
     """A season profile (n_tow, nz) [K/step]: weekday occupancy 8-18 h with one-hour ramps, Sunday low."""
     per_day = n_tow // 7

@@ -163,7 +163,8 @@ def test_validate_description_and_contents(native, kind):
         f"binaries/linux64/{cs.modelIdentifier}.so",
         "documentation/index.html",
     } <= files
-    assert not any(f.startswith("resources/") for f in files)
+    assert {f for f in files if f.startswith("resources/")} == {"resources/interface.json"}  # data, no code
+    assert not any(f.endswith((".py", ".pyc")) for f in files)
     assert "no Python" in doc
 
 
@@ -356,6 +357,34 @@ def test_multi_steps_exact_and_bad_steps_and_inputs_refused(native):
     finally:
         a.close()
         b.close()
+
+
+def test_time_of_week_input_places_the_gains_of_each_step_as_in_the_pythonfmu_fmu(native):
+    """The ``time_of_week`` input is the local time of week at the start of each step. The native runtime added
+    the step count to it (slot = floor(tow/step) + k), so from the second step on the gains ran k slots ahead:
+    1.5-2 K off the pythonfmu FMU in `hvacfmu cosim`, which always sets the input (fleet sweep s10, b000).
+    Fed consistently with the clock it must change nothing; shifted by 3 h it equals the clock run started 3 h later."""
+    from fmpy import simulate_fmu
+
+    model, path = native["zones"]
+    n = 24
+    _, cols, _, _ = signals(model, n + 1, seed=4)
+    t = np.arange(n + 1) * STEP
+
+    def run(tow_input, tow_start):
+        sig = np.zeros(n + 1, dtype=[("time", float)] + [(c, float) for c in cols] + [("time_of_week", float)])
+        sig["time"] = t
+        for c, x in cols.items():
+            sig[c] = x
+        sig["time_of_week"] = tow_input
+        sv = {**start_values(model), "start_time_of_week": tow_start}
+        res = simulate_fmu(str(path), stop_time=n * STEP, output_interval=STEP, input=sig, start_values=sv)
+        return np.column_stack([res[f"T_{z}"] for z in model.outputs])
+
+    clock = run(-1.0, 7200.0)
+    assert_allclose(run(7200.0 + t, 0.0), clock, rtol=0, atol=1e-12)
+    assert_allclose(run(7200.0 + t, 7200.0), clock, rtol=0, atol=1e-12)
+    assert np.abs(run(-1.0, 0.0) - clock).max() > 1e-3  # the gains do depend on the time of week
 
 
 def test_bad_parameters_fail_initialisation_with_a_reason(native):

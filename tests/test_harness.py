@@ -278,6 +278,25 @@ def test_native_fmu_refusing_a_step_stops_the_run_and_names_time_and_status(nati
     assert full.covered and len(full.table) == 673
 
 
+def test_native_fmu_run_starts_from_the_measured_state_season_and_time_of_week(native_zones, zones, data):
+    """``cosim`` on a native FMU sets its start temperatures, season and time of week as on the pythonfmu FMU.
+
+    The native FMU had no ``resources/interface.json``: the harness set no start value and the run started at
+    21 °C in the first season at Monday 00:00 without a word (fleet sweep s10, b000: 116.7 against 172.2 K·h
+    outside the band for the same model and week). Now both FMUs give the same trajectory."""
+    model, path = native_zones
+    week = data.test_weeks()[0]
+    start = week.start + pd.Timedelta(days=2, hours=6)  # a Wednesday morning: the time of week matters
+    span = dict(start=start, stop=start + pd.Timedelta(hours=12), model=model)
+    native = run_cosim(path, data, ReplayController(), **span)
+    python = run_cosim(zones[2], data, ReplayController(), **span)
+    sv = native.summary["start_values"]
+    assert sv == python.summary["start_values"] and sv["start_time_of_week"] == (2 * 24 + 6) * 3600.0
+    assert {f"T_{z}_start" for z in model.outputs} <= set(sv)
+    cols = [f"T_{z}" for z in model.outputs]
+    assert_allclose(native.table[cols].to_numpy(), python.table[cols].to_numpy(), rtol=0, atol=1e-9)
+
+
 def test_checked_simulate_raises_instead_of_truncating(native_zones, zones, tmp_path):
     """An FMU that refuses a step: simulate_fmu_checked raises, naming the time and the value.
 
@@ -322,3 +341,33 @@ def test_data_without_solar_keeps_facade_inputs_at_their_start(zones, data):
     with pytest.warns(HvacfmuWarning, match=r"no column for the FMU input\(s\) \['I_N', 'I_E', 'I_S', 'I_W'\]"):
         r = run_cosim(path, dark, ReplayController(), week=1, model=model)
     assert r.covered and r.summary["defaulted_inputs"] == ["I_N", "I_E", "I_S", "I_W"]
+
+
+def test_summary_names_outputs_that_cycle_with_the_plant():
+    """A controller that alternates full heat and full cooling every step (fleet sweep s10: MPC on a model whose
+    first-step heat gain is 14x below its one-step fit, zone E swinging 3 K a step) completed its run with only
+    the comfort figure to show for it. The summary counts, per output, the steps that reverse a move of more
+    than ``OSCILLATION_K`` and the printed summary names them; a smooth run has none."""
+    from types import SimpleNamespace
+
+    from harness.cosim import OSCILLATION_K, oscillation_counts
+
+    k = np.arange(40)
+    smooth = 21.0 + 0.8 * np.sin(2 * np.pi * k / 96)  # a day's swing
+    cycling = 21.0 + 1.5 * (-1.0) ** k  # ±1.5 K every step
+    small = 21.0 + 0.2 * (-1.0) ** k  # sensor-sized alternation
+    Y = np.column_stack([smooth, cycling, small])
+    assert OSCILLATION_K == 0.5
+    assert oscillation_counts(Y, ["T_A", "T_E", "T_C"]) == {"T_E": 38}
+    assert oscillation_counts(Y[:2], ["T_A", "T_E", "T_C"]) == {}
+    s = {
+        "fmu": "Plant.fmu", "controller": "mpc", "start": "a", "end": "b", "steps_requested": 40, "step": 900.0,
+        "steps_completed": 40, "covered": True, "energy_proxy": 1.0, "total_airflow_kg": 1.0, "mean_airflow": 1.0,
+        "comfort_violation_Kh": 0.0, "band": [20.0, 22.0], "step_time_median": 0.0, "step_time_max": 0.0,
+        "controller_time_median": 0.0, "fmu_time_median": 0.0, "oscillation": {"T_E": 38},
+    }  # fmt: skip
+    text = CosimResult.format_summary(SimpleNamespace(summary=s))
+    assert "oscillation     T_E 38 of 39 steps reverse a move of more than 0.5 K: the controller cycles" in text
+    text = CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {"T_E": 2}}))
+    assert text.endswith("T_E 2 of 39 steps reverse a move of more than 0.5 K")  # a few: counted, not judged
+    assert "oscillation" not in CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {}}))

@@ -344,4 +344,9 @@ def test_a_loss_to_a_schedule_held_by_a_loop_is_explained_as_a_data_limit():
     assert "off by at most 0.027 K more" in const_line and "E in" not in const_line
     v = Verdict(zones=(), causes={}, seasons=(held,), loop_held={"zones": [line]})
     assert f"   behind the time-of-week mean for zones: {line}" in v.format().splitlines()
+    # held schedule, but the model behind by more than the resolution (fleet sweep s10, s10y NE fall: 0.180 K
+    # against 0.075 K was "behind by at most 0.105 K, less than the sensor resolves")
+    (far,) = loop_held_lines([SeasonVerdict("zones", "NE", "fall", 0.180, 0.721, 0.075, 3, 1)])
+    assert "behind by up to 0.105 K, more than the sensor resolves" in far
+    assert "less than the sensor resolves" not in far and "not of the fit" not in far
     assert v.to_dict()["loop_held"] == {"zones": [line]}

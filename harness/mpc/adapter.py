@@ -18,7 +18,7 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
-from .heating import HEAT_WEIGHT, discharge_commands, heat_plan
+from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan
 from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
@@ -177,6 +177,8 @@ class CosimMPC:
         if missing:
             raise ModelError(f"the run's data lack disturbance column(s) {missing} that the model needs")
         self.V = ext[list(model.disturbances)].to_numpy(dtype=float)
+        self._T_supply = ext["T_supply"].to_numpy(dtype=float) if "T_supply" in ext else None
+        self.replaced_inlets = self._commanded_inlets(context, ext)
         if hasattr(model, "gains_for_rows"):
             self.Q = np.asarray(model.gains_for_rows(idx), dtype=float)
         else:
@@ -216,9 +218,7 @@ class CosimMPC:
         m = self.limiter(self._split_offset + self._split @ u[: self.n_air])
         if self.heat is None:
             return m
-        T_supply = (
-            float(v["T_supply"]) if "T_supply" in v else float(self.V[k, self.model.disturbances.index("T_supply")])
-        )
+        T_supply = float(v["T_supply"]) if "T_supply" in v else float(self._T_supply[k])
         return np.concatenate([m, discharge_commands(self.heat, u[self.n_air :], m, T_supply, self._td_boxes)])
 
     def stats(self) -> dict:
@@ -228,6 +228,27 @@ class CosimMPC:
         return {**self.mpc.stats(), **self.limiter.stats()}
 
     # ----- mappings ------------------------------------------------------
+    def _commanded_inlets(self, context, ext) -> list:
+        """Preview the plant's discharge air, not the data's, for the boxes whose discharge the run commands.
+
+        A model that reads each box's measured discharge air ``Td_<vav>`` (Model A's delivered-heat form,
+        Model B with measured inlets) takes it as a disturbance; on a plant that takes discharge commands the
+        recorded ``Td`` (the building's own reheat) never reaches the plant: the box discharges its supply air
+        plus this controller's reheat (its ``h`` inputs, :mod:`harness.mpc.heating`) or, without them, its supply
+        air. Those columns of the preview become the run's ``T_supply``. Returns the replaced columns.
+        """
+        if not context.discharge or self._T_supply is None:
+            return []
+        inlet = box_inlets(self.model)
+        names = list(self.model.disturbances)
+        replaced = []
+        for box in context.discharge:
+            col = inlet.get(box)
+            if col is not None and col.startswith("Td_") and col in names:
+                self.V[:, names.index(col)] = self._T_supply
+                replaced.append(col)
+        return replaced
+
     def _output_map(self, context):
         """``y_model = W y_fmu``: model outputs from the FMU outputs."""
         outs = list(context.outputs)

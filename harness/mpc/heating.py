@@ -14,7 +14,9 @@ chooses (at least ``m_min``) reaches ``h`` with ``Td <= Td_max``. The applied di
 clipped to ``[T_supply, Td_max]`` (:func:`discharge_commands`).
 
 ``G_h`` (K per step per kW) comes from the model's own equations: a bilinear model that carries
-``m (T_supply - T_zone)`` (Model B, extended supply-air terms) has it in ``Bvu_i[:, T_supply] / c_p``;
+``m (T_in - T_zone)`` per box (Model B, extended supply-air terms, Model A's delivered-heat form) has it in
+``Bvu_i[:, T_in] / c_p`` with ``T_in`` the box's inlet column (:func:`box_inlets`: its measured discharge air
+``Td_<vav>`` where the model reads it, else ``T_supply``);
 a linear model (Model A) only knows the airflow gain ``B``, whose heat per kg/s is
 ``c_p (T_supply - T_zone)`` at the data's typical difference, so ``G_h = B / (c_p ΔT_ref)`` with
 ``ΔT_ref`` the run's median of ``T_supply - T_zone`` (refused when the data give no cooling difference).
@@ -115,26 +117,56 @@ def heat_plan(model, building, vavs, discharge, td_max, frame):
     tdm = np.full(len(vavs), -np.inf)
     tdm[[vavs.index(b) for b in discharge]] = td_max
     cap = np.where(np.isfinite(tdm), cap, 0.0)
-    if "T_supply" not in eq.disturbances:
-        raise ModelError(
-            f"reheat as an MPC decision needs the model's supply air input 'T_supply'; it has {list(eq.disturbances)}"
-        )
-    j = list(eq.disturbances).index("T_supply")
     names, groups, cols = [], [], []
     per_box = [n[2:] if n.startswith("m_") else n for n in eq.inputs]
+    inlet = box_inlets(model)
     if eq.bilinear and all(n in vavs for n in per_box):  # one input per box: the heat of its airflow term
         for i, n in enumerate(per_box):
+            # the box's inlet air (its measured discharge Td_<vav>, its unit's supply, else T_supply): the
+            # reheat h = m c_p (Td - T_supply) acts through the inlet's coefficient, whatever the airflow
+            col = inlet.get(n, "T_supply")
+            if col not in eq.disturbances:
+                raise ModelError(
+                    f"reheat as an MPC decision needs box {n}'s inlet air input {col!r} in the model; it has "
+                    f"{list(eq.disturbances)}"
+                )
+            j = list(eq.disturbances).index(col)
             g = np.asarray(eq.Bvu[i][:, [j]].toarray() if sparse.issparse(eq.Bvu[i]) else eq.Bvu[i][:, [j]])
             cols.append(g.ravel() * 1000.0 / CP_AIR)  # [K/step per kW]
             groups.append((vavs.index(n),))
             names.append(n)
     else:
+        if "T_supply" not in eq.disturbances:
+            raise ModelError(
+                f"reheat as an MPC decision needs the model's supply air input 'T_supply'; it has "
+                f"{list(eq.disturbances)}"
+            )
         cols, groups, names = _linear_heat_columns(model, eq, vavs, frame)
     G = np.column_stack(cols)
     if np.any(G.sum(axis=0) <= 0.0):
         raise ModelError("the model's reheat effect is not a warming one for every input; cannot heat with it")
     plan = HeatPlan(tuple(groups), G, cap, np.where(np.isfinite(tdm), tdm, 0.0))
     return HeatedModel(model, eq, plan, names), plan, names
+
+
+def box_inlets(model) -> dict:
+    """``{box: disturbance column}`` of the inlet air of every box of a model that reads it per box.
+
+    A model fitted where the discharge air is measured (Model A's delivered-heat form, Model B with
+    ``inlets``, or an extended model on such a base) takes each box's air at ``Td_<vav>`` (or its unit's
+    ``T_supply_<ahu>``); empty for a model without per-box inlets (they take ``T_supply``).
+    """
+    src = model
+    while not getattr(src, "inlets", None) and getattr(src, "base", None) is not None:
+        src = src.base
+    inlets = tuple(getattr(src, "inlets", None) or ())
+    if not inlets:
+        return {}
+    boxes = getattr(src, "vavs", None)
+    if boxes is None and getattr(src, "building", None) is not None:
+        boxes = src.building.vav_names
+    boxes = [getattr(b, "name", b) for b in (boxes or ())]
+    return dict(zip(boxes, inlets)) if len(boxes) == len(inlets) else {}
 
 
 def _linear_heat_columns(model, eq, vavs, frame):

@@ -545,6 +545,23 @@ def _score_round(sig: Signals, W: Within, terms, cur, opts) -> list:
     return cands
 
 
+def _asymmetry_text(evidence: dict) -> str:
+    """How the two zones' own coupling coefficients differ, for the gate's reason.
+
+    One at its bound 0 and the other not makes the ratio 0 or infinite: that zone is named
+    instead of printing "a factor inf".
+    """
+    ratio = float(evidence["symmetry_ratio"])
+    if np.isfinite(ratio) and ratio > 0.0:
+        return f"the zones' own coefficients differ by a factor {ratio:.2f} (volume-scaled)"
+    coefs = {k[len("untied_coef_") :]: v for k, v in evidence.items() if k.startswith("untied_coef_")}
+    zero = [z for z, v in coefs.items() if v <= 0.0]
+    other = [f"{z}'s {v:.3g}" for z, v in coefs.items() if v > 0.0]
+    if zero and other:
+        return f"{zero[0]}'s own coefficient is at its bound 0 ({', '.join(other)}): no heat from the other zone"
+    return "one zone's own coefficient is at its bound 0: no heat from the other zone"
+
+
 def _gate(c, opts) -> None:
     """Information-criterion and cause-specific gates after the training-rows fit."""
     if c.test["delta_bic"] <= opts["bic_margin"]:
@@ -559,8 +576,7 @@ def _gate(c, opts) -> None:
     ):
         c.status = "no evidence"
         c.reason = (
-            f"asymmetric: the zones' own coefficients differ by a factor "
-            f"{c.evidence['symmetry_ratio']:.2f} (volume-scaled), outside "
+            f"asymmetric: {_asymmetry_text(c.evidence)}, outside "
             f"[1/{opts['coupling_max_asymmetry']:g}, {opts['coupling_max_asymmetry']:g}]: "
             f"not a heat exchange between them (t = {c.evidence['asymmetry_t']:.1f} beyond the factor, "
             f"week-clustered)"

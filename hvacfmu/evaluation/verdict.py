@@ -444,12 +444,20 @@ def schedule_held_line(seasons) -> str:
     if not held:
         return ""
     cells, worst = _held_cells(held, "time_of_week")
-    return (
+    head = (
         f"{cells}: there a control loop holds the zone on its schedule (time-of-week mean within "
         f"{LOOP_HELD_TOW_K:g} K, a zone sensor's resolution), so the schedule is the forecast and what the loop "
         "compensates (occupancy, meetings, modulation within the model step) is not in the data; the model "
-        f"is behind by at most {worst:.3f} K, less than the sensor resolves: a limit of the data, not of the fit "
-        "(for control in a comfort band of a kelvin or more it does not matter)"
+    )
+    if worst <= LOOP_HELD_TOW_K:
+        return head + (
+            f"is behind by at most {worst:.3f} K, less than the sensor resolves: a limit of the data, not of the "
+            "fit (for control in a comfort band of a kelvin or more it does not matter)"
+        )
+    # behind by more than the resolution: the held schedule explains the baseline's score, not all of the loss
+    return head + (
+        f"is behind by up to {worst:.3f} K, more than the sensor resolves: the held schedule does not explain "
+        "all of the loss"
     )
 
 
