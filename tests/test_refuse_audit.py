@@ -83,3 +83,21 @@ def test_cli_refuses_a_model_file_for_other_zones_without_a_traceback(tmp_path, 
     )
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
     assert "Model zones: ['X1', 'X2']" in r.stderr and "data zones: ['NW'" in r.stderr, r.stderr[-2000:]
+
+
+def test_data_after_the_last_whole_week_are_said_with_the_clock_change_that_cost_them(tmp_path):
+    """4 x 168 h from a Monday across the autumn clock change end an hour short of the 4th week, which no stage uses:
+    `check` says how much is left out and why (it said "Weeks: 3" and nothing else; fleet_sweep_s10.md, b004)."""
+    f = base_frame(start="2025-10-20 00:00", days=28)  # 2688 steps of 15 min: the clock change on 2 Nov
+    report = check(write(f, tmp_path / "m.csv", "offset"), building_from_dict(copy.deepcopy(BUILDING)))
+    (line,) = [x for x in str(report).splitlines() if x.startswith("Weeks:")]
+    assert line == (
+        "Weeks: 3 from 2025-10-20; the last 6 d 23 h of data, from 2025-11-10T00:00:00-08:00, are not a whole week and "
+        "are not used (1 h 00 min short of one: the week of 2025-10-27 holds the autumn clock change's extra hour)"
+    ), line
+    # whole weeks leave nothing to say; across the spring change the data run an hour past the last week's end
+    for start, tail in (("2025-04-07", ""), ("2025-03-03", "; the last 1 h 00 min of data, from 2025-03-17")):
+        f = base_frame(start=f"{start} 00:00", days=14)
+        report = check(write(f, tmp_path / "w.csv", "offset"), building_from_dict(copy.deepcopy(BUILDING)))
+        (line,) = [x for x in str(report).splitlines() if x.startswith("Weeks:")]
+        assert line.startswith(f"Weeks: 2 from {start}{tail}") and ("not used" in line) == bool(tail), line

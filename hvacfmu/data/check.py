@@ -33,6 +33,34 @@ _ATTENTION = {
 }
 
 
+def _tail(ds) -> str:
+    """The data after the last whole week, which no stage uses (``""`` when less than a step).
+
+    A week is 7 whole local days; across the autumn clock change they hold 169 h, so data of ``n x 168`` h that
+    cross it (an emulator run of ``--weeks n``) end an hour short of their last week and lose it.
+    """
+    if not ds.weeks or not len(ds.frame):
+        return ""
+    last = ds.weeks[-1].end
+    end = ds.frame.index[-1] + pd.Timedelta(seconds=ds.step)
+    tail = (end - last).total_seconds()
+    if tail < ds.step:
+        return ""
+    nxt = (last.tz_localize(None) + pd.Timedelta(days=7)).tz_localize(
+        last.tz, nonexistent="shift_forward", ambiguous=False
+    )
+    short = (nxt - end).total_seconds()
+    why = ""
+    if 0 < short < 86400.0:
+        long_weeks = [w for w in ds.weeks if (w.end - w.start).total_seconds() > 7 * 86400.0]
+        why = f" ({_duration(short)} short of one" + (
+            f": the week of {long_weeks[0].start.date()} holds the autumn clock change's extra hour)"
+            if long_weeks
+            else ")"
+        )
+    return f"; the last {_duration(tail)} of data, from {last.isoformat()}, are not a whole week and are not used{why}"
+
+
 def _duration(seconds: float) -> str:
     seconds = round(seconds)
     d, rest = divmod(seconds, 86400)
@@ -184,7 +212,9 @@ class CheckReport:
             if self.clock is not None:
                 offset = "" if self.clock.offset is None else f" (offset {self.clock.offset:+.1f} h)"
                 lines.append(f"Clock: {self.clock.detail}{offset}")
-            lines.append(f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else ""))
+            lines.append(
+                f"Weeks: {len(ds.weeks)}" + (f" from {ds.weeks[0].start.date()}" if ds.weeks else "") + _tail(ds)
+            )
             for season in ds.building.season_names:
                 weeks = [w for w in ds.weeks if w.season == season]
                 if not weeks:
