@@ -83,3 +83,194 @@ def test_cli_refuses_a_model_file_for_other_zones_without_a_traceback(tmp_path, 
     )
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
     assert "Model zones: ['X1', 'X2']" in r.stderr and "data zones: ['NW'" in r.stderr, r.stderr[-2000:]
+
+
+# --------------------------------------------------------------------------- audit of session 10: BMS-export mistakes
+def _check(frame, tmp_path, mutate_building=None, name="m.csv"):
+    d = copy.deepcopy(BUILDING)
+    if mutate_building is not None:
+        mutate_building(d)
+    return check(write(frame, tmp_path / name, "offset"), building_from_dict(d))
+
+
+def _one(lines, fragment):
+    found = [x for x in lines if fragment in x]
+    assert len(found) == 1, (fragment, lines)
+    return found[0]
+
+
+def test_a_column_name_repeated_in_the_header_is_refused(tmp_path):
+    f = base_frame(days=8)
+    path = write(f, tmp_path / "m.csv", "offset")
+    lines = path.read_text().splitlines()
+    lines[0] = lines[0].replace("T_B", "T_A")  # the export wrote two columns 'T_A'; pandas would rename one 'T_A.1'
+    path.write_text("\n".join(lines) + "\n")
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert not report.ok
+    assert "column 'T_A' appears 2 times in the header (columns 2, 3)" in _one(report.problems, "appears 2 times")
+
+
+def test_decimal_commas_are_named_with_their_fix(tmp_path):
+    f = base_frame(days=8)
+    path = tmp_path / "m.csv"
+    out = f.copy()
+    out.index = [t.isoformat() for t in out.index]
+    out.index.name = "time"
+    out.to_csv(path, sep=";", decimal=",")
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    msg = _one(report.problems, "'T_A'")
+    assert "written with a decimal comma, e.g. '21," in msg and "export the file with '.' as the decimal" in msg
+    assert not any("every row is empty" in p for p in report.problems)
+
+
+def test_zone_temperature_dropouts_to_zero_are_masked_and_many_refused(tmp_path):
+    f = base_frame(days=8)
+    f.iloc[[50, 300, 301, 500], f.columns.get_loc("T_A")] = 0.0  # a BMS writing 0 while the controller is offline
+    report = _check(f, tmp_path)
+    assert report.ok
+    msg = _one(report.warnings, "'T_A'")
+    assert "4 value(s)" in msg and "more than 12 K away from the median of the surrounding 12 h" in msg
+    assert "masked as missing: 0 at row 51 (2025-03-03T12:30:00-08:00)" in msg
+    f.iloc[::50, f.columns.get_loc("T_A")] = 0.0  # 2 % of the rows: the column or its mapping is wrong
+    report = _check(f, tmp_path)
+    assert not report.ok and "more than the 1 % that are masked" in _one(report.problems, "'T_A'")
+
+
+def test_a_dead_ghi_sensor_is_refused(tmp_path):
+    f = base_frame(days=8)
+    f["ghi"] = 0.0
+    report = _check(f, tmp_path)
+    msg = _one(report.problems, "'ghi'")
+    assert "the largest value over 7 day(s) is 0 W/m²" in msg and "a dead or disconnected sensor" in msg
+
+
+def test_ghi_as_energy_per_interval_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["ghi"] = f["ghi"] / 4  # Wh/m² per 15 min declared as W/m²
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'ghi'")
+    assert "only 2" in msg and "% of the clear-sky peak" in msg and "Wh/m² per 15 min" in msg
+    assert report.exit_code == 3
+    assert _check(base_frame(days=8), tmp_path).exit_code == 0
+
+
+def test_a_zone_sensor_exported_twice_is_refused(tmp_path):
+    f = base_frame(days=8)
+    f["T_B"] = f["T_A"]
+    report = _check(f, tmp_path)
+    msg = _one(report.problems, "hold the same value")
+    assert "columns 'T_A' (T_A) and 'T_B' (T_B) hold the same value in 100.0 % of the 768 rows" in msg
+
+
+def test_outdoor_air_that_behaves_like_indoor_air_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["T_out"] = f["T_B"] + np.random.default_rng(2).normal(0, 0.1, len(f))
+    report = _check(f, tmp_path)
+    assert "it behaves like indoor air" in _one(report.warnings, "'T_out'") and report.exit_code == 3
+
+
+def test_supply_air_that_is_room_air_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["T_supply_AHU1"] = f["T_A"] + 0.5  # the return air sensor mapped as supply air
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'T_supply_AHU1'")
+    assert "within 1.5 K of the zones' mean temperature in 100 %" in msg and report.exit_code == 3
+
+
+def test_an_inverted_excitation_flag_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["excitation"] = 1.0
+    f.iloc[:32, f.columns.get_loc("excitation")] = 0.0
+    report = _check(f, tmp_path)
+    assert "the flag looks inverted" in _one(report.warnings, "'excitation'") and report.exit_code == 3
+
+
+def test_discharge_air_that_does_not_follow_its_reheat_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    rh = np.where(np.arange(len(f)) % 2 == 0, 0.0, 0.8)
+    f["rh_V2"] = rh
+    f["Td_V2"] = f["T_supply_AHU2"] + np.where(rh > 0, 0.0, 12.0)  # warm when its reheat is off: another box's
+    report = _check(f, tmp_path)
+    notes = [w for w in report.warnings if "'Td_V2'" in w]
+    assert len(notes) == 2 and all("does not follow its own reheat" in n for n in notes)
+    assert report.exit_code == 3
+
+
+def test_boxes_discharging_another_units_air_are_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["Td_V1"] = f["T_supply_AHU2"] + np.random.default_rng(3).normal(0, 0.05, len(f))  # V1 names AHU1
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "another air handler")
+    assert "V1: T_supply_AHU1 1 K off, T_supply_AHU2" in msg and report.exit_code == 3
+
+
+def test_reheat_as_a_fraction_declared_percent_is_flagged(tmp_path):
+    def percent(d):
+        d["units"] = {"rh_*": "%"}
+
+    report = _check(base_frame(days=8), tmp_path, percent)
+    assert "the data look like a fraction 0..1" in _one(report.warnings, "'rh_V2'") and report.exit_code == 3
+
+
+def test_airflow_in_cubic_metres_per_hour_is_read():
+    from hvacfmu.data.units import from_si, normalize_unit, to_si
+
+    assert normalize_unit("m³/h", "airflow") == "m3/h"
+    assert float(to_si(3600.0, "m3/h")) == pytest.approx(1.2) and float(from_si(1.2, "m3/h")) == pytest.approx(3600)
+
+
+def test_stuck_sensor_runs_ignore_rows_with_unusable_times(tmp_path):
+    f = base_frame(days=8)
+    f.iloc[100, f.columns.get_loc("T_A")] = f["T_A"].iloc[99]  # a value repeated on a row without a usable time
+    path = write(f, tmp_path / "m.csv", "offset")
+    lines = path.read_text().splitlines()
+    lines[101] = "not a time" + lines[101][lines[101].index(",") :]
+    path.write_text("\n".join(lines) + "\n")
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert not report.ok and not any("stuck" in w for w in report.warnings)
+
+
+@pytest.mark.parametrize(
+    "mutate, message",
+    [
+        (lambda d: d.update(longitude=122.259), r"longitude 122\.259° is 7\.8 h of sun away from the time zone "),
+        (lambda d: d.update(longitude=122.259), r"is the sign wrong \(-122\.259: west of Greenwich is negative\)"),
+        (lambda d: d.update(latitude=-122.259 / 3.3, longitude=37.875), r"longitude 37\.875° is 9\.5 h of sun"),
+        (lambda d: d.update(latitude=-37.875), r"latitude -37\.875° is in the southern hemisphere, but the time zone"),
+        (
+            lambda d: d["zones"][0].update(area=1076.4),  # ft2 beside a volume in m3
+            r"zone A: volume / area = 300 m3 / 1076\.4 m2 = 0\.28 m of ceiling height, below 1\.5 m: is the area in ft2",
+        ),
+    ],
+)
+def test_building_file_slips_are_refused(mutate, message):
+    d = copy.deepcopy(BUILDING)
+    mutate(d)
+    with pytest.raises(BuildingError, match=message):
+        building_from_dict(d)
+
+
+def test_building_file_places_that_are_legitimate_pass():
+    for lat, lon, tz in [
+        (39.47, 75.99, "Asia/Shanghai"),  # Kashgar on Beijing time: 44 degrees from the zone's meridian
+        (42.88, -8.54, "Europe/Madrid"),  # Galicia on Central European time
+        (-33.87, 151.21, "Australia/Sydney"),
+        (-32.89, -68.83, "America/Argentina/Mendoza"),
+        (64.18, -51.72, "America/Nuuk"),
+        (1.35, 103.82, "Asia/Singapore"),
+        (-1.29, 36.82, "Africa/Nairobi"),
+        (51.5, 100.0, "UTC"),
+    ]:
+        d = copy.deepcopy(BUILDING)
+        d.update(latitude=lat, longitude=lon, timezone=tz)
+        building_from_dict(d)
+
+
+def test_areas_in_ft2_with_volumes_in_ft3_are_flagged(tmp_path):
+    def feet(d):
+        for z in d["zones"]:
+            z.update(area=z["area"] * 10.7639, volume=z["volume"] * 35.3147)
+
+    report = _check(base_frame(days=8), tmp_path, feet)
+    msg = _one(report.warnings, "ceiling height")
+    assert "(A 9.84 m, B 9.84 m)" in msg and "if the areas are ft2 and the volumes ft3" in msg

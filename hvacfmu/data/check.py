@@ -30,6 +30,13 @@ _ATTENTION = {
     "a stuck sensor?": "stuck sensor",
     "discharge air below its unit's supply air": "discharge air vs its unit",
     "discharge air above T_supply_max": "discharge air vs its unit",
+    "is not W/m²": "irradiance level",
+    "the data look like a fraction 0..1": "reheat unit",
+    "does not follow its own reheat": "discharge air vs its reheat",
+    "the supply air of another air handler": "boxes vs air handlers",
+    "it behaves like indoor air": "outdoor air looks indoor",
+    "it behaves like return or room air": "supply air looks like room air",
+    "the flag looks inverted": "excitation inverted",
 }
 
 

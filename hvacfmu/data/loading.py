@@ -17,7 +17,15 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
-from .plausibility import check_airflow, check_outdoor, check_outdoor_unit_mix, check_stuck
+from .plausibility import (
+    check_airflow,
+    check_irradiance_level,
+    check_outdoor,
+    check_outdoor_unit_mix,
+    check_stuck,
+    check_zone_spikes,
+    identical_columns,
+)
 from .units import kind_of, normalize_unit, to_si
 
 #: Plausible range of any air temperature [°C].
@@ -138,14 +146,41 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
                 frame = frame.reset_index()
             return frame
         if suffix in (".csv", ".csv.gz", ".txt"):
-            return pd.read_csv(
-                path, sep=_sniff_separator(path), dtype={time_name: str}, low_memory=False, encoding="utf-8-sig"
-            )
+            sep = _sniff_separator(path)
+            frame = pd.read_csv(path, sep=sep, dtype={time_name: str}, low_memory=False, encoding="utf-8-sig")
+            header = _csv_header(path, sep)
+            if len(header) == frame.shape[1]:
+                frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
+            return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
         problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
+
+
+def _csv_header(path: Path, sep: str) -> list[str]:
+    """The header names of a CSV file as written (quotes removed), empty if unreadable."""
+    import csv
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rt", encoding="utf-8-sig", errors="replace", newline="") as f:
+        return next(csv.reader(f, delimiter=sep), [])
+
+
+def _duplicate_names(names, label) -> list[str]:
+    """Problems naming every column name that appears more than once (after trimming whitespace)."""
+    names = [str(c).strip() for c in names]
+    seen: dict[str, list[int]] = {}
+    for i, c in enumerate(names):
+        seen.setdefault(c, []).append(i + 1)
+    return [
+        f"{label}: column {c!r} appears {len(cols)} times in the header (columns {', '.join(map(str, cols))}); "
+        "a reader cannot tell which one is the point: rename or drop the copies in the export"
+        for c, cols in seen.items()
+        if len(cols) > 1
+    ]
 
 
 def _sniff_separator(path: Path) -> str:
@@ -436,6 +471,9 @@ def _load(path: Path, building: Building):
     report.rows = n = len(raw)
     if n == 0:
         problems.append(f"{label}: no data rows")
+    duplicates = _duplicate_names(raw.columns, label)
+    if duplicates:
+        return None, report, problems + duplicates
     raw.columns = [str(c).strip() for c in raw.columns]
     present = _map_columns(raw, building, label, time_name, problems, report)
     utc, ok, local = _load_times(raw, building, label, time_name, problems, report)
@@ -445,6 +483,7 @@ def _load(path: Path, building: Building):
         si = _column_values(ctx, canonical, name, raw[name])
         if si is not None:
             out[canonical] = si
+    problems += identical_columns(out, present, ctx.where.rows, label)
     if problems or utc is None:
         return None, report, problems
     order = [c for c in building.expected_columns() if c in out]
@@ -571,7 +610,7 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
     report.units[canonical] = unit
     values, bad = _numeric(column)
     if len(bad):
-        problems.append(f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}")
+        problems.append(_non_numeric_message(f"{label}: {desc}", bad, column, ctx))
     infinite = np.flatnonzero(np.isinf(values))
     if len(infinite):
         problems.append(
@@ -581,6 +620,8 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
         values = np.where(np.isinf(values), np.nan, values)
     finite = values[np.isfinite(values)]
     if not len(finite):
+        if len(bad):
+            return None  # every value is non-numeric: reported above
         if ctx.building.expected_columns().get(canonical, False) and ctx.n:
             problems.append(f"{label}: {desc}: no values at all (every row is empty)")
         elif ctx.n:
@@ -590,13 +631,29 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
         return None
     si = _checked_si(ctx, canonical, desc, kind, unit, values, finite)
     kept = int(np.isfinite(si).sum())
-    si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings)
+    si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings, ok=ctx.ok)
     if kept > np.isfinite(si).sum():
         report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
     if ctx.utc is not None:
         sel = np.isfinite(si) & ctx.ok
         report.column_steps[canonical] = _column_step(ctx.utc[sel], report, f"{label}: {desc}", ctx.n)
     return si
+
+
+_DECIMAL_COMMA = r"^\s*[-+]?\d+,\d+\s*$"
+
+
+def _non_numeric_message(desc: str, bad, column: pd.Series, ctx: _Column) -> str:
+    """The problem of non-numeric cells; a decimal comma (a European export) is named with its fix."""
+    text = column.iloc[bad[:1000]].astype("str")
+    comma = float(text.str.match(_DECIMAL_COMMA).mean())
+    if comma >= 0.5:
+        return (
+            f"{desc}: {len(bad)} value(s) written with a decimal comma, e.g. {ctx.rows(bad, column.to_numpy())}; "
+            "numbers must use a decimal point: export the file with '.' as the decimal separator "
+            "(the column separator may stay ';')"
+        )
+    return f"{desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}"
 
 
 def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
@@ -612,6 +669,11 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
             zone_unit = _zone_temperature_unit(ctx.building)
             lat = ctx.building.latitude
             check_outdoor_unit_mix(values, unit, zone_unit, ctx.local, lat, f"{label}: {desc}", report.warnings)
+        if canonical in {f"T_{z}" for z in ctx.building.zone_names} and len(problems) == n_before:
+            kept = int(np.isfinite(si).sum())
+            si = check_zone_spikes(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, problems, report.warnings)
+            if kept > np.isfinite(si).sum():
+                report.masked[(canonical, "temperature spike")] = kept - int(np.isfinite(si).sum())
     elif kind == "airflow":
         box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
         kept = int(np.isfinite(si).sum())
@@ -619,7 +681,13 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
         if kept > np.isfinite(si).sum():
             report.masked[(canonical, "airflow spike")] = kept - int(np.isfinite(si).sum())
     elif kind == "irradiance":
+        n_before = len(problems)
         si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+        if canonical == "ghi" and len(problems) == n_before:
+            b = ctx.building
+            check_irradiance_level(
+                si, ctx.utc, ctx.ok, b.latitude, b.longitude, f"{label}: {desc}", unit, report.warnings
+            )
     elif kind == "fraction":
         si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
     else:
@@ -658,7 +726,7 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
     indoor = canonical != "T_out"
     guess = None
     if unit == "degC" and med > 200:
-        guess = "K"
+        guess = "K" if not 5 <= med / 10 <= 40 else "K, or tenths of a degree C (divide by 10)"
     elif unit == "degC" and med > 45:
         guess = "degF"
     elif unit == "degF" and med > 200:
@@ -717,6 +785,11 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
             'declare the unit in the building\'s [units] table, e.g. "rh_*" = "%"'
         )
         return si
+    if unit == "%" and 0 < top <= 1.0 and float(np.mean((finite > 0) & (finite < 1))) > 0.01:
+        report.warnings.append(
+            f"{label}: {desc}: declared % but its largest value is {top:.3g}, so the reheat never exceeds {top:.3g} %; "
+            'the data look like a fraction 0..1: declare "1" for the column in the building\'s [units] table'
+        )
     bad = np.flatnonzero((si < -FRACTION_NOISE) | (si > 1 + FRACTION_NOISE))
     if len(bad):
         problems.append(
@@ -733,6 +806,13 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
 
 def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None):
     peak = float(np.nanmax(si))
+    if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and peak < 0.5:
+        problems.append(
+            f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}): "
+            "no daylight at all, a dead or disconnected sensor; fix the sensor or drop the column (the models then "
+            "have no solar input)"
+        )
+        return si
     if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and 0 < peak < 5:
         problems.append(
             f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}); "
