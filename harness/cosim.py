@@ -1103,6 +1103,14 @@ def main_cosim(args) -> int:
 
     dataset = prepare(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
     model = load_model(args.model) if args.model else None
+    if model is not None:
+        import warnings
+
+        from hvacfmu.errors import HvacfmuWarning
+        from hvacfmu.models.base import building_mismatch
+
+        for note in building_mismatch(model, dataset.building)[1]:
+            warnings.warn(f"{args.model}: {note}", HvacfmuWarning, stacklevel=2)
     options = _parse_options(args.option)
     if args.horizon is not None:
         options["horizon"] = args.horizon

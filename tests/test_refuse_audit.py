@@ -274,3 +274,49 @@ def test_areas_in_ft2_with_volumes_in_ft3_are_flagged(tmp_path):
     report = _check(base_frame(days=8), tmp_path, feet)
     msg = _one(report.warnings, "ceiling height")
     assert "(A 9.84 m, B 9.84 m)" in msg and "if the areas are ft2 and the volumes ft3" in msg
+
+
+def _linear_model(boxes=("V1", "V2"), meta=None):
+    from hvacfmu.models.linear import LinearZoneModel
+
+    return LinearZoneModel(
+        kind="zones",
+        step=900.0,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=boxes,
+        input_map=np.eye(2),
+        disturbances=("T_out",),
+        A=0.9 * np.eye(2),
+        B=-0.1 * np.eye(2),
+        C=[[0.02], [0.02]],
+        gains={"fall": np.full((672, 2), 0.4)},
+        meta=meta or {},
+    )
+
+
+def test_a_model_meets_a_building_file_it_was_not_fitted_with():
+    from hvacfmu.models.base import building_mismatch
+
+    b = building_from_dict(copy.deepcopy(BUILDING))
+    sha = b.sha256 or __import__("hashlib").sha256(b.to_toml().encode()).hexdigest()
+    assert building_mismatch(_linear_model(meta={"building": b.name, "building_sha256": sha}), b) == ([], [])
+    problems, notes = building_mismatch(_linear_model(meta={"building": "other floor", "building_sha256": sha}), b)
+    assert not problems and "was fitted on building 'other floor', not on 'two rooms'" in notes[0]
+    _, notes = building_mismatch(_linear_model(meta={"building": b.name, "building_sha256": "0" * 64}), b)
+    assert "fitted with another version of the building file of 'two rooms'" in notes[0]
+    problems, _ = building_mismatch(_linear_model(boxes=("X1", "X2")), b)
+    assert "box(es) ['X1', 'X2'] are not declared in building 'two rooms'" in problems[0]
+
+
+def test_export_refuses_a_building_file_without_the_models_boxes(tmp_path):
+    import json
+
+    from hvacfmu.errors import FMUError
+    from hvacfmu.fmu import export_file
+
+    path = tmp_path / "other.json"
+    path.write_text(json.dumps(_linear_model(boxes=("X1", "X2")).to_dict()))
+    with pytest.raises(FMUError, match=r"cannot export .*other\.json with building 'two rooms': .*\['X1', 'X2'\]"):
+        export_file(path, tmp_path / "x.fmu", building=building_from_dict(copy.deepcopy(BUILDING)))
