@@ -14,6 +14,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pandas as pd
 import pytest
 from test_properties import BUILDING, base_frame, write
 
@@ -320,3 +321,42 @@ def test_export_refuses_a_building_file_without_the_models_boxes(tmp_path):
     path.write_text(json.dumps(_linear_model(boxes=("X1", "X2")).to_dict()))
     with pytest.raises(FMUError, match=r"cannot export .*other\.json with building 'two rooms': .*\['X1', 'X2'\]"):
         export_file(path, tmp_path / "x.fmu", building=building_from_dict(copy.deepcopy(BUILDING)))
+
+
+def test_a_setpoint_exported_as_the_zone_temperature_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    hour = pd.DatetimeIndex(f.index).hour
+    f["T_A"] = np.where((hour >= 7) & (hour < 19), 22.0, 18.0)
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'T_A'")
+    assert "changes only 2 time(s) on a median day" in msg and "is it a setpoint exported as the zone" in msg
+    assert report.exit_code == 3
+
+
+def test_an_airflow_column_that_never_moves_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["m_V2"] = 0.0
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'m_V2'")
+    assert "reads 0 kg/s in every one of its 768 samples over 8.0 days" in msg and report.exit_code == 3
+
+
+@pytest.mark.parametrize(
+    "times, hint",
+    [
+        (
+            lambda t: [f"{(x.tz_localize(None) - pd.Timestamp('1899-12-30')) / pd.Timedelta(days=1):.6f}" for x in t],
+            "numbers like Excel serial dates",
+        ),
+        (lambda t: [str(int(x.timestamp())) for x in t], "numbers like Unix times"),
+        (lambda t: [x.strftime("%d/%m/%Y %H:%M") for x in t], "dates like 03/04/2025 are ambiguous"),
+    ],
+)
+def test_times_that_are_not_iso_name_what_they_look_like(tmp_path, times, hint):
+    f = base_frame(days=8)
+    path = write(f, tmp_path / "m.csv", "offset")
+    out = pd.read_csv(path, dtype={"time": str})
+    out["time"] = times(pd.DatetimeIndex(f.index))
+    out.to_csv(path, index=False)
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert hint in _one(report.problems, "not ISO 8601 times")

@@ -31,6 +31,8 @@ _ATTENTION = {
     "discharge air below its unit's supply air": "discharge air vs its unit",
     "discharge air above T_supply_max": "discharge air vs its unit",
     "is not W/m²": "irradiance level",
+    "is it a setpoint exported as the zone temperature": "setpoint as zone temperature",
+    "a dead flow sensor, a setpoint exported as the flow": "constant airflow",
     "the data look like a fraction 0..1": "reheat unit",
     "does not follow its own reheat": "discharge air vs its reheat",
     "the supply air of another air handler": "boxes vs air handlers",

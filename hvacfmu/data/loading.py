@@ -19,9 +19,11 @@ from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
 from .plausibility import (
     check_airflow,
+    check_airflow_constant,
     check_irradiance_level,
     check_outdoor,
     check_outdoor_unit_mix,
+    check_setpoint_like,
     check_stuck,
     check_zone_spikes,
     identical_columns,
@@ -257,12 +259,33 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         bad = np.flatnonzero(unparsed)
         problems.append(
             f"{label}: column {name!r}: {len(bad)} values are not ISO 8601 times, e.g. "
-            f"{_Where(None).rows(bad, values=text.to_numpy())}"
+            f"{_Where(None).rows(bad, values=text.to_numpy())}{_time_format_hint(stripped.iloc[bad[:200]])}"
         )
     if empty.any():
         bad = np.flatnonzero(empty)
         problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
     return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _time_format_hint(text: pd.Series) -> str:
+    """What unparseable times look like (numbers, day/month order), as a fix appended to the problem."""
+    num = pd.to_numeric(text, errors="coerce")
+    if num.notna().mean() > 0.9:
+        med = float(num.median())
+        if 20_000 < med < 80_000:
+            return (
+                "; these are numbers like Excel serial dates (days since 1899-12-30): export the times as text "
+                "such as 2024-09-02T00:00:00-07:00"
+            )
+        if 1e8 < med < 1e10 or 1e11 < med < 1e13:
+            return "; these are numbers like Unix times (seconds or ms since 1970): export the times as ISO 8601 text"
+        return "; these are numbers, not times"
+    if text.str.match(r"^\s*\d{1,2}[/.-]\d{1,2}[/.-]\d{2,4}").mean() > 0.9:
+        return (
+            "; dates like 03/04/2025 are ambiguous (3 April or March 4?): export year-month-day "
+            "(2025-04-03T00:00:00) so nothing depends on a locale"
+        )
+    return ""
 
 
 def _has_offset(text: pd.Series) -> np.ndarray:
@@ -634,6 +657,11 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
     si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings, ok=ctx.ok)
     if kept > np.isfinite(si).sum():
         report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
+    if canonical in {f"T_{z}" for z in ctx.building.zone_names}:
+        check_setpoint_like(si, ctx.utc, ctx.ok, f"{label}: {desc}", report.warnings)
+    elif kind == "airflow":
+        box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
+        check_airflow_constant(si, ctx.utc, ctx.ok, box, f"{label}: {desc}", report.warnings)
     if ctx.utc is not None:
         sel = np.isfinite(si) & ctx.ok
         report.column_steps[canonical] = _column_step(ctx.utc[sel], report, f"{label}: {desc}", ctx.n)

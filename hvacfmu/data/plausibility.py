@@ -355,6 +355,52 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
     return si
 
 
+#: Days of data before a column's day-to-day behaviour is judged (setpoints, constant airflow).
+BEHAVIOUR_DAYS = 7.0
+#: A zone temperature changing value at most this many times on a median day is a setpoint, not a sensor.
+SETPOINT_CHANGES_PER_DAY = 4
+
+
+def check_setpoint_like(si, times_ns, ok, desc, warnings):
+    """Flag a zone temperature that changes value only a few times a day (a setpoint exported as the sensor)."""
+    if times_ns is None:
+        return
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 2 or (times_ns[sel[-1]] - times_ns[sel[0]]) < BEHAVIOUR_DAYS * 86400e9:
+        return
+    v = si[sel]
+    day = times_ns[sel][1:] // (86400 * 10**9)
+    per_day = pd.DataFrame({"changes": np.diff(v) != 0, "day": day}).groupby("day")["changes"].agg(["sum", "count"])
+    per_day = per_day[per_day["count"] >= 24]
+    if len(per_day) < BEHAVIOUR_DAYS or float(per_day["sum"].median()) > SETPOINT_CHANGES_PER_DAY:
+        return
+    values = np.unique(v)
+    warnings.append(
+        f"{desc}: the value changes only {float(per_day['sum'].median()):g} time(s) on a median day over "
+        f"{len(per_day)} days ({len(values)} distinct value(s), e.g. {', '.join(f'{x:g}' for x in values[:4])}): "
+        "a sensor in moving air changes many times a day; is it a setpoint exported as the zone temperature? "
+        "map the measured zone air temperature"
+    )
+
+
+def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
+    """Flag an airflow column holding one value over the whole record (a dead sensor, a setpoint, a box never moved)."""
+    if times_ns is None or box is None:
+        return
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 2 or (times_ns[sel[-1]] - times_ns[sel[0]]) < BEHAVIOUR_DAYS * 86400e9:
+        return
+    v = si[sel]
+    if float(np.ptp(v)) > 0:
+        return
+    days = (times_ns[sel[-1]] - times_ns[sel[0]]) / 86400e9
+    warnings.append(
+        f"{desc}: reads {v[0]:.4g} kg/s in every one of its {len(v)} samples over {days:.1f} days, while box "
+        f"{box.name} may move between m_min = {box.m_min:g} and m_max = {box.m_max:g} kg/s: a dead flow sensor, a "
+        "setpoint exported as the flow, or a box that never moves; the models learn nothing from it: check the column"
+    )
+
+
 #: Span [days] of ghi needed before its level is compared with the clear sky.
 GHI_LEVEL_DAYS = 7.0
 #: The sunniest day's peak ghi below this share of the clear-sky peak is flagged.
