@@ -120,7 +120,8 @@ def test_decimal_commas_are_named_with_their_fix(tmp_path):
     out.to_csv(path, sep=";", decimal=",")
     report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
     msg = _one(report.problems, "'T_A'")
-    assert "written with a decimal comma, e.g. '21," in msg and "export the file with '.' as the decimal" in msg
+    assert "written with a comma, e.g. '21," in msg and ": a decimal comma; numbers must be written plainly" in msg
+    assert "with '.' as the decimal separator" in msg
     assert not any("every row is empty" in p for p in report.problems)
 
 
@@ -360,3 +361,48 @@ def test_times_that_are_not_iso_name_what_they_look_like(tmp_path, times, hint):
     out.to_csv(path, index=False)
     report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
     assert hint in _one(report.problems, "not ISO 8601 times")
+
+
+def test_thousands_separators_are_named(tmp_path):
+    f = base_frame(days=8)
+    path = write(f, tmp_path / "m.csv", "offset")
+    out = pd.read_csv(path, dtype={"time": str})
+    out["m_V1"] = [f"{1000 + x:,.0f}" if i % 10 == 0 else f"{x:.0f}" for i, x in enumerate(500 * out["m_V1"])]
+    out.to_csv(path, index=False)
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert ": a thousands separator (or a decimal comma); numbers must be" in _one(report.problems, "with a comma")
+
+
+def test_stray_rows_from_a_logger_clock_reset_are_refused(tmp_path):
+    f = base_frame(days=8)
+    path = write(f, tmp_path / "m.csv", "offset")
+    out = pd.read_csv(path, dtype={"time": str})
+    out.loc[:2, "time"] = ["1970-01-01T00:00:00Z", "1970-01-01T00:15:00Z", "1970-01-01T00:30:00Z"]
+    out.to_csv(path, index=False)
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    msg = _one(report.problems, "lie ")
+    assert "3 row(s) 1-3 (1969-12-31T16:00:00-08:00 .. 1969-12-31T16:30:00-08:00) lie 20150 days before" in msg
+    assert "a logger clock reset or a wrong year?" in msg
+    f2 = pd.concat([base_frame(days=8), base_frame(start="2025-07-07 00:00", days=8)])  # two campaigns: fine
+    assert not [
+        p
+        for p in check(write(f2, tmp_path / "two.csv", "offset"), building_from_dict(copy.deepcopy(BUILDING))).problems
+        if "lie " in p
+    ]
+
+
+def test_dot_thousands_separators_among_whole_numbers_are_refused(tmp_path):
+    f = base_frame(days=8)
+    f["m_V1"] = (2 * f["m_V1"] / 1.2 / 0.000471947).round(0)  # cfm, whole numbers; 1,000 and more written '1.006'
+    out = f.copy()
+    out["m_V1"] = [f"{x:,.0f}".replace(",", ".") for x in out["m_V1"]]
+    out.index = [t.isoformat() for t in out.index]
+    out.index.name = "time"
+    path = tmp_path / "m.csv"
+    out.to_csv(path, sep=";")
+    d = copy.deepcopy(BUILDING)
+    d["units"] = {"m_*": "cfm"}
+    d["vavs"][0]["m_max"] = 0.8
+    report = check(path, building_from_dict(d))
+    msg = _one(report.problems, "'m_V1'")
+    assert "among whole numbers: a '.' thousands separator ('1.006' = 1006)" in msg, msg

@@ -153,12 +153,43 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
             header = _csv_header(path, sep)
             if len(header) == frame.shape[1]:
                 frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
+            if sep != ",":
+                problems += _thousands_dots(path, sep, frame, time_name)
             return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
         problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
+
+
+_THOUSANDS_DOT = r"^\s*[-+]?[1-9]\d{0,2}(\.\d{3})+\s*$"
+
+
+def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str) -> list[str]:
+    """Problems for '.' thousands separators among whole numbers (a European export: '1.006' is 1006, not 1.006).
+
+    Read as numbers they would be a thousand times too small without a trace;
+    only columns whose other values are all whole numbers are judged.
+    """
+    numeric = [c for c in frame.columns if c != time_name and pd.api.types.is_float_dtype(frame[c].dtype)]
+    if not numeric:
+        return []
+    text = pd.read_csv(path, sep=sep, dtype=str, usecols=numeric, encoding="utf-8-sig", low_memory=False)
+    out = []
+    for c in numeric:
+        col = text[c].dropna().str.strip()
+        dots = col.str.match(_THOUSANDS_DOT)
+        if not dots.any() or col[~dots].str.contains(r"\.", regex=True).any():
+            continue
+        rows = np.flatnonzero(text[c].str.strip().str.match(_THOUSANDS_DOT).fillna(False).to_numpy())
+        examples = ", ".join(f"{text[c].iloc[r]!r} at row {r + 1}" for r in rows[:3])
+        out.append(
+            f"{path.name}: column {str(c).strip()!r}: {len(rows)} value(s) such as {examples} among whole numbers: "
+            "a '.' thousands separator ('1.006' = 1006), which would read a thousand times too small; export the "
+            "numbers without thousands separators"
+        )
+    return out
 
 
 def _csv_header(path: Path, sep: str) -> list[str]:
@@ -596,10 +627,44 @@ def _load_times(raw, building, label, time_name, problems, report):
                 f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
                 "rows must be sorted by time"
             )
+        if not len(back):
+            problems += _stray_rows(tv, valid_pos, local, label, time_name)
     if len(tv):
         report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
         report.native_step = _median_step(tv)
     return utc, ok, local
+
+
+#: A jump of the times longer than this [days] ...
+STRAY_GAP_DAYS = 30.0
+#: ... that cuts off at most this share of the rows leaves stray rows (a logger clock reset, a typo in a year).
+STRAY_SHARE = 0.01
+
+
+def _stray_rows(tv, valid_pos, local, label, time_name) -> list[str]:
+    """Problems for a few rows months or years away from the rest (1970 after a logger reset, a wrong year).
+
+    Two campaigns concatenated in one file (both sides large) are legitimate and
+    pass; a side of at most :data:`STRAY_SHARE` of the rows beyond a jump of
+    :data:`STRAY_GAP_DAYS` would stretch the span, the weeks and the coverage.
+    """
+    d = np.diff(tv)
+    n = len(tv)
+    out = []
+    for i in np.flatnonzero(d > STRAY_GAP_DAYS * 86400e9):
+        left, right = i + 1, n - i - 1
+        if min(left, right) > STRAY_SHARE * n:
+            continue
+        a, b = (0, i) if left <= right else (i + 1, n - 1)
+        where = "before" if left <= right else "after"
+        other = i + 1 if left <= right else i
+        out.append(
+            f"{label}: column {time_name!r}: {min(left, right)} row(s) {valid_pos[a] + 1}-{valid_pos[b] + 1} "
+            f"({_fmt_time(local[valid_pos[a]])} .. {_fmt_time(local[valid_pos[b]])}) lie {d[i] / 86400e9:.0f} days "
+            f"{where} the rest of the file (row {valid_pos[other] + 1}, {_fmt_time(local[valid_pos[other]])}): a logger "
+            "clock reset or a wrong year? correct or drop those rows"
+        )
+    return out
 
 
 @dataclasses.dataclass
@@ -676,10 +741,12 @@ def _non_numeric_message(desc: str, bad, column: pd.Series, ctx: _Column) -> str
     text = column.iloc[bad[:1000]].astype("str")
     comma = float(text.str.match(_DECIMAL_COMMA).mean())
     if comma >= 0.5:
+        thousands = bool(text.str.match(r"^\s*[-+]?\d{1,3}(,\d{3})+\s*$").all())
+        what = "a thousands separator (or a decimal comma)" if thousands else "a decimal comma"
         return (
-            f"{desc}: {len(bad)} value(s) written with a decimal comma, e.g. {ctx.rows(bad, column.to_numpy())}; "
-            "numbers must use a decimal point: export the file with '.' as the decimal separator "
-            "(the column separator may stay ';')"
+            f"{desc}: {len(bad)} value(s) written with a comma, e.g. {ctx.rows(bad, column.to_numpy())}: {what}; "
+            "numbers must be written plainly with a decimal point (1006, 21.5): export the file without thousands "
+            "separators and with '.' as the decimal separator (the column separator may stay ';')"
         )
     return f"{desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}"
 
