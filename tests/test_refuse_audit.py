@@ -406,3 +406,14 @@ def test_dot_thousands_separators_among_whole_numbers_are_refused(tmp_path):
     report = check(path, building_from_dict(d))
     msg = _one(report.problems, "'m_V1'")
     assert "among whole numbers: a '.' thousands separator ('1.006' = 1006)" in msg, msg
+
+
+def test_a_stretch_logged_at_a_coarser_interval_is_named(tmp_path):
+    f = base_frame(days=8)
+    f.index = pd.date_range(f.index[0], periods=len(f), freq="5min", name="time")  # a 5-minute export ...
+    hours = (f.index - f.index[0]) / pd.Timedelta(hours=1)
+    coarse = (hours >= 10) & (hours < 30) & (f.index.minute % 15 != 0)  # ... logging every 15 min for 20 h
+    report = _check(f[~coarse], tmp_path)
+    msg = _one(report.warnings, "apart")
+    assert "are 900 s apart, not the file's 300 s, 0.8 days in all" in msg and "stay missing" in msg
+    assert not [w for w in _check(f, tmp_path).warnings if "apart" in w]

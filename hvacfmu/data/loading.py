@@ -632,7 +632,45 @@ def _load_times(raw, building, label, time_name, problems, report):
     if len(tv):
         report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
         report.native_step = _median_step(tv)
+        report.warnings += _coarse_stretches(tv, valid_pos, local, report.native_step, label, time_name)
     return utc, ok, local
+
+
+#: Stretches of rows spaced at least this multiple of the file's spacing, lasting this long [h], are named.
+COARSE_FACTOR, COARSE_HOURS = 1.9, 6.0
+
+
+def _coarse_stretches(tv, valid_pos, local, native, label, time_name) -> list[str]:
+    """A warning for stretches logged at a coarser interval than the file (a 5-min export with 15-min days).
+
+    Steps there hold fewer samples than the file's spacing promises and stay
+    missing (the 50 % rule of :func:`hvacfmu.data.resample.resample`); gaps (one
+    long jump) are not stretches.
+    """
+    if not native or len(tv) < 3:
+        return []
+    d = np.round(np.diff(tv) / 1e9)
+    coarse = d >= COARSE_FACTOR * native
+    if not coarse.any():
+        return []
+    starts = np.flatnonzero(np.diff(np.concatenate(([np.nan], d))) != 0)  # runs of one spacing: diffs a..b-1
+    stops = np.concatenate((starts[1:], [len(d)]))
+    found = [
+        (int(a), int(b), float(d[a]))
+        for a, b in zip(starts, stops)
+        if coarse[a] and b - a >= 3 and d[a] * (b - a) >= COARSE_HOURS * 3600
+    ]
+    if not found:
+        return []
+    a, b, spacing = found[0]
+    days = sum(d[x:y].sum() for x, y, _ in found) / 86400
+    more = f" and {len(found) - 1} more stretch(es)" if len(found) > 1 else ""
+    return [
+        f"{label}: column {time_name!r}: rows {valid_pos[a] + 1}-{valid_pos[b] + 1} ({_fmt_time(local[valid_pos[a]])} .. "
+        f"{_fmt_time(local[valid_pos[b]])}) are {spacing:g} s apart, not the file's {native:g} s{more}, {days:.1f} "
+        f"days in all: model steps there hold fewer than half the samples expected at {native:g} s and stay missing; "
+        "export the file at one interval"
+    ]
 
 
 #: A jump of the times longer than this [days] ...
