@@ -417,3 +417,12 @@ def test_a_stretch_logged_at_a_coarser_interval_is_named(tmp_path):
     msg = _one(report.warnings, "apart")
     assert "are 900 s apart, not the file's 300 s, 0.8 days in all" in msg and "stay missing" in msg
     assert not [w for w in _check(f, tmp_path).warnings if "apart" in w]
+
+
+def test_error_codes_are_named_as_such(tmp_path):
+    f = base_frame(days=8)
+    f.iloc[10:13, f.columns.get_loc("T_out")] = -999.0
+    f.iloc[20, f.columns.get_loc("m_V2")] = -9999.0
+    report = _check(f, tmp_path)
+    assert "; -999 looks like an error code of the export, not a reading" in _one(report.problems, "'T_out'")
+    assert "; -9999 looks like an error code" in _one(report.problems, "'m_V2'")

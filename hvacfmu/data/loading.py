@@ -854,6 +854,24 @@ def _sample(x: np.ndarray, n: int = 50_000) -> np.ndarray:
     return x[:: max(1, len(x) // n)]
 
 
+_ERROR_CODES = {99.0, 999.0, 9999.0, 99999.0, 999999.0, 32767.0, 32768.0, 65535.0}
+
+
+def _error_code_hint(si_values, unit) -> str:
+    """'; -999 looks like an error code ...' when the impossible values are one or two codes such as -999 or 32767."""
+    from .units import from_si
+
+    raw = np.round(np.asarray(from_si(np.asarray(si_values, dtype=float), unit)), 6)
+    codes = np.unique(raw)
+    if not len(codes) or len(codes) > 2 or not all(abs(float(c)) in _ERROR_CODES for c in codes):
+        return ""
+    shown = " and ".join(f"{float(c):g}" for c in codes)
+    return (
+        f"; {shown} {'looks' if len(codes) == 1 else 'look'} like an error code of the export, not a reading: a "
+        "missing value must be an empty cell (export missing values empty, or blank those cells)"
+    )
+
+
 def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, where, problems):
     med = float(np.median(_sample(finite)))
     indoor = canonical != "T_out"
@@ -879,7 +897,7 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} value(s) outside {lo:g}..{hi:g} °C (after conversion from {unit}), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     return si
 
@@ -895,7 +913,7 @@ def _check_airflow(canonical, desc, label, unit, finite, si, box, where, problem
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} negative airflow value(s) (below -{AIRFLOW_NOISE:g} kg/s), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     elif neg.any():
         report.warnings.append(
@@ -956,13 +974,13 @@ def _check_irradiance(desc, label, unit, si, where, problems, report, start=None
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} negative irradiance value(s) (below -{IRRADIANCE_NOISE:g} W/m²), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     high = np.flatnonzero(si > IRRADIANCE_MAX)
     if len(high):
         problems.append(
             f"{label}: {desc}: {len(high)} value(s) above {IRRADIANCE_MAX:g} W/m², more than any irradiance at "
-            f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}"
+            f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}{_error_code_hint(si[high], unit)}"
         )
     neg = si < 0
     if neg.any() and not len(bad):
