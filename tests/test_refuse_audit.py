@@ -426,3 +426,11 @@ def test_error_codes_are_named_as_such(tmp_path):
     report = _check(f, tmp_path)
     assert "; -999 looks like an error code of the export, not a reading" in _one(report.problems, "'T_out'")
     assert "; -9999 looks like an error code" in _one(report.problems, "'m_V2'")
+
+
+def test_a_time_column_under_another_name_is_pointed_to(tmp_path):
+    path = write(base_frame(days=8), tmp_path / "m.csv", "offset")
+    path.write_text(path.read_text().replace("time,", "Timestamp,", 1))
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    msg = _one(report.problems, "missing time column")
+    assert "the file's first column is 'Timestamp'" in msg and 'time = "Timestamp"' in msg

@@ -601,7 +601,14 @@ def _load_times(raw, building, label, time_name, problems, report):
     """(UTC ns, valid mask, local DatetimeIndex) of the time column, or (None, None, None) without one."""
     if time_name not in raw.columns:
         mapped = " (mapped from time)" if time_name != "time" else ""
-        problems.append(f"{label}: missing time column {time_name!r}{mapped}")
+        first = str(raw.columns[0]) if len(raw.columns) else None
+        hint = (
+            f" (the file's first column is {first!r}: if it holds the times, map it in the building's [columns] "
+            f'table: time = "{first}")'
+            if first is not None and first != time_name
+            else ""
+        )
+        problems.append(f"{label}: missing time column {time_name!r}{mapped}{hint}")
         return None, None, None
     utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
     report.has_offsets = has_offsets
