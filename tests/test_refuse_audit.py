@@ -200,10 +200,15 @@ def test_discharge_air_that_does_not_follow_its_reheat_is_flagged(tmp_path):
 
 def test_boxes_discharging_another_units_air_are_flagged(tmp_path):
     f = base_frame(days=8)
-    f["Td_V1"] = f["T_supply_AHU2"] + np.random.default_rng(3).normal(0, 0.05, len(f))  # V1 names AHU1
+    hours = np.arange(len(f)) / 4
+    f["T_supply_AHU2"] += 1.5 * np.sin(2 * np.pi * hours / 24)  # a supply reset moving with the day
+    f["Td_V1"] = f["T_supply_AHU2"] + 0.8 + np.random.default_rng(3).normal(0, 0.05, len(f))  # V1 names AHU1
     report = _check(f, tmp_path)
     msg = _one(report.warnings, "another air handler")
-    assert "V1: T_supply_AHU1 1 K off, T_supply_AHU2" in msg and report.exit_code == 3
+    assert "(spread of Td_<vav> minus each supply column: V1: T_supply_AHU1 1.5 K, T_supply_AHU2 0.049 K)" in msg, msg
+    assert report.exit_code == 3
+    f["Td_V1"] = f["T_supply_AHU1"] + 1.0 + np.random.default_rng(3).normal(0, 0.05, len(f))  # duct gain: fine
+    assert not [w for w in _check(f, tmp_path).warnings if "another air handler" in w]
 
 
 def test_reheat_as_a_fraction_declared_percent_is_flagged(tmp_path):

@@ -623,6 +623,8 @@ def check_discharge(frame: pd.DataFrame, building) -> list[str]:
 
 #: Reheat command above this share is "reheating", below IDLE_REHEAT "not reheating" [1].
 REHEATING, IDLE_REHEAT = 0.3, 0.02
+#: Share of the steps without reheat where warm discharge air is flagged (a coil cooling down warms a few).
+IDLE_WARM_SHARE = 0.25
 #: Steps of each kind needed before a box's discharge air is compared with its reheat command.
 MIN_REHEAT_STEPS = 20
 
@@ -645,7 +647,7 @@ def _reheat_response(frame, building, v, running, rise, desc) -> list[str]:
     notes = []
     if idle.sum() >= MIN_REHEAT_STEPS:
         warm = float(np.mean(rise[idle] > DISCHARGE_MARGIN))
-        if warm > DISCHARGE_SHARE:
+        if warm > IDLE_WARM_SHARE:
             notes.append(
                 f"{desc}: discharge air more than {DISCHARGE_MARGIN:g} K above its unit's supply air in "
                 f"{100 * warm:.0f} % of the {int(idle.sum())} steps where box {v.name} runs with its reheat "
@@ -667,10 +669,11 @@ def _reheat_response(frame, building, v, running, rise, desc) -> list[str]:
 def check_supply_assignment(frame: pd.DataFrame, building) -> list[str]:
     """Warnings for boxes whose discharge air at rest matches another air handler's supply air, not their own.
 
-    A box that does not reheat discharges its unit's supply air. When the
-    median distance of ``Td_<vav>`` to another unit's supply column is under half
-    the distance to its own (and its own is over 0.5 K off), the units' columns
-    are swapped or the box names the wrong ``ahu``.
+    A box that does not reheat discharges its unit's supply air, plus a steady
+    duct gain. When ``Td_<vav>`` follows another unit's supply column: the spread
+    (interquartile range / 1.349, blind to a constant offset) of its difference
+    to that column is under half the spread to its own column, which is over
+    0.3 K, the units' columns are swapped or the box names the wrong ``ahu``.
     """
     cols = building.supply_columns()
     if len(building.ahus) < 2 or any(c not in frame.columns for c in cols):
@@ -687,16 +690,24 @@ def check_supply_assignment(frame: pd.DataFrame, building) -> list[str]:
             rest &= frame[f"rh_{v.name}"].to_numpy(dtype=float) < IDLE_REHEAT
         if rest.sum() < MIN_REHEAT_STEPS * 5:
             continue
-        dist = {c: float(np.nanmedian(np.abs(td[rest] - frame[c].to_numpy(dtype=float)[rest]))) for c in cols}
+        dist = {}
+        for c in cols:
+            diff = td[rest] - frame[c].to_numpy(dtype=float)[rest]
+            diff = diff[np.isfinite(diff)]
+            if len(diff) >= MIN_REHEAT_STEPS:
+                q1, q3 = np.percentile(diff, [25, 75])
+                dist[c] = float(q3 - q1) / 1.349
+        if own not in dist or len(dist) < 2:
+            continue
         best = min(dist, key=lambda c: dist[c])
-        if best != own and dist[own] > 0.5 and dist[best] < 0.5 * dist[own]:
+        if best != own and dist[own] > 0.3 and dist[best] < 0.5 * dist[own]:
             wrong.append((v.name, own, best, dist[own], dist[best]))
     if not wrong:
         return []
-    parts = "; ".join(f"{n}: {o} {do:.2g} K off, {b} {db:.2g} K" for n, o, b, do, db in wrong[:6])
+    parts = "; ".join(f"{n}: {o} {do:.2g} K, {b} {db:.2g} K" for n, o, b, do, db in wrong[:6])
     more = f" and {len(wrong) - 6} more" if len(wrong) > 6 else ""
     return [
         f"{len(wrong)} box(es) discharge, when not reheating, the supply air of another air handler than the one "
-        f"the building file gives them (median distance of Td_<vav> to the supply columns: {parts}{more}): are the "
+        f"the building file gives them (spread of Td_<vav> minus each supply column: {parts}{more}): are the "
         "air handlers' supply columns swapped, or do these boxes name the wrong ahu in [[vavs]]?"
     ]
