@@ -439,3 +439,15 @@ def test_a_time_column_under_another_name_is_pointed_to(tmp_path):
     report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
     msg = _one(report.problems, "missing time column")
     assert "the file's first column is 'Timestamp'" in msg and 'time = "Timestamp"' in msg
+
+
+def test_ghi_of_the_polar_night_is_not_a_dead_sensor(tmp_path):
+    f = base_frame(start="2025-12-08 00:00", days=8, tz="Europe/Oslo")
+    f["ghi"] = 0.0
+    f["T_out"] -= 14.0
+
+    def tromso(d):
+        d.update(latitude=69.65, longitude=18.96, timezone="Europe/Oslo")
+
+    report = _check(f, tmp_path, tromso)
+    assert not [p for p in report.problems if "'ghi'" in p], report.problems

@@ -26,6 +26,7 @@ from .plausibility import (
     check_setpoint_like,
     check_stuck,
     check_zone_spikes,
+    clear_sky_ghi,
     identical_columns,
 )
 from .units import kind_of, normalize_unit, to_si
@@ -822,9 +823,13 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
             report.masked[(canonical, "airflow spike")] = kept - int(np.isfinite(si).sum())
     elif kind == "irradiance":
         n_before = len(problems)
-        si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+        b = ctx.building
+        sky = None
+        if ctx.utc is not None and ctx.ok is not None and ctx.ok.any():
+            t = ctx.utc[ctx.ok]
+            sky = float(np.max(clear_sky_ghi(t[:: max(1, len(t) // 20_000)], b.latitude, b.longitude), initial=0.0))
+        si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end, sky)
         if canonical == "ghi" and len(problems) == n_before:
-            b = ctx.building
             check_irradiance_level(
                 si, ctx.utc, ctx.ok, b.latitude, b.longitude, f"{label}: {desc}", unit, report.warnings
             )
@@ -962,16 +967,22 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
     return si
 
 
-def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None):
+#: Below this clear-sky peak [W/m²] over the span (polar night) low irradiance is not judged.
+DAYLIGHT_MIN = 50.0
+
+
+def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None, clear_peak=None):
     peak = float(np.nanmax(si))
-    if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and peak < 0.5:
+    day = start is not None and end is not None and (end - start) >= pd.Timedelta(days=1)
+    day = day and (clear_peak is None or clear_peak >= DAYLIGHT_MIN)  # the sun rises at all (no polar night)
+    if day and peak < 0.5:
         problems.append(
             f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}): "
             "no daylight at all, a dead or disconnected sensor; fix the sensor or drop the column (the models then "
             "have no solar input)"
         )
         return si
-    if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and 0 < peak < 5:
+    if day and 0 < peak < 5:
         problems.append(
             f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}); "
             "irradiance this low cannot be right, the data look like kW/m²: declare the unit in the building's [units]"
