@@ -403,6 +403,8 @@ def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
 
 #: Span [days] of ghi needed before its level is compared with the clear sky.
 GHI_LEVEL_DAYS = 7.0
+#: Days whose clear-sky peak is below this [W/m²] (low winter sun at high latitude) are not compared.
+GHI_LEVEL_SKY = 300.0
 #: The sunniest day's peak ghi below this share of the clear-sky peak is flagged.
 GHI_LEVEL_SHARE = 0.4
 
@@ -445,7 +447,7 @@ def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, wa
     day = times_ns[sel] // (86400 * 10**9)
     measured = pd.Series(si[sel]).groupby(day).max()
     sky = pd.Series(clear).groupby(day).max()
-    good = sky > 100
+    good = sky > GHI_LEVEL_SKY  # a sun high enough that a week without one sunny hour is rare
     if good.sum() < GHI_LEVEL_DAYS * 0.7:
         return
     ratio = (measured[good] / sky[good]).max()
