@@ -358,7 +358,7 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
 #: Days of data before a column's day-to-day behaviour is judged (setpoints, constant airflow).
 BEHAVIOUR_DAYS = 7.0
 #: A zone temperature changing value at most this many times on a median day is a setpoint, not a sensor.
-SETPOINT_CHANGES_PER_DAY = 4
+SETPOINT_CHANGES_PER_DAY = 2
 
 
 def check_setpoint_like(si, times_ns, ok, desc, warnings):
