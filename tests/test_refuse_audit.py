@@ -451,3 +451,19 @@ def test_ghi_of_the_polar_night_is_not_a_dead_sensor(tmp_path):
 
     report = _check(f, tmp_path, tromso)
     assert not [p for p in report.problems if "'ghi'" in p], report.problems
+
+
+def test_cosim_warns_about_an_fmu_of_another_building(tmp_path):
+    import argparse
+    import json
+
+    from harness.cosim import _warn_building_mismatch
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.fmu import export_file
+
+    path = tmp_path / "other.json"
+    path.write_text(json.dumps(_linear_model(meta={"building": "other floor", "building_sha256": "0" * 64}).to_dict()))
+    fmu = export_file(path, tmp_path / "other.fmu")
+    b = building_from_dict(copy.deepcopy(BUILDING))
+    with pytest.warns(HvacfmuWarning, match=r"other\.fmu: the zones model was fitted on building 'other floor'"):
+        _warn_building_mismatch(argparse.Namespace(model=None, fmu=str(fmu)), None, b)
