@@ -467,3 +467,20 @@ def test_cosim_warns_about_an_fmu_of_another_building(tmp_path):
     b = building_from_dict(copy.deepcopy(BUILDING))
     with pytest.warns(HvacfmuWarning, match=r"other\.fmu: the zones model was fitted on building 'other floor'"):
         _warn_building_mismatch(argparse.Namespace(model=None, fmu=str(fmu)), None, b)
+
+
+def test_a_physics_model_meets_another_or_an_edited_building_file():
+    from types import SimpleNamespace
+
+    from hvacfmu.models.base import building_mismatch
+
+    b = building_from_dict(copy.deepcopy(BUILDING))
+    d = copy.deepcopy(BUILDING)
+    d["vavs"][0]["m_max"] = 0.5
+    model = SimpleNamespace(kind="physics", building=building_from_dict(d), meta={})
+    assert "differs from this building file in its zones (area, volume) or boxes" in building_mismatch(model, b)[1][0]
+    d["name"] = "other floor"
+    model.building = building_from_dict(d)
+    assert "was fitted on building 'other floor', not on 'two rooms'" in building_mismatch(model, b)[1][0]
+    model.building = b
+    assert building_mismatch(model, b) == ([], [])

@@ -219,6 +219,20 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
             f"are not declared in building {building.name!r} (its boxes: {sorted(known)[:6]}"
             f"{' ...' if len(known) > 6 else ''}): use the building file the model was fitted on"
         )
+    own = getattr(model, "building", None)  # a physics model carries its building
+    if own is not None and hasattr(own, "zones") and hasattr(own, "vavs"):
+        if own.name != building.name:
+            notes.append(
+                f"the {getattr(model, 'kind', '?')} model was fitted on building {own.name!r}, not on "
+                f"{building.name!r}: a model of another building predicts this one only by chance; fit it on data "
+                "of this building"
+            )
+        elif _layout(own) != _layout(building):
+            notes.append(
+                f"the {getattr(model, 'kind', '?')} model's building {own.name!r} differs from this building file in "
+                "its zones (area, volume) or boxes (zone, m_min, m_max): the file changed since the fit; refit the model"
+            )
+        return problems, notes
     meta = getattr(model, "meta", None) or {}
     fitted_on, fitted_sha = meta.get("building"), meta.get("building_sha256")
     if not isinstance(fitted_on, str) or not isinstance(fitted_sha, str):
@@ -239,6 +253,14 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
             "the zones changed, refit the model"
         )
     return problems, notes
+
+
+def _layout(b) -> tuple:
+    """Zones (name, area, volume) and boxes (name, zone, m_min, m_max) of a building, for comparisons."""
+    return (
+        tuple((z.name, float(z.area), float(z.volume)) for z in b.zones),
+        tuple((v.name, v.zone, float(v.m_min), float(v.m_max)) for v in b.vavs),
+    )
 
 
 def gains_to_json(gains: dict) -> dict:
