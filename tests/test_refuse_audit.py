@@ -484,3 +484,17 @@ def test_a_physics_model_meets_another_or_an_edited_building_file():
     assert "was fitted on building 'other floor', not on 'two rooms'" in building_mismatch(model, b)[1][0]
     model.building = b
     assert building_mismatch(model, b) == ([], [])
+
+
+def test_status_texts_are_refused_with_the_fix_and_dashes_are_missing(tmp_path):
+    f = base_frame(days=8)
+    path = write(f, tmp_path / "m.csv", "offset")
+    out = pd.read_csv(path, dtype={"time": str})
+    out["T_B"] = out["T_B"].astype(object)
+    out.loc[[5, 6], "T_B"] = "--"
+    out["T_A"] = out["T_A"].astype(object)
+    out.loc[9, "T_A"] = "Offline"
+    out.to_csv(path, index=False)
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert "status texts such as 'Offline' or 'Fault' are not readings: blank them" in _one(report.problems, "'T_A'")
+    assert not [p for p in report.problems if "'T_B'" in p]

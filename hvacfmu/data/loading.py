@@ -427,7 +427,7 @@ def _numeric(series: pd.Series):
     present = series.notna().to_numpy().copy()
     if series.dtype == object or pd.api.types.is_string_dtype(dtype):
         text = series.astype("str").str.strip().str.lower()
-        blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan"]).to_numpy()
+        blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan", "#n/a", "#na", "n.a.", "--", "-"]).to_numpy()
         present &= ~blank
     bad = np.flatnonzero(present & np.isnan(values))
     return values, bad
@@ -794,7 +794,11 @@ def _non_numeric_message(desc: str, bad, column: pd.Series, ctx: _Column) -> str
             "numbers must be written plainly with a decimal point (1006, 21.5): export the file without thousands "
             "separators and with '.' as the decimal separator (the column separator may stay ';')"
         )
-    return f"{desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}"
+    return (
+        f"{desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}; a reading must be a "
+        "number and a missing one an empty cell (status texts such as 'Offline' or 'Fault' are not readings: "
+        "blank them)"
+    )
 
 
 def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
