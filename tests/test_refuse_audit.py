@@ -498,3 +498,12 @@ def test_status_texts_are_refused_with_the_fix_and_dashes_are_missing(tmp_path):
     report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
     assert "status texts such as 'Offline' or 'Fault' are not readings: blank them" in _one(report.problems, "'T_A'")
     assert not [p for p in report.problems if "'T_B'" in p]
+
+
+def test_outdoor_air_on_another_clock_than_the_sun_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    assert not [w for w in _check(f, tmp_path).warnings if "T_out: its daily cycle" in w]
+    f["T_out"] = np.roll(f["T_out"].to_numpy(), 7 * 4)  # a weather feed in UTC joined to local times
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "T_out: its daily cycle")
+    assert "h late against the sun that ghi puts on time" in msg and report.exit_code == 3
