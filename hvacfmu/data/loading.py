@@ -154,7 +154,7 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
             header = _csv_header(path, sep)
             if len(header) == frame.shape[1]:
                 frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
-            if sep != ",":
+            if sep != "," and not frame.columns.duplicated().any():  # repeated names are reported by _load
                 problems += _thousands_dots(path, sep, frame, time_name)
             return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
