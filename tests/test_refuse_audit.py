@@ -507,3 +507,20 @@ def test_outdoor_air_on_another_clock_than_the_sun_is_flagged(tmp_path):
     report = _check(f, tmp_path)
     msg = _one(report.warnings, "T_out: its daily cycle")
     assert "h late against the sun that ghi puts on time" in msg and report.exit_code == 3
+
+
+def test_a_repeated_header_name_in_a_semicolon_file_is_named(tmp_path):
+    f = base_frame(days=8)
+    out = f.copy()
+    out.index = [t.isoformat() for t in out.index]
+    out.index.name = "time"
+    out.to_csv(tmp_path / "m.csv", sep=";")
+    path = tmp_path / "m.csv"
+    lines = path.read_text().splitlines()
+    lines[0] = lines[0].replace("T_B", "T_A")
+    path.write_text("\n".join(lines) + "\n")
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    assert report.problems == [
+        "m.csv: column 'T_A' appears 2 times in the header (columns 2, 3); a reader cannot tell which one is the "
+        "point: rename or drop the copies in the export"
+    ]
