@@ -524,3 +524,11 @@ def test_a_repeated_header_name_in_a_semicolon_file_is_named(tmp_path):
         "m.csv: column 'T_A' appears 2 times in the header (columns 2, 3); a reader cannot tell which one is the "
         "point: rename or drop the copies in the export"
     ]
+
+
+def test_ghi_with_an_offset_at_night_is_flagged(tmp_path):
+    f = base_frame(days=8)
+    f["ghi"] += 80.0
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "never falls below")
+    assert "never falls below 80 W/m² at night" in msg and report.exit_code == 3

@@ -31,6 +31,7 @@ _ATTENTION = {
     "discharge air below its unit's supply air": "discharge air vs its unit",
     "discharge air above T_supply_max": "discharge air vs its unit",
     "is not W/m²": "irradiance level",
+    "an irradiance sensor reads 0 after sunset": "irradiance offset",
     "against the sun that ghi puts on time": "outdoor air shifted",
     "is it a setpoint exported as the zone temperature": "setpoint as zone temperature",
     "a dead flow sensor, a setpoint exported as the flow": "constant airflow",

@@ -436,6 +436,25 @@ def clear_sky_ghi(times_ns, latitude: float, longitude: float) -> np.ndarray:
     return ghi
 
 
+#: The median of the nightly minima of ghi above this [W/m²] is an offset (irradiance is 0 at night).
+GHI_NIGHT_MAX = 20.0
+
+
+def _night_offset(ghi, clear, day, desc, unit, warnings) -> None:
+    """Flag ghi that never falls to 0 at night (an offset, or another quantity), on days when the sun sets."""
+    night = pd.Series(np.where(clear <= 0, ghi, np.nan)).groupby(day).agg(["min", "count"])
+    night = night[night["count"] >= 3]
+    if len(night) < 2:
+        return
+    floor = float(night["min"].median())
+    if floor > GHI_NIGHT_MAX:
+        warnings.append(
+            f"{desc}: never falls below {floor:.3g} W/m² at night (median of the nightly minima over {len(night)} "
+            f"nights, declared {unit}): an irradiance sensor reads 0 after sunset, so this is an offset or another "
+            "quantity; subtract the offset or fix the sensor"
+        )
+
+
 def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, warnings):
     """Flag ghi whose sunniest day peaks far below the clear sky (energy per interval, a shaded sensor)."""
     if times_ns is None:
@@ -445,6 +464,7 @@ def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, wa
         return
     clear = clear_sky_ghi(times_ns[sel], latitude, longitude)
     day = times_ns[sel] // (86400 * 10**9)
+    _night_offset(si[sel], clear, day, desc, unit, warnings)
     measured = pd.Series(si[sel]).groupby(day).max()
     sky = pd.Series(clear).groupby(day).max()
     good = sky > GHI_LEVEL_SKY  # a sun high enough that a week without one sunny hour is rare
