@@ -1135,6 +1135,36 @@ def add_cosim_arguments(parser):
     )
 
 
+def _fmu_model(path):
+    """The zone model an hvacfmu FMU carries (``resources/model.json``), or None (a plant, another tool's FMU)."""
+    import zipfile
+
+    from hvacfmu.errors import HvacfmuError
+    from hvacfmu.models import model_from_dict
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            d = json.loads(z.read("resources/model.json").decode("utf-8"))
+        return model_from_dict(d)
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile, HvacfmuError):
+        return None
+
+
+def _warn_building_mismatch(args, model, building) -> None:
+    """Warn when the model or the FMU's model was fitted with another building file than ``building``."""
+    import warnings
+
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.models.base import building_mismatch
+
+    for what, m in ((args.model, model), (args.fmu, _fmu_model(args.fmu))):
+        if m is None:
+            continue
+        problems, notes = building_mismatch(m, building)
+        for note in problems + notes:
+            warnings.warn(f"{what}: {note}", HvacfmuWarning, stacklevel=3)
+
+
 def main_cosim(args) -> int:
     """Run ``hvacfmu cosim``; returns the exit code (1 if the run stopped early)."""
     from hvacfmu.data import prepare
@@ -1142,6 +1172,7 @@ def main_cosim(args) -> int:
 
     dataset = prepare(args.data, args.building, step=args.step, seed=args.seed, interpolate_limit=args.interpolate_gaps)
     model = load_model(args.model) if args.model else None
+    _warn_building_mismatch(args, model, dataset.building)
     options = _parse_options(args.option)
     if args.horizon is not None:
         options["horizon"] = args.horizon

@@ -68,6 +68,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as _dt
 import fnmatch
+import functools
 import hashlib
 import numbers
 from pathlib import Path
@@ -636,6 +637,126 @@ def valid_timezone(name) -> bool:
         return False
 
 
+#: A zone whose volume / area is below this [m] cannot be a room (areas in ft2 with volumes in m3).
+MIN_ZONE_HEIGHT = 1.5
+#: ... above this [m] it is flagged (atria exist; areas in ft2 with volumes in ft3 read 3.3 times too high).
+MAX_ZONE_HEIGHT = 8.0
+
+
+def building_notes(b: Building) -> list[str]:
+    """Usable but suspicious settings of a building file (warnings of ``check`` and ``prepare``)."""
+    notes = []
+    tall = [z for z in b.zones if z.area > 0 and z.volume / z.area > MAX_ZONE_HEIGHT]
+    if tall:
+        parts = ", ".join(f"{z.name} {z.volume / z.area:.3g} m" for z in tall[:6])
+        notes.append(
+            f"building {b.name!r}: zone volume / area above {MAX_ZONE_HEIGHT:g} m of ceiling height ({parts}): "
+            "an atrium or hall? if the areas are ft2 and the volumes ft3, convert them to m2 and m3"
+        )
+    return notes
+
+
+#: A longitude farther than this [deg] (4 h of sun) from every meridian of its time zone's offsets is refused.
+LONGITUDE_ZONE_LIMIT = 60.0
+#: Zone names without a place: any longitude goes with them.
+_PLACELESS_ZONES = {
+    "UTC",
+    "Etc/UTC",
+    "GMT",
+    "Etc/GMT",
+    "UCT",
+    "Etc/UCT",
+    "Universal",
+    "Etc/Universal",
+    "Zulu",
+    "Etc/Zulu",
+}
+
+
+def _zone_offsets(name: str) -> list[float]:
+    """UTC offsets [h] of a time zone in January and July (standard and daylight saving time)."""
+    import zoneinfo
+
+    tz = zoneinfo.ZoneInfo(name)
+    out = []
+    for month in (1, 7):
+        off = _dt.datetime(2025, month, 1, 12, tzinfo=tz).utcoffset()
+        if off is not None:
+            out.append(off.total_seconds() / 3600.0)
+    return sorted(set(out))
+
+
+def _longitude_problems(b: Building) -> list[str]:
+    """The longitude against the building's time zone: the sun crosses a zone within a few hours of its offset.
+
+    Offsets of a zone differ from longitude/15 by at most about 3 h anywhere on
+    Earth (western China, Spain, Argentina: 1.5-3 h); a longitude 4 h or more from
+    every offset of ``timezone`` is a sign slip (west is negative) or the zone of
+    another site, and the clock check would then blame the timestamps.
+    """
+    if b.timezone in _PLACELESS_ZONES or not valid_timezone(b.timezone) or not -180 <= b.longitude <= 180:
+        return []
+    offsets = _zone_offsets(b.timezone)
+    if not offsets:
+        return []
+
+    def gap(lon):
+        return min(abs((lon - 15.0 * o + 180.0) % 360.0 - 180.0) for o in offsets)
+
+    if gap(b.longitude) <= LONGITUDE_ZONE_LIMIT:
+        return []
+    zone = " or ".join(f"UTC{o:+g}" for o in offsets)
+    meridians = " or ".join(f"{15.0 * o:+g}°" for o in offsets)
+    hint = f"is the sign wrong ({-b.longitude:g}: west of Greenwich is negative)?" if gap(-b.longitude) <= 30.0 else ""
+    return [
+        f"longitude {b.longitude:g}° is {gap(b.longitude) / 15.0:.1f} h of sun away from the time zone "
+        f"{b.timezone} ({zone}: the sun crosses it near longitude {meridians}); {hint or 'is it the longitude of '}"
+        + ("" if hint else "this site, and the time zone of this building?")
+    ]
+
+
+@functools.lru_cache(maxsize=1)
+def _zone_latitudes() -> dict:
+    """Time zone name -> latitude [deg] of its principal city, from the tz database's zone tables (may be empty)."""
+    import re
+
+    paths = [Path("/usr/share/zoneinfo/zone1970.tab"), Path("/usr/share/zoneinfo/zone.tab")]
+    try:
+        import tzdata
+
+        paths += [Path(tzdata.__file__).parent / "zoneinfo" / n for n in ("zone1970.tab", "zone.tab")]
+    except ImportError:  # pragma: no cover - the system tables suffice
+        pass
+    out: dict = {}
+    for path in paths:
+        try:
+            lines = path.read_text(encoding="utf-8").splitlines()
+        except OSError:
+            continue
+        for line in lines:
+            parts = line.split("\t")
+            m = re.match(r"([+-])(\d{2})(\d{2})(\d{2})?[+-]", parts[1]) if len(parts) > 2 else None
+            if m and not line.startswith("#"):
+                lat = int(m.group(2)) + int(m.group(3)) / 60 + int(m.group(4) or 0) / 3600
+                out.setdefault(parts[2], lat if m.group(1) == "+" else -lat)
+    return out
+
+
+def _latitude_problems(b: Building) -> list[str]:
+    """The latitude against the hemisphere of the building's time zone (a sign slip puts the sun in the north)."""
+    if not -90 <= b.latitude <= 90 or abs(b.latitude) < 10:
+        return []
+    city = _zone_latitudes().get(b.timezone)
+    if city is None or abs(city) < 15 or (city > 0) == (b.latitude > 0):
+        return []
+    here, there = ("north", "south") if city > 0 else ("south", "north")
+    return [
+        f"latitude {b.latitude:g}° is in the {there}ern hemisphere, but the time zone {b.timezone} is "
+        f"{here} of the equator (about {city:.0f}°); is the sign wrong ({-b.latitude:g}: south of the equator "
+        "is negative)? the sun, the facades' irradiance and the seasons depend on it"
+    ]
+
+
 def _validate_ahus(b: Building) -> list[str]:
     """Problems of the air handlers and of the boxes' ``ahu`` references."""
     problems = []
@@ -689,6 +810,7 @@ def validate_building(b: Building) -> list[str]:
         value = getattr(b, key)
         if value is not None and not valid_timezone(value):
             problems.append(f"{key} {value!r} is not a known IANA time zone (e.g. 'America/Los_Angeles' or 'UTC')")
+    problems += _longitude_problems(b) + _latitude_problems(b)
     if not b.zones:
         problems.append("no zones defined")
     if not b.vavs:
@@ -706,6 +828,12 @@ def validate_building(b: Building) -> list[str]:
             problems.append(f"zone {z.name}: area must be > 0 m2, got {z.area}")
         if not z.volume > 0:
             problems.append(f"zone {z.name}: volume must be > 0 m3, got {z.volume}")
+        elif z.area > 0 and z.volume / z.area < MIN_ZONE_HEIGHT:
+            problems.append(
+                f"zone {z.name}: volume / area = {z.volume:g} m3 / {z.area:g} m2 = {z.volume / z.area:.2g} m of "
+                f"ceiling height, below {MIN_ZONE_HEIGHT:g} m: is the area in ft2 (1 m2 = 10.76 ft2) or the volume "
+                "in another unit? area is in m2, volume in m3"
+            )
         for a in z.adjacent:
             if a not in zone_set:
                 problems.append(f"zone {z.name}: adjacent zone {a!r} is not a zone of this building")

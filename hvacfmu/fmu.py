@@ -191,6 +191,22 @@ def _resolve_building(building, model_path):
     return load_building(building)
 
 
+def _model_building(model, building, model_path):
+    """The building for an export of ``model``, checked against it (FMUError for foreign boxes, notes warned)."""
+    import warnings
+
+    from .errors import HvacfmuWarning
+    from .models.base import building_mismatch
+
+    building = _resolve_building(building, model_path)
+    problems, notes = building_mismatch(model, building)
+    if problems:
+        raise FMUError(f"cannot export {model_path} with building {building.name!r}: {'; '.join(problems)}")
+    for note in notes:
+        warnings.warn(f"{model_path}: {note}", HvacfmuWarning, stacklevel=3)
+    return building
+
+
 def export_fmu(model_path, out_path, *, timezone: str | None = None, building=None) -> Path:
     """Export a saved zone model as an FMI 2.0 co-simulation FMU.
 
@@ -244,7 +260,7 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
 
     model_path = Path(model_path)
     model = load_model(model_path)  # validates the file before anything is built
-    building = _resolve_building(building, model_path)
+    building = _model_building(model, building, model_path)
     calendar = calendar_dependent(model)
     if calendar:
         timezone = timezone or (getattr(model, "meta", None) or {}).get("timezone")
@@ -356,9 +372,8 @@ def export_file(path, out_path, *, timezone: str | None = None, native: bool = F
         from .fmu_native import export_native_fmu
         from .models import load_model
 
-        return export_native_fmu(
-            load_model(path), out_path, model_name=path.name, building=_resolve_building(building, path)
-        )
+        model = load_model(path)
+        return export_native_fmu(model, out_path, model_name=path.name, building=_model_building(model, building, path))
     if plant:
         return export_plant_fmu(path, out_path)
     return export_fmu(path, out_path, timezone=timezone, building=building)

@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..errors import BuildingError, DataError
 from ..progress import Progress
-from .clock import ClockCheck, clock_check
+from .clock import ClockCheck, clock_check, outdoor_phase_warning
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import LoadReport, _load, as_building
 from .plausibility import SPIKE_FACTOR, SPIKE_SHARE_MAX, STUCK_DAYS
@@ -30,6 +30,17 @@ _ATTENTION = {
     "a stuck sensor?": "stuck sensor",
     "discharge air below its unit's supply air": "discharge air vs its unit",
     "discharge air above T_supply_max": "discharge air vs its unit",
+    "is not W/m²": "irradiance level",
+    "an irradiance sensor reads 0 after sunset": "irradiance offset",
+    "against the sun that ghi puts on time": "outdoor air shifted",
+    "is it a setpoint exported as the zone temperature": "setpoint as zone temperature",
+    "a dead flow sensor, a setpoint exported as the flow": "constant airflow",
+    "the data look like a fraction 0..1": "reheat unit",
+    "does not follow its own reheat": "discharge air vs its reheat",
+    "the supply air of another air handler": "boxes vs air handlers",
+    "it behaves like indoor air": "outdoor air looks indoor",
+    "it behaves like return or room air": "supply air looks like room air",
+    "the flag looks inverted": "excitation inverted",
 }
 
 
@@ -372,6 +383,10 @@ def _findings(dataset, building, name: str, report, sparse) -> tuple:
     attention = [w for w in notes if any(k in w for k in _ATTENTION)]
     if clock.warning:
         notes.insert(0, f"{name}: clock: {clock.warning}")
+        attention.insert(0, notes[0])
+    shifted = outdoor_phase_warning(dataset.frame, building, step_s, clock)
+    if shifted:
+        notes.insert(0, f"{name}: {shifted}")
         attention.insert(0, notes[0])
     return periods, notes, clock, attention
 

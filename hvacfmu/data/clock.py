@@ -209,3 +209,27 @@ def clock_check(frame: pd.DataFrame, building, step: float, has_offsets: bool = 
         advice = _advice(offset, building, has_offsets, frame.index[len(frame) // 2], 1.0 if method == "ghi" else 2.0)
         warning = f"the data look {abs(n):g} h {late}: {detail}; {advice}"
     return ClockCheck(method, float(offset), days, detail, warning)
+
+
+def outdoor_phase_warning(frame: pd.DataFrame, building, step: float, clock: ClockCheck) -> str | None:
+    """A warning when ``T_out``'s daily cycle is shifted against the sun that ``ghi`` puts on time.
+
+    With the clock confirmed by ``ghi``, the outdoor temperature's first daily
+    harmonic must still peak about :data:`T_OUT_PEAK_SOLAR_HOUR` apparent solar
+    time; :data:`T_OUT_TOLERANCE` hours or more off is a weather feed joined on
+    another clock (a UTC feed read as local time), which the models would learn.
+    """
+    if clock.method != "ghi" or clock.offset is None or abs(clock.offset) >= GHI_TOLERANCE or "T_out" not in frame:
+        return None
+    found = _from_t_out(frame, step, building.longitude)
+    if found is None:
+        return None
+    offset, detail = found
+    if abs(offset - clock.offset) < T_OUT_TOLERANCE:
+        return None
+    n = round(offset - clock.offset)
+    late = "late" if n > 0 else "early"
+    return (
+        f"column T_out: its daily cycle is {abs(n):g} h {late} against the sun that ghi puts on time ({detail}): "
+        "outdoor air joined from a weather feed on another clock (UTC?); shift the T_out column to the data's clock"
+    )

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..building import ORIENTATIONS, Building
+from ..building import ORIENTATIONS, Building, building_notes
 from ..errors import DataError, HvacfmuWarning, problems_message
 from ..progress import Progress
 from .loading import LoadReport, as_building, load_measurements
-from .plausibility import check_discharge
+from .plausibility import check_discharge, check_roles, check_supply_assignment
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
 from .solar import facade_irradiance
 
@@ -458,7 +458,8 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
         else:
             raw, report = loaded
         bar.update(note="gaps")
-        notes = list(report.warnings)
+        label = Path(path).name
+        notes = list(report.warnings) + [f"{label}: {n}" for n in building_notes(building)]
         column_steps = dict(report.column_steps)
         if interpolate_limit is not None:
             before = int(np.isfinite(raw.to_numpy()).sum())
@@ -478,6 +479,7 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
         sparse = sparse_columns(frame)
         notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
         notes += check_discharge(frame, building)
+        notes += [f"{label}: {n}" for n in check_roles(frame, building) + check_supply_assignment(frame, building)]
         bar.update(note="solar and weeks")
         dataset = Dataset.from_frame(
             frame,

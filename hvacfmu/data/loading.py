@@ -17,7 +17,18 @@ import pandas as pd
 
 from ..building import ORIENTATIONS, Building, load_building
 from ..errors import DataError, problems_message
-from .plausibility import check_airflow, check_outdoor, check_outdoor_unit_mix, check_stuck
+from .plausibility import (
+    check_airflow,
+    check_airflow_constant,
+    check_irradiance_level,
+    check_outdoor,
+    check_outdoor_unit_mix,
+    check_setpoint_like,
+    check_stuck,
+    check_zone_spikes,
+    clear_sky_ghi,
+    identical_columns,
+)
 from .units import kind_of, normalize_unit, to_si
 
 #: Plausible range of any air temperature [°C].
@@ -138,14 +149,72 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
                 frame = frame.reset_index()
             return frame
         if suffix in (".csv", ".csv.gz", ".txt"):
-            return pd.read_csv(
-                path, sep=_sniff_separator(path), dtype={time_name: str}, low_memory=False, encoding="utf-8-sig"
-            )
+            sep = _sniff_separator(path)
+            frame = pd.read_csv(path, sep=sep, dtype={time_name: str}, low_memory=False, encoding="utf-8-sig")
+            header = _csv_header(path, sep)
+            if len(header) == frame.shape[1]:
+                frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
+            if sep != "," and not frame.columns.duplicated().any():  # repeated names are reported by _load
+                problems += _thousands_dots(path, sep, frame, time_name)
+            return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
         problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
+
+
+_THOUSANDS_DOT = r"^\s*[-+]?[1-9]\d{0,2}(\.\d{3})+\s*$"
+
+
+def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str) -> list[str]:
+    """Problems for '.' thousands separators among whole numbers (a European export: '1.006' is 1006, not 1.006).
+
+    Read as numbers they would be a thousand times too small without a trace;
+    only columns whose other values are all whole numbers are judged.
+    """
+    numeric = [c for c in frame.columns if c != time_name and pd.api.types.is_float_dtype(frame[c].dtype)]
+    if not numeric:
+        return []
+    text = pd.read_csv(path, sep=sep, dtype=str, usecols=numeric, encoding="utf-8-sig", low_memory=False)
+    out = []
+    for c in numeric:
+        col = text[c].dropna().str.strip()
+        dots = col.str.match(_THOUSANDS_DOT)
+        if not dots.any() or col[~dots].str.contains(r"\.", regex=True).any():
+            continue
+        rows = np.flatnonzero(text[c].str.strip().str.match(_THOUSANDS_DOT).fillna(False).to_numpy())
+        examples = ", ".join(f"{text[c].iloc[r]!r} at row {r + 1}" for r in rows[:3])
+        out.append(
+            f"{path.name}: column {str(c).strip()!r}: {len(rows)} value(s) such as {examples} among whole numbers: "
+            "a '.' thousands separator ('1.006' = 1006), which would read a thousand times too small; export the "
+            "numbers without thousands separators"
+        )
+    return out
+
+
+def _csv_header(path: Path, sep: str) -> list[str]:
+    """The header names of a CSV file as written (quotes removed), empty if unreadable."""
+    import csv
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rt", encoding="utf-8-sig", errors="replace", newline="") as f:
+        return next(csv.reader(f, delimiter=sep), [])
+
+
+def _duplicate_names(names, label) -> list[str]:
+    """Problems naming every column name that appears more than once (after trimming whitespace)."""
+    names = [str(c).strip() for c in names]
+    seen: dict[str, list[int]] = {}
+    for i, c in enumerate(names):
+        seen.setdefault(c, []).append(i + 1)
+    return [
+        f"{label}: column {c!r} appears {len(cols)} times in the header (columns {', '.join(map(str, cols))}); "
+        "a reader cannot tell which one is the point: rename or drop the copies in the export"
+        for c, cols in seen.items()
+        if len(cols) > 1
+    ]
 
 
 def _sniff_separator(path: Path) -> str:
@@ -222,12 +291,33 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         bad = np.flatnonzero(unparsed)
         problems.append(
             f"{label}: column {name!r}: {len(bad)} values are not ISO 8601 times, e.g. "
-            f"{_Where(None).rows(bad, values=text.to_numpy())}"
+            f"{_Where(None).rows(bad, values=text.to_numpy())}{_time_format_hint(stripped.iloc[bad[:200]])}"
         )
     if empty.any():
         bad = np.flatnonzero(empty)
         problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
     return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _time_format_hint(text: pd.Series) -> str:
+    """What unparseable times look like (numbers, day/month order), as a fix appended to the problem."""
+    num = pd.to_numeric(text, errors="coerce")
+    if num.notna().mean() > 0.9:
+        med = float(num.median())
+        if 20_000 < med < 80_000:
+            return (
+                "; these are numbers like Excel serial dates (days since 1899-12-30): export the times as text "
+                "such as 2024-09-02T00:00:00-07:00"
+            )
+        if 1e8 < med < 1e10 or 1e11 < med < 1e13:
+            return "; these are numbers like Unix times (seconds or ms since 1970): export the times as ISO 8601 text"
+        return "; these are numbers, not times"
+    if text.str.match(r"^\s*\d{1,2}[/.-]\d{1,2}[/.-]\d{2,4}").mean() > 0.9:
+        return (
+            "; dates like 03/04/2025 are ambiguous (3 April or March 4?): export year-month-day "
+            "(2025-04-03T00:00:00) so nothing depends on a locale"
+        )
+    return ""
 
 
 def _has_offset(text: pd.Series) -> np.ndarray:
@@ -337,7 +427,7 @@ def _numeric(series: pd.Series):
     present = series.notna().to_numpy().copy()
     if series.dtype == object or pd.api.types.is_string_dtype(dtype):
         text = series.astype("str").str.strip().str.lower()
-        blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan"]).to_numpy()
+        blank = text.isin(["", "nan", "na", "n/a", "null", "none", "-nan", "#n/a", "#na", "n.a.", "--", "-"]).to_numpy()
         present &= ~blank
     bad = np.flatnonzero(present & np.isnan(values))
     return values, bad
@@ -436,6 +526,9 @@ def _load(path: Path, building: Building):
     report.rows = n = len(raw)
     if n == 0:
         problems.append(f"{label}: no data rows")
+    duplicates = _duplicate_names(raw.columns, label)
+    if duplicates:
+        return None, report, problems + duplicates
     raw.columns = [str(c).strip() for c in raw.columns]
     present = _map_columns(raw, building, label, time_name, problems, report)
     utc, ok, local = _load_times(raw, building, label, time_name, problems, report)
@@ -445,6 +538,7 @@ def _load(path: Path, building: Building):
         si = _column_values(ctx, canonical, name, raw[name])
         if si is not None:
             out[canonical] = si
+    problems += identical_columns(out, present, ctx.where.rows, label)
     if problems or utc is None:
         return None, report, problems
     order = [c for c in building.expected_columns() if c in out]
@@ -508,7 +602,14 @@ def _load_times(raw, building, label, time_name, problems, report):
     """(UTC ns, valid mask, local DatetimeIndex) of the time column, or (None, None, None) without one."""
     if time_name not in raw.columns:
         mapped = " (mapped from time)" if time_name != "time" else ""
-        problems.append(f"{label}: missing time column {time_name!r}{mapped}")
+        first = str(raw.columns[0]) if len(raw.columns) else None
+        hint = (
+            f" (the file's first column is {first!r}: if it holds the times, map it in the building's [columns] "
+            f'table: time = "{first}")'
+            if first is not None and first != time_name
+            else ""
+        )
+        problems.append(f"{label}: missing time column {time_name!r}{mapped}{hint}")
         return None, None, None
     utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
     report.has_offsets = has_offsets
@@ -534,10 +635,82 @@ def _load_times(raw, building, label, time_name, problems, report):
                 f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
                 "rows must be sorted by time"
             )
+        if not len(back):
+            problems += _stray_rows(tv, valid_pos, local, label, time_name)
     if len(tv):
         report.start, report.end = local[valid_pos[0]], local[valid_pos[-1]]
         report.native_step = _median_step(tv)
+        report.warnings += _coarse_stretches(tv, valid_pos, local, report.native_step, label, time_name)
     return utc, ok, local
+
+
+#: Stretches of rows spaced at least this multiple of the file's spacing, lasting this long [h], are named.
+COARSE_FACTOR, COARSE_HOURS = 1.9, 6.0
+
+
+def _coarse_stretches(tv, valid_pos, local, native, label, time_name) -> list[str]:
+    """A warning for stretches logged at a coarser interval than the file (a 5-min export with 15-min days).
+
+    Steps there hold fewer samples than the file's spacing promises and stay
+    missing (the 50 % rule of :func:`hvacfmu.data.resample.resample`); gaps (one
+    long jump) are not stretches.
+    """
+    if not native or len(tv) < 3:
+        return []
+    d = np.round(np.diff(tv) / 1e9)
+    coarse = d >= COARSE_FACTOR * native
+    if not coarse.any():
+        return []
+    starts = np.flatnonzero(np.diff(np.concatenate(([np.nan], d))) != 0)  # runs of one spacing: diffs a..b-1
+    stops = np.concatenate((starts[1:], [len(d)]))
+    found = [
+        (int(a), int(b), float(d[a]))
+        for a, b in zip(starts, stops)
+        if coarse[a] and b - a >= 3 and d[a] * (b - a) >= COARSE_HOURS * 3600
+    ]
+    if not found:
+        return []
+    a, b, spacing = found[0]
+    days = sum(d[x:y].sum() for x, y, _ in found) / 86400
+    more = f" and {len(found) - 1} more stretch(es)" if len(found) > 1 else ""
+    return [
+        f"{label}: column {time_name!r}: rows {valid_pos[a] + 1}-{valid_pos[b] + 1} ({_fmt_time(local[valid_pos[a]])} .. "
+        f"{_fmt_time(local[valid_pos[b]])}) are {spacing:g} s apart, not the file's {native:g} s{more}, {days:.1f} "
+        f"days in all: model steps there hold fewer than half the samples expected at {native:g} s and stay missing; "
+        "export the file at one interval"
+    ]
+
+
+#: A jump of the times longer than this [days] ...
+STRAY_GAP_DAYS = 30.0
+#: ... that cuts off at most this share of the rows leaves stray rows (a logger clock reset, a typo in a year).
+STRAY_SHARE = 0.01
+
+
+def _stray_rows(tv, valid_pos, local, label, time_name) -> list[str]:
+    """Problems for a few rows months or years away from the rest (1970 after a logger reset, a wrong year).
+
+    Two campaigns concatenated in one file (both sides large) are legitimate and
+    pass; a side of at most :data:`STRAY_SHARE` of the rows beyond a jump of
+    :data:`STRAY_GAP_DAYS` would stretch the span, the weeks and the coverage.
+    """
+    d = np.diff(tv)
+    n = len(tv)
+    out = []
+    for i in np.flatnonzero(d > STRAY_GAP_DAYS * 86400e9):
+        left, right = i + 1, n - i - 1
+        if min(left, right) > STRAY_SHARE * n:
+            continue
+        a, b = (0, i) if left <= right else (i + 1, n - 1)
+        where = "before" if left <= right else "after"
+        other = i + 1 if left <= right else i
+        out.append(
+            f"{label}: column {time_name!r}: {min(left, right)} row(s) {valid_pos[a] + 1}-{valid_pos[b] + 1} "
+            f"({_fmt_time(local[valid_pos[a]])} .. {_fmt_time(local[valid_pos[b]])}) lie {d[i] / 86400e9:.0f} days "
+            f"{where} the rest of the file (row {valid_pos[other] + 1}, {_fmt_time(local[valid_pos[other]])}): a logger "
+            "clock reset or a wrong year? correct or drop those rows"
+        )
+    return out
 
 
 @dataclasses.dataclass
@@ -571,7 +744,7 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
     report.units[canonical] = unit
     values, bad = _numeric(column)
     if len(bad):
-        problems.append(f"{label}: {desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}")
+        problems.append(_non_numeric_message(f"{label}: {desc}", bad, column, ctx))
     infinite = np.flatnonzero(np.isinf(values))
     if len(infinite):
         problems.append(
@@ -581,6 +754,8 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
         values = np.where(np.isinf(values), np.nan, values)
     finite = values[np.isfinite(values)]
     if not len(finite):
+        if len(bad):
+            return None  # every value is non-numeric: reported above
         if ctx.building.expected_columns().get(canonical, False) and ctx.n:
             problems.append(f"{label}: {desc}: no values at all (every row is empty)")
         elif ctx.n:
@@ -590,13 +765,40 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
         return None
     si = _checked_si(ctx, canonical, desc, kind, unit, values, finite)
     kept = int(np.isfinite(si).sum())
-    si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings)
+    si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings, ok=ctx.ok)
     if kept > np.isfinite(si).sum():
         report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
+    if canonical in {f"T_{z}" for z in ctx.building.zone_names}:
+        check_setpoint_like(si, ctx.utc, ctx.ok, f"{label}: {desc}", report.warnings)
+    elif kind == "airflow":
+        box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
+        check_airflow_constant(si, ctx.utc, ctx.ok, box, f"{label}: {desc}", report.warnings)
     if ctx.utc is not None:
         sel = np.isfinite(si) & ctx.ok
         report.column_steps[canonical] = _column_step(ctx.utc[sel], report, f"{label}: {desc}", ctx.n)
     return si
+
+
+_DECIMAL_COMMA = r"^\s*[-+]?\d+,\d+\s*$"
+
+
+def _non_numeric_message(desc: str, bad, column: pd.Series, ctx: _Column) -> str:
+    """The problem of non-numeric cells; a decimal comma (a European export) is named with its fix."""
+    text = column.iloc[bad[:1000]].astype("str")
+    comma = float(text.str.match(_DECIMAL_COMMA).mean())
+    if comma >= 0.5:
+        thousands = bool(text.str.match(r"^\s*[-+]?\d{1,3}(,\d{3})+\s*$").all())
+        what = "a thousands separator (or a decimal comma)" if thousands else "a decimal comma"
+        return (
+            f"{desc}: {len(bad)} value(s) written with a comma, e.g. {ctx.rows(bad, column.to_numpy())}: {what}; "
+            "numbers must be written plainly with a decimal point (1006, 21.5): export the file without thousands "
+            "separators and with '.' as the decimal separator (the column separator may stay ';')"
+        )
+    return (
+        f"{desc}: {len(bad)} non-numeric value(s), e.g. {ctx.rows(bad, column.to_numpy())}; a reading must be a "
+        "number and a missing one an empty cell (status texts such as 'Offline' or 'Fault' are not readings: "
+        "blank them)"
+    )
 
 
 def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
@@ -612,6 +814,11 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
             zone_unit = _zone_temperature_unit(ctx.building)
             lat = ctx.building.latitude
             check_outdoor_unit_mix(values, unit, zone_unit, ctx.local, lat, f"{label}: {desc}", report.warnings)
+        if canonical in {f"T_{z}" for z in ctx.building.zone_names} and len(problems) == n_before:
+            kept = int(np.isfinite(si).sum())
+            si = check_zone_spikes(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, problems, report.warnings)
+            if kept > np.isfinite(si).sum():
+                report.masked[(canonical, "temperature spike")] = kept - int(np.isfinite(si).sum())
     elif kind == "airflow":
         box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
         kept = int(np.isfinite(si).sum())
@@ -619,7 +826,17 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
         if kept > np.isfinite(si).sum():
             report.masked[(canonical, "airflow spike")] = kept - int(np.isfinite(si).sum())
     elif kind == "irradiance":
-        si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end)
+        n_before = len(problems)
+        b = ctx.building
+        sky = None
+        if ctx.utc is not None and ctx.ok is not None and ctx.ok.any():
+            t = ctx.utc[ctx.ok]
+            sky = float(np.max(clear_sky_ghi(t[:: max(1, len(t) // 20_000)], b.latitude, b.longitude), initial=0.0))
+        si = _check_irradiance(desc, label, unit, si, where, problems, report, report.start, report.end, sky)
+        if canonical == "ghi" and len(problems) == n_before:
+            check_irradiance_level(
+                si, ctx.utc, ctx.ok, b.latitude, b.longitude, f"{label}: {desc}", unit, report.warnings
+            )
     elif kind == "fraction":
         si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
     else:
@@ -653,12 +870,30 @@ def _sample(x: np.ndarray, n: int = 50_000) -> np.ndarray:
     return x[:: max(1, len(x) // n)]
 
 
+_ERROR_CODES = {99.0, 999.0, 9999.0, 99999.0, 999999.0, 32767.0, 32768.0, 65535.0}
+
+
+def _error_code_hint(si_values, unit) -> str:
+    """'; -999 looks like an error code ...' when the impossible values are one or two codes such as -999 or 32767."""
+    from .units import from_si
+
+    raw = np.round(np.asarray(from_si(np.asarray(si_values, dtype=float), unit)), 6)
+    codes = np.unique(raw)
+    if not len(codes) or len(codes) > 2 or not all(abs(float(c)) in _ERROR_CODES for c in codes):
+        return ""
+    shown = " and ".join(f"{float(c):g}" for c in codes)
+    return (
+        f"; {shown} {'looks' if len(codes) == 1 else 'look'} like an error code of the export, not a reading: a "
+        "missing value must be an empty cell (export missing values empty, or blank those cells)"
+    )
+
+
 def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, where, problems):
     med = float(np.median(_sample(finite)))
     indoor = canonical != "T_out"
     guess = None
     if unit == "degC" and med > 200:
-        guess = "K"
+        guess = "K" if not 5 <= med / 10 <= 40 else "K, or tenths of a degree C (divide by 10)"
     elif unit == "degC" and med > 45:
         guess = "degF"
     elif unit == "degF" and med > 200:
@@ -678,7 +913,7 @@ def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, whe
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} value(s) outside {lo:g}..{hi:g} °C (after conversion from {unit}), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     return si
 
@@ -694,7 +929,7 @@ def _check_airflow(canonical, desc, label, unit, finite, si, box, where, problem
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} negative airflow value(s) (below -{AIRFLOW_NOISE:g} kg/s), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     elif neg.any():
         report.warnings.append(
@@ -717,6 +952,11 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
             'declare the unit in the building\'s [units] table, e.g. "rh_*" = "%"'
         )
         return si
+    if unit == "%" and 0 < top <= 1.0 and float(np.mean((finite > 0) & (finite < 1))) > 0.01:
+        report.warnings.append(
+            f"{label}: {desc}: declared % but its largest value is {top:.3g}, so the reheat never exceeds {top:.3g} %; "
+            'the data look like a fraction 0..1: declare "1" for the column in the building\'s [units] table'
+        )
     bad = np.flatnonzero((si < -FRACTION_NOISE) | (si > 1 + FRACTION_NOISE))
     if len(bad):
         problems.append(
@@ -731,9 +971,22 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
     return si
 
 
-def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None):
+#: Below this clear-sky peak [W/m²] over the span (polar night) low irradiance is not judged.
+DAYLIGHT_MIN = 50.0
+
+
+def _check_irradiance(desc, label, unit, si, where, problems, report, start=None, end=None, clear_peak=None):
     peak = float(np.nanmax(si))
-    if start is not None and end is not None and (end - start) >= pd.Timedelta(days=1) and 0 < peak < 5:
+    day = start is not None and end is not None and (end - start) >= pd.Timedelta(days=1)
+    day = day and (clear_peak is None or clear_peak >= DAYLIGHT_MIN)  # the sun rises at all (no polar night)
+    if day and peak < 0.5:
+        problems.append(
+            f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}): "
+            "no daylight at all, a dead or disconnected sensor; fix the sensor or drop the column (the models then "
+            "have no solar input)"
+        )
+        return si
+    if day and 0 < peak < 5:
         problems.append(
             f"{label}: {desc}: the largest value over {(end - start).days} day(s) is {peak:.3g} W/m² (declared {unit}); "
             "irradiance this low cannot be right, the data look like kW/m²: declare the unit in the building's [units]"
@@ -743,13 +996,13 @@ def _check_irradiance(desc, label, unit, si, where, problems, report, start=None
     if len(bad):
         problems.append(
             f"{label}: {desc}: {len(bad)} negative irradiance value(s) (below -{IRRADIANCE_NOISE:g} W/m²), "
-            f"e.g. {where.rows(bad, values=si)}"
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}"
         )
     high = np.flatnonzero(si > IRRADIANCE_MAX)
     if len(high):
         problems.append(
             f"{label}: {desc}: {len(high)} value(s) above {IRRADIANCE_MAX:g} W/m², more than any irradiance at "
-            f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}"
+            f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}{_error_code_hint(si[high], unit)}"
         )
     neg = si < 0
     if neg.any() and not len(bad):

@@ -38,7 +38,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .units import KINDS, to_si
+from .units import to_si
+
+#: Airflow units a wrong declaration is compared with (m3/h is accepted when declared, never guessed).
+GUESSED_AIRFLOW_UNITS = ("kg/s", "m3/s", "L/s", "cfm")
 
 #: Airflow above this multiple of the box's m_max is impossible (masked or refused).
 SPIKE_FACTOR = 2.0
@@ -67,7 +70,7 @@ def _pct(x: float) -> str:
 def airflow_unit_candidates(value_si: float, unit: str, lo: float, hi: float) -> list[str]:
     """Airflow units other than ``unit`` under which ``value_si`` [kg/s] would lie in ``lo..hi`` [kg/s]."""
     one = float(to_si(1.0, unit))
-    return [u for u in KINDS["airflow"][1] if u != unit and lo <= value_si * float(to_si(1.0, u)) / one <= hi]
+    return [u for u in GUESSED_AIRFLOW_UNITS if u != unit and lo <= value_si * float(to_si(1.0, u)) / one <= hi]
 
 
 def check_airflow(si, unit, box, desc, where, problems, warnings):
@@ -152,7 +155,9 @@ def _check_minimum_plateau(valid, unit, box, desc, problems):
     if declared >= PLATEAU_ABSENT:
         return
     one = float(to_si(1.0, unit))
-    shares = {u: minimum_share(valid * float(to_si(1.0, u)) / one, box.m_min) for u in KINDS["airflow"][1] if u != unit}
+    shares = {
+        u: minimum_share(valid * float(to_si(1.0, u)) / one, box.m_min) for u in GUESSED_AIRFLOW_UNITS if u != unit
+    }
     best = max(shares, key=lambda u: shares[u]) if shares else None
     if best is None or shares[best] < PLATEAU_SHARE:
         return
@@ -276,11 +281,14 @@ def stuck_runs(values, times_ns, min_seconds):
     return [(int(pos[a]), int(pos[b - 1]) + 1) for a, b in zip(starts[long], stops[long])]
 
 
-def check_stuck(canonical, si, times_ns, desc, where, warnings):
-    """Mask temperature runs repeating one value for :data:`STUCK_DAYS` or longer; returns the column."""
+def check_stuck(canonical, si, times_ns, desc, where, warnings, ok=None):
+    """Mask temperature runs repeating one value for :data:`STUCK_DAYS` or longer; returns the column.
+
+    ``ok`` (optional) marks the rows with a valid time; the others are ignored.
+    """
     if times_ns is None or not canonical.startswith(STUCK_PREFIXES):
         return si
-    found = stuck_runs(si, times_ns, STUCK_DAYS * 86400)
+    found = stuck_runs(si if ok is None else np.where(ok, si, np.nan), times_ns, STUCK_DAYS * 86400)
     if not found:
         return si
     si = si.copy()
@@ -297,6 +305,294 @@ def check_stuck(canonical, si, times_ns, desc, where, warnings):
         f"{'; '.join(parts[:3])}{more}; {total} sample(s) masked as missing (fix or drop the sensor)"
     )
     return si
+
+
+#: A zone temperature this far [K] from its running median is an error code or a dropout, not air.
+ZONE_SPIKE_K = 12.0
+#: Width [h] of the running median zone temperatures are compared with.
+ZONE_SPIKE_WINDOW_H = 12.0
+
+
+def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
+    """Mask zone temperatures [°C] more than :data:`ZONE_SPIKE_K` from their running median; returns the column.
+
+    Zone air moves a few kelvin in hours; a sample 12 K or more away from the
+    median of the surrounding :data:`ZONE_SPIKE_WINDOW_H` hours is an error code
+    or a dropout (0, 0 °F, 999 ...) that the -50..80 °C range lets through. Up to
+    :data:`SPIKE_SHARE_MAX` of the samples are masked with a warning; more is a
+    problem (the column or its mapping is wrong).
+    """
+    if times_ns is None:
+        return si
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 20:
+        return si
+    v = si[sel]
+    bin_ns = 900 * 10**9
+    bins = (times_ns[sel] - times_ns[sel].min()) // bin_ns
+    per_bin = pd.Series(v).groupby(bins).median()
+    width = int(round(ZONE_SPIKE_WINDOW_H * 3600e9 / bin_ns)) | 1
+    full = per_bin.reindex(np.arange(int(bins.max()) + 1))
+    local = full.rolling(width, center=True, min_periods=max(3, width // 8)).median().to_numpy()[bins]
+    spikes = sel[np.isfinite(local) & (np.abs(v - local) > ZONE_SPIKE_K)]
+    if not len(spikes):
+        return si
+    share = len(spikes) / len(sel)
+    text = (
+        f"{desc}: {len(spikes)} value(s) ({_pct(share)} of its samples) more than {ZONE_SPIKE_K:g} K away from the "
+        f"median of the surrounding {ZONE_SPIKE_WINDOW_H:g} h, which zone air does not do (an error code or a "
+        f"sensor dropout such as 0 or -999?)"
+    )
+    if share > SPIKE_SHARE_MAX:
+        problems.append(
+            f"{text}, more than the {_pct(SPIKE_SHARE_MAX)} that are masked: {where(spikes, si)}; check the column, "
+            "its mapping and the error codes of the export"
+        )
+        return si
+    warnings.append(f"{text}, masked as missing: {where(spikes, si)}")
+    si = si.copy()
+    si[spikes] = np.nan
+    return si
+
+
+#: Days of data before a column's day-to-day behaviour is judged (setpoints, constant airflow).
+BEHAVIOUR_DAYS = 7.0
+#: A zone temperature changing value at most this many times on a median day is a setpoint, not a sensor.
+SETPOINT_CHANGES_PER_DAY = 2
+
+
+def check_setpoint_like(si, times_ns, ok, desc, warnings):
+    """Flag a zone temperature that changes value only a few times a day (a setpoint exported as the sensor)."""
+    if times_ns is None:
+        return
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 2 or (times_ns[sel[-1]] - times_ns[sel[0]]) < BEHAVIOUR_DAYS * 86400e9:
+        return
+    v = si[sel]
+    day = times_ns[sel][1:] // (86400 * 10**9)
+    per_day = pd.DataFrame({"changes": np.diff(v) != 0, "day": day}).groupby("day")["changes"].agg(["sum", "count"])
+    per_day = per_day[per_day["count"] >= 24]
+    if len(per_day) < BEHAVIOUR_DAYS or float(per_day["sum"].median()) > SETPOINT_CHANGES_PER_DAY:
+        return
+    values = np.unique(v)
+    warnings.append(
+        f"{desc}: the value changes only {float(per_day['sum'].median()):g} time(s) on a median day over "
+        f"{len(per_day)} days ({len(values)} distinct value(s), e.g. {', '.join(f'{x:g}' for x in values[:4])}): "
+        "a sensor in moving air changes many times a day; is it a setpoint exported as the zone temperature? "
+        "map the measured zone air temperature"
+    )
+
+
+def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
+    """Flag an airflow column holding one value over the whole record (a dead sensor, a setpoint, a box never moved)."""
+    if times_ns is None or box is None:
+        return
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 2 or (times_ns[sel[-1]] - times_ns[sel[0]]) < BEHAVIOUR_DAYS * 86400e9:
+        return
+    v = si[sel]
+    if float(np.ptp(v)) > 0:
+        return
+    days = (times_ns[sel[-1]] - times_ns[sel[0]]) / 86400e9
+    warnings.append(
+        f"{desc}: reads {v[0]:.4g} kg/s in every one of its {len(v)} samples over {days:.1f} days, while box "
+        f"{box.name} may move between m_min = {box.m_min:g} and m_max = {box.m_max:g} kg/s: a dead flow sensor, a "
+        "setpoint exported as the flow, or a box that never moves; the models learn nothing from it: check the column"
+    )
+
+
+#: Span [days] of ghi needed before its level is compared with the clear sky.
+GHI_LEVEL_DAYS = 7.0
+#: Days whose clear-sky peak is below this [W/m²] (low winter sun at high latitude) are not compared.
+GHI_LEVEL_SKY = 300.0
+#: The sunniest day's peak ghi below this share of the clear-sky peak is flagged.
+GHI_LEVEL_SHARE = 0.4
+
+
+def clear_sky_ghi(times_ns, latitude: float, longitude: float) -> np.ndarray:
+    """Clear-sky global horizontal irradiance [W/m²] at UTC instants [ns] (Haurwitz 1945; Spencer's sun)."""
+    t = pd.DatetimeIndex(np.asarray(times_ns).view("M8[ns]"))
+    doy = t.day_of_year.to_numpy()
+    g = 2 * np.pi * (doy - 1) / 365.0
+    decl = (
+        0.006918
+        - 0.399912 * np.cos(g)
+        + 0.070257 * np.sin(g)
+        - 0.006758 * np.cos(2 * g)
+        + 0.000907 * np.sin(2 * g)
+        - 0.002697 * np.cos(3 * g)
+        + 0.00148 * np.sin(3 * g)
+    )
+    eot = 229.18 * (
+        0.000075 + 0.001868 * np.cos(g) - 0.032077 * np.sin(g) - 0.014615 * np.cos(2 * g) - 0.040849 * np.sin(2 * g)
+    )  # [min]
+    hours = t.hour.to_numpy() + t.minute.to_numpy() / 60 + t.second.to_numpy() / 3600
+    solar = hours + longitude / 15.0 + eot / 60.0
+    ha = np.deg2rad(15.0 * (solar - 12.0))
+    lat = np.deg2rad(latitude)
+    cosz = np.sin(lat) * np.sin(decl) + np.cos(lat) * np.cos(decl) * np.cos(ha)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        ghi = np.where(cosz > 0.01, 1098.0 * cosz * np.exp(-0.057 / np.maximum(cosz, 0.01)), 0.0)
+    return ghi
+
+
+#: The median of the nightly minima of ghi above this [W/m²] is an offset (irradiance is 0 at night).
+GHI_NIGHT_MAX = 20.0
+
+
+def _night_offset(ghi, clear, day, desc, unit, warnings) -> None:
+    """Flag ghi that never falls to 0 at night (an offset, or another quantity), on days when the sun sets."""
+    night = pd.Series(np.where(clear <= 0, ghi, np.nan)).groupby(day).agg(["min", "count"])
+    night = night[night["count"] >= 3]
+    if len(night) < 2:
+        return
+    floor = float(night["min"].median())
+    if floor > GHI_NIGHT_MAX:
+        warnings.append(
+            f"{desc}: never falls below {floor:.3g} W/m² at night (median of the nightly minima over {len(night)} "
+            f"nights, declared {unit}): an irradiance sensor reads 0 after sunset, so this is an offset or another "
+            "quantity; subtract the offset or fix the sensor"
+        )
+
+
+def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, warnings):
+    """Flag ghi whose sunniest day peaks far below the clear sky (energy per interval, a shaded sensor)."""
+    if times_ns is None:
+        return
+    sel = np.flatnonzero(np.isfinite(si) & ok)
+    if len(sel) < 2 or (times_ns[sel[-1]] - times_ns[sel[0]]) < GHI_LEVEL_DAYS * 86400e9:
+        return
+    clear = clear_sky_ghi(times_ns[sel], latitude, longitude)
+    day = times_ns[sel] // (86400 * 10**9)
+    _night_offset(si[sel], clear, day, desc, unit, warnings)
+    measured = pd.Series(si[sel]).groupby(day).max()
+    sky = pd.Series(clear).groupby(day).max()
+    good = sky > GHI_LEVEL_SKY  # a sun high enough that a week without one sunny hour is rare
+    if good.sum() < GHI_LEVEL_DAYS * 0.7:
+        return
+    ratio = (measured[good] / sky[good]).max()
+    if ratio >= GHI_LEVEL_SHARE:
+        return
+    peak = float(measured[good].max())
+    warnings.append(
+        f"{desc}: its highest daily peak over {int(good.sum())} days is {peak:.4g} W/m² (declared {unit}), only "
+        f"{100 * ratio:.0f} % of the clear-sky peak that day at latitude {latitude:g}°, longitude {longitude:g}°: "
+        "an irradiance this low on every day is not W/m²; energy per trend interval (Wh/m² per 15 min reads "
+        "a quarter of W/m²)? a shaded or dirty sensor? convert the column to W/m² (average power) or fix the sensor"
+    )
+
+
+#: Two temperature columns equal in at least this share of their common rows are one sensor twice.
+IDENTICAL_SHARE = 0.98
+#: ... when they have at least this many common rows.
+IDENTICAL_MIN_ROWS = 100
+
+
+def identical_columns(columns: dict, names: dict, where, label: str) -> list[str]:
+    """Problems for temperature columns (zones, outdoor, supply air) that are copies of each other.
+
+    ``columns`` maps canonical names to SI arrays, ``names`` to their file columns.
+    Two sensors never agree to the last digit row after row; equal values in
+    :data:`IDENTICAL_SHARE` of the common rows mean one point exported, or mapped
+    in ``[columns]``, under two names. Columns mapped to the same file column
+    (one declared air handler's ``T_supply``) and constant columns are skipped.
+    """
+    temps = [c for c in columns if c.startswith("T_")]
+    out = []
+    for i, a in enumerate(temps):
+        for b in temps[i + 1 :]:
+            if names.get(a) == names.get(b):
+                continue
+            x, y = columns[a], columns[b]
+            both = np.isfinite(x) & np.isfinite(y)
+            n = int(both.sum())
+            if n < IDENTICAL_MIN_ROWS or np.nanstd(x[both]) < 0.01:
+                continue
+            same = both & (x == y)
+            share = float(same.sum()) / n
+            if share >= IDENTICAL_SHARE:
+                first = np.flatnonzero(same)[:1]
+                out.append(
+                    f"{label}: columns {names.get(a, a)!r} ({a}) and {names.get(b, b)!r} ({b}) hold the same value in "
+                    f"{100 * share:.1f} % of the {n} rows where both have one (from {where(first, None)}): two sensors "
+                    "never agree that closely, so one point is exported or mapped twice; map each column to its own "
+                    "point in the building's [columns] table, or fix the export"
+                )
+    return out
+
+
+#: Median daily range [K] of an outdoor air temperature below which it is flagged as indoor air ...
+OUTDOOR_MIN_DAILY_RANGE = 2.0
+#: ... when its mean also lies within this many kelvin of the zones' mean.
+INDOOR_LIKE_K = 2.0
+#: Supply air within this many kelvin of the zone mean in most steps looks like return or room air.
+SUPPLY_LIKE_ZONE_K = 1.5
+#: Excitation 1 in more than this share of the rows is flagged (experiments are the exception).
+EXCITATION_SHARE_MAX = 0.5
+
+
+def check_roles(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings where a column does not behave as the quantity it is mapped to (on the model step, SI).
+
+    - ``T_out`` with a median daily range under :data:`OUTDOOR_MIN_DAILY_RANGE` K and a
+      mean within :data:`INDOOR_LIKE_K` K of the zones' mean: indoor air mapped as outdoor;
+    - a supply air column (``T_supply`` or ``T_supply_<ahu>``) within
+      :data:`SUPPLY_LIKE_ZONE_K` K of the zones' mean in 90 % of the steps: return or
+      room air (a VAV supply is colder, or hotter when it heats);
+    - ``excitation`` 1 in more than :data:`EXCITATION_SHARE_MAX` of the rows: the flag is inverted.
+    """
+    notes = []
+    zones = [f"T_{z}" for z in building.zone_names if f"T_{z}" in frame.columns]
+    if not zones or not len(frame):
+        return notes
+    zone_mean = frame[zones].mean(axis=1).to_numpy(dtype=float)
+
+    def desc(c):
+        name = building.column_for(c)
+        return f"column {name!r}" + (f" ({c})" if name != c else "")
+
+    if "T_out" in frame.columns:
+        t = frame["T_out"]
+        day = t.index.normalize()
+        counts = t.notna().groupby(day).sum()
+        full = counts[counts >= 0.8 * counts.max()].index
+        if len(full) >= 7:
+            rng = (t.groupby(day).max() - t.groupby(day).min())[full]
+            both = np.isfinite(zone_mean) & np.isfinite(t.to_numpy(dtype=float))
+            gap = float(np.mean(t.to_numpy(dtype=float)[both] - zone_mean[both])) if both.any() else np.inf
+            if float(rng.median()) < OUTDOOR_MIN_DAILY_RANGE and abs(gap) < INDOOR_LIKE_K:
+                notes.append(
+                    f"{desc('T_out')}: outdoor air with a median daily range of {float(rng.median()):.2g} K over "
+                    f"{len(full)} days, {gap:+.2g} K from the zones on average: it behaves like indoor air "
+                    "(outdoor air swings several kelvin from night to afternoon); is the column mapped to the "
+                    "outdoor air sensor?"
+                )
+    for c in dict.fromkeys(["T_supply", *building.supply_columns()]):
+        if c not in frame.columns or (c == "T_supply" and building.ahus and c not in building.supply_columns()):
+            continue
+        ts = frame[c].to_numpy(dtype=float)
+        both = np.isfinite(ts) & np.isfinite(zone_mean)
+        if both.sum() < 96:
+            continue
+        near = float(np.mean(np.abs(ts[both] - zone_mean[both]) < SUPPLY_LIKE_ZONE_K))
+        if near >= 0.9:
+            notes.append(
+                f"{desc(c)}: supply air within {SUPPLY_LIKE_ZONE_K:g} K of the zones' mean temperature in "
+                f"{100 * near:.0f} % of the {int(both.sum())} steps: it behaves like return or room air, and air at "
+                "room temperature carries no heat to the zones; is the column mapped to the supply (discharge) air "
+                "sensor of the air handler? (a unit that really supplies neutral air cannot be identified from "
+                "airflow)"
+            )
+    if "excitation" in frame.columns:
+        e = frame["excitation"].to_numpy(dtype=float)
+        e = e[np.isfinite(e)]
+        if len(e) and float(np.mean(e > 0.5)) > EXCITATION_SHARE_MAX:
+            notes.append(
+                f"{desc('excitation')}: 1 in {100 * float(np.mean(e > 0.5)):.0f} % of the steps; excitation marks the "
+                "experiments (the exception, e.g. a few hours a week), so the flag looks inverted: 1 during the "
+                "experiments, 0 otherwise"
+            )
+    return notes
 
 
 #: Discharge air colder than its unit's supply air by more than this [K] is impossible (reheat only heats).
@@ -334,6 +630,7 @@ def check_discharge(frame: pd.DataFrame, building) -> list[str]:
                 f"{s_col} - {DISCHARGE_MARGIN:g} K in {100 * cold:.0f} % of the {n} steps where box {v.name} runs; "
                 "a reheat coil only heats: is the column mapped to the right box and unit?"
             )
+        notes += _reheat_response(frame, building, v, running, td - ts, desc)
         ahu = building.ahu_of(v.name)
         if ahu is not None and ahu.T_supply_max is not None:
             hot = float(np.mean(td[running] > ahu.T_supply_max + 5.0))
@@ -344,3 +641,95 @@ def check_discharge(frame: pd.DataFrame, building) -> list[str]:
                     f"{v.name} runs: is T_supply_max (or the unit of the column) right?"
                 )
     return notes
+
+
+#: Reheat command above this share is "reheating", below IDLE_REHEAT "not reheating" [1].
+REHEATING, IDLE_REHEAT = 0.3, 0.02
+#: Share of the steps without reheat where warm discharge air is flagged (a coil cooling down warms a few).
+IDLE_WARM_SHARE = 0.25
+#: Steps of each kind needed before a box's discharge air is compared with its reheat command.
+MIN_REHEAT_STEPS = 20
+
+
+def _reheat_response(frame, building, v, running, rise, desc) -> list[str]:
+    """Warnings where a box's discharge air does not follow its own reheat command ``rh_<vav>``.
+
+    Without reheat the discharge air is the unit's supply air (within
+    :data:`DISCHARGE_MARGIN`); while the coil heats it is warmer. A ``Td_`` column
+    that warms while its box's reheat is off, or stays at supply air while it is
+    on, belongs to another box (or the ``rh_`` column does, or the coil failed).
+    """
+    rh_col = f"rh_{v.name}"
+    if rh_col not in frame.columns:
+        return []
+    rh = frame[rh_col].to_numpy(dtype=float)
+    ok = running & np.isfinite(rh)
+    idle, heating = ok & (rh < IDLE_REHEAT), ok & (rh > REHEATING)
+    rh_name = building.column_for(rh_col)
+    notes = []
+    if idle.sum() >= MIN_REHEAT_STEPS:
+        warm = float(np.mean(rise[idle] > DISCHARGE_MARGIN))
+        if warm > IDLE_WARM_SHARE:
+            notes.append(
+                f"{desc}: discharge air more than {DISCHARGE_MARGIN:g} K above its unit's supply air in "
+                f"{100 * warm:.0f} % of the {int(idle.sum())} steps where box {v.name} runs with its reheat "
+                f"{rh_name!r} off: does not follow its own reheat; is the column (or {rh_name!r}) the one of "
+                "another box?"
+            )
+    if heating.sum() >= MIN_REHEAT_STEPS:
+        flat = float(np.mean(rise[heating] < 1.0))
+        if flat > 0.5:
+            notes.append(
+                f"{desc}: discharge air within 1 K of its unit's supply air in {100 * flat:.0f} % of the "
+                f"{int(heating.sum())} steps where box {v.name} reheats ({rh_name!r} above {100 * REHEATING:g} %): "
+                f"does not follow its own reheat; is the column (or {rh_name!r}) the one of another box, or has "
+                "the coil failed?"
+            )
+    return notes
+
+
+def check_supply_assignment(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings for boxes whose discharge air at rest matches another air handler's supply air, not their own.
+
+    A box that does not reheat discharges its unit's supply air, plus a steady
+    duct gain. When ``Td_<vav>`` follows another unit's supply column: the spread
+    (interquartile range / 1.349, blind to a constant offset) of its difference
+    to that column is under half the spread to its own column, which is over
+    0.3 K, the units' columns are swapped or the box names the wrong ``ahu``.
+    """
+    cols = building.supply_columns()
+    if len(building.ahus) < 2 or any(c not in frame.columns for c in cols):
+        return []
+    wrong = []
+    for v in building.vavs:
+        td_col, m_col = f"Td_{v.name}", f"m_{v.name}"
+        own = building.supply_column(v.name)
+        if td_col not in frame.columns or m_col not in frame.columns:
+            continue
+        td = frame[td_col].to_numpy(dtype=float)
+        rest = np.isfinite(td) & (frame[m_col].to_numpy(dtype=float) > max(0.005, 0.5 * v.m_min))
+        if f"rh_{v.name}" in frame.columns:
+            rest &= frame[f"rh_{v.name}"].to_numpy(dtype=float) < IDLE_REHEAT
+        if rest.sum() < MIN_REHEAT_STEPS * 5:
+            continue
+        dist = {}
+        for c in cols:
+            diff = td[rest] - frame[c].to_numpy(dtype=float)[rest]
+            diff = diff[np.isfinite(diff)]
+            if len(diff) >= MIN_REHEAT_STEPS:
+                q1, q3 = np.percentile(diff, [25, 75])
+                dist[c] = float(q3 - q1) / 1.349
+        if own not in dist or len(dist) < 2:
+            continue
+        best = min(dist, key=lambda c: dist[c])
+        if best != own and dist[own] > 0.3 and dist[best] < 0.5 * dist[own]:
+            wrong.append((v.name, own, best, dist[own], dist[best]))
+    if not wrong:
+        return []
+    parts = "; ".join(f"{n}: {o} {do:.2g} K, {b} {db:.2g} K" for n, o, b, do, db in wrong[:6])
+    more = f" and {len(wrong) - 6} more" if len(wrong) > 6 else ""
+    return [
+        f"{len(wrong)} box(es) discharge, when not reheating, the supply air of another air handler than the one "
+        f"the building file gives them (spread of Td_<vav> minus each supply column: {parts}{more}): are the "
+        "air handlers' supply columns swapped, or do these boxes name the wrong ahu in [[vavs]]?"
+    ]

@@ -13,7 +13,7 @@ canonical column   quantity                    SI unit
 ``excitation``     experiment flag             – (0/1)
 =================  ==========================  =======
 
-Volumetric airflows (m³/s, L/s, cfm) become mass flows with the standard air
+Volumetric airflows (m³/s, L/s, cfm, m³/h) become mass flows with the standard air
 density :data:`AIR_DENSITY` = 1.2 kg/m³ (dry air at about 20 °C and sea-level
 pressure), the convention of HVAC airflow measurements.
 """
@@ -31,7 +31,7 @@ CFM_IN_M3_PER_S = 0.3048**3 / 60.0
 #: Physical kind of a canonical column -> (SI unit, accepted units).
 KINDS = {
     "temperature": ("degC", ("degC", "degF", "K")),
-    "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm")),
+    "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm", "m3/h")),
     "irradiance": ("W/m2", ("W/m2", "kW/m2")),
     "flag": ("1", ("1",)),
     "fraction": ("1", ("1", "%")),
@@ -58,6 +58,10 @@ _ALIASES = {
     "m³/s": "m3/s",
     "l/s": "L/s",
     "lps": "L/s",
+    "m3/h": "m3/h",
+    "m^3/h": "m3/h",
+    "m³/h": "m3/h",
+    "cmh": "m3/h",
     "cfm": "cfm",
     "ft3/min": "cfm",
     "ft^3/min": "cfm",
@@ -120,7 +124,7 @@ def to_si(values, unit: str):
     values : array-like
         Values in ``unit``.
     unit : str
-        One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``,
+        One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``, ``m3/h``,
         ``W/m2``, ``kW/m2``, ``1``, ``%`` (canonical spellings, see :func:`normalize_unit`).
 
     Returns
@@ -142,6 +146,8 @@ def to_si(values, unit: str):
         return x * (1e-3 * AIR_DENSITY)
     if unit == "cfm":
         return x * (CFM_IN_M3_PER_S * AIR_DENSITY)
+    if unit == "m3/h":
+        return x * (AIR_DENSITY / 3600.0)
     if unit == "kW/m2":
         return x * 1000.0
     if unit == "%":
@@ -164,6 +170,8 @@ def from_si(values, unit: str):
         return x / (1e-3 * AIR_DENSITY)
     if unit == "cfm":
         return x / (CFM_IN_M3_PER_S * AIR_DENSITY)
+    if unit == "m3/h":
+        return x / (AIR_DENSITY / 3600.0)
     if unit == "kW/m2":
         return x / 1000.0
     if unit == "%":

@@ -189,6 +189,12 @@ def _base_model(dataset, model, say, notes) -> tuple:
         from ..models import load_model
 
         model = load_model(model)
+    if given:
+        from ..models.base import building_mismatch
+
+        for note in building_mismatch(getattr(model, "base", model), dataset.building)[1]:
+            warnings.warn(note, HvacfmuWarning, stacklevel=3)
+            notes.append(note)
     if getattr(getattr(model, "base", model), "heat", "airflow") == "delivered":
         from ..errors import ModelError
 

@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError, HvacfmuWarning, problems_message
+from ..models.base import building_mismatch
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
@@ -141,6 +142,10 @@ def evaluate(
         dataset.frame, b.zone_names, float(dataset.step), float(fill_inputs_h), float(min_output_share)
     )
     notes = _season_notes(dataset)
+    for model in models:
+        for note in building_mismatch(model, b)[1]:
+            warnings.warn(note, HvacfmuWarning, stacklevel=2)
+            notes.append(note)
     test_weeks = dataset.test_weeks()
     if not test_weeks:
         raise DataError("the dataset has no test week: nothing to evaluate (need at least two weeks in a season)")

@@ -197,6 +197,72 @@ def require_columns(frame: pd.DataFrame, columns, model, what: str) -> None:
     )
 
 
+def building_mismatch(model, building) -> tuple[list[str], list[str]]:
+    """``(problems, notes)`` of using ``model`` with ``building`` (a :class:`~hvacfmu.building.Building`).
+
+    Problems: boxes of the model that the building file does not declare (its
+    limits and zones cannot be the model's). Notes: the model's provenance
+    (``meta["building"]``, ``meta["building_sha256"]``, written by ``fit``) names
+    another building, or the same building from a file that has changed since the
+    fit (box limits, zones or areas may differ from what the model learned).
+    """
+    problems: list[str] = []
+    notes: list[str] = []
+    if building is None:
+        return problems, notes
+    known = {v.name for v in getattr(building, "vavs", ())}
+    boxes = [str(v) for v in (getattr(model, "vavs", None) or ())]
+    missing = [v for v in boxes if v not in known]
+    if missing:
+        problems.append(
+            f"the {getattr(model, 'kind', '?')} model's box(es) {missing[:6]}{' ...' if len(missing) > 6 else ''} "
+            f"are not declared in building {building.name!r} (its boxes: {sorted(known)[:6]}"
+            f"{' ...' if len(known) > 6 else ''}): use the building file the model was fitted on"
+        )
+    own = getattr(model, "building", None)  # a physics model carries its building
+    if own is not None and hasattr(own, "zones") and hasattr(own, "vavs"):
+        if own.name != building.name:
+            notes.append(
+                f"the {getattr(model, 'kind', '?')} model was fitted on building {own.name!r}, not on "
+                f"{building.name!r}: a model of another building predicts this one only by chance; fit it on data "
+                "of this building"
+            )
+        elif _layout(own) != _layout(building):
+            notes.append(
+                f"the {getattr(model, 'kind', '?')} model's building {own.name!r} differs from this building file in "
+                "its zones (area, volume) or boxes (zone, m_min, m_max): the file changed since the fit; refit the model"
+            )
+        return problems, notes
+    meta = getattr(model, "meta", None) or {}
+    fitted_on, fitted_sha = meta.get("building"), meta.get("building_sha256")
+    if not isinstance(fitted_on, str) or not isinstance(fitted_sha, str):
+        return problems, notes
+    import hashlib
+
+    sha = building.sha256 or hashlib.sha256(building.to_toml().encode("utf-8")).hexdigest()
+    if fitted_on != building.name:
+        notes.append(
+            f"the {getattr(model, 'kind', '?')} model was fitted on building {fitted_on!r}, not on "
+            f"{building.name!r}: a model of another building predicts this one only by chance; fit it on data of "
+            "this building"
+        )
+    elif fitted_sha != sha:
+        notes.append(
+            f"the {getattr(model, 'kind', '?')} model was fitted with another version of the building file of "
+            f"{building.name!r} (sha256 {fitted_sha[:12]}..., this file {sha[:12]}...): if boxes, their limits or "
+            "the zones changed, refit the model"
+        )
+    return problems, notes
+
+
+def _layout(b) -> tuple:
+    """Zones (name, area, volume) and boxes (name, zone, m_min, m_max) of a building, for comparisons."""
+    return (
+        tuple((z.name, float(z.area), float(z.volume)) for z in b.zones),
+        tuple((v.name, v.zone, float(v.m_min), float(v.m_max)) for v in b.vavs),
+    )
+
+
 def gains_to_json(gains: dict) -> dict:
     return {s: np.asarray(g, dtype=float).tolist() for s, g in gains.items()}
 
