@@ -182,6 +182,26 @@ def test_a_zone_sensor_exported_twice_is_refused(tmp_path):
     assert "columns 'T_A' (T_A) and 'T_B' (T_B) hold the same value in 100.0 % of the 768 rows" in msg
 
 
+def _one_unit(d):
+    d["ahus"] = [{"name": "AHU1"}]
+    for v in d["vavs"]:
+        v["ahu"] = "AHU1"
+
+
+def test_the_supply_air_mean_beside_the_only_units_own_column_is_not_a_copy(tmp_path):
+    """An EnergyPlus export of a floor with one air handler writes T_supply (the units' airflow-weighted mean) and
+    T_supply_<ahu>, equal on every row: that was refused as one point exported twice (medium office, primary school,
+    large office exports). With two units, the mean equal to one of them still is."""
+    f = base_frame(days=8).drop(columns=["T_supply_AHU2"])
+    f["T_supply"] = f["T_supply_AHU1"]
+    report = _check(f, tmp_path, _one_unit)
+    assert report.ok and not [p for p in report.problems if "hold the same value" in p], report.problems
+    f = base_frame(days=8)
+    f["T_supply"] = f["T_supply_AHU1"]
+    msg = _one(_check(f, tmp_path).problems, "hold the same value")
+    assert "'T_supply_AHU1'" in msg and "'T_supply'" in msg
+
+
 def test_outdoor_air_that_behaves_like_indoor_air_is_flagged(tmp_path):
     f = base_frame(days=8)
     f["T_out"] = f["T_B"] + np.random.default_rng(2).normal(0, 0.1, len(f))
@@ -363,6 +383,14 @@ def test_an_airflow_column_that_never_moves_is_flagged(tmp_path):
     report = _check(f, tmp_path)
     msg = _one(report.warnings, "'m_V2'")
     assert "reads 0 kg/s in every one of its 768 samples over 8.0 days" in msg and report.exit_code == 3
+
+    # a constant-volume box (m_min = m_max: the 90.1 hospital's lab) delivering its one flow is what it should be
+    def constant_volume(d):
+        d["vavs"][1]["m_min"] = d["vavs"][1]["m_max"] = 0.4
+
+    f["m_V2"] = 0.4
+    report = _check(f, tmp_path, constant_volume)
+    assert not [w for w in report.warnings if "'m_V2'" in w], report.warnings
 
 
 @pytest.mark.parametrize(

@@ -393,6 +393,8 @@ def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
     v = si[sel]
     if float(np.ptp(v)) > 0:
         return
+    if box.m_max - box.m_min <= 0.01 * box.m_max and abs(v[0] - box.m_max) <= 0.01 * box.m_max:
+        return  # a constant-volume box (m_min = m_max, the 90.1 hospital's lab) delivering its one flow
     days = (times_ns[sel[-1]] - times_ns[sel[0]]) / 86400e9
     warnings.append(
         f"{desc}: reads {v[0]:.4g} kg/s in every one of its {len(v)} samples over {days:.1f} days, while box "
@@ -501,7 +503,7 @@ def identical_columns(columns: dict, names: dict, where, label: str) -> list[str
     out = []
     for i, a in enumerate(temps):
         for b in temps[i + 1 :]:
-            if names.get(a) == names.get(b):
+            if names.get(a) == names.get(b) or _unit_and_mean(a, b, temps):
                 continue
             x, y = columns[a], columns[b]
             both = np.isfinite(x) & np.isfinite(y)
@@ -519,6 +521,16 @@ def identical_columns(columns: dict, names: dict, where, label: str) -> list[str
                     "point in the building's [columns] table, or fix the export"
                 )
     return out
+
+
+def _unit_and_mean(a: str, b: str, temps) -> bool:
+    """True for ``T_supply`` beside the only unit's ``T_supply_<ahu>``: the units' airflow-weighted mean of one unit
+    is that unit's temperature (an EnergyPlus export of a floor with one air handler writes both)."""
+    if "T_supply" not in (a, b):
+        return False
+    other = b if a == "T_supply" else a
+    units = [c for c in temps if c.startswith("T_supply_")]
+    return other.startswith("T_supply_") and units == [other]
 
 
 #: Median daily range [K] of an outdoor air temperature below which it is flagged as indoor air ...
