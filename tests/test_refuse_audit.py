@@ -48,23 +48,7 @@ def test_cli_refuses_a_model_file_for_other_zones_without_a_traceback(tmp_path, 
     """The evaluate command meets a model fitted elsewhere: exit 2, both zone lists, no KeyError."""
     import json
 
-    from hvacfmu.models.linear import LinearZoneModel
-
-    other = ("X1", "X2")
-    model = LinearZoneModel(
-        kind="zones",
-        step=900.0,
-        outputs=other,
-        measured_zones=other,
-        output_weights=np.eye(2),
-        vavs=("B1", "B2"),
-        input_map=np.eye(2),
-        disturbances=("T_out",),
-        A=0.9 * np.eye(2),
-        B=-0.1 * np.eye(2),
-        C=[[0.02], [0.02]],
-        gains={"fall": np.full((672, 2), 0.4)},
-    )
+    model = _linear_model(boxes=("B1", "B2"), zones=("X1", "X2"))
     path = tmp_path / "other.json"
     path.write_text(json.dumps(model.to_dict()))
     r = subprocess.run(
@@ -321,14 +305,14 @@ def test_areas_in_ft2_with_volumes_in_ft3_are_flagged(tmp_path):
     assert "(A 9.84 m, B 9.84 m)" in msg and "if the areas are ft2 and the volumes ft3" in msg
 
 
-def _linear_model(boxes=("V1", "V2"), meta=None):
+def _linear_model(boxes=("V1", "V2"), meta=None, zones=("A", "B")):
     from hvacfmu.models.linear import LinearZoneModel
 
     return LinearZoneModel(
         kind="zones",
         step=900.0,
-        outputs=("A", "B"),
-        measured_zones=("A", "B"),
+        outputs=zones,
+        measured_zones=zones,
         output_weights=np.eye(2),
         vavs=boxes,
         input_map=np.eye(2),
