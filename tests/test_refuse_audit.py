@@ -375,6 +375,12 @@ def test_an_airflow_column_that_never_moves_is_flagged(tmp_path):
     f["m_V2"] = 0.4
     report = _check(f, tmp_path, constant_volume)
     assert not [w for w in report.warnings if "'m_V2'" in w], report.warnings
+    # a box held at its own minimum all along (the hospital's patient rooms): said, but nothing to fix
+    f["m_V2"] = 0.03
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'m_V2'")
+    assert "box V2 delivers its m_min = 0.03 kg/s in every one of its 768 samples" in msg, msg
+    assert "cannot learn its effect" in msg and report.exit_code == 0
 
 
 @pytest.mark.parametrize(

@@ -396,6 +396,22 @@ def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
     if box.m_max - box.m_min <= 0.01 * box.m_max and abs(v[0] - box.m_max) <= 0.01 * box.m_max:
         return  # a constant-volume box (m_min = m_max, the 90.1 hospital's lab) delivering its one flow
     days = (times_ns[sel[-1]] - times_ns[sel[0]]) / 86400e9
+    limit = next(
+        (
+            name
+            for name, m in (("m_min", box.m_min), ("m_max", box.m_max))
+            if abs(v[0] - m) <= 0.01 * max(box.m_max, 1e-9)
+        ),
+        None,
+    )
+    if limit is not None and v[0] > 0:
+        # a box held at one of its own limits all along (the 90.1 hospital's patient rooms at m_min, a data centre at
+        # m_max) is how that building runs, not a sensor fault: a note, nothing to fix
+        warnings.append(
+            f"{desc}: box {box.name} delivers its {limit} = {v[0]:.4g} kg/s in every one of its {len(v)} samples over "
+            f"{days:.1f} days: its airflow never changes, so the models cannot learn its effect from these data"
+        )
+        return
     warnings.append(
         f"{desc}: reads {v[0]:.4g} kg/s in every one of its {len(v)} samples over {days:.1f} days, while box "
         f"{box.name} may move between m_min = {box.m_min:g} and m_max = {box.m_max:g} kg/s: a dead flow sensor, a "
