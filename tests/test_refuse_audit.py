@@ -377,6 +377,17 @@ def test_an_airflow_column_that_never_moves_is_flagged(tmp_path):
     assert not [w for w in report.warnings if "'m_V2'" in w], report.warnings
 
 
+def test_a_vav_box_at_its_minimum_all_record_is_a_note_not_a_fault(tmp_path):
+    # fourth EnergyPlus round: the 90.1 outpatient clinic's exam-room boxes sat at m_min from January to March (they
+    # only reheat); `check` called that a dead sensor to fix before fitting and returned 3
+    f = base_frame(days=8)
+    f["m_V2"] = 0.03  # box V2: m_min 0.03, m_max 0.4
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'m_V2'")
+    assert "reads its minimum m_min = 0.03 kg/s in every one of its 768 samples" in msg and "Td_V2" in msg
+    assert "dead flow sensor" not in msg and report.exit_code == 0
+
+
 @pytest.mark.parametrize(
     "times, hint",
     [
