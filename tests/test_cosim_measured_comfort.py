@@ -1,0 +1,54 @@
+"""cosim's comfort line gives the measured zone temperatures' figure over the same steps and band.
+
+Fourth EnergyPlus round: on the full-service restaurant in Fresno (held at 24 degC all summer, the kitchen at 26 degC)
+`cosim` said "297.85 K*h outside [20, 22] degC" for the rule controller and 294.67 for the MPC, with nothing to tell the
+default band from a controller failing; the measured building was 301 K*h outside the same band.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness.cosim import CosimResult, _measured_violation
+
+
+def _run(t_a, t_b, band=(20.0, 22.0)):
+    index = pd.date_range("2025-07-01", periods=len(t_a), freq="15min", tz="UTC")
+    frame = pd.DataFrame({"T_A": t_a, "T_B": t_b}, index=index)
+    return SimpleNamespace(
+        out_names=("T_A", "T_B"), outputs={"T_A": ("A",), "T_B": ("B",)}, frame=frame, band=band, step=900.0
+    )
+
+
+def _summary(measured, steps=8, outputs=2):
+    return {
+        "fmu": "m.fmu", "controller": "rule", "start": "s", "end": "e", "steps_requested": steps, "step": 900.0,
+        "steps_completed": steps, "covered": True, "energy_proxy": 1.0, "total_airflow_kg": 1.0,
+        "mean_airflow": 1.0, "comfort_violation_Kh": 5.0, "band": [20.0, 22.0], "step_time_median": 0.0,
+        "step_time_max": 0.0, "controller_time_median": 0.0, "fmu_time_median": 0.0,
+        "measured_comfort_violation_Kh": measured, "outputs": outputs,
+    }  # fmt: skip
+
+
+def test_measured_violation_over_the_steps_taken():
+    run = _run(np.full(9, 24.0), np.full(9, 21.0))  # A 2 K above the band, B inside
+    assert _measured_violation(run, 8) == pytest.approx(8 * 2.0 * 0.25)
+    assert _measured_violation(run, 4) == pytest.approx(4 * 2.0 * 0.25)
+    run.outputs["T_A"] = ("A", "B")  # an output over two zones: no single measured column
+    assert _measured_violation(run, 8) is None
+
+
+def test_comfort_line_names_the_measured_figure_and_the_band_option():
+    far = CosimResult(table=pd.DataFrame(), summary=_summary(4.0)).format_summary()
+    line = next(x for x in far.splitlines() if "comfort" in x)
+    assert "(the measured zone temperatures: 4.00 K*h; the building runs outside this band itself" in line
+    assert "--band" in line
+    near = CosimResult(table=pd.DataFrame(), summary=_summary(0.3)).format_summary()
+    line = next(x for x in near.splitlines() if "comfort" in x)
+    assert line.endswith("(the measured zone temperatures: 0.30 K*h)")
+    none = CosimResult(table=pd.DataFrame(), summary=_summary(None)).format_summary()
+    assert next(x for x in none.splitlines() if "comfort" in x).endswith("degC")
