@@ -857,6 +857,21 @@ def test_cosim_sets_start_time_of_calendar_fmu(fmu_data, tmp_path):
         run_cosim(path, fmu_data, ReplayController(), week=week.number, model=model, start_values={"start_time": -1.0})
 
 
+def test_calendar_export_takes_the_building_files_time_zone(fmu_data, tmp_path):
+    """Fourth EnergyPlus round: `diagnose --control-output` found a holiday in the restaurant's data, and
+    `hvacfmu export ctl.json -b building.toml` warned that the FMU would ignore it for want of --timezone, although the
+    building file names the site's zone; the native export's refusal sent the user to --timezone too."""
+    model = calendar_model(fmu_data.building)
+    mp = model.save(tmp_path / "calendar.json")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HvacfmuWarning)  # no "without a time zone" warning
+        path = export_fmu(mp, tmp_path / "calendar.fmu", building=fmu_data.building)
+    with zipfile.ZipFile(path) as z:
+        layout = json.loads(z.read("resources/interface.json"))
+    assert layout["timezone"] == fmu_data.building.timezone
+    assert any(v["name"] == "start_time" for v in layout["variables"])
+
+
 # ----------------------------------------------------------------------------- slave scripts
 def test_slave_scripts_in_fmus_are_the_template():
     """fmus/*.py are exactly what hvacfmu.fmu writes when installed without the source tree."""
