@@ -963,13 +963,16 @@ def _measured_violation(run: _Run, completed: int):
 
     The figure that makes the run's own readable: a band that is not the building's (the default 20-22 degC against a
     restaurant held at 24 degC all summer) shows as the measured data being far outside it too."""
-    cols = []
+    weights = dict(zip(run.building.zone_names, run.building.area_weights())) if run.building is not None else {}
+    columns = []
     for o in run.out_names:
         zones = run.outputs[o]
-        if len(zones) != 1 or f"T_{zones[0]}" not in run.frame:
+        if any(f"T_{z}" not in run.frame for z in zones) or (len(zones) > 1 and not all(z in weights for z in zones)):
             return None
-        cols.append(f"T_{zones[0]}")
-    Y = run.frame[cols].to_numpy(dtype=float)[1 : completed + 1]
+        w = np.array([weights[z] for z in zones], dtype=float) if len(zones) > 1 else np.ones(1)
+        T = run.frame[[f"T_{z}" for z in zones]].to_numpy(dtype=float)
+        columns.append(T @ (w / w.sum()))  # a floor output (lumped model): the area-weighted mean of its zones
+    Y = np.column_stack(columns)[1 : completed + 1]
     if not len(Y) or not np.isfinite(Y).any():
         return None
     lo, hi = run.band

@@ -19,8 +19,14 @@ from harness.cosim import CosimResult, _measured_violation
 def _run(t_a, t_b, band=(20.0, 22.0)):
     index = pd.date_range("2025-07-01", periods=len(t_a), freq="15min", tz="UTC")
     frame = pd.DataFrame({"T_A": t_a, "T_B": t_b}, index=index)
+    building = SimpleNamespace(zone_names=("A", "B"), area_weights=lambda: np.array([0.75, 0.25]))
     return SimpleNamespace(
-        out_names=("T_A", "T_B"), outputs={"T_A": ("A",), "T_B": ("B",)}, frame=frame, band=band, step=900.0
+        out_names=("T_A", "T_B"),
+        outputs={"T_A": ("A",), "T_B": ("B",)},
+        frame=frame,
+        band=band,
+        step=900.0,
+        building=building,
     )
 
 
@@ -38,7 +44,10 @@ def test_measured_violation_over_the_steps_taken():
     run = _run(np.full(9, 24.0), np.full(9, 21.0))  # A 2 K above the band, B inside
     assert _measured_violation(run, 8) == pytest.approx(8 * 2.0 * 0.25)
     assert _measured_violation(run, 4) == pytest.approx(4 * 2.0 * 0.25)
-    run.outputs["T_A"] = ("A", "B")  # an output over two zones: no single measured column
+    # a lumped model's floor output: the area-weighted mean of its zones (0.75 x 24 + 0.25 x 21 = 23.25: 1.25 K above)
+    run.out_names, run.outputs = ("T_floor",), {"T_floor": ("A", "B")}
+    assert _measured_violation(run, 8) == pytest.approx(8 * 1.25 * 0.25)
+    run.outputs = {"T_floor": ("A", "C")}  # a zone without a measured column: no figure
     assert _measured_violation(run, 8) is None
 
 
