@@ -163,7 +163,35 @@ class CosimResult:
             lines.append(f"  gap-filled      {s['filled_inputs']} input values (time interpolation)")
         if s.get("controller_stats"):
             lines.append(f"  controller      {s['controller_stats']}")
+            lines += _mpc_stats_lines(s["controller_stats"])
         return "\n".join(lines)
+
+
+def _mpc_stats_lines(st: dict) -> list:
+    """The MPC's statistics that change how a run reads, in words (the dict above keeps every figure).
+
+    Fourth EnergyPlus round: the restaurant's MPC under the default band had 164 of 192 planned moves beyond the boxes'
+    range (by up to 20 kg/s) and 47 steps not converged, said only as keys of a dict."""
+    n = int(st.get("steps") or 0)
+    if not n or "projected_steps" not in st:
+        return []
+    out = []
+    p = int(st.get("projected_steps") or 0)
+    if p:
+        out.append(
+            f"  limits          {p} of {n} steps planned airflows beyond the boxes' [m_min, m_max] (up to "
+            f"{float(st.get('projected_max') or 0.0):.3g} kg/s), applied at the limit: the band may be out of the "
+            "boxes' reach there (too tight a band, or too little range at these supply temperatures)"
+        )
+    nc = int(st.get("not_converged") or 0)
+    if nc:
+        out.append(f"  convergence     {nc} of {n} steps did not converge; the best iterate was applied")
+    f = int(st.get("failures") or 0)
+    if f:
+        out.append(
+            f"  failures        {f} of {n} steps found no plan (the previous plan's next move, else the minimum, applied)"
+        )
+    return out
 
 
 def _measured_comfort_note(s: dict) -> str:

@@ -61,3 +61,15 @@ def test_comfort_line_names_the_measured_figure_and_the_band_option():
     assert line.endswith("(the measured zone temperatures: 0.30 K*h)")
     none = CosimResult(table=pd.DataFrame(), summary=_summary(None)).format_summary()
     assert next(x for x in none.splitlines() if "comfort" in x).endswith("degC")
+
+
+def test_mpc_statistics_that_change_the_reading_are_said_in_words():
+    st = {"steps": 192, "failures": 0, "not_converged": 47, "projected_steps": 164, "projected_max": 20.24}
+    text = CosimResult(table=pd.DataFrame(), summary=dict(_summary(None), controller_stats=st)).format_summary()
+    assert "164 of 192 steps planned airflows beyond the boxes' [m_min, m_max] (up to 20.2 kg/s)" in text
+    assert "the band may be out of the boxes' reach there" in text
+    assert "47 of 192 steps did not converge; the best iterate was applied" in text and "found no plan" not in text
+    rule = CosimResult(
+        table=pd.DataFrame(), summary=dict(_summary(None), controller_stats={"kp": 0.5})
+    ).format_summary()
+    assert "limits " not in rule and "convergence" not in rule
