@@ -220,7 +220,7 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
         IANA time zone of the building (e.g. ``America/Los_Angeles``), needed
         only by models whose internal gains depend on the date (holidays,
         daylight-saving shift: :func:`hvacfmu.fmu_slave.calendar_dependent`);
-        defaults to the model's ``meta["timezone"]``. With it such an FMU gets the
+        defaults to the model's ``meta["timezone"]``, then to ``building``'s. With it such an FMU gets the
         parameter ``start_time`` [s, Unix epoch] and reproduces the Python
         model's gains exactly; without it the export warns that the FMU
         follows the time-of-week profile only. Ignored for other models.
@@ -263,7 +263,11 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
     building = _model_building(model, building, model_path)
     calendar = calendar_dependent(model)
     if calendar:
-        timezone = timezone or (getattr(model, "meta", None) or {}).get("timezone")
+        # the building file's zone when given: the data, and so the model's holidays, are on its calendar (a model
+        # of `diagnose --control-output` with a holiday, exported with -b, lost its calendar before)
+        timezone = (
+            timezone or (getattr(model, "meta", None) or {}).get("timezone") or getattr(building, "timezone", None)
+        )
         if timezone is not None:
             _check_timezone(timezone, model_path)
         else:

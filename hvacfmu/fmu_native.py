@@ -73,7 +73,8 @@ def native_equations(model, model_name="the model"):
         raise FMUError(
             f"cannot export {model_name} as a native FMU: its internal gains depend on the calendar "
             "(holidays or daylight-saving terms), which the native FMU does not compute; export the "
-            "pythonfmu FMU with --timezone instead"
+            "pythonfmu FMU instead (without --native; its calendar's time zone from --timezone or the building "
+            "file, -b)"
         )
     if not callable(getattr(model, "equations", None)):
         raise FMUError(

@@ -375,12 +375,23 @@ def test_an_airflow_column_that_never_moves_is_flagged(tmp_path):
     f["m_V2"] = 0.4
     report = _check(f, tmp_path, constant_volume)
     assert not [w for w in report.warnings if "'m_V2'" in w], report.warnings
-    # a box held at its own minimum all along (the hospital's patient rooms): said, but nothing to fix
-    f["m_V2"] = 0.03
+    # a box held at its maximum all along (the large office's data centre): said, but nothing to fix
+    f["m_V2"] = 0.4
     report = _check(f, tmp_path)
     msg = _one(report.warnings, "'m_V2'")
-    assert "box V2 delivers its m_min = 0.03 kg/s in every one of its 768 samples" in msg, msg
+    assert "box V2 delivers its m_max = 0.4 kg/s in every one of its 768 samples" in msg, msg
     assert "cannot learn its effect" in msg and report.exit_code == 0
+
+
+def test_a_vav_box_at_its_minimum_all_record_is_a_note_not_a_fault(tmp_path):
+    # fourth EnergyPlus round: the 90.1 outpatient clinic's exam-room boxes sat at m_min from January to March (they
+    # only reheat); `check` called that a dead sensor to fix before fitting and returned 3
+    f = base_frame(days=8)
+    f["m_V2"] = 0.03  # box V2: m_min 0.03, m_max 0.4
+    report = _check(f, tmp_path)
+    msg = _one(report.warnings, "'m_V2'")
+    assert "reads its minimum m_min = 0.03 kg/s in every one of its 768 samples" in msg and "Td_V2" in msg
+    assert "dead flow sensor" not in msg and report.exit_code == 0
 
 
 @pytest.mark.parametrize(

@@ -396,19 +396,21 @@ def check_airflow_constant(si, times_ns, ok, box, desc, warnings):
     if box.m_max - box.m_min <= 0.01 * box.m_max and abs(v[0] - box.m_max) <= 0.01 * box.m_max:
         return  # a constant-volume box (m_min = m_max, the 90.1 hospital's lab) delivering its one flow
     days = (times_ns[sel[-1]] - times_ns[sel[0]]) / 86400e9
-    limit = next(
-        (
-            name
-            for name, m in (("m_min", box.m_min), ("m_max", box.m_max))
-            if abs(v[0] - m) <= 0.01 * max(box.m_max, 1e-9)
-        ),
-        None,
-    )
-    if limit is not None and v[0] > 0:
-        # a box held at one of its own limits all along (the 90.1 hospital's patient rooms at m_min, a data centre at
-        # m_max) is how that building runs, not a sensor fault: a note, nothing to fix
+    if box.m_min > 0 and abs(v[0] - box.m_min) <= 0.01 * box.m_max:
+        # a VAV box at its (ventilation) minimum the whole record: what a reheat box does all winter (the 90.1
+        # outpatient clinic's exam rooms in Colorado Springs, January-March), not a fault to fix before fitting
         warnings.append(
-            f"{desc}: box {box.name} delivers its {limit} = {v[0]:.4g} kg/s in every one of its {len(v)} samples over "
+            f"{desc}: reads its minimum m_min = {box.m_min:g} kg/s in every one of its {len(v)} samples over "
+            f"{days:.1f} days (box {box.name} may reach m_max = {box.m_max:g} kg/s): a VAV box that stayed at its "
+            "minimum flow, as one does when it only reheats (a heating season); its heat still moves with its "
+            f"discharge temperature Td_{box.name}, but its airflow response is not seen in these data. If the box "
+            "did move, the column is a setpoint, not the measured flow"
+        )
+        return
+    if abs(v[0] - box.m_max) <= 0.01 * box.m_max:
+        # a box at its maximum all along (the 90.1 large office's data centre) is how that zone runs, not a fault
+        warnings.append(
+            f"{desc}: box {box.name} delivers its m_max = {v[0]:.4g} kg/s in every one of its {len(v)} samples over "
             f"{days:.1f} days: its airflow never changes, so the models cannot learn its effect from these data"
         )
         return
