@@ -18,7 +18,7 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
-from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan
+from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan, reheat_disturbances
 from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
@@ -174,6 +174,10 @@ class CosimMPC:
         )
         ext = frame.reindex(idx).ffill()
         missing = [c for c in model.disturbances if c not in ext]
+        if missing:  # columns an extended model derives (the reheat heat of a zone, Qrh_<zone>)
+            derived = reheat_disturbances(model, ext, context.discharge or ())
+            ext = ext.assign(**{c: q for c, q in derived.items() if c in missing})
+            missing = [c for c in model.disturbances if c not in ext]
         if missing:
             raise ModelError(f"the run's data lack disturbance column(s) {missing} that the model needs")
         self.V = ext[list(model.disturbances)].to_numpy(dtype=float)

@@ -30,6 +30,7 @@ import numpy as np
 from scipy import sparse
 
 from hvacfmu.errors import ModelError
+from hvacfmu.models.causes.reheat import reheat_column, zone_boxes
 
 from .predict import model_equations
 
@@ -142,6 +143,17 @@ def heat_plan(model, building, vavs, discharge, td_max, frame):
                 f"{list(eq.disturbances)}"
             )
         cols, groups, names = _linear_heat_columns(model, eq, vavs, frame)
+        # an extended model whose diagnosis found a zone's reheat through its discharge air (a term
+        # ``coef * Qrh_<zone>``, Qrh in kW) has measured that zone's heat gain: it replaces the scaled airflow gain
+        src = getattr(model, "base", model)
+        outs = list(getattr(src, "outputs", ()))
+        dist = list(eq.disturbances)
+        if len(outs) == len(cols):
+            Bv = np.asarray(eq.Bv.toarray() if sparse.issparse(eq.Bv) else eq.Bv, dtype=float)
+            for i, z in enumerate(outs):
+                g = Bv[:, dist.index(reheat_column(z))] if reheat_column(z) in dist else None
+                if g is not None and g[i] > 0.0:  # a coefficient at its bound 0: keep the airflow's
+                    cols[i] = g
     G = np.column_stack(cols)
     if np.any(G.sum(axis=0) <= 0.0):
         raise ModelError("the model's reheat effect is not a warming one for every input; cannot heat with it")
@@ -212,3 +224,23 @@ def discharge_commands(plan: HeatPlan, h, m, T_supply, td_boxes) -> np.ndarray:
     Td = T_supply + hb * 1000.0 / (m * CP_AIR)
     Td = np.clip(Td, T_supply, np.maximum(plan.td_max, T_supply))
     return Td[np.asarray(td_boxes, dtype=int)]
+
+
+def reheat_disturbances(model, frame, commanded=()) -> dict:
+    """The reheat heat ``Qrh_<zone>`` [kW] an extended model's discharge reheat terms read, from ``frame``.
+
+    A diagnosis that finds a zone's reheat through its measured discharge air (``Td_<vav>``) adds a disturbance
+    ``Qrh_<zone> = Σ m c_p (Td - T_supply)`` the data do not carry: the model derives it from the frame
+    (:meth:`~hvacfmu.models.causes.base.Term.derive`). On a plant whose boxes take discharge commands
+    (``commanded``) the recorded reheat never reaches the plant (its boxes discharge their supply air plus this
+    controller's reheat, the ``h`` inputs): a zone whose boxes are all commanded previews 0.
+    """
+    base = getattr(model, "base", None)
+    commanded = set(commanded)
+    out = {}
+    for t in getattr(model, "terms", ()):
+        for col, q in t.derive(frame, base).items():
+            zone = getattr(t, "zone", None)
+            boxes = zone_boxes(base, zone) if zone is not None and col == reheat_column(zone) else None
+            out[col] = np.zeros(len(frame)) if boxes and set(boxes) <= commanded else np.asarray(q, dtype=float)
+    return out
