@@ -371,7 +371,13 @@ def _default_mapping(inst: FMUInstance, frame, building):
             elif name in frame.columns:
                 inputs[name] = name
             else:
-                problems.append(f"FMU input {name!r} is neither a box airflow m_<vav> nor a data column")
+                hint = (
+                    f" (the reheat heat of zone {name[4:]} an extended model derives from the discharge air "
+                    "Td_<vav>: pass that model with --model)"
+                    if name.startswith("Qrh_")
+                    else ""
+                )
+                problems.append(f"FMU input {name!r} is neither a box airflow m_<vav> nor a data column{hint}")
         elif var.causality == "output":
             if name == "T_floor":
                 outputs[name] = tuple(building.zone_names)
@@ -531,6 +537,7 @@ def run_cosim(
     DataError
         The data cannot feed the FMU (missing columns, empty span).
     """
+    dataset = _with_derived_columns(dataset, _fmu_model(fmu_path) or model)
     run = _Run.for_span(dataset, week, start, stop, season, band)
     with FMUInstance(fmu_path) as inst:
         _connect(run, inst, mapping)
@@ -568,6 +575,22 @@ def run_cosim(
             err.result = result
             raise err
     return result
+
+
+def _with_derived_columns(dataset, model):
+    """``dataset`` with the disturbance columns ``model`` derives from the data and the data lack.
+
+    An extended model whose diagnosis found a zone's reheat through its discharge air reads ``Qrh_<zone>`` [kW],
+    the heat of the zone's coils from ``m``, ``Td_<vav>`` and the supply air; its FMU takes that as an input.
+    On a model FMU the recorded reheat is the input it was fitted with (the controller commands airflow only).
+    """
+    if model is None or not getattr(model, "terms", ()):
+        return dataset
+    from .mpc.heating import reheat_disturbances
+
+    frame = dataset.frame
+    derived = {c: q for c, q in reheat_disturbances(model, frame).items() if c not in frame.columns}
+    return dataclasses.replace(dataset, frame=frame.assign(**derived)) if derived else dataset
 
 
 @dataclasses.dataclass

@@ -371,3 +371,34 @@ def test_summary_names_outputs_that_cycle_with_the_plant():
     text = CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {"T_E": 2}}))
     assert text.endswith("T_E 2 of 39 steps reverse a move of more than 0.5 K")  # a few: counted, not judged
     assert "oscillation" not in CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {}}))
+
+
+def test_a_model_fmu_reading_the_reheat_heat_qrh_runs_on_the_data_it_is_derived_from(data, tmp_path):
+    """The FMU of a diagnosis's extended/control model of a reheat building has an input ``Qrh_<zone>`` [kW] (the
+    zone's reheat through its discharge air, derived from ``m``, ``Td_<vav>`` and the supply air). ``cosim`` refused
+    it on every FMU ("FMU input 'Qrh_W' is neither a box airflow m_<vav> nor a data column", round 2 of fleet sweep
+    s10). Now the run derives it from the data with the FMU's own model (pythonfmu) or ``--model`` (native FMU,
+    else the refusal names the remedy); the table carries the values fed."""
+    import dataclasses
+
+    from harness.mpc.heating import reheat_disturbances
+    from hvacfmu.fmu_native import export_native_fmu
+    from hvacfmu.models.causes.reheat import Reheat
+    from hvacfmu.models.extended import ExtendedModel
+
+    base = zones_model(data.building)
+    z = base.outputs[0]
+    model = ExtendedModel(base, (Reheat(zone=z, coef=0.05, variant="discharge"),))
+    vavs = data.building.vav_names
+    frame = data.frame.assign(**{f"Td_{v}": data.frame["T_supply"] + 5.0 for v in vavs})
+    ds = dataclasses.replace(data, frame=frame)
+    start = ds.test_weeks()[0].start + pd.Timedelta(hours=8)
+    span = dict(start=start, stop=start + pd.Timedelta(hours=3))
+    native = export_native_fmu(model, tmp_path / "Ext.fmu")
+    with pytest.raises(HvacfmuError, match=rf"'Qrh_{z}' is neither .* pass that model with --model"):
+        run_cosim(native, ds, ReplayController(), **span)
+    run = run_cosim(native, ds, ReplayController(), model=model, **span)
+    q = reheat_disturbances(model, frame)[f"Qrh_{z}"]
+    fed = run.table[f"Qrh_{z}"].to_numpy()[:-1]
+    assert np.all(fed > 0.0)
+    assert_allclose(fed, pd.Series(q, index=frame.index).loc[run.table.index[:-1]].to_numpy(), rtol=1e-12)
