@@ -402,3 +402,18 @@ def test_a_model_fmu_reading_the_reheat_heat_qrh_runs_on_the_data_it_is_derived_
     fed = run.table[f"Qrh_{z}"].to_numpy()[:-1]
     assert np.all(fed > 0.0)
     assert_allclose(fed, pd.Series(q, index=frame.index).loc[run.table.index[:-1]].to_numpy(), rtol=1e-12)
+
+
+def test_the_reheat_heat_input_of_an_fmu_has_a_unit_and_says_how_to_compute_it():
+    """``fmpy info`` on the FMU of a diagnosis's control model of a reheat building showed ``Qrh_W`` with no unit
+    and its own name as the description: a user feeding the FMU could not know it is a heat [kW] computed from the
+    discharge air (round 2 of fleet sweep s10). Now kW (a unit definition with factor 1000) and the formula."""
+    from xml.etree.ElementTree import tostring
+
+    from hvacfmu.fmu_description import unit_definitions
+    from hvacfmu.fmu_slave.names import signal_entry
+
+    e = signal_entry("Qrh_W")
+    assert e["unit"] == "kW" and "Td_<vav>" in e["description"] and "[kW]" in e["description"]
+    assert 'factor="1000"' in tostring(unit_definitions([e])).decode()
+    assert signal_entry("rh_VAV_1")["description"].startswith("Reheat signal of VAV box VAV_1")
