@@ -141,6 +141,21 @@ class CosimResult:
             f"  energy proxy    {s['energy_proxy']:.4f} (kg/s)^2 summed over steps and boxes",
             f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
             f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC",
+        ]
+        by = sorted(((sum(v), k, v) for k, v in (s.get("comfort_by_output") or {}).items()), reverse=True)
+        if len(by) > 1 and by[0][0] >= 0.05:  # where the K*h are: a controller that keeps one zone cold and one hot
+            lines.append(
+                "    by output     "
+                + ", ".join(
+                    f"{k} {b:.1f} below / {a:.1f} above"
+                    if b >= 0.05 and a >= 0.05
+                    else f"{k} {b + a:.1f} {'below' if b >= a else 'above'}"
+                    for tot, k, (b, a) in by[:5]
+                    if tot >= 0.05
+                )
+                + (f" (+{len(by) - 5} more)" if len(by) > 5 and by[5][0] >= 0.05 else "")
+            )
+        lines += [
             f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>",
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
@@ -980,6 +995,14 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "total_airflow_kg": float(np.sum(Mc) * run.step),
         "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if c else math.nan,
         "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
+        "comfort_by_output": {
+            n: [float(b), float(a)]
+            for n, b, a in zip(
+                run.out_names,
+                np.nansum(np.clip(lo - Yc, 0, None), axis=0) * run.step / 3600.0,
+                np.nansum(np.clip(Yc - hi, 0, None), axis=0) * run.step / 3600.0,
+            )
+        },
         "heating_kWh": _heating_kwh(run, tr),
         "band": [float(lo), float(hi)],
         "step_time_median": med(st),
