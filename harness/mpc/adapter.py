@@ -173,11 +173,12 @@ class CosimMPC:
             frame.index[0], periods=len(frame) + N, freq=pd.Timedelta(seconds=context.step), tz=frame.index.tz
         )
         ext = frame.reindex(idx).ffill()
+        # columns an extended model derives (the reheat heat of a zone, Qrh_<zone>): derived here even when the
+        # run's data carry them (``run_cosim`` adds them for a model FMU's inputs), 0 where this run commands the
+        # discharge air
+        derived = reheat_disturbances(model, ext, context.discharge or ())
+        ext = ext.assign(**{c: q for c, q in derived.items() if c in model.disturbances})
         missing = [c for c in model.disturbances if c not in ext]
-        if missing:  # columns an extended model derives (the reheat heat of a zone, Qrh_<zone>)
-            derived = reheat_disturbances(model, ext, context.discharge or ())
-            ext = ext.assign(**{c: q for c, q in derived.items() if c in missing})
-            missing = [c for c in model.disturbances if c not in ext]
         if missing:
             raise ModelError(f"the run's data lack disturbance column(s) {missing} that the model needs")
         self.V = ext[list(model.disturbances)].to_numpy(dtype=float)
