@@ -258,3 +258,28 @@ def test_mpc_runs_the_diagnosis_control_model_whose_reheat_is_read_through_the_d
     assert np.all(ctrl.V[:, list(model.disturbances).index(f"Qrh_{z0}")] == 0.0)
     assert run.summary["controller_stats"]["failures"] == 0
     assert run.summary["heating_kWh"] > 0.0
+
+
+def test_mpc_on_the_plant_previews_no_recorded_reheat_signal_for_a_commanded_box(plant_fmu, short_data):
+    """The diagnosis of a reheat building can take a box's recorded reheat signal ``rh_<vav>`` as an input
+    (``unused_input``: round 2 of fleet sweep s10, building B, ``rh_VAV_NW_1`` at 1.70 K/step per unit). On a plant
+    whose boxes take this controller's discharge commands the recorded signal never reaches the plant, as the
+    recorded ``Td``: the preview held it at the data's values. Now 0 for a commanded box."""
+    from harness.cosim import make_controller
+    from hvacfmu.models.causes.unused_input import UnusedInput
+    from hvacfmu.models.datadriven import fit_zones
+    from hvacfmu.models.extended import ExtendedModel
+
+    vavs = short_data.building.vav_names
+    base = fit_zones(short_data, heat="airflow", open_loop=False)
+    box = vavs[0]
+    model = ExtendedModel(base, (UnusedInput(zone=base.outputs[0], column=f"rh_{box}", coef=0.5),))
+    frame = short_data.frame.assign(**{f"rh_{box}": 0.8})
+    data = dataclasses.replace(short_data, frame=frame)
+    span = day_span(data)
+    span["stop"] = span["start"] + pd.Timedelta(hours=2)
+    ctrl = make_controller("mpc", model, data.building, {"horizon": 4})
+    run = run_cosim(plant_fmu, data, ctrl, model=model, band=BAND, **span)
+    assert f"rh_{box}" in ctrl.replaced_inlets
+    assert np.all(ctrl.V[:, list(model.disturbances).index(f"rh_{box}")] == 0.0)
+    assert run.summary["controller_stats"]["failures"] == 0

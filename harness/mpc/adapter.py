@@ -240,7 +240,8 @@ class CosimMPC:
         Model B with measured inlets) takes it as a disturbance; on a plant that takes discharge commands the
         recorded ``Td`` (the building's own reheat) never reaches the plant: the box discharges its supply air
         plus this controller's reheat (its ``h`` inputs, :mod:`harness.mpc.heating`) or, without them, its supply
-        air. Those columns of the preview become the run's ``T_supply``. Returns the replaced columns.
+        air. Those columns of the preview become the run's ``T_supply``, and a recorded reheat signal ``rh_<vav>`` of
+        such a box (an input the diagnosis found) becomes 0. Returns the replaced columns.
         """
         if not context.discharge or self._T_supply is None:
             return []
@@ -252,6 +253,11 @@ class CosimMPC:
             if col is not None and col.startswith("Td_") and col in names:
                 self.V[:, names.index(col)] = self._T_supply
                 replaced.append(col)
+            # a recorded reheat signal the diagnosis took as an input (``unused_input`` on ``rh_<vav>``): the
+            # building's own reheat, which the commanded box does not get
+            if f"rh_{box}" in names:
+                self.V[:, names.index(f"rh_{box}")] = 0.0
+                replaced.append(f"rh_{box}")
         return replaced
 
     def _output_map(self, context):
