@@ -283,3 +283,24 @@ def test_mpc_on_the_plant_previews_no_recorded_reheat_signal_for_a_commanded_box
     assert f"rh_{box}" in ctrl.replaced_inlets
     assert np.all(ctrl.V[:, list(model.disturbances).index(f"rh_{box}")] == 0.0)
     assert run.summary["controller_stats"]["failures"] == 0
+
+
+def test_mpc_heat_plan_warns_of_a_zone_it_will_barely_heat(short_data):
+    """Building B of fleet sweep s10 round 2: the diagnosis's control model gives zone E a reheat gain of 1.2e-6
+    K/step per kW (the airflow gain of its boxes, not identifiable in the fit, scaled into a heat gain), 1/10000 of
+    the others'; the MPC left E 128 K*h below the band in two days without a word. Now a warning names the zone."""
+    from harness.mpc.heating import heat_plan
+    from hvacfmu.models.causes.reheat import Reheat
+    from hvacfmu.models.datadriven import fit_zones
+    from hvacfmu.models.extended import ExtendedModel
+
+    vavs = short_data.building.vav_names
+    base = fit_zones(short_data, heat="airflow", open_loop=False)
+    z = base.outputs[0]
+    frame = short_data.frame.assign(**{f"Td_{v}": short_data.frame["T_supply"] + 10.0 for v in vavs})
+    weak = ExtendedModel(base, (Reheat(zone=z, coef=1e-7, variant="discharge"),))
+    with pytest.warns(HvacfmuWarning, match=rf"reheat gain of {z} \(1e-07 K/step per kW\) is below 5%"):
+        heat_plan(weak, short_data.building, vavs, vavs, np.full(len(vavs), 35.0), frame)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HvacfmuWarning)
+        heat_plan(base, short_data.building, vavs, vavs, np.full(len(vavs), 35.0), frame)

@@ -25,11 +25,12 @@ a linear model (Model A) only knows the airflow gain ``B``, whose heat per kg/s 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 from scipy import sparse
 
-from hvacfmu.errors import ModelError
+from hvacfmu.errors import HvacfmuWarning, ModelError
 from hvacfmu.models.causes.reheat import reheat_column, zone_boxes
 
 from .predict import model_equations
@@ -157,8 +158,34 @@ def heat_plan(model, building, vavs, discharge, td_max, frame):
     G = np.column_stack(cols)
     if np.any(G.sum(axis=0) <= 0.0):
         raise ModelError("the model's reheat effect is not a warming one for every input; cannot heat with it")
+    _warn_weak_heat(G, names)
     plan = HeatPlan(tuple(groups), G, cap, np.where(np.isfinite(tdm), tdm, 0.0))
     return HeatedModel(model, eq, plan, names), plan, names
+
+
+#: a heat input whose largest effect is below this share of the median input's: the MPC will barely use it
+WEAK_HEAT_SHARE = 0.05
+
+
+def _warn_weak_heat(G, names) -> None:
+    """Warn about heat inputs whose gain is a small fraction of the others' (the MPC will barely heat there).
+
+    A zone whose boxes' airflow the fit could not identify gets an airflow gain near 0, and with it a reheat gain
+    near 0 when that is scaled into one (Model A's airflow form): the MPC then leaves the zone cold without a word
+    (round 2 of fleet sweep s10, building B's control model: E 128 K*h below the band in two days).
+    """
+    gain = np.max(G, axis=0)
+    ref = float(np.median(gain))
+    weak = [(n, g) for n, g in zip(names, gain) if ref > 0.0 and g < WEAK_HEAT_SHARE * ref]
+    if weak:
+        warnings.warn(
+            "the model's reheat gain of "
+            + ", ".join(f"{n} ({g:.2g} K/step per kW)" for n, g in weak)
+            + f" is below {WEAK_HEAT_SHARE:.0%} of the median input's ({ref:.2g}): the MPC will barely heat there "
+            "(was the boxes' airflow identifiable in the fit?)",
+            HvacfmuWarning,
+            stacklevel=3,
+        )
 
 
 def box_inlets(model) -> dict:
