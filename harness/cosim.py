@@ -142,6 +142,21 @@ class CosimResult:
             f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
             f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC"
             + _measured_comfort_note(s),
+        ]
+        by = sorted(((sum(v), k, v) for k, v in (s.get("comfort_by_output") or {}).items()), reverse=True)
+        if len(by) > 1 and by[0][0] >= 0.05:  # where the K*h are: a controller that keeps one zone cold and one hot
+            lines.append(
+                "    by output     "
+                + ", ".join(
+                    f"{k} {b:.1f} below / {a:.1f} above"
+                    if b >= 0.05 and a >= 0.05
+                    else f"{k} {b + a:.1f} {'below' if b >= a else 'above'}"
+                    for tot, k, (b, a) in by[:5]
+                    if tot >= 0.05
+                )
+                + (f" (+{len(by) - 5} more)" if len(by) > 5 and by[5][0] >= 0.05 else "")
+            )
+        lines += [
             f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>",
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
@@ -412,7 +427,13 @@ def _default_mapping(inst: FMUInstance, frame, building):
             elif name in frame.columns:
                 inputs[name] = name
             else:
-                problems.append(f"FMU input {name!r} is neither a box airflow m_<vav> nor a data column")
+                hint = (
+                    f" (the reheat heat of zone {name[4:]} an extended model derives from the discharge air "
+                    "Td_<vav>: pass that model with --model)"
+                    if name.startswith("Qrh_")
+                    else ""
+                )
+                problems.append(f"FMU input {name!r} is neither a box airflow m_<vav> nor a data column{hint}")
         elif var.causality == "output":
             if name == "T_floor":
                 outputs[name] = tuple(building.zone_names)
@@ -574,6 +595,7 @@ def run_cosim(
     DataError
         The data cannot feed the FMU (missing columns, empty span).
     """
+    dataset = _with_derived_columns(dataset, _fmu_model(fmu_path) or model)
     run = _Run.for_span(dataset, week, start, stop, season, band)
     with FMUInstance(fmu_path) as inst:
         _connect(run, inst, mapping)
@@ -611,6 +633,22 @@ def run_cosim(
             err.result = result
             raise err
     return result
+
+
+def _with_derived_columns(dataset, model):
+    """``dataset`` with the disturbance columns ``model`` derives from the data and the data lack.
+
+    An extended model whose diagnosis found a zone's reheat through its discharge air reads ``Qrh_<zone>`` [kW],
+    the heat of the zone's coils from ``m``, ``Td_<vav>`` and the supply air; its FMU takes that as an input.
+    On a model FMU the recorded reheat is the input it was fitted with (the controller commands airflow only).
+    """
+    if model is None or not getattr(model, "terms", ()):
+        return dataset
+    from .mpc.heating import reheat_disturbances
+
+    frame = dataset.frame
+    derived = {c: q for c, q in reheat_disturbances(model, frame).items() if c not in frame.columns}
+    return dataclasses.replace(dataset, frame=frame.assign(**derived)) if derived else dataset
 
 
 @dataclasses.dataclass
@@ -1036,6 +1074,14 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
         "measured_comfort_violation_Kh": _measured_violation(run, c),
         "outputs": len(run.out_names),
+        "comfort_by_output": {
+            n: [float(b), float(a)]
+            for n, b, a in zip(
+                run.out_names,
+                np.nansum(np.clip(lo - Yc, 0, None), axis=0) * run.step / 3600.0,
+                np.nansum(np.clip(Yc - hi, 0, None), axis=0) * run.step / 3600.0,
+            )
+        },
         "heating_kWh": _heating_kwh(run, tr),
         "band": [float(lo), float(hi)],
         "step_time_median": med(st),

@@ -21,6 +21,7 @@ UNITS = {
     "kg/s": ({"kg": "1", "s": "-1"}, None),
     "W/m2": ({"kg": "1", "s": "-3"}, None),
     "s": ({"s": "1"}, None),
+    "kW": ({"kg": "1", "m": "2", "s": "-3", "factor": "1000"}, None),
 }
 
 #: unit -> (type name, quantity) of ``<TypeDefinitions>``
@@ -30,6 +31,7 @@ TYPES = {
     "kg/s": ("MassFlowRate", "MassFlowRate"),
     "W/m2": ("Irradiance", "Irradiance"),
     "s": ("Time", "Time"),
+    "kW": ("HeatFlowRate", "Power"),
 }
 #: type of Real variables without a unit, and of Integer variables
 DIMENSIONLESS = ("Dimensionless", "Dimensionless")

@@ -1025,3 +1025,26 @@ def test_fmpy_simulate_without_solar_inputs(built, fmu_data, tmp_path, kind):
     dark[:, [list(model.disturbances).index(d) for d in model.disturbances if d.startswith("I_")]] = 0.0
     Yref = reference(model, idx[:n], m[:n], dark[:n], y0, week.season)
     assert_allclose(out[names_out].to_numpy(), Yref[:n], rtol=0, atol=1e-9)
+
+
+def test_fmu_exported_with_other_descriptions_runs(built, tmp_path):
+    """A pythonfmu FMU runs with the host's hvacfmu, which checks ``resources/model.json`` against the variables
+    of ``interface.json``. It compared the descriptions and units too, so an FMU exported before a wording change
+    (round 2 of fleet sweep s10: the reheat heat input ``Qrh_<zone>`` gained a unit and a description) was refused
+    at initialisation with "does not match the FMU's variables ...; was the file replaced?". Documentation no
+    longer counts; a different variable (a replaced model) still does."""
+    _, _, path = built["zones"]
+    with zipfile.ZipFile(path) as z:
+        d = json.loads(z.read("resources/interface.json"))
+    d["description"] = "older wording"
+    for e in d["variables"]:
+        e["description"] = "older wording of " + e["name"]
+        e["unit"] = None if e.get("unit") == "W/m2" else e.get("unit")
+    old = _rewrite(path, tmp_path / "old.fmu", "resources/interface.json", json.dumps(d))
+    s = Slave(old)
+    try:
+        s.init()
+        s.fmu.doStep(0.0, 900.0)
+        assert not any(status in ("error", "fatal") for status, _, _ in s.log)
+    finally:
+        s.close()

@@ -371,3 +371,66 @@ def test_summary_names_outputs_that_cycle_with_the_plant():
     text = CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {"T_E": 2}}))
     assert text.endswith("T_E 2 of 39 steps reverse a move of more than 0.5 K")  # a few: counted, not judged
     assert "oscillation" not in CosimResult.format_summary(SimpleNamespace(summary={**s, "oscillation": {}}))
+
+
+def test_a_model_fmu_reading_the_reheat_heat_qrh_runs_on_the_data_it_is_derived_from(data, tmp_path):
+    """The FMU of a diagnosis's extended/control model of a reheat building has an input ``Qrh_<zone>`` [kW] (the
+    zone's reheat through its discharge air, derived from ``m``, ``Td_<vav>`` and the supply air). ``cosim`` refused
+    it on every FMU ("FMU input 'Qrh_W' is neither a box airflow m_<vav> nor a data column", round 2 of fleet sweep
+    s10). Now the run derives it from the data with the FMU's own model (pythonfmu) or ``--model`` (native FMU,
+    else the refusal names the remedy); the table carries the values fed."""
+    import dataclasses
+
+    from harness.mpc.heating import reheat_disturbances
+    from hvacfmu.fmu_native import export_native_fmu
+    from hvacfmu.models.causes.reheat import Reheat
+    from hvacfmu.models.extended import ExtendedModel
+
+    base = zones_model(data.building)
+    z = base.outputs[0]
+    model = ExtendedModel(base, (Reheat(zone=z, coef=0.05, variant="discharge"),))
+    vavs = data.building.vav_names
+    frame = data.frame.assign(**{f"Td_{v}": data.frame["T_supply"] + 5.0 for v in vavs})
+    ds = dataclasses.replace(data, frame=frame)
+    start = ds.test_weeks()[0].start + pd.Timedelta(hours=8)
+    span = dict(start=start, stop=start + pd.Timedelta(hours=3))
+    native = export_native_fmu(model, tmp_path / "Ext.fmu")
+    with pytest.raises(HvacfmuError, match=rf"'Qrh_{z}' is neither .* pass that model with --model"):
+        run_cosim(native, ds, ReplayController(), **span)
+    run = run_cosim(native, ds, ReplayController(), model=model, **span)
+    q = reheat_disturbances(model, frame)[f"Qrh_{z}"]
+    fed = run.table[f"Qrh_{z}"].to_numpy()[:-1]
+    assert np.all(fed > 0.0)
+    assert_allclose(fed, pd.Series(q, index=frame.index).loc[run.table.index[:-1]].to_numpy(), rtol=1e-12)
+
+
+def test_the_reheat_heat_input_of_an_fmu_has_a_unit_and_says_how_to_compute_it():
+    """``fmpy info`` on the FMU of a diagnosis's control model of a reheat building showed ``Qrh_W`` with no unit
+    and its own name as the description: a user feeding the FMU could not know it is a heat [kW] computed from the
+    discharge air (round 2 of fleet sweep s10). Now kW (a unit definition with factor 1000) and the formula."""
+    from xml.etree.ElementTree import tostring
+
+    from hvacfmu.fmu_description import unit_definitions
+    from hvacfmu.fmu_slave.names import signal_entry
+
+    e = signal_entry("Qrh_W")
+    assert e["unit"] == "kW" and "Td_<vav>" in e["description"] and "[kW]" in e["description"]
+    assert 'factor="1000"' in tostring(unit_definitions([e])).decode()
+    assert signal_entry("rh_VAV_1")["description"].startswith("Reheat signal of VAV box VAV_1")
+
+
+def test_summary_says_which_outputs_are_below_or_above_the_band(zones, data):
+    """``cosim --controller mpc`` with a lumped model on a nine-zone plant (round 2 of fleet sweep s10) printed
+    "comfort 306.38 K*h" and nothing on where: the one decision kept the four corner zones 56-61 K*h above the
+    band and the core 52 K*h below. The summary now splits the figure per output, below and above, and prints the
+    worst; the parts add up to the total."""
+    model, _, path = zones
+    start = data.test_weeks()[0].start + pd.Timedelta(hours=8)
+    band = (21.0, 21.2)
+    run = run_cosim(path, data, ReplayController(), start=start, stop=start + pd.Timedelta(hours=6), band=band)
+    s = run.summary
+    by = s["comfort_by_output"]
+    assert set(by) == {f"T_{z}" for z in model.outputs}
+    assert sum(b + a for b, a in by.values()) == pytest.approx(s["comfort_violation_Kh"], rel=1e-12)
+    worst = max(by, key=lambda k: sum(by[k]))
+    assert sum(by[worst]) > 0.05 and "    by output     " + worst in run.format_summary()

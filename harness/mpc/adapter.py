@@ -18,7 +18,7 @@ from hvacfmu.errors import HvacfmuError, ModelError
 
 from ..controllers import BoxLimiter
 from .controller import MPCController, input_limits, input_mapping
-from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan
+from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan, reheat_disturbances
 from .predict import make_predictor, state_from_outputs
 from .problem import MPCSettings
 
@@ -173,6 +173,11 @@ class CosimMPC:
             frame.index[0], periods=len(frame) + N, freq=pd.Timedelta(seconds=context.step), tz=frame.index.tz
         )
         ext = frame.reindex(idx).ffill()
+        # columns an extended model derives (the reheat heat of a zone, Qrh_<zone>): derived here even when the
+        # run's data carry them (``run_cosim`` adds them for a model FMU's inputs), 0 where this run commands the
+        # discharge air
+        derived = reheat_disturbances(model, ext, context.discharge or ())
+        ext = ext.assign(**{c: q for c, q in derived.items() if c in model.disturbances})
         missing = [c for c in model.disturbances if c not in ext]
         if missing:
             raise ModelError(f"the run's data lack disturbance column(s) {missing} that the model needs")
@@ -235,7 +240,8 @@ class CosimMPC:
         Model B with measured inlets) takes it as a disturbance; on a plant that takes discharge commands the
         recorded ``Td`` (the building's own reheat) never reaches the plant: the box discharges its supply air
         plus this controller's reheat (its ``h`` inputs, :mod:`harness.mpc.heating`) or, without them, its supply
-        air. Those columns of the preview become the run's ``T_supply``. Returns the replaced columns.
+        air. Those columns of the preview become the run's ``T_supply``, and a recorded reheat signal ``rh_<vav>`` of
+        such a box (an input the diagnosis found) becomes 0. Returns the replaced columns.
         """
         if not context.discharge or self._T_supply is None:
             return []
@@ -247,6 +253,11 @@ class CosimMPC:
             if col is not None and col.startswith("Td_") and col in names:
                 self.V[:, names.index(col)] = self._T_supply
                 replaced.append(col)
+            # a recorded reheat signal the diagnosis took as an input (``unused_input`` on ``rh_<vav>``): the
+            # building's own reheat, which the commanded box does not get
+            if f"rh_{box}" in names:
+                self.V[:, names.index(f"rh_{box}")] = 0.0
+                replaced.append(f"rh_{box}")
         return replaced
 
     def _output_map(self, context):

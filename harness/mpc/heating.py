@@ -25,11 +25,13 @@ a linear model (Model A) only knows the airflow gain ``B``, whose heat per kg/s 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 from scipy import sparse
 
-from hvacfmu.errors import ModelError
+from hvacfmu.errors import HvacfmuWarning, ModelError
+from hvacfmu.models.causes.reheat import reheat_column, zone_boxes
 
 from .predict import model_equations
 
@@ -142,11 +144,48 @@ def heat_plan(model, building, vavs, discharge, td_max, frame):
                 f"{list(eq.disturbances)}"
             )
         cols, groups, names = _linear_heat_columns(model, eq, vavs, frame)
+        # an extended model whose diagnosis found a zone's reheat through its discharge air (a term
+        # ``coef * Qrh_<zone>``, Qrh in kW) has measured that zone's heat gain: it replaces the scaled airflow gain
+        src = getattr(model, "base", model)
+        outs = list(getattr(src, "outputs", ()))
+        dist = list(eq.disturbances)
+        if len(outs) == len(cols):
+            Bv = np.asarray(eq.Bv.toarray() if sparse.issparse(eq.Bv) else eq.Bv, dtype=float)
+            for i, z in enumerate(outs):
+                g = Bv[:, dist.index(reheat_column(z))] if reheat_column(z) in dist else None
+                if g is not None and g[i] > 0.0:  # a coefficient at its bound 0: keep the airflow's
+                    cols[i] = g
     G = np.column_stack(cols)
     if np.any(G.sum(axis=0) <= 0.0):
         raise ModelError("the model's reheat effect is not a warming one for every input; cannot heat with it")
+    _warn_weak_heat(G, names)
     plan = HeatPlan(tuple(groups), G, cap, np.where(np.isfinite(tdm), tdm, 0.0))
     return HeatedModel(model, eq, plan, names), plan, names
+
+
+#: a heat input whose largest effect is below this share of the median input's: the MPC will barely use it
+WEAK_HEAT_SHARE = 0.05
+
+
+def _warn_weak_heat(G, names) -> None:
+    """Warn about heat inputs whose gain is a small fraction of the others' (the MPC will barely heat there).
+
+    A zone whose boxes' airflow the fit could not identify gets an airflow gain near 0, and with it a reheat gain
+    near 0 when that is scaled into one (Model A's airflow form): the MPC then leaves the zone cold without a word
+    (round 2 of fleet sweep s10, building B's control model: E 128 K*h below the band in two days).
+    """
+    gain = np.max(G, axis=0)
+    ref = float(np.median(gain))
+    weak = [(n, g) for n, g in zip(names, gain) if ref > 0.0 and g < WEAK_HEAT_SHARE * ref]
+    if weak:
+        warnings.warn(
+            "the model's reheat gain of "
+            + ", ".join(f"{n} ({g:.2g} K/step per kW)" for n, g in weak)
+            + f" is below {WEAK_HEAT_SHARE:.0%} of the median input's ({ref:.2g}): the MPC will barely heat there "
+            "(was the boxes' airflow identifiable in the fit?)",
+            HvacfmuWarning,
+            stacklevel=3,
+        )
 
 
 def box_inlets(model) -> dict:
@@ -212,3 +251,23 @@ def discharge_commands(plan: HeatPlan, h, m, T_supply, td_boxes) -> np.ndarray:
     Td = T_supply + hb * 1000.0 / (m * CP_AIR)
     Td = np.clip(Td, T_supply, np.maximum(plan.td_max, T_supply))
     return Td[np.asarray(td_boxes, dtype=int)]
+
+
+def reheat_disturbances(model, frame, commanded=()) -> dict:
+    """The reheat heat ``Qrh_<zone>`` [kW] an extended model's discharge reheat terms read, from ``frame``.
+
+    A diagnosis that finds a zone's reheat through its measured discharge air (``Td_<vav>``) adds a disturbance
+    ``Qrh_<zone> = Σ m c_p (Td - T_supply)`` the data do not carry: the model derives it from the frame
+    (:meth:`~hvacfmu.models.causes.base.Term.derive`). On a plant whose boxes take discharge commands
+    (``commanded``) the recorded reheat never reaches the plant (its boxes discharge their supply air plus this
+    controller's reheat, the ``h`` inputs): a zone whose boxes are all commanded previews 0.
+    """
+    base = getattr(model, "base", None)
+    commanded = set(commanded)
+    out = {}
+    for t in getattr(model, "terms", ()):
+        for col, q in t.derive(frame, base).items():
+            zone = getattr(t, "zone", None)
+            boxes = zone_boxes(base, zone) if zone is not None and col == reheat_column(zone) else None
+            out[col] = np.zeros(len(frame)) if boxes and set(boxes) <= commanded else np.asarray(q, dtype=float)
+    return out

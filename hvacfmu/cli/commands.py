@@ -433,7 +433,11 @@ def _add_evaluate_parser(sub) -> None:
     )
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--plots", help="folder for figures (7-day open-loop trajectories)")
-    p.add_argument("--week", type=int, help="week number of the 7-day trajectory figure (default: a spring test week)")
+    p.add_argument(
+        "--week",
+        type=int,
+        help="week number of the 7-day trajectory figure (default: the first spring test week, else the first test week)",
+    )
     p.set_defaults(func=_cmd_evaluate)
 
 

@@ -63,6 +63,8 @@ def signal_unit(name: str) -> str | None:
         return "kg/s"
     if name.startswith("I_") or name == "ghi":
         return "W/m2"
+    if name.startswith("Qrh_"):
+        return "kW"
     return None
 
 
@@ -102,6 +104,13 @@ def signal_description(name: str) -> str:
         )
     if name.startswith("m_"):
         return f"Air mass flow rate of {name[2:]} [kg/s]"
+    if name.startswith("Qrh_"):
+        return (
+            f"Reheat heat into zone {name[4:]} [kW]: sum over its boxes of m_<vav> * 1.005 kJ/(kg K) * "
+            "max(Td_<vav> - the supply air of the box's unit, 0), from the measured discharge air"
+        )
+    if name.startswith("rh_"):
+        return f"Reheat signal of VAV box {name[3:]} as recorded in the data (valve or coil command, its own unit)"
     return name
 
 

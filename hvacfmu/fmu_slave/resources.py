@@ -39,6 +39,22 @@ def normalise(obj):
     return json.loads(json.dumps(obj, default=float))
 
 
+#: layout keys that document a variable and do not change what the FMU computes
+DOCUMENTATION_KEYS = ("description", "unit")
+
+
+def _structure(layout):
+    """``layout`` without its documentation (:data:`DOCUMENTATION_KEYS`, also the layout's own description)."""
+    out = normalise(layout)
+    if isinstance(out, dict):
+        out.pop("description", None)
+        out["variables"] = [
+            {k: v for k, v in e.items() if k not in DOCUMENTATION_KEYS} if isinstance(e, dict) else e
+            for e in out.get("variables") or []
+        ]
+    return out
+
+
 def _stored(resources) -> dict:
     return json.loads((Path(resources or ".") / INTERFACE_FILE).read_text(encoding="utf-8"))
 
@@ -74,6 +90,10 @@ def read_layout(resources, model_layout, resource_name):
     if model_layout is None:
         return (stored, None)
     if stored is not None and normalise(stored) != normalise(model_layout):
+        if _structure(stored) == _structure(model_layout):
+            # only the documentation differs (descriptions, units, the layout's own description): an FMU
+            # exported by another hvacfmu version, whose wording changed since; the FMU's own variables stand
+            return (stored, None)
         return (
             stored,
             f"resources/{resource_name} does not match the FMU's variables ({INTERFACE_FILE}); "
