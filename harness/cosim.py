@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import functools
 import json
 import logging
 import math
@@ -1041,16 +1042,21 @@ def _measured_violation(run: _Run, completed: int):
     Y = np.column_stack(columns)[1 : completed + 1]
     if not len(Y) or not np.isfinite(Y).any():
         return None
-    lo, hi = run.band
-    viol = np.clip(lo - Y, 0, None) + np.clip(Y - hi, 0, None)
-    return float(np.nansum(viol) * run.step / 3600.0)
+    below, above = _band_excess(Y, run.band)
+    return float(np.nansum(below + above) * run.step / 3600.0)
+
+
+def _band_excess(Y, band):
+    """``(below, above)`` [K]: how far each value of ``Y`` lies under and over the band ``(lo, hi)`` (0 inside it)."""
+    lo, hi = band
+    return np.clip(lo - Y, 0, None), np.clip(Y - hi, 0, None)
 
 
 def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
     c = tr.completed
     Mc, Yc = tr.M[:c, : len(run.vavs)], tr.Y[1 : c + 1]
     lo, hi = run.band
-    viol = np.clip(lo - Yc, 0, None) + np.clip(Yc - hi, 0, None)
+    below, above = _band_excess(Yc, run.band)
     st = (tr.t_ctrl + tr.t_fmu)[:c]
     stats = getattr(controller, "stats", None)
 
@@ -1071,15 +1077,15 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "energy_proxy": float(np.sum(Mc**2)),
         "total_airflow_kg": float(np.sum(Mc) * run.step),
         "mean_airflow": float(np.mean(np.sum(Mc, axis=1))) if c else math.nan,
-        "comfort_violation_Kh": float(np.sum(viol) * run.step / 3600.0),
+        "comfort_violation_Kh": float(np.sum(below + above) * run.step / 3600.0),
         "measured_comfort_violation_Kh": _measured_violation(run, c),
         "outputs": len(run.out_names),
         "comfort_by_output": {
             n: [float(b), float(a)]
             for n, b, a in zip(
                 run.out_names,
-                np.nansum(np.clip(lo - Yc, 0, None), axis=0) * run.step / 3600.0,
-                np.nansum(np.clip(Yc - hi, 0, None), axis=0) * run.step / 3600.0,
+                np.nansum(below, axis=0) * run.step / 3600.0,
+                np.nansum(above, axis=0) * run.step / 3600.0,
             )
         },
         "heating_kWh": _heating_kwh(run, tr),
@@ -1261,7 +1267,19 @@ def add_cosim_arguments(parser):
 
 
 def _fmu_model(path):
-    """The zone model an hvacfmu FMU carries (``resources/model.json``), or None (a plant, another tool's FMU)."""
+    """The zone model an hvacfmu FMU carries (``resources/model.json``), or None (a plant, another tool's FMU).
+
+    Read once per file version: ``cosim`` asks for it when checking the building file and again for the run.
+    """
+    try:
+        stat = Path(path).stat()
+    except OSError:
+        return None
+    return _fmu_model_of(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=4)
+def _fmu_model_of(path: str, mtime_ns: int, size: int):
     import zipfile
 
     from hvacfmu.errors import HvacfmuError
