@@ -222,11 +222,7 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
     own = getattr(model, "building", None)  # a physics model carries its building
     if own is not None and hasattr(own, "zones") and hasattr(own, "vavs"):
         if own.name != building.name:
-            notes.append(
-                f"the {getattr(model, 'kind', '?')} model was fitted on building {own.name!r}, not on "
-                f"{building.name!r}: a model of another building predicts this one only by chance; fit it on data "
-                "of this building"
-            )
+            notes.append(_other_building(model, own.name, building))
         elif _layout(own) != _layout(building):
             notes.append(
                 f"the {getattr(model, 'kind', '?')} model's building {own.name!r} differs from this building file in "
@@ -241,11 +237,7 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
 
     sha = building.sha256 or hashlib.sha256(building.to_toml().encode("utf-8")).hexdigest()
     if fitted_on != building.name:
-        notes.append(
-            f"the {getattr(model, 'kind', '?')} model was fitted on building {fitted_on!r}, not on "
-            f"{building.name!r}: a model of another building predicts this one only by chance; fit it on data of "
-            "this building"
-        )
+        notes.append(_other_building(model, fitted_on, building))
     elif fitted_sha != sha:
         notes.append(
             f"the {getattr(model, 'kind', '?')} model was fitted with another version of the building file of "
@@ -253,6 +245,14 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
             "the zones changed, refit the model"
         )
     return problems, notes
+
+
+def _other_building(model, fitted_on: str, building) -> str:
+    """The note for a model fitted on building ``fitted_on`` and used with another one."""
+    return (
+        f"the {getattr(model, 'kind', '?')} model was fitted on building {fitted_on!r}, not on {building.name!r}: a "
+        "model of another building predicts this one only by chance; fit it on data of this building"
+    )
 
 
 def _layout(b) -> tuple:
