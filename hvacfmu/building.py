@@ -45,6 +45,11 @@ Example (abridged)::
     "m_*" = "cfm"
     "rh_*" = "%"
 
+    [holidays]           # optional: weekdays run on Sunday's schedule (hvacfmu.calendars)
+    country = "US"       # public holidays of a country; without [holidays] the data decide
+    dates = ["2026-12-24..2027-01-01"]   # further closed days
+    open = ["2026-10-12"]                # public holidays the building works on
+
 Air handlers
 ------------
 Without ``[[ahus]]`` every box belongs to one implicit air handler whose supply
@@ -81,6 +86,7 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib
 
+from .calendars import HolidaySpec, holidays_from_toml
 from .errors import BuildingError, problems_message
 
 ORIENTATIONS = ("N", "E", "S", "W")
@@ -207,6 +213,7 @@ class Building:
     columns: dict = dataclasses.field(default_factory=dict)
     units: dict = dataclasses.field(default_factory=dict)
     physics: dict = dataclasses.field(default_factory=dict)
+    holidays: HolidaySpec = HolidaySpec()
     source: str | None = None
     sha256: str | None = None
 
@@ -375,6 +382,8 @@ class Building:
             d["columns"] = dict(self.columns)
         if self.units:
             d["units"] = dict(self.units)
+        if self.holidays.declared:
+            d["holidays"] = self.holidays.to_toml()
         d.update(self.physics)
         return d
 
@@ -542,6 +551,7 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
         "seasons",
         "columns",
         "units",
+        "holidays",
     }
     known |= set(PHYSICS_KEYS)
     for key in d:
@@ -567,6 +577,7 @@ def building_from_dict(d: dict, source: str | None = None, sha256: str | None = 
         "data_timezone": None if data_tz is None else _as_str(data_tz, "data_timezone", problems),
         "columns": _str_map(d.get("columns"), "columns", problems),
         "units": _str_map(d.get("units"), "units", problems),
+        "holidays": holidays_from_toml(d["holidays"], problems) if "holidays" in d else HolidaySpec(),
     }
     if problems:
         raise BuildingError(problems_message(f"Invalid building file {source or ''}".strip(), problems))

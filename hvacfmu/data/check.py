@@ -235,6 +235,7 @@ class CheckReport:
                 lines.append(
                     f"  {season:<8} {len(weeks):3d} weeks: {len(weeks) - len(test)} train, {len(test)} test: {test_txt}"
                 )
+            lines.append(f"Holidays: {ds.holidays.summary()}")
             total = sum((e - s).total_seconds() for s, e in self.excitation_periods)
             lines.append(f"Excitation periods: {len(self.excitation_periods)} ({_duration(total)} in total)")
             for s, e in self.excitation_periods[:N_PERIODS_LISTED]:

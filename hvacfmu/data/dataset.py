@@ -15,6 +15,7 @@ import pandas as pd
 from ..building import ORIENTATIONS, Building, building_notes
 from ..errors import DataError, HvacfmuWarning, problems_message
 from ..progress import Progress
+from .holidays import HolidayCalendar, decide_holidays
 from .loading import LoadReport, as_building, load_measurements
 from .plausibility import check_discharge, check_roles, check_supply_assignment
 from .resample import MIN_COVERAGE, interpolate_gaps, resample
@@ -143,6 +144,10 @@ class Dataset:
     coverage : DataFrame or None
         Fraction of expected raw samples per bin and column.
     load_report : LoadReport or None
+    holidays : HolidayCalendar
+        The weekdays whose internal gains follow Sunday's profile in every model fitted on the data
+        (:func:`hvacfmu.data.holidays.decide_holidays`: the building file's ``[holidays]``, or the
+        public holidays of its country when the training weeks show the building closes on them).
     """
 
     frame: pd.DataFrame
@@ -155,6 +160,7 @@ class Dataset:
     has_solar: bool = False
     coverage: pd.DataFrame | None = None
     load_report: LoadReport | None = None
+    holidays: HolidayCalendar = HolidayCalendar()
 
     # --- weeks ---------------------------------------------------------
     def week_frame(self, week: Week) -> pd.DataFrame:
@@ -270,6 +276,8 @@ class Dataset:
         notes += week_notes
         if not weeks:
             notes.append("the data hold no complete week (7 days from a local midnight): nothing to fit on")
+        holidays = decide_holidays(frame, building, weeks)
+        notes += list(holidays.notes)
         return cls(
             frame=frame,
             building=building,
@@ -281,6 +289,7 @@ class Dataset:
             has_solar=has_solar,
             coverage=coverage,
             load_report=load_report,
+            holidays=holidays,
         )
 
 

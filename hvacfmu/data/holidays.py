@@ -1,0 +1,292 @@
+"""The dataset's holiday calendar: declared in the building file, or decided from the training weeks.
+
+Every model kind reads Sunday's internal-gain profile on a holiday weekday
+(:func:`hvacfmu.calendars.holiday_slots`) and leaves holidays out of the
+weekday profile it estimates. Which days are holidays:
+
+- the building file's ``[holidays]`` when it has one (its public holidays,
+  dates and open days); declared holidays of the training weeks that ran like
+  an ordinary weekday are named in a note;
+- otherwise the public holidays of the country of the building's time zone
+  (``America/Denver`` -> US), **if the training weeks show the building closes
+  on them**: a public holiday on a weekday of a training week is *closed* when
+  the day's operation (:func:`day_signature`: the boxes' total airflow, the mean
+  zone temperature's course over the day and, where measured, the discharge
+  air's heating) lies at least :data:`CLOSED_GAMMA` of the way from the
+  neighbouring workdays' mean to the neighbouring Sundays' mean (``gamma``,
+  :func:`day_gammas`), *worked* below :data:`WORKED_GAMMA`. The country's calendar
+  applies when at least two thirds of the training public holidays were closed
+  (at least :data:`MIN_CLOSED`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
+  workdays' spread too; the holidays worked on are left out by name in every year;
+- no other day: an unlisted weekday that ran like a Sunday is not detected (on the emulator, whose
+  buildings keep no holiday, 1 to 3 ordinary workdays of a 16-week set reach ``gamma`` 0.9: weather
+  and faults move a day's operation as far as a holiday does).
+
+Only training days are judged: the test weeks are predicted with the calendar a user could have known.
+
+The decision needs Sundays that differ from workdays: where the spread of
+``gamma`` over ordinary workdays is above :data:`MAX_WORKDAY_SPREAD` (a 24/7
+building: a hospital, flats), the data cannot tell a holiday and no public
+holiday is applied from them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..calendars import country_of_timezone, public_holidays
+
+#: A weekday at least this far (0 = workday mean, 1 = Sunday mean) toward Sunday ran closed.
+CLOSED_GAMMA = 0.5
+#: A listed holiday below this ran as a workday.
+WORKED_GAMMA = 0.25
+#: Public holidays of the training weeks that must have run closed before the country's calendar applies.
+MIN_CLOSED = 2
+#: Robust spread (1.4826 MAD) of gamma over ordinary workdays above which Sundays and workdays are not told apart.
+MAX_WORKDAY_SPREAD = 0.25
+#: A day is closed (listed) or detected only this many spreads above the workdays' 0 as well.
+CLOSED_SPREADS = 2.5
+#: Share of a day's rows that must hold the signature's values.
+MIN_DAY_COVERAGE = 0.75
+#: Workdays and Sundays within this many days of a day form its reference.
+NEIGHBOURHOOD_DAYS = 28
+#: Years after the data's last one that a model's calendar covers (its FMU may forecast later).
+YEARS_AHEAD = 10
+
+
+@dataclasses.dataclass(frozen=True)
+class HolidayCalendar:
+    """The holidays the models of a dataset apply.
+
+    Attributes
+    ----------
+    dates : tuple of str
+        ISO dates (Monday to Friday) from the data's first year to :data:`YEARS_AHEAD` years after its
+        last: the days whose internal gains follow Sunday's profile.
+    source : str
+        ``"declared"`` (building file), ``"public"`` (the country's holidays, decided from the data) or
+        ``"none"``.
+    country : str or None
+    in_data : dict
+        ``{date: name}`` of the calendar's weekdays inside the data.
+    gammas : dict
+        ``{date: gamma}`` of every listed or detected weekday the data could judge.
+    notes : tuple of str
+        What was decided and why, for ``check`` and the fits' warnings.
+    """
+
+    dates: tuple = ()
+    source: str = "none"
+    country: str | None = None
+    in_data: dict = dataclasses.field(default_factory=dict)
+    gammas: dict = dataclasses.field(default_factory=dict)
+    notes: tuple = ()
+
+    def summary(self) -> str:
+        """One line for ``check``: what the calendar holds inside the data."""
+        if not self.in_data:
+            return {"declared": "none in the data (building file's [holidays])"}.get(self.source, "none")
+        days = ", ".join(f"{d} {n}" for d, n in list(self.in_data.items())[:6])
+        more = f" and {len(self.in_data) - 6} more" if len(self.in_data) > 6 else ""
+        return f"{len(self.in_data)} weekday(s) on Sunday's profile ({self.source}): {days}{more}"
+
+
+def day_signature(frame: pd.DataFrame, building) -> tuple[pd.DatetimeIndex, np.ndarray, np.ndarray]:
+    """Per local day, hourly means of the operation: (days, features (n_days, n_feat), coverage (n_days,)).
+
+    Features, each block of 24 hourly values scaled by its spread over all days: the boxes' total airflow
+    over their total ``m_max``; the area-weighted mean zone temperature minus the day's mean; and, where
+    ``Td_<vav>`` columns exist, the mean of ``max(Td - T_supply, 0)`` over the boxes (reheat).
+    """
+    idx = frame.index
+    blocks = []
+    m_cols = [f"m_{v.name}" for v in building.vavs if f"m_{v.name}" in frame.columns]
+    if m_cols:
+        m_max = np.array([building.vav(c[2:]).m_max for c in m_cols], float)
+        blocks.append(frame[m_cols].sum(axis=1, min_count=len(m_cols)).to_numpy(float) / max(m_max.sum(), 1e-9))
+    t_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in frame.columns]
+    if t_cols:
+        w = np.array([building.zone(c[2:]).area for c in t_cols], float)
+        T = frame[t_cols].to_numpy(float)
+        blocks.append(T @ (w / w.sum()))
+    td_cols = [c for c in (f"Td_{v}" for v in building.vav_names) if c in frame.columns]
+    if td_cols and "T_supply" in frame.columns:
+        sup = frame["T_supply"].to_numpy(float)[:, None]
+        blocks.append(np.nanmean(np.maximum(frame[td_cols].to_numpy(float) - sup, 0.0), axis=1))
+    if not blocks or not len(idx):
+        return pd.DatetimeIndex([]), np.zeros((0, 0)), np.zeros(0)
+    day = idx.tz_localize(None).normalize() if idx.tz is not None else idx.normalize()
+    hour = np.asarray(idx.hour)
+    days = pd.DatetimeIndex(sorted(set(day)))
+    pos = days.get_indexer(day)
+    n_days = len(days)
+    feats, cover = [], np.ones(n_days)
+    for b, x in enumerate(blocks):
+        ok = np.isfinite(x)
+        cnt = np.zeros((n_days, 24))
+        tot = np.zeros((n_days, 24))
+        np.add.at(cnt, (pos[ok], hour[ok]), 1.0)
+        np.add.at(tot, (pos[ok], hour[ok]), x[ok])
+        rows = np.zeros(n_days)
+        np.add.at(rows, pos, 1.0)
+        cover = np.minimum(cover, cnt.sum(axis=1) / np.maximum(rows, 1))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            h = np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
+        if b == 1:  # temperature: the day's course, not its level (the weather sets that)
+            h = h - np.nanmean(h, axis=1, keepdims=True) if h.size else h
+        scale = np.nanstd(h)
+        feats.append(h / scale if np.isfinite(scale) and scale > 0 else h * 0.0)
+    return days, np.hstack(feats), cover
+
+
+def day_gammas(days, X, cover, candidates, usable, exclude) -> tuple[dict, float]:
+    """``gamma`` of each candidate day and the robust spread of ``gamma`` over ordinary workdays.
+
+    ``gamma = (x_d - W)·(S - W) / |S - W|²`` with ``W``, ``S`` the means of the usable workdays (Monday
+    to Friday, not in ``exclude``) and Sundays within :data:`NEIGHBOURHOOD_DAYS` of the day, ``d`` left out.
+    ``usable``: days (Timestamps) that may serve as reference (training weeks, enough coverage).
+    """
+    days = pd.DatetimeIndex(days)
+    wd = np.asarray(days.day_of_week)
+    ok = np.array([d in usable for d in days]) & (cover >= MIN_DAY_COVERAGE) & np.isfinite(X).all(axis=1)
+    excl = np.array([d in exclude for d in days])
+    work = ok & (wd < 5) & ~excl
+    sun = ok & (wd == 6)
+    t = (days - days[0]).days.to_numpy() if len(days) else np.zeros(0)
+
+    def gamma(i):
+        near = np.abs(t - t[i]) <= NEIGHBOURHOOD_DAYS
+        w = work & near
+        w[i] = False
+        s = sun & near
+        if w.sum() < 3 or s.sum() < 2:
+            return None
+        W, S = X[w].mean(axis=0), X[s].mean(axis=0)
+        d = S - W
+        den = float(d @ d)
+        return float((X[i] - W) @ d / den) if den > 0 else None
+
+    out = {}
+    for day in candidates:
+        i = days.get_indexer([day])[0]
+        if i >= 0 and ok[i] and wd[i] < 5:
+            g = gamma(i)
+            if g is not None:
+                out[days[i]] = g
+    ordinary = [g for i in np.flatnonzero(work) if (g := gamma(i)) is not None]
+    if len(ordinary) < 5:
+        return out, math.inf
+    ordinary_arr = np.asarray(ordinary)
+    spread = 1.4826 * float(np.median(np.abs(ordinary_arr - np.median(ordinary_arr))))
+    return out, spread
+
+
+def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
+    """The :class:`HolidayCalendar` of a prepared frame (see the module docstring)."""
+    spec = building.holidays
+    idx = frame.index
+    if not len(idx):
+        return HolidayCalendar(source="declared" if spec.declared else "none")
+    local = idx.tz_localize(None) if idx.tz is not None else idx
+    first, last = local[0].date(), local[-1].date()
+    horizon_end = _dt.date(last.year + YEARS_AHEAD, 12, 31)
+    horizon_start = _dt.date(first.year, 1, 1)
+    train_days = set()
+    for w in weeks:
+        if w.train:
+            s = pd.Timestamp(w.start).tz_localize(None) if pd.Timestamp(w.start).tz is not None else pd.Timestamp(w.start)
+            train_days.update(s.normalize() + pd.Timedelta(days=k) for k in range(7))
+    days, X, cover = day_signature(frame, building)
+
+    def weekdays(table: dict) -> dict:
+        return {d: n for d, n in table.items() if d.weekday() < 5}
+
+    notes: list[str] = []
+    if spec.declared:
+        table = weekdays(spec.between(horizon_start, horizon_end))
+        in_data = {d: n for d, n in table.items() if first <= d <= last}
+        gam, spread = day_gammas(days, X, cover, [pd.Timestamp(d) for d in in_data], train_days, set())
+        worked = [d for d, g in gam.items() if g < WORKED_GAMMA] if spread <= MAX_WORKDAY_SPREAD else []
+        if worked:
+            notes.append(
+                "declared holiday(s) "
+                + ", ".join(f"{d.date()} ({in_data[d.date()]}, gamma {gam[d]:.2f})" for d in worked)
+                + " ran like an ordinary workday in the training weeks (gamma: 0 = workday, 1 = Sunday); "
+                "if the building works on them, list them in the building file's [holidays] open"
+            )
+        source, country = "declared", spec.country
+        dates = set(table)
+    else:
+        country = country_of_timezone(building.timezone)
+        dates = set()
+        source = "none"
+        in_data = {}
+        pub = weekdays(public_holidays(country, None, first, last)) if country else {}
+        gam, spread = day_gammas(days, X, cover, [pd.Timestamp(d) for d in pub], train_days, set())
+        if pub and not math.isfinite(spread):
+            notes.append(
+                f"{len(pub)} public holiday(s) of {country} fall on weekdays in the data ("
+                + ", ".join(f"{d} {n}" for d, n in list(pub.items())[:3])
+                + "); too few training workdays and Sundays to tell whether the building closes on them: the models "
+                f'treat them as workdays. If it closes on them, add [holidays] country = "{country}" to the building file'
+            )
+        elif pub and spread > MAX_WORKDAY_SPREAD:
+            notes.append(
+                f"{len(pub)} public holiday(s) of {country} fall on weekdays in the data, but its workdays and "
+                f"Sundays do not run differently enough to tell whether the building closes on them (spread "
+                f"{spread:.2f} > {MAX_WORKDAY_SPREAD}); no holiday applied. If it closes on them, add "
+                f'[holidays] country = "{country}" to the building file'
+            )
+        elif pub:
+            judged = {d.date(): g for d, g in gam.items()}
+            closed = [d for d, g in judged.items() if g >= max(CLOSED_GAMMA, CLOSED_SPREADS * spread)]
+            worked = [d for d, g in judged.items() if g < WORKED_GAMMA]
+            if len(closed) >= max(MIN_CLOSED, math.ceil(2 * len(judged) / 3)):
+                open_names = {pub[d] for d in worked}  # by name in every year ("... (observed)" stays apart)
+                allp = weekdays(public_holidays(country, None, horizon_start, horizon_end))
+                table = {d: n for d, n in allp.items() if n not in open_names}
+                dates = set(table)
+                in_data = {d: n for d, n in table.items() if first <= d <= last}
+                source = "public"
+                notes.append(
+                    f"the building closed on {len(closed)} of the {len(judged)} public holidays of {country} in the "
+                    f"training weeks (their operation ran like a Sunday); the models read Sunday's internal gains on "
+                    f"{country}'s public holidays"
+                    + (f" except {', '.join(sorted(open_names))} (worked on)" if open_names else "")
+                    + f". Declare [holidays] in the building file to choose (e.g. country = \"{country}\", open = [...])"
+                )
+            elif len(judged) - len(closed) > len(judged) / 3:
+                notes.append(
+                    f"the building ran as on a workday on {len(judged) - len(closed)} of the {len(judged)} public "
+                    f"holidays of {country} in the training weeks; no public holiday applied"
+                )
+            elif judged:
+                notes.append(
+                    f"the building closed on {len(closed)} public holiday of {country} in the training weeks ("
+                    + ", ".join(f"{d} {pub[d]}" for d in closed)
+                    + f"), too few to decide (at least {MIN_CLOSED}); no public holiday applied. If it closes on "
+                    f'them, add [holidays] country = "{country}" to the building file'
+                )
+            else:
+                test_pub = [d for d in pub if pd.Timestamp(d) not in train_days]
+                if test_pub:
+                    notes.append(
+                        f"public holiday(s) of {country} fall in held-out weeks only ("
+                        + ", ".join(f"{d} {pub[d]}" for d in test_pub[:4])
+                        + "); the training weeks cannot tell whether the building closes on them, and the models "
+                        f'predict them as workdays. If it closes, add [holidays] country = "{country}" to the building file'
+                    )
+    gammas = {d.date().isoformat(): round(g, 3) for d, g in gam.items()}
+    return HolidayCalendar(
+        dates=tuple(sorted(d.isoformat() for d in dates)),
+        source=source,
+        country=country,
+        in_data={d.isoformat(): n for d, n in sorted(in_data.items())},
+        gammas=gammas,
+        notes=tuple(notes),
+    )
