@@ -66,10 +66,11 @@ def native_equations(model, model_name="the model"):
     and equations that differ from the model's ``step_state``.
     """
     from .fmu_slave import calendar_dependent
+    from .fmu_slave.zone_layout import without_holidays
     from .models.equations import check_equations
 
     kind = getattr(model, "kind", type(model).__name__)
-    if calendar_dependent(model):
+    if calendar_dependent(without_holidays(model)):
         raise FMUError(
             f"cannot export {model_name} as a native FMU: its internal gains depend on the calendar "
             "(holidays or daylight-saving terms), which the native FMU does not compute; export the "
@@ -378,6 +379,19 @@ def export_native_fmu(
         raise FMUError(f"output file {out_path} must end in .fmu")
     name = model_name or f"{model.kind} model"
     eq = native_equations(model, name)
+    if getattr(model, "holidays", ()):
+        import warnings
+
+        from .errors import HvacfmuWarning
+
+        warnings.warn(
+            f"{name} reads Sunday's internal gains on {len(model.holidays)} holiday(s) of its calendar (the first "
+            f"{model.holidays[0]}); the native FMU does not know dates: on a holiday the master must set its "
+            "time_of_week input to Sunday's time of week (6*86400 s + the time of day), or export the pythonfmu "
+            "FMU (without --native), which follows the calendar from its start_time",
+            HvacfmuWarning,
+            stacklevel=2,
+        )
     try:
         layout, M = zone_model_layout(model, None, box_limits(model, building))
     except ValueError as exc:

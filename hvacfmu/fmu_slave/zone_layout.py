@@ -101,13 +101,16 @@ def calendar_dependent(model) -> bool:
     That is a model overriding :meth:`~hvacfmu.models.ZoneModel.gains_at` with
     calendar terms: an ``internal_gain_schedule`` term (holidays, daylight-saving
     shift), or gains that differ from the seasonal time-of-week profile on some
-    day of a year in UTC.
+    day of a year in UTC; or a model with a holiday calendar (``holidays``, the
+    dataset's :class:`~hvacfmu.data.holidays.HolidayCalendar`).
     """
     import pandas as pd
 
     from hvacfmu.models.base import ZoneModel
     from hvacfmu.timeutil import time_of_week
 
+    if getattr(model, "holidays", ()):
+        return True
     if type(model).gains_at is ZoneModel.gains_at:
         return False
     if any(getattr(t, "cause", None) == "internal_gain_schedule" for t in getattr(model, "terms", ())):
@@ -119,6 +122,17 @@ def calendar_dependent(model) -> bool:
         if not np.array_equal(np.asarray(model.gains_at(index, season)), plain):
             return True
     return False
+
+
+def without_holidays(model):
+    """``model`` without its holiday calendar (an extended model: its base's); the model itself if it has none."""
+    import dataclasses
+
+    if not getattr(model, "holidays", ()):
+        return model
+    if hasattr(model, "base") and getattr(model.base, "holidays", ()):
+        return dataclasses.replace(model, base=dataclasses.replace(model.base, holidays=()))
+    return dataclasses.replace(model, holidays=())
 
 
 def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = None) -> tuple[dict, np.ndarray | None]:

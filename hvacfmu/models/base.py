@@ -24,8 +24,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..calendars import gain_slots
 from ..errors import ModelError
-from ..timeutil import n_time_of_week, time_of_week
+from ..timeutil import n_time_of_week
 
 FORMAT_VERSION = 1
 
@@ -40,6 +41,7 @@ class ZoneModel(abc.ABC):
     inputs: tuple  #: names of the controlled inputs u
     disturbances: tuple  #: frame column names of v, in order
     gains: dict  #: season -> (n_time_of_week, n_q) internal-gain profile
+    holidays: tuple = ()  #: ISO dates (weekdays) whose gains follow Sunday's profile (hvacfmu.calendars)
 
     # ----- dimensions ----------------------------------------------------
     @property
@@ -76,7 +78,8 @@ class ZoneModel(abc.ABC):
         if season not in self.gains:
             raise ModelError(f"model has no internal-gain profile for season {season!r}; has {list(self.gains)}")
         prof = np.asarray(self.gains[season])
-        return prof[time_of_week(index, self.step) % prof.shape[0]]
+        # a holiday weekday reads Sunday's profile (hvacfmu.calendars)
+        return prof[gain_slots(index, self.step, getattr(self, "holidays", ())) % prof.shape[0]]
 
     def initial_state(self, frame: pd.DataFrame, k0: int) -> np.ndarray:
         """State at row ``k0`` of ``frame``; may use rows before it (e.g. a Kalman filter).
@@ -153,6 +156,20 @@ def check_names(value, key: str, what: str = "model file") -> tuple:
     """``value`` as a tuple of strings; ModelError naming ``key`` if it is not a list of strings."""
     if not isinstance(value, (list, tuple)) or not all(isinstance(s, str) for s in value):
         raise ModelError(f"{what}: '{key}' must be a list of names (strings), got {type(value).__name__} {value!r:.80}")
+    return tuple(value)
+
+
+def check_dates(value, key: str = "holidays", what: str = "model file") -> tuple:
+    """A tuple of ISO dates ``YYYY-MM-DD`` from a model file's list (ModelError naming the bad entry)."""
+    import datetime as _dt
+
+    if not isinstance(value, (list, tuple)):
+        raise ModelError(f"{what}: {key!r} must be a list of dates 'YYYY-MM-DD', got {type(value).__name__}")
+    for d in value:
+        try:
+            _dt.date.fromisoformat(d)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: {key!r} holds {d!r}, not a date 'YYYY-MM-DD'") from None
     return tuple(value)
 
 

@@ -60,8 +60,9 @@ import numpy as np
 import scipy.fft
 import scipy.sparse
 
+from ..calendars import gain_slots, holiday_slots
 from ..errors import DataError, FitError, HvacfmuWarning, problems_message
-from ..timeutil import n_time_of_week, time_of_week
+from ..timeutil import n_time_of_week
 from .heat import air_handler_off_share, delivered_heat, inlet_columns
 
 log = logging.getLogger(__name__)
@@ -667,7 +668,11 @@ class _Prepared:
                 self.train_weeks.setdefault(w.season, []).append(w.number)
         self.train = train
         self.season = season
-        self.slots = time_of_week(self.index, self.step)
+        # the slot each row's gains are read at (a holiday weekday: Sunday's), and the rows that estimate
+        # a profile (not holidays: hvacfmu.data.holidays)
+        holidays = dataset.holidays.dates
+        self.slots = gain_slots(self.index, self.step, holidays)
+        self.gain_ok = ~holiday_slots(self.index, self.step, holidays)[0]
         self.n_slots = n_time_of_week(self.step)
         if not train.any():
             raise FitError("the dataset has no training weeks; need at least one full week of data")
@@ -895,6 +900,12 @@ def _provenance(prep: _Prepared, opts, t0, kind):
         "fit_seconds": round(time.perf_counter() - t0, 3),
         "train_weeks": prep.train_weeks,
         "solar": prep.solar,
+        "timezone": b.timezone,
+        "holidays": {
+            "source": prep.dataset.holidays.source,
+            "country": prep.dataset.holidays.country,
+            "in_data": prep.dataset.holidays.in_data,
+        },
     }
 
 
@@ -924,7 +935,7 @@ def _gains_by_season(prep: _Prepared, q_rows, rows, nq):
             else:
                 absent.append(s)
             continue
-        sel = prep.season[rows] == s
+        sel = (prep.season[rows] == s) & prep.gain_ok[rows]
         prof, cov = estimate_gains(q_rows[sel], prep.slots[rows][sel], prep.n_slots)
         if cov == 0.0:
             prep.warn(
@@ -1412,6 +1423,7 @@ def _finish(prep: _Prepared, opts, kind, A, drive, C, gains, meta, weights):
         "vavs": b.vav_names,
         "A": A,
         "gains": gains,
+        "holidays": prep.dataset.holidays.dates,
     }
     if not prep.delivered:
         model = LinearZoneModel(

@@ -139,6 +139,11 @@ class ExtendedModel(ZoneModel):
         return float(self.base.step)
 
     @property
+    def holidays(self) -> tuple:
+        """The base model's holiday calendar (ISO dates read on Sunday's profile)."""
+        return tuple(self.base.holidays)
+
+    @property
     def outputs(self) -> tuple:
         return self.base.outputs
 

@@ -37,6 +37,7 @@ from ..errors import ModelError
 from .base import (
     FORMAT_VERSION,
     ZoneModel,
+    check_dates,
     check_mapping,
     check_names,
     check_number,
@@ -100,6 +101,7 @@ class LinearZoneModel(ZoneModel):
     beta: np.ndarray | None = None
     inlets: tuple = ()
     heat_map: np.ndarray | None = None
+    holidays: tuple = ()
 
     KINDS: ClassVar[tuple] = ("lumped", "zones")
 
@@ -294,6 +296,8 @@ class LinearZoneModel(ZoneModel):
         }
         if self.beta is not None:
             d.update(beta=self.beta.tolist(), inlets=list(self.inlets), heat_map=self.heat_map.tolist())
+        if self.holidays:
+            d["holidays"] = list(self.holidays)
         return d
 
     @classmethod
@@ -327,6 +331,7 @@ class LinearZoneModel(ZoneModel):
                 beta=np.asarray(d["beta"], dtype=float) if delivered else None,
                 inlets=check_names(d.get("inlets", []), "inlets", what) if delivered else (),
                 heat_map=np.asarray(d.get("heat_map"), dtype=float) if delivered else None,
+                holidays=check_dates(d.get("holidays", []), "holidays", what),
                 **names,
                 **{k: np.asarray(d[k], dtype=float) for k in ("output_weights", "input_map", "A", "B", "C")},
             )

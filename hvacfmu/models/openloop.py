@@ -161,7 +161,7 @@ class _Problem:
         phi = self._features(y0, r)
         self.q0, self.qp = {}, {}
         for s, prof in self.model.gains.items():
-            sel = self.seasons[r] == s
+            sel = (self.seasons[r] == s) & self.prep.gain_ok[r]
             if sel.any():
                 est, _ = estimate_gains(np.c_[base[sel], phi[sel]], self.slots[r][sel], self.prep.n_slots)
                 self.q0[s], self.qp[s] = est[:, : self.nx], est[:, self.nx :]
@@ -205,7 +205,7 @@ class _Problem:
         qr = self.Y[r + 1] - model.step_state(self.Y[r], self.u[r], self.v[r], zero)
         gains = {}
         for s, prof in self.model.gains.items():
-            sel = self.seasons[r] == s
+            sel = (self.seasons[r] == s) & self.prep.gain_ok[r]
             if sel.any():
                 gains[s], _ = estimate_gains(qr[sel], self.slots[r][sel], self.prep.n_slots)
             else:

@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
+from ...calendars import gain_slots
 from ...errors import DataError
-from ...timeutil import n_time_of_week, time_of_week
+from ...timeutil import n_time_of_week
 from ..linear import LinearZoneModel
 
 MAX_DELAY_S = 3600.0  #: largest actuation delay tested [s] (one hour: 4 steps of 15 min, 12 of 5 min)
@@ -217,7 +218,8 @@ def _gain_groups(dataset, base, season, week) -> tuple:
     n_tow = n_time_of_week(dataset.step)
     seasons = tuple(s for s in dataset.building.season_names if s in set(season[week >= 0]))
     s_id = np.array([seasons.index(s) if s in seasons else -1 for s in season]) if n else np.zeros(0, int)
-    tow = time_of_week(frame.index, dataset.step) % n_tow
+    # the slot the gains are read at: a holiday of the dataset's calendar reads Sunday's (hvacfmu.calendars)
+    tow = gain_slots(frame.index, dataset.step, dataset.holidays.dates) % n_tow
     group = np.where(s_id >= 0, s_id * n_tow + tow, -1)
     base_profiles = {}
     base_q = np.zeros((n, len(zones)))

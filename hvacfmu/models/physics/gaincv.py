@@ -29,8 +29,8 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from ...calendars import gain_slots
 from ...data.windows import FILL_INPUTS_H, MIN_OUTPUT_SHARE, fill_inputs, plan_windows, window_starts
-from ...timeutil import time_of_week
 from .model import gains_for_rows
 
 #: Open-loop horizon of a window [h]
@@ -121,12 +121,13 @@ def _cv_windows(index, profiles, Y, u, v, nw, step) -> list:
     return [(w.number, k) for w, k in plan.kept if k >= nw]
 
 
-def _q_rows(model, gains, index, season=None) -> np.ndarray:
-    """``q`` (n, nq) at ``index`` from ``gains``: ``season``'s profile, or (None) each row's calendar season."""
+def _q_rows(model, gains, index, season=None, holidays=()) -> np.ndarray:
+    """``q`` (n, nq) at ``index`` from ``gains``: ``season``'s profile, or (None) each row's calendar season;
+    ``holidays`` read Sunday's."""
     if season is None:
-        return gains_for_rows(gains, model.building, float(model.step), index)
+        return gains_for_rows(gains, model.building, float(model.step), index, holidays)
     prof = np.asarray(gains[season])
-    return prof[time_of_week(index, float(model.step)) % prof.shape[0]]
+    return prof[gain_slots(index, float(model.step), holidays) % prof.shape[0]]
 
 
 def _window_rms(model, dataset, index, windows, fold_gains, nw, signals) -> np.ndarray:
@@ -142,8 +143,8 @@ def _window_rms(model, dataset, index, windows, fold_gains, nw, signals) -> np.n
     q_warm = np.empty(warm[:, :-1].shape + (len(model.q_names),))
     q_sim = np.empty(rng.shape + (len(model.q_names),))
     for i, (h, _) in enumerate(windows):
-        q_warm[i] = _q_rows(model, fold_gains[h], index[warm[i, :-1]])
-        q_sim[i] = _q_rows(model, fold_gains[h], index[rng[i]], season[h])
+        q_warm[i] = _q_rows(model, fold_gains[h], index[warm[i, :-1]], holidays=dataset.holidays.dates)
+        q_sim[i] = _q_rows(model, fold_gains[h], index[rng[i]], season[h], dataset.holidays.dates)
     x0 = model._filter_windows(Y[warm], u[warm[:, :-1]], v[warm[:, :-1]], q_warm)
     _, Yp = model.simulate(x0, u[rng], v[rng], q_sim)
     meas, pred = Y[rng + 1], np.asarray(Yp)[:, 1:, :]

@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 import scipy.optimize as so
 
+from ...calendars import holiday_slots
 from ...errors import FitError, HvacfmuWarning
 from ...progress import Progress
 from ...threads import one_blas_thread
@@ -422,7 +423,7 @@ def refit_gains(model: PhysicsModel, dataset, gain_days: str) -> PhysicsModel:
     with one_blas_thread():
         gains, info = _seasonal_gains(dataset, model, f_c, int(model.meta["warmup_steps"]), gain_days)
     meta = {**model.meta, "gains": info, "fit_options": {**model.meta.get("fit_options", {}), "gain_days": gain_days}}
-    out = dataclasses.replace(model, gains=gains, meta=meta)
+    out = dataclasses.replace(model, gains=gains, meta=meta, holidays=dataset.holidays.dates)
     meta["plausibility"] = check_physics(out)
     return out
 
@@ -563,6 +564,7 @@ def _fit_finish(dataset, model, params, zero_gains, f_c, inlets, solar, t_start,
         f_ig_const=f_c,
         meta=meta,
         inlets=inlets,
+        holidays=dataset.holidays.dates,
     )
     meta["plausibility"] = check_physics(final)
     meta["fit_seconds"] = round(time.perf_counter() - t_start, 2)
@@ -894,6 +896,8 @@ def _week_profiles(dataset, model, f_c, nw, frame=None) -> list:
         bad = np.isnan(u_all[rows[w:-1]]).any(axis=1) | np.isnan(v_all[rows[w:-1]]).any(axis=1)
         fv = innov @ CB_inv.T
         fv[bad] = np.nan
+        # a holiday is not an ordinary weekday: left out of the profile (the model reads Sunday's on it)
+        fv[holiday_slots(index[rows[w:-1]], step, dataset.holidays.dates)[0]] = np.nan
         slots = time_of_week(index[rows[w:-1]], step)
         prof = np.full((n_tow, nz), np.nan)
         prof[slots] = fv

@@ -28,12 +28,14 @@ import numpy as np
 import pandas as pd
 
 from ...building import Building, building_from_dict
+from ...calendars import gain_slots
 from ...errors import BuildingError, ModelError
 from ...threads import one_blas_thread
-from ...timeutil import n_time_of_week, time_of_week
+from ...timeutil import n_time_of_week
 from ..base import (
     FORMAT_VERSION,
     ZoneModel,
+    check_dates,
     check_mapping,
     check_names,
     check_number,
@@ -173,6 +175,7 @@ class PhysicsModel(ZoneModel):
     f_ig_const: np.ndarray | None = None
     meta: dict = dataclasses.field(default_factory=dict)
     inlets: tuple = ()
+    holidays: tuple = ()
 
     kind: ClassVar[str] = "physics"
 
@@ -298,7 +301,7 @@ class PhysicsModel(ZoneModel):
 
     def gains_for_rows(self, index: pd.DatetimeIndex) -> np.ndarray:
         """``q`` (n, nq) at each timestamp, each row in its own season (mean profile if a season is missing)."""
-        return gains_for_rows(self.gains, self.building, float(self.step), index)
+        return gains_for_rows(self.gains, self.building, float(self.step), index, self.holidays)
 
     # --- dynamics -----------------------------------------------------------------
     def step_state(self, x, u, v, q):
@@ -426,7 +429,7 @@ class PhysicsModel(ZoneModel):
             "gains": gains_to_json(self.gains),
             "meta": self.meta,
             "inlets": list(self.inlets),
-        }
+        } | ({"holidays": list(self.holidays)} if self.holidays else {})
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "PhysicsModel":
@@ -460,6 +463,7 @@ class PhysicsModel(ZoneModel):
                 f_ig_const=np.asarray(d.get("f_ig_const"), dtype=float) if d.get("f_ig_const") is not None else None,
                 meta=check_mapping(d.get("meta", {}), "meta", "physics model file"),
                 inlets=check_names(d.get("inlets", []), "inlets", "physics model file"),
+                holidays=check_dates(d.get("holidays", []), "holidays", "physics model file"),
             )
         except (TypeError, ValueError, IndexError) as exc:
             if isinstance(exc, ModelError):
@@ -514,10 +518,12 @@ class PhysicsModel(ZoneModel):
         return "\n".join(lines)
 
 
-def gains_for_rows(gains, building, step: float, index) -> np.ndarray:
+def gains_for_rows(gains, building, step: float, index, holidays=()) -> np.ndarray:
     """``q`` (n, nq) from the seasonal profiles ``gains`` at each timestamp of ``index``, each row in its own
-    season of ``building`` (the mean profile for a season without one)."""
+    season of ``building`` (the mean profile for a season without one); ``holidays`` (ISO dates) read Sunday's
+    profile (:func:`hvacfmu.calendars.gain_slots`)."""
     index = pd.DatetimeIndex(index)
+    slots = gain_slots(index, step, holidays)
     md = index.month.to_numpy() * 100 + index.day.to_numpy()
     first = np.asarray(next(iter(gains.values())))
     out = np.empty((len(index), first.shape[1]))
@@ -528,7 +534,7 @@ def gains_for_rows(gains, building, step: float, index) -> np.ndarray:
     for s, keys in seasons.items():
         rows = np.isin(md, keys)
         prof = np.asarray(gains[s]) if s in gains else np.mean([np.asarray(g) for g in gains.values()], axis=0)
-        out[rows] = prof[time_of_week(index[rows], step) % prof.shape[0]]
+        out[rows] = prof[slots[rows] % prof.shape[0]]
     return out
 
 
