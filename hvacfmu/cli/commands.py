@@ -96,6 +96,7 @@ def _cmd_generate(args):
         clock=args.clock,
         export_step=args.export_step,
         faults=args.fault or (),
+        holidays=args.holidays,
     )
     print(paths)
     return 0
@@ -350,6 +351,12 @@ def _add_generate_parser(sub) -> None:
         action="append",
         choices=("outages", "sparse_box", "stuck_sensor"),
         help="real-world export defect (repeatable)",
+    )
+    p.add_argument(
+        "--holidays",
+        metavar="COUNTRY",
+        help="the building closes on the public holidays of COUNTRY (e.g. US): Sunday's occupancy and an "
+        "unoccupied BMS schedule; the building file does not declare them (default: it never closes)",
     )
     from ..energyplus.cli import add_energyplus_arguments
 

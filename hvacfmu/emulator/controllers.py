@@ -43,7 +43,10 @@ def occupied_mode(index: pd.DatetimeIndex, params=None) -> np.ndarray:
     p = params or DEFAULT_CONTROLLERS
     h0, h1 = p["occupied_hours"]
     hour = np.asarray(index.hour) + np.asarray(index.minute) / 60.0
-    return (np.asarray(index.day_of_week) < 5) & (hour >= h0) & (hour < h1)
+    workday = np.asarray(index.day_of_week) < 5
+    if p.get("holidays"):  # closed on the building's holidays (make_truth's ``holidays``)
+        workday &= ~np.isin(np.asarray(index.strftime("%Y-%m-%d")), list(p["holidays"]))
+    return workday & (hour >= h0) & (hour < h1)
 
 
 def supply_air_temperature(T_out, rng, params=None, dt=60.0):

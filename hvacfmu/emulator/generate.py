@@ -83,11 +83,13 @@ def make_truth(
     construction: str = "medium",
     climate: str = "mild",
     hvac: str = "vav",
+    holidays: str | None = None,
 ) -> dict:
     """The truth mapping of a dataset before simulation (structure, parameters, resolved effects).
 
     ``layout``, ``construction`` and ``climate`` name entries of
-    :mod:`hvacfmu.emulator.layouts`; ``start`` is the local start time (ISO, no offset).
+    :mod:`hvacfmu.emulator.layouts`; ``start`` is the local start time (ISO, no offset); ``holidays``
+    a country code whose public holidays the building closes on (None: it never closes).
     """
     problems = []
     if not isinstance(weeks, (int, np.integer)) or weeks < 1:
@@ -95,6 +97,14 @@ def make_truth(
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         problems.append(f"seed must be a non-negative integer, got {seed!r}")
     problems += check_options(layout, construction, climate, hvac)
+    if holidays is not None:
+        from ..calendars import country_problems
+
+        problems += (
+            country_problems(holidays)
+            if isinstance(holidays, str)
+            else [f"holidays must be a country code, got {holidays!r}"]
+        )
     try:
         t0 = pd.Timestamp(start)
         if t0.tzinfo is not None or t0 != t0.normalize():
@@ -128,7 +138,16 @@ def make_truth(
     occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
     occupancy["peak_gain"] = dict(lay.peak_gain)
     occupancy["meeting_zone"] = lay.meeting_zone
-    return {
+    closed = None
+    if holidays is not None:
+        from ..calendars import public_holidays
+
+        t0 = pd.Timestamp(start)
+        days = public_holidays(holidays, None, t0.date(), (t0 + pd.Timedelta(weeks=int(weeks))).date())
+        closed = {"country": holidays, "dates": {d.isoformat(): n for d, n in days.items() if d.weekday() < 5}}
+        # the occupants stay home and the BMS schedule runs unoccupied: a Sunday
+        occupancy["holidays"] = controllers["holidays"] = sorted(closed["dates"])
+    truth = {
         "version": EMULATOR_VERSION,
         "seed": int(seed),
         "weeks": int(weeks),
@@ -154,6 +173,9 @@ def make_truth(
         },
         "effects": resolved,
     }
+    if closed is not None:
+        truth["holidays"] = closed
+    return truth
 
 
 def _has_dst(timezone: str, start: str, weeks: int) -> bool:
@@ -363,6 +385,7 @@ def generate(
     clock: str = "aware",
     export_step: int = 60,
     faults=(),
+    holidays: str | None = None,
 ) -> GeneratedPaths:
     """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
@@ -399,6 +422,10 @@ def generate(
         Trend-log interval (multiple of 60 s).
     faults : sequence of {"outages", "sparse_box", "stuck_sensor"}
         Real-world defects of the export (:mod:`hvacfmu.emulator.export`).
+    holidays : str, optional
+        Country code (``"US"``): the building closes on its public holidays (Sunday's occupancy, the BMS
+        schedule unoccupied), listed in ``truth.json`` ``holidays``; the building file does not declare
+        them (a BMS export does not either: :mod:`hvacfmu.data.holidays` finds them).
 
     Returns
     -------
@@ -411,7 +438,15 @@ def generate(
     faults = tuple(faults)
     validate_export(units, clock, export_step, faults)
     truth = make_truth(
-        weeks, seed, effects, start=start, layout=layout, construction=construction, climate=climate, hvac=hvac
+        weeks,
+        seed,
+        effects,
+        start=start,
+        layout=layout,
+        construction=construction,
+        climate=climate,
+        hvac=hvac,
+        holidays=holidays,
     )
     sim = simulate(truth)
     frame = _measured_frame(sim, truth)
@@ -529,6 +564,7 @@ _GENERATE_DEFAULTS = {
     "clock": "aware",
     "export_step": 60,
     "faults": (),
+    "holidays": None,
 }
 
 

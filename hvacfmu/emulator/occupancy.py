@@ -116,6 +116,8 @@ def internal_gains(index: pd.DatetimeIndex, zones, areas, rng: np.random.Generat
 
     dates = pd.to_datetime((base_day + np.arange(n_days)) * 86400, unit="s")
     dow = np.asarray(dates.day_of_week)
+    # a public holiday the building closes on (make_truth's ``holidays``) is a Sunday
+    dow = np.where(np.isin(dates.strftime("%Y-%m-%d"), list(p.get("holidays", ()))), 6, dow)
     level = np.array([p["season_level"][_season_of_day(m, d)] for m, d in zip(dates.month, dates.day)])
     weekday = dow < 5
     level = np.where(dow == 5, p["weekend_level"]["Sat"], np.where(dow == 6, p["weekend_level"]["Sun"], level))
