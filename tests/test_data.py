@@ -755,7 +755,9 @@ def test_check_cli(tmp_path, small_building):
     good = write(frame, tmp_path / "good.csv")
     res = _cli(good, "--building", building, cwd=tmp_path)
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "OK with 2 notes (see above): the data can be used for fitting" in res.stdout and "Weeks: 1" in res.stdout
+    assert "OK with 3 notes (see above): the data can be used for fitting" in res.stdout and "Weeks: 1" in res.stdout
+    # the week starts on Labor Day: one week cannot tell whether the building closes on it
+    assert "2024-09-02 Labor Day); too few training workdays and Sundays" in res.stdout
     bad = _set(_set(frame, "T_A", 5, "abc"), "m_V1", 9, -1.0).drop(columns=["T_out"])
     res = _cli(write(bad, tmp_path / "bad.csv"), "--building", building, cwd=tmp_path)
     assert res.returncode == 1

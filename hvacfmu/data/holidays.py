@@ -19,8 +19,13 @@ weekday profile it estimates. Which days are holidays:
   (at least :data:`MIN_CLOSED`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
   workdays' spread too; the holidays worked on are left out by name in every year;
 - no other day: an unlisted weekday that ran like a Sunday is not detected (on the emulator, whose
-  buildings keep no holiday, 1 to 3 ordinary workdays of a 16-week set reach ``gamma`` 0.9: weather
-  and faults move a day's operation as far as a holiday does).
+  buildings keep no holiday, ordinary workdays of a 16-week set reach ``gamma`` 0.78, where the
+  EnergyPlus prototypes' holidays lie at 0.8-1.2: weather and faults move a day's operation almost as
+  far as a holiday does).
+
+``gamma`` projects the day on the workday-to-Sunday direction weighted by the neighbouring workdays'
+scatter per feature (a diagonal discriminant): on 32 cached emulator sets the robust spread of ordinary
+workdays is 0.09-0.25, on six EnergyPlus prototypes 0.006-0.15.
 
 Only training days are judged: the test weeks are predicted with the calendar a user could have known.
 
@@ -167,8 +172,12 @@ def day_gammas(days, X, cover, candidates, usable, exclude) -> tuple[dict, float
         if w.sum() < 3 or s.sum() < 2:
             return None
         W, S = X[w].mean(axis=0), X[s].mean(axis=0)
-        d = S - W
-        den = float(d @ d)
+        # the workday-to-Sunday direction weighted by the workdays' scatter per feature (a diagonal
+        # discriminant): hours whose operation differs steadily weigh more than noisy ones
+        var = X[w].var(axis=0)
+        var = var + 0.1 * (float(np.median(var)) if np.isfinite(np.median(var)) else 0.0) + 1e-12
+        d = (S - W) / var
+        den = float((S - W) @ d)
         return float((X[i] - W) @ d / den) if den > 0 else None
 
     out = {}
