@@ -82,7 +82,9 @@ class HolidaySpec:
 def _dates(value, what: str, problems: list) -> tuple:
     """ISO dates from a list of ``"YYYY-MM-DD"`` and ``"YYYY-MM-DD..YYYY-MM-DD"`` ranges (inclusive)."""
     if not isinstance(value, (list, tuple)):
-        problems.append(f"{what} must be a list of dates 'YYYY-MM-DD' (or ranges 'YYYY-MM-DD..YYYY-MM-DD'), got {value!r}")
+        problems.append(
+            f"{what} must be a list of dates 'YYYY-MM-DD' (or ranges 'YYYY-MM-DD..YYYY-MM-DD'), got {value!r}"
+        )
         return ()
     out: list = []
     for item in value:
@@ -120,7 +122,9 @@ def holidays_from_toml(value, problems: list) -> HolidaySpec:
     if isinstance(value, (list, tuple)):
         return HolidaySpec(dates=_dates(value, "holidays", problems), declared=True)
     if not isinstance(value, dict):
-        problems.append(f"holidays must be a list of dates or a table (country, subdivision, dates, open), got {value!r}")
+        problems.append(
+            f"holidays must be a list of dates or a table (country, subdivision, dates, open), got {value!r}"
+        )
         return HolidaySpec(declared=True)
     unknown = sorted(set(value) - {"country", "subdivision", "dates", "open"})
     if unknown:

@@ -208,7 +208,11 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
     train_days = set()
     for w in weeks:
         if w.train:
-            s = pd.Timestamp(w.start).tz_localize(None) if pd.Timestamp(w.start).tz is not None else pd.Timestamp(w.start)
+            s = (
+                pd.Timestamp(w.start).tz_localize(None)
+                if pd.Timestamp(w.start).tz is not None
+                else pd.Timestamp(w.start)
+            )
             train_days.update(s.normalize() + pd.Timedelta(days=k) for k in range(7))
     days, X, cover = day_signature(frame, building)
 
@@ -267,7 +271,7 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
                     f"training weeks (their operation ran like a Sunday); the models read Sunday's internal gains on "
                     f"{country}'s public holidays"
                     + (f" except {', '.join(sorted(open_names))} (worked on)" if open_names else "")
-                    + f". Declare [holidays] in the building file to choose (e.g. country = \"{country}\", open = [...])"
+                    + f'. Declare [holidays] in the building file to choose (e.g. country = "{country}", open = [...])'
                 )
             elif len(judged) - len(closed) > len(judged) / 3:
                 notes.append(
