@@ -363,25 +363,26 @@ def test_control_model_of_a_reheat_building_is_built_on_the_delivered_heat_form(
     0.04-0.10 K/kW against the plant's 0.31, and MPC on the plant cycled between full reheat and maximum airflow
     (8.70 K*h in two days, 41 reversals in R2; 2.03 K*h and none on the twin). The MPC's reheat now acts per box
     through the twin's ``beta``; the gain profiles refitted around the twin's step minimise the one-step error
-    (not above the twin's own profiles); terms the twin carries (discharge reheat) are dropped, terms on the zone
-    airflow (a delay) keep the airflow base, each with a warning; ``heat="airflow"`` is the former model."""
+    (not above the twin's own profiles); terms the twin carries (reheat, supply air times airflow) are dropped, a
+    term on the zone airflow (a delay) keeps the airflow base, each with a warning; ``heat="airflow"`` is the former model."""
     import warnings
 
     from harness.mpc.heating import heat_plan
     from hvacfmu.diagnosis.control import delivered_twin, terms_on_base
     from hvacfmu.diagnosis.design import make_signals
     from hvacfmu.errors import HvacfmuWarning
-    from hvacfmu.models.causes import ActuationDelay, Reheat, SolarGain
+    from hvacfmu.models.causes import ActuationDelay, Reheat, SolarGain, SupplyAirBilinear
 
     ds, base = reheat_case
     vavs = ds.building.vav_names
     solar = SolarGain(zone="S", facade="S")
     with pytest.warns(HvacfmuWarning, match="built on the delivered-heat form") as rec:
-        m = terms_on_base(ds, base, [solar, Reheat(zone="W", variant="discharge")])
+        m = terms_on_base(ds, base, [solar, Reheat(zone="W", variant="discharge"), SupplyAirBilinear(zone="E")])
     assert m.base.heat == "delivered" and m.base.inlets == tuple(f"Td_{v}" for v in vavs)
     assert m.meta["control_base"]["heat"] == "delivered"
     assert [t.cause for t in m.terms] == ["solar_gain"] and np.isfinite(m.terms[0].coef)
-    assert any("dropped from the control model" in str(w.message) and "Qrh_W" in str(w.message) for w in rec)
+    dropped = [str(w.message) for w in rec if "dropped from the control model" in str(w.message)]
+    assert len(dropped) == 1 and "reheat in W (Qrh_W)" in dropped[0] and "supply_air_bilinear in E" in dropped[0]
     _, plan, names = heat_plan(m, ds.building, vavs, vavs, np.full(len(vavs), 35.0), ds.frame)
     zone_of = {v.name: v.zone for v in ds.building.vavs}
     outs = list(m.outputs)

@@ -23,8 +23,9 @@ reheat at minimum airflow and maximum airflow every other step (8.70 K·h in two
 in R2). :func:`terms_on_base` therefore refits the terms by default (``heat="auto"``) on the
 delivered-heat twin of that base (the same fit options, ``heat="delivered"``: each box acts through
 ``m c_p (Td - T_zone)``), as ``fit --model zones`` does on such data; the terms' regressors still come
-from the airflow base's signals. Terms that act on the zone airflow (actuation delay, supply-air
-bilinear, on/off reheat) have no place in that form: the airflow base is kept, with a warning.
+from the airflow base's signals. Supply-air bilinear and reheat terms are dropped (the twin's boxes carry
+that heat); an actuation delay acts on the zone airflow, which that form does not have: the airflow base is
+kept then, with a warning.
 """
 
 from __future__ import annotations
@@ -40,13 +41,16 @@ from ..models.causes.signals import Within, coupling_ratios, effective_inputs
 from ..models.extended import ExtendedModel
 from .design import _gains_from_fit, base_linear, bounded_ls, coupled_blocks, make_signals, term_features, zone_design
 
-#: causes whose terms act on Model A's zone airflow input (delayed, times a temperature, or as an on/off
-#: switch at minimum airflow): a delivered-heat base has one airflow per box and no such input
-AIRFLOW_CAUSES = ("actuation_delay", "supply_air_bilinear")
+#: causes whose terms act on Model A's zone airflow input (a delayed airflow): a delivered-heat base has one
+#: airflow per box acting at once, and no such input
+AIRFLOW_CAUSES = ("actuation_delay",)
+#: causes whose heat the delivered-heat base carries through its boxes' ``m c_p (T_in - x)`` (the supply air's
+#: ``u (T_supply - x)``, the reheat read from the discharge air or switched at minimum airflow)
+CARRIED_CAUSES = ("supply_air_bilinear", "reheat")
 
 
 def _acts_on_airflow(term) -> bool:
-    return term.cause in AIRFLOW_CAUSES or (term.cause == "reheat" and getattr(term, "variant", "") != "discharge")
+    return term.cause in AIRFLOW_CAUSES
 
 
 def _fixed_prediction(sig, base, U_eff, dataset=None) -> np.ndarray:
@@ -65,10 +69,10 @@ def delivered_twin(dataset, base, terms=()):
 
     ``twin`` is ``None`` (the airflow base stays) when the data measure no discharge air ``Td_<vav>`` of the
     base's boxes, when the base is not an airflow-form Model A, or when a term acts on the zone airflow
-    (:data:`AIRFLOW_CAUSES`, on/off reheat); ``notes`` say why. The twin is fitted with the base's own fit
-    options (``meta["options"]``) and ``heat="delivered"``. A discharge-reheat term (``coef * Qrh_<zone>``)
-    and an unused-input term on a column the twin reads as a box inlet are dropped: the twin carries that
-    heat through its boxes.
+    (:data:`AIRFLOW_CAUSES`: a delayed airflow); ``notes`` say why. The twin is fitted with the base's own fit
+    options (``meta["options"]``) and ``heat="delivered"``. Terms whose heat the twin carries through its
+    boxes' ``m c_p (T_in - x)`` are dropped (:data:`CARRIED_CAUSES`: supply air times airflow, reheat; and an
+    unused-input term on a column the twin reads as a box inlet).
     """
     base = base.base if isinstance(base, ExtendedModel) else base
     frame = dataset.frame
@@ -116,7 +120,7 @@ def delivered_twin(dataset, base, terms=()):
     inlets = set(twin.inlets)
     kept, dropped = [], []
     for t in terms:
-        carried = t.cause == "reheat" or (t.cause == "unused_input" and getattr(t, "column", None) in inlets)
+        carried = t.cause in CARRIED_CAUSES or (t.cause == "unused_input" and getattr(t, "column", None) in inlets)
         (dropped if carried else kept).append(t)
     notes = [
         f"the control model is built on the delivered-heat form of the base (each box acts through "
@@ -128,7 +132,13 @@ def delivered_twin(dataset, base, terms=()):
         notes.append(
             "dropped from the control model, the delivered-heat base carries their heat through its boxes: "
             + ", ".join(
-                f"{t.cause} in {t.zone} ({getattr(t, 'column', None) or reheat_column(t.zone)})" for t in dropped
+                f"{t.cause} in {t.zone}"
+                + (
+                    f" ({getattr(t, 'column', None) or reheat_column(t.zone)})"
+                    if t.cause != "supply_air_bilinear"
+                    else ""
+                )
+                for t in dropped
             )
         )
     return twin, tuple(kept), notes, fit_notes
