@@ -336,3 +336,85 @@ def test_mpc_with_the_coupling_term_beats_the_same_model_without_it(tmp_path):
     b, e = res["solar"], res["solar + coupling"]
     assert e["comfort_violation_Kh"] < b["comfort_violation_Kh"] - 0.2, (b, e)
     assert EnergyUse.of(e).at_most(EnergyUse.of(b)), (b, e)
+
+
+@pytest.fixture(scope="module")
+def reheat_case():
+    """Three weeks of the emulator's reheat mode (Td_<vav> measured at every box) and the diagnosis's base."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.fitting import fit
+
+    paths = cached_dataset(weeks=3, seed=0, hvac="reheat", start="2025-11-03T00:00:00")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = prepare(paths.measurements, paths.building)
+        base = fit(ds, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)  # as diagnose's
+    return ds, base
+
+
+def test_control_model_of_a_reheat_building_is_built_on_the_delivered_heat_form(reheat_case):
+    """Where the discharge air is measured, ``terms_on_base`` (``diagnose --control-output``) refits the terms on
+    the delivered-heat twin of the diagnosis's airflow base. Before, the control model kept the airflow form,
+    which does not see the reheat that holds the zones: on fleet sweep s10's b000 its first-step reheat gain was
+    0.04-0.10 K/kW against the plant's 0.31, and MPC on the plant cycled between full reheat and maximum airflow
+    (8.70 K*h in two days, 41 reversals in R2; 2.03 K*h and none on the twin). The MPC's reheat now acts per box
+    through the twin's ``beta``; the gain profiles refitted around the twin's step minimise the one-step error
+    (not above the twin's own profiles); terms the twin carries (reheat, supply air times airflow) are dropped, a
+    term on the zone airflow (a delay) keeps the airflow base, each with a warning; ``heat="airflow"`` is the former model."""
+    import warnings
+
+    from harness.mpc.heating import heat_plan
+    from hvacfmu.diagnosis.control import delivered_twin, terms_on_base
+    from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.errors import HvacfmuWarning
+    from hvacfmu.models.causes import ActuationDelay, Reheat, SolarGain, SupplyAirBilinear
+
+    ds, base = reheat_case
+    vavs = ds.building.vav_names
+    solar = SolarGain(zone="S", facade="S")
+    with pytest.warns(HvacfmuWarning, match="built on the delivered-heat form") as rec:
+        m = terms_on_base(ds, base, [solar, Reheat(zone="W", variant="discharge"), SupplyAirBilinear(zone="E")])
+    assert m.base.heat == "delivered" and m.base.inlets == tuple(f"Td_{v}" for v in vavs)
+    assert m.meta["control_base"]["heat"] == "delivered"
+    assert [t.cause for t in m.terms] == ["solar_gain"] and np.isfinite(m.terms[0].coef)
+    dropped = [str(w.message) for w in rec if "dropped from the control model" in str(w.message)]
+    assert len(dropped) == 1 and "reheat in W (Qrh_W)" in dropped[0] and "supply_air_bilinear in E" in dropped[0]
+    _, plan, names = heat_plan(m, ds.building, vavs, vavs, np.full(len(vavs), 35.0), ds.frame)
+    zone_of = {v.name: v.zone for v in ds.building.vavs}
+    outs = list(m.outputs)
+    assert names == list(vavs)
+    for i, v in enumerate(vavs):
+        assert_allclose(plan.G[outs.index(zone_of[v]), i], m.base.beta[outs.index(zone_of[v])], rtol=1e-9)
+
+    # the refit's one-step error on the training rows, through the model's own step (gains by season x slot):
+    # not above the twin with its own profiles (a wrong fixed prediction of the delivered form would be)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        plain = terms_on_base(ds, base, ())
+        twin = delivered_twin(ds, base)[0]
+    sig = make_signals(ds, base)
+    u, v = plain.signals(ds.frame)
+    rows = sig.rows("train")
+    rows = rows[np.isfinite(u[rows]).all(axis=1) & np.isfinite(v[rows]).all(axis=1)]
+
+    def rms(model, gains):
+        q = np.array([gains[s][t] for s, t in zip(sig.season[rows], sig.tow[rows])])
+        r = model.step_state(sig.Y[rows], u[rows], v[rows], q)[:, : sig.nz] - sig.Y[rows + 1]
+        return float(np.sqrt(np.nanmean(r**2)))
+
+    assert_allclose(plain.base.beta, twin.beta, rtol=0, atol=0)
+    assert rms(plain, plain.base.gains) <= rms(twin, twin.gains) + 1e-12, (
+        rms(plain, plain.base.gains),
+        rms(twin, twin.gains),
+    )
+
+    with pytest.warns(HvacfmuWarning, match="stays on the airflow-form base"):
+        kept = terms_on_base(ds, base, [ActuationDelay(zone="S", delay=1)])
+    assert kept.base.heat == "airflow"
+    old = terms_on_base(ds, base, [solar], heat="airflow")
+    assert old.base.heat == "airflow"
+    assert_allclose(old.base.B, base.B, rtol=0, atol=0)

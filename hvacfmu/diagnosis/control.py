@@ -13,24 +13,135 @@ trusts its first steps commands bang-bang moves (README "Control gain of the dia
 internal-gain profiles (the same within-slot least squares as the diagnosis, with the base
 prediction as a fixed offset). With ``terms=()`` it gives the matching base: the same gain
 profile estimate without terms, so that base → extended compares the terms alone.
+
+Where the data measure the boxes' discharge air (``Td_<vav>``: every reheat building), the
+diagnosis's base (Model A in the airflow form) does not see the reheat that holds the zones: on
+fleet sweep s10's b000 (reheat-dual, airflow at its minimum 71-80 % of the time, reheat on 39 %)
+its one-step coefficients are a ≈ 0.45-0.49 and B −0.28 … −0.78 K per step per kg/s, a first-step
+reheat gain of 0.04-0.10 K per kW against the plant's 0.31, and an MPC on it cycles between full
+reheat at minimum airflow and maximum airflow every other step (8.70 K·h in two days, 41 reversals
+in R2). :func:`terms_on_base` therefore refits the terms by default (``heat="auto"``) on the
+delivered-heat twin of that base (the same fit options, ``heat="delivered"``: each box acts through
+``m c_p (Td - T_zone)``), as ``fit --model zones`` does on such data; the terms' regressors still come
+from the airflow base's signals. Supply-air bilinear and reheat terms are dropped (the twin's boxes carry
+that heat); an actuation delay acts on the zone airflow, which that form does not have: the airflow base is
+kept then, with a warning.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 
-from ..errors import FitError
+from ..errors import DataError, FitError, HvacfmuWarning
+from ..models.causes.reheat import reheat_column
 from ..models.causes.signals import Within, coupling_ratios, effective_inputs
 from ..models.extended import ExtendedModel
 from .design import _gains_from_fit, base_linear, bounded_ls, coupled_blocks, make_signals, term_features, zone_design
 
+#: causes whose terms act on Model A's zone airflow input (a delayed airflow): a delivered-heat base has one
+#: airflow per box acting at once, and no such input
+AIRFLOW_CAUSES = ("actuation_delay",)
+#: causes whose heat the delivered-heat base carries through its boxes' ``m c_p (T_in - x)`` (the supply air's
+#: ``u (T_supply - x)``, the reheat read from the discharge air or switched at minimum airflow)
+CARRIED_CAUSES = ("supply_air_bilinear", "reheat")
 
-def _fixed_prediction(sig, base, U_eff) -> np.ndarray:
-    """``A y + B u + C v`` of the base model at every row (without internal gains) [°C]."""
+
+def _acts_on_airflow(term) -> bool:
+    return term.cause in AIRFLOW_CAUSES
+
+
+def _fixed_prediction(sig, base, U_eff, dataset=None) -> np.ndarray:
+    """The base model's step at every row without internal gains [°C]: ``A y + B u + C v`` (airflow form),
+    plus ``beta Σ m c_p (T_in - y)`` of the boxes (delivered-heat form, read from ``dataset``'s frame)."""
+    if getattr(base, "beta", None) is not None:
+        u, v = base.signals(dataset.frame)
+        return base.step_state(sig.Y, u, v, 0.0)
     V = np.column_stack([sig.V[c] for c in base.disturbances]) if base.disturbances else np.zeros((len(sig.Y), 0))
     return sig.Y @ base.A.T + U_eff @ base.B.T + V @ base.C.T
+
+
+def delivered_twin(dataset, base, terms=()):
+    """``(twin, terms, notes, fit_notes)``: the delivered-heat twin of the airflow-form ``base``, the terms it
+    carries, what was decided (to warn of) and the twin fit's own warnings (recorded, as the base fit's are).
+
+    ``twin`` is ``None`` (the airflow base stays) when the data measure no discharge air ``Td_<vav>`` of the
+    base's boxes, when the base is not an airflow-form Model A, or when a term acts on the zone airflow
+    (:data:`AIRFLOW_CAUSES`: a delayed airflow); ``notes`` say why. The twin is fitted with the base's own fit
+    options (``meta["options"]``) and ``heat="delivered"``. Terms whose heat the twin carries through its
+    boxes' ``m c_p (T_in - x)`` are dropped (:data:`CARRIED_CAUSES`: supply air times airflow, reheat; and an
+    unused-input term on a column the twin reads as a box inlet).
+    """
+    base = base.base if isinstance(base, ExtendedModel) else base
+    frame = dataset.frame
+    vavs = tuple(getattr(base, "vavs", ()))
+    td = [f"Td_{v}" for v in vavs if f"Td_{v}" in frame.columns]
+    if getattr(base, "beta", None) is not None or getattr(base, "kind", "") != "zones" or not td:
+        return None, tuple(terms), [], []
+    on_airflow = [t for t in terms if _acts_on_airflow(t)]
+    if on_airflow:
+        names = ", ".join(f"{t.cause} in {getattr(t, 'zone', '?')}" for t in on_airflow)
+        return (
+            None,
+            tuple(terms),
+            [
+                f"the control model stays on the airflow-form base although the data measure the discharge air "
+                f"({len(td)} of {len(vavs)} boxes): the term(s) {names} act on the zone airflow, which the "
+                "delivered-heat form does not have; its reheat gain comes from the airflow gain and may be far "
+                "below the building's (README 'Control gain of the diagnosis')"
+            ],
+            [],
+        )
+    from ..fitting import fit
+
+    opts = dict((base.meta or {}).get("options") or {})
+    opts.update(heat="delivered")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            twin = fit(dataset, "zones", progress=False, **opts)
+        except (FitError, DataError) as e:
+            return (
+                None,
+                tuple(terms),
+                [
+                    f"the control model stays on the airflow-form base: its delivered-heat form could not be fitted ({e})"
+                ],
+                [],
+            )
+    fit_notes = [f"delivered-heat base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
+    if tuple(twin.outputs) != tuple(base.outputs):
+        raise FitError(
+            f"terms_on_base: the delivered-heat twin has outputs {list(twin.outputs)}, the base "
+            f"{list(base.outputs)}; pass heat='airflow' to keep the airflow base"
+        )
+    inlets = set(twin.inlets)
+    kept, dropped = [], []
+    for t in terms:
+        carried = t.cause in CARRIED_CAUSES or (t.cause == "unused_input" and getattr(t, "column", None) in inlets)
+        (dropped if carried else kept).append(t)
+    notes = [
+        f"the control model is built on the delivered-heat form of the base (each box acts through "
+        f"m c_p (Td - T_zone); the discharge air is measured at {len(td)} of {len(vavs)} boxes): the airflow form "
+        "does not see the reheat that holds the zones (on reheat buildings its first-step airflow and reheat gains "
+        "were measured far below the plant's: README 'Control gain of the diagnosis')"
+    ]
+    if dropped:
+        notes.append(
+            "dropped from the control model, the delivered-heat base carries their heat through its boxes: "
+            + ", ".join(
+                f"{t.cause} in {t.zone}"
+                + (
+                    f" ({getattr(t, 'column', None) or reheat_column(t.zone)})"
+                    if t.cause != "supply_air_bilinear"
+                    else ""
+                )
+                for t in dropped
+            )
+        )
+    return twin, tuple(kept), notes, fit_notes
 
 
 def _term_columns(sig, terms, U_eff, feats, z):
@@ -74,7 +185,7 @@ def _solve(sig, terms, keep, keys, X, y, lo, hi, dof_extra):
     return theta, sd
 
 
-def terms_on_base(dataset, base, terms=(), meta=None, keep=()) -> ExtendedModel:
+def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> ExtendedModel:
     """The base model (``A, B, C`` kept) with ``terms`` refitted on it, and its gain profiles re-estimated.
 
     Parameters
@@ -83,6 +194,10 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=()) -> ExtendedModel:
         The data the diagnosis ran on (its training weeks are used).
     base : LinearZoneModel or ExtendedModel
         Model A in the airflow form (an extended model: its base).
+    heat : {"auto", "airflow"}
+        ``"auto"``: where the data measure the boxes' discharge air, the terms go on the base's
+        delivered-heat twin (:func:`delivered_twin`; a warning says so, ``meta["control_base"]`` records
+        it); ``"airflow"``: always on ``base`` as given.
     terms : sequence of Term
         The diagnosis's terms (e.g. ``report.model.terms``); their structural parameters
         (zone, facade, delay, slow-mass rate ...) are kept, their coefficients refitted.
@@ -96,17 +211,29 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=()) -> ExtendedModel:
     -------
     ExtendedModel
     """
+    if heat not in ("auto", "airflow"):
+        raise FitError(f"terms_on_base: heat must be 'auto' or 'airflow', got {heat!r}")
     base = base_linear(base)
     sig = make_signals(dataset, base)
-    rows = sig.rows("train")
-    if len(rows) < 50:
-        raise FitError(f"only {len(rows)} usable one-step rows in the training weeks; need at least 50")
-    W = Within(sig.group, rows)
+    meta = dict(meta or {})
+    dyn = base  # the model whose dynamics the terms are refitted on
+    if heat == "auto":
+        twin, terms, notes, fit_notes = delivered_twin(dataset, base, terms)
+        for note in notes:
+            warnings.warn(note, HvacfmuWarning, stacklevel=2)
+        if twin is not None:
+            dyn = twin
+        meta["control_base"] = {"heat": dyn.heat, "notes": notes + fit_notes}
     terms = list(terms)
     U_eff = effective_inputs(sig, terms)
     feats = [term_features(sig, t, U_eff) for t in terms]
-    fixed = _fixed_prediction(sig, base, U_eff)
+    fixed = _fixed_prediction(sig, dyn, U_eff, dataset)
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)]) - fixed
+    rows = sig.rows("train")
+    rows = rows[np.isfinite(target[rows]).all(axis=1)]  # a delivered-heat base: discharge air measured too
+    if len(rows) < 50:
+        raise FitError(f"only {len(rows)} usable one-step rows in the training weeks; need at least 50")
+    W = Within(sig.group, rows)
     yhat = np.zeros_like(target)
     coefs = [dict() for _ in terms]
     stds = [dict() for _ in terms]
@@ -137,9 +264,9 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=()) -> ExtendedModel:
                 yhat[:, z] = cols[z][1] @ th
     gains = _gains_from_fit(sig, rows, target - yhat, W)
     new_base = dataclasses.replace(
-        base,
+        dyn,
         gains=gains,
-        meta={**{k: v for k, v in base.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
+        meta={**{k: v for k, v in dyn.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
     )
     new_terms = tuple(t if t.cause in keep else t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
-    return ExtendedModel(base=new_base, terms=new_terms, meta=dict(meta or {}))
+    return ExtendedModel(base=new_base, terms=new_terms, meta=meta)
