@@ -216,9 +216,15 @@ def _cmd_diagnose(args):
         terms = report.model.terms if report.findings else ()
         control = terms_on_base(dataset, report.base_model, terms, meta={"name": "extended (control)"})
         control.save(args.control_output)
+        on = (
+            "the delivered-heat form of the base model (the data measure the discharge air)"
+            if (control.meta or {}).get("control_base", {}).get("heat") == "delivered"
+            or getattr(control.base, "beta", None) is not None
+            else "the base model's own dynamics"
+        )
         print(
-            f"saved the model to control with to {args.control_output}: the {len(terms)} found term(s) refitted on "
-            "the base model's own dynamics (README 'Control gain of the diagnosis')"
+            f"saved the model to control with to {args.control_output}: {len(control.terms)} found term(s) refitted "
+            f"on {on} (README 'Control gain of the diagnosis')"
         )
     return 0
 
@@ -495,7 +501,8 @@ def _add_diagnose_parser(sub) -> None:
     p.add_argument("--output", "-o", help="write the extended model (JSON)")
     p.add_argument(
         "--control-output",
-        help="write the found terms refitted on the base model's own dynamics (JSON): the model for "
+        help="write the found terms refitted on the base model's own dynamics, or on its delivered-heat form where "
+        "the data measure the discharge air Td_<vav> (JSON): the model for "
         "`cosim --controller mpc`; the one-step refit of --output forecasts well but has too small a "
         "first-step airflow response to control with",
     )
