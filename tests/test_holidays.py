@@ -298,3 +298,24 @@ def _holiday_rms(model, ds, days):
         err.append(e[np.isfinite(e)])
     e = np.concatenate(err)
     return float(np.sqrt(np.mean(e**2)))
+
+
+def test_the_verdict_names_a_held_out_public_holiday_the_model_predicts_as_a_workday():
+    from types import SimpleNamespace
+
+    from hvacfmu.data.holidays import HolidayCalendar
+    from hvacfmu.evaluation.verdict import _holiday_cause
+
+    _, building = _operation_frame(7)
+    tz = building.timezone
+    starts = [pd.Timestamp("2026-11-25 00:00", tz=tz) + pd.Timedelta(hours=12 * i) for i in range(4)]
+    idx = pd.DatetimeIndex([t + pd.Timedelta(minutes=15 * k) for t in starts for k in range(96)])
+    score = SimpleNamespace(starts=starts, seasons=["fall"] * 4, residuals=pd.DataFrame({"A": 0.0}, index=idx))
+    sv = SimpleNamespace(output="A", season="fall")
+    ds = SimpleNamespace(building=building, holidays=HolidayCalendar())
+    plain = _linear_model()
+    (line,) = _holiday_cause(score, sv, plain, ds)
+    assert "2026-11-26 Thanksgiving Day" in line and 'country = "US"' in line
+    assert _holiday_cause(score, sv, _linear_model(["2026-11-26"]), ds) == []
+    other = SimpleNamespace(starts=starts, seasons=["winter"] * 4, residuals=score.residuals)
+    assert _holiday_cause(other, sv, plain, ds) == []

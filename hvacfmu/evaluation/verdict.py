@@ -390,7 +390,7 @@ def make_verdict(scores, models, dataset) -> Verdict:
             missing[sc.name] = absent
             losing += [z.output for z in mine if z.beats_persistence and not z.beats_time_of_week]
         if losing or lost:
-            by_season = [c for v in lost for c in season_causes(sc, v)]
+            by_season = [c for v in lost for c in season_causes(sc, v, model, dataset)]
             general = likely_causes(model, sc, dataset, list(dict.fromkeys(losing + [v.output for v in lost])))
             if by_season and general[-1].startswith("none of the cheap checks fired"):
                 general = general[:-1]
@@ -604,13 +604,16 @@ DRIFT_BIAS_SHARE = 0.5
 DRIFT_GROWTH = 1.2
 
 
-def season_causes(score, sv) -> list[str]:
+def season_causes(score, sv, model=None, dataset=None) -> list[str]:
     """Causes the data can test for a model worse than persistence in one zone and season (:class:`SeasonVerdict`).
 
     - **drift**: the measured temperature holds (persistence is good) while the prediction walks away:
       the season's mean error is at least :data:`DRIFT_BIAS_SHARE` of its RMS and the mean |error|
       grows at least :data:`DRIFT_GROWTH`-fold from the first to the last quarter of the horizon;
-    - **one test week**: the season is judged on the windows of a single held-out week.
+    - **one test week**: the season is judged on the windows of a single held-out week;
+    - **holiday**: the windows cover a weekday public holiday (of the country of the building's time
+      zone) that the model's calendar does not hold, so it predicts a working day there
+      (:mod:`hvacfmu.data.holidays`).
     """
     res = score.residuals
     if res is None or res.empty or sv.output not in res.columns:
@@ -639,7 +642,43 @@ def season_causes(score, sv) -> list[str]:
             f"{sv.output} in {sv.season}: judged on {sv.n_windows} windows of one held-out week; a colder or "
             "warmer week than the training weeks weighs fully (more test weeks: prepare(..., train_fraction=))"
         )
+    if model is not None and dataset is not None:
+        out += _holiday_cause(score, sv, model, dataset)
     return out
+
+
+def _holiday_cause(score, sv, model, dataset) -> list[str]:
+    """The season's scored windows cover weekday public holidays the model predicts as workdays."""
+    import datetime as dt
+
+    from ..calendars import country_of_timezone, public_holidays
+
+    building = dataset.building
+    country = building.holidays.country or getattr(dataset.holidays, "country", None)
+    country = country or country_of_timezone(building.timezone)
+    starts = [t for t, s in zip(score.starts, score.seasons) if s == sv.season]
+    if not country or not starts:
+        return []
+    res = score.residuals  # W windows of N steps each, in window order
+    n = len(res) // len(score.starts) if res is not None and len(res) else 0
+    span = (res.index[n - 1] - res.index[0]) if n > 1 else None
+    span = span if span is not None and span.total_seconds() > 0 else dt.timedelta(days=1)
+    first, last = min(starts).date(), (max(starts) + span).date()
+    listed = set(getattr(model, "holidays", ()) or ())
+    missed = {
+        d: n
+        for d, n in public_holidays(country, None, first, last).items()
+        if d.weekday() < 5 and d.isoformat() not in listed
+    }
+    covered = [d for d in missed if any(t.date() <= d <= (t + span).date() for t in starts)]
+    if not covered:
+        return []
+    days = ", ".join(f"{d} {missed[d]}" for d in sorted(covered))
+    return [
+        f"{sv.output} in {sv.season}: the held-out windows cover {days}, a public holiday of {country} the model "
+        "predicts as a working day (its calendar does not list it: see check's Holidays line); if the building "
+        f'closes on it, declare [holidays] country = "{country}" in the building file and refit'
+    ]
 
 
 def _used_columns(model) -> set:
