@@ -20,7 +20,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from hvacfmu.errors import FMUError, HvacfmuWarning, ModelError
-from hvacfmu.fmu import export_fmu, export_plant_fmu, validate
+from hvacfmu.fmu import export_fmu, export_native_fmu, export_plant_fmu, validate
 from hvacfmu.fmu_slave import box_names, state_from_outputs
 from hvacfmu.models.linear import LinearZoneModel
 
@@ -741,6 +741,49 @@ def calendar_model(building, seed=4, dates=("2025-10-29",)):
             ThermalMass(zone="C", alpha=0.02, beta=0.05),
         ),
     )
+
+
+def test_a_plain_model_with_a_holiday_calendar_fmu_follows_it(fmu_data, tmp_path):
+    """A zones model carrying the data's holidays (hvacfmu.data.holidays): its pythonfmu FMU gets start_time and
+    reads Sunday's gains on the holiday, equal to the Python model; the native export warns that it cannot."""
+    import dataclasses
+
+    from hvacfmu.fmu_native import native_equations
+    from hvacfmu.fmu_slave import calendar_dependent
+
+    building = fmu_data.building
+    tz = building.timezone
+    base = calendar_model(building).base
+    model = dataclasses.replace(base, holidays=("2025-10-29",))
+    assert calendar_dependent(model) and not calendar_dependent(base)
+    native_equations(model)  # not refused: the calendar is the master's (a warning at export, below)
+    path = export_fmu(model.save(tmp_path / "holiday.json"), tmp_path / "holiday.fmu", timezone=tz)
+    idx = pd.date_range("2025-10-27", periods=288, freq="15min", tz=tz)  # Mon..Wed, the holiday last
+    rng = np.random.default_rng(7)
+    m = rng.uniform(0.05, 0.6, (288, len(building.vav_names)))
+    v = np.column_stack([rng.uniform(5, 25, 288), rng.uniform(12, 15, 288), rng.uniform(0, 300, (288, 4))])
+    y0 = np.full(len(model.outputs), 21.0)
+    names_in = [f"m_{b}" for b in building.vav_names] + list(model.disturbances)
+    names_out = [f"T_{z}" for z in model.outputs]
+    U = np.hstack([m, v])
+    Yref = reference(model, idx, m, v, y0, "fall")
+    assert np.abs(Yref - reference(base, idx, m, v, y0, "fall")).max() > 1e-2  # the holiday matters
+    s = Slave(path, "holiday")
+    try:
+        s.init(
+            {
+                "season": list(model.gains).index("fall") + 1,
+                "start_time_of_week": 0.0,
+                "start_time": idx[0].timestamp(),
+            },
+            inputs=(names_in, U[0]),
+        )
+        Y = run_fmu(s, names_in, U, names_out)
+    finally:
+        s.close()
+    assert_allclose(Y, Yref, rtol=0, atol=EXACT)
+    with pytest.warns(HvacfmuWarning, match="time_of_week input to Sunday"):
+        export_native_fmu(model, tmp_path / "holiday_native.fmu", building=building)
 
 
 def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
