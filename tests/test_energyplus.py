@@ -130,6 +130,34 @@ def test_idf_parser_and_geometry():
     assert orientation(_newell(square), rotation_deg=90.0) == "W"
 
 
+def _one_wall_idf(rules: str, west_wall: str) -> str:
+    return (
+        rules
+        + "Building, B, 0, City;\nZone, Flat, 0, 0, 0, 0, 1, 1;\n"
+        + "BuildingSurface:Detailed, Wall W, Wall, c, Flat, , Outdoors, , SunExposed, WindExposed, autocalculate, 4, "
+        + west_wall
+        + ";\nBuildingSurface:Detailed, Floor, Floor, c, Flat, , Adiabatic, , NoSun, NoWind, autocalculate, 4, "
+        + "0,0,0, 10,0,0, 10,8,0, 0,8,0;\n"
+    )
+
+
+def test_clockwise_vertices_give_the_same_facades():
+    # the mid-rise apartment prototype (the only one of 32 example IDFs) lists its vertices clockwise: every facade
+    # of its flats came out mirrored (the SW flat facing N and E, its windows lit by the north irradiance)
+    from hvacfmu.energyplus.geometry import surfaces, windows, zone_tables
+
+    ccw = "GlobalGeometryRules, UpperLeftCorner, Counterclockwise, Relative;\n"
+    cw = "GlobalGeometryRules, LowerLeftCorner, Clockwise, Relative;\n"
+    west_ccw = "0,0,3, 0,8,3, 0,8,0, 0,0,0"  # seen from the west (outside), counterclockwise from upper left
+    west_cw = "0,8,0, 0,8,3, 0,0,3, 0,0,0"  # the apartment IDF's west wall: clockwise from lower left
+    facades = []
+    for text in (_one_wall_idf(ccw, west_ccw), _one_wall_idf(cw, west_cw), _one_wall_idf("", west_ccw)):
+        idf = parse_idf(text)
+        (zone,) = zone_tables(idf, ["Flat"], surfaces(idf), windows(idf))
+        facades.append([f["orientation"] for f in zone["facades"]])
+    assert facades == [["W"], ["W"], ["W"]]  # no GlobalGeometryRules: EnergyPlus's default, counterclockwise
+
+
 @pytest.mark.parametrize(
     "kwargs, exc, match",
     [

@@ -6,8 +6,8 @@ What is read (for the selected conditioned zones):
   zone's ``Volume`` field, else floor area times the zone's height (vertical
   extent of its surfaces);
 - facades: exterior (``Outdoors``) walls grouped by orientation N/E/S/W of their
-  outward normal (Newell's method, rotated by the building's north axis and the
-  zone's relative north); window area = the walls' ``FenestrationSurface:Detailed``
+  outward normal (Newell's method, reversed when ``GlobalGeometryRules`` lists the vertices clockwise, rotated
+  by the building's north axis and the zone's relative north); window area = the walls' ``FenestrationSurface:Detailed``
   areas (times their multiplier), wall area = gross wall minus windows;
 - adjacency: ``Surface``/``Zone`` boundary conditions pointing at another selected zone;
 - physics tables (Model B): ``Material`` / ``Material:NoMass`` / ``Material:AirGap``
@@ -69,10 +69,18 @@ def orientation(normal: np.ndarray, rotation_deg: float = 0.0) -> str:
     return "NESW"[int(((az + 45.0) % 360.0) // 90.0)]
 
 
+def clockwise(idf) -> bool:
+    """Whether the IDF lists vertices clockwise as seen from outside (``GlobalGeometryRules``' vertex entry
+    direction; EnergyPlus's default and the usual case is counterclockwise)."""
+    rules = idf.one("GlobalGeometryRules")
+    return rules is not None and rules.get(1).strip().lower() == "clockwise"
+
+
 def surfaces(idf) -> list:
     """Every detailed building surface as a dict (name, type, construction, zone, bc, bc_object, area,
-    normal, z range)."""
+    outward normal, z range)."""
     out = []
+    sign = -1.0 if clockwise(idf) else 1.0  # Newell's normal points inward for clockwise vertices
     for s in idf.all("BuildingSurface:Detailed"):
         v = _vertices(s, 10)
         out.append(
@@ -84,7 +92,7 @@ def surfaces(idf) -> list:
                 "bc": s.get(5).lower(),
                 "bc_object": s.get(6),
                 "area": polygon_area(v),
-                "normal": _newell(v),
+                "normal": sign * _newell(v),
                 "zmin": float(v[:, 2].min()),
                 "zmax": float(v[:, 2].max()),
             }

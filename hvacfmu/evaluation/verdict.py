@@ -390,7 +390,7 @@ def make_verdict(scores, models, dataset) -> Verdict:
             missing[sc.name] = absent
             losing += [z.output for z in mine if z.beats_persistence and not z.beats_time_of_week]
         if losing or lost:
-            by_season = [c for v in lost for c in season_causes(sc, v, model, dataset)]
+            by_season = [c for v in lost for c in season_causes(sc, v, dataset.frame, model, dataset)]
             general = likely_causes(model, sc, dataset, list(dict.fromkeys(losing + [v.output for v in lost])))
             if by_season and general[-1].startswith("none of the cheap checks fired"):
                 general = general[:-1]
@@ -604,15 +604,19 @@ DRIFT_BIAS_SHARE = 0.5
 DRIFT_GROWTH = 1.2
 
 
-def season_causes(score, sv, model=None, dataset=None) -> list[str]:
+def season_causes(score, sv, frame=None, model=None, dataset=None) -> list[str]:
     """Causes the data can test for a model worse than persistence in one zone and season (:class:`SeasonVerdict`).
 
     - **drift**: the measured temperature holds (persistence is good) while the prediction walks away:
       the season's mean error is at least :data:`DRIFT_BIAS_SHARE` of its RMS and the mean |error|
       grows at least :data:`DRIFT_GROWTH`-fold from the first to the last quarter of the horizon;
+    - **a day-to-day disturbance no column carries**: the windows' mean errors fall on both sides by at least
+      :data:`DAY_TO_DAY_K`, spread by at least :data:`DAY_TO_DAY_SHARE` of the RMS, and follow none of the
+      weather columns of ``frame`` (the dataset's; ``T_out``, ``ghi``) by :data:`DAY_TO_DAY_WEATHER_R` or more
+      (see :func:`day_to_day_line`);
     - **one test week**: the season is judged on the windows of a single held-out week;
-    - **holiday**: the windows cover a weekday public holiday (of the country of the building's time
-      zone) that the model's calendar does not hold, so it predicts a working day there
+    - **holiday** (with ``model`` and ``dataset``): the windows cover a weekday public holiday (of the country
+      of the building's time zone) that the model's calendar does not hold, so it predicts a working day there
       (:mod:`hvacfmu.data.holidays`).
     """
     res = score.residuals
@@ -637,6 +641,9 @@ def season_causes(score, sv, model=None, dataset=None) -> list[str]:
             "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; the physics "
             "model, or `hvacfmu diagnose` (thermal_mass), tests it"
         )
+    day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame)
+    if day:
+        out.append(day)
     if sv.n_weeks == 1:
         out.append(
             f"{sv.output} in {sv.season}: judged on {sv.n_windows} windows of one held-out week; a colder or "
@@ -679,6 +686,71 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
         "predicts as a working day (its calendar does not list it: see check's Holidays line); if the building "
         f'closes on it, declare [holidays] country = "{country}" in the building file and refit'
     ]
+
+
+#: mean error of a window [K] on each side that counts as a day-to-day change of sign (a zone sensor's accuracy,
+#: +-0.2..0.5 K)
+DAY_TO_DAY_K = 0.2
+#: spread (standard deviation) of the windows' mean errors, as a share of the season's RMS, for a day-to-day cause
+DAY_TO_DAY_SHARE = 0.5
+#: |correlation| of the windows' mean errors with a measured weather column's window means that makes it a
+#: weather the model reads wrongly rather than a disturbance no column carries
+DAY_TO_DAY_WEATHER_R = 0.5
+#: fewest windows to judge the day-to-day spread on
+DAY_TO_DAY_MIN_WINDOWS = 3
+
+
+def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
+    """The line for a zone-season whose windows' mean errors ``e`` (windows x steps, measured minus predicted)
+    change sign from day to day and follow no weather column of ``frame`` ('' when they do not).
+
+    A missing heat store or a season level the internal-gain profile misses errs on the same side on most days;
+    a heat flow that changes from day to day and that no column carries (wind-driven infiltration, opened windows,
+    an unmetered heater) does not: the EnergyPlus mid-rise apartments' flats (infiltration proportional to the wind
+    speed times the indoor-outdoor difference, sd 110-185 W a flat in winter) err from -1.05 to +0.45 K a day in
+    winter (zones model), r = +0.78 with the day's infiltration heat away from its part linear in T_out - T_zone,
+    -0.12 with the day's mean T_out and +0.21 with its ghi.
+    """
+    with np.errstate(all="ignore"):
+        means = np.nanmean(e, axis=1)
+    ok = np.isfinite(means)
+    if ok.sum() < DAY_TO_DAY_MIN_WINDOWS:
+        return ""
+    m = means[ok]
+    spread = float(np.std(m))
+    if not (m.min() <= -DAY_TO_DAY_K and m.max() >= DAY_TO_DAY_K and spread >= DAY_TO_DAY_SHARE * sv.rms):
+        return ""
+    follows = []
+    if frame is not None:
+        starts = [t for t, good in zip(starts, ok) if good]
+        for c in ("T_out", "ghi"):
+            if c not in frame.columns:
+                continue
+            col = frame[c]
+            w = np.array(
+                [np.nanmean(col.iloc[col.index.searchsorted(t) : col.index.searchsorted(t) + horizon]) for t in starts]
+            )
+            good = np.isfinite(w)
+            if good.sum() < DAY_TO_DAY_MIN_WINDOWS or np.std(w[good]) == 0:
+                continue
+            follows.append((c, float(np.corrcoef(w[good], m[good])[0, 1])))
+    if any(abs(r) >= DAY_TO_DAY_WEATHER_R for _, r in follows):
+        return ""
+    seen = (
+        " and follows no weather column (r with the window's mean "
+        + ", ".join(f"{c} {r:+.2f}" for c, r in follows)
+        + ")"
+        if follows
+        else ""
+    )
+    return (
+        f"{sv.output} in {sv.season}: the error's mean over a window changes sign from day to day ({m.min():+.2f} to "
+        f"{m.max():+.2f} K, sd {spread:.2f} K over {len(m)} windows, of {sv.rms:.2f} K RMS){seen}: a heat flow that "
+        "changes from day to day and that no column carries (wind-driven infiltration, opened windows or doors, an "
+        "unmetered heater, occupancy) rather than a missing heat store or season level, which err on the same side "
+        "most days; no model fitted on these columns can predict it, and persistence wins where a thermostat holds "
+        "the zone against it (a wind column, if the site has one, would name it among the unused columns)"
+    )
 
 
 def _used_columns(model) -> set:
@@ -904,4 +976,5 @@ __all__ = [
     "likely_causes",
     "make_verdict",
     "season_causes",
+    "day_to_day_line",
 ]
