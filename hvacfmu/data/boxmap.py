@@ -11,9 +11,11 @@ the building file maps to it, one coefficient each. The *evidence* that box ``v`
 acts on zone ``z`` is the log-likelihood gained by adding ``v``'s heat,
 ``n/2 log(RSS without / RSS with)``, 0 when its coefficient comes out negative
 (delivered heat cannot cool a zone). A box mapped to the wrong zone gains little in
-its mapped zone and much in the zone it serves. Rows are serially correlated, so the
-difference between the two zones is also tested with days as independent clusters
-(a non-nested, Vuong-type comparison): its t must reach :data:`ZONE_T`.
+its mapped zone and much in the zone it serves. In its own zone a box is weighed
+against the baseline alone (a sibling box with the same airflow pattern would take its
+evidence). ``zone_t`` also gives a day-clustered t of the difference; it is reported,
+not used: the evidence of real swaps is concentrated in few days (t 1.7-4.7 on an
+8-week emulator export for differences of 150-320 units).
 
 Thresholds (measured, README "What gets refused"): no box of a correct mapping in
 the cached EnergyPlus and emulator exports passes them; see :func:`check_box_zones`.
@@ -38,8 +40,6 @@ MIN_BOX_COVERAGE = 0.8
 MIN_ROWS = 1344
 #: Evidence [log-likelihood units] that the other zone must gain over the mapped one before a box is flagged ...
 ZONE_MARGIN = 50.0
-#: ... the day-clustered t of that difference ...
-ZONE_T = 5.0
 #: ... and the least share of the box's evidence in the two zones that the other one must hold.
 ZONE_SHARE = 0.8
 
@@ -214,8 +214,7 @@ def check_box_zones(frame: pd.DataFrame, building) -> list[str]:
 
     A box is flagged when, against its mapped zone, another zone gains at least
     :data:`ZONE_MARGIN` more evidence, holds at least :data:`ZONE_SHARE` of the box's
-    evidence in the two, and the difference has a day-clustered t of at least
-    :data:`ZONE_T`.
+    evidence in the two.
     """
     ev = box_zone_evidence(frame, building)
     if ev is None:
@@ -233,7 +232,7 @@ def check_box_zones(frame: pd.DataFrame, building) -> list[str]:
             f"box {v}: its delivered heat m_{v} c_p (T_in - T_zone) explains the temperature changes of zone {alt} "
             f"far better than those of zone {z0}, the zone the building file gives it (evidence {other:.0f} against "
             f"{own:.0f} log-likelihood units over {ev.rows} steps, day-clustered t = {t:.1f}; flagged from "
-            f"{ZONE_MARGIN:g} more, a {100 * ZONE_SHARE:g} % share and t {ZONE_T:g}): is box {v} mapped to the wrong "
+            f"{ZONE_MARGIN:g} more and a {100 * ZONE_SHARE:g} % share): is box {v} mapped to the wrong "
             f'zone? If it serves {alt}, set zone = "{alt}" in its [[vavs]] entry (name = "{v}") of the building '
             f"file; otherwise check that columns m_{v} and T_{z0} / T_{alt} are mapped to the right points"
         )
