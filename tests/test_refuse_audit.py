@@ -579,3 +579,24 @@ def test_ghi_with_an_offset_at_night_is_flagged(tmp_path):
     report = _check(f, tmp_path)
     msg = _one(report.warnings, "never falls below")
     assert "never falls below 80 W/m² at night" in msg and report.exit_code == 3
+
+
+def test_a_box_mapped_to_another_zone_is_flagged(short_paths):
+    """Two boxes' zones swapped in the building file fitted a plausible but wrong model in silence: each box's
+    delivered heat moves the temperature of the zone it serves, so `check` names both boxes and both zones."""
+    import tomllib
+
+    d = tomllib.loads(short_paths.building.read_text())
+    report = check(short_paths.measurements, building_from_dict(copy.deepcopy(d)))
+    assert not [w for w in report.warnings if "mapped to the wrong zone" in w]
+    zones = {v["name"]: v["zone"] for v in d["vavs"]}
+    assert zones["VAV_NW_1"] == "NW" and zones["VAV_E_1"] == "E"
+    for v in d["vavs"]:
+        v["zone"] = {"VAV_NW_1": "E", "VAV_E_1": "NW"}.get(v["name"], v["zone"])
+    report = check(short_paths.measurements, building_from_dict(d))
+    nw, e = _one(report.warnings, "box VAV_NW_1:"), _one(report.warnings, "box VAV_E_1:")
+    assert "explains the temperature changes of zone NW far better than those of zone E" in nw
+    assert 'set zone = "NW" in its [[vavs]] entry (name = "VAV_NW_1")' in nw
+    assert "explains the temperature changes of zone E far better than those of zone NW" in e
+    assert nw in report.attention and report.exit_code == 3
+    assert "box in another zone" in report.verdict_line()

@@ -41,6 +41,7 @@ _ATTENTION = {
     "it behaves like indoor air": "outdoor air looks indoor",
     "it behaves like return or room air": "supply air looks like room air",
     "the flag looks inverted": "excitation inverted",
+    "mapped to the wrong zone?": "box in another zone",
 }
 
 

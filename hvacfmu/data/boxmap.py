@@ -1,0 +1,239 @@
+"""Which zone each VAV box heats or cools, read from the data: a box mapped to the wrong zone is flagged.
+
+A box delivers ``m c_p (T_in - T_zone)`` [kW] (``T_in``: its discharge air
+``Td_<vav>``, else its unit's supply air) to the zone it serves, and that heat moves
+the temperature of *that* zone, not the others'. Per zone, the central change
+``T(k+1) - T(k-1)`` (blind to whether a logger stamps an interval's mean at its
+start or its end: EnergyPlus and the emulator differ by a step) is regressed on a
+baseline (hour of the day on working days and weekends, the zone's own temperature,
+the other zones' mean, ``T_out``, facade irradiance) plus the heat of each other box
+the building file maps to it, one coefficient each. The *evidence* that box ``v``
+acts on zone ``z`` is the log-likelihood gained by adding ``v``'s heat,
+``n/2 log(RSS without / RSS with)``, 0 when its coefficient comes out negative
+(delivered heat cannot cool a zone). A box mapped to the wrong zone gains little in
+its mapped zone and much in the zone it serves. In its own zone a box is weighed
+against the baseline alone (a sibling box with the same airflow pattern would take its
+evidence). ``zone_t`` also gives a day-clustered t of the difference; it is reported,
+not used: the evidence of real swaps is concentrated in few days (t 1.7-4.7 on an
+8-week emulator export for differences of 150-320 units).
+
+Thresholds (measured, README "What gets refused"): no box of a correct mapping in
+the cached EnergyPlus and emulator exports passes them; see :func:`check_box_zones`.
+A swapped ``Td_`` column is not tested: in EnergyPlus exports a box's heat computed
+with another box's discharge air explains its zone better than its own in 3 of 12
+correct files (a kitchen fed by transfer air from the dining room), as much as in
+real swaps.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+#: Specific heat of air [kJ/(kg K)]: box heat in kW from airflow in kg/s.
+CP_KJ = 1.005
+#: Boxes whose airflow and inlet have a value in fewer than this share of the usable rows are left out.
+MIN_BOX_COVERAGE = 0.8
+#: Rows with every zone's step change needed before the test runs (2 weeks of 15-minute steps).
+MIN_ROWS = 1344
+#: Evidence [log-likelihood units] that the other zone must gain over the mapped one before a box is flagged ...
+ZONE_MARGIN = 50.0
+#: ... and the least share of the box's evidence in the two zones that the other one must hold.
+ZONE_SHARE = 0.8
+
+
+@dataclasses.dataclass
+class BoxZoneEvidence:
+    """Result of :func:`box_zone_evidence`.
+
+    ``zone[v][z]``: evidence that box ``v``'s heat moves zone ``z``'s temperature;
+    ``rows``: rows used; ``boxes``: the boxes tested; ``zone_t[v]``: ``(zone, t)`` for
+    a box whose evidence is larger in another zone than in its own: that zone and
+    the day-clustered t of the difference.
+    """
+
+    zone: dict
+    rows: int
+    boxes: tuple
+    zone_t: dict
+
+
+def _baseline(frame: pd.DataFrame, zone_cols: list, j: int) -> np.ndarray:
+    """Regressors every zone's step change is explained by before any box: hour x day type, own, others, weather."""
+    idx = frame.index
+    n = len(frame)
+    slot = np.asarray(idx.hour) + 24 * np.asarray(idx.dayofweek >= 5)
+    dummies = np.zeros((n, 48))
+    dummies[np.arange(n), slot] = 1.0
+    cols = [dummies, frame[zone_cols[j]].to_numpy(dtype=float)[:, None]]
+    others = [c for i, c in enumerate(zone_cols) if i != j]
+    if others:
+        cols.append(frame[others].to_numpy(dtype=float).mean(axis=1)[:, None])
+    for c in ("T_out", "I_N", "I_E", "I_S", "I_W"):
+        if c in frame.columns:
+            cols.append(frame[c].to_numpy(dtype=float)[:, None])
+    return np.hstack(cols)
+
+
+def _inlet(frame: pd.DataFrame, building, vav: str) -> np.ndarray | None:
+    td = f"Td_{vav}"
+    if td in frame.columns and np.isfinite(frame[td].to_numpy(dtype=float)).mean() >= 0.5:
+        return frame[td].to_numpy(dtype=float)
+    for c in (building.supply_column(vav), "T_supply"):
+        if c in frame.columns:
+            return frame[c].to_numpy(dtype=float)
+    return None
+
+
+def _rss(G: np.ndarray, W: np.ndarray) -> float:
+    """Residual sum of squares of column 0 regressed on the combinations ``W`` of the other columns (Gram ``G``)."""
+    if W.shape[1] == 0:
+        return float(G[0, 0])
+    A = W.T @ G[1:, 1:] @ W
+    b = W.T @ G[1:, 0]
+    coef = np.linalg.lstsq(A, b, rcond=1e-10)[0]
+    return float(G[0, 0] - b @ coef)
+
+
+def _gain(G: np.ndarray, base: np.ndarray, x: np.ndarray, n: int) -> float:
+    """Log-likelihood gained by adding combination ``x`` to combinations ``base``; 0 for a coefficient <= 0."""
+    both = np.column_stack([base, x])
+    A = both.T @ G[1:, 1:] @ both
+    b = both.T @ G[1:, 0]
+    coef = np.linalg.lstsq(A, b, rcond=1e-10)[0]
+    if not coef[-1] > 0:
+        return 0.0
+    rss0, rss1 = _rss(G, base), float(G[0, 0] - b @ coef)
+    if not (rss0 > 0 and rss1 > 0):
+        return 0.0
+    return max(0.0, 0.5 * n * float(np.log(rss0 / rss1)))
+
+
+def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
+    """Evidence of each box's heat in each zone (see the module); None without enough rows or boxes."""
+    zones = list(building.zone_names)
+    zone_cols = [f"T_{z}" for z in zones]
+    if len(zones) < 2 or any(c not in frame.columns for c in zone_cols):
+        return None
+    T = frame[zone_cols].to_numpy(dtype=float)
+    dT = np.full_like(T, np.nan)
+    dT[1:-1] = T[2:] - T[:-2]
+    ok = np.isfinite(dT).all(axis=1) & np.isfinite(T).all(axis=1)
+    base = [_baseline(frame, zone_cols, j) for j in range(len(zones))]
+    for X in base:
+        ok &= np.isfinite(X).all(axis=1)
+    if ok.sum() < MIN_ROWS:
+        return None
+    m, tin = {}, {}
+    for v in building.vavs:
+        col = f"m_{v.name}"
+        inlet = _inlet(frame, building, v.name)
+        if col not in frame.columns or inlet is None:
+            continue
+        flow = frame[col].to_numpy(dtype=float)
+        have = np.isfinite(flow) & np.isfinite(inlet)
+        if have[ok].mean() >= MIN_BOX_COVERAGE:
+            m[v.name], tin[v.name] = flow, inlet
+    for v in m:
+        ok &= np.isfinite(m[v]) & np.isfinite(tin[v])
+    n = int(ok.sum())
+    boxes = tuple(m)
+    if n < MIN_ROWS or not boxes:
+        return None
+    mapped = {z: [v for v in boxes if building.vav(v).zone == z] for z in zones}
+    day = frame.index[ok].normalize().asi8
+    zone_ev = {v: {} for v in boxes}
+    fits = {}
+    for j, z in enumerate(zones):
+        Tz = T[ok, j]
+        Z = np.column_stack([dT[ok, j], *(CP_KJ * m[v][ok] * (tin[v][ok] - Tz) for v in boxes)])
+        q, _ = np.linalg.qr(base[j][ok])
+        Zx = Z - q @ (q.T @ Z)
+        fits[z] = (Zx, Zx.T @ Zx)
+        G = fits[z][1]
+        for i, v in enumerate(boxes):
+            # in its own zone a box is weighed against the baseline alone: a sibling box with the same airflow
+            # pattern would otherwise take its evidence; elsewhere against that zone's own boxes
+            here = [] if building.vav(v).zone == z else mapped[z]
+            zone_ev[v][z] = _gain(G, _others(boxes, here, v), _unit(len(boxes), i), n)
+    zone_t = {}
+    for i, v in enumerate(boxes):
+        z0 = building.vav(v).zone
+        alt = max((z for z in zones if z != z0), key=lambda z: zone_ev[v][z])
+        if zone_ev[v][alt] > zone_ev[v][z0]:
+            d = _row_gain(fits[alt], boxes, mapped[alt], v, i) - _row_gain(fits[z0], boxes, [], v, i)
+            zone_t[v] = (alt, _clustered_t(d, day))
+    return BoxZoneEvidence(zone=zone_ev, rows=n, boxes=boxes, zone_t=zone_t)
+
+
+def _unit(k: int, i: int) -> np.ndarray:
+    u = np.zeros(k)
+    u[i] = 1.0
+    return u
+
+
+def _others(boxes: tuple, here: list, v: str) -> np.ndarray:
+    """The heat of each box the zone has besides ``v``, one column each (selections of the boxes' heat columns)."""
+    k = len(boxes)
+    rest = [boxes.index(w) for w in here if w != v]
+    w = np.zeros((k, len(rest)))
+    w[rest, np.arange(len(rest))] = 1.0
+    return w
+
+
+def _row_gain(fit, boxes, here, v, col) -> np.ndarray:
+    """Per-row log-likelihood gained by adding column ``col`` to the zone's other boxes (0 for a coefficient <= 0)."""
+    Zx, _ = fit
+    y = Zx[:, 0]
+    base = _others(boxes, here, v)
+    A0 = Zx[:, 1:] @ base
+    r0 = y - A0 @ np.linalg.lstsq(A0, y, rcond=None)[0] if base.shape[1] else y
+    A1 = np.column_stack([A0, Zx[:, 1 + col]])
+    coef = np.linalg.lstsq(A1, y, rcond=None)[0]
+    if not coef[-1] > 0:
+        return np.zeros(len(y))
+    r1 = y - A1 @ coef
+    return (r0 * r0 - r1 * r1) / (2.0 * float(np.mean(r0 * r0)))
+
+
+def _clustered_t(d: np.ndarray, day: np.ndarray) -> float:
+    """Sum of per-row differences over its standard error with days as independent clusters."""
+    _, inv = np.unique(day, return_inverse=True)
+    sums = np.bincount(inv, weights=d)
+    k = len(sums)
+    if k < 2:
+        return 0.0
+    se = np.sqrt(k / (k - 1) * float(np.sum((sums - sums.mean()) ** 2)))
+    return float(d.sum() / se) if se > 0 else 0.0
+
+
+def check_box_zones(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings for boxes whose delivered heat moves another zone's temperature far more than their mapped zone's.
+
+    A box is flagged when, against its mapped zone, another zone gains at least
+    :data:`ZONE_MARGIN` more evidence, holds at least :data:`ZONE_SHARE` of the box's
+    evidence in the two.
+    """
+    ev = box_zone_evidence(frame, building)
+    if ev is None:
+        return []
+    notes = []
+    for v in ev.boxes:
+        if v not in ev.zone_t:
+            continue
+        alt, t = ev.zone_t[v]
+        z0 = building.vav(v).zone
+        own, other = ev.zone[v][z0], ev.zone[v][alt]
+        if other - own < ZONE_MARGIN or other < ZONE_SHARE * (own + other):
+            continue
+        notes.append(
+            f"box {v}: its delivered heat m_{v} c_p (T_in - T_zone) explains the temperature changes of zone {alt} "
+            f"far better than those of zone {z0}, the zone the building file gives it (evidence {other:.0f} against "
+            f"{own:.0f} log-likelihood units over {ev.rows} steps, day-clustered t = {t:.1f}; flagged from "
+            f"{ZONE_MARGIN:g} more and a {100 * ZONE_SHARE:g} % share): is box {v} mapped to the wrong "
+            f'zone? If it serves {alt}, set zone = "{alt}" in its [[vavs]] entry (name = "{v}") of the building '
+            f"file; otherwise check that columns m_{v} and T_{z0} / T_{alt} are mapped to the right points"
+        )
+    return notes
