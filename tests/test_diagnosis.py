@@ -629,6 +629,47 @@ def test_holiday_screen_reads_the_days_on_the_dst_clock_of_the_model():
     assert on_local["2017-04-11"] < 0.95  # an hour off: the ramps of the departure are missed
 
 
+def test_holiday_screen_leaves_out_the_days_of_the_models_holiday_calendar():
+    """A closed week (6-10 Oct) holding a day of the model's holiday calendar (8 Oct, read on Sunday's profile
+    by the base model: hvacfmu.calendars): the screen proposes the week's other four days, not the calendar
+    day, whose gains the model already takes from Sunday (as a holiday term's date it would get Sunday's
+    departure a second time). Before: the day was screened on its weekday clock (gamma ~0) and listed."""
+    import types
+
+    from hvacfmu.calendars import gain_slots
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
+    from hvacfmu.models.causes.internal_gain_schedule import day_departures, holiday_candidate
+
+    step, n_tow, nz = 900.0, 672, 2
+    prof = _weekday_profile(n_tow, nz)
+    idx = pd.date_range("2025-09-01", periods=12 * n_tow, freq="15min", tz="UTC")
+    calendar = ("2025-10-08",)
+    week_days = tuple(f"2025-10-{d:02d}" for d in range(6, 11))
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(1.0, 1.0), dates=week_days)
+    noise = np.random.default_rng(2).normal(0.0, 2e-3, (len(idx), nz))
+    # the gains the model misses: Sunday's departure on the closed days but the calendar day, whose gains the
+    # model already reads on Sunday's profile
+    resid = hol.adjustment(idx, prof, step)
+    resid[np.asarray(idx.normalize() == pd.Timestamp("2025-10-08", tz="UTC"))] = 0.0
+    resid = resid + noise
+    sig = types.SimpleNamespace(
+        index=idx,
+        n_tow=n_tow,
+        step=step,
+        tow=gain_slots(idx, step, calendar) % n_tow,
+        week=np.asarray((idx - idx[0]).days // 7),
+        zones=("A", "B"),
+        nz=nz,
+        seasons=("fall",),
+        season=np.array(["fall"] * len(idx)),
+        base_profiles={"fall": prof},
+    )
+    W = types.SimpleNamespace(rows=np.arange(len(idx) - 1))
+    assert "2025-10-08" not in {d["date"] for d in day_departures(sig, resid, rows=W.rows)}
+    c = holiday_candidate(sig, W, {**DEFAULT_OPTIONS, "_resid_all": resid})
+    assert c.location["dates"] == [d for d in week_days if d not in calendar]
+
+
 @pytest.mark.slow
 def test_one_week_holiday_is_cross_validated_day_by_day():
     """A holiday in one training week: each of its days is predicted by a fit on the others.

@@ -195,6 +195,25 @@ def test_holiday_and_dst_gain_adjustments():
     assert_allclose(qd[1], prof[tow[1]], rtol=0, atol=1e-12)
 
 
+def test_calendar_holiday_is_not_moved_twice_by_the_gain_schedule_terms():
+    # the base model's calendar already reads Sunday's profile on 2025-10-01 (a Wednesday, daylight saving on):
+    # a holiday term listing the day must not add Sunday-minus-Wednesday again, and a dst_shift term must shift
+    # Sunday's profile there, not Wednesday's
+    import dataclasses
+
+    base = dataclasses.replace(_base(), holidays=("2025-10-01",))
+    prof = np.asarray(base.gains["fall"])
+    idx = pd.date_range("2025-10-01", periods=96, freq="15min", tz=TZ)
+    sunday = prof[6 * 96 : 7 * 96]
+    assert_allclose(base.gains_at(idx, "fall"), sunday, rtol=0, atol=0)
+    hol = InternalGainSchedule(variant="holiday", zone_names=("A", "B"), coef=(1.0, 0.5), dates=("2025-10-01",))
+    assert_allclose(ExtendedModel(base=base, terms=(hol,)).gains_at(idx, "fall"), sunday, rtol=0, atol=1e-12)
+    dst = InternalGainSchedule(variant="dst_shift", zone_names=("A", "B"), coef=(1.0, 1.0), shift=-4)
+    q = ExtendedModel(base=base, terms=(dst,)).gains_at(idx, "fall")
+    assert_allclose(q[4:], sunday[:-4], rtol=0, atol=1e-12)  # Sunday read an hour earlier
+    assert_allclose(q[:4], prof[6 * 96 - 4 : 6 * 96], rtol=0, atol=1e-12)  # before 01:00: Saturday's last hour
+
+
 def test_json_roundtrip_and_load_model(tmp_path):
     m = ExtendedModel(base=_base(), terms=ALL_TERMS, meta={"name": "x"})
     path = m.save(tmp_path / "ext.json")

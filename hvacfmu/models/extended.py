@@ -200,7 +200,7 @@ class ExtendedModel(ZoneModel):
     def gains_at(self, index: pd.DatetimeIndex, season: str) -> np.ndarray:
         q = self.base.gains_at(index, season)
         for t in self.terms:
-            adj = t.gain_adjustment(index, np.asarray(self.base.gains[season]), self.step)
+            adj = t.gain_adjustment(index, np.asarray(self.base.gains[season]), self.step, self.holidays)
             if adj is not None:
                 q = q + adj
         return q

@@ -203,8 +203,9 @@ class Term:
         """Add the term's part to the matrix form (in place); raise ModelError when it has none."""
         raise ModelError(f"{self.cause} term has no time-invariant linear/bilinear equations")
 
-    def gain_adjustment(self, index, profile: np.ndarray, step: float) -> np.ndarray | None:
-        """Calendar adjustment of the internal gains (n, nz) [K per step], or None."""
+    def gain_adjustment(self, index, profile: np.ndarray, step: float, holidays=()) -> np.ndarray | None:
+        """Calendar adjustment of the internal gains (n, nz) [K per step], or None (``holidays``: the model's
+        calendar, whose days read Sunday's profile)."""
         return None
 
     # --- diagnosis ---------------------------------------------------------------------

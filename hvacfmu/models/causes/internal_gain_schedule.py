@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 import scipy.ndimage
 
+from ...calendars import gain_slots
 from ...errors import ModelError
-from ...timeutil import time_of_week
 from .base import Candidate, EquationParts, Term, num
 from .signals import dst_active
 
@@ -74,11 +74,16 @@ class InternalGainSchedule(Term):
     def coefficients(self):
         return {"coef": dict(zip(self.zone_names, (float(c) for c in self.coef)))}
 
-    def adjustment(self, index: pd.DatetimeIndex, profile: np.ndarray, step: float) -> np.ndarray:
-        """Gain adjustment (n, n_zones) [K per step] from the season's ``profile`` (n_tow, n_zones)."""
+    def adjustment(self, index: pd.DatetimeIndex, profile: np.ndarray, step: float, holidays=()) -> np.ndarray:
+        """Gain adjustment (n, n_zones) [K per step] from the season's ``profile`` (n_tow, n_zones).
+
+        ``holidays``: the model's calendar (ISO dates, :func:`hvacfmu.calendars.gain_slots`). Its days
+        already read Sunday's profile, so the adjustment starts from that slot: a listed holiday on
+        such a day changes nothing (not Sunday's departure twice), a daylight-saving shift shifts Sunday's.
+        """
         index = pd.DatetimeIndex(index)
         n_tow = profile.shape[0]
-        tow = time_of_week(index, step) % n_tow
+        tow = gain_slots(index, step, holidays) % n_tow
         coef = np.asarray(self.coef, dtype=float)
         out = np.zeros((len(index), profile.shape[1]))
         if self.variant == "holiday":
@@ -95,8 +100,8 @@ class InternalGainSchedule(Term):
                 out[on] = (profile[(tow[on] + self.shift) % n_tow] - profile[tow[on]]) * coef
         return out
 
-    def gain_adjustment(self, index, profile, step):
-        return self.adjustment(index, profile, step)
+    def gain_adjustment(self, index, profile, step, holidays=()):
+        return self.adjustment(index, profile, step, holidays)
 
     def add_equations(self, e: EquationParts) -> None:
         raise ModelError(
@@ -110,7 +115,7 @@ class InternalGainSchedule(Term):
         for s in sig.seasons:
             m = sig.season == s
             if m.any():
-                adj[m] = unit.adjustment(sig.index[m], sig.base_profiles[s], sig.step)
+                adj[m] = unit.adjustment(sig.index[m], sig.base_profiles[s], sig.step, sig.base.holidays)
         return [(i, f"coef[{z}]", adj[:, i], 0.0, 2.0) for i, z in enumerate(sig.zones)]
 
     def with_fit(self, sig, coefs, stds):
@@ -206,7 +211,9 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, 
     """
     idx = sig.index
     per_day = sig.n_tow // 7
-    tow = gain_clock(idx, time_of_week(idx, sig.step) % sig.n_tow, sig.n_tow, shift)
+    # the slots the model's gains are read at (a day of its holiday calendar already reads the reference
+    # Sunday: it has no departure to show and is skipped)
+    tow = gain_clock(idx, sig.tow, sig.n_tow, shift)
     dates = np.array(idx.date)
     wd = idx.day_of_week.to_numpy()
     out = []
@@ -440,7 +447,7 @@ def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
     num, den, dd = np.zeros(len(lags)), np.zeros(len(lags)), np.zeros(len(lags))
     seasons = {}
     slot = sig.tow % per_day
-    weekday = wd < 5
+    weekday = (wd < 5) & (sig.tow < 5 * per_day)  # a day of the holiday calendar reads Sunday: not a workday
 
     def day_profile(sel):
         cnt = np.bincount(slot[sel], minlength=per_day)
