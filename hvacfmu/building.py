@@ -86,7 +86,7 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib
 
-from .calendars import HolidaySpec, holidays_from_toml
+from .calendars import HolidaySpec, holidays_from_toml, zone_table_rows
 from .errors import BuildingError, problems_message
 
 ORIENTATIONS = ("N", "E", "S", "W")
@@ -731,25 +731,12 @@ def _zone_latitudes() -> dict:
     """Time zone name -> latitude [deg] of its principal city, from the tz database's zone tables (may be empty)."""
     import re
 
-    paths = [Path("/usr/share/zoneinfo/zone1970.tab"), Path("/usr/share/zoneinfo/zone.tab")]
-    try:
-        import tzdata
-
-        paths += [Path(tzdata.__file__).parent / "zoneinfo" / n for n in ("zone1970.tab", "zone.tab")]
-    except ImportError:  # pragma: no cover - the system tables suffice
-        pass
     out: dict = {}
-    for path in paths:
-        try:
-            lines = path.read_text(encoding="utf-8").splitlines()
-        except OSError:
-            continue
-        for line in lines:
-            parts = line.split("\t")
-            m = re.match(r"([+-])(\d{2})(\d{2})(\d{2})?[+-]", parts[1]) if len(parts) > 2 else None
-            if m and not line.startswith("#"):
-                lat = int(m.group(2)) + int(m.group(3)) / 60 + int(m.group(4) or 0) / 3600
-                out.setdefault(parts[2], lat if m.group(1) == "+" else -lat)
+    for parts in zone_table_rows():
+        m = re.match(r"([+-])(\d{2})(\d{2})(\d{2})?[+-]", parts[1])
+        if m:
+            lat = int(m.group(2)) + int(m.group(3)) / 60 + int(m.group(4) or 0) / 3600
+            out.setdefault(parts[2], lat if m.group(1) == "+" else -lat)
     return out
 
 

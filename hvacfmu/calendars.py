@@ -179,14 +179,22 @@ def _country_table(country: str, subdivision: str | None, y0: int, y1: int) -> d
 @functools.lru_cache(maxsize=1)
 def _zone_countries() -> dict:
     """Time zone name -> ISO 3166 country code, from the tz database's ``zone.tab`` (may be empty)."""
-    paths = [Path("/usr/share/zoneinfo/zone.tab")]
+    out: dict = {}
+    for parts in zone_table_rows(("zone.tab",)):
+        out.setdefault(parts[2], parts[0])
+    return out
+
+
+def zone_table_rows(names=("zone1970.tab", "zone.tab")):
+    """Rows (tab-separated fields, at least three: codes, coordinates, zone name) of the tz database's zone tables
+    ``names``, from the system's ``/usr/share/zoneinfo`` and the ``tzdata`` package (none if neither is there)."""
+    paths = [Path("/usr/share/zoneinfo") / n for n in names]
     try:
         import tzdata
 
-        paths.insert(0, Path(tzdata.__file__).parent / "zoneinfo" / "zone.tab")
-    except ImportError:  # pragma: no cover - the system table suffices
+        paths += [Path(tzdata.__file__).parent / "zoneinfo" / n for n in names]
+    except ImportError:  # pragma: no cover - the system tables suffice
         pass
-    out: dict = {}
     for path in paths:
         try:
             lines = path.read_text(encoding="utf-8").splitlines()
@@ -195,8 +203,7 @@ def _zone_countries() -> dict:
         for line in lines:
             parts = line.split("\t")
             if len(parts) > 2 and not line.startswith("#"):
-                out.setdefault(parts[2], parts[0])
-    return out
+                yield parts
 
 
 def country_of_timezone(timezone: str) -> str | None:
