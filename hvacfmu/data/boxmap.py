@@ -64,7 +64,7 @@ def _baseline(frame: pd.DataFrame, zone_cols: list, j: int) -> np.ndarray:
     """Regressors every zone's step change is explained by before any box: hour x day type, own, others, weather."""
     idx = frame.index
     n = len(frame)
-    slot = np.asarray(idx.hour) + 24 * np.asarray(idx.dayofweek >= 5)
+    slot = np.asarray(idx.hour) + 24 * np.asarray(idx.day_of_week >= 5)
     dummies = np.zeros((n, 48))
     dummies[np.arange(n), slot] = 1.0
     cols = [dummies, frame[zone_cols[j]].to_numpy(dtype=float)[:, None]]

@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as _dt
 import math
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -108,6 +109,13 @@ def day_signature(frame: pd.DataFrame, building) -> tuple[pd.DatetimeIndex, np.n
     over their total ``m_max``; the area-weighted mean zone temperature minus the day's mean; and, where
     ``Td_<vav>`` columns exist, the mean of ``max(Td - T_supply, 0)`` over the boxes (reheat).
     """
+    with warnings.catch_warnings():  # all-NaN rows and days (gaps) stay NaN, without a RuntimeWarning
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return _day_signature(frame, building)
+
+
+def _day_signature(frame: pd.DataFrame, building) -> tuple[pd.DatetimeIndex, np.ndarray, np.ndarray]:
+    """The body of :func:`day_signature`."""
     idx = frame.index
     blocks = []
     m_cols = [f"m_{v.name}" for v in building.vavs if f"m_{v.name}" in frame.columns]
