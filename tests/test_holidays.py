@@ -194,7 +194,7 @@ def test_public_holidays_apply_when_the_training_weeks_closed_on_them():
     assert "2027-11-25" in cal.dates  # next year's Thanksgiving, for forecasts
     assert all(cal.gammas[d] > 0.8 for d in closed[:3])
     assert "2026-11-26" not in cal.gammas  # held out: never judged
-    assert any("closed on 3 of the 3 public holidays of US" in n for n in cal.notes)
+    assert any("closed on 3 of the 3 public holiday(s) of US" in n for n in cal.notes)
 
 
 def test_public_holidays_do_not_apply_to_a_building_working_on_them():
@@ -319,3 +319,25 @@ def test_the_verdict_names_a_held_out_public_holiday_the_model_predicts_as_a_wor
     assert _holiday_cause(score, sv, _linear_model(["2026-11-26"]), ds) == []
     other = SimpleNamespace(starts=starts, seasons=["winter"] * 4, residuals=score.residuals)
     assert _holiday_cause(other, sv, plain, ds) == []
+
+
+def test_a_single_training_holiday_closed_beyond_doubt_is_enough():
+    """A short export (five weeks from 31 August): Labor Day is the only public holiday in it. Closed beyond doubt,
+    the calendar applies (Thanksgiving, later, reads Sunday's gains); run half-way to a Sunday, it does not."""
+    from hvacfmu.data.holidays import SINGLE_GAMMA, decide_holidays
+
+    frame, building = _operation_frame(5 * 7, closed=("2026-09-07",))
+    cal = decide_holidays(frame, building, _weeks(frame, building))
+    assert cal.gammas["2026-09-07"] >= SINGLE_GAMMA
+    assert cal.source == "public" and "2026-11-26" in cal.dates
+    assert any("the only one there" in n for n in cal.notes)
+    half = frame.copy()
+    day = np.asarray(half.index.strftime("%Y-%m-%d")) == "2026-09-07"
+    hour = half.index.hour.to_numpy()
+    run = day & (hour >= 6) & (hour < 20)
+    half.loc[run, "m_V1"] = 0.05 + 0.15 * np.random.default_rng(3).uniform(0.6, 1.0, run.sum())  # half the load
+    half.loc[run, "T_A"] = 22.75
+    cal = decide_holidays(half, building, _weeks(half, building))
+    assert cal.source == "none" and cal.dates == ()
+    assert 0.25 <= cal.gammas["2026-09-07"] < SINGLE_GAMMA
+    assert any("too few to decide" in n for n in cal.notes)

@@ -16,7 +16,7 @@ weekday profile it estimates. Which days are holidays:
   neighbouring workdays' mean to the neighbouring Sundays' mean (``gamma``,
   :func:`day_gammas`), *worked* below :data:`WORKED_GAMMA`. The country's calendar
   applies when at least two thirds of the training public holidays were closed
-  (at least :data:`MIN_CLOSED`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
+  (at least :data:`MIN_CLOSED`, or a single one with ``gamma`` >= :data:`SINGLE_GAMMA`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
   workdays' spread too; the holidays worked on are left out by name in every year;
 - no other day: an unlisted weekday that ran like a Sunday is not detected (on the emulator, whose
   buildings keep no holiday, ordinary workdays of a 16-week set reach ``gamma`` 0.78, where the
@@ -53,6 +53,11 @@ CLOSED_GAMMA = 0.5
 WORKED_GAMMA = 0.25
 #: Public holidays of the training weeks that must have run closed before the country's calendar applies.
 MIN_CLOSED = 2
+#: ... unless the training weeks hold a single one, closed beyond doubt: ``gamma`` at least this and
+#: :data:`SINGLE_SPREADS` workday spreads (the emulator's ordinary workdays reach 0.78 at most, the EnergyPlus
+#: prototypes' holidays 0.8-1.2): a short winter export with New Year in its training weeks and Christmas held out
+SINGLE_GAMMA = 0.85
+SINGLE_SPREADS = 4.0
 #: Robust spread (1.4826 MAD) of gamma over ordinary workdays above which Sundays and workdays are not told apart.
 MAX_WORKDAY_SPREAD = 0.25
 #: A day is closed (listed) or detected only this many spreads above the workdays' 0 as well.
@@ -267,7 +272,12 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
             judged = {d.date(): g for d, g in gam.items()}
             closed = [d for d, g in judged.items() if g >= max(CLOSED_GAMMA, CLOSED_SPREADS * spread)]
             worked = [d for d, g in judged.items() if g < WORKED_GAMMA]
-            if len(closed) >= max(MIN_CLOSED, math.ceil(2 * len(judged) / 3)):
+            single = (
+                len(judged) == 1
+                and len(closed) == 1
+                and judged[closed[0]] >= max(SINGLE_GAMMA, SINGLE_SPREADS * spread)
+            )
+            if single or len(closed) >= max(MIN_CLOSED, math.ceil(2 * len(judged) / 3)):
                 open_names = {pub[d] for d in worked}  # by name in every year ("... (observed)" stays apart)
                 allp = weekdays(public_holidays(country, None, horizon_start, horizon_end))
                 table = {d: n for d, n in allp.items() if n not in open_names}
@@ -275,9 +285,10 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
                 in_data = {d: n for d, n in table.items() if first <= d <= last}
                 source = "public"
                 notes.append(
-                    f"the building closed on {len(closed)} of the {len(judged)} public holidays of {country} in the "
-                    f"training weeks (their operation ran like a Sunday); the models read Sunday's internal gains on "
-                    f"{country}'s public holidays"
+                    f"the building closed on {len(closed)} of the {len(judged)} public holiday(s) of {country} in the "
+                    f"training weeks (their operation ran like a Sunday"
+                    + (f": gamma {judged[closed[0]]:.2f}, the only one there" if single else "")
+                    + f"); the models read Sunday's internal gains on {country}'s public holidays"
                     + (f" except {', '.join(sorted(open_names))} (worked on)" if open_names else "")
                     + f'. Declare [holidays] in the building file to choose (e.g. country = "{country}", open = [...])'
                 )
@@ -290,7 +301,8 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
                 notes.append(
                     f"the building closed on {len(closed)} public holiday of {country} in the training weeks ("
                     + ", ".join(f"{d} {pub[d]}" for d in closed)
-                    + f"), too few to decide (at least {MIN_CLOSED}); no public holiday applied. If it closes on "
+                    + f"), too few to decide (at least {MIN_CLOSED}, or one at gamma {SINGLE_GAMMA}); no public holiday "
+                    "applied. If it closes on "
                     f'them, add [holidays] country = "{country}" to the building file'
                 )
             else:
