@@ -212,7 +212,7 @@ def country_of_timezone(timezone: str) -> str | None:
 
 
 def holiday_slots(index, step: float, holidays) -> tuple:
-    """Rows of ``index`` on a holiday weekday, and the Sunday slot each reads instead.
+    """Rows of ``index`` on a holiday weekday, and the time-of-week slot each row's internal gains are read at.
 
     Parameters
     ----------
@@ -227,8 +227,8 @@ def holiday_slots(index, step: float, holidays) -> tuple:
     -------
     on : array of bool (n,)
         Rows whose local date is a listed holiday falling on Monday to Friday (a weekend keeps its own profile).
-    slot : array of int (n,)
-        The time-of-week slot of the same time of day on Sunday (valid where ``on``).
+    slots : array of int (n,)
+        :func:`hvacfmu.timeutil.time_of_week`, with the rows ``on`` moved to the same time of day on Sunday.
     """
     import numpy as np
     import pandas as pd
@@ -236,32 +236,27 @@ def holiday_slots(index, step: float, holidays) -> tuple:
     from .timeutil import n_time_of_week, time_of_week
 
     index = pd.DatetimeIndex(index)
-    n = len(index)
-    if not n or not holidays:
-        return np.zeros(n, bool), np.zeros(n, np.int64)
+    slots = time_of_week(index, step)
+    if not len(index) or not holidays:
+        return np.zeros(len(index), bool), slots
     days = index.normalize().tz_localize(None) if index.tz is not None else index.normalize()
-    listed = pd.DatetimeIndex(pd.to_datetime(list(holidays)))
-    on = np.asarray(days.isin(listed)) & (np.asarray(index.day_of_week) < 5)
+    on = np.asarray(days.isin(_listed(tuple(holidays)))) & (np.asarray(index.day_of_week) < 5)
     n_tow = n_time_of_week(step)
     if n_tow % 7:
         raise ValueError(f"model step {step} s does not divide a day: a holiday cannot read Sunday's profile")
     per_day = n_tow // 7
-    tow = time_of_week(index, step) % n_tow
-    slot = HOLIDAY_WEEKDAY * per_day + tow % per_day
-    return on, slot
+    return on, np.where(on, HOLIDAY_WEEKDAY * per_day + slots % per_day, slots)
+
+
+@functools.lru_cache(maxsize=8)
+def _listed(holidays: tuple):
+    """The ISO dates as a DatetimeIndex, parsed once per calendar (models read it at every step)."""
+    import pandas as pd
+
+    return pd.DatetimeIndex(pd.to_datetime(list(holidays)))
 
 
 def gain_slots(index, step: float, holidays=()):
-    """Time-of-week slot each row's internal gains are read at: its own, or on a holiday weekday Sunday's.
-
-    :func:`hvacfmu.timeutil.time_of_week` with the rows of :func:`holiday_slots` moved to Sunday.
-    """
-    import numpy as np
-
-    from .timeutil import time_of_week
-
-    slots = time_of_week(index, step)
-    if holidays:
-        on, sunday = holiday_slots(index, step, holidays)
-        slots = np.where(on, sunday, slots)
-    return slots
+    """Time-of-week slot each row's internal gains are read at: its own, or on a holiday weekday Sunday's
+    (the second result of :func:`holiday_slots`)."""
+    return holiday_slots(index, step, holidays)[1]

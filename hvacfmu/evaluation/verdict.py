@@ -660,9 +660,8 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
 
     from ..calendars import country_of_timezone, public_holidays
 
-    building = dataset.building
-    country = building.holidays.country or getattr(dataset.holidays, "country", None)
-    country = country or country_of_timezone(building.timezone)
+    # the dataset's calendar has the declared country, else the time zone's; a list of dates alone has none
+    country = dataset.holidays.country or country_of_timezone(dataset.building.timezone)
     starts = [t for t, s in zip(score.starts, score.seasons) if s == sv.season]
     if not country or not starts:
         return []

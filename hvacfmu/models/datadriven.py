@@ -60,7 +60,7 @@ import numpy as np
 import scipy.fft
 import scipy.sparse
 
-from ..calendars import gain_slots, holiday_slots
+from ..calendars import holiday_slots
 from ..errors import DataError, FitError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week
 from .heat import air_handler_off_share, delivered_heat, inlet_columns
@@ -670,9 +670,8 @@ class _Prepared:
         self.season = season
         # the slot each row's gains are read at (a holiday weekday: Sunday's), and the rows that estimate
         # a profile (not holidays: hvacfmu.data.holidays)
-        holidays = dataset.holidays.dates
-        self.slots = gain_slots(self.index, self.step, holidays)
-        self.gain_ok = ~holiday_slots(self.index, self.step, holidays)[0]
+        on, self.slots = holiday_slots(self.index, self.step, dataset.holidays.dates)
+        self.gain_ok = ~on
         self.n_slots = n_time_of_week(self.step)
         if not train.any():
             raise FitError("the dataset has no training weeks; need at least one full week of data")
