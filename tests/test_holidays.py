@@ -341,3 +341,48 @@ def test_a_single_training_holiday_closed_beyond_doubt_is_enough():
     assert cal.source == "none" and cal.dates == ()
     assert 0.25 <= cal.gammas["2026-09-07"] < SINGLE_GAMMA
     assert any("too few to decide" in n for n in cal.notes)
+
+
+def test_unlisted_closures_are_named_in_training_and_held_out_weeks_never_applied():
+    """A building closed on its public holidays and also 28-30 December (no public holiday) and on one held-out
+    Wednesday: the calendar applies the public holidays only; the other closed weekdays are named, the held-out
+    one marked, and an ordinary building names none."""
+    from hvacfmu.data.holidays import decide_holidays
+
+    closed = ("2026-09-07", "2026-10-12", "2026-11-11", "2026-11-26", "2026-12-25")
+    unlisted = ("2026-12-28", "2026-12-29", "2026-12-30", "2026-10-21")
+    frame, building = _operation_frame(18 * 7, closed + unlisted)
+    weeks = _weeks(frame, building, test=(7,))  # the week of 2026-10-19
+    cal = decide_holidays(frame, building, weeks)
+    assert cal.source == "public" and not set(unlisted) & set(cal.dates)
+    assert set(cal.sunday_like) == set(unlisted)
+    (note,) = [n for n in cal.notes if "outside the holiday calendar ran like a Sunday" in n]
+    assert "2026-10-21 (Wed, gamma" in note and "held out" in note.split("2026-10-21")[1].split(")")[0]
+    assert "[holidays] dates" in note
+    plain, _ = _operation_frame(18 * 7, closed)
+    assert decide_holidays(plain, building, weeks).sunday_like == {}
+    worked, _ = _operation_frame(18 * 7)
+    assert decide_holidays(worked, building, weeks).sunday_like == {}
+
+
+def test_the_verdict_names_a_held_out_weekday_that_ran_like_a_sunday():
+    from types import SimpleNamespace
+
+    from hvacfmu.data.holidays import HolidayCalendar
+    from hvacfmu.evaluation.verdict import _holiday_cause
+
+    _, building = _operation_frame(7)
+    tz = building.timezone
+    starts = [pd.Timestamp("2026-12-28 00:00", tz=tz) + pd.Timedelta(hours=12 * i) for i in range(4)]
+    idx = pd.DatetimeIndex([t + pd.Timedelta(minutes=15 * k) for t in starts for k in range(96)])
+    score = SimpleNamespace(starts=starts, seasons=["winter"] * 4, residuals=pd.DataFrame({"A": 0.0}, index=idx))
+    sv = SimpleNamespace(output="A", season="winter")
+    cal = HolidayCalendar(sunday_like={"2026-12-29": 0.97, "2027-02-10": 0.9})
+    ds = SimpleNamespace(building=building, holidays=cal)
+    (line,) = _holiday_cause(score, sv, _linear_model(), ds)
+    assert "2026-12-29 (Tue, gamma 0.97)" in line and "ran like a Sunday" in line and "2027-02-10" not in line
+    assert "[holidays] dates" in line
+    assert _holiday_cause(score, sv, _linear_model(["2026-12-29"]), ds) == []
+    assert (
+        _holiday_cause(score, sv, _linear_model(), SimpleNamespace(building=building, holidays=HolidayCalendar())) == []
+    )

@@ -18,10 +18,14 @@ weekday profile it estimates. Which days are holidays:
   applies when at least two thirds of the training public holidays were closed
   (at least :data:`MIN_CLOSED`, or a single one with ``gamma`` >= :data:`SINGLE_GAMMA`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
   workdays' spread too; the holidays worked on are left out by name in every year;
-- no other day: an unlisted weekday that ran like a Sunday is not detected (on the emulator, whose
-  buildings keep no holiday, ordinary workdays of a 16-week set reach ``gamma`` 0.78, where the
-  EnergyPlus prototypes' holidays lie at 0.8-1.2: weather and faults move a day's operation almost as
-  far as a holiday does).
+- no other day is applied: an unlisted weekday that ran like a Sunday is not added to the calendar (on the
+  emulator, whose buildings keep no holiday, ordinary workdays of a 16-week set reach ``gamma`` 0.78, where
+  the EnergyPlus prototypes' holidays lie at 0.8-1.2: weather and faults move a day's operation almost as
+  far as a holiday does). Such days are *named* instead (:attr:`HolidayCalendar.sunday_like`): every
+  weekday of the data, held-out weeks included, outside the calendar with ``gamma`` at least
+  :data:`SINGLE_GAMMA` and :data:`SINGLE_SPREADS` workday spreads (a closure between Christmas and New Year,
+  a bridge day, a day the plant ran off schedule), in a ``check`` note and, for a zone-season a model loses,
+  in the evaluation's verdict.
 
 ``gamma`` projects the day on the workday-to-Sunday direction weighted by the neighbouring workdays'
 scatter per feature (a diagonal discriminant): on 32 cached emulator sets the robust spread of ordinary
@@ -87,6 +91,9 @@ class HolidayCalendar:
         ``{date: name}`` of the calendar's weekdays inside the data.
     gammas : dict
         ``{date: gamma}`` of every listed or detected weekday the data could judge.
+    sunday_like : dict
+        ``{date: gamma}`` (ISO dates) of the weekdays outside the calendar, training or held-out, that ran
+        like a Sunday beyond doubt (:func:`sunday_like_days`): named, never applied.
     notes : tuple of str
         What was decided and why, for ``check`` and the fits' warnings.
     """
@@ -97,6 +104,7 @@ class HolidayCalendar:
     in_data: dict = dataclasses.field(default_factory=dict)
     gammas: dict = dataclasses.field(default_factory=dict)
     notes: tuple = ()
+    sunday_like: dict = dataclasses.field(default_factory=dict)
 
     def summary(self) -> str:
         """One line for ``check``: what the calendar holds inside the data."""
@@ -315,6 +323,21 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
                         f'predict them as workdays. If it closes, add [holidays] country = "{country}" to the building file'
                     )
     gammas = {d.date().isoformat(): round(g, 3) for d, g in gam.items()}
+    sunday = sunday_like_days(days, X, cover, {d.isoformat() for d in dates})
+    if sunday:
+        held = {d for d in sunday if pd.Timestamp(d) not in train_days}
+        listed = ", ".join(
+            f"{d} ({pd.Timestamp(d).day_name()[:3]}, gamma {g:.2f}{', held out' if d in held else ''})"
+            for d, g in list(sunday.items())[:6]
+        )
+        more = f" and {len(sunday) - 6} more" if len(sunday) > 6 else ""
+        notes.append(
+            f"{len(sunday)} weekday(s) outside the holiday calendar ran like a Sunday ({listed}{more}; gamma: 0 = "
+            "the neighbouring workdays, 1 = the neighbouring Sundays): the models predict them as working days. If "
+            "the building was closed, list them in the building file's [holidays] dates (ranges such as "
+            '"2025-12-24..2026-01-01" are allowed) and refit; if its plant ran off schedule, expect larger errors '
+            "there"
+        )
     return HolidayCalendar(
         dates=tuple(sorted(d.isoformat() for d in dates)),
         source=source,
@@ -322,4 +345,26 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
         in_data={d.isoformat(): n for d, n in sorted(in_data.items())},
         gammas=gammas,
         notes=tuple(notes),
+        sunday_like=sunday,
     )
+
+
+def sunday_like_days(days, X, cover, listed) -> dict:
+    """``{ISO date: gamma}`` of the weekdays not in ``listed`` (ISO dates) that ran like a Sunday beyond doubt.
+
+    Every day of the data may serve as reference and be judged (held-out weeks too: the result only names
+    days, the models never read it). A day counts at ``gamma`` >= :data:`SINGLE_GAMMA` and
+    :data:`SINGLE_SPREADS` workday spreads, where the workdays and Sundays can be told apart at all
+    (spread <= :data:`MAX_WORKDAY_SPREAD`); the listed days are left out of the workday reference.
+    """
+    days = pd.DatetimeIndex(days)
+    if not len(days):
+        return {}
+    usable = set(days)
+    exclude = {d for d in days if d.date().isoformat() in listed}
+    cands = [d for d in days if d.day_of_week < 5 and d not in exclude]
+    gam, spread = day_gammas(days, X, cover, cands, usable, exclude)
+    if not math.isfinite(spread) or spread > MAX_WORKDAY_SPREAD:
+        return {}
+    floor = max(SINGLE_GAMMA, SINGLE_SPREADS * spread)
+    return {d.date().isoformat(): round(g, 3) for d, g in sorted(gam.items()) if g >= floor}

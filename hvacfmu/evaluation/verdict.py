@@ -617,7 +617,8 @@ def season_causes(score, sv, frame=None, model=None, dataset=None) -> list[str]:
     - **one test week**: the season is judged on the windows of a single held-out week;
     - **holiday** (with ``model`` and ``dataset``): the windows cover a weekday public holiday (of the country
       of the building's time zone) that the model's calendar does not hold, so it predicts a working day there
-      (:mod:`hvacfmu.data.holidays`).
+      (:mod:`hvacfmu.data.holidays`), or another weekday the data show ran like a Sunday
+      (``dataset.holidays.sunday_like``: a closure no public calendar lists).
     """
     res = score.residuals
     if res is None or res.empty or sv.output not in res.columns:
@@ -663,7 +664,7 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
     # the dataset's calendar has the declared country, else the time zone's; a list of dates alone has none
     country = dataset.holidays.country or country_of_timezone(dataset.building.timezone)
     starts = [t for t, s in zip(score.starts, score.seasons) if s == sv.season]
-    if not country or not starts:
+    if not starts:
         return []
     res = score.residuals  # W windows of N steps each, in window order
     n = len(res) // len(score.starts) if res is not None and len(res) else 0
@@ -671,20 +672,41 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
     span = span if span is not None and span.total_seconds() > 0 else dt.timedelta(days=1)
     first, last = min(starts).date(), (max(starts) + span).date()
     listed = set(getattr(model, "holidays", ()) or ())
-    missed = {
-        d: n
-        for d, n in public_holidays(country, None, first, last).items()
-        if d.weekday() < 5 and d.isoformat() not in listed
-    }
+    missed = (
+        {
+            d: n
+            for d, n in public_holidays(country, None, first, last).items()
+            if d.weekday() < 5 and d.isoformat() not in listed
+        }
+        if country
+        else {}
+    )
     covered = [d for d in missed if any(t.date() <= d <= (t + span).date() for t in starts)]
-    if not covered:
-        return []
-    days = ", ".join(f"{d} {missed[d]}" for d in sorted(covered))
-    return [
-        f"{sv.output} in {sv.season}: the held-out windows cover {days}, a public holiday of {country} the model "
-        "predicts as a working day (its calendar does not list it: see check's Holidays line); if the building "
-        f'closes on it, declare [holidays] country = "{country}" in the building file and refit'
+    out = []
+    if covered:
+        days = ", ".join(f"{d} {missed[d]}" for d in sorted(covered))
+        out.append(
+            f"{sv.output} in {sv.season}: the held-out windows cover {days}, a public holiday of {country} the model "
+            "predicts as a working day (its calendar does not list it: see check's Holidays line); if the building "
+            f'closes on it, declare [holidays] country = "{country}" in the building file and refit'
+        )
+    # any other weekday the data show ran like a Sunday (a closure no public calendar lists)
+    sunday = getattr(dataset.holidays, "sunday_like", {}) or {}
+    other = [
+        (d, g)
+        for d, g in sunday.items()
+        if d not in listed
+        and dt.date.fromisoformat(d) not in missed
+        and any(t.date() <= dt.date.fromisoformat(d) <= (t + span).date() for t in starts)
     ]
+    if other:
+        days = ", ".join(f"{d} ({dt.date.fromisoformat(d).strftime('%a')}, gamma {g:.2f})" for d, g in other)
+        out.append(
+            f"{sv.output} in {sv.season}: the held-out windows cover {days}, a weekday that ran like a Sunday "
+            "(gamma: 0 = the neighbouring workdays' operation, 1 = the Sundays'), which the model predicts as a "
+            "working day; if the building was closed, list it in the building file's [holidays] dates and refit"
+        )
+    return out
 
 
 #: mean error of a window [K] on each side that counts as a day-to-day change of sign (a zone sensor's accuracy,
