@@ -92,6 +92,17 @@ def parse_case(case: str):
     return layout, int(seed), spec, spec if layout == "sdh" else f"{layout}/{spec}"
 
 
+def case_effects(spec: str) -> list:
+    """The effect specs of a case's dataset: several effects are joined by ``&`` (each checked by the emulator's
+    :func:`~hvacfmu.emulator.parse_effect`, so a typo fails before a 51-week dataset is generated)."""
+    from hvacfmu.emulator import parse_effect
+
+    parts = [p.strip() for p in spec.split("&")]
+    for p in parts:
+        parse_effect(p)
+    return parts
+
+
 def _source_hash() -> str:
     h = hashlib.sha256()
     for folder in ("hvacfmu/diagnosis", "hvacfmu/models/causes"):
@@ -212,7 +223,7 @@ def run_case(case: str, seasons, horizon: int, days: float, names, weights, out=
 
     layout, seed, spec, label = parse_case(case)
     paths = cached_dataset(
-        weeks=51, seed=seed, effects=spec.split("&"), **({} if layout == "sdh" else {"layout": layout})
+        weeks=51, seed=seed, effects=case_effects(spec), **({} if layout == "sdh" else {"layout": layout})
     )
     ds = prepare(paths.measurements, paths.building, seed=seed)
     effects = json.loads(Path(paths.truth).read_text(encoding="utf-8"))["effects"]
@@ -318,7 +329,7 @@ def explain_coupling(case: str, seasons, horizon: int, days: float, hours: int =
 
     layout, seed, spec, label = parse_case(case)
     paths = cached_dataset(
-        weeks=51, seed=seed, effects=spec.split("&"), **({} if layout == "sdh" else {"layout": layout})
+        weeks=51, seed=seed, effects=case_effects(spec), **({} if layout == "sdh" else {"layout": layout})
     )
     ds = prepare(paths.measurements, paths.building, seed=seed)
     base0, findings, ext_joint = diagnosed(paths, ds)
