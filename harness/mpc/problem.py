@@ -151,7 +151,9 @@ class MPCSettings:
         that output's gain ``θ`` in [1, ``gain_max``] once ``θ`` reaches
         ``gain_engage`` (until it falls below halfway back to 1); the response with the
         previous move held stays the model's (plus the offset estimate).
-        (:meth:`~harness.mpc.controller.MPCController.estimate`.)
+        (:meth:`~harness.mpc.controller.MPCController.estimate`.) Condensed
+        prediction only (horizons up to 24 steps): the reduced prediction of
+        longer horizons keeps the model's gain.
     gain_max : float
         Largest input-gain correction ``θ`` (default 8).
     gain_engage : float
