@@ -36,6 +36,7 @@ Usage::
         [--models base extended without:zone_coupling kept:zone_coupling]
         [--json runs.json] [--from-json runs.json ...]
 
+Several effects in one dataset are joined by ``&`` (``core9/3:solar_gain:zone=SW,facade=W&zone_coupling:zones=SW+NW``).
 Cases on another floor layout are written ``layout/seed:effect`` (``core9/3:zone_coupling:zones=N+SE,ua=1051``,
 the coupling the diagnosis finds). ``without:<cause>`` controls with the extended model without that
 cause's terms, ``kept:<cause>`` with them at the diagnosis's own coefficients: their verdicts against
@@ -89,6 +90,17 @@ def parse_case(case: str):
     layout, _, seed = head.rpartition("/")
     layout = layout or "sdh"
     return layout, int(seed), spec, spec if layout == "sdh" else f"{layout}/{spec}"
+
+
+def case_effects(spec: str) -> list:
+    """The effect specs of a case's dataset: several effects are joined by ``&`` (each checked by the emulator's
+    :func:`~hvacfmu.emulator.parse_effect`, so a typo fails before a 51-week dataset is generated)."""
+    from hvacfmu.emulator import parse_effect
+
+    parts = [p.strip() for p in spec.split("&")]
+    for p in parts:
+        parse_effect(p)
+    return parts
 
 
 def _source_hash() -> str:
@@ -210,12 +222,14 @@ def run_case(case: str, seasons, horizon: int, days: float, names, weights, out=
     from hvacfmu.fmu import export_plant_fmu
 
     layout, seed, spec, label = parse_case(case)
-    paths = cached_dataset(weeks=51, seed=seed, effects=[spec], **({} if layout == "sdh" else {"layout": layout}))
+    paths = cached_dataset(
+        weeks=51, seed=seed, effects=case_effects(spec), **({} if layout == "sdh" else {"layout": layout})
+    )
     ds = prepare(paths.measurements, paths.building, seed=seed)
-    effect = json.loads(Path(paths.truth).read_text(encoding="utf-8"))["effects"][0]
+    effects = json.loads(Path(paths.truth).read_text(encoding="utf-8"))["effects"]
     t0 = time.perf_counter()
     base0, findings, ext_joint = diagnosed(paths, ds)
-    found = injected_found(effect, findings)
+    found = "; ".join(injected_found(e, findings) for e in effects)
     models = control_models(ds, base0, ext_joint, names)
     print(
         f"case seed {seed} {label}: diagnosis {time.perf_counter() - t0:.1f} s, {len(findings)} findings "
@@ -240,6 +254,157 @@ def run_case(case: str, seasons, horizon: int, days: float, names, weights, out=
                 if out:
                     Path(out).write_text(json.dumps(_previous(out, rows) + rows, indent=0), encoding="utf-8")
     return rows
+
+
+def _reheat_kW(table, boxes):
+    """Commanded reheat [kW] of ``boxes`` per row: Σ m c_p max(Td - T_supply, 0) (0 without discharge commands)."""
+    import numpy as np
+
+    from hvacfmu.models.heat import CP_AIR
+
+    out = np.zeros(len(table))
+    for v in boxes:
+        if f"Td_{v}" in table and "T_supply" in table:
+            dT = np.maximum(table[f"Td_{v}"].to_numpy(float) - table["T_supply"].to_numpy(float), 0.0)
+            out += np.nan_to_num(table[f"m_{v}"].to_numpy(float) * CP_AIR * dT / 1e3)
+    return out
+
+
+class _Shadowed:
+    """Controller protocol: the first MPC controls, the others only estimate their state from the same
+    measurements and applied moves (their own Kalman filter), so every model's open-loop prediction can be
+    scored on the one controlled trajectory."""
+
+    name = "mpc"
+
+    def __init__(self, ctrls: dict):
+        self.ctrls = ctrls
+        self.active = next(iter(ctrls))
+
+    def reset(self, context) -> None:
+        for c in self.ctrls.values():
+            c.reset(context)
+        self.x = {n: [] for n in self.ctrls}
+        self.y, self.u = [], []
+
+    def __call__(self, k, t, y, v):
+        import numpy as np
+
+        act = self.ctrls[self.active]
+        y_model = act._W @ np.asarray(y, dtype=float)
+        for n, c in self.ctrls.items():
+            if n != self.active:
+                self.x[n].append(c.mpc.estimate(c._W @ np.asarray(y, dtype=float), c.V[k], c.Q[k]))
+        out = act(k, t, y, v)
+        u = act.mpc._last[0]
+        self.x[self.active].append(act.mpc.kf.x.copy() if act.mpc.kf is not None else y_model)
+        for n, c in self.ctrls.items():
+            if n != self.active:
+                c.mpc._last = (u, c.V[k], c.Q[k])
+        self.y.append(y_model)
+        self.u.append(u)
+        return out
+
+    def stats(self) -> dict:
+        return self.ctrls[self.active].stats()
+
+
+def explain_coupling(case: str, seasons, horizon: int, days: float, hours: int = 24) -> None:
+    """Why a found coupling brings (or not) comfort under MPC, measured on the weeks controlled.
+
+    For each week: the extended model controls the plant FMU while the base model and the extended model
+    without the coupling term estimate their own states from the same measurements and moves; printed are
+    (1) the open-loop prediction RMS [K] of every zone of the pair over ``hours`` from every 2nd hour, and the
+    one-step RMS, of the three models on that trajectory (no offset estimate: the models as they are);
+    (2) the pair's temperature difference and the heat the coupling term carries [K/step] against the
+    zone's drift; (3) the same week controlled with the model without the coupling: how far the applied box
+    airflows and the pair's temperatures move between the two runs.
+    """
+    import numpy as np
+
+    from harness.cosim import make_controller, run_cosim
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.fmu import export_plant_fmu
+
+    layout, seed, spec, label = parse_case(case)
+    paths = cached_dataset(
+        weeks=51, seed=seed, effects=case_effects(spec), **({} if layout == "sdh" else {"layout": layout})
+    )
+    ds = prepare(paths.measurements, paths.building, seed=seed)
+    base0, findings, ext_joint = diagnosed(paths, ds)
+    models = control_models(ds, base0, ext_joint, ["extended", "base", "without:zone_coupling"])
+    term = next((t for t in models["extended"].terms if t.cause == "zone_coupling"), None)
+    if term is None:
+        print(f"{label} seed {seed}: the extended model has no coupling term")
+        return
+    a, b = term.zone_a, term.zone_b
+    print(f"{label} seed {seed}: coupling {a}+{b} coef {term.coef_ab:.4f} / {term.coef_ba:.4f} per step")
+    fmu = export_plant_fmu(paths.truth, Path(tempfile.mkdtemp()) / "Plant.fmu")
+    zones = list(models["extended"].outputs)
+    ia, ib = zones.index(a), zones.index(b)
+    L = int(round(hours * 3600 / ds.step))
+    for season, week in pick_weeks(ds, seasons).items():
+        opts = {"horizon": horizon}
+        ctrls = {n: make_controller("mpc", m, ds.building, opts) for n, m in models.items()}
+        sh = _Shadowed(ctrls)
+        import pandas as pd
+
+        span = (
+            {"week": week.number} if days >= 7 else {"start": week.start, "stop": week.start + pd.Timedelta(days=days)}
+        )
+        r_ext = run_cosim(fmu, ds, sh, model=models["extended"], **span)
+        Y, U = np.array(sh.y), np.array(sh.u)
+        n = len(U)
+        print(f"  {season} week {week.number}: extended controls, {r_ext.summary['comfort_violation_Kh']:.2f} K·h")
+        for name, c in ctrls.items():
+            pred = c.mpc.pred
+            pred.offset = None
+            X = np.array(sh.x[name])
+            err_l, err_1 = [], []
+            for k in range(0, n - L, max(1, L // 12)):
+                Xp = pred.simulate(X[k], U[k : k + L], c.V[k : k + L], c.Q[k : k + L])
+                err_l.append(Xp[1:] @ pred.C.T - Y[k + 1 : k + L + 1])
+            for k in range(n - 1):
+                err_1.append(pred.C @ pred.step(X[k], U[k], c.V[k], c.Q[k]) - Y[k + 1])
+            El, E1 = np.concatenate(err_l), np.array(err_1)
+            rms = lambda E, i: float(np.sqrt(np.mean(E[:, i] ** 2)))  # noqa: E731
+            print(
+                f"    {name:<22} open-loop {hours} h RMS {a} {rms(El, ia):.3f} K, {b} {rms(El, ib):.3f} K; "
+                f"one-step RMS {a} {rms(E1, ia):.3f}, {b} {rms(E1, ib):.3f}; mean of all zones {hours} h "
+                f"{float(np.sqrt(np.mean(El**2))):.3f}"
+            )
+        d = Y[:, ib] - Y[:, ia]
+        flux_a = term.coef_ab * d  # [K/step] into a
+        drift_a = np.abs(np.diff(Y[:, ia]))
+        print(
+            f"    {b} - {a}: mean {d.mean():+.3f} K, mean |.| {np.abs(d).mean():.3f} K, max |.| {np.abs(d).max():.2f} K; "
+            f"coupling into {a}: mean |.| {np.abs(flux_a).mean():.4f} K/step (max {np.abs(flux_a).max():.3f}) "
+            f"against the zone's mean |step change| {drift_a.mean():.3f} K/step"
+        )
+        r_wo = run_cosim(fmu, ds, make_controller("mpc", models["without:zone_coupling"], ds.building, opts),
+                         model=models["without:zone_coupling"], **span)  # fmt: skip
+        t1, t2 = r_ext.table, r_wo.table  # commands: rows 0..n-1; temperatures after them: rows 1..n
+        for z in (a, b):
+            boxes = [v.name for v in ds.building.vavs_of(z)]
+            m1, m2 = (t[[f"m_{v}" for v in boxes]].to_numpy(float)[:-1] for t in (t1, t2))
+            h1, h2 = (_reheat_kW(t, boxes)[:-1] for t in (t1, t2))
+            dm = np.abs(m1.sum(axis=1) - m2.sum(axis=1))
+            dT = np.abs(t1[f"T_{z}"].to_numpy(float)[1:] - t2[f"T_{z}"].to_numpy(float)[1:])
+            print(
+                f"    {z}: with vs without the coupling term: zone airflow differs by mean {dm.mean():.4f} kg/s "
+                f"(max {dm.max():.3f}; mean airflow {m1.sum(axis=1).mean():.3f}), reheat by mean "
+                f"{np.abs(h1 - h2).mean():.3f} kW (mean reheat {h1.mean():.3f}), zone temperature by mean "
+                f"{dT.mean():.3f} K (max {dT.max():.2f})"
+            )
+        by1, by2 = (r.summary.get("comfort_by_output") or {} for r in (r_ext, r_wo))
+        fmt = lambda v: "-" if v is None else f"{v[0]:.2f}, {v[1]:.2f}"  # noqa: E731
+        pair = "; ".join(f"{z} {fmt(by1.get(f'T_{z}'))} / {fmt(by2.get(f'T_{z}'))}" for z in (a, b))
+        print(
+            f"    K·h with / without the coupling term: {r_ext.summary['comfort_violation_Kh']:.2f} / "
+            f"{r_wo.summary['comfort_violation_Kh']:.2f} (below, above the band: {pair})",
+            flush=True,
+        )
 
 
 def _previous(out, rows) -> list:
@@ -421,7 +586,17 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="write every run's figures here (rewritten after each run)")
     ap.add_argument("--from-json", nargs="+", help="print the tables of --json files (joined) without running")
     ap.add_argument("--plot", help="also draw the frontiers (K·h against Σu², labelled by weight) into this PNG")
+    ap.add_argument(
+        "--explain",
+        action="store_true",
+        help="for coupling cases: open-loop prediction of the pair with base / without / extended on the weeks "
+        "the extended model controls, the heat the coupling carries, and the applied moves with and without it",
+    )
     args = ap.parse_args(argv)
+    if args.explain:
+        for case in args.cases:
+            explain_coupling(case, args.seasons, args.horizon, args.days)
+        return 0
     if args.from_json:
         rows = [r for f in args.from_json for r in json.loads(Path(f).read_text(encoding="utf-8"))]
         print_tables(rows)

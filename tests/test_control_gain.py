@@ -292,6 +292,24 @@ def test_bench_cases_on_other_layouts_and_ablation_verdicts():
     assert not a["holds"] and a["gain"]["saved_Kh"] == pytest.approx(0.0)
 
 
+def test_bench_case_with_two_effects():
+    """``effect&effect``: one dataset with both (the sunlit atrium and its coupling); each spec is checked first."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_control_gain import case_effects, parse_case
+
+    from hvacfmu.emulator.effects import EmulatorError
+
+    case = "core9/3:solar_gain:zone=SE,facade=S,shgc=0.5&zone_coupling:zones=SE+NE,ua=1000"
+    layout, seed, spec, label = parse_case(case)
+    assert (layout, seed, label) == ("core9", 3, f"core9/{spec}")
+    assert case_effects(spec) == ["solar_gain:zone=SE,facade=S,shgc=0.5", "zone_coupling:zones=SE+NE,ua=1000"]
+    with pytest.raises(EmulatorError, match="uaa"):
+        case_effects("solar_gain:zone=SE&zone_coupling:zones=SE+NE,uaa=1000")
+
+
 @pytest.mark.slow
 def test_mpc_with_the_coupling_term_beats_the_same_model_without_it(tmp_path):
     """A found coupling's own share, closed loop: the SW+NW exchange (core9, 1554 W/K) on two fall days.

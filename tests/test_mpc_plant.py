@@ -161,7 +161,7 @@ def test_move_penalty_damps_the_swing_of_a_plant_with_twice_the_airflow_gain():
 def test_presets_and_explicit_options():
     assert preset_options("paper", 12, True) == {}
     p3 = preset_options("plant", 3, False)
-    assert p3 == {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4}
+    assert p3 == {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4, "gain_adapt": 0.05}
     p12 = preset_options("plant", 12, True)
     assert p12["blocks"] == "auto" and p12["slack"] == "per_step" and p12["linearisation"] == "newton"
     p48 = preset_options("plant", 48, True)  # reduced model: one frozen iteration per step
@@ -191,3 +191,90 @@ def test_input_weights_plan_is_kkt_optimal():
     assert_allclose(plan.obj, np.sum(w * plan.U**2), rtol=1e-7, atol=0)
     with pytest.raises(SolverError, match="input weights"):
         MPCController(linear_model(), LIN_UMIN, LIN_UMAX, s, input_weights=[1.0, 0.0, 1.0]).plan(x0, V, Q)
+
+
+@dataclasses.dataclass(frozen=True)
+class HeatCoolZone:
+    """One zone with a = 0.45 per 15 min (Model A on closed-loop data): airflow ``m`` [kg/s] cools, reheat ``h``
+    [kW] heats; ``gain`` scales both effects (the plant of a model whose heat gain is 1/gain of the building's)."""
+
+    gain: float = 1.0
+    b: tuple = (-0.3, 0.06)  # [K/step per kg/s], [K/step per kW]
+    step: float = 900.0
+    outputs: tuple = ("A",)
+    inputs: tuple = ("m_A", "h_A")
+    disturbances: tuple = ("T_out",)
+    n_states: int = 1
+
+    @property
+    def gains(self):
+        return {"fall": np.zeros((672, 1))}
+
+    def step_state(self, x, u, v, q):
+        x, u, v, q = (np.asarray(z, dtype=float) for z in (x, u, v, q))
+        return 0.45 * x + self.gain * (u @ np.asarray(self.b))[..., None] + 0.05 * v[..., :1] + q
+
+    def output(self, x):
+        return np.asarray(x, dtype=float)
+
+
+HC_UMIN, HC_UMAX = np.array([0.2, 0.0]), np.array([1.5, 6.0])
+
+
+def heat_cool_run(plant_gain, **options):
+    """Two days of the plant preset (N = 12) on a zone that needs reheat at night and cooling by day; returns
+    (result, controller, zone moves > 0.5 K that reverse the previous one)."""
+    n = 192
+    t = np.arange(n + 12)
+    V = (8.0 + 3.0 * np.sin(2 * np.pi * t / 96))[:, None]  # [°C]
+    Q = (11.0 + 2.0 * np.sin(2 * np.pi * (t - 20) / 96))[:, None]  # [K/step] internal and solar gains
+    s = MPCSettings(horizon=12, **{**preset_options("plant", 12, False), **options})
+    c = MPCController(HeatCoolZone(), HC_UMIN, HC_UMAX, s, input_weights=[1.0, 0.05], hard_inputs=[False, True])
+    r = closed_loop(c, HeatCoolZone(gain=plant_gain), np.array([21.0]), V, Q, n)
+    dy = np.diff(r.y[1:, 0])
+    reversals = int(np.sum((dy[1:] * dy[:-1] < 0) & (np.abs(dy[1:]) > 0.5) & (np.abs(dy[:-1]) > 0.5)))
+    return r, c, reversals
+
+
+def test_gain_adaptation_stops_the_limit_cycle_of_a_model_five_times_too_weak():
+    """A model whose first-step heat gain is 1/5 of the plant's: with move suppression and the offset estimate
+    alone the plan cycles between full reheat at minimum airflow and maximum airflow every step (the zone
+    swinging by more than 1 K); the plant preset's input-gain adaptation finds the gain and stops the cycle, with
+    fewer K·h at less airflow and reheat."""
+    cyc, c0, rev0 = heat_cool_run(5.0, gain_adapt=0.0)
+    assert rev0 >= 30 and cyc.violation_Kh > 2.0, (rev0, cyc.violation_Kh)
+    du = np.diff(cyc.u, axis=0)  # the cycle: reheat and airflow jump across their ranges, in opposite directions
+    assert np.sum((np.abs(du[:, 1]) > 4.0) & (np.abs(du[:, 0]) > 0.8) & (du[:, 0] * du[:, 1] < 0)) >= 15
+    fixed, c1, rev1 = heat_cool_run(5.0)  # the plant preset
+    assert c1.settings.gain_adapt > 0.0
+    assert rev1 == 0, rev1
+    du = np.diff(fixed.u, axis=0)
+    assert np.sum((np.abs(du[:, 1]) > 4.0) & (np.abs(du[:, 0]) > 0.8) & (du[:, 0] * du[:, 1] < 0)) == 0
+    assert fixed.violation_Kh < 0.5 * cyc.violation_Kh, (fixed.violation_Kh, cyc.violation_Kh)
+    assert np.sum(fixed.u[:, 0] ** 2) < np.sum(cyc.u[:, 0] ** 2) and np.sum(fixed.u[:, 1]) < np.sum(cyc.u[:, 1])
+    assert 3.0 <= c1.theta[0] <= c1.settings.gain_max and c1.stats()["input_gain_engaged"] == 1
+    assert np.all((fixed.u >= HC_UMIN - 1e-9) & (fixed.u <= HC_UMAX + 1e-9))
+
+
+def test_gain_adaptation_leaves_a_right_or_moderately_weak_model_alone():
+    """The model as its plant: θ stays 1 and the plans are those without adaptation. A plant twice as strong
+    (what move suppression handles, Model A on the emulator's plant): θ is estimated near 2, below the engage
+    threshold, and the moves are again exactly those without adaptation."""
+    for plant_gain, lo, hi in ((1.0, 1.0, 1.0), (2.0, 1.5, 2.9)):
+        r_on, c_on, _ = heat_cool_run(plant_gain)
+        r_off, _, _ = heat_cool_run(plant_gain, gain_adapt=0.0)
+        assert lo <= c_on.theta[0] <= hi, (plant_gain, c_on.theta)
+        assert c_on.stats()["input_gain_engaged"] == 0
+        assert_allclose(r_on.u, r_off.u, rtol=0, atol=1e-12)
+
+
+def test_gain_settings_are_checked():
+    for kw, msg in (
+        (dict(gain_adapt=1.0), "gain_adapt"),
+        (dict(gain_adapt=-0.1), "gain_adapt"),
+        (dict(gain_max=0.5), "gain_max"),
+        (dict(gain_engage=9.0), "gain_engage"),
+    ):
+        with pytest.raises(SolverError, match=msg):
+            MPCSettings(**kw)
+    assert preset_options("plant", 12, True)["gain_adapt"] == 0.05

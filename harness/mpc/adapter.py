@@ -37,6 +37,9 @@ def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
     needs, measured on the emulator's plant FMU (``benchmarks/bench_mpc_plant.py``,
     README "MPC"): offset-free estimation (``offset_gain=0.6``), move
     suppression (``move_penalty=20``), a 0.4 K back-off from the band edges,
+    input-gain adaptation (``gain_adapt=0.05``: a plant that responds several times
+    more strongly than the model to a move no longer makes the plan cycle between
+    full reheat and maximum airflow),
     and for horizons over 3 steps move blocking, per-step slack and the ℓ1
     penalty QP (a shared slack or ρ‖ε‖₂ spread slack over long horizons);
     bilinear models up to 24 steps use the Newton linearisation, longer horizons
@@ -47,7 +50,7 @@ def preset_options(preset: str, horizon: int, bilinear: bool) -> dict:
         raise HvacfmuError(f"unknown MPC preset {preset!r}; choose one of {PRESETS}")
     if preset == "paper":
         return {}
-    out = {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4}
+    out = {"offset_gain": 0.6, "move_penalty": 20.0, "back_off": 0.4, "gain_adapt": 0.05}
     if horizon > 3:
         out.update(blocks="auto", slack="per_step", formulation="qp")
         if bilinear and horizon <= 24:

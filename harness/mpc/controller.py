@@ -160,6 +160,15 @@ class MPCController:
         self._x_last = None  # state estimate of the previous step (Model A: its measured outputs)
         self._pinv_C = None
         self.pred.offset = None  # offset-free MPC: the drift is estimated again from the start
+        # input-gain adaptation (settings.gain_adapt): per output gain θ on the effect of changing the moves
+        self.theta = np.ones(self.pred.ny)  # the estimated gain (plant over model) of each output
+        self._engaged = np.zeros(self.pred.ny, dtype=bool)  # outputs whose prediction θ scales
+        self._S_gg = np.zeros(self.pred.ny)  # discounted Σ g² [K²] of the first-step effects of move changes
+        self._S_ge = np.zeros(self.pred.ny)  # discounted Σ g e [K²] with the one-step errors
+        self._G1 = None  # first-step sensitivity (ny, nu) of the last plan, uncorrected
+        self._u_before = None  # the move applied before the previous one
+        self._theta_in_problem = None  # θ the linear problem's G was last built with
+        self._Y_held = None  # bilinear merit: outputs (N, ny) with the previous move held
         if self.kf is not None:
             self.kf.x = None if x0 is None else np.asarray(x0, dtype=float)
         self._x0 = None if x0 is None else np.asarray(x0, dtype=float)
@@ -178,21 +187,71 @@ class MPCController:
         """
         y = np.asarray(y, dtype=float)
         g = float(self.settings.offset_gain)
+        errors = g > 0.0 or self.settings.gain_adapt > 0.0
         if self.kf is None:  # the state is the measured output (Model A)
-            if g > 0.0 and self._last is not None and self._x_last is not None:
-                self._update_offset(y - self.pred.C @ self.pred.step(self._x_last, *self._last), g)
+            if errors and self._last is not None and self._x_last is not None:
+                e = self._adapt_gain(y - self.pred.C @ self.pred.step(self._x_last, *self._last))
+                if g > 0.0:
+                    self._update_offset(e, g)
             self._x_last = y.copy()
             return y.copy()
         if self.kf.x is None:
             self.kf.initialise(y, v, q, self.u_min)
         elif self._last is not None:
             self.kf.predict(*self._last)
-            if g > 0.0:
-                self._update_offset(y - self.pred.C @ self.kf.x, g)
+            if errors:
+                e = self._adapt_gain(y - self.pred.C @ self.kf.x)
+                if g > 0.0:
+                    self._update_offset(e, g)
             self.kf.correct(y)
         else:
             self.kf.correct(y)
         return self.kf.x.copy()
+
+    #: [K] a predicted first-step effect of a move change smaller than this says nothing about the gain
+    GAIN_MIN_EFFECT = 0.02
+    #: [K²] prior weight of θ = 1 in the gain regression (about one step of a 0.1 K predicted effect)
+    GAIN_PRIOR = 0.01
+
+    def _adapt_gain(self, e) -> np.ndarray:
+        """Update the input-gain correction θ (ny,) from the one-step error ``e`` (ny,) [K]; returns the error
+        that θ does not explain (what the offset estimate then gets).
+
+        ``g = G₁ (u(k-1) - u(k-2))`` is the first-step effect the model predicts for the last change of the
+        moves; a plant that responds θ times as strongly leaves ``e ≈ (θ - 1) g``. Per output, ``θ - 1`` is the
+        discounted least-squares slope of ``e`` on ``g`` (forgetting factor ``1 - gain_adapt``, prior
+        :attr:`GAIN_PRIOR` on θ = 1), clipped to ``[1, gain_max]``: only a plant stronger than the model is
+        corrected (a weaker one makes the plan slow, not cycle).
+        """
+        r = float(self.settings.gain_adapt)
+        if r <= 0.0 or self._G1 is None or self._u_before is None or self._last is None:
+            return e
+        g = self._G1 @ (self._last[0] - self._u_before)
+        use = np.abs(g) >= self.GAIN_MIN_EFFECT
+        lam = 1.0 - r
+        self._S_gg = np.where(use, lam * self._S_gg + g * g, self._S_gg)
+        self._S_ge = np.where(use, lam * self._S_ge + g * e, self._S_ge)
+        self.theta = np.clip(1.0 + self._S_ge / (self._S_gg + self.GAIN_PRIOR), 1.0, self.settings.gain_max)
+        engage = self.settings.gain_engage
+        self._engaged = (self.theta >= engage) | (self._engaged & (self.theta >= 1.0 + 0.5 * (engage - 1.0)))
+        return e - (self.gain_correction - 1.0) * g
+
+    @property
+    def gain_correction(self) -> np.ndarray:
+        """The gain (ny,) the prediction applies to the effect of changing the moves: θ where engaged, else 1."""
+        return np.where(self._engaged, self.theta, 1.0)
+
+    def _corrected(self, y0, G):
+        """The prediction ``y0 + G U_b`` with the effect of changing the moves from the previous one scaled by θ
+        per output (``settings.gain_adapt``); keeps the uncorrected first-step sensitivity for the estimator."""
+        ny, nu = self.pred.ny, self.pred.nu
+        self._G1 = np.array(G[:ny, :nu])
+        theta = self.gain_correction
+        if self.settings.gain_adapt <= 0.0 or np.all(theta == 1.0):
+            return y0, G
+        rows = np.tile(theta, G.shape[0] // ny)
+        held = G @ np.tile(self._u_prev(), G.shape[1] // nu)
+        return y0 + (1.0 - rows) * held, rows[:, None] * G
 
     def _update_offset(self, e, g):
         if self._pinv_C is None:
@@ -239,6 +298,7 @@ class MPCController:
         u = self._project(u)
         plan.step_time = time.perf_counter() - t0
         self.plans.append(plan)
+        self._u_before = None if self._last is None else self._last[0]
         self._last = (u, V[0], Qg[0])
         self.k += 1
         return u
@@ -295,11 +355,17 @@ class MPCController:
     def _plan_step(self, x0, V, Qg) -> Plan:
         s = self.settings
         if not self.bilinear:
-            y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths)
+            y0, G = self._corrected(*self.pred.affine_prediction(x0, V, Qg, self.lengths))
             if self._problem is None:
                 self._problem = CondensedProblem(
                     G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
                 )
+            elif self._theta_in_problem is not None and not np.array_equal(
+                self._theta_in_problem, self.gain_correction
+            ):
+                self._problem.update_G(G)
+            if s.gain_adapt > 0.0:
+                self._theta_in_problem = self.gain_correction
             self._problem.set_previous(self._u_prev())
             sol = self._problem.solve(y0)
             if not sol.found:
@@ -311,6 +377,10 @@ class MPCController:
         shifted = self._shifted_plan()
         Ubar = _blocked(shifted, self.lengths) if shifted is not None else np.tile(self.u_min, (self.N, 1))
         Xbar = self.pred.simulate(x0, Ubar, V, Qg)
+        self._Y_held = None
+        if s.gain_adapt > 0.0 and not np.all(self.gain_correction == 1.0):
+            held = self.pred.simulate(x0, np.tile(self._u_prev(), (self.N, 1)), V, Qg)
+            self._Y_held = held[1:] @ self.pred.C.T
         solve_time, best, converged, it, last_delta, last_step = 0.0, None, False, 0, np.inf, None
         for it in range(1, s.max_iter + 1):
             sol, y0 = self._solve_linearised(x0, V, Qg, Xbar, Ubar, s.linearisation)
@@ -372,6 +442,7 @@ class MPCController:
                 self._problem.update_blocks(beta, theta)
         else:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=mode)
+            y0, G = self._corrected(y0, G)
             if self._problem is None:
                 self._problem = CondensedProblem(
                     G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
@@ -396,6 +467,8 @@ class MPCController:
         eps = exc.max(axis=0) if s.slack == "shared" else exc.ravel()
         pen = float(np.linalg.norm(eps)) if s.formulation == "socp" else float(eps.sum())
         Y = X[1:] @ self.pred.C.T
+        if self._Y_held is not None:  # the input-gain correction: the change from the held move scaled by θ
+            Y = self._Y_held + self.gain_correction * (Y - self._Y_held)
         lo, hi = s.band
         viol = float(np.sum(np.maximum(0.0, np.maximum(Y - hi, lo - Y))))
         weight = s.comfort_penalty if s.comfort_penalty is not None else 1e6
@@ -458,6 +531,8 @@ class MPCController:
             "step_time_median": float(np.median(st)),
             "step_time_max": float(np.max(st)),
             "iterations_mean": float(np.mean(it)),
+            "input_gain_max": float(np.max(self.theta)),  # estimated
+            "input_gain_engaged": int(np.sum(self._engaged)),  # outputs whose prediction it scales now
         }
 
 

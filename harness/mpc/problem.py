@@ -137,6 +137,31 @@ class MPCSettings:
         times this gain, to a constant drift of the zone air nodes [K/step]
         that the prediction carries over the horizon; 0 (default) turns it
         off (the model is trusted as it is, right when it is its own plant).
+    gain_adapt : float
+        Input-gain adaptation rate in [0, 1) (0, default: off). A model whose
+        first-step response to a move is several times smaller than the
+        plant's makes the plan cycle between the input limits (full reheat,
+        then maximum airflow) even with move suppression and the offset
+        estimate, which only sees the mean error. With ``gain_adapt`` = r > 0 the
+        controller regresses each output's one-step error on the first-step
+        effect the model predicted for the last *change* of the moves
+        (recursive least squares, forgetting factor 1 - r; steps whose predicted
+        effect is under 0.02 K carry no information and are skipped) and scales
+        the predicted effect of changing the moves away from the previous one by
+        that output's gain ``θ`` in [1, ``gain_max``] once ``θ`` reaches
+        ``gain_engage`` (until it falls below halfway back to 1); the response with the
+        previous move held stays the model's (plus the offset estimate).
+        (:meth:`~harness.mpc.controller.MPCController.estimate`.) Condensed
+        prediction only (horizons up to 24 steps): the reduced prediction of
+        longer horizons keeps the model's gain.
+    gain_max : float
+        Largest input-gain correction ``θ`` (default 8).
+    gain_engage : float
+        The estimated gain from which the correction is applied (default 3): move
+        suppression alone damps a plant up to about twice as strong as the model
+        (``tests/test_mpc_plant.py``), and Model A on the emulator's plant,
+        about half the plant's airflow gain (θ 1.5-2.6 estimated), keeps the
+        tuned plans it had.
     back_off : float [K]
         The optimiser keeps the outputs in ``[T_min + back_off, T_max -
         back_off]``: a margin for the plant-model mismatch left after the
@@ -171,6 +196,9 @@ class MPCSettings:
     offset_gain: float = 0.0
     back_off: float = 0.0
     solver: str = "auto"
+    gain_adapt: float = 0.0
+    gain_max: float = 8.0
+    gain_engage: float = 3.0
 
     def __post_init__(self):
         problems = []
@@ -200,6 +228,12 @@ class MPCSettings:
             problems.append(f"move_penalty must be finite and >= 0, got {self.move_penalty}")
         if not 0.0 <= self.offset_gain <= 1.0:
             problems.append(f"offset_gain must be in [0, 1], got {self.offset_gain}")
+        if not 0.0 <= self.gain_adapt < 1.0:
+            problems.append(f"gain_adapt must be in [0, 1), got {self.gain_adapt}")
+        if not (np.isfinite(self.gain_max) and self.gain_max >= 1.0):
+            problems.append(f"gain_max must be finite and >= 1, got {self.gain_max}")
+        if not 1.0 <= self.gain_engage <= self.gain_max:
+            problems.append(f"gain_engage must be in [1, gain_max], got {self.gain_engage}")
         if not (self.back_off >= 0.0 and 2.0 * self.back_off < np.min(np.subtract(self.T_max, self.T_min))):
             problems.append(f"back_off must be >= 0 K and leave a band: 2 x {self.back_off} K >= T_max - T_min")
         if self.solver not in SOLVERS:
