@@ -163,3 +163,43 @@ def test_a_wind_column_without_wind_driven_leaks_names_nothing():
     assert not [f for f in rep.findings if f["cause"] == "wind_infiltration"]
     screened = [c for c in rep.candidates if c["cause"] == "wind_infiltration"]
     assert len(screened) == 5  # every perimeter zone was tested (the core C has no facade)
+
+
+def test_python_fmu_of_a_wind_model_follows_the_python_model(tmp_path):
+    """Exported (pythonfmu) and stepped through FMPy with a measured wind: the FMU equals ``step_state``."""
+    pytest.importorskip("pythonfmu")
+    from harness.cosim import FMUInstance
+    from hvacfmu.fmu import export_fmu, validate
+
+    m = ExtendedModel(base=_base(), terms=(WindInfiltration(zone="A", coef=0.003),))
+    m.save(tmp_path / "m.json")
+    path = export_fmu(tmp_path / "m.json", tmp_path / "m.fmu")
+    assert validate(path) == []
+    f = _frame(n=40)
+    u, v = m.signals(f)
+    q = m.gains_at(f.index, "fall")
+    x = np.array([21.0, 22.0])
+    want = [x]
+    for k in range(len(f)):
+        x = m.step_state(x, u[k], v[k], q[k])
+        want.append(x)
+    inst = FMUInstance(path, instance_name="wind")
+    try:
+        vr = {n: var.vr for n, var in inst.vars.items()}
+        fmu = inst.fmu
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.setReal([vr["T_A_start"], vr["T_B_start"]], [21.0, 22.0])
+        fmu.exitInitializationMode()
+        names = ["m_V1", "m_V2", *m.disturbances, "time_of_week"]
+        got = [fmu.getReal([vr["T_A"], vr["T_B"]])]
+        from hvacfmu.timeutil import seconds_of_week
+
+        tow = seconds_of_week(f.index)
+        for k in range(len(f)):
+            fmu.setReal([vr[n] for n in names], [*u[k], *v[k], float(tow[k])])
+            fmu.doStep(900.0 * k, 900.0)
+            got.append(fmu.getReal([vr["T_A"], vr["T_B"]]))
+    finally:
+        inst.close()
+    assert_allclose(np.array(got), np.array(want), rtol=0, atol=1e-9)  # [K]
