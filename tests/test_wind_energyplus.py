@@ -29,3 +29,12 @@ def test_wind_column_is_the_site_wind_and_changes_no_other_column():
     w = windy["wind"].to_numpy()
     assert np.isfinite(w).all() and w.min() >= 0.0 and w.max() < 60.0
     assert w.std() > 0.5  # [m/s] a weather file's wind, not a constant
+
+
+def test_wind_probe_is_the_site_wind_speed_and_comes_last():
+    from hvacfmu.energyplus.generate import export_probes
+
+    plain = export_probes([], {}, ["Z"])
+    probes = export_probes([], {}, ["Z"], wind=True)
+    assert probes[:-1] == plain
+    assert (probes[-1].column, probes[-1].variable, probes[-1].key) == ("wind", "Site Wind Speed", "Environment")
