@@ -79,3 +79,7 @@ def main(argv=None):
     for name in models:
         lost = [sv.output for sv in losing if sv.model == name]
         print(f"{name}: winter zone-seasons lost to persistence: {len(lost)} {lost}")
+
+
+if __name__ == "__main__":
+    main()
