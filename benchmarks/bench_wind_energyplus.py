@@ -25,6 +25,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--prototype", default=APARTMENTS)
     ap.add_argument("--weeks", type=int, default=None)
+    ap.add_argument("--save", help="folder for the diagnosis report (report.json) and its model (model.json)")
     args = ap.parse_args(argv)
 
     import numpy as np
@@ -54,6 +55,14 @@ def main(argv=None):
         rep = diagnose(ds, progress=False)
         t_diag = time.perf_counter() - t0
         print(f"diagnose: {t_diag:.0f} s")
+        if args.save:
+            from pathlib import Path
+
+            Path(args.save).mkdir(parents=True, exist_ok=True)
+            rep.save_json(Path(args.save) / "report.json")
+            rep.model.save(Path(args.save) / "model.json")
+        for line in rep.heldout.get("verdict_lines", [])[:12]:
+            print("  heldout verdict: " + line)
         print(rep.summary())
         for c in rep.candidates:
             if c["cause"] == "wind_infiltration":
@@ -75,6 +84,9 @@ def main(argv=None):
     from hvacfmu.energyplus.checks import margins_table
 
     print(margins_table(res).to_string(float_format=lambda x: f"{x:.3f}"))
+    for sv in res.verdict.seasons:
+        if sv.season == "winter":
+            print(f"  {sv.model:>22} {sv.output:>15} winter {sv.rms:10.3f} K, persistence {sv.persistence:.3f} K")
     losing = [sv for sv in res.verdict.seasons if sv.season == "winter" and not sv.beats_persistence]
     for name in models:
         lost = [sv.output for sv in losing if sv.model == name]

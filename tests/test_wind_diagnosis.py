@@ -203,3 +203,19 @@ def test_python_fmu_of_a_wind_model_follows_the_python_model(tmp_path):
     finally:
         inst.close()
     assert_allclose(np.array(got), np.array(want), rtol=0, atol=1e-9)  # [K]
+
+
+def test_an_unstable_model_with_a_wind_term_is_still_refused_on_load():
+    """The load check's spectral radius needs the matrix form, which a wind term has not: the state map is probed
+    (at zero wind the term vanishes), so a model the same check refuses without the wind term is refused with it."""
+    from hvacfmu.models.extended import ZoneCoupling
+    from hvacfmu.models.loadcheck import model_problems
+
+    shaky = ZoneCoupling(zone_a="A", zone_b="B", coef_ab=1.5, coef_ba=1.5)
+    without = ExtendedModel(base=_base(), terms=(shaky,))
+    with_wind = ExtendedModel(base=_base(), terms=(shaky, WindInfiltration(zone="A", coef=0.002)))
+    assert any("unstable" in p for p in model_problems(without))
+    assert any("unstable: the spectral radius" in p and "2.1" in p for p in model_problems(with_wind))
+    assert model_problems(ExtendedModel(base=_base(), terms=(WindInfiltration(zone="A", coef=0.002),))) == []
+    with pytest.raises(ModelError, match="more than the zone's whole temperature difference"):
+        model_from_dict({**with_wind.to_dict(), "terms": [{"cause": "wind_infiltration", "zone": "A", "coef": 0.02}]})

@@ -37,6 +37,8 @@ from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_o
 
 #: Name of the measured wind speed column [m/s].
 WIND_COLUMN = "wind"
+#: Largest wind speed the data layer accepts [m/s] (``hvacfmu.data.loading.WIND_MAX``).
+WIND_MAX = 60.0
 
 
 def wind_feature(wind, T_out, T_zone) -> np.ndarray:
@@ -83,6 +85,11 @@ class WindInfiltration(Term):
         coef = num(d, "coef", what, problems)
         if np.isfinite(coef) and coef < 0:
             problems.append(f"{what}: coef must be >= 0 (air leaking in carries heat towards T_out), got {coef}")
+        elif np.isfinite(coef) and coef * WIND_MAX >= 1.0:
+            problems.append(
+                f"{what}: coef {coef:.4g} K/step per (m/s K) exchanges more than the zone's whole temperature "
+                f"difference with outdoors in one step at {WIND_MAX:g} m/s (coef x {WIND_MAX:g} >= 1): not a building"
+            )
         return cls(zone=zone_of(d, "zone", zone_names, what, problems), coef=coef, std=std)
 
     def features(self, sig, U_eff):
