@@ -178,3 +178,24 @@ def test_wind_infiltration_effect_follows_wind_and_outdoor_difference_and_plant_
             reheat=sim["reheat_command"][k],
         )  # fmt: skip
     assert_allclose(np.array(T), sim["T_zone"][:1500], rtol=0, atol=1e-9)  # [K]
+
+
+@pytest.mark.slow
+def test_cli_generate_writes_the_wind_column_and_check_reads_it(tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "g"
+    cmd = [sys.executable, "-m", "hvacfmu", "generate", str(out), "--weeks", "1", "--export-step", "900"]
+    r = subprocess.run([*cmd, "--wind", "kn"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "wind" in pd.read_parquet(out / "measurements.parquet").columns
+    r = subprocess.run(
+        [sys.executable, "-m", "hvacfmu", "check", str(out / "measurements.parquet"), "-b", str(out / "building.toml")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert "wind speed against 0..60 m/s (kn in the file)" in r.stdout, r.stdout + r.stderr
+    bad = subprocess.run([*cmd, "--wind", "furlongs"], capture_output=True, text=True, timeout=300)
+    assert bad.returncode != 0 and "--wind" in bad.stderr
