@@ -347,6 +347,7 @@ class Building:
         cols.update({f"I_{o}": False for o in ORIENTATIONS})
         cols.update({f"Td_{v}": False for v in self.vav_names})
         cols.update({f"rh_{v}": False for v in self.vav_names})
+        cols["wind"] = False  # wind speed at the site [m/s] (hvacfmu.models.causes.wind_infiltration)
         return cols
 
     # --- serialisation -------------------------------------------------

@@ -22,6 +22,7 @@ UNITS = {
     "W/m2": ({"kg": "1", "s": "-3"}, None),
     "s": ({"s": "1"}, None),
     "kW": ({"kg": "1", "m": "2", "s": "-3", "factor": "1000"}, None),
+    "m/s": ({"m": "1", "s": "-1"}, None),
 }
 
 #: unit -> (type name, quantity) of ``<TypeDefinitions>``
@@ -32,6 +33,7 @@ TYPES = {
     "W/m2": ("Irradiance", "Irradiance"),
     "s": ("Time", "Time"),
     "kW": ("HeatFlowRate", "Power"),
+    "m/s": ("Speed", "Velocity"),
 }
 #: type of Real variables without a unit, and of Integer variables
 DIMENSIONLESS = ("Dimensionless", "Dimensionless")

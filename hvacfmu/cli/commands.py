@@ -97,6 +97,7 @@ def _cmd_generate(args):
         export_step=args.export_step,
         faults=args.fault or (),
         holidays=args.holidays,
+        wind=args.wind,
     )
     print(paths)
     return 0
@@ -363,6 +364,13 @@ def _add_generate_parser(sub) -> None:
         metavar="COUNTRY",
         help="the building closes on the public holidays of COUNTRY (e.g. US): Sunday's occupancy and an "
         "unoccupied BMS schedule; the building file does not declare them (default: it never closes)",
+    )
+    p.add_argument(
+        "--wind",
+        metavar="UNIT",
+        choices=("m/s", "km/h", "mph", "kn"),
+        help="write the site's wind speed as a 'wind' column in UNIT (m/s, km/h, mph, kn; declared in the "
+        "building file's [units]); default: no wind column",
     )
     from ..energyplus.cli import add_energyplus_arguments
 

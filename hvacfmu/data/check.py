@@ -12,7 +12,7 @@ from ..errors import BuildingError, DataError
 from ..progress import Progress
 from .clock import ClockCheck, clock_check, outdoor_phase_warning
 from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
-from .loading import LoadReport, _load, as_building
+from .loading import WIND_MAX, LoadReport, _load, as_building
 from .plausibility import SPIKE_FACTOR, SPIKE_SHARE_MAX, STUCK_DAYS
 from .resample import MIN_COVERAGE
 
@@ -172,6 +172,11 @@ class CheckReport:
             f"{SPIKE_FACTOR:g} x m_max masked up to {100 * SPIKE_SHARE_MAX:g} %), {n_t} temperature column(s) "
             f"against their unit and -50..80 °C, T_out against the climate at latitude {b.latitude:g}°, "
             f"stuck temperature sensors ({STUCK_DAYS:g} days)"
+            + (
+                f", wind speed against 0..{WIND_MAX:g} m/s ({lr.units['wind']} in the file)"
+                if "wind" in lr.units
+                else ""
+            )
         ]
         if not lr.masked:
             lines.append("  nothing masked")

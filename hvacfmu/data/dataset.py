@@ -270,7 +270,7 @@ class Dataset:
         order = [f"T_{z}" for z in building.zone_names] + [f"m_{v}" for v in building.vav_names]
         order += ["T_supply", *building.supply_columns(), "T_out", "ghi"]
         order += (list(FACADE_COLUMNS) if has_solar else []) + ["excitation"]
-        order += [f"Td_{v}" for v in building.vav_names] + [f"rh_{v}" for v in building.vav_names]
+        order += [f"Td_{v}" for v in building.vav_names] + [f"rh_{v}" for v in building.vav_names] + ["wind"]
         frame = frame[[c for c in order if c in frame.columns]].astype(float)
         end = frame.index[-1] + pd.Timedelta(seconds=step) if len(frame) else None
         weeks, week_notes = make_weeks(frame.index, end, building, seed=seed, train_fraction=train_fraction)

@@ -839,6 +839,8 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
             )
     elif kind == "fraction":
         si = _check_fraction(desc, label, unit, finite, si, where, problems, report)
+    elif kind == "speed":
+        si = _check_wind(desc, label, unit, si, where, problems, report)
     else:
         flag_bad = np.flatnonzero(np.isfinite(si) & (si != 0) & (si != 1))
         if len(flag_bad):
@@ -968,6 +970,35 @@ def _check_fraction(desc, label, unit, finite, si, where, problems, report):
     if out.any():
         report.warnings.append(f"{label}: {desc}: {int(out.sum())} value(s) slightly outside 0..1 clipped")
         si = np.clip(si, 0.0, 1.0)
+    return si
+
+
+#: Negative wind speed down to this value is sensor noise and is set to 0 [m/s].
+WIND_NOISE = 0.2
+#: No wind speed measured at a building site (10-min mean or gust) exceeds this [m/s].
+WIND_MAX = 60.0
+
+
+def _check_wind(desc, label, unit, si, where, problems, report):
+    """A wind speed must lie in 0..:data:`WIND_MAX` m/s (after conversion from ``unit``)."""
+    bad = np.flatnonzero(si < -WIND_NOISE)
+    if len(bad):
+        problems.append(
+            f"{label}: {desc}: {len(bad)} negative wind speed value(s) (below -{WIND_NOISE:g} m/s), "
+            f"e.g. {where.rows(bad, values=si)}{_error_code_hint(si[bad], unit)}; a speed is never negative "
+            "(a wind direction or a signed component is not a speed: map the site's wind speed column)"
+        )
+    high = np.flatnonzero(si > WIND_MAX)
+    if len(high):
+        problems.append(
+            f"{label}: {desc}: {len(high)} value(s) above {WIND_MAX:g} m/s (after conversion from {unit}), faster "
+            f"than any wind at a building site: is the unit right (declare km/h, mph or kn in the building's [units]) "
+            f"or is it a direction in degrees?, e.g. {where.rows(high, values=si)}{_error_code_hint(si[high], unit)}"
+        )
+    neg = si < 0
+    if neg.any() and not len(bad):
+        si = np.where(neg, 0.0, si)
+        report.warnings.append(f"{label}: {desc}: {int(neg.sum())} slightly negative value(s) (sensor noise) set to 0")
     return si
 
 

@@ -10,6 +10,7 @@ canonical column   quantity                    SI unit
 ``m_*``            air mass flow of a box      kg/s
 ``rh_*``           reheat command/valve        – (0..1; ``%`` accepted)
 ``ghi``, ``I_*``   irradiance                  W/m²
+``wind``           wind speed at the site      m/s (``km/h``, ``mph``, ``kn``/``kt`` accepted)
 ``excitation``     experiment flag             – (0/1)
 =================  ==========================  =======
 
@@ -35,7 +36,13 @@ KINDS = {
     "irradiance": ("W/m2", ("W/m2", "kW/m2")),
     "flag": ("1", ("1",)),
     "fraction": ("1", ("1", "%")),
+    "speed": ("m/s", ("m/s", "km/h", "mph", "kn")),
 }
+
+#: One knot (international nautical mile per hour) in m/s.
+KNOT_IN_M_PER_S = 1852.0 / 3600.0
+#: One mile per hour in m/s.
+MPH_IN_M_PER_S = 1609.344 / 3600.0
 
 _ALIASES = {
     "degc": "degC",
@@ -81,11 +88,27 @@ _ALIASES = {
     "%": "%",
     "percent": "%",
     "pct": "%",
+    "m/s": "m/s",
+    "ms-1": "m/s",
+    "m s-1": "m/s",
+    "mps": "m/s",
+    "km/h": "km/h",
+    "kmh": "km/h",
+    "kph": "km/h",
+    "km/hr": "km/h",
+    "mph": "mph",
+    "mi/h": "mph",
+    "kn": "kn",
+    "kt": "kn",
+    "kts": "kn",
+    "knot": "kn",
+    "knots": "kn",
 }
 
 
 def kind_of(canonical: str) -> str:
-    """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``, ``fraction``) of a canonical column."""
+    """Physical kind (``temperature``, ``airflow``, ``irradiance``, ``flag``, ``fraction``, ``speed``) of a canonical
+    column."""
     if canonical.startswith(("T_", "Td_")):
         return "temperature"
     if canonical.startswith("m_"):
@@ -96,6 +119,8 @@ def kind_of(canonical: str) -> str:
         return "flag"
     if canonical.startswith("rh_"):
         return "fraction"
+    if canonical == "wind":
+        return "speed"
     raise KeyError(f"no physical kind known for column {canonical!r}")
 
 
@@ -125,16 +150,17 @@ def to_si(values, unit: str):
         Values in ``unit``.
     unit : str
         One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``, ``m3/h``,
-        ``W/m2``, ``kW/m2``, ``1``, ``%`` (canonical spellings, see :func:`normalize_unit`).
+        ``W/m2``, ``kW/m2``, ``1``, ``%``, ``m/s``, ``km/h``, ``mph``, ``kn`` (canonical spellings, see
+        :func:`normalize_unit`).
 
     Returns
     -------
     numpy.ndarray of float
         Temperatures in [°C], airflows in [kg/s] (volumetric flows times
-        :data:`AIR_DENSITY`), irradiance in [W/m²], fractions in [1].
+        :data:`AIR_DENSITY`), irradiance in [W/m²], fractions in [1], wind speed in [m/s].
     """
     x = np.asarray(values, dtype=float)
-    if unit in ("degC", "kg/s", "W/m2", "1"):
+    if unit in ("degC", "kg/s", "W/m2", "1", "m/s"):
         return x.copy()
     if unit == "degF":
         return (x - 32.0) * (5.0 / 9.0)
@@ -152,13 +178,19 @@ def to_si(values, unit: str):
         return x * 1000.0
     if unit == "%":
         return x / 100.0
+    if unit == "km/h":
+        return x / 3.6
+    if unit == "mph":
+        return x * MPH_IN_M_PER_S
+    if unit == "kn":
+        return x * KNOT_IN_M_PER_S
     raise ValueError(f"unknown unit {unit!r}")
 
 
 def from_si(values, unit: str):
     """Inverse of :func:`to_si`: convert SI ``values`` (°C, kg/s, W/m²) to ``unit``."""
     x = np.asarray(values, dtype=float)
-    if unit in ("degC", "kg/s", "W/m2", "1"):
+    if unit in ("degC", "kg/s", "W/m2", "1", "m/s"):
         return x.copy()
     if unit == "degF":
         return x * (9.0 / 5.0) + 32.0
@@ -176,4 +208,10 @@ def from_si(values, unit: str):
         return x / 1000.0
     if unit == "%":
         return x * 100.0
+    if unit == "km/h":
+        return x * 3.6
+    if unit == "mph":
+        return x / MPH_IN_M_PER_S
+    if unit == "kn":
+        return x / KNOT_IN_M_PER_S
     raise ValueError(f"unknown unit {unit!r}")

@@ -377,6 +377,11 @@ def _short_evidence(f: dict) -> str:
         )
     if c == "supply_air_bilinear":
         return f"corr(residual, u·(T_supply−T)) {ev.get('corr', float('nan')):+.2f}"
+    if c == "wind_infiltration":
+        return (
+            f"corr(residual, wind·(T_out−T)) {ev.get('corr', float('nan')):+.2f}, beyond T_out−T alone (partial) "
+            f"{ev.get('partial_corr_beyond_dT', float('nan')):+.2f}; mean wind {ev.get('wind_mean_m_s', float('nan')):.1f} m/s"
+        )
     if c == "zone_coupling":
         return f"corr(residual, ΔT of the pair) {ev.get('corr_a', float('nan')):+.2f} / {ev.get('corr_b', float('nan')):+.2f}"
     if c == "thermal_mass":

@@ -40,7 +40,7 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
         return loc.get("zone") == effect["zone"] and loc.get("facade") == effect["facade"]
     if name == "zone_coupling":
         return set(loc.get("zones", [])) == set(effect["zones"])
-    if name in ("thermal_mass", "reheat"):
+    if name in ("thermal_mass", "reheat", "wind_infiltration"):
         return loc.get("zone") == effect["zone"]
     if name == "actuation_delay":
         # within one step or 15 minutes, whichever is longer (the same tolerance in time at 5 and 15 min)

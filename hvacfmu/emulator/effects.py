@@ -28,6 +28,12 @@ effect                       parameters (default)
 ``thermal_mass``             ``zone`` (random), ``capacitance`` [J/K] of an extra slow mass,
                              e.g. a storage room full of paper or a concrete core wall (2e8),
                              coupled to the zone air by ``ua`` [W/K] (1000); time constant ~2.3 days
+``wind_infiltration``        ``zone`` (random perimeter zone), ``ua`` [W/K per m/s] of outdoor air
+                             leaking in with the wind (40: at 5 m/s 200 W/K, about 0.6 air changes
+                             an hour in a 1000 m³ zone): ``ua · wind · (T_out − T_zone)`` into the
+                             zone air, the wind held per control interval (its 5-minute mean); the
+                             wind is the dataset's own series (``weather.synthetic_wind``), written
+                             as the ``wind`` column only with ``generate(wind=...)``
 ============================ ==================================================================
 """
 
@@ -39,7 +45,15 @@ import numpy as np
 
 from ..errors import HvacfmuError, problems_message
 
-EFFECT_NAMES = ("solar_gain", "zone_coupling", "actuation_delay", "internal_gain_schedule", "reheat", "thermal_mass")
+EFFECT_NAMES = (
+    "solar_gain",
+    "zone_coupling",
+    "actuation_delay",
+    "internal_gain_schedule",
+    "reheat",
+    "thermal_mass",
+    "wind_infiltration",
+)
 
 EFFECT_DEFAULTS = {
     "solar_gain": {"shgc": 0.2},
@@ -48,6 +62,7 @@ EFFECT_DEFAULTS = {
     "internal_gain_schedule": {"kind": "holiday", "factor": 0.2},
     "reheat": {"power": 3000.0, "below": 13.0},
     "thermal_mass": {"capacitance": 2.0e8, "ua": 1000.0},
+    "wind_infiltration": {"ua": 40.0},
 }
 EFFECT_KEYS = {
     "solar_gain": {"zone", "facade", "shgc", "scale"},
@@ -56,6 +71,7 @@ EFFECT_KEYS = {
     "internal_gain_schedule": {"kind", "weeks", "factor", "hours"},
     "reheat": {"zone", "power", "below"},
     "thermal_mass": {"zone", "capacitance", "ua"},
+    "wind_infiltration": {"zone", "ua"},
 }
 
 
@@ -283,6 +299,14 @@ def _resolve_thermal_mass(e, r, rng, ctx, where, problems) -> None:
             problems.append(f"{where}: {key} must be > 0 {unit}, got {r[key]!r}")
 
 
+def _resolve_wind_infiltration(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["perimeter"]))
+    _check_zone(r["zone"], ctx["zones"], where, problems)
+    if not isinstance(r["ua"], float) or not r["ua"] > 0:
+        problems.append(f"{where}: ua must be > 0 W/K per m/s, got {r['ua']!r}")
+
+
 _RESOLVERS = {
     "solar_gain": _resolve_solar_gain,
     "zone_coupling": _resolve_zone_coupling,
@@ -290,6 +314,7 @@ _RESOLVERS = {
     "internal_gain_schedule": _resolve_internal_gain_schedule,
     "reheat": _resolve_reheat,
     "thermal_mass": _resolve_thermal_mass,
+    "wind_infiltration": _resolve_wind_infiltration,
 }
 
 

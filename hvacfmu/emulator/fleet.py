@@ -33,6 +33,9 @@ FLEET_FORMAT = "hvacfmu.fleet/1"
 #: Mondays that start a season's data (used when datasets are shorter than 40 weeks).
 SEASON_STARTS = ("2025-09-01", "2025-12-01", "2026-01-05", "2026-03-02", "2026-06-01")
 REHEAT_SHARE = 1.0 / 3.0  # [-] share of real-BMS-like buildings
+#: Effects a fleet draws from: the catalogue of emulator 1.4 (``wind_infiltration`` needs a wind column to be
+#: diagnosed and is not drawn, so a seed's fleet stays what it was)
+FLEET_EFFECTS = tuple(e for e in EFFECT_NAMES if e != "wind_infiltration")
 
 
 def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
@@ -44,7 +47,7 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
         climate = str(rng.choice(list(CLIMATES)))
         hvac = str(rng.choice(["reheat", "reheat-dual"])) if rng.random() < REHEAT_SHARE else "vav"
         n_eff = int(rng.choice([0, 1, 2], p=[0.3, 0.45, 0.25]))
-        names = [str(e) for e in rng.choice(EFFECT_NAMES, size=n_eff, replace=False)]
+        names = [str(e) for e in rng.choice(FLEET_EFFECTS, size=n_eff, replace=False)]
         if weeks < 2:
             names = [e for e in names if e != "internal_gain_schedule"]  # a holiday week needs a second week
         p = {

@@ -48,6 +48,7 @@ NOISE = {
     "T_supply": {"std": 0.05, "quantum": 0.05},
     "T_out": {"std": 0.10, "quantum": 0.1},
     "ghi": {"std": 2.0, "relative_std": 0.03, "quantum": 1.0},  # [W/m2]
+    "wind": {"relative_std": 0.05, "quantum": 0.1},  # [m/s] a cup anemometer's reading (own stream)
     "Td": {"std": 0.15, "quantum": 0.05},  # [°C] discharge air ("reheat" mode)
 }
 
@@ -386,6 +387,7 @@ def generate(
     export_step: int = 60,
     faults=(),
     holidays: str | None = None,
+    wind: str | None = None,
 ) -> GeneratedPaths:
     """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
@@ -426,6 +428,10 @@ def generate(
         Country code (``"US"``): the building closes on its public holidays (Sunday's occupancy, the BMS
         schedule unoccupied), listed in ``truth.json`` ``holidays``; the building file does not declare
         them (a BMS export does not either: :mod:`hvacfmu.data.holidays` finds them).
+    wind : {None, "m/s", "km/h", "mph", "kn"}
+        Write the site's wind speed (the dataset's own series, :func:`~hvacfmu.emulator.plant.site_wind`) as a
+        ``wind`` column in this unit (declared in the building file's ``[units]``); None (default): no column.
+        The other columns do not change with it.
 
     Returns
     -------
@@ -437,6 +443,8 @@ def generate(
         raise EmulatorError(f"fmt must be 'parquet' or 'csv', got {fmt!r}")
     faults = tuple(faults)
     validate_export(units, clock, export_step, faults)
+    if wind is not None and wind not in WIND_UNITS:
+        raise EmulatorError(f"wind must be None or one of {', '.join(WIND_UNITS)}, got {wind!r}")
     truth = make_truth(
         weeks,
         seed,
@@ -458,6 +466,9 @@ def generate(
     k = frame.pop("_k").to_numpy()
     frame["time"] = time_strings(sim["index"][k], clock)
     frame = convert_units(frame, units)
+    if wind is not None:
+        frame["wind"] = _wind_column(sim, truth, k, wind)
+        truth["export"]["wind"] = wind
 
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
@@ -468,14 +479,31 @@ def generate(
         mpath = outdir / "measurements.csv"
         frame.to_csv(mpath, index=False, float_format="%.6g")
     bd = building_dict(layout, construction, climate, nominal=True, hvac=hvac)
-    if UNITS_TABLE[units]:
+    if UNITS_TABLE[units] or wind is not None:
         bd["units"] = dict(UNITS_TABLE[units])
+    if wind is not None:
+        bd["units"]["wind"] = wind
     if clock == "naive-utc":
         bd["data_timezone"] = "UTC"
     bpath = building_from_dict(bd).save(outdir / "building.toml")
     tpath = outdir / "truth.json"
     tpath.write_text(json.dumps(_json_clean(truth), indent=1, allow_nan=False), encoding="utf-8")
     return GeneratedPaths(mpath, bpath, tpath)
+
+
+#: Units the emulator can write its ``wind`` column in (:func:`generate`'s ``wind``).
+WIND_UNITS = ("m/s", "km/h", "mph", "kn")
+
+
+def _wind_column(sim: dict, truth: dict, k: np.ndarray, unit: str) -> np.ndarray:
+    """The measured wind speed at the kept minutes ``k`` in ``unit`` (noise from its own stream)."""
+    from ..data.units import from_si
+
+    nw = NOISE["wind"]
+    w = sim["wind"]
+    rng = stream(truth["seed"], "noise_wind")
+    measured = np.clip(w * (1.0 + rng.normal(0.0, nw["relative_std"], len(w))), 0.0, None)[k]
+    return _quantise(from_si(measured, unit), nw["quantum"])
 
 
 def _standard_gaps(frame, truth, sim, export_step):
@@ -565,6 +593,7 @@ _GENERATE_DEFAULTS = {
     "export_step": 60,
     "faults": (),
     "holidays": None,
+    "wind": None,
 }
 
 

@@ -44,6 +44,14 @@ def stream(seed: int, name: str) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(name.encode())]))
 
 
+def site_wind(truth: dict, index: pd.DatetimeIndex) -> np.ndarray:
+    """The dataset's wind speed [m/s] per minute: :func:`~hvacfmu.emulator.weather.synthetic_wind` on its own
+    stream ``stream(seed, "wind")`` (the other weather series do not depend on it)."""
+    from .weather import CLIMATE_WIND_MEAN, synthetic_wind
+
+    return synthetic_wind(index, stream(truth["seed"], "wind"), CLIMATE_WIND_MEAN.get(truth.get("climate"), 3.5))
+
+
 def dataset_index(start: str, weeks: int, timezone: str) -> pd.DatetimeIndex:
     """One-minute tz-aware index of a dataset of ``weeks`` weeks from local time ``start``."""
     t0 = pd.Timestamp(start)
@@ -72,6 +80,8 @@ class PlantCore:
     delay_minutes: int
     delay_boxes: np.ndarray
     reheat_effect: dict | None
+    #: ``wind_infiltration`` effect: ``{"zone": index, "g": (n_blocks,) [W/K] ua · wind per control interval, "per"}``
+    wind_effect: dict | None = None
     ahus: tuple = ()  # air handler names ("reheat" mode); () = one implicit unit
     box_ahu: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))  # unit index per box
 
@@ -118,6 +128,14 @@ class PlantCore:
                 "below": float(reheat[0]["below"]),
             }
             rh["boxes"] = np.flatnonzero(box_zone == rh["zone"])
+        wind = [e for e in effects if e["name"] == "wind_infiltration"]
+        wind_effect = None
+        if wind:
+            per = int(round(float(base["controllers"]["control_interval"]) / DT))
+            w = site_wind(truth, index)
+            n_blocks = len(w) // per
+            block = w[: n_blocks * per].reshape(n_blocks, per).mean(axis=1)
+            wind_effect = {"zone": zidx[wind[0]["zone"]], "g": float(wind[0]["ua"]) * block, "per": per}
         return cls(
             zones=zones,
             vavs=vavs,
@@ -136,6 +154,7 @@ class PlantCore:
             delay_minutes=int(round(delay[0]["minutes"])) if delay else 0,
             delay_boxes=np.flatnonzero(box_zone == dz) if delay else np.zeros(0, dtype=int),
             reheat_effect=rh,
+            wind_effect=wind_effect,
             ahus=ahus,
             box_ahu=np.array([ahus.index(v["ahu"]) if ahus else 0 for v in bld["vavs"]], dtype=int),
         )
@@ -538,6 +557,10 @@ class Plant:
             if rh is not None and T_out < rh["below"] and np.all(m_app[rh["boxes"]] <= c.m_min[rh["boxes"]] + 1e-9):
                 h_z[rh["zone"]] += rh["power"]
             Q = h_z - (c.Mzb @ mcp) * xt[:nz]
+            we = c.wind_effect
+            if we is not None:  # outdoor air leaking in with the wind of this control interval
+                z = we["zone"]
+                Q[z] += we["g"][min((k0 + j) // we["per"], len(we["g"]) - 1)] * (T_out - xt[z])
             xt = c.Ad @ xt + W[j] + c.BQ @ Q
         out = xt if buf is None else np.concatenate([xt, buf.ravel()])
         if self.local_reheat:

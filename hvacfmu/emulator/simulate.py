@@ -20,7 +20,7 @@ from .controllers import (
     occupied_mode,
     supply_air_temperatures,
 )
-from .plant import DT, PlantCore, dataset_index, stream
+from .plant import DT, PlantCore, dataset_index, site_wind, stream
 from .thermal import CP_AIR
 from .weather import synthetic_weather
 
@@ -45,7 +45,7 @@ def simulate(truth: dict) -> dict:
         reheat power commanded [W], ``T_supply`` (n,) or, with several air handlers
         (``reheat`` mode), (n, n_ahu) in the order of ``ahus``, ``ahus`` (tuple of names),
         ``box_ahu`` (n_vav,) unit index of every box,
-        ``T_out`` (n,) [°C], ``ghi`` (n,), ``I`` (n, 4) [W/m2], ``Q_ig`` (n, nz) [W],
+        ``T_out`` (n,) [°C], ``ghi`` (n,), ``wind`` (n,) [m/s], ``I`` (n, 4) [W/m2], ``Q_ig`` (n, nz) [W],
         ``T_fl`` (n,) [°C], ``excitation`` (n,) bool, ``segments`` (excitation
         segments), ``x0`` initial state in :class:`Plant` layout, ``weather`` (dict).
     """
@@ -60,6 +60,7 @@ def simulate(truth: dict) -> dict:
     cp = base["controllers"]
     T_supply = supply_air_temperatures(weather["T_out"], lambda name: stream(seed, name), cp, core.ahus)
     segments = excitation_schedule(index, stream(seed, "excitation"), len(core.zones), cp)
+    weather["wind"] = site_wind(truth, index)  # its own stream: the series above are unchanged
     sim = _ClosedLoop(core, cp, index, weather, T_supply, segments)
 
     x = np.full(core.n_thermal, 22.0)
@@ -79,6 +80,7 @@ def simulate(truth: dict) -> dict:
         "box_ahu": core.box_ahu,
         "T_out": weather["T_out"],
         "ghi": weather["ghi"],
+        "wind": weather["wind"],
         "I": sim.irr,
         "Q_ig": core.Q_ig,
         "T_fl": core.T_fl,
@@ -175,6 +177,12 @@ class _ClosedLoop:
         rh = core.reheat_effect
         if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
             D += np.outer(self.rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
+        we = core.wind_effect
+        if we is not None:  # g (T_out - T_z) into the zone air: g of this control interval
+            z = we["zone"]
+            g = we["g"][min(k0 // we["per"], len(we["g"]) - 1)]
+            self.A_b[:, z] -= BQ[:, z] * g
+            D += np.outer(self.weather["T_out"][k0 : k0 + per] * g, BQ[:, z])
         return D
 
     def run(self, k_start: int, k_end: int, x: np.ndarray, record: bool) -> np.ndarray:

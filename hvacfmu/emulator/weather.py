@@ -169,3 +169,51 @@ def _synthetic_weather(index, rng, latitude, longitude, altitude, climate):
     out["day_clearness"] = clearness
     out["day_mean"] = day_mean
     return out
+
+
+#: Mean wind speed [m/s] at the site's weather station (10 m) by emulator climate: Berkeley (mild), a
+#: Chicago-like (cold) and a Phoenix-like (hot) site, roughly their annual means.
+CLIMATE_WIND_MEAN = {"mild": 3.5, "cold": 4.6, "hot": 3.1}
+#: Weibull shape of the hourly wind speed (k = 2: the Rayleigh distribution of many sites).
+WIND_WEIBULL_K = 2.0
+
+
+def synthetic_wind(index: pd.DatetimeIndex, rng: np.random.Generator, mean: float = 3.5) -> np.ndarray:
+    """Wind speed [m/s] at one-minute resolution, drawn from its own random stream ``rng``.
+
+    A synoptic AR(1) anomaly (time constant 2 days: windy and calm spells), an hourly AR(1)
+    component (3 h), mapped through the normal CDF onto a Weibull distribution (shape
+    :data:`WIND_WEIBULL_K`, mean ``mean``), times a diurnal factor (calmest near sunrise, windiest
+    mid-afternoon, ±25 %) and a gust factor (AR(1), 10 min, 12 %). The weather of
+    :func:`synthetic_weather` does not depend on it (a dataset's other series stay as they were).
+
+    Parameters
+    ----------
+    index : DatetimeIndex
+        Tz-aware, regular one-minute index.
+    rng : numpy Generator
+        The wind's own stream (``stream(seed, "wind")``).
+    mean : float [m/s]
+
+    Returns
+    -------
+    ndarray (len(index),) [m/s], ≥ 0
+    """
+    from scipy.special import gamma as gamma_fn
+    from scipy.stats import norm
+
+    n = len(index)
+    if n == 0:
+        return np.zeros(0)
+    synoptic = _ar1(rng, n // 60 + 2, 48.0, 0.85)  # hourly samples, time constant 2 days
+    hourly = _ar1(rng, n // 60 + 2, 3.0, 0.53)
+    z = synoptic + hourly  # unit variance
+    hours = np.arange(n) / 60.0
+    z_min = np.interp(hours, np.arange(len(z)), z)
+    u = np.clip(norm.cdf(z_min), 1e-9, 1.0 - 1e-9)
+    scale = mean / gamma_fn(1.0 + 1.0 / WIND_WEIBULL_K)
+    speed = scale * (-np.log1p(-u)) ** (1.0 / WIND_WEIBULL_K)
+    local_hour = (index.hour + index.minute / 60.0).to_numpy(dtype=float)
+    diurnal = 1.0 + 0.25 * np.cos(2.0 * np.pi * (local_hour - 15.0) / 24.0)
+    gust = 1.0 + _ar1(rng, n, 10.0, 0.12)
+    return np.clip(speed * diurnal * gust, 0.0, None)

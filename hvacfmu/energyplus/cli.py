@@ -26,6 +26,9 @@ def generate_from_args(args):
         raise DataError("--engine energyplus needs --prototype (an IDF file or an example building name)")
     from .generate import generate
 
+    wind = getattr(args, "wind", None)
+    if wind not in (None, "m/s"):
+        raise DataError(f"--wind {wind}: the EnergyPlus export writes the site wind speed in m/s (--wind m/s)")
     start = args.start or "2017-01-01"
     try:
         year, month, day = (int(x) for x in start.split("-"))
@@ -43,4 +46,5 @@ def generate_from_args(args):
         zones=args.zones,
         timezone=args.site_timezone,
         fmt=args.format,
+        wind=wind is not None,
     )

@@ -202,8 +202,9 @@ def _held_warning(frame: pd.DataFrame) -> str | None:
     )
 
 
-def export_probes(boxes, ahus, zones):
-    """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers)."""
+def export_probes(boxes, ahus, zones, wind: bool = False):
+    """The :class:`~hvacfmu.energyplus.run.Probe` list of an export (weather, zones, boxes, air handlers; with
+    ``wind`` the site wind speed last, so the other columns keep their order)."""
     p = [
         Probe("T_out", "Site Outdoor Air Drybulb Temperature", "Environment"),
         Probe("_dni", "Site Direct Solar Radiation Rate per Area", "Environment"),
@@ -216,6 +217,8 @@ def export_probes(boxes, ahus, zones):
         p.append(Probe(f"Td_{b.name}", "System Node Temperature", b.outlet_node, system=True))
     for name, node in ahus.items():
         p.append(Probe(f"T_supply_{hvac.sanitise(name)}", "System Node Temperature", node, system=True))
+    if wind:
+        p.append(Probe("wind", "Site Wind Speed", "Environment"))
     return p
 
 
@@ -237,6 +240,8 @@ def _frame(values, times, probes, site, boxes, ahus) -> pd.DataFrame:
         weighted += m * df[col].to_numpy()
     plain = df[[f"T_supply_{hvac.sanitise(a)}" for a in ahus]].mean(axis=1).to_numpy()
     df["T_supply"] = np.where(flows > 1e-6, weighted / np.maximum(flows, 1e-12), plain)
+    if "wind" in df.columns:  # the optional column last: the export's other columns keep their order
+        df["wind"] = df.pop("wind")
     df.index.name = "time"
     return df.round(4)
 
@@ -331,6 +336,7 @@ def generate(
     fmt: str = "parquet",
     extra_idf: str | None = None,
     files: Mapping[str, str] | None = None,
+    wind: bool = False,
 ) -> EnergyPlusPaths:
     """Run an EnergyPlus building and write what its BMS would export.
 
@@ -366,6 +372,10 @@ def generate(
     files : mapping of str to str, optional
         ``{file name: text}`` written into the run's folder before EnergyPlus starts (``Schedule:File`` data of
         ``extra_idf``, referenced as ``{run_dir}/name``). Names are plain file names.
+    wind : bool
+        Also write the site's wind speed (``Site Wind Speed`` [m/s], the weather file's, at the site's height) as a
+        ``wind`` column. Off by default: an option of the cache key only when on (:func:`cache_key`), so the
+        cached exports without it stay valid.
 
     Returns
     -------
@@ -427,7 +437,7 @@ def generate(
         for name, text in files.items():
             (Path(work) / name).write_text(text, encoding="latin-1")
         run_idf.write_text(idf.text(), encoding="latin-1")
-        probes = export_probes(boxes, ahus, zone_names)
+        probes = export_probes(boxes, ahus, zone_names, wind=wind)
         log.info("EnergyPlus: %s with %s, %s to %s", idf_path.name, epw.name, first, last)
         values, times, eio = simulate(run_idf, epw, Path(work) / "out", probes)
     if len(values) == 0:
@@ -493,6 +503,8 @@ def cache_key(prototype, **options) -> str:
     """Folder name of a cached export: prototype, options, the IDF's and EPW's content and the export version."""
     idf_path = inputs.resolve_prototype(prototype)
     epw = inputs.resolve_weather(options.get("weather"), idf_path)
+    if not options.get("wind", True):
+        options = {k: v for k, v in options.items() if k != "wind"}  # wind=False is the export without the option
     h = hashlib.sha256()
     h.update(json.dumps({k: options[k] for k in sorted(options)}, sort_keys=True, default=str).encode())
     h.update(idf_path.read_bytes())

@@ -903,6 +903,11 @@ def _column_hint(c: str) -> str:
         )
     if c.startswith("rh_"):
         return "; reheat command/valve: heat the model cannot see"
+    if c == "wind":
+        return (
+            "; wind speed: outdoor air leaking in with the wind carries wind·(T_out − T_zone); `hvacfmu diagnose` "
+            "tests it as the wind_infiltration cause"
+        )
     return ""
 
 

@@ -15,6 +15,7 @@ BOUNDS = {
     "degC": (-60.0, 80.0),
     "kg/s": (0.0, 50.0),
     "W/m2": (0.0, 2000.0),
+    "m/s": (0.0, 60.0),
 }
 
 #: plausible ranges of temperature inputs by name prefix [°C] (checked before every step)
@@ -65,6 +66,8 @@ def signal_unit(name: str) -> str | None:
         return "W/m2"
     if name.startswith("Qrh_"):
         return "kW"
+    if name == "wind":
+        return "m/s"
     return None
 
 
@@ -97,6 +100,8 @@ def signal_description(name: str) -> str:
         return f"Discharge air temperature of VAV box {name[3:]} [degC] (after its reheat coil)"
     if name == "ghi":
         return "Global horizontal irradiance [W/m2]"
+    if name == "wind":
+        return "Wind speed at the site [m/s] (EnergyPlus: Site Wind Speed)"
     if name.startswith("I_") and name[2:] in _FACADES:
         return (
             f"Total solar irradiance on a vertical {_FACADES[name[2:]]}-facing facade [W/m2] "

@@ -30,6 +30,9 @@ cause it models (the cause ids of :mod:`hvacfmu.diagnosis`):
 ``reheat``
     heat added by the boxes' reheat coils at minimum airflow in cold weather:
     ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K per step].
+``wind_infiltration``
+    outdoor air leaking in with the wind: ``coef · wind · (T_out − x_z)`` into a zone
+    [K per step per (m/s · K)]; no matrix form (:meth:`ExtendedModel.equations` refuses it).
 
 Hidden states (thermal masses, delayed inputs) are appended to the state after
 the zone temperatures; :meth:`ExtendedModel.output` returns the zone

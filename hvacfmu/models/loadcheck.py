@@ -152,8 +152,15 @@ def _extended(model) -> list[str]:
         return problems
     try:
         eq = model.equations()
-    except ModelError:  # calendar terms: no time-invariant matrices; their coefficients were checked on load
-        return []
+    except ModelError:  # calendar terms, wind x state: no time-invariant matrices; the state map probed instead
+        A = zero_input_state_matrix(model)
+        rho = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
+        if not np.isfinite(rho) or rho >= 1.0:
+            problems.append(
+                f"unstable: the spectral radius of the extended model's state map at zero airflow and zero "
+                f"disturbances is {rho:.6g} >= 1 (an extension term's coefficient makes temperatures grow without bound)"
+            )
+        return problems
     rho = float(np.max(np.abs(np.linalg.eigvals(eq.A)))) if eq.A.size else 0.0
     if not np.isfinite(rho) or rho >= 1.0:
         problems.append(
@@ -161,6 +168,17 @@ def _extended(model) -> list[str]:
             "(an extension term's coefficient makes temperatures grow without bound)"
         )
     return problems + _response(model)
+
+
+def zero_input_state_matrix(model) -> np.ndarray:
+    """The state matrix of ``model.step_state`` at zero inputs, disturbances and gains, probed column by column
+    (exact for a step affine in the state there; for models without a matrix form, e.g. a term multiplying a
+    disturbance by the state, which vanishes at zero disturbance)."""
+    nx, nu, nv = int(model.n_states), len(model.inputs), len(model.disturbances)
+    nq = np.asarray(next(iter(model.gains.values()))).shape[1] if model.gains else 0
+    u, v, q = np.zeros(nu), np.zeros(nv), np.zeros(nq)
+    x0 = np.asarray(model.step_state(np.zeros(nx), u, v, q), float)
+    return np.column_stack([np.asarray(model.step_state(e, u, v, q), float) - x0 for e in np.eye(nx)])
 
 
 def _physics(model) -> list[str]:

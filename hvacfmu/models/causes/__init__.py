@@ -28,6 +28,7 @@ from .solar_gain import SolarGain
 from .supply_air_bilinear import SupplyAirBilinear
 from .thermal_mass import ThermalMass
 from .unused_input import UnusedInput
+from .wind_infiltration import WindInfiltration
 from .zone_coupling import ZoneCoupling
 
 _REGISTRY: dict = {}
@@ -100,6 +101,7 @@ for _cls in (
     ActuationDelay,
     Reheat,
     UnusedInput,
+    WindInfiltration,
 ):
     register_cause(_cls)
 
@@ -113,6 +115,7 @@ __all__ = [
     "Term",
     "ThermalMass",
     "UnusedInput",
+    "WindInfiltration",
     "ZoneCoupling",
     "cause_names",
     "causes",

@@ -64,7 +64,7 @@ class Signals:
     has_solar : bool
     extra : dict str -> array (n,)
         Measured columns the base model does not use (``Td_<vav>``, ``rh_<vav>``,
-        ``T_supply_<ahu>``, ``ghi``), gaps held; ``Qrh_<zone>`` [kW] reheat heat where every
+        ``T_supply_<ahu>``, ``ghi``, ``wind``), gaps held; ``Qrh_<zone>`` [kW] reheat heat where every
         box of the zone has ``Td_`` (also in ``V``).
     """
 
@@ -256,7 +256,11 @@ MIN_COVERAGE = 0.8
 
 
 def unused_columns(dataset, base):
-    """Measured columns ``base`` ignores: ``{name: array}``, ``{name: zones}``, ``{name: coverage}``."""
+    """Measured columns ``base`` ignores: ``{name: array}``, ``{name: zones}``, ``{name: coverage}``.
+
+    ``wind`` (wind speed [m/s]) is in the arrays and coverages but not in ``{name: zones}``: the
+    ``wind_infiltration`` cause reads it, ``unused_input`` (which screens the named columns) does not.
+    """
     frame = dataset.frame
     used = set(base.disturbances) | {f"m_{v}" for v in base.vavs} | {f"T_{z}" for z in base.measured_zones}
     zone_of_vav = {}
@@ -276,6 +280,8 @@ def unused_columns(dataset, base):
             zs = tuple(sorted(ahu_zones.get(c, ())))
         elif c == "ghi" and not has_facades:
             zs = ()
+        elif c == "wind":
+            zs = None  # the wind_infiltration cause's column, not an unused_input candidate
         else:
             continue
         x = frame[c].to_numpy(dtype=float)
@@ -283,7 +289,8 @@ def unused_columns(dataset, base):
         if cov < MIN_COVERAGE:
             continue
         extra[c] = pd.Series(x).ffill().bfill().to_numpy()
-        zones[c] = zs
+        if zs is not None:
+            zones[c] = zs
         coverage[c] = cov
     return extra, zones, coverage
 
