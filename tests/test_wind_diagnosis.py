@@ -219,3 +219,24 @@ def test_an_unstable_model_with_a_wind_term_is_still_refused_on_load():
     assert model_problems(ExtendedModel(base=_base(), terms=(WindInfiltration(zone="A", coef=0.002),))) == []
     with pytest.raises(ModelError, match="more than the zone's whole temperature difference"):
         model_from_dict({**with_wind.to_dict(), "terms": [{"cause": "wind_infiltration", "zone": "A", "coef": 0.02}]})
+
+
+@pytest.mark.slow
+def test_the_control_model_leaves_the_wind_term_out_and_says_so():
+    """MPC needs a matrix form; a wind term has none: ``terms_on_base`` (``diagnose --control-output``) drops it
+    with a warning, and what is left has equations MPC can use."""
+    from hvacfmu.data import prepare
+    from hvacfmu.diagnosis.control import terms_on_base
+    from hvacfmu.emulator import cached_dataset
+
+    rep, _ = _diagnosed(["wind_infiltration:zone=NW"], 0)
+    assert any(t.cause == "wind_infiltration" for t in rep.model.terms)
+    p = cached_dataset(weeks=8, seed=0, effects=["wind_infiltration:zone=NW"], start="2025-11-03", wind="m/s")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        ds = prepare(p.measurements, p.building)
+    with pytest.warns(HvacfmuWarning, match="leaves out wind_infiltration in NW"):
+        ctl = terms_on_base(ds, rep.model.base, rep.model.terms, heat="airflow")
+    assert not any(t.cause == "wind_infiltration" for t in ctl.terms)
+    assert ctl.meta["left_out"][0]["cause"] == "wind_infiltration"
+    ctl.equations()  # raises for a term without a matrix form

@@ -224,7 +224,20 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
         if twin is not None:
             dyn = twin
         meta["control_base"] = {"heat": dyn.heat, "notes": notes + fit_notes}
-    terms = list(terms)
+    # a term without a matrix form (wind x zone temperature) cannot be controlled with: left out, said
+    no_form = [t for t in terms if not getattr(t, "matrix_form", True)]
+    if no_form:
+        note = (
+            "the control model leaves out "
+            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in no_form)
+            + ": the term multiplies a disturbance by the zone temperature and has no matrix form the MPC (or a "
+            "native FMU) can use; the MPC controls without it (the diagnosis's extended model keeps it: evaluate "
+            "it, or export it as a Python FMU)"
+        )
+        warnings.warn(note, HvacfmuWarning, stacklevel=2)
+        meta.setdefault("control_base", {}).setdefault("notes", []).append(note)
+        meta["left_out"] = [t.to_dict() for t in no_form]
+    terms = [t for t in terms if getattr(t, "matrix_form", True)]
     U_eff = effective_inputs(sig, terms)
     feats = [term_features(sig, t, U_eff) for t in terms]
     fixed = _fixed_prediction(sig, dyn, U_eff, dataset)

@@ -121,6 +121,9 @@ class Term:
     cause: ClassVar[str] = ""
     #: one-line description for the README and ``--help``
     description: ClassVar[str] = ""
+    #: False when the term has no ``ModelEquations`` form (it multiplies a disturbance by the state): no native
+    #: FMU, no MPC; the diagnosis's control model leaves it out (:func:`hvacfmu.diagnosis.control.terms_on_base`)
+    matrix_form: ClassVar[bool] = True
     #: searched hyper-parameters charged in the information criterion for one candidate
     std: dict = dataclasses.field(default_factory=dict, compare=False)
 

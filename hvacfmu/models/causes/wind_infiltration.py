@@ -62,6 +62,7 @@ def partial_corr(r, x, z) -> float:
 class WindInfiltration(Term):
     """``coef [K/step per (m/s · K)] · wind · (T_out − T_zone)`` into ``zone``."""
 
+    matrix_form: ClassVar[bool] = False
     cause: ClassVar[str] = "wind_infiltration"
     description: ClassVar[str] = "outdoor air leaking in with the wind: wind·(T_out − T_zone) (zone)"
     zone: str = ""
