@@ -255,6 +255,10 @@ def test_an_error_that_changes_sign_from_day_to_day_is_a_disturbance_no_column_c
     (line,) = season_causes(score(e), sv, pd.DataFrame({"T_out": t_out}, index=idx))
     assert "changes sign from day to day (-1.05 to +0.45 K" in line and "no column carries" in line
     assert "r with the window's mean T_out -0.10" in line
+    assert "a wind speed column, if the site has one, lets `hvacfmu diagnose` test" in line
+    windy = pd.DataFrame({"T_out": t_out, "wind": np.repeat([3.0, 7.5, 1.0, 4.0, 9.0, 2.0, 5.0], N)}, index=idx)
+    (line,) = season_causes(score(e), sv, windy)
+    assert "the data's wind column is there" in line and "wind_infiltration" in line
     # the same errors following the outdoor temperature: the model reads a measured column wrongly, not this cause
     follows = pd.DataFrame({"T_out": 5.0 + 4.0 * e}, index=idx)
     assert season_causes(score(e), sv, follows) == []

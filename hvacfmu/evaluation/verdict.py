@@ -770,7 +770,13 @@ def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
         "changes from day to day and that no column carries (wind-driven infiltration, opened windows or doors, an "
         "unmetered heater, occupancy) rather than a missing heat store or season level, which err on the same side "
         "most days; no model fitted on these columns can predict it, and persistence wins where a thermostat holds "
-        "the zone against it (a wind column, if the site has one, would name it among the unused columns)"
+        "the zone against it "
+        + (
+            "(the data's wind column is there: `hvacfmu diagnose` tests wind-driven infiltration with it, "
+            "the wind_infiltration cause)"
+            if frame is not None and "wind" in frame.columns
+            else "(a wind speed column, if the site has one, lets `hvacfmu diagnose` test wind-driven infiltration)"
+        )
     )
 
 
