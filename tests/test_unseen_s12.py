@@ -59,3 +59,35 @@ def test_a_building_closing_on_an_observed_weekday_keeps_every_observed_one():
     assert cal.source == "public"
     assert {"2026-07-03", "2027-12-24", "2027-12-31", "2028-11-10"} <= set(cal.dates)
     assert not any("observed in place" in n for n in cal.notes)
+
+
+def test_a_day_to_day_error_that_follows_the_outdoor_temperature_is_named():
+    # the EnergyPlus warehouse's fine storage, zones model, Las Vegas summer (two test weeks): lost to persistence by
+    # 4 %, its window means swing from -0.54 to +0.60 K, colder than predicted on the hottest days (r = -0.53 with the
+    # window's mean T_out); the verdict named only the LOESS bandwidth
+    from hvacfmu.evaluation.result import ModelScore
+    from hvacfmu.evaluation.verdict import SeasonVerdict, season_causes
+
+    day_means = [-0.32, -0.54, 0.04, 0.54, 0.35, -0.46, 0.60, -0.01, 0.02, 0.06, 0.18, 0.54, 0.49, 0.41]
+    t_out = [34.5, 36.2, 36.9, 35.6, 32.5, 31.4, 27.4, 32.1, 32.0, 30.9, 29.1, 29.3, 28.4, 29.0]
+    N, W = 96, len(day_means)
+    idx = pd.date_range("2017-07-02", periods=W * N, freq="15min", tz="America/Los_Angeles")
+    e = np.concatenate([np.full(N, m) + 0.5 * np.sin(np.arange(N) / 9.0) for m in day_means])
+    score = ModelScore(
+        name="zones",
+        kind="zones",
+        outputs=("Zone2_Fine_Storage",),
+        starts=[idx[k * N] for k in range(W)],
+        seasons=["summer"] * W,
+        weeks=[26] * 7 + [33] * 7,
+        rms=np.ones((W, 1)),
+        baselines={},
+        skipped={},
+        residuals=pd.DataFrame({"Zone2_Fine_Storage": e}, index=idx),
+    )
+    sv = SeasonVerdict("zones", "Zone2_Fine_Storage", "summer", float(np.sqrt(np.mean(e**2))), 0.624, 0.555, W, 2)
+    frame = pd.DataFrame({"T_out": np.repeat(t_out, N)}, index=idx)
+    (line,) = season_causes(score, sv, frame)
+    assert line.startswith("Zone2_Fine_Storage in summer: the error's mean over a window changes sign from day to day")
+    assert "follows T_out (r with the window's mean -0.53)" in line
+    assert "on warmer days the zone is colder than predicted, so the model reacts too much to the outdoor" in line
