@@ -91,3 +91,34 @@ def test_a_day_to_day_error_that_follows_the_outdoor_temperature_is_named():
     assert line.startswith("Zone2_Fine_Storage in summer: the error's mean over a window changes sign from day to day")
     assert "follows T_out (r with the window's mean -0.53)" in line
     assert "on warmer days the zone is colder than predicted, so the model reacts too much to the outdoor" in line
+
+
+def test_the_verdict_does_not_call_a_holiday_the_data_decided_was_worked_a_missed_one():
+    # the strip mall (Tampa), physics, SMstore1 in fall: the calendar leaves Veterans Day (observed), Friday 10 November
+    # 2017, out because the building worked on New Year's Day (observed); the verdict said the model "predicts it as a
+    # working day (its calendar does not list it) ... declare [holidays] country = "US" and refit"
+    from types import SimpleNamespace
+
+    from hvacfmu.data.holidays import HolidayCalendar
+    from hvacfmu.evaluation.verdict import _holiday_cause
+
+    tz = "America/Denver"
+    starts = [pd.Timestamp("2017-11-05", tz=tz) + pd.Timedelta(days=i) for i in range(7)]
+    idx = pd.DatetimeIndex([t + pd.Timedelta(minutes=15 * k) for t in starts for k in range(96)])
+    score = SimpleNamespace(starts=starts, seasons=["fall"] * 7, residuals=pd.DataFrame({"A": 0.0}, index=idx))
+    sv = SimpleNamespace(output="A", season="fall")
+    dates = ("2017-10-09", "2017-11-23", "2017-12-25")  # the data's calendar: no observed day
+    model = SimpleNamespace(holidays=dates)
+    building = SimpleNamespace(timezone=tz)
+    decided = SimpleNamespace(building=building, holidays=HolidayCalendar(dates=dates, source="public", country="US"))
+    assert _holiday_cause(score, sv, model, decided) == []
+    # a model without the data's calendar (fitted elsewhere, or before it) still hears of the data's holidays
+    late = [pd.Timestamp("2017-11-19", tz=tz) + pd.Timedelta(days=i) for i in range(7)]
+    idx2 = pd.DatetimeIndex([t + pd.Timedelta(minutes=15 * k) for t in late for k in range(96)])
+    score2 = SimpleNamespace(starts=late, seasons=["fall"] * 7, residuals=pd.DataFrame({"A": 0.0}, index=idx2))
+    (line,) = _holiday_cause(score2, sv, SimpleNamespace(holidays=()), decided)
+    assert "2017-11-23 Thanksgiving" in line
+    # no calendar decided (a building open every day the data cannot judge): every public holiday is named
+    undecided = SimpleNamespace(building=building, holidays=HolidayCalendar(country="US"))
+    (line,) = _holiday_cause(score, sv, SimpleNamespace(holidays=()), undecided)
+    assert "2017-11-10 Veterans Day (observed)" in line

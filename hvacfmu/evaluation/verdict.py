@@ -671,10 +671,15 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
     span = span if span is not None and span.total_seconds() > 0 else dt.timedelta(days=1)
     first, last = min(starts).date(), (max(starts) + span).date()
     listed = set(getattr(model, "holidays", ()) or ())
+    # a calendar the building file declared, or the data decided, leaves a public holiday out on purpose (the
+    # training weeks worked on it, or on every weekday observed in place of a weekend holiday): not a missed one
+    calendar = getattr(dataset, "holidays", None)
+    decided = getattr(calendar, "source", "none") in ("public", "declared")
+    kept = set(getattr(calendar, "dates", ()) or ())
     missed = {
         d: n
         for d, n in public_holidays(country, None, first, last).items()
-        if d.weekday() < 5 and d.isoformat() not in listed
+        if d.weekday() < 5 and d.isoformat() not in listed and (not decided or d.isoformat() in kept)
     }
     covered = [d for d in missed if any(t.date() <= d <= (t + span).date() for t in starts)]
     if not covered:
