@@ -122,3 +122,55 @@ def test_the_verdict_does_not_call_a_holiday_the_data_decided_was_worked_a_misse
     undecided = SimpleNamespace(building=building, holidays=HolidayCalendar(country="US"))
     (line,) = _holiday_cause(score, sv, SimpleNamespace(holidays=()), undecided)
     assert "2017-11-10 Veterans Day (observed)" in line
+
+
+def test_a_season_behind_only_the_time_of_week_mean_gets_the_reasons_the_data_can_test():
+    # the EnergyPlus warehouse's lumped model in a Las Vegas summer: 0.616 K against persistence 0.759 and the
+    # time-of-week mean 0.548 (-12 %); its day means follow T_out (r -0.71). The verdict said only "behind the
+    # time-of-week mean in a season in 1/1 (summer: floor)", with no reason, as for every such zone-season
+    from types import SimpleNamespace
+
+    from hvacfmu.data.holidays import HolidayCalendar
+    from hvacfmu.evaluation.result import ModelScore
+    from hvacfmu.evaluation.verdict import make_verdict
+
+    day_means = [-0.37, -0.57, -0.21, 0.30, 0.23, -0.44, 0.44, 0.05, 0.13, 0.12, 0.25, 0.58, 0.58, 0.51]
+    t_out = [34.5, 36.2, 36.9, 35.6, 32.5, 31.4, 27.4, 32.1, 32.0, 30.9, 29.1, 29.3, 28.4, 29.0]
+    N, W = 96, len(day_means)
+    tz = "America/Los_Angeles"
+    starts = [pd.Timestamp("2017-07-09", tz=tz) + pd.Timedelta(days=k) for k in range(W)]  # no holiday inside
+    idx = pd.DatetimeIndex([t + pd.Timedelta(minutes=15 * j) for t in starts for j in range(N)])
+    e = np.concatenate([np.full(N, m) + 0.5 * np.sin(np.arange(N) / 9.0) for m in day_means])
+    rms = np.sqrt(np.mean(e.reshape(W, N) ** 2, axis=1))[:, None]
+    score = ModelScore(
+        name="lumped",
+        kind="lumped",
+        outputs=("floor",),
+        starts=starts,
+        seasons=["summer"] * 7 + ["fall"] * 7,  # two seasons, so the verdict splits them
+        weeks=[27] * 7 + [28] * 7,
+        rms=rms,
+        baselines={"persistence": rms * 1.25, "time-of-week mean": rms * 0.9},
+        skipped={},
+        residuals=pd.DataFrame({"floor": e}, index=idx),
+        hourly={
+            "n": np.array([24 * W]),
+            "sum_error": np.zeros(1),
+            "sum_sq_error": np.ones(1),
+            "sum_measured": np.array([600.0 * W]),
+        },
+    )
+    frame = pd.DataFrame({"T_out": np.repeat(t_out, N)}, index=idx)
+    building = SimpleNamespace(timezone=tz, vav_names=(), season_names=("summer", "fall"))
+    dataset = SimpleNamespace(
+        frame=frame, building=building, holidays=HolidayCalendar(country="US"), test_weeks=lambda: []
+    )
+    model = SimpleNamespace(kind="lumped", outputs=("floor",), disturbances=("T_out",), holidays=())
+    v = make_verdict([score], [model], dataset)
+    assert not v.losing_seasons() and {s.season for s in v.behind_time_of_week_seasons()} == {"summer", "fall"}
+    why = v.behind_causes["lumped"]
+    assert any(c.startswith("floor in summer: the error's mean over a window changes sign") for c in why), why
+    assert not any("drifts" in c for c in why)
+    text = v.format()
+    assert "   behind the time-of-week mean for lumped, what the data can test:" in text
+    assert v.to_dict()["time_of_week_causes"]["lumped"] == why

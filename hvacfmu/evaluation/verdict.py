@@ -181,6 +181,9 @@ class Verdict:
     #: model -> the zone-seasons it loses to a persistence that is within :data:`LOOP_HELD_TOW_K` (the zone is held at
     #: one temperature; :func:`constant_held_line`)
     held_constant: dict = dataclasses.field(default_factory=dict)
+    #: model -> the reasons :func:`season_causes` finds (without the drift, which reads a held zone) for zone-seasons
+    #: the model loses to the time-of-week mean only, where that mean is above :data:`LOOP_HELD_TOW_K`
+    behind_causes: dict = dataclasses.field(default_factory=dict)
 
     def losing(self, model: str | None = None) -> list:
         """Verdicts of the zones where a model (or ``model``) is worse than persistence."""
@@ -313,6 +316,10 @@ class Verdict:
             lines += [f"   behind the time-of-week mean for {model}: {h}" for h in held]
         for model, held in self.held_constant.items():
             lines += [f"   behind persistence for {model}: {h}" for h in held]
+        for model, why in self.behind_causes.items():
+            if why:
+                lines.append(f"   behind the time-of-week mean for {model}, what the data can test:")
+                lines += [f"   - {c}" for c in why]
         for model, hints in self.hints.items():
             lines += [f"   to try for {model}: {h}" for h in hints]
         if lines:
@@ -340,6 +347,7 @@ class Verdict:
             "hints": {k: list(v) for k, v in self.hints.items()},
             "loop_held": {k: list(v) for k, v in self.loop_held.items()},
             "held_constant": {k: list(v) for k, v in self.held_constant.items()},
+            "time_of_week_causes": {k: list(v) for k, v in self.behind_causes.items()},
             "missing_inputs": {k: list(v) for k, v in self.missing.items()},
             "coverage": {k: dict(v) for k, v in self.coverage.items()},
             "thresholds": {
@@ -374,7 +382,7 @@ def g14_metrics(hourly: dict | None) -> tuple[np.ndarray, np.ndarray]:
 def make_verdict(scores, models, dataset) -> Verdict:
     """The :class:`Verdict` of the scored models (``scores`` and ``models`` in the same order)."""
     zones, seasons = [], []
-    causes, coverage, missing, hints, held, constant = {}, {}, {}, {}, {}, {}
+    causes, coverage, missing, hints, held, constant, behind_why = {}, {}, {}, {}, {}, {}, {}
     for sc, model in zip(scores, models):
         if not sc.starts:
             continue
@@ -404,6 +412,17 @@ def make_verdict(scores, models, dataset) -> Verdict:
         steady = "" if sc.name in missing else constant_held_line(per_season)
         if steady:
             constant[sc.name] = [steady]
+        behind = [
+            v
+            for v in per_season
+            if v.beats_persistence
+            and np.isfinite(v.time_of_week)
+            and not v.beats_time_of_week
+            and v.time_of_week > LOOP_HELD_TOW_K
+        ]
+        why = [c for v in behind for c in season_causes(sc, v, dataset.frame, model, dataset, drift=False)]
+        if why and sc.name not in missing:
+            behind_why[sc.name] = why
     return Verdict(
         zones=tuple(zones),
         causes=causes,
@@ -413,6 +432,7 @@ def make_verdict(scores, models, dataset) -> Verdict:
         hints=hints,
         loop_held=held,
         held_constant=constant,
+        behind_causes=behind_why,
     )
 
 
@@ -604,7 +624,7 @@ DRIFT_BIAS_SHARE = 0.5
 DRIFT_GROWTH = 1.2
 
 
-def season_causes(score, sv, frame=None, model=None, dataset=None) -> list[str]:
+def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool = True) -> list[str]:
     """Causes the data can test for a model worse than persistence in one zone and season (:class:`SeasonVerdict`).
 
     - **drift**: the measured temperature holds (persistence is good) while the prediction walks away:
@@ -618,6 +638,8 @@ def season_causes(score, sv, frame=None, model=None, dataset=None) -> list[str]:
     - **holiday** (with ``model`` and ``dataset``): the windows cover a weekday public holiday (of the country
       of the building's time zone) that the model's calendar does not hold, so it predicts a working day there
       (:mod:`hvacfmu.data.holidays`).
+
+    ``drift=False`` leaves the drift out (a zone-season lost to the time-of-week mean only: the zone does not hold).
     """
     res = score.residuals
     if res is None or res.empty or sv.output not in res.columns:
@@ -631,7 +653,7 @@ def season_causes(score, sv, frame=None, model=None, dataset=None) -> list[str]:
         bias = float(np.nanmean(e))
         q = max(1, N // 4)
         first, last = float(np.nanmean(np.abs(e[:, :q]))), float(np.nanmean(np.abs(e[:, -q:])))
-    if abs(bias) >= DRIFT_BIAS_SHARE * sv.rms and last >= DRIFT_GROWTH * first:
+    if drift and abs(bias) >= DRIFT_BIAS_SHARE * sv.rms and last >= DRIFT_GROWTH * first:
         side = "warmer" if bias > 0 else "colder"
         out.append(
             f"{sv.output} in {sv.season}: the prediction drifts while the zone holds its temperature "
