@@ -169,11 +169,20 @@ def public_holidays(country: str, subdivision: str | None, first: _dt.date, last
     return {d: n for d, n in table.items() if first <= d <= last}
 
 
+def observed_days(country: str, subdivision: str | None, first: _dt.date, last: _dt.date) -> set:
+    """Dates from ``first`` to ``last`` that are public holidays of ``country`` only as the weekday observed in place
+    of a holiday falling on a weekend (US ``Veterans Day (observed)``, a Friday): the days python-holidays lists
+    with its observance rules and not without them."""
+    shifted = set(_country_table(country, subdivision, first.year, last.year))
+    shifted -= set(_country_table(country, subdivision, first.year, last.year, observed=False))
+    return {d for d in shifted if first <= d <= last}
+
+
 @functools.lru_cache(maxsize=32)
-def _country_table(country: str, subdivision: str | None, y0: int, y1: int) -> dict:
+def _country_table(country: str, subdivision: str | None, y0: int, y1: int, observed: bool = True) -> dict:
     import holidays
 
-    return dict(holidays.country_holidays(country, subdiv=subdivision, years=range(y0, y1 + 1)))
+    return dict(holidays.country_holidays(country, subdiv=subdivision, years=range(y0, y1 + 1), observed=observed))
 
 
 @functools.lru_cache(maxsize=1)

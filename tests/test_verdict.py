@@ -261,7 +261,8 @@ def test_an_error_that_changes_sign_from_day_to_day_is_a_disturbance_no_column_c
     assert "the data's wind column is there" in line and "wind_infiltration" in line
     # the same errors following the outdoor temperature: the model reads a measured column wrongly, not this cause
     follows = pd.DataFrame({"T_out": 5.0 + 4.0 * e}, index=idx)
-    assert season_causes(score(e), sv, follows) == []
+    (weather,) = season_causes(score(e), sv, follows)
+    assert "no column carries" not in weather and "follows T_out (r with the window's mean +1.00)" in weather
     # the same side every day (a season level, a heat store): no day-to-day line
     same_side = np.abs(e) + 0.2
     sv_same = dataclasses.replace(sv, rms=float(np.sqrt(np.mean(same_side**2))))

@@ -17,7 +17,9 @@ weekday profile it estimates. Which days are holidays:
   :func:`day_gammas`), *worked* below :data:`WORKED_GAMMA`. The country's calendar
   applies when at least two thirds of the training public holidays were closed
   (at least :data:`MIN_CLOSED`, or a single one with ``gamma`` >= :data:`SINGLE_GAMMA`), a day counting as closed only at ``gamma`` >= :data:`CLOSED_SPREADS` times the
-  workdays' spread too; the holidays worked on are left out by name in every year;
+  workdays' spread too; the holidays worked on are left out by name in every year, and when every
+  weekday of the training weeks observed in place of a weekend holiday (US ``New Year's Day (observed)``) was
+  worked on, every such day is (the EnergyPlus prototypes keep their holidays on the date, a Saturday too);
 - no other day is applied: an unlisted weekday that ran like a Sunday is not added to the calendar (on the
   emulator, whose buildings keep no holiday, ordinary workdays of a 16-week set reach ``gamma`` 0.78, where
   the EnergyPlus prototypes' holidays lie at 0.8-1.2: weather and faults move a day's operation almost as
@@ -49,7 +51,7 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from ..calendars import country_of_timezone, public_holidays
+from ..calendars import country_of_timezone, observed_days, public_holidays
 
 #: A weekday at least this far (0 = workday mean, 1 = Sunday mean) toward Sunday ran closed.
 CLOSED_GAMMA = 0.5
@@ -288,7 +290,13 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
             if single or len(closed) >= max(MIN_CLOSED, math.ceil(2 * len(judged) / 3)):
                 open_names = {pub[d] for d in worked}  # by name in every year ("... (observed)" stays apart)
                 allp = weekdays(public_holidays(country, None, horizon_start, horizon_end))
-                table = {d: n for d, n in allp.items() if n not in open_names}
+                # a weekday observed in place of a weekend holiday is the building's convention, not the holiday's:
+                # worked on every such day of the training weeks (none closed), it is worked on in every year
+                shifted = observed_days(country, None, horizon_start, horizon_end)
+                shifted_judged = [d for d in judged if d in shifted]
+                open_shifted = bool(shifted_judged) and all(d in worked for d in shifted_judged)
+                table = {d: n for d, n in allp.items() if n not in open_names and not (open_shifted and d in shifted)}
+                named = sorted(open_names - ({pub[d] for d in shifted_judged} if open_shifted else set()))
                 dates = set(table)
                 in_data = {d: n for d, n in table.items() if first <= d <= last}
                 source = "public"
@@ -297,7 +305,13 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
                     f"training weeks (their operation ran like a Sunday"
                     + (f": gamma {judged[closed[0]]:.2f}, the only one there" if single else "")
                     + f"); the models read Sunday's internal gains on {country}'s public holidays"
-                    + (f" except {', '.join(sorted(open_names))} (worked on)" if open_names else "")
+                    + (f" except {', '.join(named)} (worked on)" if named else "")
+                    + (
+                        f" {'and' if named else 'except'} every weekday observed in place of a weekend holiday (the "
+                        "building worked on " + ", ".join(f"{d} {pub[d]}" for d in shifted_judged) + ")"
+                        if open_shifted
+                        else ""
+                    )
                     + f'. Declare [holidays] in the building file to choose (e.g. country = "{country}", open = [...])'
                 )
             elif len(judged) - len(closed) > len(judged) / 3:
