@@ -194,6 +194,17 @@ def test_implausible_signs_and_time_constants(truth, change, message):
     assert any(re.search(message, p) for p in problems), problems
 
 
+def test_a_bounded_solvers_rounding_of_zero_is_no_sign_error(truth):
+    """The diagnosis's joint refit of the EnergyPlus apartments gave C = -1.99e-19: zero, not a cooling sun."""
+    C = truth.C.copy()
+    C[0, 0] = -1.99e-19
+    A = truth.A.copy()
+    A[0, 1] = -3e-18
+    assert linear_problems(dataclasses.replace(truth, C=C, A=A))[0] == []
+    C[0, 0] = -1e-9
+    assert any("would cool the zone" in p for p in linear_problems(dataclasses.replace(truth, C=C))[0])
+
+
 def test_closed_loop_airflow_not_identifiable_is_flagged(building, tmp_path):
     """Data whose airflow has no effect (truth beta ~ 0, fast decay): the fit warns that the model learned a loop."""
     t = delivered_truth(building)

@@ -1588,3 +1588,27 @@ def test_heat_outside_the_discharge_air_is_found_where_td_is_measured():
     # the truth file has no rule for unused_input: those name measured Td_/rh_ columns of boxes that reheat
     others = [u for u in cmp["unsupported"] if u["cause"] != "unused_input"]
     assert others == [] and all(u["location"]["column"][:3] in ("Td_", "rh_") for u in cmp["unsupported"]), cmp
+
+
+def test_a_round_whose_joint_refit_fails_the_load_checks_is_rejected(solar_case, monkeypatch):
+    """Terms that each pass but together give a model no file check lets load (a diverging mode: the EnergyPlus
+    apartments, spectral radius 1.198) are rejected with the reason; the model before them is what is saved."""
+    from hvacfmu.diagnosis import selection as S
+    from hvacfmu.models.loadcheck import model_problems
+
+    ds, base, _ = solar_case
+    real = S._new_load_problems
+    calls = []
+
+    def diverging(model, before):
+        calls.append(len(model.terms))
+        return ["a mode with spectral radius 1.198 > 1 (test)"] if model.terms else real(model, before)
+
+    monkeypatch.setattr(S, "_new_load_problems", diverging)
+    rep = diagnose(ds, model=base, progress=False)
+    assert calls and rep.findings == []
+    (rej,) = [c for c in rep.candidates if c["status"] == "rejected"]
+    assert rej["cause"] == "solar_gain" and "spectral radius 1.198" in rej["reason"]
+    assert rep.model.terms == () and model_problems(rep.model) == []
+    assert "left out first, until the refit passes" in rep.format()
+    assert sum(len(r.get("rejected_unstable", [])) for r in rep.rounds) == 1

@@ -55,7 +55,7 @@ class DiagnosisReport:
         Confirmed causes in the order they were added (see :meth:`to_dict`).
     candidates : list of dict
         Every other candidate with its status (``not significant``, ``no held-out gain``,
-        ``untestable`` ...), evidence and test.
+        ``untestable``, ``rejected``: the joint refit with it fails the load checks ...), evidence and test.
     unexplained : list of dict
         Zones whose final residuals are not white: ``zone``, ``period_h`` of the dominant
         periodogram peak, ``peak_share``, ``cpgram_departure``, ``ljung_box_p``.
@@ -201,7 +201,7 @@ class DiagnosisReport:
     def _candidate_lines(self) -> list:
         """Candidates significant but not confirmed, and untestable ones."""
         L: list = []
-        rej = [c for c in self.candidates if c["status"] in ("no cross-validated gain", "no evidence")]
+        rej = [c for c in self.candidates if c["status"] in ("no cross-validated gain", "no evidence", "rejected")]
         if rej:
             L.append("Significant on training data but not confirmed (not added):")
             for c in rej:
