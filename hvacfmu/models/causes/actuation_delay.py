@@ -15,10 +15,10 @@ through the airflow whatever set it, so its gain survives when the zone's own te
 :data:`HISTORY_S` (``T_z(k − 1) … T_z(k − L)``, :func:`temperature_history`) are added, free, to both
 equations. The diagnosis (``hvacfmu.diagnosis.selection.delay_given_history``) refits the zone's
 equation with and without the delay on that history and requires the same ΔBIC margin as the screen
-(``evidence["history"]``). Measured (``benchmarks/bench_diagnosis_delay_evidence.py``): the
-battery's seven injected delays keep a likelihood ratio of 1 370–9 100 given the history (plain
-2 190–15 600); the emulator's clean zones are all negative; the EnergyPlus zones at most 26 (plain
-up to 320).
+(``evidence["history"]``). Measured at the base structure (``benchmarks/bench_diagnosis_delay_evidence.py``,
+``benchmarks/diagnosis_energyplus_s12.md``): the battery's seven injected delays score ΔBIC 1 021–3 117
+given the history (plain 677–1 954); the 99 emulator zones without a delay −1 489 … −51 (plain all
+negative); the 60 EnergyPlus zones −115 … 6.6, while 37 of them pass the plain screen (up to 628).
 """
 
 from __future__ import annotations
