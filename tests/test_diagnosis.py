@@ -989,6 +989,61 @@ def test_feedback_is_not_delay(seed):
     assert rep.findings == [], rep.summary()
 
 
+def history_closed_loop_dataset(weeks=12, seed=0, a2=0.6, lag=2, gain=0.25, noise=0.02) -> Dataset:
+    """Closed loop (P control, no delay) where zone B's next temperature also depends on its own
+    temperature ``lag`` steps back (weight ``a2``, taken from its own ``a``): a second, fast state
+    Model A lacks, as the air node and furniture of a detailed simulation."""
+    base = row_model()
+    rng = np.random.default_rng(seed)
+    ds0 = simulate_dataset(base, weeks=weeks, seed=seed, noise=noise)
+    frame = ds0.frame.copy()
+    n = len(frame)
+    _u, v = base.signals(frame)
+    q = np.zeros((n, 3))
+    for s in np.unique(ds0.season_of_row):
+        m = ds0.season_of_row == s
+        q[m] = base.gains_at(frame.index[m], s)
+    A = base.A.copy()
+    A[1, 1] -= a2
+    x = np.full(3, 21.0)
+    Y, M = np.full((n, 3), 21.0), np.empty((n, 3))
+    for k in range(n):
+        Y[k] = x
+        uk = np.clip(0.2 + gain * (x - 21.5) + rng.normal(0, 0.03, 3), 0.05, 0.6)  # feedback, same step
+        M[k] = uk
+        x = A @ x + base.B @ uk + base.C @ v[k] + q[k] + rng.normal(0, noise, 3)
+        x[1] += a2 * Y[max(k - lag, 0), 1]
+    for j, z in enumerate("ABC"):
+        frame[f"T_{z}"] = Y[:, j]
+        frame[f"m_V{j + 1}"] = M[:, j]
+    return Dataset.from_frame(frame, ds0.building, step=900.0, seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_feedback_standing_in_for_temperature_history_is_not_delay(seed):
+    """Feedback is not delay (issue 15): under P control u(k − d) is the controller's answer to T(k − d), so
+    in a zone that depends on its own past temperature the airflow of 3 steps before "explains" the zone
+    (before: actuation_delay B, delay 3, ΔBIC 400, cross-validated +15 %, t 7.5–9.9, as the EnergyPlus Core's
+    false delay). Given the zone's own temperatures of the last hour its likelihood ratio is negative."""
+    rep = diagnose(history_closed_loop_dataset(seed=seed), model=row_model(), progress=False)
+    assert not [f for f in rep.findings if f["cause"] == "actuation_delay"], rep.summary()
+    d = rep.to_dict()
+    (cand,) = [c for c in d["candidates"] if c["cause"] == "actuation_delay" and c["location"]["zone"] == "B"]
+    assert cand["test"]["delta_bic"] > 100  # the plain screen still passes it ...
+    assert cand["status"] == "no evidence" and "feedback" in cand["reason"]
+    assert cand["evidence"]["history"]["delta_bic"] < 0  # ... the history takes it all
+
+
+def test_a_true_delay_survives_the_temperature_history():
+    """The synthetic 2-step delay in C (no controller: the airflow is drawn at random) and the history test."""
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(ActuationDelay(zone="C", delay=2),)), weeks=12, seed=3)
+    rep = diagnose(ds, model=base, progress=False)
+    (f,) = _found(rep, "actuation_delay", zone="C", delay=2)
+    h = f["evidence"]["history"]
+    assert h["lags"] == 4 and h["delta_bic"] > 100 and h["b"] < 0
+
+
 def test_an_extended_model_that_would_not_load_is_said(monkeypatch):
     """The model a report saves goes through the load checks first: one that export, evaluate and cosim would
     refuse is named in a warning and the report's notes (a diagnosis once wrote such a file without a word)."""

@@ -391,11 +391,18 @@ def _short_evidence(f: dict) -> str:
     if c == "actuation_delay":
         xc = ev.get("xcorr_resid_airflow_by_lag", {})
         fu = ev.get("xcorr_resid_future_airflow_by_lag", {})
+        h = ev.get("history") or {}
+        given = (
+            f"; ΔBIC {h['delta_bic']:.1f} given the zone's own temperatures of the last {h.get('history_h', 1):g} h"
+            if h.get("delta_bic") is not None
+            else ""
+        )
         return (
             "corr(residual, airflow lagged): "
             + ", ".join(f"{k}:{v:+.2f}" for k, v in xc.items() if v is not None)
             + "; future airflow: "
             + ", ".join(f"{k}:{v:+.2f}" for k, v in fu.items() if v is not None)
+            + given
         )
     if c == "reheat" and "corr_reheat_heat" in ev:
         return (

@@ -7,7 +7,9 @@ Each round, every registered cause screens the current model's training residual
    term against the refit without it, per affected zone equation ``LR_z = N ln(RSS_0 / RSS_1)``,
    deflated by ``(1 − ρ_z) / (1 + ρ_z)`` for serially correlated residuals, exceeds the BIC
    penalty ``k ln N`` by ``bic_margin`` (10); cause-specific gates (a symmetric coupling, a
-   schedule change of scale ≥ 0.5); a delay's past- and future-airflow correlations are evidence.
+   schedule change of scale ≥ 0.5; a delay that keeps ΔBIC > ``bic_margin`` when the zone's own
+   temperatures of the last hour are in both equations, :func:`delay_given_history`: feedback is
+   not delay); a delay's past- and future-airflow correlations are evidence.
 2. **Blocked cross-validation** (:mod:`hvacfmu.diagnosis.crossval`) — over ``cv_folds`` (10)
    blocks of whole training weeks, the affected zones predicted open loop for 24 h with every
    other zone measured: cross-validated gain ≥ ``cv_min_gain_percent`` (1 %; coupling
@@ -36,6 +38,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import DataError
+from ..models.causes.actuation_delay import HISTORY_S, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from . import candidates as cand
@@ -236,6 +239,7 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
     """Location details and cause-specific evidence of the best variant ``t`` of candidate ``c`` (in place)."""
     if isinstance(t, ActuationDelay):
         c.location = {**c.location, "delay": int(t.delay)}
+        c.evidence["history"] = delay_given_history(sig, W, terms, t)
     if isinstance(t, ZoneCoupling):
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
     if hasattr(t, "alpha"):
@@ -253,6 +257,51 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         g = np.array([coefs.get(f"{z}:coef[{z}]", (0.0, 0.0))[0] for z in sig.zones])
         c.evidence["scale_mean"] = float((w @ g) / w.sum()) if w.sum() > 0 else 0.0
         c.evidence["scale_by_zone"] = dict(zip(sig.zones, (float(x) for x in g)))
+
+
+def delay_given_history(sig: Signals, W: Within, terms, t) -> dict:
+    """The delay's likelihood ratio when the zone's own past temperatures are in both equations.
+
+    Feedback is not delay: in closed loop ``u(k − d)`` is what the controller made of the zone's
+    temperature ``d`` steps before, so it can stand in for a temperature history the first-order
+    equation lacks (:mod:`hvacfmu.models.causes.actuation_delay`). The zone's equation is refitted
+    on the training rows whose history is known, with the free columns ``T_z(k − 1) … T_z(k − L)``
+    (:data:`~hvacfmu.models.causes.actuation_delay.HISTORY_S`, one hour), without and with the delay;
+    ``lr = N ln(RSS_0 / RSS_1)``, deflated by ``(1 − ρ)/(1 + ρ)`` of the history fit's residual as the
+    screen's, minus the BIC penalty ``ln N`` of the delay: ``delta_bic`` must exceed ``bic_margin``
+    as the screen's. ``b``: the delayed airflow's coefficient in that fit [K/step per kg/s] (0 at its
+    bound: the delayed airflow does not cool the zone at all once the history is known).
+    """
+    z = sig.zones.index(t.zone)
+    H = temperature_history(sig.Y[:, z], sig.step)
+    keep = np.isfinite(H[W.rows]).all(axis=1)
+    rows = W.rows[keep]
+    if len(rows) < 50:
+        return {"lags": int(H.shape[1]), "n": int(len(rows)), "delta_bic": None}
+    Wh = W if keep.all() else Within(sig.group, rows)
+    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    others = [tt for tt in terms if not (isinstance(tt, ActuationDelay) and tt.zone == t.zone)]
+    fits = []
+    for ts in (others, others + [t]):
+        D = zone_design(sig, z, ts)
+        Xw = Wh(np.column_stack([D.X, H]))
+        yw = Wh(target[:, z] - D.offset)
+        k = H.shape[1]
+        ls = bounded_ls(Xw, yw, np.r_[D.lower, [-np.inf] * k], np.r_[D.upper, [np.inf] * k], dof_extra=Wh.n_groups)
+        fits.append((ls, D.names, yw - Xw @ ls.theta))
+    (ls0, _, r0), (ls1, names1, _) = fits
+    n = len(rows)
+    lr = float(n * np.log(ls0.rss / ls1.rss))
+    factor = ess_factor(lag1(r0))
+    return {
+        "lags": int(H.shape[1]),
+        "history_h": HISTORY_S / 3600.0,
+        "n": int(n),
+        "lr": lr,
+        "lr_adjusted": lr * factor,
+        "delta_bic": float(lr * factor - np.log(n)),
+        "b": float(ls1.theta[names1.index("b")]),
+    }
 
 
 def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0) -> dict:
@@ -622,6 +671,15 @@ def _gate(c, opts) -> None:
             f"not a heat exchange between them (t = {c.evidence['asymmetry_t']:.1f} beyond the factor, "
             f"week-clustered)"
         )
+    elif c.cause == "actuation_delay" and not _delay_beyond_history(c, opts):
+        h = c.evidence["history"]
+        c.status = "no evidence"
+        c.reason = (
+            f"ΔBIC {c.test['delta_bic']:.1f} falls to {h['delta_bic']:.1f} ≤ {opts['bic_margin']:g} once the zone's own "
+            f"temperatures of the last {h['history_h']:g} h are in the equation (delayed airflow's coefficient "
+            f"{h['b']:.3g}): the airflow of {c.term.delay} step(s) before stands in for the zone's past temperature "
+            f"through its controller (feedback), not an airflow acting late"
+        )
     elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < _schedule_min_scale(c, opts):
         c.status = "not significant"
         c.reason = (
@@ -631,8 +689,14 @@ def _gate(c, opts) -> None:
         )
     if c.cause == "actuation_delay":
         # evidence only: in closed loop a real delay also shows in the future airflow (the emulator's
-        # 30-min delay in C failed a hard past-over-future rule), so the cross-validation decides
+        # 30-min delay in C failed a hard past-over-future rule); the gate is the temperature history above
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
+
+
+def _delay_beyond_history(c, opts) -> bool:
+    """A delay's gain survives the zone's own temperature history (:func:`delay_given_history`); True when not computable."""
+    d = (c.evidence.get("history") or {}).get("delta_bic")
+    return d is None or d > opts["bic_margin"]
 
 
 def _schedule_min_scale(c, opts) -> float:

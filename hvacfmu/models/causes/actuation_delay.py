@@ -5,6 +5,20 @@ Term: ``u_z(k)`` is replaced by ``u_z(k − delay)`` everywhere in the model; th
 :func:`~hvacfmu.models.causes.signals.max_delay` (one hour); evidence: cross-correlation of the residual
 with the airflow by lag, past (``u(k − lag)``) and future (``u(k + lag)``, what a feedback
 loop produces: the controller answers the temperature error), and the best past lag.
+
+Feedback is not delay. In closed loop the airflow a controller set ``d`` steps ago is a function
+of the zone's temperature then, so ``u(k − d)`` can stand in for the zone's own past temperature
+(a fast mass, the air node of a detailed simulation, a controller holding a setpoint) that the
+first-order equation lacks, and "explain" the zone without acting late (EnergyPlus's VAV boxes, which
+have no actuator delay: Denver Core, ``benchmarks/diagnosis_energyplus_s12.md``). A real delay acts
+through the airflow whatever set it, so its gain survives when the zone's own temperatures of the last
+:data:`HISTORY_S` (``T_z(k − 1) … T_z(k − L)``, :func:`temperature_history`) are added, free, to both
+equations. The diagnosis (``hvacfmu.diagnosis.selection.delay_given_history``) refits the zone's
+equation with and without the delay on that history and requires the same ΔBIC margin as the screen
+(``evidence["history"]``). Measured at the base structure (``benchmarks/bench_diagnosis_delay_evidence.py``,
+``benchmarks/diagnosis_energyplus_s12.md``): the battery's seven injected delays score ΔBIC 1 021–3 117
+given the history (plain 677–1 954); the 99 emulator zones without a delay −1 489 … −51 (plain all
+negative); the 60 EnergyPlus zones −115 … 6.6, while 37 of them pass the plain screen (up to 628).
 """
 
 from __future__ import annotations
@@ -16,7 +30,21 @@ import numpy as np
 
 from ...errors import ModelError
 from .base import Candidate, EquationParts, StepContext, Term, corr, zone_of
-from .signals import max_delay, shifted
+from .signals import MAX_DELAY_S, max_delay, shifted
+
+#: Own-temperature history a delay must explain the zone beyond [s]: the longest delay tested (one hour).
+HISTORY_S = MAX_DELAY_S
+
+
+def history_lags(step: float) -> int:
+    """Number of past temperatures in :func:`temperature_history` at model step ``step`` [s] (:data:`HISTORY_S`)."""
+    return max(1, int(round(HISTORY_S / float(step))))
+
+
+def temperature_history(y: np.ndarray, step: float) -> np.ndarray:
+    """The zone's own past temperatures ``y(k − 1) … y(k − L)`` (n, L) [°C], L = :func:`history_lags` (NaN before the data)."""
+    y = np.asarray(y, dtype=float)
+    return np.column_stack([shifted(y, j) for j in range(1, history_lags(step) + 1)])
 
 
 @dataclasses.dataclass(frozen=True)
