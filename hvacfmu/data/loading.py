@@ -979,6 +979,15 @@ WIND_NOISE = 0.2
 WIND_MAX = 60.0
 
 
+def _zero_noise(si, label, desc, report):
+    """Slightly negative values (sensor noise, within the column's tolerance) set to 0, with a warning."""
+    neg = si < 0
+    if neg.any():
+        si = np.where(neg, 0.0, si)
+        report.warnings.append(f"{label}: {desc}: {int(neg.sum())} slightly negative value(s) (sensor noise) set to 0")
+    return si
+
+
 def _check_wind(desc, label, unit, si, where, problems, report):
     """A wind speed must lie in 0..:data:`WIND_MAX` m/s (after conversion from ``unit``)."""
     bad = np.flatnonzero(si < -WIND_NOISE)
@@ -995,11 +1004,7 @@ def _check_wind(desc, label, unit, si, where, problems, report):
             f"than any wind at a building site: is the unit right (declare km/h, mph or kn in the building's [units]) "
             f"or is it a direction in degrees?, e.g. {where.rows(high, values=si)}{_error_code_hint(si[high], unit)}"
         )
-    neg = si < 0
-    if neg.any() and not len(bad):
-        si = np.where(neg, 0.0, si)
-        report.warnings.append(f"{label}: {desc}: {int(neg.sum())} slightly negative value(s) (sensor noise) set to 0")
-    return si
+    return si if len(bad) else _zero_noise(si, label, desc, report)
 
 
 #: Below this clear-sky peak [W/m²] over the span (polar night) low irradiance is not judged.
@@ -1035,8 +1040,4 @@ def _check_irradiance(desc, label, unit, si, where, problems, report, start=None
             f"{label}: {desc}: {len(high)} value(s) above {IRRADIANCE_MAX:g} W/m², more than any irradiance at "
             f"ground level (is the unit W/m²?), e.g. {where.rows(high, values=si)}{_error_code_hint(si[high], unit)}"
         )
-    neg = si < 0
-    if neg.any() and not len(bad):
-        si = np.where(neg, 0.0, si)
-        report.warnings.append(f"{label}: {desc}: {int(neg.sum())} slightly negative value(s) (sensor noise) set to 0")
-    return si
+    return si if len(bad) else _zero_noise(si, label, desc, report)

@@ -41,6 +41,7 @@ from ..errors import DataError
 from ..models.causes.actuation_delay import HISTORY_S, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
+from ..models.loadcheck import model_problems
 from . import candidates as cand
 from .report import _cv_units
 from .crossval import (
@@ -476,6 +477,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     terms = list(initial_terms)
     W = Within(sig.group, rows)
     ref_fit = fit_structure(sig, terms, rows)
+    # every accepted round passes the load checks, so the model a round starts from fails them only if this does
+    base_fails = bool(model_problems(ref_fit.model))
     cur = ref_fit
     plan = make_plan(sig, int(opts["cv_folds"]), int(opts["horizon"]))
     ho = _Heldout(dataset, opts["horizon"])
@@ -536,7 +539,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             if sig_fit is not sig:
                 fixed_profiles = sig_fit.base_profiles
             cur = fit_consistent(sig_fit, terms, rows, fixed_profiles is None) if accepted else before[1]
-            failing = _new_load_problems(cur.model, before[1].model) if accepted else []
+            failing = _new_load_problems(cur.model, base_fails) if accepted else []
             if not failing:
                 break
             # the round's terms, refitted together with the others, give a model no file check lets load (the
@@ -568,15 +571,11 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
 
 
-def _new_load_problems(model, before) -> list:
+def _new_load_problems(model, before_fails: bool) -> list:
     """The load checks' problems of ``model`` (:func:`hvacfmu.models.loadcheck.model_problems`: a diverging mode,
-    an implausible gain) when the model ``before`` it passed them all; [] otherwise (a base that already fails them
-    is reported by the pipeline, not blamed on the round)."""
-    from ..models.loadcheck import model_problems
-
-    if model_problems(before):
-        return []
-    return model_problems(model)
+    an implausible gain) when the model before it passed them all; [] when it did not (a base that already fails
+    them is reported by the pipeline, not blamed on the round)."""
+    return [] if before_fails else model_problems(model)
 
 
 def _carry_displaced_dst(ranked, opts: dict) -> None:

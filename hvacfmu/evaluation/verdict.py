@@ -708,7 +708,11 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
         if country
         else {}
     )
-    covered = [d for d in missed if any(t.date() <= d <= (t + span).date() for t in starts)]
+
+    def in_windows(day) -> bool:
+        return any(t.date() <= day <= (t + span).date() for t in starts)
+
+    covered = [d for d in missed if in_windows(d)]
     out = []
     if covered:
         days = ", ".join(f"{d} {missed[d]}" for d in sorted(covered))
@@ -718,16 +722,10 @@ def _holiday_cause(score, sv, model, dataset) -> list[str]:
             f'closes on it, declare [holidays] country = "{country}" in the building file and refit'
         )
     # any other weekday the data show ran like a Sunday (a closure no public calendar lists)
-    sunday = getattr(dataset.holidays, "sunday_like", {}) or {}
-    other = [
-        (d, g)
-        for d, g in sunday.items()
-        if d not in listed
-        and dt.date.fromisoformat(d) not in missed
-        and any(t.date() <= dt.date.fromisoformat(d) <= (t + span).date() for t in starts)
-    ]
+    sunday = {dt.date.fromisoformat(d): g for d, g in dataset.holidays.sunday_like.items() if d not in listed}
+    other = [(d, g) for d, g in sunday.items() if d not in missed and in_windows(d)]
     if other:
-        days = ", ".join(f"{d} ({dt.date.fromisoformat(d).strftime('%a')}, gamma {g:.2f})" for d, g in other)
+        days = ", ".join(f"{d} ({d.strftime('%a')}, gamma {g:.2f})" for d, g in other)
         out.append(
             f"{sv.output} in {sv.season}: the held-out windows cover {days}, a weekday that ran like a Sunday "
             "(gamma: 0 = the neighbouring workdays' operation, 1 = the Sundays'), which the model predicts as a "
