@@ -6,7 +6,8 @@
  * after instantiation. One model step:
  *
  *   u  = M m                       (box airflows -> model inputs; u = m without a map)
- *   x+ = A x + Bu u + Bv v + Bq q + sum_i u_i (Bxu_i x + Bvu_i v) + sum_s on_s scale_s g_s
+ *   x+ = A x + Bu u + Bv v + Bq q + sum_i u_i (Bxu_i x + Bvu_i v) + sum_j v_j (Bxv_j x + Bvv_j v)
+ *        + sum_s on_s scale_s g_s   (Bxv/Bvv: HV_DPRODUCTS, e.g. wind infiltration; physical form only)
  *   y  = x[out_state]
  *
  * A large model whose A has real eigenvalues is generated in modal form (HV_MODAL, see
@@ -246,6 +247,15 @@ static void step_state(hv_inst *c, const double *x, const double *q, double *xn)
         spmv_add(&hv_Bxu[i], x, c->tmp);
         spmv_add(&hv_Bvu[i], v, c->tmp);
         for (int j = 0; j < HV_NX; ++j) xn[j] += u[i] * c->tmp[j];
+    }
+#endif
+#if HV_DPRODUCTS
+    for (int i = 0; i < HV_NV; ++i) {
+        if (v[i] == 0.0) continue;
+        memset(c->tmp, 0, sizeof(double) * HV_NX);
+        spmv_add(&hv_Bxv[i], x, c->tmp);
+        spmv_add(&hv_Bvv[i], v, c->tmp);
+        for (int j = 0; j < HV_NX; ++j) xn[j] += v[i] * c->tmp[j];
     }
 #endif
     for (int s = 0; s < HV_NSWITCH; ++s) {

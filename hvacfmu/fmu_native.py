@@ -163,8 +163,8 @@ def _c_string(s: str) -> str:
 
 
 def _matrices(eq) -> str:
-    """C tables of A, Bu, Bv, Bq, Bxu_i, Bvu_i."""
-    nx, nu = eq.n_states, len(eq.inputs)
+    """C tables of A, Bu, Bv, Bq, Bxu_i, Bvu_i (with input products), Bxv_j, Bvv_j (with disturbance products)."""
+    nx, nu, nv = eq.n_states, len(eq.inputs), len(eq.disturbances)
     out = ""
     for name in ("A", "Bu", "Bv", "Bq"):
         out += _c_sparse(f"hv_{name}_", getattr(eq, name))
@@ -178,6 +178,15 @@ def _matrices(eq) -> str:
                 refs[key].append(_sparse_ref(f"hv_{key}_{i}_", M))
         for key, r in refs.items():
             out += f"static const hv_sparse hv_{key}[{nu}] = {{{', '.join(r)}}};\n"
+    if eq.disturbance_products:
+        refs = {"Bxv": [], "Bvv": []}
+        for j in range(nv):
+            for key, mats, shape in (("Bxv", eq.Bxv, (nx, nx)), ("Bvv", eq.Bvv, (nx, nv))):
+                M = np.asarray(mats[j], dtype=float) if mats else np.zeros(shape)
+                out += _c_sparse(f"hv_{key}_{j}_", M)
+                refs[key].append(_sparse_ref(f"hv_{key}_{j}_", M))
+        for key, r in refs.items():
+            out += f"static const hv_sparse hv_{key}[{nv}] = {{{', '.join(r)}}};\n"
     return out
 
 
@@ -263,6 +272,7 @@ def generate_header(eq, layout, M, guid: str, form=None) -> str:
         f"#define HV_NVARS {len(layout['variables'])}",
         f"#define HV_NSWITCH {len(eq.switches)}",
         f"#define HV_BILINEAR {int(eq.bilinear)}",
+        f"#define HV_DPRODUCTS {int(eq.disturbance_products)}",
         f"#define HV_HAS_MAP {int(M is not None)}",
         f"#define HV_MODAL {int(form is not None)}",
         "",

@@ -190,8 +190,9 @@ def _representatives(columns):
 
 
 def modal_form(eq, out_states) -> ModalForm | None:
-    """The modal form of ``eq`` with outputs ``x[out_states]``, or None when the physical form must stay."""
-    if eq.n_states <= MODAL_ABOVE:
+    """The modal form of ``eq`` with outputs ``x[out_states]``, or None when the physical form must stay
+    (also for products with a disturbance, ``Bxv``/``Bvv``, which the modal runtime does not hold)."""
+    if eq.n_states <= MODAL_ABOVE or getattr(eq, "disturbance_products", False):
         return None
     eig = real_eigen(eq.A)
     if eig is None:

@@ -1,7 +1,8 @@
 """The ``wind_infiltration`` cause (issue 13): the term, its screen and the diagnosis on emulated data.
 
-- the term adds ``coef · wind · (T_out − T_zone)``, round-trips through JSON, refuses a matrix form
-  (a disturbance times the state) and gives the Python FMU a ``wind`` input in m/s;
+- the term adds ``coef · wind · (T_out − T_zone)``, round-trips through JSON, has a matrix form (products
+  with the wind, ``Bxv``/``Bvv``; native FMU and MPC: ``test_wind_mpc.py``) and gives the Python FMU a
+  ``wind`` input in m/s;
 - the ``wind`` column reaches the diagnosis (``Signals.extra``) but is no ``unused_input`` candidate;
 - on the emulator with the effect injected and a wind column, ``diagnose`` names it in the right zone
   with a held-out gain; with a wind column and no effect it names nothing wind-related.
@@ -81,12 +82,13 @@ def test_wind_infiltration_is_a_registered_cause_whose_term_adds_wind_times_the_
         model_from_dict({**m.to_dict(), "terms": [{"cause": "wind_infiltration", "zone": "B", "coef": -1.0}]})
 
 
-def test_wind_infiltration_has_no_matrix_form_and_says_why():
+def test_wind_infiltration_has_a_matrix_form_with_the_wind():
     m = ExtendedModel(
         base=_base(), terms=(SolarGain(zone="B", facade="S", coef=1e-3), WindInfiltration(zone="A", coef=0.001))
     )
-    with pytest.raises(ModelError, match="wind_infiltration term in zone 'A' multiplies the wind speed"):
-        m.equations()
+    eq = m.equations()
+    assert eq.Bxv[3][0, 0] == -0.001 and eq.Bvv[3][0, 0] == 0.001  # wind · (T_out − T_A)
+    assert not eq.bilinear  # no product with an airflow
 
 
 def test_python_fmu_of_a_wind_model_has_a_wind_input_in_metres_per_second():
@@ -206,8 +208,8 @@ def test_python_fmu_of_a_wind_model_follows_the_python_model(tmp_path):
 
 
 def test_an_unstable_model_with_a_wind_term_is_still_refused_on_load():
-    """The load check's spectral radius needs the matrix form, which a wind term has not: the state map is probed
-    (at zero wind the term vanishes), so a model the same check refuses without the wind term is refused with it."""
+    """The load check's spectral radius of the matrix form (at zero wind the term vanishes): a model the same check
+    refuses without the wind term is refused with it."""
     from hvacfmu.models.extended import ZoneCoupling
     from hvacfmu.models.loadcheck import model_problems
 
@@ -222,9 +224,9 @@ def test_an_unstable_model_with_a_wind_term_is_still_refused_on_load():
 
 
 @pytest.mark.slow
-def test_the_control_model_leaves_the_wind_term_out_and_says_so():
-    """MPC needs a matrix form; a wind term has none: ``terms_on_base`` (``diagnose --control-output``) drops it
-    with a warning, and what is left has equations MPC can use."""
+def test_the_control_model_keeps_the_diagnosed_wind_term():
+    """MPC needs a matrix form; a wind term has one (``Bxv``/``Bvv``): ``terms_on_base`` (``diagnose
+    --control-output``) refits it with the others, without a warning, and the result has equations MPC can use."""
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis.control import terms_on_base
     from hvacfmu.emulator import cached_dataset
@@ -235,8 +237,9 @@ def test_the_control_model_leaves_the_wind_term_out_and_says_so():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         ds = prepare(p.measurements, p.building)
-    with pytest.warns(HvacfmuWarning, match="leaves out wind_infiltration in NW"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HvacfmuWarning)  # no "leaves out" warning
         ctl = terms_on_base(ds, rep.model.base, rep.model.terms, heat="airflow")
-    assert not any(t.cause == "wind_infiltration" for t in ctl.terms)
-    assert ctl.meta["left_out"][0]["cause"] == "wind_infiltration"
-    ctl.equations()  # raises for a term without a matrix form
+    assert [t.zone for t in ctl.terms if t.cause == "wind_infiltration"] == ["NW"]
+    assert "left_out" not in ctl.meta
+    assert ctl.equations().disturbance_products

@@ -360,9 +360,9 @@ class MPCController:
                 self._problem = CondensedProblem(
                     G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
                 )
-            elif self._theta_in_problem is not None and not np.array_equal(
-                self._theta_in_problem, self.gain_correction
-            ):
+            elif self.pred.time_varying or (
+                self._theta_in_problem is not None and not np.array_equal(self._theta_in_problem, self.gain_correction)
+            ):  # G follows the disturbance forecast (A_k = A + Σ v_j Bxv_j) or the input-gain correction
                 self._problem.update_G(G)
             if s.gain_adapt > 0.0:
                 self._theta_in_problem = self.gain_correction

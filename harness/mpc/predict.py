@@ -17,6 +17,13 @@ With the full linearisation (``"newton"``) the state matrix becomes
 ``A + P Θ_k`` with ``Θ_k = Σ_i ū_i(k) Pᵀ B_xu,i`` (rank r), and the condensed
 sensitivity is ``G = H (I - L)⁻¹ diag(β)`` with ``L[k, m] = Θ_k A^(k-1-m) P``
 strictly lower block triangular — still only (N r)-sized algebra.
+
+Products of a disturbance with the state (``Bxv``, e.g. wind infiltration
+``coef · wind · (T_out − T_zone)``) make the state matrix time-varying but known
+from the forecast: ``A_k = A + P Θv_k`` with ``Θv_k = Σ_j v_j(k) Pᵀ B_xv,j`` (the
+basis ``P`` spans those rows too). The same ``L`` takes ``Θ_k = Θv_k`` (frozen)
+or ``Θu_k + Θv_k`` (newton), and the free response runs with ``A_k``, so the
+prediction stays exact; ``Σ_j v_j Bvv_j v`` is part of the drift ``w(k)``.
 """
 
 from __future__ import annotations
@@ -53,6 +60,48 @@ class AffinePredictor:
         self._markov = {}
         #: estimated unmodelled drift (nx,) [K per step] added to every step (offset-free MPC), or None
         self.offset = None
+        #: products with a disturbance: ``Pᵀ Bxv_j`` (nv, r, nx) and ``Bvv_j`` (nv, nx, nv), or None
+        self.PtBxv = None
+        self.Bvv = None
+
+    def _set_disturbance_products(self, mats, nv):
+        """Keep the equations' ``Bxv``/``Bvv`` (after :attr:`basis` is set; the basis must span ``Bxv``'s rows)."""
+        Bxv, Bvv = tuple(getattr(mats, "Bxv", ()) or ()), tuple(getattr(mats, "Bvv", ()) or ())
+        if Bxv and any(np.any(_dense(M)) for M in Bxv):
+            self.PtBxv = np.stack([self.basis.T @ _dense(M) for M in Bxv])
+            err = max(float(np.abs(_dense(M) - self.basis @ P).max()) for M, P in zip(Bxv, self.PtBxv))
+            if err > 1e-9 * max(max(float(np.abs(_dense(M)).max()) for M in Bxv), 1e-300):
+                raise ModelError(f"the predictor's basis reproduces the disturbance-state products only to {err:.2e}")
+        if Bvv and any(np.any(_dense(M)) for M in Bvv):
+            self.Bvv = np.stack([_dense(M) for M in Bvv])
+
+    @property
+    def time_varying(self) -> bool:
+        """True when a disturbance multiplies the state: ``A_k = A + Σ_j v_j(k) Bxv_j`` (known from the forecast)."""
+        return self.PtBxv is not None
+
+    def theta_v(self, V):
+        """``Θv_k = Σ_j v_j(k) Pᵀ Bxv_j`` (N, r, nx) for disturbances V (N, nv), or None without products."""
+        if self.PtBxv is None:
+            return None
+        V = np.atleast_2d(V)
+        return (V @ self.PtBxv.reshape(V.shape[1], -1)).reshape(V.shape[0], self.r, self.nx)
+
+    def _products(self, V):
+        """``Σ_j v_j Bvv_j v`` (..., nx) for V (..., nv) (0 without products)."""
+        if self.Bvv is None:
+            return 0.0
+        return np.einsum("...j,jxw,...w->...x", V, self.Bvv, V)
+
+    def _with_products(self, W, V):
+        """``W`` plus the disturbance-disturbance products of V."""
+        return W if self.Bvv is None else W + self._products(V)
+
+    def state_matrix(self, u=None, v=None) -> np.ndarray:
+        """``A + Σ_j v_j Bxv_j`` at disturbances v (nv,) (``A`` when v is None); bilinear kinds add the airflows."""
+        if v is None or self.PtBxv is None:
+            return self.A
+        return self.A + self.basis @ self.theta_v(np.asarray(v, dtype=float)[None])[0]
 
     def _offset(self, W):
         """``W`` plus the estimated drift :attr:`offset` (every row)."""
@@ -89,6 +138,15 @@ class AffinePredictor:
         """Reduced input matrices β_k (N, r, nu) at reference states ``Xbar`` (N, nx)."""
         raise NotImplementedError
 
+    def theta(self, Ubar) -> np.ndarray:
+        """``Θu_k = Σ_i ū_i(k) Pᵀ Bxu_i`` (N, r, nx) at reference moves Ubar (N, nu) (bilinear kinds)."""
+        raise NotImplementedError
+
+    def _theta_all(self, Ubar, V) -> np.ndarray:
+        """``Θu_k + Θv_k``: the state-matrix perturbation of the full linearisation at (Ubar, V)."""
+        Tu, Tv = self.theta(Ubar), self.theta_v(V)
+        return Tu if Tv is None else Tu + Tv
+
     def step(self, x, u, v, q) -> np.ndarray:
         raise NotImplementedError
 
@@ -102,13 +160,17 @@ class AffinePredictor:
             X[k + 1] = self.step(X[k], U[k], V[k], Qg[k])
         return X
 
-    def free_trajectory(self, x0, W) -> np.ndarray:
-        """Trajectory of ``x+ = A x + w`` (N+1, nx) for drift W (N, nx)."""
+    def free_trajectory(self, x0, W, V=None) -> np.ndarray:
+        """Trajectory of ``x+ = A_k x + w`` (N+1, nx) for drift W (N, nx); ``A_k = A + P Θv_k`` with the
+        disturbances V (N, nv) when a disturbance multiplies the state (``A`` otherwise)."""
         N = W.shape[0]
         X = np.empty((N + 1, self.nx))
         X[0] = x0
+        Th = self.theta_v(V) if V is not None else None
         for k in range(N):
             X[k + 1] = self.A @ X[k] + W[k]
+            if Th is not None:
+                X[k + 1] += self.basis @ (Th[k] @ X[k])
         return X
 
     # --- condensing -----------------------------------------------------------
@@ -176,14 +238,14 @@ class AffinePredictor:
         if self.linear or mode == "frozen":
             Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
             beta = self.beta(Xr, V)
-            G = self.sensitivity(beta, lengths)
-            Xf = self.free_trajectory(x0, W)
+            G = self.sensitivity(beta, lengths, theta=self.theta_v(V))
+            Xf = self.free_trajectory(x0, W, V)
             return (Xf[1:] @ self.C.T).ravel(), G
         if Ubar is None:
             raise ModelError("the full linearisation needs reference moves Ubar")
         X = self.simulate(x0, Ubar, V, Qg)
         beta = self.beta(X[:N], V)
-        G = self.sensitivity(beta, lengths, theta=self.theta(Ubar))
+        G = self.sensitivity(beta, lengths, theta=self._theta_all(Ubar, V))
         blk = np.cumsum(np.concatenate([[0], lengths]))[:-1]
         Ub = Ubar[blk].ravel()  # Ubar is blocked (constant within blocks)
         return (X[1:] @ self.C.T).ravel() - G @ Ub, G
@@ -261,19 +323,22 @@ class AffinePredictor:
             response at Ubar minus the reduced model's forced response at Ubar.
         beta : array (N, r, nu)
         theta : array (N, r, nr) or None
-            ``Θ_k T`` (``"newton"`` only): state feedback of the linearised bilinear terms.
+            ``Θ_k T``: state feedback of the linearised bilinear terms (``"newton"``) and of the
+            disturbance-state products (``Θv_k``, both modes); None for neither.
         """
         rom = self.reduced_model(tol)
         N = V.shape[0]
         if self.linear or mode == "frozen":
             Xr = np.repeat(x0[None], N, axis=0) if Xbar is None else np.vstack([x0[None], Xbar[1:N]])
-            Xf = self.free_trajectory(x0, self.drift(V, Qg, Ubar))
-            return (Xf[1:] @ self.C.T).ravel(), self.beta(Xr, V), None
+            Xf = self.free_trajectory(x0, self.drift(V, Qg, Ubar), V)
+            Tv = self.theta_v(V)
+            theta_r = None if Tv is None else np.einsum("krn,nb->krb", Tv, rom["T"])
+            return (Xf[1:] @ self.C.T).ravel(), self.beta(Xr, V), theta_r
         if Ubar is None:
             raise ModelError("the full linearisation needs reference moves Ubar")
         X = self.simulate(x0, Ubar, V, Qg)
         beta = self.beta(X[:N], V)
-        theta = np.einsum("krn,nb->krb", self.theta(Ubar), rom["T"])
+        theta = np.einsum("krn,nb->krb", self._theta_all(Ubar, V), rom["T"])
         Ar = np.diag(rom["Ar"]) if rom["Ar"].ndim == 1 else rom["Ar"]
         xi = np.zeros(rom["order"])
         Yf = np.empty((N, self.ny))
@@ -305,29 +370,37 @@ class LinearPredictor(AffinePredictor):
         self.basis = np.eye(self.A.shape[0])
         self.nu = self.B.shape[1]
         self._G = {}
+        self._set_disturbance_products(eq, self.Bv.shape[1])
 
     def drift(self, V, Qg, Ubar=None):
-        return self._offset(V @ self.Bv.T + Qg @ self.Bq.T)
+        return self._offset(self._with_products(V @ self.Bv.T + Qg @ self.Bq.T, V))
 
     def beta(self, Xbar, V):
         return np.broadcast_to(self.B, (V.shape[0],) + self.B.shape)
 
     def step(self, x, u, v, q):
-        return self._offset(self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q)
+        out = self.A @ x + self.B @ u + self.Bv @ v + self.Bq @ q
+        if self.time_varying or self.Bvv is not None:
+            v = np.asarray(v, dtype=float)
+            out = self._with_products(out, v)
+            if self.time_varying:
+                out = out + self.theta_v(v[None])[0] @ x  # basis = I
+        return self._offset(out)
 
     def simulate(self, x0, U, V, Qg) -> np.ndarray:
         """Exact model trajectory X (N+1, nx) for moves U (N, nu): the input terms of all steps at once."""
-        return self.free_trajectory(x0, self.drift(V, Qg) + U @ self.B.T)
+        return self.free_trajectory(x0, self.drift(V, Qg) + U @ self.B.T, V)
 
     #: largest N*nx for which the trajectory is one product with cached (N nx)-sized matrices
     LIFTED_MAX = 512
 
-    def free_trajectory(self, x0, W) -> np.ndarray:
+    def free_trajectory(self, x0, W, V=None) -> np.ndarray:
         """Trajectory of ``x+ = A x + w`` (N+1, nx): ``[x0; Φ x0 + Γ vec(W)]`` for small ``N nx``
-        (``Φ = [A; ...; A^N]``, ``Γ`` block lower triangular of powers of A), the recursion otherwise."""
+        (``Φ = [A; ...; A^N]``, ``Γ`` block lower triangular of powers of A), the recursion otherwise
+        (and always when the disturbances V make the state matrix time-varying)."""
         N, nx = W.shape[0], self.nx
-        if N * nx > self.LIFTED_MAX:
-            return super().free_trajectory(x0, W)
+        if N * nx > self.LIFTED_MAX or (V is not None and self.time_varying):
+            return super().free_trajectory(x0, W, V)
         key = ("lifted", N)
         if key not in self._markov:
             Q, _ = self.markov(N + 1)  # Q_j = A^j (basis = I)
@@ -344,11 +417,14 @@ class LinearPredictor(AffinePredictor):
         return X
 
     def affine_prediction(self, x0, V, Qg, lengths, Xbar=None, Ubar=None, mode="frozen"):
-        """Prediction ``Y = y0 + G U_b`` (see :meth:`AffinePredictor.affine_prediction`; exact, G cached)."""
-        Xf = self.free_trajectory(x0, self.drift(V, Qg))
-        return (Xf[1:] @ self.C.T).ravel(), self.sensitivity(self.beta(None, V), lengths)
+        """Prediction ``Y = y0 + G U_b`` (see :meth:`AffinePredictor.affine_prediction`; exact; G cached unless
+        the state matrix varies with the disturbance forecast)."""
+        Xf = self.free_trajectory(x0, self.drift(V, Qg), V)
+        return (Xf[1:] @ self.C.T).ravel(), self.sensitivity(self.beta(None, V), lengths, theta=self.theta_v(V))
 
     def sensitivity(self, beta, lengths, theta=None):
+        if theta is not None:  # time-varying A_k (disturbance-state products): G changes with the forecast
+            return super().sensitivity(np.ascontiguousarray(beta), lengths, theta=theta)
         key = (beta.shape[0], tuple(lengths))
         if key not in self._G:  # constant: built once per horizon and blocking
             self._G[key] = super().sensitivity(np.ascontiguousarray(beta), lengths)
@@ -399,7 +475,9 @@ class BilinearPredictor(AffinePredictor):
             raise ModelError("bilinear matrices: " + "; ".join(problems))
         self.nu = len(Bxu)
         self.switches = tuple(getattr(mats, "switches", ()) or ())
-        S = sparse.hstack([sparse.csr_matrix(Bu)] + Bxu + Bvu, format="csr")  # every column the airflows can add
+        Bxv = [sparse.csr_matrix(_dense(M)) for M in (getattr(mats, "Bxv", ()) or ())]
+        # every column the airflows (and the disturbance-state products) can add
+        S = sparse.hstack([sparse.csr_matrix(Bu)] + Bxu + Bvu + Bxv, format="csr")
         if S.nnz > 0.2 * S.shape[0] * S.shape[1]:
             S = S.toarray()
         self.basis = self._reachable_basis(S, nx, rank_tol)
@@ -412,6 +490,7 @@ class BilinearPredictor(AffinePredictor):
         err = float(np.abs(Sd - self.basis @ (self.basis.T @ Sd)).max(initial=0.0))
         if err > 1e-9 * scale:
             raise ModelError(f"airflow-reachable basis reproduces the bilinear terms only to {err:.2e}")
+        self._set_disturbance_products(mats, nv)
 
     @staticmethod
     def _reachable_basis(S, nx, rank_tol):
@@ -435,7 +514,7 @@ class BilinearPredictor(AffinePredictor):
         return out
 
     def drift(self, V, Qg, Ubar=None):
-        W = V @ self.Bv.T + Qg @ self.Bq.T
+        W = self._with_products(V @ self.Bv.T + Qg @ self.Bq.T, V)
         if self.switches:
             W = W + self._switch_terms(np.zeros((V.shape[0], self.nu)) if Ubar is None else Ubar, V)
         return self._offset(W)
@@ -453,13 +532,19 @@ class BilinearPredictor(AffinePredictor):
     def step(self, x, u, v, q):
         bu = self.PtBu + (self.PtBxu @ x + self.PtBvu @ v).T
         out = self.A @ x + self.Bv @ v + self.Bq @ q + self.basis @ (bu @ u)
+        if self.time_varying or self.Bvv is not None:
+            v = np.asarray(v, dtype=float)
+            out = self._with_products(out, v)
+            if self.time_varying:
+                out = out + self.basis @ (self.theta_v(v[None])[0] @ x)
         if self.switches:
             out = out + self._switch_terms(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
         return self._offset(out)
 
-    def state_matrix(self, u) -> np.ndarray:
-        """``A + Σ_i u_i Bxu_i`` at airflows u (nu,) [kg/s]."""
-        return self.A + self.basis @ np.einsum("i,irn->rn", u, self.PtBxu)
+    def state_matrix(self, u=None, v=None) -> np.ndarray:
+        """``A + Σ_i u_i Bxu_i (+ Σ_j v_j Bxv_j)`` at airflows u (nu,) [kg/s] (and disturbances v)."""
+        A = super().state_matrix(u, v)
+        return A if u is None else A + self.basis @ np.einsum("i,irn->rn", u, self.PtBxu)
 
 
 def dare_doubling(A, B, Q, R, tol=1e-12, max_iter=100):
@@ -525,7 +610,7 @@ class KalmanFilter:
 
     def initialise(self, y, v, q, u):
         """Steady state of the model at (u, v, q), corrected to match the measurement y [°C]."""
-        Au = self.pred.state_matrix(u) if hasattr(self.pred, "state_matrix") else self.pred.A
+        Au = self.pred.state_matrix(u, v) if hasattr(self.pred, "state_matrix") else self.pred.A
         c = self.pred.step(np.zeros(self.pred.nx), u, v, q)  # affine part at x = 0
         xs = np.linalg.solve(np.eye(self.pred.nx) - Au, c)
         C = self.pred.C
@@ -633,7 +718,8 @@ def make_predictor(model):
     """Predictor for a zone model, from ``model.equations()`` (any linear or bilinear kind).
 
     Linear equations without switches give a :class:`LinearPredictor` (one QP
-    per step); bilinear terms or switches a :class:`BilinearPredictor`
+    per step; with products of a disturbance and the state its ``A_k`` follows the
+    forecast, still exact); bilinear terms or switches a :class:`BilinearPredictor`
     (sequential convex programming). Objects without ``equations()`` but with
     ``discrete_matrices()`` (the synthetic RC networks) are bilinear.
     """
@@ -661,7 +747,7 @@ def state_from_outputs(pred, y0, u, v, q) -> np.ndarray:
     if pred.state_is_output:
         return y0.copy()
     C = pred.C
-    Au = pred.state_matrix(u) if hasattr(pred, "state_matrix") else pred.A
+    Au = pred.state_matrix(u, v) if hasattr(pred, "state_matrix") else pred.A
     c = pred.step(np.zeros(pred.nx), u, v, q)  # affine part at x = 0
     xp = np.linalg.pinv(C) @ y0
     Nb = scipy.linalg.null_space(C)

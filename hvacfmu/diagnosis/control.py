@@ -224,15 +224,15 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
         if twin is not None:
             dyn = twin
         meta["control_base"] = {"heat": dyn.heat, "notes": notes + fit_notes}
-    # a term without a matrix form (wind x zone temperature) cannot be controlled with: left out, said
+    # a term without a matrix form (``Term.matrix_form`` False: none of the registered causes today; wind
+    # infiltration has one through ModelEquations.Bxv/Bvv) cannot be controlled with: left out, said
     no_form = [t for t in terms if not getattr(t, "matrix_form", True)]
     if no_form:
         note = (
             "the control model leaves out "
             + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in no_form)
-            + ": the term multiplies a disturbance by the zone temperature and has no matrix form the MPC (or a "
-            "native FMU) can use; the MPC controls without it (the diagnosis's extended model keeps it: evaluate "
-            "it, or export it as a Python FMU)"
+            + ": the term has no matrix form (ModelEquations) the MPC (or a native FMU) can use; the MPC controls "
+            "without it (the diagnosis's extended model keeps it: evaluate it, or export it as a Python FMU)"
         )
         warnings.warn(note, HvacfmuWarning, stacklevel=2)
         meta.setdefault("control_base", {}).setdefault("notes", []).append(note)

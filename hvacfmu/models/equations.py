@@ -8,6 +8,7 @@ bilinear in an augmented state) describes itself with :class:`ModelEquations`:
 
     x_{k+1} = A x_k + B_u u_k + B_v v_k + B_q q_k
               + \\sum_i u_{k,i} (B_{xu,i} x_k + B_{vu,i} v_k)
+              + \\sum_j v_{k,j} (B_{xv,j} x_k + B_{vv,j} v_k)
               + \\sum_s [\\text{switch } s \\text{ on}] \\, g_s
 
     y_k = C x_k
@@ -19,6 +20,10 @@ term of the model's seasonal time-of-week profile (``model.gains[season]``,
 one row per time-of-week slot). A switch adds a constant vector ``g_s`` (scaled
 by one signal) when a condition on one input and one disturbance holds; it
 covers piecewise terms such as reheat at minimum airflow in cold weather.
+The products with a disturbance ``v_j`` (``Bxv``, ``Bvv``; empty for most models)
+hold terms such as wind-driven infiltration ``coef · wind · (T_out − T_zone)``:
+for a known disturbance forecast the state matrix ``A + Σ_j v_j B_{xv,j}`` is
+time-varying but known, and ``Σ_j v_j B_{vv,j} v`` is a known drift.
 
 Consumers: the native C FMU generator (:mod:`hvacfmu.fmu`), the MPC adapters
 (:mod:`harness.mpc`). A model kind provides ``equations() -> ModelEquations``;
@@ -74,6 +79,8 @@ class ModelEquations:
     Bq : array (nx, nq)
     Bxu : tuple of nu arrays (nx, nx) or () when the model is linear in u
     Bvu : tuple of nu arrays (nx, nv) or ()
+    Bxv : tuple of nv arrays (nx, nx) or () when no disturbance multiplies the state
+    Bvv : tuple of nv arrays (nx, nv) or () when no disturbance multiplies another
     C : array (ny, nx)
     inputs, disturbances, outputs : tuple of str
     gains : dict season -> array (n_time_of_week, nq)
@@ -93,6 +100,8 @@ class ModelEquations:
     Bxu: tuple = ()
     Bvu: tuple = ()
     switches: tuple = ()
+    Bxv: tuple = ()
+    Bvv: tuple = ()
 
     def __post_init__(self):
         nx = self.A.shape[0]
@@ -103,9 +112,14 @@ class ModelEquations:
                 raise ModelError(f"equations: {name} has shape {np.shape(getattr(self, name))}, expected {shape}")
         if self.Bq.shape[0] != nx:
             raise ModelError(f"equations: Bq has {self.Bq.shape[0]} rows, expected {nx}")
-        for name, mats, shape in (("Bxu", self.Bxu, (nx, nx)), ("Bvu", self.Bvu, (nx, nv))):
-            if mats and (len(mats) != nu or any(np.shape(m) != shape for m in mats)):
-                raise ModelError(f"equations: {name} must hold {nu} matrices of shape {shape}")
+        for name, mats, n, shape in (
+            ("Bxu", self.Bxu, nu, (nx, nx)),
+            ("Bvu", self.Bvu, nu, (nx, nv)),
+            ("Bxv", self.Bxv, nv, (nx, nx)),
+            ("Bvv", self.Bvv, nv, (nx, nv)),
+        ):
+            if mats and (len(mats) != n or any(np.shape(m) != shape for m in mats)):
+                raise ModelError(f"equations: {name} must hold {n} matrices of shape {shape}")
 
     @property
     def n_states(self) -> int:
@@ -114,6 +128,19 @@ class ModelEquations:
     @property
     def bilinear(self) -> bool:
         return bool(self.Bxu) or bool(self.Bvu)
+
+    @property
+    def disturbance_products(self) -> bool:
+        """True when a disturbance multiplies the state or another disturbance (``Bxv``/``Bvv``): the state
+        matrix ``A + Σ_j v_j Bxv_j`` varies with the disturbances (known from their forecast)."""
+        return bool(self.Bxv) or bool(self.Bvv)
+
+    def state_matrix(self, v=None) -> np.ndarray:
+        """``A + Σ_j v_j Bxv_j`` at disturbances ``v`` (nv,) (``A`` when v is None or there is no ``Bxv``)."""
+        A = np.asarray(self.A, dtype=float)
+        if v is None or not self.Bxv:
+            return A
+        return A + sum(float(vj) * np.asarray(M, dtype=float) for vj, M in zip(np.asarray(v, float), self.Bxv))
 
     def step_state(self, x, u, v, q) -> np.ndarray:
         """Reference implementation of one step (batched over leading dimensions)."""
@@ -124,6 +151,11 @@ class ModelEquations:
                 xn = xn + u[..., i : i + 1] * (x @ np.asarray(self.Bxu[i]).T)
             if self.Bvu:
                 xn = xn + u[..., i : i + 1] * (v @ np.asarray(self.Bvu[i]).T)
+        for j in range(len(self.disturbances)):
+            if self.Bxv:
+                xn = xn + v[..., j : j + 1] * (x @ np.asarray(self.Bxv[j]).T)
+            if self.Bvv:
+                xn = xn + v[..., j : j + 1] * (v @ np.asarray(self.Bvv[j]).T)
         for s in self.switches:
             scale = 1.0 if s.scale_by is None else v[..., s.scale_by : s.scale_by + 1]
             xn = xn + s.active(u, v)[..., None] * scale * s.gain

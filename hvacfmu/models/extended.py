@@ -294,7 +294,7 @@ class ExtendedModel(ZoneModel):
         The base matrices on the zone temperatures, then each term's part from its cause module
         (delays: a shift register of past airflows; thermal mass: a slow state; supply air:
         bilinear ``Bxu``/``Bvu``; coupling: ``A``; solar and measured inputs: ``Bv``; on/off
-        reheat: a :class:`~hvacfmu.models.equations.Switch`).
+        reheat: a :class:`~hvacfmu.models.equations.Switch`; wind infiltration: ``Bxv``/``Bvv``).
 
         Raises
         ------
@@ -315,6 +315,8 @@ class ExtendedModel(ZoneModel):
             zi=self._zi,
             vi=self._vi,
             u_state={},
+            Bxv=[np.zeros((nx, nx)) for _ in range(nv)],
+            Bvv=[np.zeros((nx, nv)) for _ in range(nv)],
         )
         beq = b.equations()
         nvb = len(b.disturbances)
@@ -330,6 +332,7 @@ class ExtendedModel(ZoneModel):
             e.off = self._layout[i][0]
             self.terms[i].add_equations(e)
         bilinear = any(np.any(m) for m in e.Bxu) or any(np.any(m) for m in e.Bvu)
+        products = any(np.any(m) for m in e.Bxv) or any(np.any(m) for m in e.Bvv)
         Bq = np.zeros((nx, nz))
         Bq[:nz] = np.eye(nz)
         C = np.zeros((nz, nx))
@@ -348,6 +351,8 @@ class ExtendedModel(ZoneModel):
             Bxu=tuple(e.Bxu) if bilinear else (),
             Bvu=tuple(e.Bvu) if bilinear else (),
             switches=tuple(e.switches),
+            Bxv=tuple(e.Bxv) if products else (),
+            Bvv=tuple(e.Bvv) if products else (),
         )
 
     def output(self, x):

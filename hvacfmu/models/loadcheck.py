@@ -16,7 +16,8 @@ ever runs an unstable or absurd model and reports its numbers:
   integrating zone (an EnergyPlus small office: 568 K response, gains moving the steady state by
   1,360 K), and every model a fit accepts must load again;
 - ``extended``: the spectral radius of the augmented matrix form at zero airflow
-  (coupling, thermal-mass and delay terms) must stay below 1;
+  (coupling, thermal-mass and delay terms) must stay below 1, at zero disturbances and, with a
+  disturbance that multiplies the state (``Bxv``: wind infiltration), at that disturbance's swing;
 - Model B (``physics``): positive finite parameters (a passive RC network with positive
   conductances and capacities is stable, so no eigenvalues are computed at load), finite gains,
   and internal gains of at most ``MAX_GAIN_W_PER_M2`` per zone floor area.
@@ -100,11 +101,14 @@ def _maps(model) -> list[str]:
 
 
 def _signal_scale(name: str) -> float:
-    """A generous swing of one input [its unit]: 50 K for temperatures, 1000 W/m² for irradiance, 1 otherwise."""
+    """A generous swing of one input [its unit]: 50 K for temperatures, 1000 W/m² for irradiance, 20 m/s of wind,
+    1 otherwise."""
     if name.startswith("T"):
         return 50.0
     if name.startswith(("I_", "ghi")):
         return 1000.0
+    if name == "wind":
+        return 20.0
     return 1.0
 
 
@@ -113,7 +117,8 @@ def response_k(eq) -> np.ndarray:
 
     ``(I - A)^-1`` times the absolute input matrices: ``|Bu|`` at 1 kg/s per box, ``|Bv|`` at the
     disturbance scale, the bilinear ``|Bxu|``, ``|Bvu|`` at 1 kg/s times 50 K or the disturbance scale,
-    and the switches' gains. Fitted models on the emulator: under 15 K.
+    the disturbance products ``|Bxv_j|``, ``|Bvv_j|`` at disturbance j's scale times 50 K or the disturbance
+    scale, and the switches' gains. Fitted models on the emulator: under 15 K.
     """
     nx = eq.A.shape[0]
     sv = np.array([_signal_scale(d) for d in eq.disturbances])
@@ -122,6 +127,10 @@ def response_k(eq) -> np.ndarray:
         drive = drive + 50.0 * np.abs(np.asarray(M, float)).sum(axis=1)
     for M in eq.Bvu:
         drive = drive + np.abs(np.asarray(M, float)) @ sv
+    for j, M in enumerate(getattr(eq, "Bxv", ())):
+        drive = drive + sv[j] * 50.0 * np.abs(np.asarray(M, float)).sum(axis=1)
+    for j, M in enumerate(getattr(eq, "Bvv", ())):
+        drive = drive + sv[j] * (np.abs(np.asarray(M, float)) @ sv)
     for sw in eq.switches:
         scale = sv[sw.scale_by] if sw.scale_by is not None else 1.0
         drive = drive + np.abs(np.asarray(sw.gain, float)) * scale
@@ -152,7 +161,7 @@ def _extended(model) -> list[str]:
         return problems
     try:
         eq = model.equations()
-    except ModelError:  # calendar terms, wind x state: no time-invariant matrices; the state map probed instead
+    except ModelError:  # calendar terms: no time-invariant matrices; the state map probed instead
         A = zero_input_state_matrix(model)
         rho = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
         if not np.isfinite(rho) or rho >= 1.0:
@@ -167,6 +176,18 @@ def _extended(model) -> list[str]:
             f"unstable: the spectral radius of the extended model's state matrix is {rho:.6g} >= 1 "
             "(an extension term's coefficient makes temperatures grow without bound)"
         )
+    for j, M in enumerate(getattr(eq, "Bxv", ())):  # a disturbance times the state: A at its swing too
+        if not np.any(M):
+            continue
+        name = eq.disturbances[j]
+        s = _signal_scale(name)
+        with np.errstate(all="ignore"):
+            rho_j = float(np.max(np.abs(np.linalg.eigvals(eq.A + s * np.asarray(M, float)))))
+        if not np.isfinite(rho_j) or rho_j >= 1.0:
+            problems.append(
+                f"unstable: the spectral radius of the extended model's state matrix at {name} = {s:g} is "
+                f"{rho_j:.6g} >= 1 (a term multiplying {name} by the state makes temperatures grow without bound)"
+            )
     return problems + _response(model)
 
 

@@ -94,8 +94,9 @@ class EquationParts:
     """Mutable matrices of an extended model's :class:`~hvacfmu.models.equations.ModelEquations`.
 
     Terms add their part in place: ``A`` (nx, nx), ``Bu`` (nx, nu), ``Bv`` (nx, nv), ``Bxu`` and
-    ``Bvu`` lists of nu matrices, ``switches`` a list; ``zi``/``vi`` name -> index, ``u_state``
-    maps a zone index to the state that holds its delayed airflow (when delayed).
+    ``Bvu`` lists of nu matrices, ``Bxv`` and ``Bvv`` lists of nv matrices (products with a
+    disturbance: ``v_j (Bxv_j x + Bvv_j v)``), ``switches`` a list; ``zi``/``vi`` name -> index,
+    ``u_state`` maps a zone index to the state that holds its delayed airflow (when delayed).
     """
 
     A: np.ndarray
@@ -108,6 +109,8 @@ class EquationParts:
     vi: dict
     u_state: dict
     off: int = 0
+    Bxv: list = dataclasses.field(default_factory=list)
+    Bvv: list = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -121,8 +124,9 @@ class Term:
     cause: ClassVar[str] = ""
     #: one-line description for the README and ``--help``
     description: ClassVar[str] = ""
-    #: False when the term has no ``ModelEquations`` form (it multiplies a disturbance by the state): no native
-    #: FMU, no MPC; the diagnosis's control model leaves it out (:func:`hvacfmu.diagnosis.control.terms_on_base`)
+    #: False when the term has no ``ModelEquations`` form (:meth:`add_equations` refuses): no native FMU, no MPC;
+    #: the diagnosis's control model leaves it out (:func:`hvacfmu.diagnosis.control.terms_on_base`). Every
+    #: registered cause has one today (``wind_infiltration`` through ``Bxv``/``Bvv``).
     matrix_form: ClassVar[bool] = True
     #: searched hyper-parameters charged in the information criterion for one candidate
     std: dict = dataclasses.field(default_factory=dict, compare=False)

@@ -18,11 +18,11 @@ The ``wind`` column is read only by this cause: :func:`~hvacfmu.models.causes.si
 does not hand it to ``unused_input`` (a plain ``coef · wind`` would be the same air change without
 its temperature difference, a second name for one heat flow).
 
-The term multiplies a disturbance by the zone temperature, which
-:class:`~hvacfmu.models.equations.ModelEquations` has no matrix for (it holds products with the
-controlled inputs only): :meth:`WindInfiltration.add_equations` refuses, so a model with it
-exports as a Python FMU (input ``wind`` [m/s]) and not as a native FMU, and MPC refuses it
-(``harness.mpc.predict.probe_equations``: not bilinear in the inputs).
+The term multiplies a disturbance (the wind) by the zone temperature and by ``T_out``: its matrix
+form is a product with a disturbance in :class:`~hvacfmu.models.equations.ModelEquations`,
+``Bxv[wind][z, z] = −coef`` and ``Bvv[wind][z, T_out] = coef``. With a wind forecast the state
+matrix ``A − coef · wind_k`` (on the zone's diagonal) is time-varying but known, so the native
+FMU (input ``wind`` [m/s]) runs it and MPC predicts with it exactly.
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from ...errors import ModelError
 from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
 
 #: Name of the measured wind speed column [m/s].
@@ -62,7 +61,6 @@ def partial_corr(r, x, z) -> float:
 class WindInfiltration(Term):
     """``coef [K/step per (m/s · K)] · wind · (T_out − T_zone)`` into ``zone``."""
 
-    matrix_form: ClassVar[bool] = False
     cause: ClassVar[str] = "wind_infiltration"
     description: ClassVar[str] = "outdoor air leaking in with the wind: wind·(T_out − T_zone) (zone)"
     zone: str = ""
@@ -102,11 +100,9 @@ class WindInfiltration(Term):
         c.Tn[..., zi] += self.coef * wind_feature(c.v[..., c.vi[WIND_COLUMN]], c.v[..., c.vi["T_out"]], c.T[..., zi])
 
     def add_equations(self, e: EquationParts) -> None:
-        raise ModelError(
-            f"wind_infiltration term in zone {self.zone!r} multiplies the wind speed (a disturbance) by the zone "
-            "temperature: no linear/bilinear matrix form (ModelEquations holds products with the controlled inputs "
-            "only); export the model as a Python FMU (input 'wind' [m/s]), not a native one"
-        )
+        zi, w = e.zi[self.zone], e.vi[WIND_COLUMN]
+        e.Bxv[w][zi, zi] -= self.coef
+        e.Bvv[w][zi, e.vi["T_out"]] += self.coef
 
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
