@@ -254,6 +254,29 @@ def test_mpc_reduced_prediction_runs_with_a_wind_model():
     assert res.summary()["failures"] == 0 and ctrl._problem.has_theta
 
 
+def test_mpc_probes_a_wind_model_with_calendar_terms_exactly():
+    """A holiday term leaves no time-invariant ``equations()``; MPC probes the step instead, and the probe finds the
+    wind's products (``Bxv``/``Bvv``) too, so such a model is controlled with the wind term, not refused."""
+    from harness.mpc.predict import make_predictor, model_equations
+    from hvacfmu.errors import ModelError
+    from hvacfmu.models.extended import InternalGainSchedule
+
+    terms = MODELS["bilinear"] + (
+        InternalGainSchedule(variant="holiday", zone_names=("A", "B", "C"), coef=(1.0,) * 3, dates=("2025-10-29",)),
+    )
+    model = ExtendedModel(base=_base(), terms=terms)
+    with pytest.raises(ModelError):
+        model.equations()
+    eq = model_equations(model)
+    assert eq.disturbance_products
+    assert check_equations(model, eq, atol=1e-12) <= 1e-12
+    pred = make_predictor(model)
+    N = 8
+    U, V, Q = _signals(model, N, seed=13)
+    x0 = np.full(pred.nx, 21.0)
+    assert_allclose(pred.simulate(x0, U, V, Q), _simulate(model, x0, U, V, Q), rtol=0, atol=1e-11)  # [K]
+
+
 # ----------------------------------------------------------------------------- control model and cosim
 @pytest.mark.slow  # about 60 s on the shared 2-core machine: the fit on 8 weeks, the plant FMU, a 12-h run
 def test_control_model_keeps_the_wind_term_and_cosim_mpc_runs_it(tmp_path):

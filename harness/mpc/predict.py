@@ -64,7 +64,7 @@ class AffinePredictor:
         self.PtBxv = None
         self.Bvv = None
 
-    def _set_disturbance_products(self, mats, nv):
+    def _set_disturbance_products(self, mats):
         """Keep the equations' ``Bxv``/``Bvv`` (after :attr:`basis` is set; the basis must span ``Bxv``'s rows)."""
         Bxv, Bvv = tuple(getattr(mats, "Bxv", ()) or ()), tuple(getattr(mats, "Bvv", ()) or ())
         if Bxv and any(np.any(_dense(M)) for M in Bxv):
@@ -370,7 +370,7 @@ class LinearPredictor(AffinePredictor):
         self.basis = np.eye(self.A.shape[0])
         self.nu = self.B.shape[1]
         self._G = {}
-        self._set_disturbance_products(eq, self.Bv.shape[1])
+        self._set_disturbance_products(eq)
 
     def drift(self, V, Qg, Ubar=None):
         return self._offset(self._with_products(V @ self.Bv.T + Qg @ self.Bq.T, V))
@@ -490,7 +490,7 @@ class BilinearPredictor(AffinePredictor):
         err = float(np.abs(Sd - self.basis @ (self.basis.T @ Sd)).max(initial=0.0))
         if err > 1e-9 * scale:
             raise ModelError(f"airflow-reachable basis reproduces the bilinear terms only to {err:.2e}")
-        self._set_disturbance_products(mats, nv)
+        self._set_disturbance_products(mats)
 
     @staticmethod
     def _reachable_basis(S, nx, rank_tol):
@@ -660,8 +660,10 @@ def model_equations(model):
 def probe_equations(model):
     """:class:`~hvacfmu.models.equations.ModelEquations` of a model bilinear in its inputs, by probing ``step_state``.
 
-    Evaluates ``step_state`` on unit vectors (``nx (nu + 1) + nv (nu + 1) + nq + nu`` points) and
-    verifies the result with :func:`hvacfmu.models.equations.check_equations` on random signals.
+    Evaluates ``step_state`` on unit vectors (``nx (nu + 1) + nv (nu + 1) + nq + nu`` points; with
+    products of a disturbance and the state or another disturbance, such as wind infiltration,
+    ``nx nv + nv (nv + 1) / 2`` more for ``Bxv``/``Bvv``) and verifies the result with
+    :func:`hvacfmu.models.equations.check_equations` on random signals.
     Piecewise terms (switches such as reheat) are not bilinear: the check fails and the model is
     refused with the difference, so a kind with such terms must implement ``equations()``.
     """
@@ -688,6 +690,18 @@ def probe_equations(model):
     )
     scale = max(1.0, float(np.abs(A).max()))
     bilinear = any(np.abs(M).max(initial=0.0) > 1e-12 * scale for M in Bxu + Bvu)
+    # products with a disturbance: v_j (Bxv_j x + Bvv_j v); f(v = e_j) = Bv_j + Bvv_j[:, j], f(2 e_j) = 2 Bv_j + 4 Bvv_j[:, j]
+    Bxv = tuple(
+        np.column_stack([f(x=e, v=ej) - A[:, c] - Bv[:, j] for c, e in enumerate(Ix)]) for j, ej in enumerate(Iv)
+    )
+    Bvv = [np.zeros((nx, nv)) for _ in range(nv)]
+    for j in range(nv):
+        Bvv[j][:, j] = 0.5 * (f(v=2.0 * Iv[j]) - 2.0 * Bv[:, j])
+        Bv[:, j] -= Bvv[j][:, j]
+    for j in range(nv):
+        for w in range(j + 1, nv):  # the cross term v_j v_w, kept in Bvv_j
+            Bvv[j][:, w] = f(v=Iv[j] + Iv[w]) - Bv[:, j] - Bv[:, w] - Bvv[j][:, j] - Bvv[w][:, w]
+    products = any(np.abs(M).max(initial=0.0) > 1e-12 * scale for M in Bxv + tuple(Bvv))
     C = np.asarray(model.output(np.eye(nx)), dtype=float).T
     eq = ModelEquations(
         step=float(model.step),
@@ -702,6 +716,8 @@ def probe_equations(model):
         gains=dict(model.gains),
         Bxu=Bxu if bilinear else (),
         Bvu=Bvu if bilinear else (),
+        Bxv=Bxv if products else (),
+        Bvv=tuple(Bvv) if products else (),
     )
     try:
         check_equations(model, eq, atol=1e-8)
