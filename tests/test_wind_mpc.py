@@ -300,6 +300,17 @@ def test_control_model_keeps_the_wind_term_and_cosim_mpc_runs_it(tmp_path):
     (term,) = ctl.terms
     assert term.cause == "wind_infiltration" and term.coef > 0.0
     assert ctl.equations().disturbance_products
+    # the mechanism stays for a term without a matrix form (none is registered today): left out, said
+    import dataclasses
+    from typing import ClassVar
+
+    @dataclasses.dataclass(frozen=True)
+    class NoForm(WindInfiltration):
+        matrix_form: ClassVar[bool] = False
+
+    with pytest.warns(HvacfmuWarning, match="leaves out wind_infiltration in NW"):
+        left = terms_on_base(ds, base, [NoForm(zone="NW")], heat="airflow")
+    assert left.terms == () and left.meta["left_out"][0]["zone"] == "NW"
     mp = ctl.save(tmp_path / "extended.json")
     plant = export_plant_fmu(p.truth, tmp_path / "Plant.fmu")
     out = tmp_path / "run.csv"
