@@ -50,11 +50,10 @@ class BilinearHeatCoolZone:
 UMIN, UMAX = np.array([0.2, 0.0]), np.array([1.5, 6.0])
 
 
-def long_horizon_run(plant_gain, N=48, **options):
-    """Two days of the plant preset at N = 48 (the reduced prediction, one convex iteration a step) on a zone that
+def long_horizon_run(plant_gain, N=48, n=192, **options):
+    """``n`` steps (default two days) of the plant preset at N = 48 (the reduced prediction, one convex iteration a step) on a zone that
     needs reheat at night and cooling by day; returns (result, controller, zone moves > 0.5 K that reverse the
     previous one)."""
-    n = 192
     t = np.arange(n + N)
     V = np.column_stack([8.0 + 3.0 * np.sin(2 * np.pi * t / 96), np.full(t.size, 13.0)])  # [°C] T_out, T_supply
     Q = (11.0 + 2.0 * np.sin(2 * np.pi * (t - 20) / 96))[:, None]  # [K/step] internal and solar gains
@@ -83,11 +82,11 @@ def test_gain_adaptation_stops_the_limit_cycle_on_the_reduced_prediction():
 
 
 def test_gain_adaptation_on_the_reduced_prediction_leaves_a_right_or_moderately_weak_model_alone():
-    """At N = 48: the model as its plant keeps θ = 1; a plant twice as strong is estimated near 2, under the
-    engage threshold; both give exactly the moves without adaptation."""
+    """At N = 48, one day: the model as its plant keeps θ = 1; a plant twice as strong is estimated near 2, under
+    the engage threshold; both give exactly the moves without adaptation."""
     for plant_gain, lo, hi in ((1.0, 1.0, 1.0), (2.0, 1.5, 2.9)):
-        r_on, c_on, _ = long_horizon_run(plant_gain)
-        r_off, _, _ = long_horizon_run(plant_gain, gain_adapt=0.0)
+        r_on, c_on, _ = long_horizon_run(plant_gain, n=96)
+        r_off, _, _ = long_horizon_run(plant_gain, n=96, gain_adapt=0.0)
         assert lo <= c_on.theta[0] <= hi, (plant_gain, c_on.theta)
         assert c_on.stats()["input_gain_engaged"] == 0
         assert_allclose(r_on.u, r_off.u, rtol=0, atol=1e-12)
