@@ -253,6 +253,20 @@ class MPCController:
         held = G @ np.tile(self._u_prev(), G.shape[1] // nu)
         return y0 + (1.0 - rows) * held, rows[:, None] * G
 
+    def _corrected_reduced(self, y0, beta):
+        """:meth:`_corrected` for the reduced prediction (long horizons): the problem's forced response
+        ``C_r ξ + D_0 w`` is scaled by θ per output (:meth:`ReducedProblem.set_output_gain`) and ``y0`` gets
+        ``(1 - θ)`` times the forced response of the previous move held, so the response with that move held stays
+        the model's. The first-step sensitivity for the estimator is exact (``C P β_0``: the reduced model's
+        feedthrough makes its first Markov parameter the model's)."""
+        self._G1 = self.pred.C @ self.pred.basis @ beta[0]
+        theta = self.gain_correction if self.settings.gain_adapt > 0.0 else np.ones(self.pred.ny)
+        self._problem.set_output_gain(theta)
+        if np.all(theta == 1.0):
+            return y0
+        held = self._problem.forced_response(np.tile(self._u_prev(), (len(self.lengths), 1)))
+        return y0 + (1.0 - np.tile(theta, self.N)) * held
+
     def _update_offset(self, e, g):
         if self._pinv_C is None:
             self._pinv_C = np.linalg.pinv(self.pred.C)
@@ -440,6 +454,7 @@ class MPCController:
                 )
             else:
                 self._problem.update_blocks(beta, theta)
+            y0 = self._corrected_reduced(y0, beta)
         else:
             y0, G = self.pred.affine_prediction(x0, V, Qg, self.lengths, Xbar=Xbar, Ubar=Ubar, mode=mode)
             y0, G = self._corrected(y0, G)

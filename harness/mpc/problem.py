@@ -151,9 +151,11 @@ class MPCSettings:
         that output's gain ``θ`` in [1, ``gain_max``] once ``θ`` reaches
         ``gain_engage`` (until it falls below halfway back to 1); the response with the
         previous move held stays the model's (plus the offset estimate).
-        (:meth:`~harness.mpc.controller.MPCController.estimate`.) Condensed
-        prediction only (horizons up to 24 steps): the reduced prediction of
-        longer horizons keeps the model's gain.
+        (:meth:`~harness.mpc.controller.MPCController.estimate`.) Both
+        predictions: the condensed ``G`` rows are scaled, and the reduced
+        prediction of long horizons scales its forced response
+        (:meth:`ReducedProblem.set_output_gain`); the estimator uses the
+        first-step effect, which both give exactly.
     gain_max : float
         Largest input-gain correction ``θ`` (default 8).
     gain_engage : float
@@ -708,6 +710,7 @@ class ReducedProblem(_MPCProblem):
         super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights, hard=hard)
         self._beta = np.asarray(beta, float)
         self._theta = None if theta is None else np.asarray(theta, float)
+        self._gain = np.ones(self.ny)  # per-output scale of the forced response (set_output_gain)
         self._check_blocks(beta=self._beta, theta=self._theta)
         self._assemble()
 
@@ -750,8 +753,10 @@ class ReducedProblem(_MPCProblem):
             put(row + ri, wk + rj, -self.Br)
             row += nr
             put(row + np.arange(ny), self.i_y + k * ny + np.arange(ny), 1.0)  # y - C_r ξ(k+1) - D_0 w(k) = y0
-            put(row + ci, xk1 + cj, -self.Cr)
-            put(row + di, wk + dj, -self.D0)
+            slot("Cr")  # scaled per output by set_output_gain
+            put(row + ci, xk1 + cj, -self._gain[:, None] * self.Cr)
+            slot("D0")
+            put(row + di, wk + dj, -self._gain[:, None] * self.D0)
             row += ny
         return row
 
@@ -772,6 +777,34 @@ class ReducedProblem(_MPCProblem):
                 self._coo_data[start : start + theta[k].size] = -theta[k].ravel()
         self._beta, self._theta = beta, theta if theta is not None else self._theta
         self._update_slots()
+
+    def set_output_gain(self, gain) -> None:
+        """Scale the forced response ``C_r ξ(k+1) + D_0 w(k)`` of each output by ``gain`` (ny,) (the input-gain
+        correction of :class:`~harness.mpc.controller.MPCController`; ones: the model as it is)."""
+        gain = np.asarray(gain, dtype=float).ravel()
+        if gain.shape != (self.ny,):
+            raise SolverError(f"output gain has {gain.size} entries, expected one per output ({self.ny})")
+        if np.array_equal(gain, self._gain):
+            return
+        self._gain = gain.copy()
+        self._update_slots(Cr=-gain[:, None] * self.Cr, D0=-gain[:, None] * self.D0)
+
+    def forced_response(self, U_b) -> np.ndarray:
+        """The unscaled forced response (N ny,) [K] of the current blocks (β, Θ) to the blocked moves ``U_b``
+        (n_blocks, nu) [kg/s]: the outputs the problem's rows give for these moves from ``y0 = 0``, before
+        :meth:`set_output_gain`."""
+        U_b = np.asarray(U_b, dtype=float).reshape(self.nb, self.nu)
+        U = np.repeat(U_b, self.lengths, axis=0)
+        Ar = np.diag(self.Ar) if self.Ar.ndim == 1 else self.Ar
+        xi = np.zeros(self.nr)
+        Y = np.empty((self.N, self.ny))
+        for k in range(self.N):
+            w = self._beta[k] @ U[k]
+            if self.has_theta and self._theta is not None and k > 0:
+                w = w + self._theta[k] @ xi
+            xi = Ar @ xi + self.Br @ w
+            Y[k] = self.Cr @ xi + self.D0 @ w
+        return Y.ravel()
 
 
 def save_problem(path, arrays: dict) -> Path:
