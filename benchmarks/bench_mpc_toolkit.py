@@ -86,6 +86,9 @@ class CasadiMPC:
 
         Bxu = [ca.DM(sparse.csc_matrix(M)) for M in eq.Bxu]
         Bvu = [ca.DM(sparse.csc_matrix(M)) for M in eq.Bvu]
+        # products with a disturbance (wind infiltration: A_k = A + sum_j v_j Bxv_j), exact as in harness.mpc
+        Bxv = [ca.DM(sparse.csc_matrix(M)) for M in getattr(eq, "Bxv", ())]
+        Bvv = [ca.DM(sparse.csc_matrix(M)) for M in getattr(eq, "Bvv", ())]
         blk = np.repeat(np.arange(nb), lengths)
         x, Y, cost = x0, [], 0
         for k in range(N):
@@ -94,6 +97,10 @@ class CasadiMPC:
             xn = ca.mtimes(A, x) + ca.mtimes(Bu, u) + ca.mtimes(Bv, v) + ca.mtimes(Bq, q)
             for i in range(len(Bxu)):
                 xn = xn + u[i] * (ca.mtimes(Bxu[i], x) + ca.mtimes(Bvu[i], v))
+            for j in range(len(Bxv)):
+                xn = xn + v[j] * ca.mtimes(Bxv[j], x)
+            for j in range(len(Bvv)):
+                xn = xn + v[j] * ca.mtimes(Bvv[j], v)
             x = xn
             Y.append(ca.mtimes(C, x))
             cost = cost + ca.sumsqr(u)
