@@ -410,7 +410,10 @@ def _short_evidence(f: dict) -> str:
             f"{100 * ev.get('share_of_rows_heating', 0):.0f} % of training rows"
         )
     if c == "reheat":
-        return f"T_out threshold {ev.get('T_threshold', float('nan')):g} °C at minimum airflow {ev.get('u_min', 0):.3f} kg/s"
+        th = ev.get("T_threshold", float("nan"))
+        if ev.get("u_box_off") is not None and ev.get("u_min", 0) <= ev["u_box_off"] * (1 + 1e-9):
+            return f"box off (airflow ≤ {ev['u_box_off']:.4f} kg/s, {100 * ev.get('box_off_fraction', 0.05):g} % of its minimum) and T_out < {th:g} °C"
+        return f"T_out threshold {th:g} °C at minimum airflow {ev.get('u_min', 0):.3f} kg/s"
     if c == "internal_gain_schedule":
         if "days" in ev:
             return f"{len(f['location'].get('dates', []))} weekdays with weekend-like gains ({ev.get('rule')})"

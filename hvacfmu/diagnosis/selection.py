@@ -249,6 +249,7 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
     if hasattr(t, "T_threshold") and getattr(t, "variant", "switch") == "switch":
         c.location = {**c.location}
         c.evidence["T_threshold"] = float(t.T_threshold)
+        c.evidence["u_min"] = float(t.u_min)  # the chosen regime's airflow bound (minimum airflow or box off)
     if _is_dst(t):
         c.location = {**c.location, "shift": int(t.shift)}
     if isinstance(t, InternalGainSchedule):

@@ -2,9 +2,10 @@
 
 Two forms, one cause:
 
-- ``variant="switch"`` (no discharge temperature measured): on/off heat at minimum airflow
-  in cold weather, ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K/step]; in the matrix
-  form a :class:`~hvacfmu.models.equations.Switch`.
+- ``variant="switch"`` (no discharge temperature measured): on/off heat at minimum airflow in
+  cold weather, ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K/step]; in the matrix form a
+  :class:`~hvacfmu.models.equations.Switch`. The screen also offers it with the box off
+  (``u_min`` = :data:`BOX_OFF_FRACTION` of the box minimum): heat that runs while the system is off.
 - ``variant="discharge"`` (``Td_<vav>`` measured): modulating reheat seen through the
   discharge air, ``coef · Q_z`` with ``Q_z = Σ_boxes m cp (Td − T_supply)`` [kW] the heat the
   coils add to the supply air (cp = 1005 J/(kg K)); a disturbance ``Qrh_<zone>`` the model
@@ -36,6 +37,14 @@ from .base import (
 
 #: Outdoor-temperature thresholds tried for the on/off form [°C].
 REHEAT_THRESHOLDS = (8.0, 10.0, 12.0, 14.0, 16.0)
+#: Outdoor-temperature thresholds tried for the box-off form [°C]: the same on/off term with the box shut
+#: (airflow ≤ :data:`BOX_OFF_FRACTION` of its minimum), for heat that runs when the system is off (a perimeter
+#: heater, a coil on its own thermostat). The minimum-airflow regime also holds in occupied hours at minimum
+#: airflow: on the EnergyPlus bed it missed two off-hours heaters that these variants find
+#: (benchmarks/diagnosis_energyplus_oracle_s13.md).
+OFF_THRESHOLDS = (0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0)
+#: Airflow bound of the box-off regime, as a fraction of the box's minimum airflow.
+BOX_OFF_FRACTION = 0.05
 #: Minimum rows in a regime for an on/off reheat candidate to be testable.
 MIN_REGIME_ROWS = 50
 CP_AIR = 1005.0  #: [J/(kg K)]
@@ -233,6 +242,15 @@ class Reheat(Term):
                 if int((f > 0).sum()) >= MIN_REGIME_ROWS:
                     variants.append(cls(zone=z, u_min=umin, T_threshold=th))
             ev = {"u_min": umin, "resid_in_regime_by_threshold": regime}
+            if sig.u_min[zi] > 0:
+                uoff = float(sig.u_min[zi] * BOX_OFF_FRACTION)
+                off = {}
+                for th in OFF_THRESHOLDS:
+                    f = reheat_feature(u[rows], T_out[rows], uoff, th)
+                    off[f"{th:g}"] = cond_mean(r, f > 0)
+                    if int((f > 0).sum()) >= MIN_REGIME_ROWS:
+                        variants.append(cls(zone=z, u_min=uoff, T_threshold=th))
+                ev.update(u_box_off=uoff, box_off_fraction=BOX_OFF_FRACTION, resid_box_off_by_threshold=off)
             if not variants:
                 out.append(
                     Candidate(
@@ -240,8 +258,8 @@ class Reheat(Term):
                         {"zone": z},
                         status="untestable",
                         evidence=ev,
-                        reason=f"fewer than {MIN_REGIME_ROWS} training rows at minimum airflow in cold "
-                        f"weather (T_out < {max(REHEAT_THRESHOLDS):g} °C)",
+                        reason=f"fewer than {MIN_REGIME_ROWS} training rows at minimum airflow or with the box "
+                        f"off in cold weather (T_out < {max(REHEAT_THRESHOLDS + OFF_THRESHOLDS):g} °C)",
                     )
                 )
             else:
