@@ -111,6 +111,14 @@ class Reheat(Term):
     def zones(self):
         return (self.zone,)
 
+    def sources(self, sig):
+        """The discharge form reads its boxes' ``Td_<vav>`` (and so their ``rh_<vav>``: one coil's heat); the
+        on/off form only airflow and ``T_out``, which every equation reads."""
+        if self.variant != "discharge":
+            return frozenset()
+        vavs = [v for v, _ in self.supply] or zone_boxes(sig.base, self.zone)
+        return frozenset(c for v in vavs for c in (f"Td_{v}", f"rh_{v}"))
+
     def location(self):
         return {"zone": self.zone} if self.variant == "switch" else {"zone": self.zone, "variant": self.variant}
 

@@ -21,6 +21,15 @@ import numpy as np
 from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
 
 
+def column_sources(column: str) -> frozenset:
+    """What a measured column carries, as :meth:`Term.sources`: a box's ``Td_<vav>`` and ``rh_<vav>`` are one
+    quantity, the heat of its coil (the valve command and the discharge air it sets), so either names both."""
+    for p in ("Td_", "rh_"):
+        if column.startswith(p):
+            return frozenset({f"Td_{column[3:]}", f"rh_{column[3:]}"})
+    return frozenset({column})
+
+
 @dataclasses.dataclass(frozen=True)
 class UnusedInput(Term):
     """``coef · column`` into ``zone`` (``coef`` in K/step per unit of the column)."""
@@ -31,8 +40,13 @@ class UnusedInput(Term):
     column: str = ""
     coef: float = 0.0
 
+    generic: ClassVar[bool] = True
+
     def columns(self):
         return (self.column,)
+
+    def sources(self, sig):
+        return column_sources(self.column)
 
     def zones(self):
         return (self.zone,)
