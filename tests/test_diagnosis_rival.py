@@ -115,3 +115,25 @@ def test_one_column_under_two_causes_goes_to_the_better_one_when_the_folds_decid
     assert f.cause == named and f.evidence["rival"]["shared_columns"] == ["Td_V2", "rh_V2"]
     loser = c if f is o else o
     assert loser.status == "no evidence" and "better on the same folds" in loser.reason
+
+
+def test_a_copy_of_a_column_the_model_reads_is_not_an_unused_input():
+    """One air handler: its ``T_supply_U1`` is the frame's ``T_supply`` (EnergyPlus: ``T_supply_PACU_VAV_mid``).
+    Before, ``unused_input T_supply_U1`` was screened and scored in every zone: a second, unbounded
+    coefficient on the supply temperature the model reads (4 false findings on the EnergyPlus bed)."""
+    import json
+
+    ds = simulate_dataset(row_model(), weeks=2, seed=3, ghi=False)
+    d = json.loads(json.dumps(ROW))
+    d["ahus"] = [{"name": "U1"}]
+    for v in d["vavs"]:
+        v["ahu"] = "U1"
+    frame = ds.frame.copy()
+    frame["T_supply_U1"] = frame["T_supply"]
+    sig = make_signals(Dataset.from_frame(frame, building_from_dict(d), step=900.0, seed=3), row_model())
+    W = Within(sig.group, sig.rows("train"))
+    resid = np.random.default_rng(0).normal(0.0, 0.02, (len(W.rows), sig.nz))
+    cands = [c for c in UnusedInput.screen(sig, [], W, resid, {}) if c.location["column"] == "T_supply_U1"]
+    assert len(cands) == 3
+    assert all(c.status == "no evidence" and not c.variants for c in cands), [c.status for c in cands]
+    assert "same values as T_supply" in cands[0].reason

@@ -8,7 +8,10 @@ handler's own supply temperature ``T_supply_<ahu>`` [°C], global horizontal irr
 
 Screen: the columns of the zone's own boxes and air handler and the building-wide ones
 (:attr:`Signals.extra`), each with its correlation with the residual (within-transformed)
-and its coverage on the training rows.
+and its coverage on the training rows. A column holding the same values as one the model reads
+(one air handler's ``T_supply_<ahu>`` is the frame's ``T_supply``) is not unused: "no evidence".
+A column another term already brings into the zone (a discharge ``reheat`` term's ``Td_<vav>``) is
+not named again (:meth:`Term.sources`, ``hvacfmu.diagnosis.candidates``).
 """
 
 from __future__ import annotations
@@ -28,6 +31,22 @@ def column_sources(column: str) -> frozenset:
         if column.startswith(p):
             return frozenset({f"Td_{column[3:]}", f"rh_{column[3:]}"})
     return frozenset({column})
+
+
+def read_as(sig, x, rows) -> str | None:
+    """The column of the base model holding the same values as ``x`` on ``rows`` (None when none does).
+
+    With one air handler the frame's ``T_supply`` is its ``T_supply_<ahu>``: the model reads that column
+    already (its coefficient bounded ≥ 0), and a free coefficient on its copy is a second, unbounded
+    coefficient on one input, not a column the model ignores (the EnergyPlus bed's ``unused_input
+    T_supply_PACU_VAV_mid``: 4 false findings, ``benchmarks/diagnosis_energyplus_s13.md``).
+    """
+    xr = np.asarray(x, float)[rows]
+    for d in sig.base.disturbances:
+        v = sig.V.get(d)
+        if v is not None and len(xr) and np.allclose(np.asarray(v, float)[rows], xr, equal_nan=True):
+            return d
+    return None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,11 +107,24 @@ class UnusedInput(Term):
             if col in used:
                 continue
             x = sig.extra[col]
+            same = read_as(sig, x, W.rows)
             for zi, z in enumerate(sig.zones):
                 if (zones and z not in zones) or (z, col) in have:
                     continue
                 xr = x[W.rows]
                 if np.nanstd(xr) <= 0:
+                    continue
+                if same:
+                    out.append(
+                        Candidate(
+                            cls.cause,
+                            {"zone": z, "column": col},
+                            status="no evidence",
+                            evidence={"column": col, "same_values_as": same},
+                            reason=f"{col} holds the same values as {same}, which the model reads: not an unused "
+                            f"column (one air handler: the frame's T_supply is its supply temperature)",
+                        )
+                    )
                     continue
                 ev = {"column": col, "corr": corr(resid[:, zi], W(x)), "coverage": sig.extra_coverage.get(col)}
                 out.append(Candidate(cls.cause, {"zone": z, "column": col}, [cls(zone=z, column=col)], 0, evidence=ev))
