@@ -881,7 +881,8 @@ def _same_column_verdict(plan, c, o, shared, base_scores, opts) -> dict:
     """Which of two causes reading the same measured columns ``shared`` at one zone the evidence favours.
 
     Both were cross-validated on the same folds; their predictions are compared fold by fold
-    (``head_to_head_t``: week-clustered paired t of ``o`` over ``c``). A difference of at least
+    (``head_to_head_t``: week-clustered paired t of ``o`` over ``c``, i.e. of the rival over the finding; a
+    swap stores it from the new finding's side). A difference of at least
     ``cv_min_t`` (2) decides. Within it the data cannot tell them apart, and a cause-specific term (the
     coil's heat ``m cp (Td − T_supply)``) is named over a generic one (``unused_input``: "a column the
     model ignores", which names the column, not what it carries); between two of a kind the higher
