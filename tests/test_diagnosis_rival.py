@@ -39,11 +39,12 @@ def _signals_with_discharge_air():
 def test_sources_name_the_measured_columns_a_term_brings_in():
     sig = _signals_with_discharge_air()
     rh = Reheat(zone="B", variant="discharge", supply=(("V2", "T_supply"),))
-    assert rh.sources(sig) == {"Td_V2", "rh_V2"}  # its regressor Qrh_B is built from V2's discharge air
+    assert rh.sources(sig) == {"Td_V2"}  # its regressor Qrh_B is built from V2's discharge air (no rh_ measured)
     assert Reheat(zone="B", u_min=0.05, T_threshold=12.0).sources(sig) == frozenset()  # airflow and T_out only
     assert UnusedInput(zone="B", column="rh_V2").sources(sig) == {"Td_V2", "rh_V2"}  # one coil's heat
+    assert UnusedInput(zone="B", column="Td_V2").sources(sig) == {"Td_V2"}
     assert SupplyAirBilinear(zone="B").sources(sig) == {"T_supply"}
-    assert shared_sources(sig, rh, UnusedInput(zone="B", column="Td_V2")) == ["Td_V2", "rh_V2"]
+    assert shared_sources(sig, rh, UnusedInput(zone="B", column="Td_V2")) == ["Td_V2"]
     assert shared_sources(sig, rh, UnusedInput(zone="A", column="Td_V2")) == []  # another zone's equation
 
 
@@ -99,20 +100,20 @@ def test_one_column_under_two_causes_names_the_specific_cause_when_the_folds_can
     accepted, c, o = _duel(monkeypatch, 0.0)
     assert accepted == [o] and o.status == "found" and c.status == "no evidence"
     rv = o.evidence["rival"]
-    assert rv["cause"] == "unused_input" and rv["shared_columns"] == ["Td_V2", "rh_V2"]
+    assert rv["cause"] == "unused_input" and rv["shared_columns"] == ["Td_V2"]
     assert abs(rv["head_to_head_t"]) < 2.0 and "cannot tell them apart" in rv["why"]
     assert "Td_V2" in c.reason and "reheat" in c.reason
     f = {"cause": o.cause, "location": o.location, "test": {"lr": 50, "lr_adjusted": 45, "dof": 1, "delta_bic": 30}}
     f["evidence"] = o.evidence
     line = next(x for x in _finding_lines(1, f) if "competing cause" in x)
-    assert "unused_input" in line and "both read Td_V2, rh_V2: one gain; reheat is named" in line
+    assert "unused_input" in line and "both read Td_V2: one gain; reheat is named" in line
 
 
 @pytest.mark.parametrize("offset, named", [(0.03, "unused_input"), (-0.03, "reheat")])
 def test_one_column_under_two_causes_goes_to_the_better_one_when_the_folds_decide(monkeypatch, offset, named):
     accepted, c, o = _duel(monkeypatch, offset)
     (f,) = accepted
-    assert f.cause == named and f.evidence["rival"]["shared_columns"] == ["Td_V2", "rh_V2"]
+    assert f.cause == named and f.evidence["rival"]["shared_columns"] == ["Td_V2"]
     loser = c if f is o else o
     assert loser.status == "no evidence" and "better on the same folds" in loser.reason
 

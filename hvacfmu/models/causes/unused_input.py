@@ -24,12 +24,14 @@ import numpy as np
 from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
 
 
-def column_sources(column: str) -> frozenset:
+def column_sources(column: str, present=None) -> frozenset:
     """What a measured column carries, as :meth:`Term.sources`: a box's ``Td_<vav>`` and ``rh_<vav>`` are one
-    quantity, the heat of its coil (the valve command and the discharge air it sets), so either names both."""
+    quantity, the heat of its coil (the valve command and the discharge air it sets), so either names both
+    (the partner only when it is among the ``present`` columns, when given)."""
     for p in ("Td_", "rh_"):
         if column.startswith(p):
-            return frozenset({f"Td_{column[3:]}", f"rh_{column[3:]}"})
+            pair = {f"Td_{column[3:]}", f"rh_{column[3:]}"}
+            return frozenset({c for c in pair if present is None or c == column or c in present})
     return frozenset({column})
 
 
@@ -65,7 +67,7 @@ class UnusedInput(Term):
         return (self.column,)
 
     def sources(self, sig):
-        return column_sources(self.column)
+        return column_sources(self.column, getattr(sig, "extra", None))
 
     def zones(self):
         return (self.zone,)
