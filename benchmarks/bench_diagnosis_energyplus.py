@@ -334,8 +334,74 @@ def run_case(case: dict) -> dict:
     }
 
 
+#: A reheat coil "runs" when its discharge air is this much above its unit's supply air [K] ...
+COIL_RUNS_K = 1.0
+#: ... on at least this share of the rows (1 per mille: about 4 h of the 26 weeks; the Denver Core's coil heats its
+#: air by up to 20 K on 0.4-0.9 % of the rows, Chicago's on 2.6-3.4 %: both run)
+COIL_RUNS_SHARE = 0.001
+_PHYSICS: dict = {}
+
+
+def _export_facts(export: str) -> dict:
+    """What the exported EnergyPlus model contains, from its files (cached per export directory):
+    ``reheat_zones`` (every box of the zone a ``...:Reheat`` terminal whose coil runs in the data) and
+    ``windows`` (``(zone, facade)`` with window area in the building file)."""
+    if export in _PHYSICS:
+        return _PHYSICS[export]
+    import pandas as pd
+
+    from hvacfmu.building import load_building
+
+    d = Path(export)
+    info = json.loads((d / "energyplus.json").read_text())
+    b = load_building(d / "building.toml")
+    frame = pd.read_parquet(d / "measurements.parquet")
+    coil: dict = {}
+    for box in info.get("boxes", []):
+        td, ts = f"Td_{box['name']}", f"T_supply_{box['ahu']}"
+        runs = False
+        if box.get("terminal_type", "").endswith(":Reheat") and td in frame and ts in frame:
+            runs = bool(((frame[td] - frame[ts]) > COIL_RUNS_K).mean() >= COIL_RUNS_SHARE)
+        coil.setdefault(box["zone"], []).append(runs)
+    facts = {
+        "reheat_zones": {z for z, r in coil.items() if r and all(r)},
+        "windows": {(z.name, f.orientation) for z in b.zones for f in z.facades if f.window_area > 0},
+    }
+    _PHYSICS[export] = facts
+    return facts
+
+
+def energyplus_physics(f: dict, r: dict) -> str | None:
+    """Why the EnergyPlus model contains finding ``f``'s cause at its place, or None (a false finding).
+
+    The clean run is the bed's reference (a finding in it is the baseline the diagnosis sees); a finding of an
+    effect run outside it was counted false whatever it named. Here it is checked against the model's physics
+    as the emulator's truth does (:func:`hvacfmu.diagnosis.truth.finding_supported`: reheat coils, window solar,
+    bilinear supply air, wall/slab mass): ``reheat`` (either form) in a zone whose boxes are reheat terminals
+    whose coils run in the data; ``solar_gain`` through a facade of the zone with windows;
+    ``supply_air_bilinear`` (every box's supply air delivers ``m cp (T_supply − T_zone)``); ``thermal_mass``
+    (every zone's walls and slabs). A column (``unused_input``) names no mechanism: not physics, even when the
+    column carries the discharge heat.
+    """
+    loc = f["location"]
+    facts = _export_facts(r["export"])
+    if f["cause"] == "reheat" and loc.get("zone") in facts["reheat_zones"]:
+        return "reheat coil of the zone's box runs"
+    if f["cause"] == "solar_gain" and (loc.get("zone"), loc.get("facade")) in facts["windows"]:
+        return "windows on that facade"
+    if f["cause"] == "supply_air_bilinear":
+        return "supply air heat m cp (T_supply - T_zone)"
+    if f["cause"] == "thermal_mass":
+        return "the zone's walls and slabs"
+    return None
+
+
 def score(results: dict) -> list:
-    """Per effect case: found / masked / missed and false findings against the clean run of its weather."""
+    """Per effect case: found / masked / missed and false findings against the clean run of its weather.
+
+    ``false``: in the effect run, not the effect, not in the clean run (the bed's count since session 8);
+    ``false_physics``: those of them the EnergyPlus model does not contain (:func:`energyplus_physics`).
+    """
     clean = {r["case"]["weather"]: r for r in results.values() if r["case"]["effect"] is None}
     rows = []
     for cid in sorted(results):
@@ -355,8 +421,17 @@ def score(results: dict) -> list:
         false = [f for f in new if not matches(f, e, r["truth"])]
         gone = [g for g in base["findings"] if not any(same_cause_place(g, f) for f in r["findings"])]
         outcome = "found" if hit else ("masked" if masked else "missed")
+        absent = [f for f in false if energyplus_physics(f, r) is None]
         rows.append(
-            {"id": cid, "cause": e["cause"], "outcome": outcome, "false": false, "masked": masked, "gone": gone}
+            {
+                "id": cid,
+                "cause": e["cause"],
+                "outcome": outcome,
+                "false": false,
+                "false_physics": absent,
+                "masked": masked,
+                "gone": gone,
+            }
         )
     return rows
 
@@ -396,23 +471,43 @@ def print_summary(results: dict) -> None:
                 f"{g['status']} (dBIC {g['delta_bic'] or 0:.0f}, cv {g['cv_gain_percent'] or 0:+.1f} % t {g['cv_t'] or 0:.1f})"
                 for g in same
             )
-            print(f"      FALSE {f['cause']} {_place(f)}: in the clean run {was or 'not a screened candidate'}")
+            why = energyplus_physics(f, r)
+            print(
+                f"      FALSE {f['cause']} {_place(f)}: in the clean run {was or 'not a screened candidate'}"
+                + (f" [EnergyPlus physics: {why}]" if why else " [not EnergyPlus physics]")
+            )
         if row.get("gone"):
             print("    clean-run findings absent here: " + "; ".join(f"{g['cause']} {_place(g)}" for g in row["gone"]))
         print(
-            f"    -> {row['outcome']}, false {len(row['false'])}  (diagnose {r['diagnose_wall_s']:.0f} s wall, "
+            f"    -> {row['outcome']}, false {len(row['false'])} ({len(row.get('false_physics', []))} not EnergyPlus "
+            f"physics)  (diagnose {r['diagnose_wall_s']:.0f} s wall, "
             f"{r['diagnose_cpu_s']:.0f} s CPU; export {r['export_wall_s']:.0f} s)"
         )
     table: dict = {}
+    by_cause: dict = {}
     for row in rows:
-        t = table.setdefault(row["cause"], {"found": 0, "masked": 0, "missed": 0, "false": 0, "cases": 0})
+        t = table.setdefault(row["cause"], {"found": 0, "masked": 0, "missed": 0, "false": 0, "absent": 0, "cases": 0})
         t["cases"] += 1
         if row["outcome"] in t:
             t[row["outcome"]] += 1
         t["false"] += len(row["false"])
-    print(f"\n{'cause':26s} {'found':>6s} {'masked':>6s} {'missed':>6s} {'false':>6s} {'cases':>6s}")
+        t["absent"] += len(row.get("false_physics", []))
+        for f in row["false"]:
+            k = by_cause.setdefault(f["cause"], [0, 0])
+            k[0] += 1
+            k[1] += f in row.get("false_physics", [])
+    head = f"\n{'cause':26s} {'found':>6s} {'masked':>6s} {'missed':>6s} {'false':>6s} {'absent':>6s} {'cases':>6s}"
+    print(head)
     for cause, t in table.items():
-        print(f"{cause:26s} {t['found']:6d} {t['masked']:6d} {t['missed']:6d} {t['false']:6d} {t['cases']:6d}")
+        print(
+            f"{cause:26s} {t['found']:6d} {t['masked']:6d} {t['missed']:6d} {t['false']:6d} {t['absent']:6d} "
+            f"{t['cases']:6d}"
+        )
+    print("(false: not the effect and not in the clean run; absent: of those, not EnergyPlus physics)")
+    print(
+        "false findings by cause (all / not EnergyPlus physics): "
+        + ", ".join(f"{c} {a}/{b}" for c, (a, b) in sorted(by_cause.items(), key=lambda kv: -kv[1][0]))
+    )
 
 
 def _load(path: Path) -> dict:

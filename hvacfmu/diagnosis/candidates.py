@@ -37,9 +37,48 @@ def generate(sig: Signals, terms, W: Within, resid, options: dict) -> list:
     out = []
     for cls in causes():
         out += cls.screen(sig, terms, W, resid, options)
+    for c in out:
+        _mark_column_taken(sig, terms, c)
     return out
+
+
+def shared_sources(sig: Signals, a, b) -> list:
+    """Measured columns two terms both bring into one zone's equation (:meth:`Term.sources`), sorted; [] when
+    they act on different zones or read different columns."""
+    if not set(a.zones()) & set(b.zones()):
+        return []
+    return sorted(a.sources(sig) & b.sources(sig))
+
+
+def _mark_column_taken(sig: Signals, terms, c) -> None:
+    """A candidate that would read, at a zone, a column an accepted term already reads there is not tested.
+
+    Its gain is the gain that term already took (the same discharge heat named ``reheat`` and again
+    ``unused_input Td_<vav>``): one measured column, one cause. The rival of the round that accepted
+    the term was scored then (``hvacfmu.diagnosis.selection``); here it is named with the reason.
+    """
+    if not c.variants or c.status != "not tested":
+        return
+    for t in terms:
+        shared = [shared_sources(sig, v, t) for v in c.variants]
+        if all(shared):
+            c.status = "no evidence"
+            c.reason = (
+                f"reads {', '.join(shared[0])}, which the accepted {t.cause} at {t.location()} already brings into "
+                f"the zone's equation: one measured column is named by one cause"
+            )
+            c.evidence["column_taken_by"] = {"cause": t.cause, "location": t.location(), "columns": shared[0]}
+            return
 
 
 _params = term_params
 
-__all__ = ["Candidate", "apparent_gains", "day_departures", "dst_profile_lag", "generate", "shifted_clock_profiles"]
+__all__ = [
+    "Candidate",
+    "apparent_gains",
+    "day_departures",
+    "dst_profile_lag",
+    "generate",
+    "shared_sources",
+    "shifted_clock_profiles",
+]

@@ -307,7 +307,9 @@ def _finding_lines(i: int, f: dict) -> list:
     if rv:
         t = "n/a" if rv.get("cv_t") is None else f"{rv['cv_t']:.1f}"
         why = f"the data favour {rv['favoured']}"
-        if rv["favoured"] != f["cause"]:  # the rival's t is higher, but it failed its own acceptance
+        if rv.get("shared_columns"):  # the same measured column(s) under two causes: one gain, decided by its rule
+            why = f"both read {', '.join(rv['shared_columns'])}: one gain; {rv['favoured']} is named: {rv['why']}"
+        elif rv["favoured"] != f["cause"]:  # the rival's t is higher, but it failed its own acceptance
             g = rv.get("cv_gain_percent")
             why = (
                 f"its paired t is higher, but it fails its own acceptance rule"

@@ -749,7 +749,7 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
             c.reason = _rejected_reason(c, opts)
     if plan is not None:
         for i, c in enumerate(list(accepted)):
-            o = _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores)
+            o = _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores, opts)
             if (
                 o is not None
                 and c.evidence["rival"]["favoured"] == o.cause
@@ -758,19 +758,35 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
             ):
                 # the rival explains the same gain better on the same folds: it is the finding
                 o.status, o.reason = "found", _found_reason(o, opts)
+                same = {k: c.evidence["rival"][k] for k in ("shared_columns", "why") if k in c.evidence["rival"]}
+                h2h = c.evidence["rival"].get("head_to_head_t")
                 o.evidence["rival"] = {
                     "cause": c.cause,
                     "location": c.location,
                     "cv_gain_percent": decisive_cv(c).get("gain_percent"),
                     "cv_t": decisive_cv(c).get("t"),
                     "favoured": o.cause,
+                    **same,
+                    **({} if h2h is None else {"head_to_head_t": -h2h}),
                 }
                 c.status = "no evidence"
                 c.reason = (
                     f"a {o.cause} at {o.location} explains the same gain better on the same folds "
                     f"(paired t {decisive_cv(o)['t']:.1f} vs {decisive_cv(c)['t']:.1f})"
                 )
+                if same:
+                    c.reason = (
+                        f"reads the same measured column(s) {', '.join(same['shared_columns'])} as {o.cause} at "
+                        f"{o.location}, which the evidence favours: {same['why']}"
+                    )
                 accepted[i] = o
+            elif o is not None and c.evidence["rival"].get("shared_columns") and o.status != "found":
+                rv = c.evidence["rival"]
+                o.status = "no evidence"
+                o.reason = (
+                    f"reads the same measured column(s) {', '.join(rv['shared_columns'])} as the accepted {c.cause} "
+                    f"at {c.location}, one gain for two causes; {c.cause} is named: {rv['why']}"
+                )
     return accepted
 
 
@@ -791,6 +807,7 @@ def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
         base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
     sig_c = sig_for(sig, c, c.term)
     after = fold_scores(sig_c, plan, fold_fits(sig_c, plan, list(terms) + [c.term], key), key)
+    base_scores[("with", id(c))] = after  # a rival reading the same columns is compared with it fold by fold
     weeks = paired_test(plan, base_scores[key], after)
     if not _is_holiday(c.term):
         c.cv = weeks
@@ -827,7 +844,7 @@ def _cv_days_one_by_one(sig, plan, terms, c, key, starts) -> None:
     }
 
 
-def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
+def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores, opts=None) -> None:
     """Cross-validate the strongest significant candidate of another cause at the same zones.
 
     Two causes can explain one gain (a coupling and a slow mass, solar and a schedule): both
@@ -841,7 +858,8 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
     ]
     if not rivals:
         return None
-    o = rivals[0]
+    # a rival reading the same measured column competes for the very same gain: it is compared first
+    o = next((o for o in rivals if cand.shared_sources(sig, c.term, o.term)), rivals[0])
     if o.cv is None:
         cross_validate(sig, plan, terms, o, base_scores)
     ct, ot = decisive_cv(c).get("t") or 0.0, decisive_cv(o).get("t") or 0.0
@@ -852,7 +870,50 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores) -> None:
         "cv_t": decisive_cv(o).get("t"),
         "favoured": c.cause if ct >= ot else o.cause,
     }
+    shared = cand.shared_sources(sig, c.term, o.term)
+    if shared:
+        c.evidence["rival"].update(
+            _same_column_verdict(plan, c, o, shared, base_scores, {**DEFAULT_OPTIONS, **(opts or {})})
+        )
     return o
+
+
+def _same_column_verdict(plan, c, o, shared, base_scores, opts) -> dict:
+    """Which of two causes reading the same measured columns ``shared`` at one zone the evidence favours.
+
+    Both were cross-validated on the same folds; their predictions are compared fold by fold
+    (``head_to_head_t``: week-clustered paired t of ``o`` over ``c``, i.e. of the rival over the finding; a
+    swap stores it from the new finding's side). A difference of at least
+    ``cv_min_t`` (2) decides. Within it the data cannot tell them apart, and a cause-specific term (the
+    coil's heat ``m cp (Td − T_supply)``) is named over a generic one (``unused_input``: "a column the
+    model ignores", which names the column, not what it carries); between two of a kind the higher
+    cross-validated t, as for rivals of different columns. Not decided by t alone: the Chicago clean
+    run named its Core's discharge heat ``unused_input Td`` at t 2.9 over discharge ``reheat`` at t 2.4 on
+    one selection path and the other way round on another (``benchmarks/diagnosis_energyplus_s12.md``).
+    A rival that fails its own acceptance rule (:func:`_cv_accepts`) is not favoured.
+    """
+    need = opts["cv_min_t"]
+    a, b = base_scores.get(("with", id(c))), base_scores.get(("with", id(o)))
+    h2h = paired_test(plan, a, b).get("t") if a is not None and b is not None else None
+    ct, ot = decisive_cv(c).get("t") or 0.0, decisive_cv(o).get("t") or 0.0
+    if not _cv_accepts(o, opts):
+        og = decisive_cv(o).get("gain_percent")
+        fav = c.cause
+        why = f"the rival fails its own acceptance rule (cross-validated gain {og or 0:.1f} %, paired t {ot:.1f})"
+    elif h2h is not None and abs(h2h) >= need:
+        fav = o.cause if h2h > 0 else c.cause
+        why = f"better on the same folds (paired t {abs(h2h):.1f} between the two)"
+    elif c.term.generic != o.term.generic:
+        fav = c.cause if o.term.generic else o.cause
+        tt = "n/a" if h2h is None else f"{h2h:.1f}"
+        why = (
+            f"the same folds cannot tell them apart (paired t {tt} between the two); the cause-specific term is "
+            f"named over {(o if o.term.generic else c).cause} (a measured column the model ignores)"
+        )
+    else:
+        fav = c.cause if ct >= ot else o.cause
+        why = f"higher cross-validated paired t ({max(ct, ot):.1f} vs {min(ct, ot):.1f})"
+    return {"shared_columns": list(shared), "head_to_head_t": h2h, "favoured": fav, "why": why}
 
 
 def decisive_cv(c) -> dict:

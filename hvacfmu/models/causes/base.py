@@ -128,6 +128,10 @@ class Term:
     #: the diagnosis's control model leaves it out (:func:`hvacfmu.diagnosis.control.terms_on_base`). Every
     #: registered cause has one today (``wind_infiltration`` through ``Bxv``/``Bvv``).
     matrix_form: ClassVar[bool] = True
+    #: True for a catch-all cause that names a measured column, not a mechanism (``unused_input``): when a
+    #: cause-specific term reads the same column and the cross-validation cannot tell them apart, the specific
+    #: one is named (:meth:`sources`, ``hvacfmu.diagnosis.selection``)
+    generic: ClassVar[bool] = False
     #: searched hyper-parameters charged in the information criterion for one candidate
     std: dict = dataclasses.field(default_factory=dict, compare=False)
 
@@ -135,6 +139,19 @@ class Term:
     def columns(self) -> tuple:
         """Frame columns this term reads as disturbances (beyond the base model's)."""
         return ()
+
+    def sources(self, sig) -> frozenset:
+        """Measured frame columns whose information the term's regressor brings into the model.
+
+        Beyond what every zone equation reads (zone temperatures, airflows, ``T_out``): a derived
+        column is named by the measured columns it is built from (the reheat heat ``Qrh_<zone>`` by
+        its boxes' ``Td_<vav>``; the mean ``T_supply`` by the units' ``T_supply_<ahu>``). Two terms of
+        different causes at one zone whose sources overlap compete for one gain: the diagnosis names
+        the one the evidence favours and reports the other as its rival, and does not name the same
+        column again under another cause (``sig``: :class:`~hvacfmu.models.causes.signals.Signals`).
+        Default: none.
+        """
+        return frozenset()
 
     def zones(self) -> tuple:
         """Zones the term acts on (its location)."""

@@ -120,6 +120,15 @@ class Reheat(Term):
     def zones(self):
         return (self.zone,)
 
+    def sources(self, sig):
+        """The discharge form reads its boxes' ``Td_<vav>`` (and so their ``rh_<vav>`` where measured: one coil's
+        heat); the on/off form only airflow and ``T_out``, which every equation reads."""
+        if self.variant != "discharge":
+            return frozenset()
+        vavs = [v for v, _ in self.supply] or zone_boxes(sig.base, self.zone)
+        present = getattr(sig, "extra", {})
+        return frozenset({f"Td_{v}" for v in vavs} | {f"rh_{v}" for v in vavs if f"rh_{v}" in present})
+
     def location(self):
         return {"zone": self.zone} if self.variant == "switch" else {"zone": self.zone, "variant": self.variant}
 

@@ -23,6 +23,7 @@ from .base import (
     num,
     zone_of,
 )
+from .reheat import zone_boxes
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,6 +40,11 @@ class SupplyAirBilinear(Term):
 
     def zones(self):
         return (self.zone,)
+
+    def sources(self, sig):
+        """``T_supply`` and the supply column of each unit feeding the zone's boxes (the frame's ``T_supply`` is
+        their airflow-weighted mean: with one unit, the same column)."""
+        return frozenset({"T_supply"} | {sig.supply_of.get(v, "T_supply") for v in zone_boxes(sig.base, self.zone)})
 
     def location(self):
         return {"zone": self.zone}

@@ -8,7 +8,10 @@ handler's own supply temperature ``T_supply_<ahu>`` [°C], global horizontal irr
 
 Screen: the columns of the zone's own boxes and air handler and the building-wide ones
 (:attr:`Signals.extra`), each with its correlation with the residual (within-transformed)
-and its coverage on the training rows.
+and its coverage on the training rows. A column holding the same values as one the model reads
+(one air handler's ``T_supply_<ahu>`` is the frame's ``T_supply``) is not unused: "no evidence".
+A column another term already brings into the zone (a discharge ``reheat`` term's ``Td_<vav>``) is
+not named again (:meth:`Term.sources`, ``hvacfmu.diagnosis.candidates``).
 """
 
 from __future__ import annotations
@@ -21,6 +24,33 @@ import numpy as np
 from .base import Candidate, EquationParts, StepContext, Term, corr, num, zone_of
 
 
+def column_sources(column: str, present=None) -> frozenset:
+    """What a measured column carries, as :meth:`Term.sources`: a box's ``Td_<vav>`` and ``rh_<vav>`` are one
+    quantity, the heat of its coil (the valve command and the discharge air it sets), so either names both
+    (the partner only when it is among the ``present`` columns, when given)."""
+    for p in ("Td_", "rh_"):
+        if column.startswith(p):
+            pair = {f"Td_{column[3:]}", f"rh_{column[3:]}"}
+            return frozenset({c for c in pair if present is None or c == column or c in present})
+    return frozenset({column})
+
+
+def read_as(sig, x, rows) -> str | None:
+    """The column of the base model holding the same values as ``x`` on ``rows`` (None when none does).
+
+    With one air handler the frame's ``T_supply`` is its ``T_supply_<ahu>``: the model reads that column
+    already (its coefficient bounded ≥ 0), and a free coefficient on its copy is a second, unbounded
+    coefficient on one input, not a column the model ignores (the EnergyPlus bed's ``unused_input
+    T_supply_PACU_VAV_mid``: 4 false findings, ``benchmarks/diagnosis_energyplus_s13.md``).
+    """
+    xr = np.asarray(x, float)[rows]
+    for d in sig.base.disturbances:
+        v = sig.V.get(d)
+        if v is not None and len(xr) and np.allclose(np.asarray(v, float)[rows], xr, equal_nan=True):
+            return d
+    return None
+
+
 @dataclasses.dataclass(frozen=True)
 class UnusedInput(Term):
     """``coef · column`` into ``zone`` (``coef`` in K/step per unit of the column)."""
@@ -31,8 +61,13 @@ class UnusedInput(Term):
     column: str = ""
     coef: float = 0.0
 
+    generic: ClassVar[bool] = True
+
     def columns(self):
         return (self.column,)
+
+    def sources(self, sig):
+        return column_sources(self.column, getattr(sig, "extra", None))
 
     def zones(self):
         return (self.zone,)
@@ -74,11 +109,24 @@ class UnusedInput(Term):
             if col in used:
                 continue
             x = sig.extra[col]
+            same = read_as(sig, x, W.rows)
             for zi, z in enumerate(sig.zones):
                 if (zones and z not in zones) or (z, col) in have:
                     continue
                 xr = x[W.rows]
                 if np.nanstd(xr) <= 0:
+                    continue
+                if same:
+                    out.append(
+                        Candidate(
+                            cls.cause,
+                            {"zone": z, "column": col},
+                            status="no evidence",
+                            evidence={"column": col, "same_values_as": same},
+                            reason=f"{col} holds the same values as {same}, which the model reads: not an unused "
+                            f"column (one air handler: the frame's T_supply is its supply temperature)",
+                        )
+                    )
                     continue
                 ev = {"column": col, "corr": corr(resid[:, zi], W(x)), "coverage": sig.extra_coverage.get(col)}
                 out.append(Candidate(cls.cause, {"zone": z, "column": col}, [cls(zone=z, column=col)], 0, evidence=ev))
