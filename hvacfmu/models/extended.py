@@ -28,11 +28,14 @@ cause it models (the cause ids of :mod:`hvacfmu.diagnosis`):
     ``variant="dst_shift"`` — while daylight-saving time is in effect the profile
     is read ``shift`` steps later, scaled by ``coef`` per zone.
 ``reheat``
-    heat added by the boxes' reheat coils at minimum airflow in cold weather:
-    ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K per step].
+    heat added in cold weather while the zone's boxes sit at their minimum airflow (reheat coils) or are
+    off (``u_min`` at 5 % of the box minimum: a heater running while the system is off):
+    ``coef · 1[u_z ≤ u_min] · 1[T_out < T_threshold]`` [K per step]; or, where ``Td_`` is measured, the
+    discharge air's delivered heat.
 ``wind_infiltration``
     outdoor air leaking in with the wind: ``coef · wind · (T_out − x_z)`` into a zone
-    [K per step per (m/s · K)]; no matrix form (:meth:`ExtendedModel.equations` refuses it).
+    [K per step per (m/s · K)]; its matrix form multiplies a disturbance by the state
+    (``ModelEquations.Bxv``/``Bvv``).
 
 Hidden states (thermal masses, delayed inputs) are appended to the state after
 the zone temperatures; :meth:`ExtendedModel.output` returns the zone

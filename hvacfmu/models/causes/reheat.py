@@ -105,7 +105,9 @@ class Reheat(Term):
     """Reheat heat into ``zone``: on/off (``variant="switch"``) or measured through discharge air."""
 
     cause: ClassVar[str] = "reheat"
-    description: ClassVar[str] = "heat of the reheat coils (zone): on/off at minimum airflow, or from Td"
+    description: ClassVar[str] = (
+        "heat of the reheat coils (zone): on/off at minimum airflow or with the box off, or from Td"
+    )
     zone: str = ""
     coef: float = 0.0
     u_min: float = 0.0
