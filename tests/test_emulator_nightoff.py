@@ -126,3 +126,12 @@ def test_cli_generate_schedule_flag():
     args = build_parser().parse_args(["generate", "out", "--schedule", "night-off"])
     assert args.schedule == "night-off"
     assert build_parser().parse_args(["generate", "out"]).schedule == "always-on"
+
+
+def test_fleets_never_draw_the_heater():
+    """generate-fleet draws from EFFECT_NAMES: the heater (it needs night-off) stays out, fleets are unchanged."""
+    from hvacfmu.emulator.effects import ALL_EFFECT_NAMES, EFFECT_NAMES
+    from hvacfmu.emulator.fleet import FLEET_EFFECTS
+
+    assert "off_hours_heater" in ALL_EFFECT_NAMES
+    assert "off_hours_heater" not in EFFECT_NAMES and "off_hours_heater" not in FLEET_EFFECTS
