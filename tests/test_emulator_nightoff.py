@@ -135,3 +135,22 @@ def test_fleets_never_draw_the_heater():
 
     assert "off_hours_heater" in ALL_EFFECT_NAMES
     assert "off_hours_heater" not in EFFECT_NAMES and "off_hours_heater" not in FLEET_EFFECTS
+
+
+@pytest.mark.slow
+def test_diagnosis_finds_the_heater_as_box_off_reheat(tmp_path):
+    """8 cold weeks, row4, night-off with a 2.5-kW heater in R1 below 5 °C: the diagnosis names reheat at R1
+    in its box-off form (airflow bound 5 % of the zone's minimum), and nothing outside the truth (~25 s)."""
+    from hvacfmu.data import prepare
+    from hvacfmu.diagnosis import diagnose
+
+    paths = generate(tmp_path / "h", weeks=8, seed=0, climate="cold", start=START, layout="row4",
+                     schedule="night-off", effects=["off_hours_heater:zone=R1,power=2500,below=5"])  # fmt: skip
+    truth = json.loads(paths.truth.read_text())
+    report = diagnose(prepare(paths.measurements, paths.building), progress=False).to_dict()
+    cmp = compare_with_truth(report, truth)
+    assert [e["name"] for e in cmp["found"]] == ["off_hours_heater"] and not cmp["unsupported"]
+    (hit,) = [f for f in report["findings"] if f["cause"] == "reheat" and f["location"]["zone"] == "R1"]
+    zone_min = sum(v["m_min"] for v in truth["baseline"]["building"]["vavs"] if v["zone"] == "R1")
+    assert hit["parameters"]["u_min"]["value"] <= 0.06 * zone_min  # the box-off variant, not minimum airflow
+    assert hit["parameters"]["T_threshold"]["value"] <= 8.0  # [°C] the heater's 5 °C, within a threshold step
