@@ -154,3 +154,13 @@ def test_diagnosis_finds_the_heater_as_box_off_reheat(tmp_path):
     zone_min = sum(v["m_min"] for v in truth["baseline"]["building"]["vavs"] if v["zone"] == "R1")
     assert hit["parameters"]["u_min"]["value"] <= 0.06 * zone_min  # the box-off variant, not minimum airflow
     assert hit["parameters"]["T_threshold"]["value"] <= 8.0  # [°C] the heater's 5 °C, within a threshold step
+
+
+def test_schedule_in_cache_key_and_refused_by_energyplus(capsys):
+    from hvacfmu.cli import main
+    from hvacfmu.emulator import cache_key
+
+    assert cache_key(8, 0) == cache_key(8, 0, schedule="always-on")  # default: the cached files stay valid
+    assert cache_key(8, 0, schedule="night-off") != cache_key(8, 0)
+    assert main(["generate", "out", "--engine", "energyplus", "--schedule", "night-off"]) != 0
+    assert "--schedule night-off is an emulator option" in capsys.readouterr().err

@@ -72,6 +72,13 @@ def _cmd_check(args):
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
     if args.engine == "energyplus":
+        if args.schedule != "always-on":
+            from ..emulator import EmulatorError
+
+            raise EmulatorError(
+                f"--schedule {args.schedule} is an emulator option; the EnergyPlus prototypes run their own "
+                "HVAC schedules (their systems already shut off outside the occupied hours): drop --schedule"
+            )
         from ..energyplus import generate_from_args
 
         print(generate_from_args(args))
