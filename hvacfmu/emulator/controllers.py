@@ -67,7 +67,7 @@ def system_on(index: pd.DatetimeIndex, params=None) -> np.ndarray:
     of :func:`occupied_mode` started ``startup_hours`` early."""
     p = params or DEFAULT_CONTROLLERS
     sched = p.get("schedule")
-    if not sched or sched.get("mode", "always-on") == "always-on":
+    if not isinstance(sched, dict) or sched.get("mode", "always-on") == "always-on":
         return np.ones(len(index), dtype=bool)
     early = index + pd.Timedelta(hours=float(sched.get("startup_hours", 0.0)))
     return occupied_mode(index, p) | occupied_mode(early, p)

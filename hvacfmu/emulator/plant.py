@@ -133,9 +133,13 @@ class PlantCore:
         heater = [e for e in effects if e["name"] == "off_hours_heater"]
         he = None
         if heater:
-            he = {k: float(heater[0][k]) for k in ("power", "below")}
-            he["zone"] = zidx[heater[0]["zone"]]
-            he["boxes"] = np.flatnonzero(box_zone == he["zone"])
+            hz = zidx[heater[0]["zone"]]
+            he = {
+                "zone": hz,
+                "power": float(heater[0]["power"]),
+                "below": float(heater[0]["below"]),
+                "boxes": np.flatnonzero(box_zone == hz),
+            }
         wind = [e for e in effects if e["name"] == "wind_infiltration"]
         wind_effect = None
         if wind:

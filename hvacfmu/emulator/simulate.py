@@ -193,8 +193,9 @@ class _ClosedLoop:
         if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
             D += np.outer(self.rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
         he = core.heater_effect
-        if he is not None and np.all(m_a[he["boxes"]] <= 0.0):  # off_hours_heater: the zone's boxes are shut
-            D += np.outer(self.heater_minute[k0 : k0 + per], BQ[:, he["zone"]])
+        hm = self.heater_minute
+        if he is not None and hm is not None and np.all(m_a[he["boxes"]] <= 0.0):  # off_hours_heater: boxes shut
+            D += np.outer(hm[k0 : k0 + per], BQ[:, he["zone"]])
         we = core.wind_effect
         if we is not None:  # g (T_out - T_z) into the zone air: g of this control interval
             z = we["zone"]
