@@ -72,6 +72,13 @@ def _cmd_check(args):
 # --------------------------------------------------------------------------- generate
 def _cmd_generate(args):
     if args.engine == "energyplus":
+        if args.schedule != "always-on":
+            from ..emulator import EmulatorError
+
+            raise EmulatorError(
+                f"--schedule {args.schedule} is an emulator option; the EnergyPlus prototypes run their own "
+                "HVAC schedules (their systems already shut off outside the occupied hours): drop --schedule"
+            )
         from ..energyplus import generate_from_args
 
         print(generate_from_args(args))
@@ -98,6 +105,7 @@ def _cmd_generate(args):
         faults=args.fault or (),
         holidays=args.holidays,
         wind=args.wind,
+        schedule=args.schedule,
     )
     print(paths)
     return 0
@@ -371,6 +379,14 @@ def _add_generate_parser(sub) -> None:
         choices=("m/s", "km/h", "mph", "kn"),
         help="write the site's wind speed as a 'wind' column in UNIT (m/s, km/h, mph, kn; declared in the "
         "building file's [units]); default: no wind column",
+    )
+    p.add_argument(
+        "--schedule",
+        choices=("always-on", "night-off"),
+        default="always-on",
+        help="emulator HVAC schedule: always-on (default: boxes never below their minimum airflow, only set-backs "
+        "at night) or night-off (system off outside the occupied hours: boxes at zero airflow, no reheat, the air "
+        "handlers off and their T_supply reading the idle duct; restart 1 h before occupancy)",
     )
     from ..energyplus.cli import add_energyplus_arguments
 

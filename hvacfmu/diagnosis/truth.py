@@ -12,6 +12,10 @@ from __future__ import annotations
 
 import pandas as pd
 
+#: Injected effects whose diagnosis cause id is not their own name (the emulator's
+#: ``hvacfmu.emulator.effects.EFFECT_CAUSES``; repeated here: the diagnosis reads only truth.json).
+EFFECT_CAUSES = {"off_hours_heater": "reheat"}
+
 
 def _effects(truth, name):
     return [e for e in truth.get("effects", []) if e.get("name") == name]
@@ -34,13 +38,13 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
     """
     c, loc = finding["cause"], finding["location"]
     name = effect["name"]
-    if c != name:
+    if c != EFFECT_CAUSES.get(name, name):
         return False
     if name == "solar_gain":
         return loc.get("zone") == effect["zone"] and loc.get("facade") == effect["facade"]
     if name == "zone_coupling":
         return set(loc.get("zones", [])) == set(effect["zones"])
-    if name in ("thermal_mass", "reheat", "wind_infiltration"):
+    if name in ("thermal_mass", "reheat", "wind_infiltration", "off_hours_heater"):
         return loc.get("zone") == effect["zone"]
     if name == "actuation_delay":
         # within one step or 15 minutes, whichever is longer (the same tolerance in time at 5 and 15 min)

@@ -49,6 +49,50 @@ def occupied_mode(index: pd.DatetimeIndex, params=None) -> np.ndarray:
     return workday & (hour >= h0) & (hour < h1)
 
 
+#: ``generate(schedule=...)``: ``always-on`` (default: the boxes never go below ``m_min``, unoccupied hours only
+#: set back the set points) or ``night-off`` (the system is off outside the occupied hours: every box at zero
+#: airflow without reheat, the air handlers off; it restarts ``startup_hours`` before occupancy).
+SCHEDULES = ("always-on", "night-off")
+
+#: Settings of the ``night-off`` schedule (``truth["baseline"]["controllers"]["schedule"]``).
+NIGHT_OFF = {
+    "mode": "night-off",
+    "startup_hours": 1.0,  # [h] the system starts this long before the occupied hours (morning warm-up/cool-down)
+    "idle_hours": 1.0,  # [h] time constant of the idle duct: T_supply relaxes to the mean room air of its unit
+}
+
+
+def system_on(index: pd.DatetimeIndex, params=None) -> np.ndarray:
+    """Whether the HVAC system runs at each timestamp: always, or (``night-off``) the occupied hours
+    of :func:`occupied_mode` started ``startup_hours`` early."""
+    p = params or DEFAULT_CONTROLLERS
+    sched = p.get("schedule")
+    if not isinstance(sched, dict) or sched.get("mode", "always-on") == "always-on":
+        return np.ones(len(index), dtype=bool)
+    early = index + pd.Timedelta(hours=float(sched.get("startup_hours", 0.0)))
+    return occupied_mode(index, p) | occupied_mode(early, p)
+
+
+def idle_supply_temperature(T_supply, on, T_room, dt=60.0, hours=1.0):
+    """The supply-air sensor of a unit that is off part of the time [°C], same shape as ``T_supply``.
+
+    While ``on`` (per row) it reads the unit's supply air; while off, the still duct relaxes from
+    its last value toward the mean room air ``T_room`` (per row, or per row and unit) with the time
+    constant ``hours``.
+    """
+    Ts = np.array(T_supply, dtype=float, copy=True)
+    two = Ts.ndim == 2
+    Ts2 = Ts if two else Ts[:, None]
+    room = np.asarray(T_room, dtype=float)
+    room = room if room.ndim == 2 else np.repeat(room[:, None], Ts2.shape[1], axis=1)
+    a = float(np.exp(-dt / (hours * 3600.0)))
+    off = np.flatnonzero(~np.asarray(on, dtype=bool))
+    for k in off:
+        prev = Ts2[k - 1] if k > 0 else room[k]
+        Ts2[k] = a * prev + (1.0 - a) * room[k]
+    return Ts2 if two else Ts2[:, 0]
+
+
 def supply_air_temperature(T_out, rng, params=None, dt=60.0):
     """Supply-air temperature [°C] of the air handler from its outdoor-air reset schedule.
 

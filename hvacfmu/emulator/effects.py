@@ -34,6 +34,12 @@ effect                       parameters (default)
                              zone air, the wind held per control interval (its 5-minute mean); the
                              wind is the dataset's own series (``weather.synthetic_wind``), written
                              as the ``wind`` column only with ``generate(wind=...)``
+``off_hours_heater``         ``zone`` (random perimeter zone), ``power`` [W] of a heater left on in
+                             the zone (2000), heating whenever the zone's boxes are shut (zero
+                             airflow) and the outdoor temperature is below ``below`` [°C] (5): an
+                             occupant's space heater or a frost-protection loop; needs
+                             ``generate(schedule="night-off")`` (boxes are never shut otherwise).
+                             Diagnosis cause ``reheat`` at the zone (its box-off variant)
 ============================ ==================================================================
 """
 
@@ -54,6 +60,13 @@ EFFECT_NAMES = (
     "thermal_mass",
     "wind_infiltration",
 )
+#: Effects that need a non-default ``generate(schedule=...)`` (kept out of :data:`EFFECT_NAMES`, which every
+#: dataset accepts and ``generate-fleet`` draws from, so fleets and seeds are unchanged).
+SCHEDULE_EFFECTS = ("off_hours_heater",)
+ALL_EFFECT_NAMES = EFFECT_NAMES + SCHEDULE_EFFECTS
+
+#: Diagnosis cause id of every effect whose name is not itself a cause id.
+EFFECT_CAUSES = {"off_hours_heater": "reheat"}
 
 EFFECT_DEFAULTS = {
     "solar_gain": {"shgc": 0.2},
@@ -63,6 +76,7 @@ EFFECT_DEFAULTS = {
     "reheat": {"power": 3000.0, "below": 13.0},
     "thermal_mass": {"capacitance": 2.0e8, "ua": 1000.0},
     "wind_infiltration": {"ua": 40.0},
+    "off_hours_heater": {"power": 2000.0, "below": 5.0},
 }
 EFFECT_KEYS = {
     "solar_gain": {"zone", "facade", "shgc", "scale"},
@@ -72,6 +86,7 @@ EFFECT_KEYS = {
     "reheat": {"zone", "power", "below"},
     "thermal_mass": {"zone", "capacitance", "ua"},
     "wind_infiltration": {"zone", "ua"},
+    "off_hours_heater": {"zone", "power", "below"},
 }
 
 
@@ -124,8 +139,8 @@ def parse_effect(spec) -> dict:
             raise EmulatorError(problems_message(f"Invalid effect {text!r}", problems))
     problems = []
     name = d.get("name")
-    if name not in EFFECT_NAMES:
-        problems.append(f"unknown effect {name!r}; known effects: {', '.join(EFFECT_NAMES)}")
+    if name not in ALL_EFFECT_NAMES:
+        problems.append(f"unknown effect {name!r}; known effects: {', '.join(ALL_EFFECT_NAMES)}")
     else:
         for key in d:
             if key != "name" and key not in EFFECT_KEYS[name]:
@@ -178,6 +193,8 @@ def resolve_effects(effects, seed: int, building: dict, weeks: int, control_inte
                 r[k] = [str(x) for x in v]
         _RESOLVERS[name](e, r, rng, ctx, f"effect {i + 1} ({name})", problems)
         out.append(r)
+    if sum(r["name"] == "off_hours_heater" for r in out) > 1:
+        problems.append("off_hours_heater given more than once (the emulator models one heater)")
     delayed = [r["zone"] for r in out if r["name"] == "actuation_delay"]
     for z in {z for z in delayed if delayed.count(z) > 1}:
         problems.append(f"actuation_delay given twice for zone {z}")
@@ -315,6 +332,7 @@ _RESOLVERS = {
     "reheat": _resolve_reheat,
     "thermal_mass": _resolve_thermal_mass,
     "wind_infiltration": _resolve_wind_infiltration,
+    "off_hours_heater": _resolve_reheat,  # the same parameters: zone, power [W], below [°C]
 }
 
 

@@ -15,7 +15,7 @@ import pandas as pd
 
 from ..building import building_from_dict
 from .building import TRUE_PARAMETERS, building_dict, true_building_dict
-from .controllers import REHEAT_MODE_AHUS
+from .controllers import NIGHT_OFF, REHEAT_MODE_AHUS, SCHEDULES
 from .effects import EmulatorError, parse_effect, resolve_effects
 from .export import (
     UNITS_TABLE,
@@ -85,12 +85,15 @@ def make_truth(
     climate: str = "mild",
     hvac: str = "vav",
     holidays: str | None = None,
+    schedule: str = "always-on",
 ) -> dict:
     """The truth mapping of a dataset before simulation (structure, parameters, resolved effects).
 
     ``layout``, ``construction`` and ``climate`` name entries of
     :mod:`hvacfmu.emulator.layouts`; ``start`` is the local start time (ISO, no offset); ``holidays``
-    a country code whose public holidays the building closes on (None: it never closes).
+    a country code whose public holidays the building closes on (None: it never closes); ``schedule``
+    one of :data:`~hvacfmu.emulator.controllers.SCHEDULES` (``night-off``: recorded as ``truth["schedule"]``
+    and ``baseline.controllers.schedule``; the default adds nothing, so default truths are unchanged).
     """
     problems = []
     if not isinstance(weeks, (int, np.integer)) or weeks < 1:
@@ -98,6 +101,13 @@ def make_truth(
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         problems.append(f"seed must be a non-negative integer, got {seed!r}")
     problems += check_options(layout, construction, climate, hvac)
+    if schedule not in SCHEDULES:
+        problems.append(f"schedule must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
+    if schedule != "night-off" and any(_effect_name(e) == "off_hours_heater" for e in effects):
+        problems.append(
+            "effect off_hours_heater heats only while the boxes are shut, which needs schedule 'night-off' "
+            "(generate --schedule night-off)"
+        )
     if holidays is not None:
         from ..calendars import country_problems
 
@@ -129,6 +139,8 @@ def make_truth(
         controllers["heating_sequence"] = mode["heating_sequence"]
         if mode["heating_sequence"] == "dual":
             controllers["heating_max_fraction"] = mode["heating_max_fraction"]
+    if schedule == "night-off":
+        controllers["schedule"] = dict(NIGHT_OFF)
     resolved = resolve_effects(list(effects), int(seed), bld, int(weeks), controllers["control_interval"])
     if any(e.get("kind") == "dst" for e in resolved) and not _has_dst(clim["timezone"], start, int(weeks)):
         raise EmulatorError(
@@ -176,7 +188,14 @@ def make_truth(
     }
     if closed is not None:
         truth["holidays"] = closed
+    if schedule != "always-on":
+        truth["schedule"] = schedule
     return truth
+
+
+def _effect_name(spec) -> str:
+    """The name of an effect given as a dict or ``name:key=value`` text (not validated here)."""
+    return str(spec.get("name")) if isinstance(spec, dict) else str(spec).partition(":")[0].strip()
 
 
 def _has_dst(timezone: str, start: str, weeks: int) -> bool:
@@ -388,6 +407,7 @@ def generate(
     faults=(),
     holidays: str | None = None,
     wind: str | None = None,
+    schedule: str = "always-on",
 ) -> GeneratedPaths:
     """Write an emulated dataset (by default the SDH-like floor in Berkeley).
 
@@ -432,6 +452,12 @@ def generate(
         Write the site's wind speed (the dataset's own series, :func:`~hvacfmu.emulator.plant.site_wind`) as a
         ``wind`` column in this unit (declared in the building file's ``[units]``); None (default): no column.
         The other columns do not change with it.
+    schedule : {"always-on", "night-off"}
+        ``always-on`` (default): the boxes never go below ``m_min``, unoccupied hours only set back the set
+        points. ``night-off``: outside the occupied hours (weekdays 06:00-20:00, started one hour early) the
+        system is off: every box at zero airflow and no reheat, the air handlers off (their ``T_supply``
+        columns read the idle duct, relaxing toward the mean room air with a 1-h time constant); the box
+        loops restart from zero in the morning. Recorded in ``truth.json`` (``schedule``).
 
     Returns
     -------
@@ -455,6 +481,7 @@ def generate(
         climate=climate,
         hvac=hvac,
         holidays=holidays,
+        schedule=schedule,
     )
     sim = simulate(truth)
     frame = _measured_frame(sim, truth)
@@ -594,6 +621,7 @@ _GENERATE_DEFAULTS = {
     "faults": (),
     "holidays": None,
     "wind": None,
+    "schedule": "always-on",
 }
 
 

@@ -82,6 +82,8 @@ class PlantCore:
     reheat_effect: dict | None
     #: ``wind_infiltration`` effect: ``{"zone": index, "g": (n_blocks,) [W/K] ua · wind per control interval, "per"}``
     wind_effect: dict | None = None
+    #: ``off_hours_heater`` effect: ``{"zone": index, "power" [W], "below" [°C], "boxes": the zone's boxes}``
+    heater_effect: dict | None = None
     ahus: tuple = ()  # air handler names ("reheat" mode); () = one implicit unit
     box_ahu: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=int))  # unit index per box
 
@@ -128,6 +130,16 @@ class PlantCore:
                 "below": float(reheat[0]["below"]),
             }
             rh["boxes"] = np.flatnonzero(box_zone == rh["zone"])
+        heater = [e for e in effects if e["name"] == "off_hours_heater"]
+        he = None
+        if heater:
+            hz = zidx[heater[0]["zone"]]
+            he = {
+                "zone": hz,
+                "power": float(heater[0]["power"]),
+                "below": float(heater[0]["below"]),
+                "boxes": np.flatnonzero(box_zone == hz),
+            }
         wind = [e for e in effects if e["name"] == "wind_infiltration"]
         wind_effect = None
         if wind:
@@ -155,6 +167,7 @@ class PlantCore:
             delay_boxes=np.flatnonzero(box_zone == dz) if delay else np.zeros(0, dtype=int),
             reheat_effect=rh,
             wind_effect=wind_effect,
+            heater_effect=he,
             ahus=ahus,
             box_ahu=np.array([ahus.index(v["ahu"]) if ahus else 0 for v in bld["vavs"]], dtype=int),
         )
@@ -556,6 +569,9 @@ class Plant:
             rh = c.reheat_effect
             if rh is not None and T_out < rh["below"] and np.all(m_app[rh["boxes"]] <= c.m_min[rh["boxes"]] + 1e-9):
                 h_z[rh["zone"]] += rh["power"]
+            he = c.heater_effect
+            if he is not None and T_out < he["below"] and np.all(m_app[he["boxes"]] <= 0.0):
+                h_z[he["zone"]] += he["power"]
             Q = h_z - (c.Mzb @ mcp) * xt[:nz]
             we = c.wind_effect
             if we is not None:  # outdoor air leaking in with the wind of this control interval

@@ -17,8 +17,10 @@ from .controllers import (
     DEFAULT_CONTROLLERS,
     VavControllers,
     excitation_schedule,
+    idle_supply_temperature,
     occupied_mode,
     supply_air_temperatures,
+    system_on,
 )
 from .plant import DT, PlantCore, dataset_index, site_wind, stream
 from .thermal import CP_AIR
@@ -44,7 +46,8 @@ def simulate(truth: dict) -> dict:
         ``reheat`` (n, nb) reheat power delivered [W], ``reheat_command`` (n, nb)
         reheat power commanded [W], ``T_supply`` (n,) or, with several air handlers
         (``reheat`` mode), (n, n_ahu) in the order of ``ahus``, ``ahus`` (tuple of names),
-        ``box_ahu`` (n_vav,) unit index of every box,
+        ``box_ahu`` (n_vav,) unit index of every box, ``system_on`` (n,) bool: the air handlers run
+        (always, unless the ``night-off`` schedule shut them; then ``T_supply`` reads the idle duct),
         ``T_out`` (n,) [°C], ``ghi`` (n,), ``wind`` (n,) [m/s], ``I`` (n, 4) [W/m2], ``Q_ig`` (n, nz) [W],
         ``T_fl`` (n,) [°C], ``excitation`` (n,) bool, ``segments`` (excitation
         segments), ``x0`` initial state in :class:`Plant` layout, ``weather`` (dict).
@@ -68,6 +71,10 @@ def simulate(truth: dict) -> dict:
     x0 = np.concatenate([x, sim.delay_buffer()]) if sim.d_blocks else x.copy()
     sim.run(0, sim.n, x, record=True)
     per = sim.per
+    unit_on = np.repeat(sim.unit_on, per)
+    T_logged = T_supply
+    if not unit_on.all():  # night-off: the supply-air sensor of a unit that is off reads its idle duct
+        T_logged = idle_supply_temperature(T_supply, unit_on, _unit_rooms(sim.Y, core), DT, _idle_hours(cp))
     return {
         "index": index,
         "T_zone": sim.Y,
@@ -75,7 +82,8 @@ def simulate(truth: dict) -> dict:
         "m_applied": np.repeat(sim.m_app_log, per, axis=0),
         "reheat": np.repeat(sim.p_app_log, per, axis=0),
         "reheat_command": np.repeat(sim.p_log, per, axis=0),
-        "T_supply": T_supply,
+        "T_supply": T_logged,
+        "system_on": unit_on,
         "ahus": core.ahus,
         "box_ahu": core.box_ahu,
         "T_out": weather["T_out"],
@@ -112,6 +120,10 @@ class _ClosedLoop:
             raise ValueError("dataset length must be a multiple of the control interval")
         self._excitation(segments, n // per)
         self.occ_block = occupied_mode(index, cp)[::per]
+        self.on_block = system_on(index, cp)[::per]  # night-off schedule: False while the system is off
+        self.unit_on = self.on_block | (self.exc_block >= 0)  # an experiment runs the system
+        he = core.heater_effect
+        self.heater_minute = None if he is None else he["power"] * (weather["T_out"] < he["below"])
         self.ctrl = VavControllers(core.m_min, core.m_max, core.box_zone, cp["box_offsets"], cp)
         rh = core.reheat_effect
         self.rh_minute = None if rh is None else rh["power"] * (weather["T_out"] < rh["below"])
@@ -150,6 +162,9 @@ class _ClosedLoop:
         if e >= 0:
             m, p = self.exc_m[e], np.zeros(len(core.vavs))
             self.ctrl.reset()
+        elif not self.on_block[b]:  # night-off: boxes shut, no reheat; the loops restart from zero
+            m, p = np.zeros(len(core.vavs)), np.zeros(len(core.vavs))
+            self.ctrl.reset()
         else:
             k0 = b * self.per
             m, p = self.ctrl.step(x[:nz], self.occ_block[b], self.T_supply[k0, core.box_ahu] if self.multi else None)
@@ -177,6 +192,10 @@ class _ClosedLoop:
         rh = core.reheat_effect
         if rh is not None and np.all(m_a[rh["boxes"]] <= core.m_min[rh["boxes"]] + 1e-9):
             D += np.outer(self.rh_minute[k0 : k0 + per], BQ[:, rh["zone"]])
+        he = core.heater_effect
+        hm = self.heater_minute
+        if he is not None and hm is not None and np.all(m_a[he["boxes"]] <= 0.0):  # off_hours_heater: boxes shut
+            D += np.outer(hm[k0 : k0 + per], BQ[:, he["zone"]])
         we = core.wind_effect
         if we is not None:  # g (T_out - T_z) into the zone air: g of this control interval
             z = we["zone"]
@@ -216,6 +235,18 @@ class _ClosedLoop:
             buf[slot * per : (slot + 1) * per, :, 0] = self.ring_m[slot]
             buf[slot * per : (slot + 1) * per, :, 1] = self.ring_p[slot]
         return buf.ravel()
+
+
+def _idle_hours(cp: dict) -> float:
+    return float((cp.get("schedule") or {}).get("idle_hours", 1.0))
+
+
+def _unit_rooms(T_zone: np.ndarray, core: PlantCore) -> np.ndarray:
+    """Mean room air [°C] of every air handler's zones per row: (n,) with one unit, else (n, n_ahu)."""
+    if not core.ahus:
+        return T_zone.mean(axis=1)
+    cols = [T_zone[:, np.unique(core.box_zone[core.box_ahu == i])].mean(axis=1) for i in range(len(core.ahus))]
+    return np.column_stack(cols)
 
 
 def controller_defaults(seed: int, n_vav: int) -> dict:
