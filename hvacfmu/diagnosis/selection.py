@@ -624,7 +624,13 @@ def _score_round(sig: Signals, W: Within, terms, cur, opts) -> list:
     factors = [ess_factor(lag1(resid[:, z])) for z in range(sig.nz)]
     resid_all = one_step_residuals(sig, cur.model)
     resid_all[~sig.train] = np.nan  # screens see the training folds only
-    cands = cand.generate(sig, terms, W, resid, {**opts, "_resid_all": resid_all})
+    screen_opts = {**opts, "_resid_all": resid_all}
+    if not model_problems(cur.model):
+        # a screen may leave out variants whose joint refit fails the load checks (a slow mass's time constant)
+        screen_opts["_joint_problems"] = lambda new_terms: model_problems(
+            fit_structure(sig, list(new_terms), W.rows, within=W).model
+        )
+    cands = cand.generate(sig, terms, W, resid, screen_opts)
     U_cur = effective_inputs(sig, terms)
     cache = {"U_eff": U_cur, "feats": [term_features(sig, tt, U_cur) for tt in terms]}
     for c in cands:
