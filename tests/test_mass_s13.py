@@ -4,7 +4,7 @@ On the EnergyPlus mid-rise apartments the one-step fit preferred a 12.5-h mass i
 beta 0.57); refitted with the base structure it gave a mode of spectral radius 1.14 (the flat's diagonal went
 negative, -0.57, against its twin flat's coupling 0.83), so the joint-refit check of forward selection rejected
 the whole round's six masses. The candidate now leaves such time constants out of its variants
-(:func:`hvacfmu.models.causes.thermal_mass.stable_variants`) and keeps the best one that loads.
+(:func:`hvacfmu.models.causes.thermal_mass.keep_stable_time_constant`) and keeps the best one that loads.
 
 Synthetic: three rooms in a row with a slow mass behind A (``test_diagnosis.simulate_dataset``). The refit
 of a time constant is declared diverging by wrapping the load checks (the mechanism of the apartments, a
@@ -20,7 +20,7 @@ from test_diagnosis import row_model, simulate_dataset
 
 from hvacfmu.diagnosis import selection as S
 from hvacfmu.diagnosis.design import Within, fit_structure, make_signals
-from hvacfmu.models.causes.thermal_mass import ThermalMass, alphas, stable_variants
+from hvacfmu.models.causes.thermal_mass import ThermalMass, alphas
 from hvacfmu.models.extended import ExtendedModel
 from hvacfmu.models.loadcheck import model_problems
 
@@ -87,13 +87,24 @@ def test_a_zone_whose_every_time_constant_diverges_is_rejected_with_the_reasons(
     sig, W, cur, opts = mass_round
     monkeypatch.setattr(S, "model_problems", _diverging_at(set(alphas(sig.step))))
     c = _mass_candidate(S._score_round(sig, W, [], cur, opts))
-    assert c.variants == [] and c.status == "rejected" and not c.test
+    assert c.variants == [] and c.status == "rejected"
     assert "fails the load checks at every time constant tried" in c.reason
     assert all(f"{tau:g} h: unstable" in c.reason for tau in (125, 50, 25, 12.5, 5, 2.5))
 
 
-def test_stable_variants_without_a_check_keeps_the_grid():
-    grid = [ThermalMass(zone="A", alpha=a) for a in alphas(900.0)]
-    assert stable_variants(grid, [], 900.0) == (grid, {})
-    kept, why = stable_variants(grid, [], 900.0, lambda terms: ["x"] if terms[-1].alpha > 0.04 else [])
-    assert [t.alpha for t in kept] == [0.002, 0.005, 0.01, 0.02] and why == {"5": "x", "2.5": "x"}
+def test_an_insignificant_mass_is_not_refitted_jointly(mass_round, monkeypatch):
+    """Only a significant mass candidate pays for joint refits (one per round while its best variant loads)."""
+    sig, W, cur, opts = mass_round
+    calls = []
+    real = S.fit_structure
+
+    def counting(sig_, terms, *a, **k):
+        calls.append([t.zone for t in terms if isinstance(t, ThermalMass)])
+        return real(sig_, terms, *a, **k)
+
+    monkeypatch.setattr(S, "fit_structure", counting)
+    cands = S._score_round(sig, W, [], cur, opts)
+    masses = {c.location["zone"]: c for c in cands if c.cause == "thermal_mass"}
+    significant = [z for z, c in masses.items() if c.test and c.test["delta_bic"] > opts["bic_margin"]]
+    assert "A" in significant
+    assert sorted(z for (z,) in calls) == sorted(significant)

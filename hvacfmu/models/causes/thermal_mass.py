@@ -90,15 +90,7 @@ class ThermalMass(Term):
 
     @classmethod
     def screen(cls, sig, terms, W, resid, options):
-        """One candidate per zone without a mass; its variants are the time constants whose joint refit loads.
-
-        ``options["_joint_problems"]`` (given by the diagnosis when the current model passes the load checks):
-        ``terms -> list[str]``, the load checks' problems of the structure refitted with ``terms``. A time
-        constant whose refit fails them (a diverging mode) is left out of the variants, with the reason in
-        ``evidence["unstable_time_constants_h"]``; a zone whose every time constant fails is rejected.
-        """
         have = {t.zone for t in terms if isinstance(t, ThermalMass)}
-        joint_problems = options.get("_joint_problems")
         out = []
         for zi, z in enumerate(sig.zones):
             if z in have:
@@ -108,56 +100,16 @@ class ThermalMass(Term):
             for al in grid:
                 f = cls(zone=z, alpha=al).features(sig, None)[0][2]
                 cors[f"{al:g}"] = corr(resid[:, zi], W(f))
-            evidence = slow_mode_evidence(cors, sig.step)
-            variants, unstable = stable_variants(
-                [cls(zone=z, alpha=al) for al in grid], terms, sig.step, joint_problems
-            )
-            c = Candidate(cls.cause, {"zone": z}, variants, 1, evidence=evidence)
-            if unstable:
-                evidence["unstable_time_constants_h"] = unstable
-            if not variants:
-                c.status = "rejected"
-                c.reason = (
-                    "the structure refitted with this mass fails the load checks at every time constant tried ("
-                    + "; ".join(f"{tau} h: {why}" for tau, why in unstable.items())
-                    + ")"
+            out.append(
+                Candidate(
+                    cls.cause,
+                    {"zone": z},
+                    [cls(zone=z, alpha=al) for al in grid],
+                    1,
+                    evidence=slow_mode_evidence(cors, sig.step),
                 )
-            out.append(c)
+            )
         return out
-
-
-def stable_variants(variants, terms, step: float, joint_problems=None) -> tuple:
-    """The mass ``variants`` whose joint refit with ``terms`` passes the load checks, and why the others fail.
-
-    A time constant is a searched hyper-parameter of the candidate: the one-step fit picks the best of
-    those tried, but a slow mass that a closed-loop fit pairs with a negative diagonal and a twin zone's
-    coupling can make the refitted model oscillate and diverge (the EnergyPlus apartments: 12.5 h and 5 h
-    in one flat, spectral radius 1.14, while 25 h and 2.5 h loaded). Those time constants are left out
-    here, so the candidate keeps a stable one instead of the whole round failing the joint-refit check.
-
-    Parameters
-    ----------
-    variants : list of ThermalMass
-    terms : list of Term
-        The current extension terms.
-    step : float [s]
-    joint_problems : callable(list of Term) -> list of str, or None
-        None: every variant is kept.
-
-    Returns
-    -------
-    (kept variants, {time constant [h] as text: the first problem})
-    """
-    if joint_problems is None:
-        return list(variants), {}
-    kept, unstable = [], {}
-    for t in variants:
-        problems = joint_problems(list(terms) + [t])
-        if problems:
-            unstable[f"{float(step) / float(t.alpha) / 3600.0:g}"] = problems[0]
-        else:
-            kept.append(t)
-    return kept, unstable
 
 
 def slow_mode_evidence(cors: dict, step: float) -> dict:
@@ -179,3 +131,48 @@ def slow_mode_evidence(cors: dict, step: float) -> dict:
         "best_corr": finite[best],
         "slow_mode": bool(finite[best] > 0 and best != fastest),
     }
+
+
+def keep_stable_time_constant(c, terms, step: float, joint_problems, rescore) -> None:
+    """Keep the best time constant of mass candidate ``c`` whose joint refit passes the load checks (in place).
+
+    A time constant is a searched hyper-parameter of the candidate: the one-step fit (``rescore``) picks the best
+    of its variants, but a slow mass that a closed-loop fit pairs with a negative diagonal and a twin zone's
+    coupling can make the structure refitted with it diverge (the EnergyPlus apartments: 12.5 h and 5 h in one
+    flat, spectral radius 1.14, while 25 h and 2.5 h loaded). While the chosen variant's joint refit fails, that
+    time constant is dropped from ``c.variants`` and the rest rescored: the result is the best variant among those
+    that load (each variant's score does not depend on the others). The dropped ones and the first problem of each
+    go to ``c.evidence["unstable_time_constants_h"]``; a candidate left without variants is ``rejected``.
+
+    Parameters
+    ----------
+    c : Candidate
+        Scored (``c.term`` is its best variant); other causes are left alone.
+    terms : list of Term
+        The current extension terms.
+    step : float [s]
+    joint_problems : callable(list of Term) -> list of str
+        The load checks' problems of the structure refitted with the given terms.
+    rescore : callable()
+        Scores ``c`` again over its remaining variants (sets ``c.term`` and ``c.test``).
+    """
+    if c.cause != ThermalMass.cause or c.term is None:
+        return
+    unstable = {}
+    while True:
+        problems = joint_problems(list(terms) + [c.term])
+        if not problems:
+            break
+        unstable[f"{float(step) / float(c.term.alpha) / 3600.0:g}"] = problems[0]
+        c.variants = [t for t in c.variants if t.alpha != c.term.alpha]
+        if not c.variants:
+            c.status = "rejected"
+            c.reason = (
+                "the structure refitted with this mass fails the load checks at every time constant tried ("
+                + "; ".join(f"{tau} h: {why}" for tau, why in unstable.items())
+                + ")"
+            )
+            break
+        rescore()
+    if unstable:
+        c.evidence["unstable_time_constants_h"] = unstable
