@@ -40,6 +40,7 @@ from scipy import stats
 from ..errors import DataError
 from ..models.causes.actuation_delay import HISTORY_S, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
+from ..models.causes.thermal_mass import keep_stable_time_constant
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from ..models.loadcheck import model_problems
 from . import candidates as cand
@@ -628,10 +629,21 @@ def _score_round(sig: Signals, W: Within, terms, cur, opts) -> list:
     cands = cand.generate(sig, terms, W, resid, {**opts, "_resid_all": resid_all})
     U_cur = effective_inputs(sig, terms)
     cache = {"U_eff": U_cur, "feats": [term_features(sig, tt, U_cur) for tt in terms]}
+    # a significant slow mass keeps its best time constant whose joint refit loads (when the current model does)
+    loads = not model_problems(cur.model)
     for c in cands:
         if c.variants and c.status == "not tested":
             score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache)
-            _gate(c, opts)
+            if loads and c.test["delta_bic"] > opts["bic_margin"]:
+                keep_stable_time_constant(
+                    c,
+                    terms,
+                    sig.step,
+                    lambda new: model_problems(fit_structure(sig, list(new), W.rows, within=W).model),
+                    lambda c=c: score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache),
+                )
+            if c.status == "not tested":
+                _gate(c, opts)
     return cands
 
 

@@ -131,3 +131,48 @@ def slow_mode_evidence(cors: dict, step: float) -> dict:
         "best_corr": finite[best],
         "slow_mode": bool(finite[best] > 0 and best != fastest),
     }
+
+
+def keep_stable_time_constant(c, terms, step: float, joint_problems, rescore) -> None:
+    """Keep the best time constant of mass candidate ``c`` whose joint refit passes the load checks (in place).
+
+    A time constant is a searched hyper-parameter of the candidate: the one-step fit (``rescore``) picks the best
+    of its variants, but a slow mass that a closed-loop fit pairs with a negative diagonal and a twin zone's
+    coupling can make the structure refitted with it diverge (the EnergyPlus apartments: 12.5 h and 5 h in one
+    flat, spectral radius 1.14, while 25 h and 2.5 h loaded). While the chosen variant's joint refit fails, that
+    time constant is dropped from ``c.variants`` and the rest rescored: the result is the best variant among those
+    that load (each variant's score does not depend on the others). The dropped ones and the first problem of each
+    go to ``c.evidence["unstable_time_constants_h"]``; a candidate left without variants is ``rejected``.
+
+    Parameters
+    ----------
+    c : Candidate
+        Scored (``c.term`` is its best variant); other causes are left alone.
+    terms : list of Term
+        The current extension terms.
+    step : float [s]
+    joint_problems : callable(list of Term) -> list of str
+        The load checks' problems of the structure refitted with the given terms.
+    rescore : callable()
+        Scores ``c`` again over its remaining variants (sets ``c.term`` and ``c.test``).
+    """
+    if c.cause != ThermalMass.cause or c.term is None:
+        return
+    unstable = {}
+    while True:
+        problems = joint_problems(list(terms) + [c.term])
+        if not problems:
+            break
+        unstable[f"{float(step) / float(c.term.alpha) / 3600.0:g}"] = problems[0]
+        c.variants = [t for t in c.variants if t.alpha != c.term.alpha]
+        if not c.variants:
+            c.status = "rejected"
+            c.reason = (
+                "the structure refitted with this mass fails the load checks at every time constant tried ("
+                + "; ".join(f"{tau} h: {why}" for tau, why in unstable.items())
+                + ")"
+            )
+            break
+        rescore()
+    if unstable:
+        c.evidence["unstable_time_constants_h"] = unstable

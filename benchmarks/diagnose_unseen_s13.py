@@ -1,0 +1,93 @@
+"""``diagnose`` on cases of ``energyplus_unseen5_run.py``: findings and held-out RMS per zone and season (session 13).
+
+The export of each case is the cached one of ``energyplus_unseen5_run.py`` (same options); ``diagnose`` runs with its
+defaults, and its extended model, the zones model and both baselines are scored on the held-out windows. Used for
+``apartments_mass_s13.md`` (run once on the code before and once after a change, in two checkouts).
+
+    OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/diagnose_unseen_s13.py --out DIR CASE ...
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from energyplus_unseen5_run import CASES  # noqa: E402
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("cases", nargs="+", choices=sorted(CASES))
+    ap.add_argument("--out", required=True, help="folder for <case>.json and <case>_model.json")
+    args = ap.parse_args(argv)
+
+    from hvacfmu.data import prepare
+    from hvacfmu.diagnosis import diagnose
+    from hvacfmu.energyplus import cached_export
+    from hvacfmu.evaluation import evaluate
+    from hvacfmu.fitting import fit
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for key in args.cases:
+        spec, extra = CASES[key]
+        prototype, _, weather = spec.partition("@")
+        name, _, floor = prototype.partition(":")
+        zones = floor.split(",") if "," in floor else None
+        opts = dict(extra)
+        if weather:
+            opts["weather"] = weather
+        if zones:
+            opts["zones"] = zones
+        paths = cached_export(name, floor=None if zones else (floor or None), weeks=opts.pop("weeks", None), **opts)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds = prepare(paths.measurements, paths.building)
+            t0 = time.perf_counter()
+            rep = diagnose(ds, progress=False)
+            t_diag = time.perf_counter() - t0
+            models = {"zones": fit(ds, "zones", progress=False), "extended": rep.model}
+            res = evaluate(list(models.values()), ds, names=list(models))
+        print(f"\n=== {key}: {spec}: {len(ds.building.zones)} zones, {len(ds.weeks)} weeks; diagnose {t_diag:.0f} s")
+        print(rep.summary())
+        masses = [c for c in rep.candidates if c["cause"] == "thermal_mass"]
+        for c in masses:
+            ev = c["evidence"]
+            print(
+                f"  thermal_mass {c['location']['zone']}: {c['status']}; tau {ev.get('time_constant_h', float('nan')):g} h"
+                + (f"; left out (joint refit fails the load checks): {sorted(ev['unstable_time_constants_h'])} h"
+                   if ev.get("unstable_time_constants_h") else "")
+            )  # fmt: skip
+        scores = {}
+        for sc in res.scores:
+            seasons = np.asarray(sc.seasons, dtype=object)
+            rows = {}
+            for s in [*dict.fromkeys(sc.seasons), "all"]:
+                sel = np.ones(len(seasons), bool) if s == "all" else seasons == s
+                rows[s] = {
+                    "windows": int(sel.sum()),
+                    "model": np.nanmean(sc.rms[sel], axis=0).tolist(),
+                    "persistence": np.nanmean(sc.baselines["persistence"][sel], axis=0).tolist(),
+                    "time_of_week": np.nanmean(sc.baselines["time-of-week mean"][sel], axis=0).tolist(),
+                }
+                print(
+                    f"  {sc.name:>9} {s:>7}: model {np.nanmean(rows[s]['model']):.3f} K, persistence "
+                    f"{np.nanmean(rows[s]['persistence']):.3f} K, time-of-week {np.nanmean(rows[s]['time_of_week']):.3f} K"
+                    f"  per zone {np.round(rows[s]['model'], 3).tolist()}"
+                )
+            scores[sc.name] = {"outputs": list(sc.outputs), "seasons": rows}
+        rec = {"case": key, "spec": spec, "t_diagnose_s": t_diag, "summary": rep.summary(), "scores": scores}
+        (out / f"{key}.json").write_text(json.dumps(rec, indent=1, default=str))
+        rep.model.save(out / f"{key}_model.json")
+
+
+if __name__ == "__main__":
+    main()
