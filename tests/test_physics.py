@@ -776,7 +776,17 @@ def test_gain_days_from_the_building_file():
         _gain_days(bad, None)
 
 
-def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_week_mean(recovered):
+@pytest.fixture(scope="module")
+def recovered_auto(recovered):
+    """``refit_gains(model, ds, "auto")`` of the recovered model, made once for the tests that read it (about
+    1 s of CPU each time); the determinism test still makes it again."""
+    from hvacfmu.models.physics import refit_gains
+
+    ds, _, model = recovered
+    return refit_gains(model, ds, "auto")
+
+
+def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_week_mean(recovered, recovered_auto):
     """A physics model fitted with the paper's per-time-of-week gains that beats persistence but not the
     time-of-week mean gets a hint naming the zones and ``gain_days = "shrunk"``; not a model that loses to
     persistence there, not one fitted with another profile, not another model kind."""
@@ -796,7 +806,7 @@ def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_
     worse = [ZoneVerdict("physics", a, 0.40, 0.30, 0.18, 0.0, 5.0, 100)]  # loses to persistence: causes, not this
     assert gain_profile_hint(model, worse) == ""
     assert gain_profile_hint(refit_gains(model, ds, "shrunk"), zones) == ""
-    auto = refit_gains(model, ds, "auto")
+    auto = recovered_auto
     assert gain_profile_hint(auto, zones) == ""  # a profile chosen by cross-validation: no "try shrunk"
     assert gain_profile_hint(refit_gains(auto, ds, "week"), zones) == hint
     assert gain_profile_hint(object(), zones) == ""
@@ -804,7 +814,7 @@ def test_verdict_hints_the_pooled_gain_profile_where_physics_trails_the_time_of_
     assert f"to try for physics: {hint}" in v.format() and v.to_dict()["hints"] == {"physics": [hint]}
 
 
-def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered):
+def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered, recovered_auto):
     """``gain_days="auto"``: step 2's profile with the lowest blocked-CV 24-h open-loop RMS over the training
     weeks, recorded in ``meta["gains"]["auto"]``; its gains are exactly the chosen profile's; the same call
     gives the same choice and scores; ``fit_physics(gain_days="auto")`` gives what ``refit_gains`` gives."""
@@ -812,7 +822,7 @@ def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered):
     from hvacfmu.models.physics.identification import GAIN_PROFILES
 
     ds, _, model = recovered
-    auto = refit_gains(model, ds, "auto")
+    auto = recovered_auto
     rec = auto.meta["gains"]["auto"]
     assert auto.meta["fit_options"]["gain_days"] == "auto" and auto.meta["gains"]["day_types"] == rec["chosen"]
     assert set(rec["cv_rms"]) == set(GAIN_PROFILES) and rec["chosen"] in GAIN_PROFILES
@@ -835,7 +845,7 @@ def test_gain_days_auto_chooses_the_lowest_cross_validated_profile(recovered):
     assert "gain profile: week" in model.summary()
 
 
-def test_gain_days_auto_uses_no_test_week(recovered):
+def test_gain_days_auto_uses_no_test_week(recovered, recovered_auto):
     """The choice and its CV scores do not change when the test weeks' data change (zone temperatures,
     airflows, weather: all of it), and they do change when a training week's data change (the CV uses them)."""
     import dataclasses
@@ -843,7 +853,7 @@ def test_gain_days_auto_uses_no_test_week(recovered):
     from hvacfmu.models.physics import refit_gains
 
     ds, _, model = recovered
-    rec = refit_gains(model, ds, "auto").meta["gains"]["auto"]
+    rec = recovered_auto.meta["gains"]["auto"]
     frame = ds.frame
     test = [w for w in ds.weeks if not w.train]
     train = [w for w in ds.weeks if w.train]
