@@ -39,33 +39,53 @@ def _two_units():
     )
 
 
-def test_hold_idle_supply_per_unit():
-    b = _two_units()
+def _frame():
     idx = pd.date_range("2025-01-06", periods=6, freq="15min", tz="UTC")
-    frame = pd.DataFrame(
+    return pd.DataFrame(
         {
-            "m_a": [0.5, 0.0, 0.0, 0.4, 0.0, 0.3],
+            "m_a": [0.5, 0.004, 0.0, 0.4, 0.0, 0.3],  # row 1: sensor noise of a shut box (bound 5 % of m_min)
             "m_b": [0.0, 0.2, np.nan, 0.0, 0.0, 0.1],
             "T_supply_U1": [13.0, 20.0, 21.0, 14.0, 19.0, 15.0],
             "T_supply_U2": [22.0, 12.0, 23.0, 24.0, 25.0, 12.5],
             "T_supply": [13.0, 12.0, 21.0, 14.0, 19.0, 14.0],
+            "T_A": [20.0, 20.5, 21.0, 21.5, 22.0, 22.5],
+            "T_B": [18.0, 18.0, 18.0, 18.0, 19.0, np.nan],
         },
         index=idx,
     )
+
+
+def test_idle_supply_last_running_value_per_unit():
+    b = _two_units()
+    frame = _frame()
     bounds = box_off_bounds(b, 0.05, OFF_FLOW)
     assert bounds == {"m_a": pytest.approx(0.005), "m_b": pytest.approx(0.005)}
-    rule = idle_supply_rule(b, frame.columns, bounds)
-    assert rule == {"T_supply": bounds, "T_supply_U1": {"m_a": bounds["m_a"]}, "T_supply_U2": {"m_b": bounds["m_b"]}}
-    frame.iloc[1, 0] = 0.004  # sensor noise of a shut box: off
+    rule = idle_supply_rule(b, frame.columns, bounds, "last")
+    assert rule == {
+        "T_supply": {"flows": bounds},
+        "T_supply_U1": {"flows": {"m_a": bounds["m_a"]}},
+        "T_supply_U2": {"flows": {"m_b": bounds["m_b"]}},
+    }
     out, counts = hold_idle_supply(frame, rule)
     # U1 off in rows 1, 2, 4: last running value 13 (row 0), then 14 (row 3)
     assert out["T_supply_U1"].tolist() == [13.0, 13.0, 13.0, 14.0, 14.0, 15.0]
-    # U2 off in rows 0, 3, 4 (row 2: airflow missing, left as measured); row 0 takes the first running value
+    # U2 off in rows 0, 3, 4 (row 2: airflow missing, left as measured and no source); row 0: first running value
     assert out["T_supply_U2"].tolist() == [12.0, 12.0, 23.0, 12.0, 12.0, 12.5]
     # T_supply idle only when every box is off (row 4)
     assert out["T_supply"].tolist() == [13.0, 12.0, 21.0, 14.0, 14.0, 14.0]
     assert counts == {"T_supply": 1, "T_supply_U1": 3, "T_supply_U2": 3}
     assert frame["T_supply_U1"].iloc[1] == 20.0  # the input is not modified
+
+
+def test_idle_supply_zone_air():
+    b = _two_units()
+    frame = _frame()
+    rule = idle_supply_rule(b, frame.columns, box_off_bounds(b, 0.05, OFF_FLOW), "zone")
+    assert rule["T_supply"]["zones"] == {"T_A": 1.0, "T_B": 1.0} and rule["T_supply_U2"]["zones"] == {"T_B": 1.0}
+    out, _ = hold_idle_supply(frame, rule)
+    assert out["T_supply_U1"].tolist() == [13.0, 20.5, 21.0, 14.0, 22.0, 15.0]
+    assert out["T_supply_U2"].tolist() == [18.0, 12.0, 23.0, 18.0, 19.0, 12.5]
+    assert out["T_supply"].tolist() == [13.0, 12.0, 21.0, 14.0, 20.5, 14.0]  # row 4: mean of T_A and T_B
 
 
 @pytest.fixture(scope="module")
@@ -91,22 +111,22 @@ def test_diagnosis_base_reads_held_supply(night_off):
     off = np.all(m <= bound, axis=1)
     assert 0.2 < off.mean() < 0.8  # the emulator's shut boxes read noise, not 0: the bound is 5 % of m_min
     t = raw["T_supply"].to_numpy(float)
-    running = np.where(np.any(m > bound, axis=1), t, np.nan)
-    expect = pd.Series(running).ffill().bfill().to_numpy()
-    assert np.nanmax(np.abs(t[off] - expect[off])) > 1.0  # the idle duct drifts away from the running value
+    w = {}
+    for v in ds.building.vavs:
+        w[f"T_{v.zone}"] = w.get(f"T_{v.zone}", 0.0) + v.m_max
+    expect = raw[list(w)].to_numpy(float) @ np.array(list(w.values())) / sum(w.values())
+    off_z = off & np.isfinite(expect)  # (elsewhere: the last running value)
+    assert off_z.sum() > 0.9 * off.sum()
+    assert np.max(np.abs(t[off_z] - expect[off_z])) > 1.0  # the idle duct is not (yet) the zone air
 
     report = diagnose(ds, progress=False)
     idle = report.model.meta["idle_supply"]
     assert list(idle["rule"]) == ["T_supply"]
-    assert list(idle["rule"]["T_supply"]) == [f"m_{v}" for v in ds.building.vav_names]
-    assert any("idle supply temperature is held" in n and "T_supply in" in n for n in report.notes)
+    assert idle["mode"] == "zone"
+    assert list(idle["rule"]["T_supply"]["flows"]) == [f"m_{v}" for v in ds.building.vav_names]
+    assert any("idle supply temperature is replaced" in n and "T_supply in" in n for n in report.notes)
     # the saved model applies the same substitution to the raw measurements
     _, v = report.model.signals(raw)
     j = report.model.disturbances.index("T_supply")
-    np.testing.assert_allclose(v[off, j], expect[off], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(v[off_z, j], expect[off_z], rtol=0, atol=1e-9)
     np.testing.assert_allclose(v[~off, j], t[~off], rtol=0, atol=1e-12)
-    # no box-off reheat (airflow bound near zero) in this clean building
-    for f in report.findings:
-        if f["cause"] == "reheat":
-            u_min = (f.get("parameters") or {}).get("u_min", {}).get("value")
-            assert u_min is None or u_min > 0.0, f

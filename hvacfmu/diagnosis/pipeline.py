@@ -137,7 +137,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         model=final,
         base_model=base_model,
         data=_data_summary(dataset, sig, n_train),
-        options={**opts, "hold_idle_supply": bool(hold)},
+        options={**opts, "hold_idle_supply": hold},
         rounds=sel.rounds,
         notes=notes,
         series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
@@ -213,19 +213,22 @@ def _base_model(dataset, model, say, notes) -> tuple:
     return model, given
 
 
-def _hold_idle_supply(dataset, hold: bool, notes: list) -> tuple:
-    """The dataset with its supply temperature held at the last running value while the air handler is off.
+def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
+    """The dataset with an idle air handler's supply temperature replaced (``hvacfmu.data.idle``).
 
-    The diagnosis's base is Model A in the airflow form, where ``T_supply`` enters linearly (a linearisation of
-    ``m c_p (T_supply − T)`` around the mean flow): while every box of a unit has zero airflow its logged supply
-    temperature is an idle duct node no air carries (EnergyPlus: 43 % of the steps of the medium office), and the
-    linear term would read it. Held at the unit's last running value it contributes what it did while the unit
-    ran. Only when an air handler is off in more than ``OFF_SHARE_DELIVERED`` of the training steps (the
-    criterion of ``fit(heat="auto")``). Returns ``(dataset, idle)``: ``idle`` is the rule the extended model
-    carries (``meta["idle_supply"]``) to apply the same substitution to raw data, or ``{}``.
+    The diagnosis's base is Model A in the airflow form, where ``T_supply`` enters linearly (with the ``A``
+    diagonal, a linearisation of ``m c_p (T_supply − T)`` around the mean flow): while every box of a unit has
+    (near) zero airflow its logged supply temperature is an idle duct node no air carries (EnergyPlus: 43 % of
+    the steps of the medium office). ``hold``: ``"zone"`` (or True) replaces it by the mean air temperature of
+    the unit's zones, so the mean-flow term vanishes; ``"last"`` holds the last running value; False reads the
+    raw column. Only when an air handler is off in more than ``OFF_SHARE_DELIVERED`` of the training steps (the
+    criterion of ``fit(heat="auto")``, with the reheat cause's box-off bound). Returns ``(dataset, idle)``:
+    ``idle`` holds the rule the extended model carries (``meta["idle_supply"]``) to apply the same substitution
+    to raw data, or ``{}``.
     """
-    if not hold:
+    if hold is False or hold is None:
         return dataset, {}
+    mode = "zone" if hold is True else hold
     from ..models.causes.reheat import BOX_OFF_FRACTION
     from ..models.datadriven import OFF_SHARE_DELIVERED
     from ..models.heat import OFF_FLOW, air_handler_off_share
@@ -245,7 +248,7 @@ def _hold_idle_supply(dataset, hold: bool, notes: list) -> tuple:
     share = air_handler_off_share(b, frame[cols].to_numpy(float), train, [bounds[c] for c in cols])
     if share <= OFF_SHARE_DELIVERED:
         return dataset, {}
-    rule = idle_supply_rule(b, frame.columns, bounds)
+    rule = idle_supply_rule(b, frame.columns, bounds, mode)
     held, counts = hold_idle_supply(frame, rule)
     if not any(counts.values()):
         return dataset, {}
@@ -253,10 +256,12 @@ def _hold_idle_supply(dataset, hold: bool, notes: list) -> tuple:
     what = ", ".join(f"{c} in {k} of {n} steps ({100 * k / max(n, 1):.0f} %)" for c, k in counts.items())
     notes.append(
         f"an air handler is off (no airflow in all its boxes) in {100 * share:.0f} % of the training steps: its "
-        f"idle supply temperature is held at its last running value ({what}); the extended model applies the "
-        "same substitution (meta idle_supply); option hold_idle_supply=False reads the raw column"
+        f"idle supply temperature is replaced by "
+        f"{'the mean air temperature of its zones' if mode == 'zone' else 'its last running value'} ({what}); "
+        "the extended model applies the same substitution (meta idle_supply); option hold_idle_supply=False "
+        "reads the raw column"
     )
-    idle = {"rule": rule, "held_steps": counts, "off_share": share}
+    idle = {"rule": rule, "mode": mode, "held_steps": counts, "off_share": share}
     return dataclasses.replace(dataset, frame=held), idle
 
 
@@ -278,7 +283,7 @@ def _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle=None) 
                 "data": getattr(dataset, "source", None),
                 "options": {k: v for k, v in opts.items()},
             },
-            **({"idle_supply": {"rule": idle["rule"]}} if idle else {}),
+            **({"idle_supply": {"mode": idle["mode"], "rule": idle["rule"]}} if idle else {}),
         },
     )
     return final
