@@ -7,6 +7,8 @@ more than 5 % of the training steps) and the extended model carries the rule to 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -17,6 +19,7 @@ from hvacfmu.data.idle import box_off_bounds, hold_idle_supply, idle_supply_rule
 from hvacfmu.diagnosis import diagnose
 from hvacfmu.diagnosis.pipeline import _hold_idle_supply
 from hvacfmu.emulator import generate
+from hvacfmu.models.extended import ExtendedModel
 from hvacfmu.models.heat import OFF_FLOW
 
 START = "2025-11-03"
@@ -130,3 +133,6 @@ def test_diagnosis_base_reads_held_supply(night_off):
     j = report.model.disturbances.index("T_supply")
     np.testing.assert_allclose(v[off_z, j], expect[off_z], rtol=0, atol=1e-9)
     np.testing.assert_allclose(v[~off, j], t[~off], rtol=0, atol=1e-12)
+    # ... also after a JSON round trip (the model file evaluate and export read)
+    again = ExtendedModel.from_dict(json.loads(json.dumps(report.model.to_dict())))
+    np.testing.assert_array_equal(again.signals(raw)[1], v)
