@@ -91,6 +91,16 @@ def test_idle_supply_zone_air():
     assert out["T_supply"].tolist() == [13.0, 12.0, 21.0, 14.0, 20.5, 14.0]  # row 4: mean of T_A and T_B
 
 
+def test_idle_discharge_air_of_a_shut_box():
+    b = _two_units()
+    frame = _frame().assign(Td_a=[30.0, 25.0, 24.0, 31.0, 23.0, 29.0])
+    rule = idle_supply_rule(b, frame.columns, box_off_bounds(b, 0.05, OFF_FLOW), "zone")
+    assert rule["Td_a"] == {"flows": {"m_a": pytest.approx(0.005)}, "zones": {"T_A": 1.0}}
+    out, counts = hold_idle_supply(frame, rule)
+    assert out["Td_a"].tolist() == [30.0, 20.5, 21.0, 31.0, 22.0, 29.0]  # box a shut in rows 1, 2, 4
+    assert counts["Td_a"] == 3
+
+
 @pytest.fixture(scope="module")
 def night_off(tmp_path_factory):
     paths = generate(tmp_path_factory.mktemp("idle") / "d", weeks=3, seed=0, climate="cold", start=START,

@@ -37,7 +37,8 @@ def idle_supply_rule(building: Building, columns, bounds: dict, mode: str = "zon
     """``{supply column: {"flows": {airflow column: off bound}, "zones": {T_<zone>: weight}}}``.
 
     ``T_supply`` (the single implicit unit, or the flow-weighted mean of several units) is idle only when every
-    box is off; ``T_supply_<ahu>`` when every box of that unit is off. ``bounds``: :func:`box_off_bounds`.
+    box is off; ``T_supply_<ahu>`` when every box of that unit is off; a measured discharge temperature
+    ``Td_<vav>`` when its box is off. ``bounds``: :func:`box_off_bounds`.
     ``mode`` ``"zone"`` adds the zones (weights: summed ``m_max`` of the unit's boxes in each zone); ``"last"``
     leaves them out (hold the last running value).
     """
@@ -50,6 +51,8 @@ def idle_supply_rule(building: Building, columns, bounds: dict, mode: str = "zon
     for a in building.ahus:
         if a.supply_column in columns and a.supply_column != "T_supply":
             units.append((a.supply_column, [v for v in building.vavs if v.ahu == a.name]))
+    # a shut box's measured discharge air Td_<vav> reads the same idle air (no airflow, no reheat)
+    units += [(f"Td_{v.name}", [v]) for v in building.vavs if f"Td_{v.name}" in columns]
     rule = {}
     for col, vavs in units:
         if not vavs:

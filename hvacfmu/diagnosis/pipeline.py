@@ -220,7 +220,7 @@ def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
     diagonal, a linearisation of ``m c_p (T_supply − T)`` around the mean flow): while every box of a unit has
     (near) zero airflow its logged supply temperature is an idle duct node no air carries (EnergyPlus: 43 % of
     the steps of the medium office). ``hold``: ``"zone"`` (or True) replaces it by the mean air temperature of
-    the unit's zones, so the mean-flow term vanishes; ``"last"`` holds the last running value; False reads the
+    the unit's zones, so the mean-flow term vanishes (a shut box's measured ``Td_<vav>`` by its zone's air); ``"last"`` holds the last running value; False reads the
     raw column. Only when an air handler is off in more than ``OFF_SHARE_DELIVERED`` of the training steps (the
     criterion of ``fit(heat="auto")``, with the reheat cause's box-off bound). Returns ``(dataset, idle)``:
     ``idle`` holds the rule the extended model carries (``meta["idle_supply"]``) to apply the same substitution
