@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 import warnings
@@ -9,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.idle import box_off_bounds, hold_idle_supply, idle_supply_rule
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
 from ..models.loadcheck import model_problems
@@ -62,6 +64,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
 def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     """:func:`diagnose`'s work, on the caller's BLAS threads."""
     t0 = time.perf_counter()
+    options = dict(options)
+    hold = options.pop("hold_idle_supply", True)
     opts = _options(dataset, options)
 
     def say(msg):
@@ -71,6 +75,9 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     notes = []
     if not dataset.weeks:
         raise DataError("the dataset holds no complete week: nothing to diagnose")
+    dataset, idle = _hold_idle_supply(dataset, hold, notes)
+    if idle:
+        say(notes[-1])
     model, given = _base_model(dataset, model, say, notes)
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
@@ -95,7 +102,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     say("scoring candidate causes and selecting extensions")
     sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
     findings = sel.findings
-    final = _final_model(sel, sig, initial_terms, base_model, dataset, opts)
+    final = _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle)
     # the model this report saves must load again (export, evaluate, cosim read it through the same checks)
     bad = model_problems(final)
     if bad:
@@ -130,7 +137,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         model=final,
         base_model=base_model,
         data=_data_summary(dataset, sig, n_train),
-        options={k: v for k, v in opts.items()},
+        options={**opts, "hold_idle_supply": hold},
         rounds=sel.rounds,
         notes=notes,
         series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
@@ -206,7 +213,59 @@ def _base_model(dataset, model, say, notes) -> tuple:
     return model, given
 
 
-def _final_model(sel, sig, initial_terms, base_model, dataset, opts) -> ExtendedModel:
+def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
+    """The dataset with an idle air handler's supply temperature replaced (``hvacfmu.data.idle``).
+
+    The diagnosis's base is Model A in the airflow form, where ``T_supply`` enters linearly (with the ``A``
+    diagonal, a linearisation of ``m c_p (T_supply − T)`` around the mean flow): while every box of a unit has
+    (near) zero airflow its logged supply temperature is an idle duct node no air carries (EnergyPlus: 43 % of
+    the steps of the medium office). ``hold``: ``"zone"`` (or True) replaces it by the mean air temperature of
+    the unit's zones, so the mean-flow term vanishes (a shut box's measured ``Td_<vav>`` by its zone's air); ``"last"`` holds the last running value; False reads the
+    raw column. Only when an air handler is off in more than ``OFF_SHARE_DELIVERED`` of the training steps (the
+    criterion of ``fit(heat="auto")``, with the reheat cause's box-off bound). Returns ``(dataset, idle)``:
+    ``idle`` holds the rule the extended model carries (``meta["idle_supply"]``) to apply the same substitution
+    to raw data, or ``{}``.
+    """
+    if hold is False or hold is None:
+        return dataset, {}
+    mode = "zone" if hold is True else hold
+    from ..models.causes.reheat import BOX_OFF_FRACTION
+    from ..models.datadriven import OFF_SHARE_DELIVERED
+    from ..models.heat import OFF_FLOW, air_handler_off_share
+
+    b = dataset.building
+    frame = dataset.frame
+    cols = [f"m_{v}" for v in b.vav_names]
+    if any(c not in frame.columns for c in cols):
+        return dataset, {}
+    train = np.zeros(len(frame), bool)
+    for w in dataset.weeks:
+        if w.train:
+            train |= (frame.index >= w.start) & (frame.index < w.end)
+    # a box is off at or below the box-off bound of the reheat cause (5 % of its minimum): measured airflow of a
+    # shut box is sensor noise, rarely exactly 0
+    bounds = box_off_bounds(b, BOX_OFF_FRACTION, OFF_FLOW)
+    share = air_handler_off_share(b, frame[cols].to_numpy(float), train, [bounds[c] for c in cols])
+    if share <= OFF_SHARE_DELIVERED:
+        return dataset, {}
+    rule = idle_supply_rule(b, frame.columns, bounds, mode)
+    held, counts = hold_idle_supply(frame, rule)
+    if not any(counts.values()):
+        return dataset, {}
+    n = len(frame)
+    what = ", ".join(f"{c} in {k} of {n} steps ({100 * k / max(n, 1):.0f} %)" for c, k in counts.items())
+    notes.append(
+        f"an air handler is off (no airflow in all its boxes) in {100 * share:.0f} % of the training steps: its "
+        f"idle supply temperature is replaced by "
+        f"{'the mean air temperature of its zones' if mode == 'zone' else 'its last running value'} ({what}); "
+        "the extended model applies the same substitution (meta idle_supply); option hold_idle_supply=False "
+        "reads the raw column"
+    )
+    idle = {"rule": rule, "mode": mode, "held_steps": counts, "off_share": share}
+    return dataclasses.replace(dataset, frame=held), idle
+
+
+def _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle=None) -> ExtendedModel:
     """The extended model with every accepted term, and its provenance."""
     findings = sel.findings
     if findings or initial_terms:
@@ -224,6 +283,7 @@ def _final_model(sel, sig, initial_terms, base_model, dataset, opts) -> Extended
                 "data": getattr(dataset, "source", None),
                 "options": {k: v for k, v in opts.items()},
             },
+            **({"idle_supply": {"mode": idle["mode"], "rule": idle["rule"]}} if idle else {}),
         },
     )
     return final

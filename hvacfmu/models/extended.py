@@ -51,6 +51,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
+from ..data.idle import hold_idle_supply
 from ..errors import ModelError, problems_message
 from .base import FORMAT_VERSION, ZoneModel, check_version, require_keys
 from .causes import (
@@ -186,6 +187,11 @@ class ExtendedModel(ZoneModel):
         return self.base.measured_outputs(frame)
 
     def signals(self, frame: pd.DataFrame):
+        idle = self.meta.get("idle_supply") if isinstance(self.meta, dict) else None
+        if idle:
+            # diagnosed on data whose idle supply temperature was held (hvacfmu.data.idle): the same here
+            rule = {c: f for c, f in idle["rule"].items() if c in frame.columns}
+            frame = hold_idle_supply(frame, rule)[0]
         missing = [c for c in self._disturbances if c not in frame.columns]
         if missing:
             derived = {}

@@ -91,8 +91,8 @@ def delivered_heat(m, T_in, T_zone):
     return np.asarray(m, float) * (CP_AIR / 1000.0) * (np.asarray(T_in, float) - np.asarray(T_zone, float))
 
 
-def air_handler_off_share(building, m, rows=None) -> float:
-    """Share of ``rows`` in which every box of at least one air handler has zero airflow.
+def air_handler_off_share(building, m, rows=None, off_flow=OFF_FLOW) -> float:
+    """Share of ``rows`` in which every box of at least one air handler has zero airflow (``<= off_flow``).
 
     In those rows the air handler's supply temperature is an idle node
     temperature, meaningless as an input unless multiplied by the airflow.
@@ -103,8 +103,11 @@ def air_handler_off_share(building, m, rows=None) -> float:
     m : array (n, n_vav) [kg/s]
         Box airflows in ``building.vav_names`` order (NaN: missing).
     rows : array of bool, optional
+    off_flow : float or array (n_vav,) [kg/s]
+        Airflow at or below which a box counts as off (default :data:`OFF_FLOW`; per box for noisy sensors).
     """
     m = np.asarray(m, float)
+    bound = np.broadcast_to(np.asarray(off_flow, float), (m.shape[1],))
     rows = np.ones(m.shape[0], bool) if rows is None else np.asarray(rows, bool)
     units = {}
     for j, v in enumerate(building.vavs):
@@ -112,7 +115,7 @@ def air_handler_off_share(building, m, rows=None) -> float:
     off = np.zeros(m.shape[0], bool)
     for cols in units.values():
         mu = m[:, cols]
-        off |= np.all(np.isfinite(mu), axis=1) & np.all(mu <= OFF_FLOW, axis=1)
+        off |= np.all(np.isfinite(mu), axis=1) & np.all(mu <= bound[cols], axis=1)
     sel = rows & np.all(np.isfinite(m), axis=1)
     return float(off[sel].mean()) if sel.any() else 0.0
 
