@@ -275,16 +275,6 @@ def print_summary(records: dict, diag: dict) -> None:
             print(line)
 
 
-def _load(path: Path) -> dict:
-    out: dict = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            if line.strip():
-                r = json.loads(line)
-                out[r["case"]["id"]] = r
-    return out
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     ap.add_argument("--only", default="", help="comma-separated case ids")
@@ -293,8 +283,8 @@ def main() -> None:
     ap.add_argument("--diagnosis", default="", help="a bench_diagnosis_energyplus.py results file to compare with")
     args = ap.parse_args()
     path = Path(args.results)
-    records = _load(path)
-    diag = _load(Path(args.diagnosis)) if args.diagnosis else {}
+    records = bed._load(path)
+    diag = bed._load(Path(args.diagnosis)) if args.diagnosis else {}
     _CLEAN.update({cid: r for cid, r in diag.items() if r["case"]["effect"] is None})
     if not args.summary:
         only = {int(x) for x in args.only.split(",") if x.strip()}

@@ -20,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from energyplus_unseen5_run import CASES  # noqa: E402
+from energyplus_unseen5_run import CASES, _per_zone_season  # noqa: E402
 
 
 def main(argv=None):
@@ -66,24 +66,14 @@ def main(argv=None):
                 + (f"; left out (joint refit fails the load checks): {sorted(ev['unstable_time_constants_h'])} h"
                    if ev.get("unstable_time_constants_h") else "")
             )  # fmt: skip
-        scores = {}
-        for sc in res.scores:
-            seasons = np.asarray(sc.seasons, dtype=object)
-            rows = {}
-            for s in [*dict.fromkeys(sc.seasons), "all"]:
-                sel = np.ones(len(seasons), bool) if s == "all" else seasons == s
-                rows[s] = {
-                    "windows": int(sel.sum()),
-                    "model": np.nanmean(sc.rms[sel], axis=0).tolist(),
-                    "persistence": np.nanmean(sc.baselines["persistence"][sel], axis=0).tolist(),
-                    "time_of_week": np.nanmean(sc.baselines["time-of-week mean"][sel], axis=0).tolist(),
-                }
+        scores = _per_zone_season(res)
+        for name, per in scores.items():
+            for s, row in per["seasons"].items():
                 print(
-                    f"  {sc.name:>9} {s:>7}: model {np.nanmean(rows[s]['model']):.3f} K, persistence "
-                    f"{np.nanmean(rows[s]['persistence']):.3f} K, time-of-week {np.nanmean(rows[s]['time_of_week']):.3f} K"
-                    f"  per zone {np.round(rows[s]['model'], 3).tolist()}"
+                    f"  {name:>9} {s:>7}: model {np.nanmean(row['model']):.3f} K, persistence "
+                    f"{np.nanmean(row['persistence']):.3f} K, time-of-week {np.nanmean(row['time_of_week']):.3f} K"
+                    f"  per zone {np.round(row['model'], 3).tolist()}"
                 )
-            scores[sc.name] = {"outputs": list(sc.outputs), "seasons": rows}
         rec = {"case": key, "spec": spec, "t_diagnose_s": t_diag, "summary": rep.summary(), "scores": scores}
         (out / f"{key}.json").write_text(json.dumps(rec, indent=1, default=str))
         rep.model.save(out / f"{key}_model.json")
