@@ -252,17 +252,22 @@ def test_acf_and_cpgram_handle_gaps(rng):
 # slab with a 12.5-h time constant, 30-min delay, bilinear 0.03/step per kg/s·K, reheat 0.05 K/step
 SYNTHETIC_CASES = [
     (SolarGain(zone="A", facade="S", coef=0.0008), 0, {"zone": "A", "facade": "S"}),
-    (SolarGain(zone="C", facade="W", coef=0.0005), 1, {"zone": "C", "facade": "W"}),
+    pytest.param(SolarGain(zone="C", facade="W", coef=0.0005), 1, {"zone": "C", "facade": "W"}, marks=pytest.mark.slow),
     (ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.04, coef_ba=0.04), 0, {"zones": ["A", "C"]}),
-    (ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.05, coef_ba=0.05), 1, {"zones": ["A", "C"]}),
+    pytest.param(
+        ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.05, coef_ba=0.05),
+        1,
+        {"zones": ["A", "C"]},
+        marks=pytest.mark.slow,
+    ),
     (ThermalMass(zone="B", alpha=0.02, beta=0.05), 0, {"zone": "B"}),
-    (ThermalMass(zone="A", alpha=0.01, beta=0.06), 1, {"zone": "A"}),
+    pytest.param(ThermalMass(zone="A", alpha=0.01, beta=0.06), 1, {"zone": "A"}, marks=pytest.mark.slow),
     (ActuationDelay(zone="C", delay=2), 0, {"zone": "C", "delay": 2}),
-    (ActuationDelay(zone="A", delay=3), 1, {"zone": "A", "delay": 3}),
+    pytest.param(ActuationDelay(zone="A", delay=3), 1, {"zone": "A", "delay": 3}, marks=pytest.mark.slow),
     (SupplyAirBilinear(zone="A", coef=0.03), 0, {"zone": "A"}),
-    (SupplyAirBilinear(zone="B", coef=0.02), 1, {"zone": "B"}),
+    pytest.param(SupplyAirBilinear(zone="B", coef=0.02), 1, {"zone": "B"}, marks=pytest.mark.slow),
     (Reheat(zone="A", coef=0.06, u_min=0.0526, T_threshold=12.0), 0, {"zone": "A"}),
-    (Reheat(zone="C", coef=0.04, u_min=0.0526, T_threshold=10.0), 1, {"zone": "C"}),
+    pytest.param(Reheat(zone="C", coef=0.04, u_min=0.0526, T_threshold=10.0), 1, {"zone": "C"}, marks=pytest.mark.slow),
 ]
 
 
@@ -1019,7 +1024,7 @@ def history_closed_loop_dataset(weeks=12, seed=0, a2=0.6, lag=2, gain=0.25, nois
     return Dataset.from_frame(frame, ds0.building, step=900.0, seed=seed)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_feedback_standing_in_for_temperature_history_is_not_delay(seed):
     """Feedback is not delay (issue 15): under P control u(k − d) is the controller's answer to T(k − d), so
     in a zone that depends on its own past temperature the airflow of 3 steps before "explains" the zone
@@ -1076,7 +1081,9 @@ def test_delay_gate_compares_past_and_future_airflow(past, future, causal):
     assert set(c.evidence["delay_past_vs_future"]) == {"past_at_delay", "future_max"}
 
 
-@pytest.mark.parametrize("seed", [10, 11, 12])
+@pytest.mark.parametrize(
+    "seed", [10, pytest.param(11, marks=pytest.mark.slow), pytest.param(12, marks=pytest.mark.slow)]
+)
 def test_no_false_alarm_on_model_a_data(seed):
     base = row_model()
     ds = simulate_dataset(base, weeks=12, seed=seed, at_min=0.2)
@@ -1396,7 +1403,9 @@ def fitted_model_a():
     return fit(ds, "zones", progress=False), ds
 
 
-@pytest.mark.parametrize("noise_seed", [0, 1, 2])
+@pytest.mark.parametrize(
+    "noise_seed", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)]
+)
 def test_no_false_alarm_on_data_simulated_from_fitted_model_a(fitted_model_a, noise_seed):
     """Temperatures simulated at the model step from a fitted Model A (measured airflows and
     weather of the emulator, the model's own gain profiles, 0.05 K process noise): the base
