@@ -124,15 +124,26 @@ def simulate_dataset(
         frame[f"m_{v}"] = u[:, j]
     if ghi:
         frame["ghi"] = np.maximum(0, np.sin(np.pi * (hour - 6.5) / 13)) * 850 * cloud
+    simulate_zones(model, frame, building, seed, rng, noise)
+    if gaps:
+        frame.iloc[1000:1100, frame.columns.get_loc("T_A")] = np.nan
+        frame.iloc[3000:3040] = np.nan
+    return Dataset.from_frame(frame, building, step=900.0, seed=seed)
+
+
+def simulate_zones(model, frame, building, seed, rng, noise) -> None:
+    """Fill ``T_A..T_C`` of ``frame`` (in place) with ``model`` simulated on its inputs, process noise [K] from
+    ``rng``."""
     for z in "ABC":
         frame[f"T_{z}"] = 21.0
     ds0 = Dataset.from_frame(frame, building, step=900.0, seed=seed)
     uu, vv = model.signals(ds0.frame)
+    n = len(frame)
     q = np.zeros((n, 3))
     season = ds0.season_of_row
     for s in np.unique(season):
         m = season == s
-        q[m] = model.gains_at(idx[m], s)
+        q[m] = model.gains_at(frame.index[m], s)
     x = np.asarray(model.initial_state(ds0.frame, 0), float)  # 21 °C, hidden states from the inputs
     Y = np.empty((n, 3))
     for k in range(n):
@@ -141,10 +152,6 @@ def simulate_dataset(
         x[:3] += rng.normal(0, noise, 3)
     for j, z in enumerate("ABC"):
         frame[f"T_{z}"] = Y[:, j]
-    if gaps:
-        frame.iloc[1000:1100, frame.columns.get_loc("T_A")] = np.nan
-        frame.iloc[3000:3040] = np.nan
-    return Dataset.from_frame(frame, building, step=900.0, seed=seed)
 
 
 def _found(report, cause, **loc):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from test_diagnosis import ROW, TZ, row_model
+from test_diagnosis import ROW, TZ, row_model, simulate_zones
 
 from hvacfmu.building import building_from_dict
 from hvacfmu.data.dataset import Dataset
@@ -43,23 +43,7 @@ def boxes_off_at_night(model, weeks=8, seed=0, noise=0.02) -> Dataset:
     for j, v in enumerate(("V1", "V2", "V3")):
         frame[f"m_{v}"] = u[:, j]
     frame["ghi"] = np.maximum(0, np.sin(np.pi * (hour - 7.5) / 9)) * 500
-    for z in "ABC":
-        frame[f"T_{z}"] = 21.0
-    ds0 = Dataset.from_frame(frame, building, step=900.0, seed=seed)
-    uu, vv = model.signals(ds0.frame)
-    q = np.zeros((n, 3))
-    season = ds0.season_of_row
-    for s in np.unique(season):
-        m = season == s
-        q[m] = model.gains_at(idx[m], s)
-    x = np.asarray(model.initial_state(ds0.frame, 0), float)
-    Y = np.empty((n, 3))
-    for k in range(n):
-        Y[k] = model.output(x)
-        x = model.step_state(x, uu[k], vv[k], q[k])
-        x[:3] += rng.normal(0, noise, 3)
-    for j, z in enumerate("ABC"):
-        frame[f"T_{z}"] = Y[:, j]
+    simulate_zones(model, frame, building, seed, rng, noise)
     return Dataset.from_frame(frame, building, step=900.0, seed=seed)
 
 
