@@ -17,6 +17,12 @@
  *
  * with xs the physical states the outputs and bilinear terms read (S = rows of V).
  *
+ * Idle air handler (HV_NIDLE > 0: the model's stored idle supply rule, hvacfmu.data.idle.IdleStep): before
+ * every model step, each listed disturbance v_j (a unit's supply temperature T_supply..., a box's Td_<vav>)
+ * whose boxes all have airflow at or below their off bound is replaced by the weighted mean of the FMU's own
+ * zone temperatures at the start of the step ("zone" mode), or by its last value while a box of the unit ran
+ * (HV_IDLE_LAST; the raw value until the unit first runs).
+ *
  * q is row (slot mod n_slots) of the season's time-of-week gain table, with
  * slot = floor((start_time_of_week + t_start)/step + 1e-9) + k for model step k,
  * or floor(time_of_week/step + 1e-9) when the time_of_week input is >= 0.
@@ -64,6 +70,11 @@ typedef struct {
 #endif
 #define HV_NWALL (HV_NU + HV_NV + HV_NQ + HV_NSWITCH + HV_MODAL * HV_NREP + 1)
 
+#ifndef HV_NIDLE
+#define HV_NIDLE 0
+#endif
+#define HV_NIDLE1 (HV_NIDLE > 0 ? HV_NIDLE : 1)
+
 #define HV_STATE_MAGIC 0x48564632 /* "HVF2" */
 
 /* everything fmi2GetFMUstate saves */
@@ -73,6 +84,8 @@ typedef struct {
     double r[HV_NVARS]; /* variable values by value reference (season as a double) */
     double x[HV_NX]; /* the state; in modal form the modal state z */
     double xs[HV_NS]; /* modal form: the physical states S z (outputs first) */
+    double idle_last[HV_NIDLE1]; /* idle supply rule: last running value of each replaced input */
+    int idle_has[HV_NIDLE1]; /* ... and whether there is one yet */
     long long k; /* model steps since the start time */
     long long slot0;
     double t, t_start;
@@ -90,6 +103,7 @@ typedef struct {
     char pending_msg[512];
     double u[HV_NU > 0 ? HV_NU : 1];
     double v[HV_NV > 0 ? HV_NV : 1];
+    double vraw[HV_NV > 0 ? HV_NV : 1]; /* the disturbance inputs as set (before the idle supply rule) */
     double tmp[HV_NX];
     double xn[HV_NX];
     double zn[HV_NX];
@@ -157,8 +171,35 @@ static void model_inputs(hv_inst *c) {
 #else
     for (int i = 0; i < HV_NU; ++i) c->u[i] = r[hv_vr_m[i]];
 #endif
-    for (int i = 0; i < HV_NV; ++i) c->v[i] = r[hv_vr_v[i]];
+    for (int i = 0; i < HV_NV; ++i) c->v[i] = c->vraw[i] = r[hv_vr_v[i]];
 }
+
+#if HV_NIDLE
+/* c->v = the raw disturbances with the idle supply rule applied: T holds the zone temperatures (outputs) at the
+ * start of the step; last/has the rule's memory, updated for the units that run */
+static void idle_inputs(hv_inst *c, const double *T, double *last, int *has) {
+    for (int i = 0; i < HV_NV; ++i) c->v[i] = c->vraw[i];
+    for (int i = 0; i < HV_NIDLE; ++i) {
+        const int j = hv_idle_target[i];
+        int off = 1;
+        for (int k = hv_idle_bstart[i]; k < hv_idle_bstart[i + 1]; ++k)
+            if (!(c->s.r[hv_vr_m[hv_idle_box[k]]] <= hv_idle_bound[k])) off = 0;
+        if (!off) {
+            last[i] = c->vraw[j];
+            has[i] = 1;
+        } else if (hv_idle_zstart[i + 1] > hv_idle_zstart[i]) {
+            double s = 0.0, sw = 0.0;
+            for (int k = hv_idle_zstart[i]; k < hv_idle_zstart[i + 1]; ++k) {
+                s += T[hv_idle_zone[k]] * hv_idle_w[k];
+                sw += hv_idle_w[k];
+            }
+            c->v[j] = s / sw;
+        } else if (has[i]) {
+            c->v[j] = last[i];
+        }
+    }
+}
+#endif
 
 /* the factor of switch s this step: 0 when its condition does not hold */
 static double switch_value(hv_inst *c, int s) {
@@ -297,7 +338,17 @@ static int advance(hv_inst *c, int season, long long slot, long long n) {
 #if HV_MODAL
     double xs[HV_NS];
     memcpy(xs, c->s.xs, sizeof xs);
+#if HV_NIDLE
+    double last[HV_NIDLE1], T[HV_NY];
+    int has[HV_NIDLE1];
+    memcpy(last, c->s.idle_last, sizeof last);
+    memcpy(has, c->s.idle_has, sizeof has);
+#endif
     for (long long j = 0; j < n; ++j) {
+#if HV_NIDLE
+        for (int i = 0; i < HV_NY; ++i) T[i] = xs[hv_out_xs[i]];
+        idle_inputs(c, T, last, has);
+#endif
         modal_step(c, x, xs, gains_row(season, slot + j), c->xn, xs);
         memcpy(x, c->xn, sizeof x);
     }
@@ -305,7 +356,17 @@ static int advance(hv_inst *c, int season, long long slot, long long n) {
         if (!hv_finite(xs[hv_out_xs[i]])) return 0;
     memcpy(c->s.xs, xs, sizeof xs);
 #else
+#if HV_NIDLE
+    double last[HV_NIDLE1], T[HV_NY];
+    int has[HV_NIDLE1];
+    memcpy(last, c->s.idle_last, sizeof last);
+    memcpy(has, c->s.idle_has, sizeof has);
+#endif
     for (long long j = 0; j < n; ++j) {
+#if HV_NIDLE
+        for (int i = 0; i < HV_NY; ++i) T[i] = x[hv_out_state[i]];
+        idle_inputs(c, T, last, has);
+#endif
         step_state(c, x, gains_row(season, slot + j), c->xn);
         memcpy(x, c->xn, sizeof x);
     }
@@ -313,6 +374,10 @@ static int advance(hv_inst *c, int season, long long slot, long long n) {
         if (!hv_finite(x[hv_out_state[i]])) return 0;
 #endif
     memcpy(c->s.x, x, sizeof x);
+#if HV_NIDLE
+    memcpy(c->s.idle_last, last, sizeof last);
+    memcpy(c->s.idle_has, has, sizeof has);
+#endif
     return 1;
 }
 
@@ -534,6 +599,14 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
     double y0[HV_NY];
     for (int i = 0; i < HV_NY; ++i) y0[i] = c->s.r[hv_vr_y0[i]];
     const double *q = gains_row((int)c->s.r[HV_VR_SEASON], slot_of_step(c, 0));
+#if HV_NIDLE
+    for (int i = 0; i < HV_NIDLE; ++i) c->s.idle_has[i] = 0;
+    { /* the initial state sees the inputs the first step will (the rule's memory starts empty) */
+        double last[HV_NIDLE1];
+        int has[HV_NIDLE1] = {0};
+        idle_inputs(c, y0, last, has);
+    }
+#endif
     if (!initial_state(c, y0, q)) {
         hv_log(c, fmi2Error, "logStatusError", "initialisation failed: out of memory");
         return fmi2Error;

@@ -244,6 +244,28 @@ def _variables(layout) -> str:
     return out
 
 
+def _idle_tables(layout) -> str:
+    """The idle supply rule (``layout["idle_supply"]``, :class:`hvacfmu.data.idle.IdleStep`) as C tables.
+
+    Per replaced disturbance ``i``: ``hv_idle_target[i]`` (index into ``v``), its boxes ``hv_idle_box`` (index
+    into the airflow inputs) and off bounds ``hv_idle_bound`` from ``hv_idle_bstart[i]`` to
+    ``hv_idle_bstart[i + 1]``, its zones ``hv_idle_zone`` (output index) and weights ``hv_idle_w`` likewise
+    (none: hold the last running value).
+    """
+    idle = layout.get("idle_supply")
+    cols = idle["columns"] if idle else []
+    out = f"#define HV_NIDLE {len(cols)}\n#define HV_IDLE_LAST {int(bool(idle) and idle['mode'] == 'last')}\n"
+    if not cols:
+        return out
+    out += _c_array("int", "hv_idle_target", [c["target"] for c in cols])
+    for key, items, vals in (("b", "boxes", "bounds"), ("z", "zones", "weights")):
+        out += _c_array("int", f"hv_idle_{key}start", np.cumsum([0] + [len(c[items]) for c in cols]).tolist())
+        out += _c_array("int", "hv_idle_box" if key == "b" else "hv_idle_zone", [i for c in cols for i in c[items]])
+        name = "hv_idle_bound" if key == "b" else "hv_idle_w"
+        out += _c_array("double", name, [x for c in cols for x in c[vals]], _c_double)
+    return out
+
+
 def generate_header(eq, layout, M, guid: str, form=None) -> str:
     """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``.
 
@@ -287,7 +309,7 @@ def generate_header(eq, layout, M, guid: str, form=None) -> str:
     out += _c_array("int", "hv_hidden_state", hidden)
     out += _c_array("int", "hv_hidden_index", hidden_index)
     out += header_tables(form, _c_double) if form is not None else _matrices(eq)
-    out += _switches(eq) + _gain_tables(eq, seasons) + _variables(layout)
+    out += _switches(eq) + _gain_tables(eq, seasons) + _variables(layout) + _idle_tables(layout)
     return out
 
 

@@ -16,6 +16,8 @@ The rule is plain data (JSON) so that a saved model can carry it and apply it to
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 
@@ -23,6 +25,10 @@ from ..building import Building
 from ..errors import DataError
 
 MODES = ("zone", "last")
+
+#: A box is off at or below this fraction of its minimum airflow (with a floor, :func:`box_off_bounds`): the
+#: box-off regime of the ``reheat`` cause, the idle rows of :func:`idle_supply_rule` and ``fit(heat="auto")``.
+BOX_OFF_FRACTION = 0.05
 
 
 def box_off_bounds(building: Building, fraction: float, floor: float) -> dict:
@@ -116,4 +122,189 @@ def hold_idle_supply(frame: pd.DataFrame, rule: dict) -> tuple:
     return out, counts
 
 
-__all__ = ["MODES", "box_off_bounds", "hold_idle_supply", "idle_rows", "idle_supply_rule"]
+@dataclasses.dataclass(frozen=True)
+class IdleStep:
+    """An idle supply rule on one step's vectors: what the FMUs apply inside every model step.
+
+    Built by :func:`idle_step`. Where :func:`hold_idle_supply` reads measured zone temperatures from a frame, a
+    simulation (an FMU, :meth:`hvacfmu.models.extended.ExtendedModel.simulate_boxes`) has only its own: the
+    zones' mean is then the weighted mean of the model's current zone temperatures (the outputs at the start
+    of the step). ``"last"`` keeps the last running value in a small memory (NaN until the unit first runs:
+    the raw value is used then, where :func:`hold_idle_supply` takes the first running value of the data).
+
+    Attributes
+    ----------
+    mode : str
+        ``"zone"`` or ``"last"`` (:data:`MODES`).
+    target : tuple of int
+        Index into the disturbance vector ``v`` of each replaced column.
+    boxes, bounds : tuple of tuple
+        Per replaced column: indices into the box airflow vector and their off bounds [kg/s].
+    zones, weights : tuple of tuple
+        Per replaced column: indices into the output vector and their weights (empty for ``"last"``).
+    names : tuple of str
+        The replaced columns.
+    """
+
+    mode: str
+    target: tuple
+    boxes: tuple
+    bounds: tuple
+    zones: tuple
+    weights: tuple
+    names: tuple
+
+    def __len__(self) -> int:
+        return len(self.target)
+
+    def apply(self, v, m, T, last=None):
+        """Disturbances ``v`` with each replaced column held while its unit is idle, and the new memory.
+
+        Parameters
+        ----------
+        v : array (n_v,)
+            Raw disturbances of the step (``T_supply`` ... as measured) [°C ...].
+        m : array (n_box,)
+            Box airflows of the step [kg/s].
+        T : array (n_outputs,)
+            The model's zone temperatures at the start of the step [°C].
+        last : array (len(self),), optional
+            Last running value of each replaced column (NaN: none yet; default all NaN).
+
+        Returns
+        -------
+        (array (n_v,), array (len(self),))
+            The disturbances to step with and the memory after this step.
+        """
+        v = np.array(v, dtype=float)
+        raw = v.copy()
+        m = np.asarray(m, dtype=float)
+        T = np.asarray(T, dtype=float)
+        last = np.full(len(self), np.nan) if last is None else np.array(last, dtype=float)
+        for i, j in enumerate(self.target):
+            off = bool(np.all(m[list(self.boxes[i])] <= np.asarray(self.bounds[i], dtype=float)))
+            if not off:
+                last[i] = raw[j]
+                continue
+            if self.zones[i]:
+                w = np.asarray(self.weights[i], dtype=float)
+                v[j] = float(np.sum(T[list(self.zones[i])] * w) / np.sum(w))
+            elif np.isfinite(last[i]):
+                v[j] = last[i]
+        return v, last
+
+    def to_dict(self) -> dict:
+        """JSON-ready form (the FMUs' ``interface.json`` key ``idle_supply``)."""
+        return {
+            "mode": self.mode,
+            "columns": [
+                {
+                    "name": self.names[i],
+                    "target": int(self.target[i]),
+                    "boxes": [int(b) for b in self.boxes[i]],
+                    "bounds": [float(x) for x in self.bounds[i]],
+                    "zones": [int(z) for z in self.zones[i]],
+                    "weights": [float(w) for w in self.weights[i]],
+                }
+                for i in range(len(self))
+            ],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> IdleStep:
+        """The rule from :meth:`to_dict`."""
+        cols = d["columns"]
+        return cls(
+            str(d["mode"]),
+            tuple(int(c["target"]) for c in cols),
+            tuple(tuple(int(b) for b in c["boxes"]) for c in cols),
+            tuple(tuple(float(x) for x in c["bounds"]) for c in cols),
+            tuple(tuple(int(z) for z in c["zones"]) for c in cols),
+            tuple(tuple(float(w) for w in c["weights"]) for c in cols),
+            tuple(str(c["name"]) for c in cols),
+        )
+
+    def describe(self, outputs=None) -> str:
+        """One sentence for a model description: which inputs are replaced, when and by what."""
+        parts = []
+        for i, name in enumerate(self.names):
+            what = (
+                "the weighted mean of the FMU's own zone temperatures"
+                + (f" ({', '.join(str(outputs[z]) for z in self.zones[i])})" if outputs is not None else "")
+                if self.zones[i]
+                else "its last value while a box of the unit ran"
+            )
+            parts.append(f"{name} by {what}")
+        return (
+            "Idle air handler (the model's idle_supply rule, as in its Python evaluation): in every model step "
+            "where every box of a unit is at or below its off bound (max(1e-6 kg/s, 5 % of m_min)), the FMU "
+            "replaces its input " + "; ".join(parts) + " (the logged supply temperature of a unit that is off "
+            "reads an idle duct no air carries); feed the raw measured values."
+        )
+
+
+def idle_step(meta, disturbances, boxes, outputs) -> IdleStep | None:
+    """The idle rule of a model's ``meta["idle_supply"]`` on index positions, or None when it has none.
+
+    Parameters
+    ----------
+    meta : dict or None
+        A model's ``meta`` (``{"idle_supply": {"mode", "rule"}}``, written by ``diagnose``).
+    disturbances : sequence of str
+        The model's disturbance columns (a rule column that is not one of them is not an input: skipped).
+    boxes : sequence of str
+        Box names in the order of the airflow vector (``m_<box>`` columns).
+    outputs : sequence of str
+        The model's output names (zone ``z`` is column ``T_<z>``). A rule zone that is not an output maps to the
+        single output of a one-output (lumped) model.
+
+    Raises
+    ------
+    ValueError
+        A rule's airflow column is not a box of ``boxes``, or a zone is not an output (several outputs).
+    """
+    idle = meta.get("idle_supply") if isinstance(meta, dict) else None
+    if not idle or not idle.get("rule"):
+        return None
+    mode = idle.get("mode", "zone")
+    if mode not in MODES:
+        raise ValueError(f"idle supply mode must be one of {MODES}, got {mode!r}")
+    vi = {c: i for i, c in enumerate(disturbances)}
+    bi = {f"m_{b}": i for i, b in enumerate(boxes)}
+    zi = {f"T_{z}": i for i, z in enumerate(outputs)}
+    target, bx, bd, zs, ws, names = [], [], [], [], [], []
+    for col, spec in idle["rule"].items():
+        if col not in vi:
+            continue
+        unknown = [c for c in spec["flows"] if c not in bi]
+        if unknown:
+            raise ValueError(f"idle supply rule of {col}: airflow columns {unknown} are not boxes {list(boxes)}")
+        zones = spec.get("zones") or {}
+        if any(z not in zi for z in zones) and len(outputs) != 1:
+            bad = [z for z in zones if z not in zi]
+            raise ValueError(f"idle supply rule of {col}: zones {bad} are not outputs {list(outputs)}")
+        merged: dict = {}
+        for z, w in zones.items():
+            k = zi.get(z, 0)
+            merged[k] = merged.get(k, 0.0) + float(w)
+        target.append(vi[col])
+        bx.append(tuple(bi[c] for c in spec["flows"]))
+        bd.append(tuple(float(x) for x in spec["flows"].values()))
+        zs.append(tuple(merged))
+        ws.append(tuple(merged.values()))
+        names.append(col)
+    if not target:
+        return None
+    return IdleStep(mode, tuple(target), tuple(bx), tuple(bd), tuple(zs), tuple(ws), tuple(names))
+
+
+__all__ = [
+    "BOX_OFF_FRACTION",
+    "MODES",
+    "IdleStep",
+    "box_off_bounds",
+    "hold_idle_supply",
+    "idle_rows",
+    "idle_step",
+    "idle_supply_rule",
+]

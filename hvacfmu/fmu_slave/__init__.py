@@ -98,6 +98,12 @@ camelCase in the model description. Behaviour an importer can rely on:
   FMU uses the seasonal time-of-week profile without the calendar (a warning
   is logged at initialisation). Models without calendar terms have no
   ``start_time`` and behave as described above.
+- **Idle air handler.** A model that stores an idle supply rule (an extended model
+  of ``diagnose``, ``meta["idle_supply"]``) has it in the layout (``idle_supply``)
+  and applies it before every model step: a replaced input (``T_supply`` ...)
+  whose boxes' airflow inputs are all at or below their off bounds is replaced by
+  the weighted mean of the FMU's own zone temperatures, or by its last running
+  value (:class:`hvacfmu.data.idle.IdleStep`; the native FMU does the same in C).
 
 """
 

@@ -184,11 +184,38 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
         ),
         "variables": var,
     }
+    idle = idle_supply_layout(model, M, vavs)
+    if idle is not None:
+        layout["description"] += " " + idle.describe(model.outputs)
+        layout["idle_supply"] = idle.to_dict()
+        targets = {sanitize_name(idle.names[i]) for i in range(len(idle))}
+        for e in var:
+            if e["role"] == "v" and e["name"] in targets:
+                e["description"] += (
+                    "; the raw measured value: replaced inside the FMU while every box of its unit is off "
+                    "(idle supply rule, see the model description)"
+                )
     if calendar:
         layout["timezone"] = str(timezone)
     if boxes:
         layout["boxes"] = {b: boxes[b] for b in sorted(boxes)}
     return layout, M
+
+
+def idle_supply_layout(model, M, vavs):
+    """The model's idle supply rule on the FMU's inputs (:class:`hvacfmu.data.idle.IdleStep`), or None.
+
+    A model that stores one (an extended model of ``diagnose``, ``meta["idle_supply"]``) gets it applied inside
+    the FMU at every model step; it needs the box airflow inputs (``M`` not None). ValueError otherwise.
+    """
+    from hvacfmu.data.idle import idle_step
+
+    meta = getattr(model, "meta", None)
+    if not (isinstance(meta, dict) and meta.get("idle_supply")):
+        return None
+    if M is None:
+        raise ValueError("the model's idle supply rule needs per-box airflow inputs, which this model lacks")
+    return idle_step(meta, model.disturbances, vavs, model.outputs)
 
 
 def _airflow_entries(model, M, vavs, boxes) -> list:

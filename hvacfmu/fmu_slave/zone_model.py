@@ -82,6 +82,12 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             self.model = model
             self._M = M
             self._MT = None if M is None else np.ascontiguousarray(M.T)
+        self._idle = None  # the model's idle supply rule on the inputs (hvacfmu.data.idle.IdleStep)
+        if layout.get("idle_supply"):
+            from hvacfmu.data.idle import IdleStep
+
+            self._idle = IdleStep.from_dict(layout["idle_supply"])
+        self._idle_last = None  # its memory ("last" mode): last running value of each replaced input
         self._x = None
         self._k = 0  # model steps taken since the start time
         self._slot0 = 0
@@ -154,7 +160,12 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             q0 = self._calendar_gains(0, 1)[0]
         else:
             q0 = self._profile[self._slot(w, 0) % self._n_slots]
-        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, w[nm:nmv], q0)
+        v0 = w[nm:nmv]
+        self._idle_last = None
+        if self._idle is not None:
+            v0 = self._idle.apply(v0, w[:nm], np.asarray(y0, dtype=float))[0]
+            self._idle_last = [math.nan] * len(self._idle)
+        self._x = state_from_outputs(self.model, np.asarray(y0, dtype=float), u0, v0, q0)
         self._k = 0
         self._t = self._t_start
         self._write_outputs(np.asarray(self.model.output(self._x), dtype=float).tolist())
@@ -211,6 +222,8 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         u = w[:nm] @ self._MT if self._MT is not None else w[:nm]
         vdist = w[nm : self._nmv]
         x, model, prof, ns = self._x, self.model, self._profile, self._n_slots
+        if self._idle is not None:
+            return self._advance_idle(current_time, n, w, u, vdist)
         if self._abs0 is not None:
             for qj in self._calendar_gains(self._k, n):
                 x = model.step_state(x, u, vdist, qj)
@@ -218,7 +231,28 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             slot = self._slot(w, self._k)
             for j in range(n):
                 x = model.step_state(x, u, vdist, prof[(slot + j) % ns])
-        y = np.asarray(model.output(x), dtype=float).tolist()
+        return self._commit(current_time, n, x)
+
+    def _advance_idle(self, current_time, n, w, u, vdist):
+        """:meth:`_advance` with the idle supply rule applied before every model step (own zone temperatures)."""
+        x, model, rule, m = self._x, self.model, self._idle, w[: self._nm]
+        last = np.array(self._idle_last, dtype=float)
+        if self._abs0 is not None:
+            gains = self._calendar_gains(self._k, n)
+        else:
+            slot = self._slot(w, self._k)
+            gains = [self._profile[(slot + j) % self._n_slots] for j in range(n)]
+        for qj in gains:
+            vj, last = rule.apply(vdist, m, np.asarray(model.output(x), dtype=float), last)
+            x = model.step_state(x, u, vj, qj)
+        if not self._commit(current_time, n, x):
+            return False
+        self._idle_last = last.tolist()
+        return True
+
+    def _commit(self, current_time, n, x):
+        """Take the state ``x`` after ``n`` model steps unless its outputs are non-finite (step refused)."""
+        y = np.asarray(self.model.output(x), dtype=float).tolist()
         if not math.isfinite(sum(y)):
             return self._refuse(
                 f"the zone temperatures became non-finite in the step from t={current_time} s; step refused"
@@ -236,6 +270,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             "slot0": self._slot0,
             "season": getattr(self, "_season", None),
             "abs0": self._abs0,
+            "idle_last": self._idle_last,
         }
 
     def _set_internal_state(self, state):
@@ -249,4 +284,5 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._k = int(state["k"])
         self._slot0 = int(state["slot0"])
         self._abs0 = state.get("abs0")
+        self._idle_last = state.get("idle_last")
         self._q_chunk = (None, None)

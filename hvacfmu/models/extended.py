@@ -51,7 +51,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
-from ..data.idle import hold_idle_supply
+from ..data.idle import IdleStep, hold_idle_supply, idle_step
 from ..errors import ModelError, problems_message
 from .base import FORMAT_VERSION, ZoneModel, check_version, require_keys
 from .causes import (
@@ -208,6 +208,53 @@ class ExtendedModel(ZoneModel):
         u, _ = self.base.signals(frame)
         v = frame[list(self._disturbances)].to_numpy(dtype=float)
         return u, v
+
+    def idle_step(self) -> IdleStep | None:
+        """The stored idle supply rule (``meta["idle_supply"]``) on the step vectors, or None without one.
+
+        Boxes in ``base.vavs`` order, targets among :attr:`disturbances`, zones among :attr:`outputs`: the form
+        the FMUs apply at every model step with their own zone temperatures (:class:`hvacfmu.data.idle.IdleStep`).
+        """
+        try:
+            return idle_step(self.meta, self._disturbances, tuple(self.base.vavs), self.outputs)
+        except ValueError as exc:
+            raise ModelError(f"extended model: {exc}") from None
+
+    def simulate_boxes(self, x0, m, v, q, idle: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Open-loop simulation from box airflows and raw disturbances, as the model's FMUs run it.
+
+        With ``idle`` and a stored idle supply rule, each step's disturbances are first held by
+        :meth:`idle_step` with the zone temperatures the model itself has at the start of the step (where
+        :meth:`signals` uses the measured ones).
+
+        Parameters
+        ----------
+        x0 : array (n_states,)
+        m : array (n, n_vav) [kg/s]
+            Box airflows in ``base.vavs`` order.
+        v : array (n, n_disturbances)
+            Raw disturbances (a supply temperature as logged, idle readings included).
+        q : array (n, n_q)
+
+        Returns
+        -------
+        X : array (n+1, n_states)
+        Y : array (n+1, n_outputs) [°C]
+        """
+        m, v, q = (np.asarray(a, dtype=float) for a in (m, v, q))
+        u = m @ np.asarray(self.base.input_map, dtype=float).T
+        rule = self.idle_step() if idle else None
+        if rule is None:
+            return self.simulate(x0, u, v, q)
+        x = np.asarray(x0, dtype=float)
+        X = np.empty((len(u) + 1, x.shape[-1]))
+        X[0] = x
+        last = None
+        for k in range(len(u)):
+            vk, last = rule.apply(v[k], m[k], self.output(x), last)
+            x = self.step_state(x, u[k], vk, q[k])
+            X[k + 1] = x
+        return X, self.output(X)
 
     def gains_at(self, index: pd.DatetimeIndex, season: str) -> np.ndarray:
         q = self.base.gains_at(index, season)
