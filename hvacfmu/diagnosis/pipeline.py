@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.idle import box_off_bounds, hold_idle_supply, idle_supply_rule
+from ..data.idle import BOX_OFF_FRACTION, box_off_bounds, hold_idle_supply, idle_supply_rule
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
 from ..models.loadcheck import model_problems
@@ -229,7 +229,6 @@ def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
     if hold is False or hold is None:
         return dataset, {}
     mode = "zone" if hold is True else hold
-    from ..models.causes.reheat import BOX_OFF_FRACTION
     from ..models.datadriven import OFF_SHARE_DELIVERED
     from ..models.heat import OFF_FLOW, air_handler_off_share
 

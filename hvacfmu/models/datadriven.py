@@ -61,9 +61,10 @@ import scipy.fft
 import scipy.sparse
 
 from ..calendars import holiday_slots
+from ..data.idle import BOX_OFF_FRACTION, box_off_bounds
 from ..errors import DataError, FitError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week
-from .heat import air_handler_off_share, delivered_heat, inlet_columns
+from .heat import OFF_FLOW, air_handler_off_share, delivered_heat, inlet_columns
 
 log = logging.getLogger(__name__)
 
@@ -682,7 +683,10 @@ class _Prepared:
         self.inlets, notes = inlet_columns(b, self.frame, rows=self.train)
         for note in notes:
             self.warn(note)
-        self.off_share = air_handler_off_share(b, self.m, self.train)
+        # a box is off at or below the bound diagnose's idle supply rule uses (hvacfmu.data.idle): max(OFF_FLOW,
+        # 5 % of its minimum); measured airflow of a shut box is sensor noise, rarely exactly 0
+        bounds = box_off_bounds(b, BOX_OFF_FRACTION, OFF_FLOW)
+        self.off_share = air_handler_off_share(b, self.m, self.train, [bounds[f"m_{v}"] for v in b.vav_names])
         has_td = [c for c in self.inlets if c.startswith("Td_")]
         form = opts["heat"]
         if form not in ("auto", "airflow", "delivered"):
@@ -694,7 +698,7 @@ class _Prepared:
                 form, why = (
                     "delivered",
                     (
-                        f"an air handler is off (no airflow in all its boxes) in "
+                        f"an air handler is off (every box at or below 5 % of its minimum airflow) in "
                         f"{100 * self.off_share:.0f} % of the training steps"
                     ),
                 )

@@ -22,6 +22,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ...data.idle import BOX_OFF_FRACTION  # airflow bound of the box-off regime, a fraction of the box minimum
 from ...errors import ModelError
 from ..equations import Switch
 from .base import (
@@ -43,8 +44,6 @@ REHEAT_THRESHOLDS = (8.0, 10.0, 12.0, 14.0, 16.0)
 #: airflow: on the EnergyPlus bed it missed two off-hours heaters that these variants find
 #: (benchmarks/diagnosis_energyplus_oracle_s13.md).
 OFF_THRESHOLDS = (0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0)
-#: Airflow bound of the box-off regime, as a fraction of the box's minimum airflow.
-BOX_OFF_FRACTION = 0.05
 #: Minimum rows in a regime for an on/off reheat candidate to be testable.
 MIN_REGIME_ROWS = 50
 CP_AIR = 1005.0  #: [J/(kg K)]
