@@ -172,9 +172,17 @@ def test_idle_step_needs_box_and_zone_names(sdh):
 
 
 # ----------------------------------------------------------------------------- the FMUs
-@pytest.mark.parametrize("mode", ["zone", "last"])
-@pytest.mark.parametrize("native", [False, True], ids=["pythonfmu", "native"])
-def test_fmu_applies_the_idle_rule_over_two_weeks(sdh, tmp_path, mode, native):
+@pytest.mark.parametrize(
+    "native, mode",
+    [
+        (False, "zone"),
+        pytest.param(False, "last", marks=pytest.mark.slow),  # ~3 CPU-s; the native FMU covers "last" fast
+        (True, "zone"),
+        (True, "last"),
+    ],
+    ids=["pythonfmu-zone", "pythonfmu-last", "native-zone", "native-last"],
+)
+def test_fmu_applies_the_idle_rule_over_two_weeks(sdh, tmp_path, native, mode):
     """Two weeks of raw night-off inputs through FMPy (a subprocess; the native FMU without hvacfmu): the FMU
     equals ``simulate_boxes`` (rule applied with the model's own zone temperatures) to 1e-10 K, and differs
     from the model run on the raw supply temperature by more than 0.5 K (the rule matters). The model
@@ -281,3 +289,79 @@ def test_fit_heat_auto_sees_noisy_shut_boxes(tmp_path):
     assert heat["form"] == "delivered" and model.heat == "delivered"
     assert 0.3 < heat["air_handler_off_share"] < 0.7
     assert "5 % of its minimum airflow" in heat["reason"]
+
+
+def two_unit_model():
+    """Two zones, each served by one box of its own air handler, the box ``a`` with a measured discharge
+    temperature: the rule replaces ``T_supply_U1``, ``T_supply_U2`` and ``Td_a``, each on its own boxes."""
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.models.linear import LinearZoneModel
+
+    b = building_from_dict(
+        {
+            "name": "two",
+            "latitude": 37.9,
+            "longitude": -122.3,
+            "timezone": "America/Los_Angeles",
+            "zones": [{"name": "A", "area": 100.0, "volume": 300.0}, {"name": "B", "area": 100.0, "volume": 300.0}],
+            "ahus": [{"name": "U1"}, {"name": "U2"}],
+            "vavs": [
+                {"name": "a", "zone": "A", "ahu": "U1", "m_min": 0.1, "m_max": 1.0},
+                {"name": "b", "zone": "B", "ahu": "U2", "m_min": 0.1, "m_max": 1.0},
+            ],
+        }
+    )
+    dist = ("T_out", "T_supply_U1", "T_supply_U2", "Td_a")
+    rng = np.random.default_rng(7)
+    base = LinearZoneModel(
+        kind="zones",
+        step=STEP,
+        outputs=("A", "B"),
+        measured_zones=("A", "B"),
+        output_weights=np.eye(2),
+        vavs=("a", "b"),
+        input_map=b.zone_vav_matrix(),
+        disturbances=dist,
+        A=[[0.9, 0.01], [0.012, 0.91]],
+        B=[[-0.8, 0.0], [0.0, -0.7]],
+        C=[[0.02, 0.03, 0.0, 0.02], [0.025, 0.0, 0.04, 0.0]],
+        gains={s: rng.uniform(0.3, 0.6, (672, 2)) for s in b.season_names},
+    )
+    rule = idle_supply_rule(b, dist, box_off_bounds(b, 0.05, OFF_FLOW), "zone")
+    assert set(rule) == {"T_supply_U1", "T_supply_U2", "Td_a"}
+    return b, ExtendedModel(base=base, terms=(), meta={"idle_supply": {"mode": "zone", "rule": rule}})
+
+
+@pytest.mark.parametrize("native", [pytest.param(False, marks=pytest.mark.slow), True], ids=["pythonfmu", "native"])
+def test_fmu_rule_per_air_handler_and_discharge_column(tmp_path, native):
+    """Two air handlers off at different times (and a box's measured discharge air): each column is replaced
+    only while its own boxes are off, by its own zones' air; a week in FMPy equals ``simulate_boxes``."""
+    if native and shutil.which("gcc") is None:
+        pytest.fail("the native FMU needs the system C compiler gcc")
+    b, model = two_unit_model()
+    n = 672
+    rng = np.random.default_rng(2)
+    idx = pd.date_range("2025-01-06", periods=n, freq="900s", tz="UTC")
+    h = np.asarray(idx.hour, dtype=float)
+    on = np.column_stack([(h >= 6) & (h < 18), (h >= 10) & (h < 22)])  # the units run at different hours
+    m = np.where(on, 0.3 + 0.4 * rng.random((n, 2)), 0.004 * rng.random((n, 2)))
+    day = 2 * np.pi * np.arange(n) / 96
+    cols = {"m_a": m[:, 0], "m_b": m[:, 1], "T_out": 4.0 + 4.0 * np.sin(day)}
+    cols["T_supply_U1"] = np.where(on[:, 0], 13.0, 25.0)
+    cols["T_supply_U2"] = np.where(on[:, 1], 15.0, 26.0)
+    cols["Td_a"] = np.where(on[:, 0], 30.0, 25.0)
+    v = np.column_stack([cols[d] for d in model.disturbances])
+    season = list(model.gains)[0]
+    if native:
+        path = export_native_fmu(model, tmp_path / "two_native.fmu")
+    else:
+        path = export_fmu(model.save(tmp_path / "two.json"), tmp_path / "two.fmu")
+    Y = run_fmpy(path, tmp_path, cols, start_values(model, season), ["T_A", "T_B"], native)
+    Yref = python_reference(model, idx, m, v, season, np.full(2, 21.0))
+    Yraw = python_reference(model, idx, m, v, season, np.full(2, 21.0), idle=False)
+    assert_allclose(Y, Yref[:n], rtol=0, atol=EXACT)  # [K]
+    assert np.abs(Yref - Yraw).max() > 0.5  # [K]
+    step = model.idle_step()
+    k = int(np.flatnonzero(~on[:, 0] & on[:, 1])[0])  # U1 off, U2 running
+    held = step.apply(v[k], m[k], np.array([20.0, 22.0]))[0]
+    assert held.tolist() == [v[k, 0], 20.0, v[k, 2], 20.0]  # U1's supply and Td_a by zone A's air; U2 raw
