@@ -365,3 +365,30 @@ def test_fmu_rule_per_air_handler_and_discharge_column(tmp_path, native):
     k = int(np.flatnonzero(~on[:, 0] & on[:, 1])[0])  # U1 off, U2 running
     held = step.apply(v[k], m[k], np.array([20.0, 22.0]))[0]
     assert held.tolist() == [v[k, 0], 20.0, v[k, 2], 20.0]  # U1's supply and Td_a by zone A's air; U2 raw
+
+
+def test_native_fmu_in_modal_form_applies_the_idle_rule(sdh, tmp_path):
+    """A model large enough for the native FMU's modal form (26 states: 20 thermal masses, real eigenvalues)
+    reads the zone temperatures for the rule from its physical output states: two weeks equal
+    ``simulate_boxes`` to 1e-10 K."""
+    import dataclasses
+
+    if shutil.which("gcc") is None:
+        pytest.fail("the native FMU needs the system C compiler gcc")
+    small = idle_model(sdh, "zone")
+    A = np.asarray(small.base.A)
+    base = dataclasses.replace(small.base, A=0.5 * (A + A.T))  # symmetric: real eigenvalues
+    z = base.outputs
+    masses = tuple(ThermalMass(zone=z[i % 6], alpha=0.01 + 0.003 * i, beta=0.02 + 0.001 * i) for i in range(20))
+    model = ExtendedModel(base=base, terms=masses, meta=small.meta)
+    path = export_native_fmu(model, tmp_path / "modal.fmu")
+    with zipfile.ZipFile(path) as zf:
+        header = zf.read("sources/hvacfmu_model.h").decode()
+    assert "#define HV_MODAL 1" in header and "#define HV_NIDLE 1" in header
+    n = 2 * 672
+    idx, cols, m, v = night_off(sdh, model, n, seed=3)
+    season = list(model.gains)[0]
+    Y = run_fmpy(path, tmp_path, cols, start_values(model, season), [f"T_{x}" for x in z], True)
+    Yref = python_reference(model, idx, m, v, season, np.full(len(z), 21.0))
+    assert_allclose(Y, Yref[:n], rtol=0, atol=EXACT)  # [K]
+    assert np.abs(Yref - python_reference(model, idx, m, v, season, np.full(len(z), 21.0), idle=False)).max() > 0.5
