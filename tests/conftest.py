@@ -79,6 +79,33 @@ def default_paths():
     return cached_dataset(weeks=51, seed=0)
 
 
+#: Four emulated weeks across the winter/spring boundary (2026-01-12..02-09, seed 0): two seasons with a test
+#: week each, reheat in every week. The not-slow tier's stand-in for the 51-week default dataset, whose
+#: generation and preparation cost about 20 CPU-s on an empty cache (this one about 2.5).
+WINTER_WEEKS = {"weeks": 4, "seed": 0, "start": "2026-01-12T00:00:00"}
+
+
+@pytest.fixture(scope="session")
+def winter_paths():
+    """Files of :data:`WINTER_WEEKS`, generated once into $HVACFMU_CACHE."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(**WINTER_WEEKS)
+
+
+@pytest.fixture(scope="session")
+def winter_dataset(winter_paths):
+    """:data:`WINTER_WEEKS`, prepared."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.errors import HvacfmuWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(winter_paths.measurements, winter_paths.building)
+
+
 @pytest.fixture(scope="session")
 def short_paths():
     """Files of a short emulator dataset (8 weeks, seed 0), generated once into $HVACFMU_CACHE."""
