@@ -56,6 +56,32 @@ def rng():
     return np.random.default_rng(12345)
 
 
+@pytest.fixture
+def cli(capsys):
+    """``cli(*args)`` runs ``hvacfmu <args>`` in this process (``hvacfmu.cli.main``) and returns a
+    ``subprocess.CompletedProcess`` with the exit code and the captured stdout and stderr.
+
+    A Python start-up costs at least 1.7 CPU-s: tests of a command's messages, options and refusals use this;
+    each command keeps at least one real ``python -m hvacfmu`` subprocess test. An exception escaping ``main``
+    (a traceback for the user) fails the test here as it would print "Traceback" from the subprocess.
+    """
+    import subprocess
+
+    from hvacfmu.cli import main
+
+    def run(*args):
+        argv = [str(a) for a in args]
+        capsys.readouterr()
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # argparse's usage errors (exit 2), as the command line gives them
+            code = exc.code if isinstance(exc.code, int) else 1
+        out = capsys.readouterr()
+        return subprocess.CompletedProcess(["hvacfmu", *argv], code, out.out, out.err)
+
+    return run
+
+
 @pytest.fixture(scope="session")
 def default_dataset():
     """The emulator's default 51-week dataset, prepared (generated once into $HVACFMU_CACHE)."""

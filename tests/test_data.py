@@ -748,7 +748,7 @@ def _cli(*args, cwd):
     )
 
 
-def test_check_cli(tmp_path, small_building):
+def test_check_cli(tmp_path, small_building, cli):
     building = small_building.save(tmp_path / "b.toml")
     frame = make_measurements(small_building, periods=8 * 1440)
     frame["ghi"] = np.roll(frame["ghi"].to_numpy(), 67)  # the sun at solar noon (13:07 PDT), not 12:00
@@ -759,13 +759,13 @@ def test_check_cli(tmp_path, small_building):
     # the week starts on Labor Day: one week cannot tell whether the building closes on it
     assert "2024-09-02 Labor Day); too few training workdays and Sundays" in res.stdout
     bad = _set(_set(frame, "T_A", 5, "abc"), "m_V1", 9, -1.0).drop(columns=["T_out"])
-    res = _cli(write(bad, tmp_path / "bad.csv"), "--building", building, cwd=tmp_path)
+    res = cli("check", write(bad, tmp_path / "bad.csv"), "--building", building)  # in-process: no start-up
     assert res.returncode == 1
     assert "NOT USABLE: 3 problems" in res.stdout
     for part in ("missing required column 'T_out'", "'abc' at row 6", "negative airflow"):
         assert part in res.stdout
     assert "Traceback" not in res.stderr
-    res = _cli(good, "--building", tmp_path / "missing.toml", cwd=tmp_path)
+    res = cli("check", good, "--building", tmp_path / "missing.toml")
     assert res.returncode == 1 and "does not exist" in res.stdout
 
 
