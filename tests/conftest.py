@@ -171,6 +171,30 @@ if _COST_FILE:
         s, c = _cpu_seconds()
         _cost_line(f"{s:.2f}", f"{c:.2f}", "", "<collection and start-up>")
 
+    def _log_generations():
+        """One line per dataset ``cached_dataset`` generates (empty CPU columns: the seconds are already the
+        test's; they are in the text): on an empty cache, which tests pay for which data, and whether both
+        workers generated the same dataset at once (its name twice)."""
+        import sys
+
+        import hvacfmu.emulator  # noqa: F401
+
+        module = sys.modules["hvacfmu.emulator.generate"]
+        plain = module.generate
+
+        def generate(out, *args, **kwargs):
+            (s0, _), w0 = _cpu_seconds(), time.time()
+            try:
+                return plain(out, *args, **kwargs)
+            finally:
+                (s1, _), w1 = _cpu_seconds(), time.time()
+                name = os.path.basename(str(out)).lstrip(".").rsplit("-", 1)[0]
+                _cost_line("", "", f"{w1 - w0:.1f}", f"<generated {name}: {s1 - s0:.2f} CPU-s>")
+
+        module.generate = generate
+
+    _log_generations()
+
 
 # ----------------------------------------------------------------------------- order: the longest module first
 #: Modules whose tests start the run. pytest-xdist's default ``load`` scheduling hands out tests in collection
