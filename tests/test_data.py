@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import subprocess
-import sys
 import warnings
 
 import numpy as np
@@ -737,23 +735,12 @@ def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
     assert "NOT USABLE: 2 problems" in str(report)
 
 
-def _cli(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)],
-        cwd=cwd,
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-
-
 def test_check_cli(tmp_path, small_building, cli):
     building = small_building.save(tmp_path / "b.toml")
     frame = make_measurements(small_building, periods=8 * 1440)
     frame["ghi"] = np.roll(frame["ghi"].to_numpy(), 67)  # the sun at solar noon (13:07 PDT), not 12:00
     good = write(frame, tmp_path / "good.csv")
-    res = _cli(good, "--building", building, cwd=tmp_path)
+    res = cli("check", good, "--building", building)  # in-process; the real subprocess: test_check_summary
     assert res.returncode == 0, res.stdout + res.stderr
     assert "OK with 3 notes (see above): the data can be used for fitting" in res.stdout and "Weeks: 1" in res.stdout
     # the week starts on Labor Day: one week cannot tell whether the building closes on it
