@@ -56,6 +56,32 @@ def rng():
     return np.random.default_rng(12345)
 
 
+@pytest.fixture
+def cli(capsys):
+    """``cli(*args)`` runs ``hvacfmu <args>`` in this process (``hvacfmu.cli.main``) and returns a
+    ``subprocess.CompletedProcess`` with the exit code and the captured stdout and stderr.
+
+    A Python start-up costs at least 1.7 CPU-s: tests of a command's messages, options and refusals use this;
+    each command keeps at least one real ``python -m hvacfmu`` subprocess test. An exception escaping ``main``
+    (a traceback for the user) fails the test here as it would print "Traceback" from the subprocess.
+    """
+    import subprocess
+
+    from hvacfmu.cli import main
+
+    def run(*args):
+        argv = [str(a) for a in args]
+        capsys.readouterr()
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # argparse's usage errors (exit 2), as the command line gives them
+            code = exc.code if isinstance(exc.code, int) else 1
+        out = capsys.readouterr()
+        return subprocess.CompletedProcess(["hvacfmu", *argv], code, out.out, out.err)
+
+    return run
+
+
 @pytest.fixture(scope="session")
 def default_dataset():
     """The emulator's default 51-week dataset, prepared (generated once into $HVACFMU_CACHE)."""
@@ -77,6 +103,33 @@ def default_paths():
     from hvacfmu.emulator import cached_dataset
 
     return cached_dataset(weeks=51, seed=0)
+
+
+#: Four emulated weeks across the winter/spring boundary (2026-01-12..02-09, seed 0): two seasons with a test
+#: week each, reheat in every week. The not-slow tier's stand-in for the 51-week default dataset, whose
+#: generation and preparation cost about 20 CPU-s on an empty cache (this one about 2.5).
+WINTER_WEEKS = {"weeks": 4, "seed": 0, "start": "2026-01-12T00:00:00"}
+
+
+@pytest.fixture(scope="session")
+def winter_paths():
+    """Files of :data:`WINTER_WEEKS`, generated once into $HVACFMU_CACHE."""
+    from hvacfmu.emulator import cached_dataset
+
+    return cached_dataset(**WINTER_WEEKS)
+
+
+@pytest.fixture(scope="session")
+def winter_dataset(winter_paths):
+    """:data:`WINTER_WEEKS`, prepared."""
+    import warnings
+
+    from hvacfmu.data import prepare
+    from hvacfmu.errors import HvacfmuWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(winter_paths.measurements, winter_paths.building)
 
 
 @pytest.fixture(scope="session")
@@ -117,6 +170,30 @@ if _COST_FILE:
     def pytest_collection_finish(session):
         s, c = _cpu_seconds()
         _cost_line(f"{s:.2f}", f"{c:.2f}", "", "<collection and start-up>")
+
+    def _log_generations():
+        """One line per dataset ``cached_dataset`` generates (empty CPU columns: the seconds are already the
+        test's; they are in the text): on an empty cache, which tests pay for which data, and whether both
+        workers generated the same dataset at once (its name twice)."""
+        import sys
+
+        import hvacfmu.emulator  # noqa: F401
+
+        module = sys.modules["hvacfmu.emulator.generate"]
+        plain = module.generate
+
+        def generate(out, *args, **kwargs):
+            (s0, _), w0 = _cpu_seconds(), time.time()
+            try:
+                return plain(out, *args, **kwargs)
+            finally:
+                (s1, _), w1 = _cpu_seconds(), time.time()
+                name = os.path.basename(str(out)).lstrip(".").rsplit("-", 1)[0]
+                _cost_line("", "", f"{w1 - w0:.1f}", f"<generated {name}: {s1 - s0:.2f} CPU-s>")
+
+        module.generate = generate
+
+    _log_generations()
 
 
 # ----------------------------------------------------------------------------- order: the longest module first

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import warnings
 
 import pandas as pd
@@ -95,20 +93,13 @@ def test_clock_offset_follows_a_hand_shift(emulated):
     assert abs(base) < 0.3
 
 
-def test_check_cli_timezone_option(tmp_path, emulated):
+def test_check_cli_timezone_option(tmp_path, emulated, cli):
+    """In-process (``cli``): the real ``check`` subprocess is tested in test_data and test_check_summary."""
     raw, building = emulated
     path = _write(raw, tmp_path / "utc.csv", "UTC")
     b = building.save(tmp_path / "b.toml")
-
-    def run(*extra):
-        return subprocess.run(
-            [sys.executable, "-m", "hvacfmu.cli", "check", str(path), "-b", str(b), *extra],
-            check=False,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-
-    fixed = run("--timezone", "UTC")  # without the option: the 7 h warning (test_naive_utc_read_as_local...)
+    fixed = cli(
+        "check", path, "-b", b, "--timezone", "UTC"
+    )  # without the option: the 7 h warning (test_naive_utc_read_as_local...)
     assert "clock:" not in fixed.stdout and "Clock: measured solar noon" in fixed.stdout, fixed.stdout[-3000:]
     assert "Traceback" not in fixed.stderr

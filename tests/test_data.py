@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import subprocess
-import sys
 import warnings
 
 import numpy as np
@@ -737,35 +735,24 @@ def test_check_reports_problems_instead_of_raising(tmp_path, small_building):
     assert "NOT USABLE: 2 problems" in str(report)
 
 
-def _cli(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "check", *map(str, args)],
-        cwd=cwd,
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-
-
-def test_check_cli(tmp_path, small_building):
+def test_check_cli(tmp_path, small_building, cli):
     building = small_building.save(tmp_path / "b.toml")
     frame = make_measurements(small_building, periods=8 * 1440)
     frame["ghi"] = np.roll(frame["ghi"].to_numpy(), 67)  # the sun at solar noon (13:07 PDT), not 12:00
     good = write(frame, tmp_path / "good.csv")
-    res = _cli(good, "--building", building, cwd=tmp_path)
+    res = cli("check", good, "--building", building)  # in-process; the real subprocess: test_check_summary
     assert res.returncode == 0, res.stdout + res.stderr
     assert "OK with 3 notes (see above): the data can be used for fitting" in res.stdout and "Weeks: 1" in res.stdout
     # the week starts on Labor Day: one week cannot tell whether the building closes on it
     assert "2024-09-02 Labor Day); too few training workdays and Sundays" in res.stdout
     bad = _set(_set(frame, "T_A", 5, "abc"), "m_V1", 9, -1.0).drop(columns=["T_out"])
-    res = _cli(write(bad, tmp_path / "bad.csv"), "--building", building, cwd=tmp_path)
+    res = cli("check", write(bad, tmp_path / "bad.csv"), "--building", building)  # in-process: no start-up
     assert res.returncode == 1
     assert "NOT USABLE: 3 problems" in res.stdout
     for part in ("missing required column 'T_out'", "'abc' at row 6", "negative airflow"):
         assert part in res.stdout
     assert "Traceback" not in res.stderr
-    res = _cli(good, "--building", tmp_path / "missing.toml", cwd=tmp_path)
+    res = cli("check", good, "--building", tmp_path / "missing.toml")
     assert res.returncode == 1 and "does not exist" in res.stdout
 
 

@@ -318,7 +318,7 @@ def test_diagnosis_refuses_a_delivered_model_and_fits_the_airflow_form(fit, data
         diagnose(dataset, model=fit, progress=False)
 
 
-def test_cli_fit_heat_option(dataset, tmp_path):
+def test_cli_fit_heat_option(dataset, tmp_path, cli):
     """`hvacfmu fit --heat airflow|delivered` forces the form of Model A; the physics model refuses the option,
     and Model A refuses the physics model's ``--gain-days``."""
     import os
@@ -349,8 +349,8 @@ def test_cli_fit_heat_option(dataset, tmp_path):
     r = run("--model", "zones", "--heat", "airflow", "-o", str(tmp_path / "a.json"))
     assert r.returncode == 0, r.stderr
     assert load_model(tmp_path / "a.json").heat == "airflow"
-    r = run("--model", "physics", "--heat", "airflow", "-o", str(tmp_path / "p.json"))
+    r = cli("-q", "fit", data, "-b", bld, "--model", "physics", "--heat", "airflow", "-o", tmp_path / "p.json")
     assert r.returncode == 2 and "--heat applies to Model A" in r.stderr and "Traceback" not in r.stderr
-    r = run("--model", "zones", "--gain-days", "shrunk", "-o", str(tmp_path / "g.json"))
+    r = cli("-q", "fit", data, "-b", bld, "--model", "zones", "--gain-days", "shrunk", "-o", tmp_path / "g.json")
     assert r.returncode == 2 and "--gain-days applies to the physics model" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "g.json").exists()

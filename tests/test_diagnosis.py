@@ -1185,7 +1185,7 @@ def test_report_json_schema(solar_case, tmp_path):
     ]
 
 
-def test_cli_diagnose_then_evaluate(solar_case, tmp_path):
+def test_cli_diagnose_then_evaluate(solar_case, tmp_path, cli):
     _, _, folder = solar_case
     out = tmp_path / "ext.json"
     cmd = [
@@ -1215,22 +1215,7 @@ def test_cli_diagnose_then_evaluate(solar_case, tmp_path):
     assert json.loads((tmp_path / "r.json").read_text())["findings"][0]["location"] == {"zone": "A", "facade": "S"}
     saved = json.loads(out.read_text())
     assert saved["kind"] == "extended" and saved["terms"][0]["cause"] == "solar_gain"
-    r2 = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "hvacfmu.cli",
-            "evaluate",
-            str(folder / "data.csv"),
-            "-b",
-            str(folder / "building.toml"),
-            "-m",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    r2 = cli("evaluate", folder / "data.csv", "-b", folder / "building.toml", "-m", out)  # in-process
     assert r2.returncode == 0, r2.stderr
     assert "extended" in r2.stdout
 

@@ -214,7 +214,7 @@ def test_fill_inputs_never_touches_zone_temperatures(clean):
     assert_allclose(filled.frame["T_out"].iloc[10:14], a + (b - a) * np.arange(1, 5) / 5, rtol=0, atol=1e-12)
 
 
-def test_cli_fill_inputs_and_interpolate_gaps_note(clean, truth, tmp_path):
+def test_cli_fill_inputs_and_interpolate_gaps_note(clean, truth, tmp_path, cli):
     gappy = with_outages(clean, hours=(0.25, 8.0))
     data = tmp_path / "gappy.parquet"
     gappy.frame.reset_index().to_parquet(data)
@@ -234,14 +234,9 @@ def test_cli_fill_inputs_and_interpolate_gaps_note(clean, truth, tmp_path):
     assert "per season:" in out and "input gap (inputs not filled)" in out, out
     rules = json.loads((tmp_path / "e.json").read_text())["models"][0]["rules"]
     assert rules["fill_inputs_h"] == 0 and rules["min_output_share"] == 0.75
-    out = run("--interpolate-gaps", "30", "--min-output-share", "90")
+    r = cli("-q", "evaluate", data, "-b", bpath, "-m", model, "--interpolate-gaps", "30", "--min-output-share", "90")
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
     assert "note: --interpolate-gaps 30 filled gaps" in out and "under 90 % of the steps" in out, out
-    r = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "evaluate", str(data), "-b", str(bpath), "-m", str(model)]
-        + ["--fill-inputs", "-1"],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-    )
+    r = cli("evaluate", data, "-b", bpath, "-m", model, "--fill-inputs", "-1")
     assert r.returncode == 2 and "--fill-inputs" in r.stderr and "Traceback" not in r.stderr, r.stderr

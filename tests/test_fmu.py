@@ -610,7 +610,7 @@ def test_fmpy_simulate_exits_nonzero_on_a_refused_step(built, fmu_data, tmp_path
     assert not (tmp_path / "out.csv").exists()
 
 
-def test_export_command_line_and_errors(built, tmp_path):
+def test_export_command_line_and_errors(built, tmp_path, cli):
     _, mp, _ = built["lumped"]
     ok = subprocess.run(
         [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "L.fmu")],
@@ -622,12 +622,7 @@ def test_export_command_line_and_errors(built, tmp_path):
     assert validate(tmp_path / "L.fmu") == []
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
-    run = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "export", str(bad), "-o", str(tmp_path / "B.fmu")],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    run = cli("export", bad, "-o", tmp_path / "B.fmu")  # in-process: the refusal's message and exit code
     assert run.returncode == 2 and "not valid JSON" in run.stderr
     with pytest.raises(ModelError, match="newer than this hvacfmu"):
         d = json.loads(Path(mp).read_text())
@@ -786,7 +781,7 @@ def test_a_plain_model_with_a_holiday_calendar_fmu_follows_it(fmu_data, tmp_path
         export_native_fmu(model, tmp_path / "holiday_native.fmu", building=building)
 
 
-def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
+def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path, cli):
     """An extended model with holiday and DST terms: with `start_time` the FMU equals the Python model."""
     from hvacfmu.fmu_slave import calendar_dependent
 
@@ -804,13 +799,8 @@ def test_calendar_model_fmu_follows_holidays_and_dst(fmu_data, tmp_path):
         plain = export_fmu(mp, tmp_path / "plain.fmu")
     with pytest.raises(FMUError, match="unknown time zone 'Mars/Olympus'"):
         export_fmu(mp, tmp_path / "bad.fmu", timezone="Mars/Olympus")
-    cli = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(tmp_path / "cli.fmu"), "--timezone", tz],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert cli.returncode == 0, cli.stderr
+    run = cli("export", mp, "-o", tmp_path / "cli.fmu", "--timezone", tz)  # in-process (the option's path)
+    assert run.returncode == 0, run.stderr
     with zipfile.ZipFile(tmp_path / "cli.fmu") as z:
         assert json.loads(z.read("resources/interface.json"))["timezone"] == tz
 

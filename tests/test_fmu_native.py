@@ -6,10 +6,8 @@ FMUs are built once per session (about 1 s each; the physics model's 269 states 
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -444,19 +442,12 @@ def test_fmpy_compile_rebuilds_the_binary_from_the_sources(native, tmp_path, kin
     assert_allclose(Y, Yref[:2000], rtol=0, atol=EXACT)
 
 
-def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
+def test_command_line_export_native_and_fmpy_simulate(native, tmp_path, cli):
     """`hvacfmu export --native` then `fmpy simulate` without inputs (all inputs at their start values)."""
     model, _ = native["zones"]
     mp = model.save(tmp_path / "zones.json")
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     out = tmp_path / "Z.fmu"
-    run = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "export", str(mp), "-o", str(out), "--native"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env=env,
-    )
+    run = cli("export", mp, "-o", out, "--native")  # in-process; the real export subprocess: test_fmu
     assert run.returncode == 0, run.stderr
     assert validate(out) == []
     sim = subprocess.run(
@@ -480,13 +471,7 @@ def test_command_line_export_native_and_fmpy_simulate(native, tmp_path):
     assert len(res) == 97 and np.isfinite(res[[f"T_{z}" for z in model.outputs]].to_numpy()).all()
     plant = tmp_path / "truth.json"
     plant.write_text('{"baseline": {}, "zones": []}')
-    bad = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "export", str(plant), "-o", str(tmp_path / "P.fmu"), "--native"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env=env,
-    )
+    bad = cli("export", plant, "-o", tmp_path / "P.fmu", "--native")  # in-process: the refusal
     assert bad.returncode != 0 and "cannot be exported as a native FMU" in bad.stderr
 
 

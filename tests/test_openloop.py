@@ -6,8 +6,6 @@ test_delivered_heat / test_datadriven) and read back through hvacfmu.data.prepar
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import warnings
 
 import numpy as np
@@ -114,15 +112,11 @@ def test_couplings_are_refitted_stable_and_only_between_adjacent_zones(case, bui
     assert max(abs(np.linalg.eigvals(coupled.A))) < 1.0
 
 
-def test_fit_option_and_command_line(case, tmp_path):
+def test_fit_option_and_command_line(case, tmp_path, cli, monkeypatch):
+    """The command line in-process (``cli``): a usage error; the real ``fit`` subprocess is in test_delivered_heat."""
     ds, _ = case
     with pytest.raises(FitError, match="open_loop_couplings must be True or False"):
         fit_zones(ds, open_loop_couplings="yes")
-    bad = subprocess.run(
-        [sys.executable, "-m", "hvacfmu.cli", "fit", "x.csv", "-b", "b.toml", "-m", "lumped", "-o", "m.json"]
-        + ["--couplings"],
-        capture_output=True,
-        text=True,
-        cwd=tmp_path,
-    )
+    monkeypatch.chdir(tmp_path)
+    bad = cli("fit", "x.csv", "-b", "b.toml", "-m", "lumped", "-o", "m.json", "--couplings")
     assert bad.returncode == 2 and "--couplings applies to the six-zone Model A" in bad.stderr
