@@ -1588,6 +1588,8 @@ def test_retested_dst_evidence_prints_the_screen_it_passed():
     ev["screen_passed"] = {"lag_steps": 5, "lag_h": 1.25, "r2_at_lag": 0.36, "scale_at_lag": 0.41}
     text = _short_evidence(f)
     assert "+75 min later" in text and "R² 0.36, scale 0.41" in text and "retested" in text, text
+    ev["screen_passed"]["evening"] = {"legal_lag_h": 1.0, "r2_at_legal_lag": 0.55}
+    assert "evening ramp-down +60 min (R² 0.55)" in _short_evidence(f)
 
 
 def test_reheat_heat_of_each_box_is_against_its_own_units_supply():
