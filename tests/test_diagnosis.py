@@ -183,12 +183,14 @@ def test_whiteness_of_white_and_coloured_noise(rng):
     np.testing.assert_allclose(w3["peak_period_h"], 24.0, rtol=0, atol=0.5)
 
 
-def _dst_signals(standard_time_occupancy: bool, seed: int):
+def _dst_signals(standard_time_occupancy: bool, seed: int, late_mornings_until=None):
     """Ten weeks of 15-min apparent gains around the end of DST (2025-11-02), three zones.
 
     Weekday occupancy ramps up at 08:00 and down at 17:30 on the local clock, or on standard
     time (one hour late on the local clock while DST is on); a solar-like bump at solar noon
     (13:00 local under DST, 12:00 after) is the same on every day; AR(1) noise on top.
+    ``late_mornings_until`` (a date): before it the mornings ramp up 90 min later, the evenings
+    unchanged (a change of the morning start, e.g. with the weather, that is no clock).
     """
     from types import SimpleNamespace
 
@@ -201,7 +203,10 @@ def _dst_signals(standard_time_occupancy: bool, seed: int):
     hour = idx.hour.to_numpy() + idx.minute.to_numpy() / 60.0
     occ_hour = hour - 1.0 * dst if standard_time_occupancy else hour
     weekday = idx.day_of_week.to_numpy() < 5
-    occ = weekday / (1 + np.exp(-(occ_hour - 8.0) / 0.35)) / (1 + np.exp(-(17.5 - occ_hour) / 0.5))
+    start = np.full(len(idx), 8.0)
+    if late_mornings_until is not None:
+        start[idx < pd.Timestamp(late_mornings_until, tz=idx.tz)] = 9.5
+    occ = weekday / (1 + np.exp(-(occ_hour - start) / 0.35)) / (1 + np.exp(-(17.5 - occ_hour) / 0.5))
     solar = np.exp(-(((hour - dst - 12.0) / 2.5) ** 2))
     e = np.zeros((len(idx), 3))
     for k in range(1, len(idx)):
@@ -239,6 +244,40 @@ def test_dst_profile_lag_sees_the_schedule_jump_not_the_sun(seed):
     shifted = 2 * abs(lag["lag_steps"]) >= 4
     assert not (shifted and lag["r2_at_lag"] >= opt["dst_min_r2"] and lag["scale_at_lag"] >= opt["dst_min_scale"]), lag
     assert lag["scale_at_lag"] < 0.25, lag
+
+
+def _dst_screen(sig, gains):
+    """The daylight-saving candidate of :func:`_dst_signals`'s data (the gains are the residual of a zero profile)."""
+    from types import SimpleNamespace
+
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
+    from hvacfmu.models.causes.internal_gain_schedule import dst_candidate
+    from hvacfmu.models.causes.signals import Within
+
+    zones = ("A", "B", "C")
+    full = SimpleNamespace(**vars(sig), zones=zones, nz=len(zones), base_profiles={"fall": np.zeros((sig.n_tow, 3))})
+    W = Within(sig.tow, np.arange(len(gains)))
+    return dst_candidate(full, W, {**DEFAULT_OPTIONS, "_resid_all": gains})
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_dst_candidate_needs_the_whole_schedule_to_move(seed):
+    """A clock moves the evening ramp-down with the morning ramp-up; a morning start that changes on another date
+    (the mornings of the DST weeks mostly late, the evenings on the local clock, as in EnergyPlus's Chicago runs of
+    the medium office, benchmarks/diagnosis_dst_s14.md) passes the morning screen but is no daylight-saving shift."""
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS as opt
+
+    # late mornings until a week before the change: the morning screen sees a shift, the evening does not move
+    c = _dst_screen(*_dst_signals(False, seed, late_mornings_until="2025-10-27"))
+    ev = c.evidence
+    assert ev["lag_h"] >= 0.5 and ev["r2_at_lag"] >= opt["dst_min_r2"] and ev["scale_at_lag"] >= opt["dst_min_scale"]
+    assert c.status == "not significant" and not c.variants, c.reason
+    assert "evening" in c.reason and ev["evening"]["r2_at_legal_lag"] < opt["dst_min_r2"]
+    # occupancy on standard time: both ramps move by the hour, the shift is proposed
+    c = _dst_screen(*_dst_signals(True, seed))
+    assert c.status not in ("not significant", "untestable"), c.reason
+    assert c.variants[0].shift == -4
+    assert c.evidence["evening"]["r2_at_legal_lag"] >= opt["dst_min_r2"]
 
 
 def test_acf_and_cpgram_handle_gaps(rng):
@@ -1534,6 +1573,8 @@ def test_retested_dst_evidence_prints_the_screen_it_passed():
     ev["screen_passed"] = {"lag_steps": 5, "lag_h": 1.25, "r2_at_lag": 0.36, "scale_at_lag": 0.41}
     text = _short_evidence(f)
     assert "+75 min later" in text and "R² 0.36, scale 0.41" in text and "retested" in text, text
+    ev["screen_passed"]["evening"] = {"legal_lag_h": 1.0, "r2_at_legal_lag": 0.55}
+    assert "evening ramp-down +60 min (R² 0.55)" in _short_evidence(f)
 
 
 def test_reheat_heat_of_each_box_is_against_its_own_units_supply():

@@ -425,10 +425,16 @@ def _short_evidence(f: dict) -> str:
             when = (
                 " in the round its screen passed; retested after a rival was accepted" if "screen_passed" in ev else ""
             )
+            eve = sc.get("evening")
+            evening = (
+                f", evening ramp-down {60 * eve['legal_lag_h']:+.0f} min (R² {eve['r2_at_legal_lag']:.2f})"
+                if eve
+                else ""
+            )
             return (
                 f"weekday morning gains {60 * sc['lag_h']:+.0f} min later under daylight saving "
-                f"(R² {sc.get('r2_at_lag', 0):.2f}, scale {sc.get('scale_at_lag', 0):.2f}{when}); daylight-saving "
-                f"rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
+                f"(R² {sc.get('r2_at_lag', 0):.2f}, scale {sc.get('scale_at_lag', 0):.2f}{evening}{when}); "
+                f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
             )
         return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
     return ""

@@ -596,7 +596,8 @@ def _carry_displaced_dst(ranked, opts: dict) -> None:
         rival = (c.evidence.get("rival") or {}).get("favoured")
         if c.status == "no evidence" and rival not in (None, c.cause):
             ev = c.evidence
-            passed = ev.get("screen_passed") or {k: ev[k] for k in ("lag_steps", "lag_h", "r2_at_lag", "scale_at_lag")}
+            keys = ("lag_steps", "lag_h", "r2_at_lag", "scale_at_lag", "evening")
+            passed = ev.get("screen_passed") or {k: ev[k] for k in keys if k in ev}
             opts["_dst_retest"] = {"shift": int(c.term.shift), "screen_passed": passed}
         elif c.status in ("found", "no cross-validated gain"):
             opts.pop("_dst_retest", None)

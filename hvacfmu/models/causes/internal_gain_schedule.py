@@ -9,7 +9,8 @@ weeks would be a leak).
 
 ``variant="dst_shift"``: while daylight-saving time is in effect the profile is read
 ``shift`` steps later (negative: earlier), scaled by ``coef`` per zone; screened from the jump
-of the weekday-minus-weekend morning gain profile at the change.
+of the weekday-minus-weekend morning gain profile at the change, and proposed only when the
+evening ramp-down jumps by the legal hour the same way (a clock moves the whole schedule).
 
 Both are calendar terms: they have no time-invariant matrix form (``add_equations`` raises).
 """
@@ -400,6 +401,12 @@ DST_MIN_DAYS = 5
 DST_WINDOW_H = (6.0, 12.0)
 #: Minimum weekend days with data on each side.
 DST_MIN_WEEKEND_DAYS = 4
+#: Local hours [h] of the evening ramp-down. Gains that follow another clock move their whole schedule
+#: at the change, so the evening ramp moves by the legal hour as the morning one does; a change of the
+#: morning alone is not a clock (EnergyPlus medium office, Chicago: the morning start moves with the
+#: outdoor temperature of the early hours, which is milder on the daylight-saving side of the season,
+#: while the evening stays on the local clock; benchmarks/diagnosis_dst_s14.md).
+DST_EVENING_H = (13.0, 21.0)
 
 
 def apparent_gains(sig, resid_all: np.ndarray) -> np.ndarray:
@@ -412,7 +419,7 @@ def apparent_gains(sig, resid_all: np.ndarray) -> np.ndarray:
     return resid_all + q
 
 
-def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
+def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray, window: tuple = DST_WINDOW_H) -> dict:
     """Lag between the weekday gain profiles of daylight-saving and standard-time days of a season.
 
     Within each season whose ``rows`` contain at least :data:`DST_MIN_DAYS` weekdays and
@@ -427,7 +434,8 @@ def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
     daylight-saving profile is the standard-time one ``L`` steps later (``L > 0``: gains
     one hour late on the local clock because they stay on standard time). The regression
     coefficient (``scale_at_lag``) is the shifted share: ~1 when the whole occupancy jumps
-    by an hour at the change. (Per-zone profiles were tried: too noisy.)
+    by an hour at the change. (Per-zone profiles were tried: too noisy.) ``window``: the local hours
+    compared (default the morning ramp-up; :data:`DST_EVENING_H` for the evening evidence).
 
     Returns
     -------
@@ -474,7 +482,7 @@ def dst_profile_lag(sig, gains: np.ndarray, rows: np.ndarray) -> dict:
         # local clock on both sides) and keeps the occupancy ramps
         prof = [scipy.ndimage.median_filter(p, size=5, mode="wrap") for p in prof]
         hours = np.arange(per_day) * sig.step / 3600.0
-        win = (hours >= DST_WINDOW_H[0]) & (hours < DST_WINDOW_H[1])
+        win = (hours >= window[0]) & (hours < window[1])
         delta = (prof[0] - prof[1])[win]
         delta = delta - delta.mean()
         w = min(n_on, n_off)
@@ -534,7 +542,9 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
     """Daylight-saving shift of the gain schedule: a one-hour jump of the weekday profile at the change.
 
     Evidence: the lag aligning the weekday gain profiles of daylight-saving and
-    standard-time weekdays of the same season (:func:`dst_profile_lag`). A lag of at
+    standard-time weekdays of the same season (:func:`dst_profile_lag`); the evening
+    ramp-down (:data:`DST_EVENING_H`) must move by the legal hour in the same direction
+    (R² ≥ ``dst_min_r2`` at that lag, ``evidence["evening"]``). A lag of at
     least half an hour is confirmed by fitting the ``dst_shift`` term (the profile read one
     hour earlier while daylight saving is on for ``L > 0``, later for ``L < 0``), with the
     profile re-estimated on the clock the gains follow. ``exclude_dates`` (ISO dates: holidays)
@@ -606,9 +616,30 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             f"{ev['scale_at_lag']:.2f} (needs {100 * r2_min:.0f} % and {g_min:g}): no "
             f"schedule jump at the change",
         )
+    # a clock moves the whole schedule: the evening ramp-down must jump by the legal hour in the same
+    # direction (a morning start that moves with the weather leaves the evening where it was)
+    legal = int(np.sign(L)) * steps
+    eve = dst_profile_lag(sig, gains, rows, window=DST_EVENING_H)
+    r2_eve = float(eve.get("r2_by_lag", {}).get(str(legal), 0.0))
+    ev["evening"] = {
+        "window_h": list(DST_EVENING_H),
+        "legal_lag_h": legal * sig.step / 3600.0,
+        "r2_at_legal_lag": r2_eve,
+        **{k: eve[k] for k in ("lag_h", "r2_at_lag", "scale_at_lag") if k in eve},
+    }
+    if r2_eve < r2_min:
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="not significant",
+            evidence=ev,
+            reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
+            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) does not move {legal * sig.step / 60:+.0f} min "
+            f"(R² {r2_eve:.2f} < {r2_min:g}): a change of the morning, not of the clock the gains follow",
+        )
     # the clock moves by the legal hour; the estimated lag (often 60-90 min: the ramp of a
     # partly shifted profile looks wider) gives the direction and is reported as evidence
-    return _dst_shift_candidate(sig, gains, W, loc, ev, -int(np.sign(L)) * steps)
+    return _dst_shift_candidate(sig, gains, W, loc, ev, -legal)
 
 
 def _dst_shift_candidate(sig, gains, W, loc, ev, shift: int) -> Candidate:
