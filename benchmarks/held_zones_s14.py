@@ -86,6 +86,7 @@ def main(argv=None):
         rec = {"case": key, "t_diagnose_s": t_diag, "summary": rep.summary(), "scores": scores}
         (out / f"{key}.json").write_text(json.dumps(rec, indent=1, default=str))
         rep.model.save(out / f"{key}_model.json")
+        rep.selected_model.save(out / f"{key}_selected_model.json")
 
 
 if __name__ == "__main__":
