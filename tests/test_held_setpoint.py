@@ -156,3 +156,19 @@ def test_python_fmu_runs_the_limiter(fmu_data, tmp_path):
     Yref = reference(model, idx, u, v, y0, week.season)
     assert_allclose(Y, Yref, rtol=0, atol=1e-9)
     assert Yref[:, 1].max() <= edge + 1e-12 < free[:, 1].max()  # the limiter acted
+
+
+def test_verdict_names_the_held_band_of_a_zone_persistence_wins_by_a_sensor_resolution():
+    from types import SimpleNamespace
+
+    from hvacfmu.evaluation.verdict import constant_held_line, held_terms_note
+
+    seasons = [
+        SimpleNamespace(output="B", season="winter", rms=0.008, persistence=0.0, beats_persistence=False),
+        SimpleNamespace(output="A", season="winter", rms=0.2, persistence=0.5, beats_persistence=True),
+    ]
+    model = ExtendedModel(base=row_model(), terms=(HELD,))
+    line = constant_held_line(seasons) + held_terms_note(model, seasons)
+    assert "B in winter 0.008 K against 0.000 K" in line and "held at one temperature" in line
+    assert "the model holds B at lower 14 °C (held_setpoint" in line
+    assert held_terms_note(ExtendedModel(base=row_model()), seasons) == ""
