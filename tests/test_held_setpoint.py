@@ -122,6 +122,11 @@ def test_native_fmu_refuses_and_control_model_leaves_it_out(tmp_path):
     with pytest.warns(HvacfmuWarning, match="leaves out held_setpoint in B"):
         ctl = terms_on_base(ds, base, [HeldSetpoint(zone="B", lower=14.0)], heat="airflow")
     assert ctl.terms == () and ctl.meta["left_out"][0]["cause"] == "held_setpoint"
+    # the MPC given the diagnosis's model itself refuses it, naming the limiter first
+    from harness.mpc.predict import model_equations
+
+    with pytest.raises(ModelError, match="held_setpoint in zone 'B' limits the temperature"):
+        model_equations(ExtendedModel(base=base, terms=(HELD,)))
 
 
 @pytest.fixture(scope="module")
