@@ -47,6 +47,12 @@ def test_term_limits_the_next_temperature_and_round_trips():
     again = ExtendedModel.from_dict(m.to_dict())
     assert again.terms == (t,)
     assert again.to_dict() == m.to_dict()
+    # hold: the running unit holds its setpoint exactly, from above as from below
+    h = ExtendedModel(base=base, terms=(HeldSetpoint(zone="A", cooling_floor=24.0, u_on=0.1, hold=True),))
+    assert h.step_state(np.array([25.5, 24.0, 24.0]), np.full(3, 0.2), v, q)[0] == 24.0
+    assert ExtendedModel.from_dict(h.to_dict()).terms == h.terms and h.terms[0].location()["hold"] is True
+    with pytest.raises(ModelError, match="hold needs a running unit"):
+        term_from_dict({"cause": "held_setpoint", "zone": "A", "lower": 20.0, "hold": True}, ("A", "B"))
     with pytest.raises(ModelError, match="needs one of"):
         term_from_dict({"cause": "held_setpoint", "zone": "A"}, ("A", "B"))
     with pytest.raises(ModelError, match="above upper"):

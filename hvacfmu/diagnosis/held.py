@@ -11,9 +11,10 @@ cross-validation. Per zone:
   also refitted without the rows whose next temperature sits at the edge (there the unmetered heat enters the zone:
   its free equation is not observed, and least squares would fold that heat into the zone's coefficients, a model
   that no longer reaches the edge). At a conditional edge (a running unit's setpoint, ``cooling_floor`` /
-  ``heating_ceiling``) the unit's airflow is measured and its rows identify its effect: the fit is kept. Of the
-  two fits (kept, censored) the one with the larger cross-validated gain is kept (a zone held 95 % of the time
-  leaves too few free rows to refit);
+  ``heating_ceiling``) the unit's airflow is measured and its rows identify its effect: the fit is kept, and the
+  running unit may also *hold* its setpoint exactly (``hold``: an ideal thermostat with spare capacity, wrong in
+  the steps a unit runs short of capacity). Of the variants (kept, censored, hold) the one with the largest
+  cross-validated gain is kept (a zone held 95 % of the time leaves too few free rows to refit);
 - the fold's structure without the term and the fit with it predict the fold's 24-hour windows open loop (the other zones measured), and the week-clustered paired test must pass ``cv_min_gain_percent`` and
   ``cv_min_t``.
 
@@ -37,6 +38,14 @@ from .design import coupled_blocks, fit_structure
 def _learn(sig, zi: int, rows):
     Ts = sig.V.get("T_supply")
     return HeldSetpoint.learn(sig.zones[zi], sig.Y[:, zi], sig.U[:, zi], Ts, rows, float(sig.u_min[zi]))
+
+
+def _hold(model):
+    """``model`` with its last term (the fold's held_setpoint) holding a running unit's setpoint exactly."""
+    t = model.terms[-1]
+    if not isinstance(t, HeldSetpoint) or (t.cooling_floor is None and t.heating_ceiling is None):
+        return model
+    return model.with_terms(list(model.terms[:-1]) + [dataclasses.replace(t, hold=True)])
 
 
 def _censored(sig, zi: int, term, rows) -> np.ndarray:
@@ -102,20 +111,27 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
                 censored.append(m.with_terms(list(m.terms) + [t_f]))
             else:
                 censored.append(plain[-1])
-        tests = {False: paired_test(plan, before, fold_scores(sig, plan, plain, [zi]))}
+        tests = {"kept": paired_test(plan, before, fold_scores(sig, plan, plain, [zi]))}
         if any(c is not p for c, p in zip(censored, plain)):
-            tests[True] = paired_test(plan, before, fold_scores(sig, plan, censored, [zi]))
-        censor = max(tests, key=lambda k: -np.inf if tests[k].get("gain_percent") is None else tests[k]["gain_percent"])
-        cv = tests[censor]
+            tests["censored"] = paired_test(plan, before, fold_scores(sig, plan, censored, [zi]))
+        if term.cooling_floor is not None or term.heating_ceiling is not None:
+            holding = [_hold(m) for m in plain]
+            tests["hold"] = paired_test(plan, before, fold_scores(sig, plan, holding, [zi]))
+        variant = max(
+            tests, key=lambda k: -np.inf if tests[k].get("gain_percent") is None else tests[k]["gain_percent"]
+        )
+        cv = tests[variant]
+        censor = variant == "censored"
+        if variant == "hold":
+            term = dataclasses.replace(term, hold=True)
         ok = (
             cv.get("gain_percent") is not None
             and cv["gain_percent"] >= opts.get("cv_min_gain_percent", 1.0)
             and cv["t"] >= opts.get("cv_min_t", 2.0)
         )
         edges = ", ".join(f"{k} {v:g} °C" for k, v in term.coefficients().items() if k != "u_on")
-        ev = {**ev, "censored_fit": censor}
-        if len(tests) == 2:  # both variants scored: the other one's gain, for the record
-            ev["cv_gain_percent_other_fit"] = tests[not censor].get("gain_percent")
+        ev = {**ev, "censored_fit": censor, "variant": variant}
+        ev["cv_gain_percent_by_variant"] = {k: t.get("gain_percent") for k, t in tests.items()}
         c = Candidate(
             HeldSetpoint.cause,
             term.location(),

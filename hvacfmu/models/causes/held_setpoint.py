@@ -7,8 +7,10 @@ prediction drifts through it. Term: the simulated zone temperature is limited to
 
     x_z(k+1) ← min(max(x_z(k+1), lower), upper)   [°C]
 
-``lower`` (a heating setpoint the zone never falls below) and ``upper`` (a cooling setpoint it never exceeds) are
-each optional (``None``: no edge on that side). It is an ideal thermostat of unknown capacity on the side of each
+``lower`` (a heating setpoint the zone never falls below) and ``upper`` (a cooling setpoint it never exceeds), and
+``cooling_floor`` / ``heating_ceiling`` (the setpoint a running unit stops at: only while the zone's airflow exceeds
+``u_on`` with supply air :data:`MODE_DT` colder / warmer than the zone; with ``hold`` the running unit holds it
+exactly, an ideal thermostat with spare capacity) are each optional (``None``: no edge on that side). It is an ideal thermostat of unknown capacity on the side of each
 edge: whatever the model predicts beyond the edge, the unit supplies (its heat is not in the data), and within the
 band the model runs free.
 
@@ -85,6 +87,8 @@ class HeldSetpoint(Term):
     cooling_floor: float | None = None
     heating_ceiling: float | None = None
     u_on: float = 0.0
+    #: a running unit holds its setpoint exactly (both sides), not only stops at it (conditional edges only)
+    hold: bool = False
 
     def columns(self):
         return ("T_supply",) if self.cooling_floor is not None or self.heating_ceiling is not None else ()
@@ -93,7 +97,7 @@ class HeldSetpoint(Term):
         return (self.zone,)
 
     def location(self):
-        return {"zone": self.zone}
+        return {"zone": self.zone, **({"hold": True} if self.hold else {})}
 
     def coefficients(self):
         out = {k: float(v) for k, v in zip(EDGES, self.edges()) if v is not None}
@@ -117,10 +121,16 @@ class HeldSetpoint(Term):
         lo, hi = e["lower"], e["upper"]
         if lo is not None and hi is not None and np.isfinite(lo) and np.isfinite(hi) and lo > hi:
             problems.append(f"{what}: lower {lo} °C above upper {hi} °C")
+        hold = d.get("hold", False)
+        if not isinstance(hold, bool):
+            problems.append(f"{what}: hold must be true or false, got {hold!r}")
+            hold = False
+        elif hold and e["cooling_floor"] is None and e["heating_ceiling"] is None:
+            problems.append(f"{what}: hold needs a running unit's setpoint (cooling_floor or heating_ceiling)")
         u_on = num(d, "u_on", what, problems, default=0.0)
         if np.isfinite(u_on) and u_on < 0:
             problems.append(f"{what}: u_on must be >= 0 kg/s, got {u_on}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), u_on=u_on, std=std, **e)
+        return cls(zone=zone_of(d, "zone", zone_names, what, problems), u_on=u_on, hold=hold, std=std, **e)
 
     def with_fit(self, sig, coefs, stds):
         return self
@@ -132,9 +142,11 @@ class HeldSetpoint(Term):
             on = c.u[..., zi] > self.u_on
             dT = c.v[..., c.vi["T_supply"]] - c.T[..., zi]
             if self.cooling_floor is not None:
-                T = np.where(on & (dT < -MODE_DT), np.maximum(T, self.cooling_floor), T)
+                held = self.cooling_floor if self.hold else np.maximum(T, self.cooling_floor)
+                T = np.where(on & (dT < -MODE_DT), held, T)
             if self.heating_ceiling is not None:
-                T = np.where(on & (dT > MODE_DT), np.minimum(T, self.heating_ceiling), T)
+                held = self.heating_ceiling if self.hold else np.minimum(T, self.heating_ceiling)
+                T = np.where(on & (dT > MODE_DT), held, T)
         if self.lower is not None:
             T = np.maximum(T, self.lower)
         if self.upper is not None:
