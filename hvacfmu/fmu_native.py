@@ -77,6 +77,14 @@ def native_equations(model, model_name="the model"):
             "pythonfmu FMU instead (without --native; its calendar's time zone from --timezone or the building "
             "file, -b)"
         )
+    no_form = [t for t in getattr(model, "terms", ()) if not getattr(t, "matrix_form", True)]
+    if no_form:
+        raise FMUError(
+            f"cannot export {model_name} as a native FMU: "
+            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in no_form)
+            + " has no matrix form (a held setpoint limits the temperature to a band, an unmetered thermostat); "
+            "export the pythonfmu FMU instead (hvacfmu export without --native), which runs every term"
+        )
     if not callable(getattr(model, "equations", None)):
         raise FMUError(
             f"cannot export {model_name} as a native FMU: model kind {kind!r} has no equations() "

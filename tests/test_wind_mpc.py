@@ -299,7 +299,7 @@ def test_control_model_keeps_the_wind_term_and_cosim_mpc_runs_it(tmp_path):
     (term,) = ctl.terms
     assert term.cause == "wind_infiltration" and term.coef > 0.0
     assert ctl.equations().disturbance_products
-    # the mechanism stays for a term without a matrix form (none is registered today): left out, said
+    # a term without a matrix form (held_setpoint is one, tests/test_held_setpoint.py): left out, said
     import dataclasses
     from typing import ClassVar
 

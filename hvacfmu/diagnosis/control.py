@@ -224,8 +224,9 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
         if twin is not None:
             dyn = twin
         meta["control_base"] = {"heat": dyn.heat, "notes": notes + fit_notes}
-    # a term without a matrix form (``Term.matrix_form`` False: none of the registered causes today; wind
-    # infiltration has one through ModelEquations.Bxv/Bvv) cannot be controlled with: left out, said
+    # a term without a matrix form (``Term.matrix_form`` False: ``held_setpoint``, a limiter standing for an
+    # unmetered thermostat, whose heat a controller must not be told is free) cannot be controlled with: left out,
+    # said
     no_form = [t for t in terms if not getattr(t, "matrix_form", True)]
     if no_form:
         note = (

@@ -17,6 +17,7 @@ from ..models.loadcheck import model_problems
 from ..threads import one_blas_thread
 from . import residuals as R
 from .design import make_signals
+from .held import held_setpoints
 from .report import DiagnosisReport
 from .selection import DEFAULT_OPTIONS, forward_select, horizon_steps, one_step_residuals
 
@@ -103,6 +104,14 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
     findings = sel.findings
     final = _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle)
+    # zones a local thermostat holds: a limiter, tested by the cross-validation after the selection (held.py)
+    say("testing held setpoints (zones a local thermostat holds at a band edge)")
+    selected = final
+    final, held = held_setpoints(sig, final, opts)
+    held_found = [c for c in held if c.status == "found"]
+    if held_found:
+        final.meta["diagnosis"]["causes"] += [c.cause for c in held_found]
+    findings = list(findings) + held_found
     # the model this report saves must load again (export, evaluate, cosim read it through the same checks)
     bad = model_problems(final)
     if bad:
@@ -129,7 +138,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     report = DiagnosisReport(
         verdict="found" if findings else ("unexplained" if unexplained else "nothing missing"),
         findings=[{**c.to_dict(), "parameters": _params_of(final, c.term)} for c in findings],
-        candidates=[c.to_dict() for c in sel.candidates],
+        candidates=[c.to_dict() for c in list(sel.candidates) + [c for c in held if c.status != "found"]],
         unexplained=unexplained,
         whiteness={"before": white_before, "after": white_after},
         errors=errors,
@@ -141,6 +150,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         rounds=sel.rounds,
         notes=notes,
         series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
+        selected_model=selected,
     )
     if plots:
         say(f"writing figures to {plots}")

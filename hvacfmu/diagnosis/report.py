@@ -75,6 +75,9 @@ class DiagnosisReport:
     rounds : list of dict
     series : dict
         Residual arrays for the figures (not serialised).
+    selected_model : ExtendedModel or None
+        The model of the forward selection, before the held setpoints (:mod:`hvacfmu.diagnosis.held`) were
+        added (not serialised; the same as ``model`` when none was).
     """
 
     verdict: str
@@ -91,6 +94,7 @@ class DiagnosisReport:
     rounds: list
     notes: list = dataclasses.field(default_factory=list)
     series: dict = dataclasses.field(default_factory=dict, repr=False)
+    selected_model: object = dataclasses.field(default=None, repr=False)
 
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
@@ -287,10 +291,13 @@ def _finding_lines(i: int, f: dict) -> list:
     L: list = []
     t = f["test"]
     L.append(f" {i}. {f['cause']} at {_loc(f['location'])}")
-    L.append(
-        f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
-        f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
-    )
+    if t.get("open_loop_only"):  # a limiter (held_setpoint): no one-step regressor, cross-validated open loop only
+        L.append("    test: open-loop cross-validation only (a limiter leaves the one-step prediction unchanged)")
+    else:
+        L.append(
+            f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+            f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
+        )
     ev = _short_evidence(f)
     if ev:
         L.append(f"    evidence: {ev}")
@@ -437,4 +444,27 @@ def _short_evidence(f: dict) -> str:
                 f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
             )
         return f"daylight-saving rows {100 * ev.get('dst_fraction_of_training_rows', 0):.0f} % of training"
+    if c == "held_setpoint":
+        return held_evidence(ev)
     return ""
+
+
+def held_evidence(ev: dict) -> str:
+    """The held edges of a ``held_setpoint`` candidate's evidence: where the training measurements pile up and how
+    rarely they cross (``"cooling_floor 24 °C: 84 % of 16355 cooling rows at it, 0.02 % below"``)."""
+    parts = []
+    for name, side, what, word in (
+        ("always", "lower", "rows", "below"),
+        ("always", "upper", "rows", "above"),
+        ("cooling_floor", "lower", "cooling rows", "below"),
+        ("heating_ceiling", "upper", "heating rows", "above"),
+    ):
+        e = ev.get(name) or {}
+        if e.get(side) is None:
+            continue
+        label = side if name == "always" else name
+        parts.append(
+            f"{label} {e[side]:g} °C: {100 * e[f'{side}_pile']:.0f} % of {e['n']} {what} at it, "
+            f"{100 * e[f'{side}_beyond']:.2f} % {word}"
+        )
+    return "; ".join(parts)

@@ -411,7 +411,7 @@ def make_verdict(scores, models, dataset) -> Verdict:
             held[sc.name] = [schedule]
         steady = "" if sc.name in missing else constant_held_line(per_season)
         if steady:
-            constant[sc.name] = [steady]
+            constant[sc.name] = [steady + held_terms_note(model, per_season)]
         behind = [
             v
             for v in per_season
@@ -505,6 +505,23 @@ def constant_held_line(seasons) -> str:
         "a zone sensor's resolution: an ideal thermostat, a server room), so holding the last value is the "
         f"forecast; the model is off by at most {worst:.3f} K more, and the percentage is large only because "
         "the baseline's error is tiny"
+    )
+
+
+def held_terms_note(model, seasons) -> str:
+    """``"; the model holds ... (held_setpoint)"`` for the zones of :func:`constant_held_line` whose model carries a
+    ``held_setpoint`` term (its band, learned from the training weeks), else ``""``."""
+    zones = {v.output for v in seasons if not v.beats_persistence and v.persistence <= LOOP_HELD_TOW_K}
+    terms = [t for t in getattr(model, "terms", ()) if t.cause == "held_setpoint" and t.zone in zones]
+    if not terms:
+        return ""
+    parts = []
+    for t in terms:
+        edges = ", ".join(f"{k.replace('_', ' ')} {v:g} °C" for k, v in t.coefficients().items() if k != "u_on")
+        parts.append(f"{t.zone} at {edges}")
+    return (
+        "; the model holds " + "; ".join(parts) + " (held_setpoint: the band its training measurements pile up at "
+        "and do not cross), what is left is its drift inside the band"
     )
 
 

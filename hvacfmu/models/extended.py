@@ -338,9 +338,9 @@ class ExtendedModel(ZoneModel):
         nvb = len(b.disturbances)
         Tn = b.step_state(c.T, c.u_eff, v[..., :nvb], q)  # airflow or delivered-heat form
         c.Tn = np.array(np.broadcast_to(Tn, shape + (nz,)))
-        for t, (off, _) in zip(self.terms, self._layout):
+        for t, (off, _) in sorted(zip(self.terms, self._layout), key=lambda p: p[0].limiter):
             c.off = off
-            t.contribute(c)
+            t.contribute(c)  # limiters (held_setpoint) last: they bound the next temperature
         x_new[..., :nz] = c.Tn
         return x_new
 

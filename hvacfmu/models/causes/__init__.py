@@ -22,6 +22,7 @@ from __future__ import annotations
 from ...errors import ModelError, problems_message
 from .actuation_delay import ActuationDelay
 from .base import Candidate, Term, term_params
+from .held_setpoint import HeldSetpoint
 from .internal_gain_schedule import InternalGainSchedule
 from .reheat import Reheat
 from .solar_gain import SolarGain
@@ -102,12 +103,14 @@ for _cls in (
     Reheat,
     UnusedInput,
     WindInfiltration,
+    HeldSetpoint,
 ):
     register_cause(_cls)
 
 __all__ = [
     "ActuationDelay",
     "Candidate",
+    "HeldSetpoint",
     "InternalGainSchedule",
     "Reheat",
     "SolarGain",

@@ -126,12 +126,15 @@ class Term:
     description: ClassVar[str] = ""
     #: False when the term has no ``ModelEquations`` form (:meth:`add_equations` refuses): no native FMU, no MPC;
     #: the diagnosis's control model leaves it out (:func:`hvacfmu.diagnosis.control.terms_on_base`). Every
-    #: registered cause has one today (``wind_infiltration`` through ``Bxv``/``Bvv``).
+    #: registered cause but ``held_setpoint`` (a limiter) has one (``wind_infiltration`` through ``Bxv``/``Bvv``).
     matrix_form: ClassVar[bool] = True
     #: True for a catch-all cause that names a measured column, not a mechanism (``unused_input``): when a
     #: cause-specific term reads the same column and the cross-validation cannot tell them apart, the specific
     #: one is named (:meth:`sources`, ``hvacfmu.diagnosis.selection``)
     generic: ClassVar[bool] = False
+    #: True for a term that limits the next zone temperature (``held_setpoint``): its :meth:`contribute` runs after
+    #: every other term's
+    limiter: ClassVar[bool] = False
     #: searched hyper-parameters charged in the information criterion for one candidate
     std: dict = dataclasses.field(default_factory=dict, compare=False)
 
