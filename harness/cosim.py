@@ -212,7 +212,7 @@ def _schedule_lines(s: dict) -> list:
             held = ", ".join(f"{c} {k}" for c, k in (sc.get("held_supply") or {}).items()) or "none"
             line = (
                 head + "): --system always-on runs the boxes through them; the supply temperature there is the "
-                f"unit's last running value (steps held: {held}), not the idle duct reading"
+                f"unit's last running value (values replaced: {held}), not the idle duct reading"
             )
         out.append(line)
         out.append(
