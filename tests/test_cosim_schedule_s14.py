@@ -10,6 +10,7 @@ temperature.
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -40,7 +41,7 @@ def night(tmp_path_factory):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         data = prepare(paths.measurements, paths.building)
-    return data, export_plant_fmu(paths.truth, tmp_path_factory.mktemp("plant") / "PlantNight.fmu")
+    return data, export_plant_fmu(paths.truth, tmp_path_factory.mktemp("plant") / "PlantNight.fmu"), paths
 
 
 def _limits(data, vavs):
@@ -98,7 +99,7 @@ def test_off_steps_by_unit_and_noise_and_the_limits_check():
 
 # ----------------------------------------------------------------------------- the plant FMU
 def test_replay_of_night_off_data_reproduces_the_zeros(night):
-    data, plant = night
+    data, plant, _ = night
     r = run_cosim(plant, data, ReplayController(), **SPAN)
     vavs = [c[2:] for c in r.table.columns if c.startswith("m_")]
     off, frame = _span_off(data, r.table, vavs)
@@ -116,7 +117,7 @@ def test_replay_of_night_off_data_reproduces_the_zeros(night):
 
 
 def test_rule_controller_is_off_at_night(night):
-    data, plant = night
+    data, plant, _ = night
     r = run_cosim(plant, data, RuleController(), band=(21.0, 23.0), **SPAN)
     vavs = [c[2:] for c in r.table.columns if c.startswith("m_")]
     off, _ = _span_off(data, r.table, vavs)
@@ -131,7 +132,7 @@ def test_rule_controller_is_off_at_night(night):
 
 
 def test_always_on_runs_the_boxes_with_a_running_supply_temperature(night):
-    data, plant = night
+    data, plant, _ = night
     r = run_cosim(plant, data, RuleController(), system="always-on", **SPAN)
     vavs = [c[2:] for c in r.table.columns if c.startswith("m_")]
     off, frame = _span_off(data, r.table, vavs)
@@ -190,3 +191,16 @@ def test_mpc_plans_and_applies_zero_in_off_steps(solver):
     assert c.stats()["off_steps"] == 1 and c.stats()["projected_steps"] <= 1  # an off step is no projection
     u = c.step(hot, V, Q)  # the schedule gone: the limits are back
     assert np.all(u >= u_min - 1e-9) and np.any(c.plans[-1].U[2:] > 1e-3)
+
+
+def test_cosim_command_says_the_schedule_and_takes_system(night, cli, tmp_path):
+    data, plant, paths = night
+    common = ["cosim", "--plant", plant, "-d", paths.measurements, "-b", paths.building, "-c", "rule", "--warmup", "0"]
+    span = ["--start", SPAN["start"], "--stop", "2025-11-04 22:00"]  # the unit stops at 20 h
+    r = cli(*common, *span, "--system", "always-on", "--out", tmp_path / "on.csv")
+    assert r.returncode == 0, r.stderr
+    assert "--system always-on runs the boxes through them" in r.stdout and "box limits" in r.stdout
+    summary = json.loads((tmp_path / "on.json").read_text())
+    assert summary["schedule"]["system"] == "always-on" and summary["schedule"]["off_steps"] > 0
+    assert summary["limits"]["outside"] == 0 and summary["limits"]["off"] == 0
+    assert cli(*common, *span, "--system", "never").returncode == 2  # argparse's choices
