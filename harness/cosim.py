@@ -1419,8 +1419,8 @@ def add_cosim_arguments(parser):
         choices=SYSTEMS,
         default="schedule",
         help="schedule (default): where the data's air handler is off (every box at most max(1e-6 kg/s, 5 %% of "
-        "m_min)) the boxes get 0 airflow and no reheat, whatever the controller; always-on: run the system through "
-        "those steps, with the unit's last running supply temperature",
+        "m_min), or none at half its m_min) the boxes get 0 airflow and no reheat, whatever the controller; "
+        "always-on: run the system through those steps, with the unit's last running supply temperature",
     )
     parser.add_argument(
         "--allow-partial", action="store_true", help="exit 0 even if the FMU stopped early (the error is still printed)"

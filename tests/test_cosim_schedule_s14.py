@@ -10,6 +10,7 @@ temperature.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
 
@@ -95,6 +96,39 @@ def test_off_steps_by_unit_and_noise_and_the_limits_check():
         "outside": 2,
         "outside_max": pytest.approx(0.2),
     }
+
+
+def test_rule_controller_turns_off_one_unit_and_holds_its_integrals():
+    from harness.controllers import ControlContext
+
+    b = building_from_dict(
+        {
+            "name": "two units",
+            "latitude": 40.0,
+            "longitude": -90.0,
+            "timezone": "UTC",
+            "ahus": [{"name": "A1"}, {"name": "A2"}],
+            "zones": [{"name": "Z", "area": 10.0, "volume": 30.0}, {"name": "Y", "area": 10.0, "volume": 30.0}],
+            "vavs": [
+                {"name": "a", "zone": "Z", "m_min": 0.2, "m_max": 1.0, "ahu": "A1"},
+                {"name": "c", "zone": "Y", "m_min": 0.1, "m_max": 0.5, "ahu": "A2"},
+            ],
+        }
+    )
+    index = pd.date_range("2025-11-03", periods=3, freq="15min", tz="UTC")
+    frame = pd.DataFrame({"T_supply": 14.0, "T_Z": 24.0, "T_Y": 24.0}, index=index)
+    off = np.array([[True, False], [True, False], [False, False]])
+    ctx = ControlContext(frame, b, ("a", "c"), ("T_Z", "T_Y"), (("Z",), ("Y",)), 900.0, (20.0, 22.0), off=off)
+    rule, free = RuleController(), RuleController()
+    rule.reset(ctx)
+    free.reset(dataclasses.replace(ctx, off=None))
+    y, v = np.array([21.5, 21.5]), {"T_supply": 14.0}  # 0.5 K above the set point: the loops unsaturated
+    for k in range(2):
+        m = rule(k, index[k], y, v)
+        assert m[0] == 0.0 and 0.1 <= m[1] <= 0.5
+        assert_allclose(m[1], free(k, index[k], y, v)[1], rtol=0, atol=0)  # the running unit as without schedule
+    assert rule.cool.integral[0] == 0.0 and free.cool.integral[0] > 0.0  # no wind-up while off
+    assert rule(2, index[2], y, v)[0] >= 0.2 and rule.stats()["off_box_steps"] == 2
 
 
 # ----------------------------------------------------------------------------- the plant FMU
