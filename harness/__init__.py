@@ -40,7 +40,9 @@ def cosim(
         Controller options (e.g. ``{"horizon": 12}`` for MPC).
     **kwargs
         Passed to :func:`harness.cosim.run_cosim` (``week=``, ``start=``, ``stop=``, ``band=`` [°C],
-        ``start_values=``, ``allow_partial=``, ``warmup=`` [s], ``progress=``).
+        ``start_values=``, ``allow_partial=``, ``warmup=`` [s], ``progress=``, ``system=``: ``"schedule"``
+        (default; the data's air-handler-off steps run with every box at 0) or ``"always-on"``,
+        :mod:`harness.schedule`).
 
     Returns
     -------

@@ -75,6 +75,12 @@ class ControlContext:
     discharge : tuple of str
         Boxes whose discharge air temperature the controller may command
         (the plant FMU's ``Td_<vav>`` inputs); empty when the plant has none.
+    off : array (n_steps, n_boxes) of bool, optional
+        The building's schedule (:mod:`harness.schedule`): box ``j`` is off
+        in step ``k`` (its air handler off in the data). The harness applies
+        0 airflow and no reheat there whatever the controller returns; a
+        controller should plan with it. None: the system runs in every step
+        (``--system always-on``, or data without off periods).
     """
 
     frame: pd.DataFrame
@@ -87,6 +93,13 @@ class ControlContext:
     season: str | None = None
     model: object = None
     discharge: tuple = ()
+    off: np.ndarray | None = None
+
+    def off_at(self, k: int) -> np.ndarray:
+        """Boxes (in :attr:`vavs` order) that are off in step ``k`` (all False without a schedule)."""
+        if self.off is None or k >= len(self.off):
+            return np.zeros(len(self.vavs), dtype=bool)
+        return np.asarray(self.off[k], dtype=bool)
 
     @property
     def n_steps(self) -> int:
@@ -138,11 +151,13 @@ class Controller(Protocol):
 
 
 class BoxLimiter:
-    """Keeps box commands inside the building's ``[m_min, m_max]`` and counts what it had to clip.
+    """Keeps box commands inside the building's ``[m_min, m_max]`` (or at 0 where the box is off) and counts
+    what it had to clip.
 
     Every controller passes its commands through one: a VAV box cannot deliver
     less than its minimum or more than its maximum airflow, so neither may the
-    plant. Clipping is reported, never silent (:meth:`stats`).
+    plant; a box whose air handler is off (the building's schedule,
+    ``off``) delivers none. Clipping is reported, never silent (:meth:`stats`).
 
     Parameters
     ----------
@@ -160,10 +175,17 @@ class BoxLimiter:
         self.n_clipped = np.zeros(self.m_min.size, dtype=int)  # box-steps clipped, per box
         self.max_clipped = 0.0  # [kg/s]
         self.n_calls = 0
+        self.n_off = 0  # box-steps set to 0 because the box was off
 
-    def __call__(self, m) -> np.ndarray:
+    def __call__(self, m, off=None) -> np.ndarray:
+        """``m`` clipped to ``[m_min, m_max]``; 0 where ``off`` (bool per box) is True (not counted as clipping)."""
         m = np.asarray(m, dtype=float)
         out = np.clip(m, self.m_min, self.m_max)
+        if off is not None and np.any(off):
+            off = np.asarray(off, dtype=bool)
+            out = np.where(off, 0.0, out)
+            m = np.where(off, 0.0, m)
+            self.n_off += int(off.sum())
         diff = np.abs(m - out)
         diff = np.where(np.isfinite(diff), diff, np.inf)
         self.n_clipped += diff > self.tol
@@ -174,11 +196,14 @@ class BoxLimiter:
     def stats(self) -> dict:
         """``clipped_box_steps`` (total), ``clipped_max`` [kg/s], ``clipped_boxes`` {box: box-steps}."""
         per_box = {(self.vavs[i] if i < len(self.vavs) else str(i)): int(n) for i, n in enumerate(self.n_clipped) if n}
-        return {
+        out = {
             "clipped_box_steps": int(self.n_clipped.sum()),
             "clipped_max": self.max_clipped,
             "clipped_boxes": per_box,
         }
+        if self.n_off:
+            out["off_box_steps"] = self.n_off
+        return out
 
 
 class ReplayController:
@@ -187,7 +212,11 @@ class ReplayController:
     Gaps in a box's measured airflow are filled with its last value (the
     box's ``m_min`` before the first one); measured airflows outside the
     building file's ``[m_min, m_max]`` are clipped to them. :meth:`stats`
-    counts both (``filled_airflows``, ``clipped_box_steps`` ...).
+    counts both (``filled_airflows``, ``clipped_box_steps`` ...). In the
+    steps the run's schedule marks off (:attr:`ControlContext.off`: the
+    data's unit off, its boxes reading at most their off bound) the box
+    replays 0 (``off_box_steps``; ``off_reading_max``: the largest reading
+    there, sensor noise).
     """
 
     name = "replay"
@@ -204,12 +233,19 @@ class ReplayController:
         m_min, _ = context.box_limits()
         self._m = m.ffill().fillna(pd.Series(m_min, index=cols)).to_numpy(dtype=float)
         self.limiter = BoxLimiter(*context.box_limits(), context.vavs)
+        self.context = context
+        self.off_max = (
+            float(np.max(self._m[: len(context.off)][context.off], initial=0.0)) if context.off is not None else 0.0
+        )
 
     def __call__(self, k, t, y, v):
-        return self.limiter(self._m[k])
+        return self.limiter(self._m[k], self.context.off_at(k))
 
     def stats(self) -> dict:
-        return {"filled_airflows": self.n_filled, **self.limiter.stats()}
+        out = {"filled_airflows": self.n_filled, **self.limiter.stats()}
+        if self.limiter.n_off:
+            out["off_reading_max"] = self.off_max
+        return out
 
 
 class _PI:
@@ -244,6 +280,10 @@ class RuleController:
     T_supply)``, ``Td_max`` the box's heating limit
     (:meth:`ControlContext.heating_limits`); otherwise ``Td`` is the supply
     temperature (no reheat).
+
+    Off steps of the building's schedule (:attr:`ControlContext.off`): the
+    box is off (0 airflow, no reheat: discharge command 0 °C, below any
+    supply air) and its loops hold their integrals until the unit restarts.
 
     Parameters
     ----------
@@ -280,6 +320,8 @@ class RuleController:
         self.td_boxes = np.array([list(context.vavs).index(b) for b in context.discharge], dtype=int)
         self.td_max = context.heating_limits() if len(self.td_boxes) else np.zeros(0)
         self.n_heating = 0  # box-steps with reheat
+        self.context = context
+        self.n_off = 0  # box-steps off (the building's schedule)
         # a delivered-heat model's FMU has no T_supply input (its boxes take Td_<vav> or T_supply_<ahu>):
         # the heating/cooling sign then comes from the prepared data's supply temperature
         frame = context.frame
@@ -296,6 +338,12 @@ class RuleController:
         )
 
     def __call__(self, k, t, y, v):
+        off = self.context.off_at(k)
+        if off.any():
+            return self._off_step(k, t, y, v, off)
+        return self._command(k, y, v)
+
+    def _command(self, k, y, v):
         T = np.asarray(y, dtype=float)[self.out_of_box]
         T_supply = self._supply(k, v)
         sign = np.where(T_supply <= T, 1.0, -1.0)  # supply air warmer than the zone: more air heats
@@ -309,8 +357,26 @@ class RuleController:
         Td = T_supply + h[self.td_boxes] * np.maximum(self.td_max - T_supply, 0.0)
         return np.concatenate([self.m_min + f * (self.m_max - self.m_min), Td])
 
+    def _off_step(self, k, t, y, v, off):
+        """A step where some boxes are off: those at 0 (no reheat), their integrals held; the others as usual."""
+        held = (self.cool.integral.copy(), self.heat.integral.copy())
+        if off.all():
+            self.n_off += int(off.sum())
+            return np.zeros(len(off) + len(self.td_boxes))
+        m = self._command(k, y, v)
+        self.cool.integral = np.where(off, held[0], self.cool.integral)
+        self.heat.integral = np.where(off, held[1], self.heat.integral)
+        self.n_off += int(off.sum())
+        m = np.array(m, dtype=float)
+        m[: len(off)][off] = 0.0
+        if len(self.td_boxes):
+            m[len(off) :][off[self.td_boxes]] = 0.0
+        return m
+
     def stats(self) -> dict:
         out = {"setpoint": self.T_set, "kp": self.kp, "ti": self.ti}
+        if getattr(self, "n_off", 0):
+            out["off_box_steps"] = self.n_off
         if len(getattr(self, "td_boxes", ())):
             out.update(heating_setpoint=self.T_set - self.heating_offset, heating_box_steps=self.n_heating)
         return out

@@ -58,6 +58,7 @@ from hvacfmu.progress import progress as progress_iter
 from hvacfmu.timeutil import seconds_of_week
 
 from .controllers import ControlContext, ReplayController, RuleController
+from .schedule import SYSTEMS, RunSchedule, check_system, off_steps, running_supply
 
 logger = logging.getLogger(__name__)
 
@@ -178,12 +179,59 @@ class CosimResult:
                     "gain is this wrong should be refitted: see fit's warnings)"
                 )
             lines.append(line)
+        lines += _schedule_lines(s)
         if s.get("filled_inputs"):
             lines.append(f"  gap-filled      {s['filled_inputs']} input values (time interpolation)")
         if s.get("controller_stats"):
             lines.append(f"  controller      {s['controller_stats']}")
             lines += _mpc_stats_lines(s["controller_stats"])
         return "\n".join(lines)
+
+
+def _schedule_lines(s: dict) -> list:
+    """The schedule and the limits check in words (the building's off periods, the option, what was applied)."""
+    out = []
+    sc = s.get("schedule") or {}
+    n = s["steps_requested"]
+    if sc.get("off_steps"):
+        periods = sc.get("off_periods") or []
+        head = (
+            f"  schedule        the data's air handler is off in {sc['off_steps']} of {n} steps ({len(periods)} periods"
+        )
+        if sc["system"] == "schedule":
+            line = (
+                head + "): the run follows it (--system schedule, the default): 0 airflow and no reheat in "
+                f"{sc['off_box_steps']} box-steps"
+                + (
+                    f", {sc['overridden_box_steps']} of them where the controller asked for air or reheat"
+                    if sc.get("overridden_box_steps")
+                    else ""
+                )
+            )
+        else:
+            held = ", ".join(f"{c} {k}" for c, k in (sc.get("held_supply") or {}).items()) or "none"
+            line = (
+                head + "): --system always-on runs the boxes through them; the supply temperature there is the "
+                f"unit's last running value (values replaced: {held}), not the idle duct reading"
+            )
+        out.append(line)
+        out.append(
+            f"    off rule      {sc['rule']}"
+            + (
+                f" ({sc['off_steps_noise']} steps by the second test: a shut box's reading above its 5 % bound)"
+                if sc.get("off_steps_noise")
+                else ""
+            )
+        )
+    lim = s.get("limits") or {}
+    if lim:
+        text = f"  box limits      applied airflows: {lim['in_range']} box-steps in [m_min, m_max]" + (
+            f", {lim['off']} off at 0" if lim["off"] or sc.get("off_steps") else ""
+        )
+        if lim["outside"]:
+            text += f", {lim['outside']} OUTSIDE both (up to {lim['outside_max']:.3g} kg/s)"
+        out.append(text)
+    return out
 
 
 def _mpc_stats_lines(st: dict) -> list:
@@ -547,6 +595,7 @@ def run_cosim(
     allow_partial=False,
     progress=False,
     warmup=None,
+    system="schedule",
 ) -> CosimResult:
     """Co-simulate an FMU with a controller in the loop over a span of measured data.
 
@@ -585,6 +634,13 @@ def run_cosim(
         the measurements).
     progress : bool
         Show a progress bar.
+    system : str
+        ``"schedule"`` (default): follow the building's operating schedule: in the steps where the data's air
+        handler is off (:mod:`harness.schedule`, :mod:`hvacfmu.data.idle`'s rule) every box of the unit gets 0
+        airflow and no reheat, whatever the controller returns (controllers are told through
+        ``ControlContext.off``). ``"always-on"``: run the system through those steps; the unit's supply
+        temperature there is its last running value in the data, not the idle duct reading. Data without off
+        periods run the same either way.
 
     Returns
     -------
@@ -599,10 +655,12 @@ def run_cosim(
     DataError
         The data cannot feed the FMU (missing columns, empty span).
     """
+    check_system(system)
     dataset = _with_derived_columns(dataset, _fmu_model(fmu_path) or model)
     run = _Run.for_span(dataset, week, start, stop, season, band)
     with FMUInstance(fmu_path) as inst:
         _connect(run, inst, mapping)
+        _apply_system(run, system)
         _locate_in_time(run, inst, mapping, warmup)
         sv = _start_values(run, inst, model, controller, mapping, start_values)
         controller.reset(
@@ -617,6 +675,7 @@ def run_cosim(
                 season=run.season,
                 model=model,
                 discharge=run.td_boxes,
+                off=run.schedule.off if run.schedule.enforced and run.schedule.off.any() else None,
             )
         )
         io = _FmuIO(inst, run)
@@ -677,6 +736,7 @@ class _Run:
     wframe: pd.DataFrame | None = None
     Mw: np.ndarray | None = None
     Vw: np.ndarray | None = None
+    schedule: RunSchedule | None = None
 
     @classmethod
     def for_span(cls, dataset, week, start, stop, season, band):
@@ -750,6 +810,31 @@ def _connect(run: _Run, inst: FMUInstance, mapping) -> None:
     run.cframe = run.frame.copy()
     for fmu_name, col in run.inputs.items():
         run.cframe[col] = run.V[fmu_name]
+
+
+def _apply_system(run: _Run, system: str) -> None:
+    """The run's schedule: the data's off steps per box; always-on: the running supply temperature there.
+
+    Always-on feeds each unit's supply temperature column, in the steps its unit is off in the data, with its
+    last running value (taken over the whole dataset, so a span that starts at night holds the evening's).
+    """
+    off, noise = off_steps(run.frame, run.building, run.vavs)
+    held = {}
+    if system == "always-on" and off.any():
+        frame, _ = running_supply(run.dataset.frame, run.building)
+        rows = frame.index.get_indexer(run.frame.index)
+        for fmu_name, col in run.inputs.items():
+            if col not in frame.columns:
+                continue
+            new = frame[col].iloc[rows]
+            changed = new.to_numpy(float) != run.frame[col].to_numpy(float)
+            changed &= np.isfinite(new.to_numpy(float))
+            if changed.any():
+                series, _ = _fill(new)
+                run.V[fmu_name] = series.to_numpy(dtype=float)
+                run.cframe[col] = run.V[fmu_name]
+                held[col] = int(changed.sum())
+    run.schedule = RunSchedule(system, off, held, noise)
 
 
 def _unset_states(interface) -> int:
@@ -927,6 +1012,19 @@ class _Trace:
     t_fmu: np.ndarray
     completed: int = 0
     stopped: str | None = None
+    overridden: int = 0  # box-steps off in the schedule where the controller asked for airflow or reheat
+
+
+def _switched_off(m, off, nc, td_cols, tr: _Trace) -> np.ndarray:
+    """``m`` with the off boxes at 0 airflow and their discharge commands at 0 degC (no reheat); counts overrides."""
+    m = np.array(m, dtype=float)
+    asked = np.abs(m[:nc][off]) > 1e-9
+    m[:nc][off] = 0.0
+    if m.size > nc:
+        td_off = off[td_cols]
+        m[nc:][td_off] = 0.0
+    tr.overridden += int(asked.sum())
+    return m
 
 
 def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -> _Trace:
@@ -943,6 +1041,9 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
     # a bar on a terminal, plain log lines otherwise (hvacfmu.progress)
     iterator = progress_iter(range(n), desc="cosim", unit="step", enabled=bool(progress))
     fmu, index = inst.fmu, run.frame.index
+    sched = run.schedule
+    off = sched.off if sched is not None and sched.enforced and sched.off.any() else None
+    td_cols = [run.vavs.index(b) for b in run.td_boxes]
     for k in iterator:
         t = run.t0 + k * run.step
         c0 = time.perf_counter()
@@ -956,6 +1057,8 @@ def _step_loop(run: _Run, inst: FMUInstance, io: _FmuIO, controller, progress) -
             need = f"{nc} finite airflows" + (f" (then {io.nd} discharge temperatures)" if io.nd else "")
             tr.stopped = f"controller returned {m!r} at step {k} ({index[k]}; need {need})"
             break
+        if off is not None and off[k].any():
+            m = _switched_off(m, off[k], nc, td_cols, tr)
         tr.M[k, : m.size] = m
         try:
             io.set_inputs(m, io.Vmat[k])
@@ -991,6 +1094,8 @@ def _result_table(run: _Run, tr: _Trace) -> pd.DataFrame:
         zones = run.outputs[o]
         if len(zones) == 1 and f"T_{zones[0]}" in frame:
             table[f"{o}_measured"] = np.append(frame[f"T_{zones[0]}"].to_numpy(dtype=float), np.nan)
+    if run.schedule is not None and run.schedule.off.any():  # boxes whose unit is off in the data, per step
+        table["off_boxes"] = np.append(run.schedule.off.sum(axis=1), 0).astype(int)
     table["controller_time"] = np.append(tr.t_ctrl, np.nan)
     table["fmu_time"] = np.append(tr.t_fmu, np.nan)
     return table.iloc[: tr.completed + 1] if tr.completed < run.n else table
@@ -1103,6 +1208,46 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "controller_stats": stats() if callable(stats) else {},
         "start_values": sv,
         "warmup_steps": run.nw,
+        "schedule": _schedule_summary(run, tr),
+        "limits": limits_check(Mc, run.building, run.vavs),
+    }
+
+
+def _schedule_summary(run: _Run, tr: _Trace) -> dict:
+    if run.schedule is None:
+        return {}
+    out = run.schedule.summary(run.frame.index)
+    out["overridden_box_steps"] = tr.overridden
+    return out
+
+
+def limits_check(M, building, vavs, tol: float = 1e-9) -> dict:
+    """Applied airflows against the boxes' limits: each box-step is off (0) or inside ``[m_min, m_max]``.
+
+    Parameters
+    ----------
+    M : array (steps, boxes) [kg/s]
+        Applied airflows (order ``vavs``).
+
+    Returns
+    -------
+    dict
+        ``off`` (box-steps at 0), ``in_range`` (inside the limits, ``tol`` [kg/s] allowed), ``outside`` (neither)
+        and ``outside_max`` [kg/s] (the largest distance to the nearest allowed value).
+    """
+    by_name = {b.name: b for b in building.vavs}
+    lo = np.array([by_name[b].m_min for b in vavs], dtype=float)
+    hi = np.array([by_name[b].m_max for b in vavs], dtype=float)
+    M = np.asarray(M, dtype=float).reshape(-1, len(vavs))
+    zero = np.abs(M) <= tol
+    inside = (M >= lo - tol) & (M <= hi + tol)
+    bad = ~(zero | inside)
+    dist = np.minimum(np.abs(M), np.maximum(lo - M, M - hi))
+    return {
+        "off": int(np.sum(zero & ~inside)),
+        "in_range": int(np.sum(inside)),
+        "outside": int(np.sum(bad)),
+        "outside_max": float(np.max(dist[bad], initial=0.0)),
     }
 
 
@@ -1270,6 +1415,14 @@ def add_cosim_arguments(parser):
         help="interpolate data gaps up to this length when preparing the data",
     )
     parser.add_argument(
+        "--system",
+        choices=SYSTEMS,
+        default="schedule",
+        help="schedule (default): where the data's air handler is off (every box at most max(1e-6 kg/s, 5 %% of "
+        "m_min), or none at half its m_min) the boxes get 0 airflow and no reheat, whatever the controller; "
+        "always-on: run the system through those steps, with the unit's last running supply temperature",
+    )
+    parser.add_argument(
         "--allow-partial", action="store_true", help="exit 0 even if the FMU stopped early (the error is still printed)"
     )
 
@@ -1348,6 +1501,7 @@ def main_cosim(args) -> int:
         allow_partial=True,
         progress=not getattr(args, "quiet", True),
         warmup=None if getattr(args, "warmup", None) is None else args.warmup * 3600.0,
+        system=getattr(args, "system", "schedule"),
     )
     print(result.format_summary())
     if args.out:

@@ -169,6 +169,7 @@ class CosimMPC:
             failure_dir=self.failure_dir,
             input_weights=weights,
             hard_inputs=hard,
+            schedule=getattr(context, "off", None) is not None,
         )
         N = self.mpc.N
         frame = context.frame
@@ -193,6 +194,7 @@ class CosimMPC:
         else:
             season = context.season if context.season in model.gains else next(iter(model.gains))
             self.Q = np.asarray(model.gains_at(idx, season), dtype=float)
+        self._context = context
         self._output_map(context)
         self._input_map(context, building)
         x0 = self._initial_estimate(frame) if self.mpc.estimated else None
@@ -223,12 +225,30 @@ class CosimMPC:
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
         y_model = self._W @ y
-        u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N])
-        m = self.limiter(self._split_offset + self._split @ u[: self.n_air])
+        u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N], self._off_inputs(k))
+        m = self.limiter(self._split_offset + self._split @ u[: self.n_air], self._context.off_at(k))
         if self.heat is None:
             return m
         T_supply = float(v["T_supply"]) if "T_supply" in v else float(self._T_supply[k])
         return np.concatenate([m, discharge_commands(self.heat, u[self.n_air :], m, T_supply, self._td_boxes)])
+
+    def _off_inputs(self, k):
+        """``(N, nu)`` bool: model inputs off over the horizon from step ``k`` (None without a schedule).
+
+        An airflow input is off where every box it drives is off (the building's schedule,
+        ``ControlContext.off``); a reheat input where every box is off. Past the run's end the last row holds.
+        """
+        off = self._context.off
+        if off is None:
+            return None
+        N = self.mpc.N
+        rows = np.minimum(np.arange(k, k + N), len(off) - 1)
+        boxes = off[rows]  # (N, n_boxes)
+        drives = self._split != 0.0  # (n_boxes, n_air)
+        air = np.stack([boxes[:, drives[:, i]].all(axis=1) for i in range(self.n_air)], axis=1)
+        n_heat = self.mpc.pred.nu - self.n_air
+        heat = np.repeat(boxes.all(axis=1)[:, None], n_heat, axis=1)
+        return np.concatenate([air, heat], axis=1)
 
     def stats(self) -> dict:
         """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""

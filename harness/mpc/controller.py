@@ -103,6 +103,11 @@ class MPCController:
         input's limits are softened). The harness makes the reheat inputs hard
         (:class:`~harness.mpc.adapter.MPCAdapter`): a coil's capacity is a
         limit no plan can exceed.
+    schedule : bool
+        The run has an operating schedule (:meth:`step`'s ``off``): the
+        problem gets hard caps so that an input off in a block stays at 0
+        there (the softened limits' shared slack would let it move). Without
+        it ``off`` only bounds the blocks softly and zeroes the applied move.
     """
 
     name = "mpc"
@@ -119,8 +124,10 @@ class MPCController:
         failure_dir=None,
         input_weights=None,
         hard_inputs=None,
+        schedule=False,
     ):
         self.model = model
+        self.schedule = bool(schedule)
         self.settings = settings or MPCSettings()
         self.pred = make_predictor(model)
         self.u_min = np.asarray(u_min, dtype=float).ravel()
@@ -156,6 +163,8 @@ class MPCController:
         self.projected_max = 0.0  # [kg/s] largest projected difference of one input
         self.projected_sum = 0.0  # [kg/s · steps] sum of |planned - applied| over inputs and steps
         self._plan = None
+        self._off = None  # (N, nu) bool of the current step: inputs off (the building's schedule)
+        self.n_off_steps = 0  # steps with an input off at the first move
         self._last = None  # (u, v, q) applied at the previous step
         self._x_last = None  # state estimate of the previous step (Model A: its measured outputs)
         self._pinv_C = None
@@ -279,7 +288,7 @@ class MPCController:
         return np.zeros(self.pred.nx) if self.pred.offset is None else self.pred.offset.copy()
 
     # ----- one step --------------------------------------------------------
-    def step(self, y, V, Qg) -> np.ndarray:
+    def step(self, y, V, Qg, off=None) -> np.ndarray:
         """Airflows to apply now.
 
         Parameters
@@ -287,6 +296,10 @@ class MPCController:
         y : array (ny,) [°C] measured outputs (zone temperatures)
         V : array (>= N, nv) disturbance preview from now on
         Qg : array (>= N, nq) internal-gain preview from now on
+        off : array (>= N, nu) of bool, optional
+            The building's schedule over the horizon: input ``i`` is off
+            (limits ``[0, 0]``) in a block whose steps are all off; the
+            applied move of an input off now is 0.
 
         Returns
         -------
@@ -298,6 +311,7 @@ class MPCController:
         t0 = time.perf_counter()
         V = self._preview(V, "V")
         Qg = self._preview(Qg, "Qg")
+        self._off = None if off is None or not np.any(off) else self._preview(off, "off").astype(bool)
         with self._blas():
             x0 = self.estimate(y, V[0], Qg[0])
             plan = self._plan_step(x0, V, Qg)
@@ -309,7 +323,11 @@ class MPCController:
             u = self._fallback_move()
             shifted = self._shifted_plan()
             self._plan = dataclasses.replace(plan, U=shifted) if shifted is not None else None
-        u = self._project(u)
+        if self._off is not None and self._off[0].any():  # off now: 0, and the others projected as usual
+            u = np.where(self._off[0], 0.0, self._project(np.where(self._off[0], self.u_min, u)))
+            self.n_off_steps += 1
+        else:
+            u = self._project(u)
         plan.step_time = time.perf_counter() - t0
         self.plans.append(plan)
         self._u_before = None if self._last is None else self._last[0]
@@ -372,7 +390,7 @@ class MPCController:
             y0, G = self._corrected(*self.pred.affine_prediction(x0, V, Qg, self.lengths))
             if self._problem is None:
                 self._problem = CondensedProblem(
-                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
+                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard, caps=self.schedule
                 )
             elif self.pred.time_varying or (
                 self._theta_in_problem is not None and not np.array_equal(self._theta_in_problem, self.gain_correction)
@@ -381,6 +399,7 @@ class MPCController:
             if s.gain_adapt > 0.0:
                 self._theta_in_problem = self.gain_correction
             self._problem.set_previous(self._u_prev())
+            self._set_block_limits()
             sol = self._problem.solve(y0)
             if not sol.found:
                 self._keep_failure(y0, x0, V, Qg)
@@ -451,6 +470,7 @@ class MPCController:
                     s,
                     self.weights,
                     self.hard,
+                    caps=self.schedule,
                 )
             else:
                 self._problem.update_blocks(beta, theta)
@@ -460,12 +480,27 @@ class MPCController:
             y0, G = self._corrected(y0, G)
             if self._problem is None:
                 self._problem = CondensedProblem(
-                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard
+                    G, self.u_min, self.u_max, self.pred.ny, s, weights=self.weights, hard=self.hard, caps=self.schedule
                 )
             else:
                 self._problem.update_G(G)
         self._problem.set_previous(self._u_prev())
+        self._set_block_limits()
         return self._problem.solve(y0), y0
+
+    def _set_block_limits(self) -> None:
+        """Limits per block for this step's solve: ``[0, 0]`` for an input off in every step of a block."""
+        if self._off is None:
+            if getattr(self._problem, "_blocked_limits", False):
+                self._problem.set_block_limits()
+                self._problem._blocked_limits = False
+            return
+        starts = np.concatenate([[0], np.cumsum(self.lengths)[:-1]])
+        off_b = np.array([self._off[a : a + n].all(axis=0) for a, n in zip(starts, self.lengths)])
+        lo = np.where(off_b, 0.0, self.u_min[None, :])
+        hi = np.where(off_b, 0.0, self.u_max[None, :])
+        self._problem.set_block_limits(lo, hi)
+        self._problem._blocked_limits = True
 
     def merit(self, U, X) -> float:
         """The problem's cost of moves U (N, nu) evaluated on the exact model trajectory X (N+1, nx).
@@ -548,7 +583,7 @@ class MPCController:
             "iterations_mean": float(np.mean(it)),
             "input_gain_max": float(np.max(self.theta)),  # estimated
             "input_gain_engaged": int(np.sum(self._engaged)),  # outputs whose prediction it scales now
-        }
+        } | ({"off_steps": self.n_off_steps} if self.n_off_steps else {})
 
 
 def input_mapping(model):

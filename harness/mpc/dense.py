@@ -132,6 +132,19 @@ class DenseQP:
         self.bu[r : r + nB] = np.where(hard, u_max[self.bound_U], _INF)
         self._band = r + nB  # first band row
 
+    def set_limits(self, lo, hi) -> None:
+        """Input limits of every U entry (block-major, (nb nu,)) [kg/s]: the softened rows and hard bounds."""
+        p, nL, nB, r = self.p, self.soft_U.size, self.bound_U.size, self.n
+        self.bu[r : r + nL] = hi[self.soft_U]
+        self.bl[r + nL : r + 2 * nL] = lo[self.soft_U]
+        r += 2 * nL
+        floor = -_INF if p.settings.u_floor is None else float(p.settings.u_floor)
+        hard = np.tile(p.hard, p.nb)[self.bound_U]
+        self.bl[r : r + nB] = np.where(hard, np.maximum(floor, lo[self.bound_U]), floor)
+        self.bu[r : r + nB] = np.where(hard, hi[self.bound_U], _INF)
+        if p.caps:  # the schedule's off blocks: U <= 0 without slack (entries that have a bound row)
+            self.bu[r : r + nB] = np.where(hi[self.bound_U] <= 0.0, 0.0, self.bu[r : r + nB])
+
     def update_G(self, G) -> None:
         """A new output sensitivity (bilinear models: a new linearisation); the active set is kept."""
         nY, nU, b = self.nY, self.nU, self._band - self.n

@@ -328,9 +328,16 @@ class _MPCProblem:
     """
 
     n_extra = 0
+    #: [kg/s] the cap of an open U entry (no schedule limit)
+    CAP_OPEN = 1.0e6
+    _blocked_limits = False  # set_block_limits gave limits other than u_min/u_max (the building's schedule)
 
-    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None, hard=None):
+    def __init__(self, u_min, u_max, ny, settings: MPCSettings, problems=(), weights=None, hard=None, caps=False):
         self.settings = settings
+        # hard upper caps per U entry (rows U <= cap, cap = CAP_OPEN unless set_block_limits closes a block): the
+        # building's schedule, where an input that is off must stay at 0 even when the softened limits' shared
+        # slack is in use elsewhere
+        self.caps = bool(caps)
         self.lengths = np.asarray(settings.block_lengths)
         self.N, self.nb = int(self.lengths.sum()), len(self.lengths)
         self.u_min = np.asarray(u_min, dtype=float).ravel()
@@ -449,6 +456,9 @@ class _MPCProblem:
         if self.settings.u_floor is not None:
             put(iU, iU, -1.0)  # -U <= -u_floor
             state["r0"] += nU
+        if self.caps:
+            put(iU, iU, 1.0)  # U <= cap (hard; the schedule's off blocks)
+            state["r0"] += nU
         self.n_nonneg = state["r0"] - n_eq
         if self.socp:  # (t, eps) in the second-order cone
             put(np.array([0]), np.array([self.i_t]), -1.0)
@@ -471,6 +481,7 @@ class _MPCProblem:
                 -self.T_min,
                 np.zeros(nY if self.soft else 0),
                 np.full(nU if self.settings.u_floor is not None else 0, -(self.settings.u_floor or 0.0)),
+                np.full(nU if self.caps else 0, self.CAP_OPEN),
                 np.zeros(1 + self.ne if self.socp else 0),
             ]
         )
@@ -498,6 +509,30 @@ class _MPCProblem:
                 self._coo_data[start : start + v.size] = v
         self.A.data[:] = self._coo_data[self._perm]
         self._A_changed = True
+
+    def set_block_limits(self, lo=None, hi=None) -> None:
+        """Input limits per block ``(nb, nu)`` [kg/s] for the next solves (None: ``u_min``/``u_max`` in every block).
+
+        The building's schedule (:mod:`harness.schedule`): an input whose boxes are all off in a block gets
+        ``[0, 0]`` there, so the plan knows the unit will be off. Call before :meth:`solve`. A problem built
+        with ``caps=True`` makes a block whose ``hi`` is 0 hard (``U <= 0`` without slack).
+        """
+        nU = self.nb * self.nu
+        lo = np.tile(self.u_min, self.nb) if lo is None else np.asarray(lo, dtype=float).ravel()
+        hi = np.tile(self.u_max, self.nb) if hi is None else np.asarray(hi, dtype=float).ravel()
+        if lo.size != nU or hi.size != nU or np.any(lo > hi):
+            raise SolverError(f"block limits must be two ({self.nb}, {self.nu}) arrays with lo <= hi")
+        if not hasattr(self, "_b_const"):
+            self._assemble()
+        self._b_const[:nU] = hi
+        self._b_const[nU : 2 * nU] = -lo
+        if self.caps:
+            i0 = 2 * nU + self.ne + 2 * self.N * self.ny + (self.N * self.ny if self.soft else 0)
+            i0 += nU if self.settings.u_floor is not None else 0
+            self._b_const[i0 : i0 + nU] = np.where(hi <= 0.0, 0.0, self.CAP_OPEN)
+        dense = getattr(self, "dense", None)
+        if dense is not None:
+            dense.set_limits(lo, hi)
 
     def rhs(self, y0) -> np.ndarray:
         """Constraint right-hand side ``b`` for the free response ``y0`` (N*ny,) [°C]."""
@@ -617,9 +652,9 @@ class CondensedProblem(_MPCProblem):
     dense block and was 4x slower with clarabel at N = 96.)
     """
 
-    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None, hard=None):
+    def __init__(self, G, u_min, u_max, ny, settings: MPCSettings, weights=None, hard=None, caps=False):
         G = np.asarray(G, dtype=float)
-        super().__init__(u_min, u_max, ny, settings, weights=weights, hard=hard)
+        super().__init__(u_min, u_max, ny, settings, weights=weights, hard=hard, caps=caps)
         if G.shape != (self.N * self.ny, self.nb * self.nu):
             raise SolverError(f"G has shape {G.shape}, expected {(self.N * self.ny, self.nb * self.nu)}")
         self.G = G
@@ -701,13 +736,15 @@ class ReducedProblem(_MPCProblem):
     u_min, u_max, settings, weights : as :class:`CondensedProblem`
     """
 
-    def __init__(self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None, hard=None):
+    def __init__(
+        self, Ar, Br, Cr, D0, beta, theta, u_min, u_max, settings: MPCSettings, weights=None, hard=None, caps=False
+    ):
         self.Ar, self.Br = np.asarray(Ar, float), np.asarray(Br, float)
         self.Cr, self.D0 = np.asarray(Cr, float), np.asarray(D0, float)
         self.nr, self.r = self.Br.shape
         self.has_theta = theta is not None
         self.n_extra = settings.horizon * (self.nr + self.r)
-        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights, hard=hard)
+        super().__init__(u_min, u_max, self.Cr.shape[0], settings, weights=weights, hard=hard, caps=caps)
         self._beta = np.asarray(beta, float)
         self._theta = None if theta is None else np.asarray(theta, float)
         self._gain = np.ones(self.ny)  # per-output scale of the forced response (set_output_gain)

@@ -1,0 +1,200 @@
+"""The building's operating schedule in a co-simulation: steps where the data's air handler is off.
+
+Office BMS data often have the air handler off at night and at weekends: every box of the unit at (near)
+zero airflow and the unit's logged supply temperature reading an idle duct node (about room air). The rule
+is :mod:`hvacfmu.data.idle`'s: a unit is off in a row where every box it feeds is at or below
+``max(1e-6 kg/s, 5 % of m_min)`` (:func:`hvacfmu.data.idle.box_off_bounds`, :data:`BOX_OFF_FRACTION`).
+
+The emulator's shut boxes read 0–0.01 kg/s, above 5 % of an m_min under 0.2 kg/s: by that rule alone one box
+of 21 reading 0.0101 kg/s makes the whole unit "run" for the step (133 of 2016 rows of a three-week
+``--schedule night-off`` dataset, where a run would then put every box at ``m_min``). A unit is therefore
+also off in a row where no box it feeds reads as much as :data:`RUNNING_FRACTION` of its ``m_min`` (a
+running box is at or above its minimum; always-on data never have such a row); the summary counts those
+rows separately.
+
+A run follows one of two systems (:data:`SYSTEMS`):
+
+- ``"schedule"`` (default): the building's own schedule. In the steps where the data's unit is off, every
+  box of the unit gets 0 airflow and no reheat (what the plant does with the unit off); controllers are told
+  (:attr:`harness.controllers.ControlContext.off`), and the harness applies 0 there whatever a controller
+  returns (counted). A box is then either off at 0 or inside ``[m_min, m_max]``.
+- ``"always-on"``: the system runs through the off periods (every box inside ``[m_min, m_max]``); the unit's
+  supply temperature in its off steps is its last running value in the data
+  (:func:`hvacfmu.data.idle.hold_idle_supply`, mode ``"last"``), never the idle duct reading.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+
+from hvacfmu.data.idle import BOX_OFF_FRACTION, box_off_bounds, idle_rows
+from hvacfmu.errors import HvacfmuError
+
+SYSTEMS = ("schedule", "always-on")
+#: floor of the off bound [kg/s] (as ``fit(heat="auto")`` and the diagnosis use)
+OFF_FLOOR = 1e-6
+#: a unit none of whose boxes reads this fraction of its m_min is not running (shut boxes' sensor noise)
+RUNNING_FRACTION = 0.5
+#: the rule in words (for the run's summary)
+RULE = (
+    f"hvacfmu.data.idle: a unit is off where every box it feeds reads at most max({OFF_FLOOR:g} kg/s, "
+    f"{100 * BOX_OFF_FRACTION:g} % of m_min), or where none reads {100 * RUNNING_FRACTION:g} % of its m_min"
+)
+
+
+def unit_of_boxes(building, vavs) -> list:
+    """Name of the air handler feeding each box of ``vavs`` (``"T_supply"`` for the implicit single unit)."""
+    out = []
+    for b in vavs:
+        ahu = building.ahu_of(b)
+        out.append("T_supply" if ahu is None else ahu.name)
+    return out
+
+
+def unit_off_rows(frame: pd.DataFrame, building) -> tuple:
+    """``({unit: rows off (bool)}, noise rows)`` of the air handlers (``"T_supply"``: the implicit single unit).
+
+    A unit is off in a row where every box it feeds has a measured airflow at or below its off bound
+    (:func:`hvacfmu.data.idle.idle_rows`), or where every box is measured and none reads
+    :data:`RUNNING_FRACTION` of its ``m_min``; ``noise`` (bool rows) marks the rows off by the second test
+    only (some unit). A unit any of whose boxes has no airflow column is never off.
+    """
+    bounds = box_off_bounds(building, BOX_OFF_FRACTION, OFF_FLOOR)
+    m_min = {f"m_{v.name}": float(v.m_min) for v in building.vavs}
+    members: dict = {}
+    for b, u in zip(building.vav_names, unit_of_boxes(building, building.vav_names)):
+        members.setdefault(u, []).append(f"m_{b}")
+    unit_off = {}
+    noise = np.zeros(len(frame), dtype=bool)
+    for u, cols in members.items():
+        if all(c in frame.columns for c in cols):
+            idle = idle_rows(frame, {c: bounds[c] for c in cols})
+            low = idle_rows(frame, {c: RUNNING_FRACTION * m_min[c] * (1.0 - 1e-12) for c in cols})
+            unit_off[u] = idle | low
+            noise |= low & ~idle
+        else:
+            unit_off[u] = np.zeros(len(frame), dtype=bool)
+    return unit_off, noise
+
+
+def off_steps(frame: pd.DataFrame, building, vavs) -> tuple:
+    """``(off, noise)``: ``off`` (rows, boxes) bool, box ``j`` of ``vavs`` off in a row where its unit is off
+    (:func:`unit_off_rows`); ``noise`` the number of rows off only because no box read
+    :data:`RUNNING_FRACTION` of its ``m_min``."""
+    unit_off, noise = unit_off_rows(frame, building)
+    own = unit_of_boxes(building, vavs)
+    if not own:
+        return np.zeros((len(frame), 0), dtype=bool), int(noise.sum())
+    return np.column_stack([unit_off[u] for u in own]), int(noise.sum())
+
+
+def running_supply(frame: pd.DataFrame, building) -> tuple:
+    """``frame`` with each unit's supply temperature replaced, in its off rows, by its last running value.
+
+    The off rows are :func:`unit_off_rows`'; the value is the column's last finite value in a row where the
+    unit ran (before the unit first runs: its first running value), as
+    :func:`hvacfmu.data.idle.hold_idle_supply` does in mode ``"last"``. Columns: ``T_supply`` (the implicit
+    unit, or with ``[[ahus]]`` the mean of all units: off where every unit is off) and each unit's
+    ``T_supply_<ahu>``. Returns ``(frame, {column: rows replaced})``.
+    """
+    unit_off, _ = unit_off_rows(frame, building)
+    cols = {}
+    if "T_supply" in frame.columns:
+        cols["T_supply"] = np.logical_and.reduce(list(unit_off.values())) if unit_off else None
+    for a in building.ahus:
+        if a.supply_column in frame.columns and a.name in unit_off:
+            cols[a.supply_column] = unit_off[a.name]
+    out, counts = frame, {}
+    for col, off in cols.items():
+        if off is None or not off.any():
+            continue
+        t = frame[col].to_numpy(dtype=float)
+        value = pd.Series(np.where(~off, t, np.nan), index=frame.index).ffill().bfill().to_numpy()
+        use = off & np.isfinite(value)
+        if use.any():
+            out = out.copy() if out is frame else out
+            out[col] = np.where(use, value, t)
+            counts[col] = int(use.sum())
+    return out, counts
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSchedule:
+    """The schedule of one run.
+
+    Attributes
+    ----------
+    system : str
+        ``"schedule"`` or ``"always-on"`` (:data:`SYSTEMS`).
+    off : array (n_steps, n_boxes) of bool
+        Box ``j`` is off in step ``k`` in the data (its unit off).
+    held : dict
+        ``{supply column: steps replaced by the last running value}`` (always-on only).
+    noise : int
+        Steps off only because no box read :data:`RUNNING_FRACTION` of its ``m_min``.
+    """
+
+    system: str
+    off: np.ndarray
+    held: dict = dataclasses.field(default_factory=dict)
+    noise: int = 0
+
+    @property
+    def enforced(self) -> bool:
+        """True when the run applies the schedule (off boxes at 0)."""
+        return self.system == "schedule"
+
+    def summary(self, index) -> dict:
+        """What the run's summary says of the schedule (steps off, the rule, the option)."""
+        any_off = self.off.any(axis=1) if self.off.size else np.zeros(len(index), dtype=bool)
+        return {
+            "system": self.system,
+            "rule": RULE,
+            "off_steps": int(any_off.sum()),
+            "off_box_steps": int(self.off.sum()),
+            "off_steps_noise": self.noise,
+            "off_periods": _periods(index, any_off),
+            "held_supply": dict(self.held),
+        }
+
+
+def check_system(system: str) -> str:
+    if system not in SYSTEMS:
+        raise HvacfmuError(f"unknown system {system!r}; choose one of {SYSTEMS}")
+    return system
+
+
+def _periods(index, mask) -> list:
+    """``[[first, end], ...]`` of the runs of True in ``mask`` (``end``: the start of the next row)."""
+    out = []
+    mask = np.asarray(mask, dtype=bool)
+    if not len(index):
+        return out
+    step = index[1] - index[0] if len(index) > 1 else pd.Timedelta(0)
+    k, n = 0, len(mask)
+    while k < n:
+        if mask[k]:
+            j = k
+            while j + 1 < n and mask[j + 1]:
+                j += 1
+            out.append([str(index[k]), str(index[j] + step)])
+            k = j + 1
+        else:
+            k += 1
+    return out
+
+
+__all__ = [
+    "RULE",
+    "RUNNING_FRACTION",
+    "SYSTEMS",
+    "RunSchedule",
+    "check_system",
+    "off_steps",
+    "running_supply",
+    "unit_of_boxes",
+    "unit_off_rows",
+]
