@@ -139,6 +139,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         data=_data_summary(dataset, sig, n_train),
         options={**opts, "hold_idle_supply": hold},
         rounds=sel.rounds,
+        budget=sel.budget,
         notes=notes,
         series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
     )

@@ -1,0 +1,61 @@
+"""The term budget of ``diagnose`` (``max_terms``): when it stops the selection, the report names what it left.
+
+Data: the three rooms of ``test_diagnosis`` with two simulated effects (solar gain in A, a 30-min delay in C), as in
+``test_two_synthetic_effects_are_both_found``: both are significant and cross-validated in the first round.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_diagnosis import row_model, simulate_dataset
+
+from hvacfmu.diagnosis import diagnose
+from hvacfmu.diagnosis.selection import BUDGET_STATUS
+from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain
+
+EFFECTS = {"solar_gain": {"zone": "A", "facade": "S"}, "actuation_delay": {"zone": "C", "delay": 2}}
+
+
+@pytest.fixture(scope="module")
+def two_effects():
+    base = row_model()
+    terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
+    return simulate_dataset(ExtendedModel(base=base, terms=terms), weeks=12, seed=3), base
+
+
+def test_a_budget_that_binds_names_the_significant_candidates_it_left(two_effects, tmp_path):
+    ds, base = two_effects
+    rep = diagnose(ds, model=base, progress=False, max_terms=1)
+    # the budget is a maximum: one term, although the round had two zone-disjoint candidates to accept
+    assert len(rep.findings) == 1, rep.summary()
+    (kept,) = rep.causes
+    (other,) = set(EFFECTS) - {kept}
+    assert rep.budget["reached"] and rep.budget["max_terms"] == 1 and rep.budget["n_terms"] == 1
+    left = [c for c in rep.budget["left"] if c["cause"] == other]
+    assert left and left[0]["location"] == {**left[0]["location"], **EFFECTS[other]}, rep.budget
+    assert left[0]["delta_bic"] > rep.options["bic_margin"]
+    # the same candidate, with its status and why, among the report's candidates
+    (cand,) = [c for c in rep.candidates if c["cause"] == other and c["location"] == left[0]["location"]]
+    assert cand["status"] == BUDGET_STATUS and "max_terms = 1" in cand["reason"]
+    assert rep.rounds[-1]["stopped"] == "max_terms" and rep.rounds[-1]["accepted"] == []
+    # said in the text, the one-line summary and the JSON
+    text = rep.format()
+    assert "Term budget reached: the selection stopped at max_terms = 1 terms" in text
+    assert f"  - {other} at " in text.split("Term budget reached")[1].split("\n\n")[0]
+    assert "stopped at the term budget (max_terms 1)" in rep.summary()
+    d = json.loads(rep.save_json(tmp_path / "r.json").read_text())
+    assert d["budget"]["reached"] is True and [c["cause"] for c in d["budget"]["left"]][:1] == [other]
+
+
+def test_a_budget_that_does_not_bind_says_so(two_effects):
+    ds, base = two_effects
+    rep = diagnose(ds, model=base, progress=False, max_terms=2)
+    assert sorted(rep.causes) == sorted(EFFECTS), rep.summary()
+    assert rep.budget["reached"] is True and rep.budget["left"] == []  # spent, nothing significant left
+    rep3 = diagnose(ds, model=base, progress=False, max_terms=3)
+    assert rep3.causes == rep.causes
+    assert rep3.budget == {"max_terms": 3, "n_terms": 2, "reached": False, "left": []}
+    assert "Term budget" not in rep3.format() and "term budget" not in rep3.summary()
+    assert all(c["status"] != BUDGET_STATUS for c in rep3.candidates)
