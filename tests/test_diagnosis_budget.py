@@ -7,6 +7,10 @@ Data: the three rooms of ``test_diagnosis`` with two simulated effects (solar ga
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 from test_diagnosis import row_model, simulate_dataset
@@ -15,6 +19,7 @@ from hvacfmu.diagnosis import diagnose
 from hvacfmu.diagnosis.selection import BUDGET_STATUS
 from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain
 
+REPO = Path(__file__).resolve().parents[1]
 EFFECTS = {"solar_gain": {"zone": "A", "facade": "S"}, "actuation_delay": {"zone": "C", "delay": 2}}
 
 
@@ -59,3 +64,21 @@ def test_a_budget_that_does_not_bind_says_so(two_effects):
     assert rep3.budget == {"max_terms": 3, "n_terms": 2, "reached": False, "left": []}
     assert "Term budget" not in rep3.format() and "term budget" not in rep3.summary()
     assert all(c["status"] != BUDGET_STATUS for c in rep3.candidates)
+
+
+def test_cli_max_terms_and_what_the_budget_left_in_text_and_json(two_effects, tmp_path):
+    ds, base = two_effects
+    frame = ds.frame.drop(columns=[c for c in ds.frame.columns if c.startswith("I_") or c == "excitation"])
+    frame.reset_index().to_csv(tmp_path / "data.csv", index=False)
+    ds.building.save(tmp_path / "building.toml")
+    base.save(tmp_path / "base.json")
+    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "diagnose", str(tmp_path / "data.csv")]
+    cmd += ["-b", str(tmp_path / "building.toml"), "-m", str(tmp_path / "base.json"), "--max-terms", "1"]
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    r = subprocess.run([*cmd, "--json", str(tmp_path / "r.json")], capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    d = json.loads((tmp_path / "r.json").read_text())
+    assert len(d["findings"]) == 1 and d["budget"]["reached"] and d["budget"]["max_terms"] == 1
+    (other,) = set(EFFECTS) - {d["findings"][0]["cause"]}
+    block = r.stdout.split("Term budget reached")[1].split("\n\n")[0]
+    assert f"  - {other} at " in block, r.stdout
