@@ -76,7 +76,8 @@ class DiagnosisReport:
     budget : dict
         The term budget: ``max_terms``, ``n_terms`` (findings), ``reached`` (the budget stopped the selection) and
         ``left``: the candidates significant against the final model that were not cross-validated for it
-        (``cause``, ``location``, ``key``, ``delta_bic``), strongest first.
+        (``cause``, ``location``, ``key``, ``delta_bic``; ``tried_before``: the earlier round that cross-validated
+        it against the model of then and did not accept it), strongest first.
     series : dict
         Residual arrays for the figures (not serialised).
     """
@@ -219,7 +220,13 @@ class DiagnosisReport:
             f"{len(b['left'])} candidate(s) significant against the final model were not cross-validated "
             f"(not tested, not absent; raise max_terms to test them):"
         ]
-        L += [f"  - {c['cause']} at {_loc(c['location'])}: ΔBIC {c['delta_bic']:.1f}" for c in b["left"]]
+        for c in b["left"]:
+            t = c.get("tried_before")
+            g = "" if not t or t.get("cv_gain_percent") is None else f", {t['cv_gain_percent']:+.1f} %"
+            before = (
+                f" (cross-validated in round {t['round']} against the model of then: {t['status']}{g})" if t else ""
+            )
+            L.append(f"  - {c['cause']} at {_loc(c['location'])}: ΔBIC {c['delta_bic']:.1f}{before}")
         return L + [""]
 
     def _candidate_lines(self) -> list:

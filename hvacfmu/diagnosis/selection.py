@@ -489,6 +489,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     findings, rounds, last_cands = [], [], []
     rejected: dict = {}  # candidate key -> why it was left out (the joint refit failed the load checks)
     rejected_cands: list = []
+    tried: dict = {}  # candidate key -> the last round that cross-validated it and did not accept it
     sig0 = sig
     fixed_profiles = None
     while len(findings) < opts["max_terms"]:
@@ -504,6 +505,13 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             key=lambda c: (not _is_holiday(c.term), -c.test["delta_bic"]),
         )
         accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows, opts["max_terms"] - len(findings))
+        for c in ranked:  # what the budget screen says of a candidate cross-validated in an earlier round
+            if c.cv is not None and c.status != "found":
+                tried[c.key] = {
+                    "round": len(rounds) + 1,
+                    "status": c.status,
+                    "cv_gain_percent": decisive_cv(c).get("gain_percent"),
+                }
         _name_competitors(cands, accepted)
         _carry_displaced_dst(ranked, opts)
         rounds.append(
@@ -564,7 +572,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     budget = {"max_terms": int(opts["max_terms"]), "n_terms": len(findings), "reached": False, "left": []}
     if len(findings) >= opts["max_terms"]:
         last_cands = _budget_screen(_round_signals(sig0, cur, fixed_profiles), W, terms, cur, opts, rejected, rounds)
-        budget.update(reached=True, left=[_left_entry(c) for c in last_cands if c.status == BUDGET_STATUS])
+        left = sorted((c for c in last_cands if c.status == BUDGET_STATUS), key=lambda c: -c.test["delta_bic"])
+        budget.update(reached=True, left=[_left_entry(c, tried.get(c.key)) for c in left])
     others = [c for c in last_cands if c not in findings]
     seen = {c.key for c in others}
     others += [c for c in rejected_cands if c.key not in seen and not seen.add(c.key)]
@@ -618,9 +627,11 @@ def _budget_screen(sig: Signals, W: Within, terms, cur, opts, rejected: dict, ro
     return cands
 
 
-def _left_entry(c) -> dict:
-    """What the report says of a candidate the term budget left untried."""
-    return {"cause": c.cause, "location": c.location, "key": c.key, "delta_bic": float(c.test["delta_bic"])}
+def _left_entry(c, tried: dict | None) -> dict:
+    """What the report says of a candidate the term budget left untried; ``tried``: the last earlier round that
+    cross-validated it against the model of then and did not accept it (``round``, ``status``, ``cv_gain_percent``)."""
+    out = {"cause": c.cause, "location": c.location, "key": c.key, "delta_bic": float(c.test["delta_bic"])}
+    return {**out, "tried_before": tried} if tried else out
 
 
 def _new_load_problems(model, before_fails: bool) -> list:
