@@ -16,7 +16,7 @@ import pytest
 from test_diagnosis import row_model, simulate_dataset
 
 from hvacfmu.diagnosis import diagnose
-from hvacfmu.diagnosis.selection import BUDGET_STATUS
+from hvacfmu.diagnosis.selection import BUDGET_STATUS, term_budget
 from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain
 
 REPO = Path(__file__).resolve().parents[1]
@@ -59,11 +59,20 @@ def test_a_budget_that_does_not_bind_says_so(two_effects):
     rep = diagnose(ds, model=base, progress=False, max_terms=2)
     assert sorted(rep.causes) == sorted(EFFECTS), rep.summary()
     assert rep.budget["reached"] is True and rep.budget["left"] == []  # spent, nothing significant left
-    rep3 = diagnose(ds, model=base, progress=False, max_terms=3)
+    rep3 = diagnose(ds, model=base, progress=False)  # the default budget: 20 at 3 zones
     assert rep3.causes == rep.causes
-    assert rep3.budget == {"max_terms": 3, "n_terms": 2, "reached": False, "left": []}
+    assert rep3.budget == {"max_terms": 20, "rule": "max(20, 4 × 3 zones)", "n_terms": 2, "reached": False, "left": []}
+    assert rep3.options["max_terms"] == 20 and rep.budget["rule"] == "given"
     assert "Term budget" not in rep3.format() and "term budget" not in rep3.summary()
     assert all(c["status"] != BUDGET_STATUS for c in rep3.candidates)
+
+
+@pytest.mark.parametrize(
+    "given, nz, budget", [(None, 3, 20), (None, 5, 20), (None, 6, 24), (None, 8, 32), (None, 9, 36), (7, 8, 7)]
+)
+def test_default_term_budget_scales_with_the_zones(given, nz, budget):
+    """A fixed 20 was 7 terms per zone at 3 zones and 2.5 at 8 (the EnergyPlus apartments stopped on it)."""
+    assert term_budget(given, nz) == budget
 
 
 def test_cli_max_terms_and_what_the_budget_left_in_text_and_json(two_effects, tmp_path):

@@ -526,7 +526,7 @@ def _add_diagnose_parser(sub) -> None:
     p.add_argument(
         "--max-terms",
         type=int,
-        help="term budget: at most this many terms are added (default: the option max_terms); the report names "
+        help="term budget: at most this many terms are added (default max(20, 4 per zone)); the report names "
         "the significant candidates a budget reached left untried",
     )
     p.add_argument("--output", "-o", help="write the extended model (JSON)")

@@ -71,7 +71,7 @@ DEFAULT_OPTIONS = {
     "bic_margin": 10.0,
     "min_gain_percent": 1.0,
     "min_gain_abs": 0.003,
-    "max_terms": 20,
+    "max_terms": None,  # None: term_budget (max(20, 4 per zone))
     "max_tries": 8,
     "holiday_gamma": 0.6,
     "holiday_z": 4.0,
@@ -87,6 +87,23 @@ DEFAULT_OPTIONS = {
     "cv_min_gain_percent": 1.0,
     "cv_min_t": 2.0,
 }
+
+
+#: Default term budget (``max_terms`` None): ``TERMS_PER_ZONE`` per zone, and never fewer than ``MIN_TERMS``.
+TERMS_PER_ZONE = 4
+MIN_TERMS = 20
+
+
+def term_budget(max_terms, nz: int) -> int:
+    """The term budget of a selection over ``nz`` zones: ``max_terms`` when given, else ``max(20, 4 nz)``.
+
+    A fixed 20 was 2.5 terms per zone at 8 zones and 7 at 3; the EnergyPlus apartments (8 flats) stopped on
+    it with candidates untested and converge at 23 terms, the core9 battery cases at 20-25
+    (``benchmarks/diagnosis_budget_s14.md``). Up to 5 zones the budget stays 20.
+    """
+    if max_terms is not None:
+        return int(max_terms)
+    return max(MIN_TERMS, TERMS_PER_ZONE * int(nz))
 
 
 #: Open-loop prediction window of the cross-validation and the held-out scores [h].
@@ -476,6 +493,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     """
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     opts["horizon"] = horizon_steps(sig.step, opts["horizon"])
+    given_budget = opts["max_terms"] is not None
+    opts["max_terms"] = term_budget(opts["max_terms"], sig.nz)
     rows = sig.rows("train")
     terms = list(initial_terms)
     W = Within(sig.group, rows)
@@ -569,7 +588,13 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             c.term = next(
                 (t for t in cur.model.terms if t.cause == c.term.cause and t.location() == c.term.location()), c.term
             )
-    budget = {"max_terms": int(opts["max_terms"]), "n_terms": len(findings), "reached": False, "left": []}
+    budget = {
+        "max_terms": int(opts["max_terms"]),
+        "rule": "given" if given_budget else f"max({MIN_TERMS}, {TERMS_PER_ZONE} × {sig.nz} zones)",
+        "n_terms": len(findings),
+        "reached": False,
+        "left": [],
+    }
     if len(findings) >= opts["max_terms"]:
         last_cands = _budget_screen(_round_signals(sig0, cur, fixed_profiles), W, terms, cur, opts, rejected, rounds)
         left = sorted((c for c in last_cands if c.status == BUDGET_STATUS), key=lambda c: -c.test["delta_bic"])
@@ -1161,4 +1186,5 @@ __all__ = [
     "horizon_steps",
     "one_step_residuals",
     "score_candidate",
+    "term_budget",
 ]
