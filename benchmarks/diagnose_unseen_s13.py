@@ -26,8 +26,12 @@ from energyplus_unseen5_run import CASES, _per_zone_season  # noqa: E402
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("cases", nargs="+", choices=sorted(CASES))
-    ap.add_argument("--out", required=True, help="folder for <case>.json and <case>_model.json")
+    ap.add_argument("--out", required=True, help="folder for <case>.json, <case>_report.json and <case>_model.json")
+    ap.add_argument(
+        "--option", action="append", default=[], metavar="NAME=VALUE", help="a diagnose option (JSON value), repeatable"
+    )
     args = ap.parse_args(argv)
+    options = {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)}
 
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
@@ -51,12 +55,15 @@ def main(argv=None):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             ds = prepare(paths.measurements, paths.building)
-            t0 = time.perf_counter()
-            rep = diagnose(ds, progress=False)
-            t_diag = time.perf_counter() - t0
+            t0, c0 = time.perf_counter(), time.process_time()
+            rep = diagnose(ds, progress=False, **options)
+            t_diag, cpu_diag = time.perf_counter() - t0, time.process_time() - c0
             models = {"zones": fit(ds, "zones", progress=False), "extended": rep.model}
             res = evaluate(list(models.values()), ds, names=list(models))
-        print(f"\n=== {key}: {spec}: {len(ds.building.zones)} zones, {len(ds.weeks)} weeks; diagnose {t_diag:.0f} s")
+        print(
+            f"\n=== {key}: {spec}: {len(ds.building.zones)} zones, {len(ds.weeks)} weeks; "
+            f"diagnose {t_diag:.0f} s ({cpu_diag:.0f} CPU-s)"
+        )
         print(rep.summary())
         masses = [c for c in rep.candidates if c["cause"] == "thermal_mass"]
         for c in masses:
@@ -74,7 +81,16 @@ def main(argv=None):
                     f"{np.nanmean(row['persistence']):.3f} K, time-of-week {np.nanmean(row['time_of_week']):.3f} K"
                     f"  per zone {np.round(row['model'], 3).tolist()}"
                 )
-        rec = {"case": key, "spec": spec, "t_diagnose_s": t_diag, "summary": rep.summary(), "scores": scores}
+        rec = {
+            "case": key,
+            "spec": spec,
+            "options": options,
+            "t_diagnose_s": t_diag,
+            "cpu_diagnose_s": cpu_diag,
+            "summary": rep.summary(),
+            "scores": scores,
+        }
+        rep.save_json(out / f"{key}_report.json")
         (out / f"{key}.json").write_text(json.dumps(rec, indent=1, default=str))
         rep.model.save(out / f"{key}_model.json")
 

@@ -211,7 +211,8 @@ def _cmd_diagnose(args):
     import hvacfmu as hf
 
     dataset = _load_dataset(args)
-    report = hf.diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet)
+    opts = {} if args.max_terms is None else {"max_terms": args.max_terms}
+    report = hf.diagnose(dataset, model=args.model, plots=args.plots, progress=not args.quiet, **opts)
     print(report.format())
     if args.json:
         report.save_json(args.json)
@@ -522,6 +523,12 @@ def _add_diagnose_parser(sub) -> None:
     p.add_argument("--model", "-m", help="base model file (default: fit the six-zone Model A)")
     p.add_argument("--json", help="write the report as JSON")
     p.add_argument("--plots", help="folder for diagnostic figures")
+    p.add_argument(
+        "--max-terms",
+        type=int,
+        help="term budget: at most this many terms are added (default max(20, 4 per zone)); the report names "
+        "the significant candidates a budget reached left untried",
+    )
     p.add_argument("--output", "-o", help="write the extended model (JSON)")
     p.add_argument(
         "--control-output",

@@ -19,7 +19,7 @@ from . import residuals as R
 from .design import make_signals
 from .held import held_setpoints
 from .report import DiagnosisReport
-from .selection import DEFAULT_OPTIONS, forward_select, horizon_steps, one_step_residuals
+from .selection import DEFAULT_OPTIONS, forward_select, horizon_steps, one_step_residuals, term_budget
 
 
 def diagnose(dataset, model=None, plots=None, progress=True, **options) -> DiagnosisReport:
@@ -42,7 +42,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
     **options
         Overrides of :data:`hvacfmu.diagnosis.selection.DEFAULT_OPTIONS`:
         ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
-        ``max_terms`` (20), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
+        ``max_terms`` (default ``max(20, 4 × zones)``: at most this many terms; the report names what a budget reached left, ``budget``), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5, daylight-saving shift),
         ``holiday_min_scale`` (0.33, mean scale of a holiday term), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
@@ -83,6 +83,8 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     base_model = model
     initial_terms = list(model.terms) if isinstance(model, ExtendedModel) else []
     sig = make_signals(dataset, model)
+    given_budget = opts["max_terms"] is not None
+    opts["max_terms"] = term_budget(opts["max_terms"], sig.nz)  # the report and the model's provenance say the number
     n_train = int(sig.rows("train").size)
     say(f"{n_train} one-step training rows, {sig.nz} outputs, solar data: {sig.has_solar}")
     if not sig.has_solar:
@@ -101,7 +103,8 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
 
     # --- forward selection ---------------------------------------------------------------
     say("scoring candidate causes and selecting extensions")
-    sel = forward_select(sig, dataset, initial_terms, opts, progress=say if progress else None)
+    sel_opts = opts if given_budget else {**opts, "max_terms": None}  # forward_select names the rule
+    sel = forward_select(sig, dataset, initial_terms, sel_opts, progress=say if progress else None)
     findings = sel.findings
     final = _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle)
     # zones a local thermostat holds: a limiter, tested by the cross-validation after the selection (held.py)
@@ -148,6 +151,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         data=_data_summary(dataset, sig, n_train),
         options={**opts, "hold_idle_supply": hold},
         rounds=sel.rounds,
+        budget=sel.budget,
         notes=notes,
         series=_series(sig, train_rows, (r1_base, r1_final), (rol_base, rol_final)),
         selected_model=selected,

@@ -73,6 +73,11 @@ class DiagnosisReport:
     data : dict
     options : dict
     rounds : list of dict
+    budget : dict
+        The term budget: ``max_terms``, ``n_terms`` (findings), ``reached`` (the budget stopped the selection) and
+        ``left``: the candidates significant against the final model that were not cross-validated for it
+        (``cause``, ``location``, ``key``, ``delta_bic``; ``tried_before``: the earlier round that cross-validated
+        it against the model of then and did not accept it), strongest first.
     series : dict
         Residual arrays for the figures (not serialised).
     selected_model : ExtendedModel or None
@@ -93,6 +98,7 @@ class DiagnosisReport:
     options: dict
     rounds: list
     notes: list = dataclasses.field(default_factory=list)
+    budget: dict = dataclasses.field(default_factory=dict)
     series: dict = dataclasses.field(default_factory=dict, repr=False)
     selected_model: object = dataclasses.field(default=None, repr=False)
 
@@ -119,6 +125,7 @@ class DiagnosisReport:
                 "errors": self.errors,
                 "heldout": self.heldout,
                 "rounds": self.rounds,
+                "budget": self.budget,
                 "notes": self.notes,
                 "model": {"kind": "extended", "terms": [t.to_dict() for t in self.model.terms]},
             }
@@ -148,6 +155,11 @@ class DiagnosisReport:
             s += "; unexplained structure in " + ", ".join(
                 f"{u['zone']} (period {u['period_h']:.1f} h)" for u in self.unexplained
             )
+        if self.budget.get("reached"):
+            s += (
+                f"; stopped at the term budget (max_terms {self.budget['max_terms']}) with "
+                f"{len(self.budget['left'])} significant candidate(s) not cross-validated"
+            )
         return s
 
     def format(self) -> str:
@@ -169,7 +181,7 @@ class DiagnosisReport:
             for i, f in enumerate(self.findings, 1):
                 L += _finding_lines(i, f)
             L.append("")
-        L += self._candidate_lines() + self._residual_lines() + self._threshold_lines()
+        L += self._budget_lines() + self._candidate_lines() + self._residual_lines() + self._threshold_lines()
         for n in self.notes:
             L.append(f"note: {n}")
         return "\n".join(L)
@@ -201,6 +213,25 @@ class DiagnosisReport:
                 )
             L.append("")
         return L
+
+    def _budget_lines(self) -> list:
+        """When the term budget stopped the selection: the candidates it left, significant against the final model."""
+        b = self.budget
+        if not b.get("reached"):
+            return []
+        L = [
+            f"Term budget reached: the selection stopped at max_terms = {b['max_terms']} terms; "
+            f"{len(b['left'])} candidate(s) significant against the final model were not cross-validated "
+            f"(not tested, not absent; raise max_terms to test them):"
+        ]
+        for c in b["left"]:
+            t = c.get("tried_before")
+            g = "" if not t or t.get("cv_gain_percent") is None else f", {t['cv_gain_percent']:+.1f} %"
+            before = (
+                f" (cross-validated in round {t['round']} against the model of then: {t['status']}{g})" if t else ""
+            )
+            L.append(f"  - {c['cause']} at {_loc(c['location'])}: ΔBIC {c['delta_bic']:.1f}{before}")
+        return L + [""]
 
     def _candidate_lines(self) -> list:
         """Candidates significant but not confirmed, and untestable ones."""

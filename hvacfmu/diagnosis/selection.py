@@ -71,7 +71,7 @@ DEFAULT_OPTIONS = {
     "bic_margin": 10.0,
     "min_gain_percent": 1.0,
     "min_gain_abs": 0.003,
-    "max_terms": 20,
+    "max_terms": None,  # None: term_budget (max(20, 4 per zone))
     "max_tries": 8,
     "holiday_gamma": 0.6,
     "holiday_z": 4.0,
@@ -87,6 +87,23 @@ DEFAULT_OPTIONS = {
     "cv_min_gain_percent": 1.0,
     "cv_min_t": 2.0,
 }
+
+
+#: Default term budget (``max_terms`` None): ``TERMS_PER_ZONE`` per zone, and never fewer than ``MIN_TERMS``.
+TERMS_PER_ZONE = 4
+MIN_TERMS = 20
+
+
+def term_budget(max_terms, nz: int) -> int:
+    """The term budget of a selection over ``nz`` zones: ``max_terms`` when given, else ``max(20, 4 nz)``.
+
+    A fixed 20 was 2.5 terms per zone at 8 zones and 7 at 3; the EnergyPlus apartments (8 flats) stopped on
+    it with candidates untested and converge at 23 terms, the core9 battery cases at 20-25
+    (``benchmarks/diagnosis_budget_s14.md``). Up to 5 zones the budget stays 20.
+    """
+    if max_terms is not None:
+        return int(max_terms)
+    return max(MIN_TERMS, TERMS_PER_ZONE * int(nz))
 
 
 #: Open-loop prediction window of the cross-validation and the held-out scores [h].
@@ -457,6 +474,7 @@ class SelectionResult:
     heldout_reference: dict | None
     heldout_final: dict | None
     rounds: list
+    budget: dict = dataclasses.field(default_factory=dict)  # the term budget, and what it left out (_budget_screen)
 
 
 def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progress=None) -> SelectionResult:
@@ -475,6 +493,8 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     """
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     opts["horizon"] = horizon_steps(sig.step, opts["horizon"])
+    given_budget = opts["max_terms"] is not None
+    opts["max_terms"] = term_budget(opts["max_terms"], sig.nz)
     rows = sig.rows("train")
     terms = list(initial_terms)
     W = Within(sig.group, rows)
@@ -488,17 +508,11 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     findings, rounds, last_cands = [], [], []
     rejected: dict = {}  # candidate key -> why it was left out (the joint refit failed the load checks)
     rejected_cands: list = []
+    tried: dict = {}  # candidate key -> the last round that cross-validated it and did not accept it
     sig0 = sig
     fixed_profiles = None
     while len(findings) < opts["max_terms"]:
-        # gain-profile features (holidays, daylight saving) use the current model's profiles; once
-        # a daylight-saving shift is in, the profile of the clock the gains follow stays
-        sig = dataclasses.replace(
-            sig0,
-            base_profiles=fixed_profiles
-            or {s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
-            or sig0.base_profiles,
-        )
+        sig = _round_signals(sig0, cur, fixed_profiles)
         cands = _score_round(sig, W, terms, cur, opts)
         for c in cands:
             if c.key in rejected:
@@ -509,7 +523,14 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             [c for c in cands if c.variants and c.status == "not tested"],
             key=lambda c: (not _is_holiday(c.term), -c.test["delta_bic"]),
         )
-        accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows)
+        accepted = _confirm_round(sig, plan, terms, ranked, opts, progress, rows, opts["max_terms"] - len(findings))
+        for c in ranked:  # what the budget screen says of a candidate cross-validated in an earlier round
+            if c.cv is not None and c.status != "found":
+                tried[c.key] = {
+                    "round": len(rounds) + 1,
+                    "status": c.status,
+                    "cv_gain_percent": decisive_cv(c).get("gain_percent"),
+                }
         _name_competitors(cands, accepted)
         _carry_displaced_dst(ranked, opts)
         rounds.append(
@@ -567,10 +588,75 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             c.term = next(
                 (t for t in cur.model.terms if t.cause == c.term.cause and t.location() == c.term.location()), c.term
             )
+    budget = {
+        "max_terms": int(opts["max_terms"]),
+        "rule": "given" if given_budget else f"max({MIN_TERMS}, {TERMS_PER_ZONE} × {sig.nz} zones)",
+        "n_terms": len(findings),
+        "reached": False,
+        "left": [],
+    }
+    if len(findings) >= opts["max_terms"]:
+        last_cands = _budget_screen(_round_signals(sig0, cur, fixed_profiles), W, terms, cur, opts, rejected, rounds)
+        left = sorted((c for c in last_cands if c.status == BUDGET_STATUS), key=lambda c: -c.test["delta_bic"])
+        budget.update(reached=True, left=[_left_entry(c, tried.get(c.key)) for c in left])
     others = [c for c in last_cands if c not in findings]
     seen = {c.key for c in others}
     others += [c for c in rejected_cands if c.key not in seen and not seen.add(c.key)]
-    return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds)
+    return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds, budget)
+
+
+#: Status of a candidate significant against the final model that the term budget left untried.
+BUDGET_STATUS = "not tried (term budget)"
+
+
+def _round_signals(sig0: Signals, cur, fixed_profiles) -> Signals:
+    """The signals of a round: gain-profile features (holidays, daylight saving) use the current model's profiles;
+    once a daylight-saving shift is in, the profile of the clock the gains follow stays."""
+    return dataclasses.replace(
+        sig0,
+        base_profiles=fixed_profiles
+        or {s: np.asarray(cur.model.base.gains[s]) for s in sig0.seasons if s in cur.model.base.gains}
+        or sig0.base_profiles,
+    )
+
+
+def _budget_screen(sig: Signals, W: Within, terms, cur, opts, rejected: dict, rounds: list) -> list:
+    """Screen of the final model when the term budget (``max_terms``) stopped the selection: nothing is lost silently.
+
+    Every cause screens the final model as in a round (:func:`_score_round`: the likelihood-ratio test and its
+    gates, no cross-validation); a candidate that passes gets :data:`BUDGET_STATUS`, with its ΔBIC against the
+    final model. The round is recorded with ``"stopped": "max_terms"``. Returns the candidates.
+    """
+    cands = _score_round(sig, W, terms, cur, opts)
+    left = []
+    for c in cands:
+        if c.key in rejected:
+            c.status, c.reason = "rejected", rejected[c.key]
+        elif c.variants and c.status == "not tested":
+            c.status = BUDGET_STATUS
+            c.reason = (
+                f"ΔBIC {c.test['delta_bic']:.1f} against the final model: significant, not cross-validated: the "
+                f"selection stopped at its term budget (max_terms = {opts['max_terms']:g})"
+            )
+            left.append(c)
+    left.sort(key=lambda c: -c.test["delta_bic"])
+    rounds.append(
+        {
+            "round": len(rounds) + 1,
+            "scored": len([c for c in cands if c.test]),
+            "significant": [c.key for c in left],
+            "accepted": [],
+            "stopped": "max_terms",
+        }
+    )
+    return cands
+
+
+def _left_entry(c, tried: dict | None) -> dict:
+    """What the report says of a candidate the term budget left untried; ``tried``: the last earlier round that
+    cross-validated it against the model of then and did not accept it (``round``, ``status``, ``cv_gain_percent``)."""
+    out = {"cause": c.cause, "location": c.location, "key": c.key, "delta_bic": float(c.test["delta_bic"])}
+    return {**out, "tried_before": tried} if tried else out
 
 
 def _new_load_problems(model, before_fails: bool) -> list:
@@ -729,14 +815,18 @@ def _delay_is_causal(c) -> bool:
     return p > f
 
 
-def _confirm_round(sig, plan, terms, ranked, opts, progress, rows) -> list:
-    """Cross-validate the significant candidates (best ΔBIC first); accept at most one per zone."""
+def _confirm_round(sig, plan, terms, ranked, opts, progress, rows, room=None) -> list:
+    """Cross-validate the significant candidates (best ΔBIC first); accept at most one per zone, and at most
+    ``room`` (what is left of the term budget ``max_terms``)."""
     accepted, used = [], set()
     base_models = None
     base_scores: dict = {}
     tried = 0
     for c in ranked:
         zs = set(_affected(sig, c.term))
+        if room is not None and len(accepted) >= room:
+            c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, not tried: the term budget (max_terms) is spent"
+            continue
         if zs & used:
             c.reason = f"ΔBIC {c.test['delta_bic']:.1f}: significant, retested after this round's additions"
             continue
@@ -1097,4 +1187,5 @@ __all__ = [
     "horizon_steps",
     "one_step_residuals",
     "score_candidate",
+    "term_budget",
 ]
