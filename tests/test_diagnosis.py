@@ -780,6 +780,34 @@ class _SharedDriver:
         return self.model.gains_at(index, season) + self.driver.reindex(index).to_numpy()[:, None] * self.loads
 
 
+def test_bilinear_screen_and_refit_give_the_airflow_coefficient_the_same_bound():
+    """Issue 15: a cause's gain must be its own. In zone A the airflow warms the room (b > 0: the heat of a
+    hot discharge the base model's b <= 0 cannot take) and no supply-air product acts. The bilinear candidate's
+    screen (fast path: the current design, b <= 0, plus its column) and the structure refit with the term
+    (what cross-validation fits) must see the same likelihood ratio: before, the refit released b's bound
+    whenever a bilinear term was in the zone, and the freedom alone gave the term a gain it does not have."""
+    from hvacfmu.diagnosis import selection as S
+    from hvacfmu.diagnosis.design import Within, fit_structure, make_signals
+    from hvacfmu.models.causes.signals import effective_inputs
+
+    warm = dataclasses.replace(row_model(), B=np.diag([0.15, -0.35, -0.33]))
+    ds = simulate_dataset(warm, weeks=6, seed=0)
+    sig = make_signals(ds, row_model())
+    rows = sig.rows("train")
+    W = Within(sig.group, rows)
+    cur = fit_structure(sig, [], rows)
+    rss0 = [ls.rss for ls in cur.zone_ls]
+    (c,) = [c for c in SupplyAirBilinear.screen(sig, [], W, cur.resid, {}) if c.location["zone"] == "A"]
+    factors = [S.ess_factor(S.lag1(cur.resid[:, z])) for z in range(sig.nz)]
+    cache = {"U_eff": effective_inputs(sig, []), "feats": []}
+    S.score_candidate(sig, W, [], rss0, factors, c, S.DEFAULT_OPTIONS, cache=cache)
+    lr_screen = c.test["lr"]
+    refit = fit_structure(sig, [SupplyAirBilinear(zone="A")], rows)
+    lr_refit = len(W.rows) * np.log(rss0[0] / refit.zone_ls[0].rss)
+    assert lr_refit == pytest.approx(lr_screen, rel=1e-6, abs=1e-6)
+    assert refit.model.base.B[0, 0] <= 0.0  # Model A's sign: airflow cools
+
+
 def _scored_coupling(ds):
     """``(signals, the A+C coupling candidate)`` of ``ds`` screened and scored on the training rows (base:
     :func:`row_model`)."""

@@ -260,9 +260,10 @@ def test_implausible_model_files_are_refused_with_the_reason(tmp_path, model_fil
 
 
 def test_extended_base_airflow_may_warm_only_where_a_supply_air_term_cools(tmp_path, model_files):
-    """The diagnosis fits a zone's base airflow coefficient free of sign when a ``supply_air_bilinear`` term
-    carries the supply air's cooling there (B + coef (T_supply - T_zone): B is the delivered air's offset);
-    the saved model must load (an emulated core9 floor's diagnosis wrote B = 0.337 that its export refused).
+    """Until session 13 the diagnosis fitted a zone's base airflow coefficient free of sign when a
+    ``supply_air_bilinear`` term carried the supply air's cooling there (B + coef (T_supply - T_zone): B read as
+    the delivered air's offset); files saved then must still load (an emulated core9 floor's diagnosis wrote
+    B = 0.337 that its export refused).
     Elsewhere a warming airflow stays refused, naming the zone."""
     d = copy.deepcopy(model_files["extended"])
     base = d["base"]

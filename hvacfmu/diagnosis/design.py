@@ -35,7 +35,7 @@ from ..models.causes.signals import (
     shifted,
 )
 from ..models.causes.signals import make_signals as _make_signals
-from ..models.extended import ExtendedModel, SupplyAirBilinear, ZoneCoupling
+from ..models.extended import ExtendedModel, ZoneCoupling
 from ..models.linear import LinearZoneModel
 
 
@@ -99,8 +99,12 @@ def zone_design(sig: Signals, z: int, terms, U_eff=None, feats=None) -> ZoneDesi
     add("a_self", sig.Y[:, z], 0.0, 1.0)
     for j in sig.neighbours[z]:
         add(f"a[{sig.zones[j]}]", sig.Y[:, j], 0.0, 1.0)
-    bilinear = any(isinstance(t, SupplyAirBilinear) and t.zone == sig.zones[z] for t in terms)
-    add("b", U_eff[:, z], -np.inf, np.inf if bilinear else 0.0)
+    # airflow cools (b <= 0) with or without a supply_air_bilinear term: with one, b·u is the part of the
+    # airflow's effect the bilinear product does not explain; a b > 0 there (airflow that warms the zone) is
+    # reheat's physics, screened as its own cause. The screen (fast path: the current design plus the term's
+    # columns) keeps this bound, so the refit must too: a freedom the screen never charged for is no gain
+    # of the bilinear term's (benchmarks/diagnosis_bsign_s14.md).
+    add("b", U_eff[:, z], -np.inf, 0.0)
     for c in base_disturb:
         if c in ("T_out", "T_supply"):
             add(f"c[{c}]", sig.V[c], 0.0, np.inf)

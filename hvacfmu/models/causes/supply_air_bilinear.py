@@ -3,6 +3,11 @@
 Term ``coef · u_z · (T_supply − x_z)`` [K/step per (kg/s·K)] into a zone (bilinear in the
 airflow and the zone temperature). Screen: one candidate per zone; evidence: correlation of
 the residual with the bilinear regressor, residual at minimum and at high airflow.
+
+The zone's base airflow coefficient keeps Model A's sign (``b ≤ 0``) with the term as without it, in the
+screen and in the refit alike (:func:`hvacfmu.diagnosis.design.zone_design`): the term's gain is then its
+own product's, not a sign freedom of ``b`` the screen never charged for; airflow that warms the zone is
+``reheat``'s.
 """
 
 from __future__ import annotations
