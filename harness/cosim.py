@@ -218,7 +218,7 @@ def _schedule_lines(s: dict) -> list:
         out.append(
             f"    off rule      {sc['rule']}"
             + (
-                f" ({sc['off_steps_noise']} steps by the second test: a shut box's reading above its 5 % bound)"
+                f" ({sc['off_steps_noise']} of them with a shut box reading sensor noise above its 5 % bound)"
                 if sc.get("off_steps_noise")
                 else ""
             )

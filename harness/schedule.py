@@ -2,15 +2,13 @@
 
 Office BMS data often have the air handler off at night and at weekends: every box of the unit at (near)
 zero airflow and the unit's logged supply temperature reading an idle duct node (about room air). The rule
-is :mod:`hvacfmu.data.idle`'s: a unit is off in a row where every box it feeds is at or below
-``max(1e-6 kg/s, 5 % of m_min)`` (:func:`hvacfmu.data.idle.box_off_bounds`, :data:`BOX_OFF_FRACTION`).
-
-The emulator's shut boxes read 0–0.01 kg/s, above 5 % of an m_min under 0.2 kg/s: by that rule alone one box
-of 21 reading 0.0101 kg/s makes the whole unit "run" for the step (133 of 2016 rows of a three-week
-``--schedule night-off`` dataset, where a run would then put every box at ``m_min``). A unit is therefore
-also off in a row where no box it feeds reads as much as :data:`RUNNING_FRACTION` of its ``m_min`` (a
-running box is at or above its minimum; always-on data never have such a row); the summary counts those
-rows separately.
+is :mod:`hvacfmu.data.idle`'s, the one ``diagnose``, ``fit --heat auto`` and the FMUs use: a unit is off in
+a row where every box it feeds is measured and reads at most ``max(1e-6 kg/s, 50 % of m_min)``
+(:func:`hvacfmu.data.idle.unit_off_bounds`, :data:`~hvacfmu.data.idle.UNIT_OFF_FRACTION`). A running box
+reads at least its minimum; the emulator's shut boxes read 0–0.01 kg/s of sensor noise, which a 5 % bound
+(the ``reheat`` cause's box-off bound, :data:`~hvacfmu.data.idle.BOX_OFF_FRACTION`) would count as running
+for an ``m_min`` under 0.2 kg/s (133 of 2016 rows of a three-week ``--schedule night-off`` dataset). The
+summary counts the off steps where a shut box reads above that 5 % bound (``off_steps_noise``).
 
 A run follows one of two systems (:data:`SYSTEMS`):
 
@@ -30,18 +28,14 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from hvacfmu.data.idle import BOX_OFF_FRACTION, box_off_bounds, idle_rows
+from hvacfmu.data.idle import BOX_OFF_FRACTION, OFF_FLOOR, UNIT_OFF_FRACTION, box_off_bounds, idle_rows, unit_off_bounds
 from hvacfmu.errors import HvacfmuError
 
 SYSTEMS = ("schedule", "always-on")
-#: floor of the off bound [kg/s] (as ``fit(heat="auto")`` and the diagnosis use)
-OFF_FLOOR = 1e-6
-#: a unit none of whose boxes reads this fraction of its m_min is not running (shut boxes' sensor noise)
-RUNNING_FRACTION = 0.5
 #: the rule in words (for the run's summary)
 RULE = (
-    f"hvacfmu.data.idle: a unit is off where every box it feeds reads at most max({OFF_FLOOR:g} kg/s, "
-    f"{100 * BOX_OFF_FRACTION:g} % of m_min), or where none reads {100 * RUNNING_FRACTION:g} % of its m_min"
+    f"hvacfmu.data.idle.unit_off_bounds: a unit is off where every box it feeds reads at most "
+    f"max({OFF_FLOOR:g} kg/s, {100 * UNIT_OFF_FRACTION:g} % of m_min)"
 )
 
 
@@ -57,13 +51,13 @@ def unit_of_boxes(building, vavs) -> list:
 def unit_off_rows(frame: pd.DataFrame, building) -> tuple:
     """``({unit: rows off (bool)}, noise rows)`` of the air handlers (``"T_supply"``: the implicit single unit).
 
-    A unit is off in a row where every box it feeds has a measured airflow at or below its off bound
-    (:func:`hvacfmu.data.idle.idle_rows`), or where every box is measured and none reads
-    :data:`RUNNING_FRACTION` of its ``m_min``; ``noise`` (bool rows) marks the rows off by the second test
-    only (some unit). A unit any of whose boxes has no airflow column is never off.
+    A unit is off in a row where every box it feeds has a measured airflow at or below its
+    :func:`hvacfmu.data.idle.unit_off_bounds` (:func:`hvacfmu.data.idle.idle_rows`); ``noise`` (bool rows) marks
+    the off rows (some unit) where a box reads above its 5 % box-off bound (shut-box sensor noise). A unit any of
+    whose boxes has no airflow column is never off.
     """
-    bounds = box_off_bounds(building, BOX_OFF_FRACTION, OFF_FLOOR)
-    m_min = {f"m_{v.name}": float(v.m_min) for v in building.vavs}
+    bounds = unit_off_bounds(building)
+    shut = box_off_bounds(building, BOX_OFF_FRACTION, OFF_FLOOR)
     members: dict = {}
     for b, u in zip(building.vav_names, unit_of_boxes(building, building.vav_names)):
         members.setdefault(u, []).append(f"m_{b}")
@@ -71,10 +65,9 @@ def unit_off_rows(frame: pd.DataFrame, building) -> tuple:
     noise = np.zeros(len(frame), dtype=bool)
     for u, cols in members.items():
         if all(c in frame.columns for c in cols):
-            idle = idle_rows(frame, {c: bounds[c] for c in cols})
-            low = idle_rows(frame, {c: RUNNING_FRACTION * m_min[c] * (1.0 - 1e-12) for c in cols})
-            unit_off[u] = idle | low
-            noise |= low & ~idle
+            off = idle_rows(frame, {c: bounds[c] for c in cols})
+            unit_off[u] = off
+            noise |= off & ~idle_rows(frame, {c: shut[c] for c in cols})
         else:
             unit_off[u] = np.zeros(len(frame), dtype=bool)
     return unit_off, noise
@@ -82,8 +75,8 @@ def unit_off_rows(frame: pd.DataFrame, building) -> tuple:
 
 def off_steps(frame: pd.DataFrame, building, vavs) -> tuple:
     """``(off, noise)``: ``off`` (rows, boxes) bool, box ``j`` of ``vavs`` off in a row where its unit is off
-    (:func:`unit_off_rows`); ``noise`` the number of rows off only because no box read
-    :data:`RUNNING_FRACTION` of its ``m_min``."""
+    (:func:`unit_off_rows`); ``noise`` the number of off rows where a shut box reads above its 5 % box-off
+    bound."""
     unit_off, noise = unit_off_rows(frame, building)
     own = unit_of_boxes(building, vavs)
     if not own:
@@ -134,7 +127,7 @@ class RunSchedule:
     held : dict
         ``{supply column: steps replaced by the last running value}`` (always-on only).
     noise : int
-        Steps off only because no box read :data:`RUNNING_FRACTION` of its ``m_min``.
+        Off steps where a shut box reads above its 5 % box-off bound (sensor noise).
     """
 
     system: str
@@ -189,7 +182,6 @@ def _periods(index, mask) -> list:
 
 __all__ = [
     "RULE",
-    "RUNNING_FRACTION",
     "SYSTEMS",
     "RunSchedule",
     "check_system",

@@ -147,7 +147,7 @@ def test_replay_of_night_off_data_reproduces_the_zeros(night):
     assert s["schedule"]["system"] == "schedule" and s["schedule"]["off_steps"] == int(off.sum())
     assert s["limits"]["outside"] == 0 and s["limits"]["off"] == int(off.sum()) * len(vavs)
     text = r.format_summary()
-    assert "the data's air handler is off in" in text and "off at 0" in text and "5 % of m_min" in text
+    assert "the data's air handler is off in" in text and "off at 0" in text and "50 % of m_min" in text
 
 
 def test_rule_controller_is_off_at_night(night):

@@ -288,7 +288,7 @@ def test_fit_heat_auto_sees_noisy_shut_boxes(tmp_path):
     heat = model.meta["heat"]
     assert heat["form"] == "delivered" and model.heat == "delivered"
     assert 0.3 < heat["air_handler_off_share"] < 0.7
-    assert "5 % of its minimum airflow" in heat["reason"]
+    assert "50 % of its minimum airflow" in heat["reason"]  # the unit-off rule (s14-offrule)
 
 
 def two_unit_model():

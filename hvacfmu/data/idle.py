@@ -26,9 +26,17 @@ from ..errors import DataError
 
 MODES = ("zone", "last")
 
-#: A box is off at or below this fraction of its minimum airflow (with a floor, :func:`box_off_bounds`): the
-#: box-off regime of the ``reheat`` cause, the idle rows of :func:`idle_supply_rule` and ``fit(heat="auto")``.
+#: A box is shut at or below this fraction of its minimum airflow (with a floor, :func:`box_off_bounds`): the
+#: box-off regime of the ``reheat`` cause (one box's own feature).
 BOX_OFF_FRACTION = 0.05
+#: An air handler is off in a row where every box it feeds is measured and reads at most this fraction of its
+#: minimum airflow (:func:`unit_off_bounds`): a running box reads at least its minimum, a shut box reads sensor
+#: noise (the emulator's: 0–0.01 kg/s, above 5 % of an ``m_min`` under 0.2 kg/s). The one rule of "the unit is
+#: off": the idle rows of :func:`idle_supply_rule` (``diagnose``, both FMU kinds), ``fit(heat="auto")``'s
+#: off share and the co-simulation's schedule (``harness.schedule``).
+UNIT_OFF_FRACTION = 0.5
+#: Floor of the off bound [kg/s] (a box with ``m_min`` 0 is off at 0 only).
+OFF_FLOOR = 1e-6
 
 
 def box_off_bounds(building: Building, fraction: float, floor: float) -> dict:
@@ -39,12 +47,21 @@ def box_off_bounds(building: Building, fraction: float, floor: float) -> dict:
     return {f"m_{v.name}": max(float(floor), float(fraction) * float(v.m_min)) for v in building.vavs}
 
 
+def unit_off_bounds(building: Building) -> dict:
+    """``{airflow column: bound [kg/s]}`` of the unit-off rule: ``max(OFF_FLOOR, UNIT_OFF_FRACTION · m_min)``.
+
+    An air handler is off in a row where every box it feeds is measured and at or below its bound
+    (:func:`idle_rows`): :data:`UNIT_OFF_FRACTION`, :data:`OFF_FLOOR`.
+    """
+    return box_off_bounds(building, UNIT_OFF_FRACTION, OFF_FLOOR)
+
+
 def idle_supply_rule(building: Building, columns, bounds: dict, mode: str = "zone") -> dict:
     """``{supply column: {"flows": {airflow column: off bound}, "zones": {T_<zone>: weight}}}``.
 
     ``T_supply`` (the single implicit unit, or the flow-weighted mean of several units) is idle only when every
     box is off; ``T_supply_<ahu>`` when every box of that unit is off; a measured discharge temperature
-    ``Td_<vav>`` when its box is off. ``bounds``: :func:`box_off_bounds`.
+    ``Td_<vav>`` when its box is off. ``bounds``: :func:`unit_off_bounds` (the unit-off rule).
     ``mode`` ``"zone"`` adds the zones (weights: summed ``m_max`` of the unit's boxes in each zone); ``"last"``
     leaves them out (hold the last running value).
     """
@@ -237,7 +254,8 @@ class IdleStep:
             parts.append(f"{name} by {what}")
         return (
             "Idle air handler (the model's idle_supply rule, as in its Python evaluation): in every model step "
-            "where every box of a unit is at or below its off bound (max(1e-6 kg/s, 5 % of m_min)), the FMU "
+            "where every box of a unit is at or below its off bound (the model's table; hvacfmu.data.idle."
+            f"unit_off_bounds: max({OFF_FLOOR:g} kg/s, {100 * UNIT_OFF_FRACTION:g} % of m_min)), the FMU "
             "replaces its input " + "; ".join(parts) + " (the logged supply temperature of a unit that is off "
             "reads an idle duct no air carries); feed the raw measured values."
         )
@@ -301,10 +319,13 @@ def idle_step(meta, disturbances, boxes, outputs) -> IdleStep | None:
 __all__ = [
     "BOX_OFF_FRACTION",
     "MODES",
+    "OFF_FLOOR",
+    "UNIT_OFF_FRACTION",
     "IdleStep",
     "box_off_bounds",
     "hold_idle_supply",
     "idle_rows",
     "idle_step",
     "idle_supply_rule",
+    "unit_off_bounds",
 ]

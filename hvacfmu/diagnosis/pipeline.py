@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.idle import BOX_OFF_FRACTION, box_off_bounds, hold_idle_supply, idle_supply_rule
+from ..data.idle import hold_idle_supply, idle_supply_rule, unit_off_bounds
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
 from ..models.loadcheck import model_problems
@@ -244,7 +244,7 @@ def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
         return dataset, {}
     mode = "zone" if hold is True else hold
     from ..models.datadriven import OFF_SHARE_DELIVERED
-    from ..models.heat import OFF_FLOW, air_handler_off_share
+    from ..models.heat import air_handler_off_share
 
     b = dataset.building
     frame = dataset.frame
@@ -255,9 +255,9 @@ def _hold_idle_supply(dataset, hold, notes: list) -> tuple:
     for w in dataset.weeks:
         if w.train:
             train |= (frame.index >= w.start) & (frame.index < w.end)
-    # a box is off at or below the box-off bound of the reheat cause (5 % of its minimum): measured airflow of a
-    # shut box is sensor noise, rarely exactly 0
-    bounds = box_off_bounds(b, BOX_OFF_FRACTION, OFF_FLOW)
+    # the unit-off rule (hvacfmu.data.idle.unit_off_bounds): every box of the unit below half its minimum;
+    # measured airflow of a shut box is sensor noise, rarely exactly 0
+    bounds = unit_off_bounds(b)
     share = air_handler_off_share(b, frame[cols].to_numpy(float), train, [bounds[c] for c in cols])
     if share <= OFF_SHARE_DELIVERED:
         return dataset, {}

@@ -61,10 +61,10 @@ import scipy.fft
 import scipy.sparse
 
 from ..calendars import holiday_slots
-from ..data.idle import BOX_OFF_FRACTION, box_off_bounds
+from ..data.idle import UNIT_OFF_FRACTION, unit_off_bounds
 from ..errors import DataError, FitError, HvacfmuWarning, problems_message
 from ..timeutil import n_time_of_week
-from .heat import OFF_FLOW, air_handler_off_share, delivered_heat, inlet_columns
+from .heat import air_handler_off_share, delivered_heat, inlet_columns
 
 log = logging.getLogger(__name__)
 
@@ -683,9 +683,9 @@ class _Prepared:
         self.inlets, notes = inlet_columns(b, self.frame, rows=self.train)
         for note in notes:
             self.warn(note)
-        # a box is off at or below the bound diagnose's idle supply rule uses (hvacfmu.data.idle): max(OFF_FLOW,
-        # 5 % of its minimum); measured airflow of a shut box is sensor noise, rarely exactly 0
-        bounds = box_off_bounds(b, BOX_OFF_FRACTION, OFF_FLOW)
+        # an air handler is off by the one unit-off rule (hvacfmu.data.idle.unit_off_bounds, as diagnose's idle
+        # supply rule, the FMUs and the co-simulation's schedule): every box below half its minimum airflow
+        bounds = unit_off_bounds(b)
         self.off_share = air_handler_off_share(b, self.m, self.train, [bounds[f"m_{v}"] for v in b.vav_names])
         has_td = [c for c in self.inlets if c.startswith("Td_")]
         form = opts["heat"]
@@ -698,7 +698,7 @@ class _Prepared:
                 form, why = (
                     "delivered",
                     (
-                        f"an air handler is off (every box at or below 5 % of its minimum airflow) in "
+                        f"an air handler is off (every box at or below {100 * UNIT_OFF_FRACTION:g} % of its minimum airflow) in "
                         f"{100 * self.off_share:.0f} % of the training steps"
                     ),
                 )
