@@ -23,6 +23,22 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from energyplus_unseen5_run import CASES, _per_zone_season  # noqa: E402
 
 
+def case_export(key: str):
+    """The cached export of case ``key`` of :data:`CASES` (prototype[:floor|:zones][@weather], its options)."""
+    from hvacfmu.energyplus import cached_export
+
+    spec, extra = CASES[key]
+    prototype, _, weather = spec.partition("@")
+    name, _, floor = prototype.partition(":")
+    zones = floor.split(",") if "," in floor else None
+    opts = dict(extra)
+    if weather:
+        opts["weather"] = weather
+    if zones:
+        opts["zones"] = zones
+    return cached_export(name, floor=None if zones else (floor or None), weeks=opts.pop("weeks", None), **opts)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("cases", nargs="+", choices=sorted(CASES))
@@ -35,23 +51,14 @@ def main(argv=None):
 
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
-    from hvacfmu.energyplus import cached_export
     from hvacfmu.evaluation import evaluate
     from hvacfmu.fitting import fit
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for key in args.cases:
-        spec, extra = CASES[key]
-        prototype, _, weather = spec.partition("@")
-        name, _, floor = prototype.partition(":")
-        zones = floor.split(",") if "," in floor else None
-        opts = dict(extra)
-        if weather:
-            opts["weather"] = weather
-        if zones:
-            opts["zones"] = zones
-        paths = cached_export(name, floor=None if zones else (floor or None), weeks=opts.pop("weeks", None), **opts)
+        spec = CASES[key][0]
+        paths = case_export(key)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             ds = prepare(paths.measurements, paths.building)

@@ -20,6 +20,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from diagnose_unseen_s13 import case_export  # noqa: E402
 from energyplus_unseen5_run import CASES, _per_zone_season  # noqa: E402
 
 
@@ -32,16 +33,7 @@ def _paths(key):
         proto, _, weather = APARTMENTS.partition("@")
         name, _, zones = proto.partition(":")
         return cached_export(name, floor=None, weeks=None, wind=True, weather=weather, zones=zones.split(","))
-    spec, extra = CASES[key]
-    prototype, _, weather = spec.partition("@")
-    name, _, floor = prototype.partition(":")
-    zones = floor.split(",") if "," in floor else None
-    opts = dict(extra)
-    if weather:
-        opts["weather"] = weather
-    if zones:
-        opts["zones"] = zones
-    return cached_export(name, floor=None if zones else (floor or None), weeks=opts.pop("weeks", None), **opts)
+    return case_export(key)
 
 
 def main(argv=None):

@@ -121,19 +121,11 @@ class DenseQP:
         rows = 2 * nL + nB + (2 * nY if p.soft else nY)
         self.bu = np.concatenate([np.full(self.n, _INF), np.full(rows, _INF)])
         self.bl = np.concatenate([simple_lo, np.full(rows, -_INF)])
-        r = self.n
-        u_min, u_max = np.tile(p.u_min, p.nb), np.tile(p.u_max, p.nb)
-        self.bu[r : r + nL] = u_max[self.soft_U]
-        self.bl[r + nL : r + 2 * nL] = u_min[self.soft_U]
-        r += 2 * nL
-        floor = -_INF if p.settings.u_floor is None else float(p.settings.u_floor)
-        hard = np.tile(p.hard, p.nb)[self.bound_U]
-        self.bl[r : r + nB] = np.where(hard, np.maximum(floor, u_min[self.bound_U]), floor)
-        self.bu[r : r + nB] = np.where(hard, u_max[self.bound_U], _INF)
-        self._band = r + nB  # first band row
+        self._fill_limits(np.tile(p.u_min, p.nb), np.tile(p.u_max, p.nb))
+        self._band = self.n + 2 * nL + nB  # first band row
 
-    def set_limits(self, lo, hi) -> None:
-        """Input limits of every U entry (block-major, (nb nu,)) [kg/s]: the softened rows and hard bounds."""
+    def _fill_limits(self, lo, hi) -> None:
+        """The softened limit rows and the hard bound rows of every U entry from ``lo``/``hi`` (block-major)."""
         p, nL, nB, r = self.p, self.soft_U.size, self.bound_U.size, self.n
         self.bu[r : r + nL] = hi[self.soft_U]
         self.bl[r + nL : r + 2 * nL] = lo[self.soft_U]
@@ -142,6 +134,11 @@ class DenseQP:
         hard = np.tile(p.hard, p.nb)[self.bound_U]
         self.bl[r : r + nB] = np.where(hard, np.maximum(floor, lo[self.bound_U]), floor)
         self.bu[r : r + nB] = np.where(hard, hi[self.bound_U], _INF)
+
+    def set_limits(self, lo, hi) -> None:
+        """Input limits of every U entry (block-major, (nb nu,)) [kg/s]: the softened rows and hard bounds."""
+        self._fill_limits(lo, hi)
+        p, nB, r = self.p, self.bound_U.size, self.n + 2 * self.soft_U.size
         if p.caps:  # the schedule's off blocks: U <= 0 without slack (entries that have a bound row)
             self.bu[r : r + nB] = np.where(hi[self.bound_U] <= 0.0, 0.0, self.bu[r : r + nB])
 
