@@ -28,7 +28,16 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from hvacfmu.data.idle import BOX_OFF_FRACTION, OFF_FLOOR, UNIT_OFF_FRACTION, box_off_bounds, idle_rows, unit_off_bounds
+from hvacfmu.data.idle import (
+    BOX_OFF_FRACTION,
+    OFF_FLOOR,
+    UNIT_OFF_FRACTION,
+    box_off_bounds,
+    hold_idle_supply,
+    idle_rows,
+    idle_supply_rule,
+    unit_off_bounds,
+)
 from hvacfmu.errors import HvacfmuError
 
 SYSTEMS = ("schedule", "always-on")
@@ -89,29 +98,15 @@ def running_supply(frame: pd.DataFrame, building) -> tuple:
 
     The off rows are :func:`unit_off_rows`'; the value is the column's last finite value in a row where the
     unit ran (before the unit first runs: its first running value), as
-    :func:`hvacfmu.data.idle.hold_idle_supply` does in mode ``"last"``. Columns: ``T_supply`` (the implicit
+    :func:`hvacfmu.data.idle.hold_idle_supply` (mode ``"last"``, which this calls). Columns: ``T_supply`` (the implicit
     unit, or with ``[[ahus]]`` the mean of all units: off where every unit is off) and each unit's
     ``T_supply_<ahu>``. Returns ``(frame, {column: rows replaced})``.
     """
-    unit_off, _ = unit_off_rows(frame, building)
-    cols = {}
-    if "T_supply" in frame.columns:
-        cols["T_supply"] = np.logical_and.reduce(list(unit_off.values())) if unit_off else None
-    for a in building.ahus:
-        if a.supply_column in frame.columns and a.name in unit_off:
-            cols[a.supply_column] = unit_off[a.name]
-    out, counts = frame, {}
-    for col, off in cols.items():
-        if off is None or not off.any():
-            continue
-        t = frame[col].to_numpy(dtype=float)
-        value = pd.Series(np.where(~off, t, np.nan), index=frame.index).ffill().bfill().to_numpy()
-        use = off & np.isfinite(value)
-        if use.any():
-            out = out.copy() if out is frame else out
-            out[col] = np.where(use, value, t)
-            counts[col] = int(use.sum())
-    return out, counts
+    rule = idle_supply_rule(building, frame.columns, unit_off_bounds(building), mode="last")
+    # the supply columns only (a box's own Td_ is not the unit's), of units whose every box is measured
+    rule = {c: r for c, r in rule.items() if not c.startswith("Td_") and set(r["flows"]) <= set(frame.columns)}
+    out, counts = hold_idle_supply(frame, rule)
+    return out, {c: n for c, n in counts.items() if n}
 
 
 @dataclasses.dataclass(frozen=True)
