@@ -596,8 +596,9 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
         "left": [],
     }
     if len(findings) >= opts["max_terms"]:
-        last_cands = _budget_screen(_round_signals(sig0, cur, fixed_profiles), W, terms, cur, opts, rejected, rounds)
-        left = sorted((c for c in last_cands if c.status == BUDGET_STATUS), key=lambda c: -c.test["delta_bic"])
+        last_cands, left = _budget_screen(
+            _round_signals(sig0, cur, fixed_profiles), W, terms, cur, opts, rejected, rounds
+        )
         budget.update(reached=True, left=[_left_entry(c, tried.get(c.key)) for c in left])
     others = [c for c in last_cands if c not in findings]
     seen = {c.key for c in others}
@@ -620,12 +621,13 @@ def _round_signals(sig0: Signals, cur, fixed_profiles) -> Signals:
     )
 
 
-def _budget_screen(sig: Signals, W: Within, terms, cur, opts, rejected: dict, rounds: list) -> list:
+def _budget_screen(sig: Signals, W: Within, terms, cur, opts, rejected: dict, rounds: list) -> tuple:
     """Screen of the final model when the term budget (``max_terms``) stopped the selection: nothing is lost silently.
 
     Every cause screens the final model as in a round (:func:`_score_round`: the likelihood-ratio test and its
     gates, no cross-validation); a candidate that passes gets :data:`BUDGET_STATUS`, with its ΔBIC against the
-    final model. The round is recorded with ``"stopped": "max_terms"``. Returns the candidates.
+    final model. The round is recorded with ``"stopped": "max_terms"``. Returns ``(candidates, those left untried,
+    strongest first)``.
     """
     cands = _score_round(sig, W, terms, cur, opts)
     left = []
@@ -649,7 +651,7 @@ def _budget_screen(sig: Signals, W: Within, terms, cur, opts, rejected: dict, ro
             "stopped": "max_terms",
         }
     )
-    return cands
+    return cands, left
 
 
 def _left_entry(c, tried: dict | None) -> dict:
