@@ -136,6 +136,9 @@ class ExtendedModel(ZoneModel):
             layout.append((off, t.n_hidden()))
             off += t.n_hidden()
         object.__setattr__(self, "_layout", tuple(layout))
+        # the order terms contribute to a step: limiters (held_setpoint) last, they bound the next temperature
+        pairs = sorted(zip(self.terms, self._layout), key=lambda p: p[0].limiter)
+        object.__setattr__(self, "_step_order", tuple((t, o) for t, (o, _) in pairs))
         object.__setattr__(self, "_nx", off)
         object.__setattr__(self, "_zi", {z: i for i, z in enumerate(zn)})
         object.__setattr__(self, "_vi", {c: i for i, c in enumerate(self._disturbances)})
@@ -338,9 +341,9 @@ class ExtendedModel(ZoneModel):
         nvb = len(b.disturbances)
         Tn = b.step_state(c.T, c.u_eff, v[..., :nvb], q)  # airflow or delivered-heat form
         c.Tn = np.array(np.broadcast_to(Tn, shape + (nz,)))
-        for t, (off, _) in sorted(zip(self.terms, self._layout), key=lambda p: p[0].limiter):
+        for t, off in self._step_order:  # limiters last
             c.off = off
-            t.contribute(c)  # limiters (held_setpoint) last: they bound the next temperature
+            t.contribute(c)
         x_new[..., :nz] = c.Tn
         return x_new
 
