@@ -17,7 +17,7 @@ import pandas as pd
 
 from hvacfmu.errors import HvacfmuError, HvacfmuWarning, ModelError
 
-from ..controllers import BoxLimiter
+from ..controllers import BoxLimiter, default_horizon
 from .controller import MPCController, input_limits, input_mapping
 from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan, reheat_disturbances
 from .predict import make_predictor, state_from_outputs
@@ -103,6 +103,8 @@ class CosimMPC:
         (offset-free, move suppression, back-off; the model is not the building)
         or ``"paper"`` (the paper's problem as stated).
     **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
+        Without ``horizon``: :data:`DEFAULT_HORIZON_H` (3 h) in steps of the run's data
+        (:func:`default_horizon`: of the model's step here, of the run's step at :meth:`reset`).
     """
 
     name = "mpc"
@@ -132,15 +134,27 @@ class CosimMPC:
         _, unknown = settings_from_options(**self.options)
         if unknown:
             raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
-        horizon = int(self.options.get("horizon", MPCSettings.horizon))
-        bilinear = not make_predictor(model).linear
-        self.options = {**preset_options(preset, horizon, bilinear), **self.options}
+        self._explicit = self.options
+        self._bilinear = not make_predictor(model).linear
+        self._configure(model.step)
         self.settings, _ = settings_from_options(**self.options)
         self.mpc = None
+
+    def _configure(self, step) -> None:
+        """:attr:`options`: the preset's under the explicit ones, the horizon defaulted at ``step`` [s] if not given."""
+        self.horizon_default = "horizon" not in self._explicit
+        horizon = default_horizon(step) if self.horizon_default else int(self._explicit["horizon"])
+        self.step_s = float(step)
+        self.options = {
+            **preset_options(self.preset, horizon, self._bilinear),
+            **self._explicit,
+            **({"horizon": horizon} if self.horizon_default else {}),
+        }
 
     # ----- protocol ------------------------------------------------------
     def reset(self, context) -> None:
         model = self.model
+        self._configure(context.step)  # a default horizon in steps of the run's data
         self.settings, _ = settings_from_options(band=context.band, **self.options)
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
@@ -251,10 +265,16 @@ class CosimMPC:
         return np.concatenate([air, heat], axis=1)
 
     def stats(self) -> dict:
-        """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""
+        """The horizon, the MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`).
+
+        Horizon keys: ``horizon`` [steps], ``horizon_h`` [h] and ``horizon_default`` (True: not given, so
+        :data:`DEFAULT_HORIZON_H` at the run's step).
+        """
         if self.mpc is None:
             return {}
-        return {**self.mpc.stats(), **self.limiter.stats()}
+        N = self.mpc.N
+        horizon = {"horizon": N, "horizon_h": N * self.step_s / 3600.0, "horizon_default": self.horizon_default}
+        return {**horizon, **self.mpc.stats(), **self.limiter.stats()}
 
     # ----- mappings ------------------------------------------------------
     def _commanded_inlets(self, context, ext) -> list:
