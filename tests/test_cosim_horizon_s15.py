@@ -1,8 +1,11 @@
-"""The MPC's default horizon (session 15; issue 18 p.7).
+"""The MPC's default horizon and its forecast of an idle supply temperature (session 15; issue 18 p.7, issue 13).
 
 - ``hvacfmu cosim --controller mpc`` planned over 3 steps (45 min at 15-min data, the paper's) while ``hvacfmu demo``
   ran 12 (3 h); the default is now a duration, 3 h in steps of the data (``harness.controllers.default_horizon``),
   wherever a horizon is not given (CLI, ``harness.cosim``, ``make_controller``, ``cosim_controller``).
+- With ``--system schedule``, a model that carries an idle supply rule (``diagnose``'s extended model, airflow
+  form: ``T_supply`` acts at zero airflow too) forecast the raw idle duct reading in the off steps, while its FMUs
+  (and its fit) replace it by the rule's value: the forecast now applies the same rule.
 """
 
 from __future__ import annotations
@@ -10,10 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from numpy.testing import assert_allclose
 
 from harness.controllers import DEFAULT_HORIZON_H, ControlContext, default_horizon
 from harness.cosim import CosimResult, make_controller
 from harness.mpc import cosim_controller
+from hvacfmu.data.idle import idle_supply_rule, unit_off_bounds
+from hvacfmu.models.extended import ExtendedModel
 from hvacfmu.models.linear import LinearZoneModel
 from hvacfmu.timeutil import n_time_of_week
 
@@ -101,3 +107,41 @@ def test_default_horizon_is_three_hours_in_steps_of_the_data(small_building, ste
 def test_cli_help_states_the_default(cli):
     out = cli("cosim", "--help").stdout
     assert "default 3 h in steps of the data: 12 at 15-min steps, 36 at 5-min" in " ".join(out.split())
+
+
+@pytest.mark.parametrize("mode", ["zone", "last"])
+def test_idle_supply_forecast_equals_the_plant_input_in_off_steps(small_building, mode):
+    """An extended model with an idle rule, run against itself as its FMU runs (``simulate_boxes``' rule, with the
+    plant's own zone temperatures): in every off step the MPC's forecast of ``T_supply`` for that step is the
+    plant's input, not the idle duct reading."""
+    n, N = 40, 6
+    off = np.zeros((n, 3), bool)
+    off[10:22] = True  # the unit off for 3 h
+    off[30:34] = True
+    base = _model(900.0)
+    rule = idle_supply_rule(small_building, ("T_supply", "m_V1", "m_V2", "m_V3", "T_A", "T_B"),
+                            unit_off_bounds(small_building), mode)  # fmt: skip
+    model = ExtendedModel(base=base, terms=(), meta={"idle_supply": {"mode": mode, "rule": rule}})
+    plant_rule = model.idle_step()
+    ctx = _context(model.base, small_building, n, off=off)
+    ctrl = cosim_controller(model, small_building, horizon=N)
+    ctrl.reset(ctx)
+    seen = []
+    step = ctrl.mpc.step
+    ctrl.mpc.step = lambda y, V, Q, o=None: (seen.append(np.array(V, dtype=float)), step(y, V, Q, o))[1]
+    V_raw = ctx.frame[list(model.disturbances)].to_numpy(float)
+    Q = np.full(2, 0.9)
+    x, last, checked = np.array([21.0, 21.5]), None, 0
+    for k in range(n):
+        m = ctrl(k, None, model.output(x), {})
+        m = np.where(off[k], 0.0, m)  # the harness's schedule
+        v, last = plant_rule.apply(V_raw[k], m, model.output(x), last)  # the plant's input (the FMU's rule)
+        assert_allclose(seen[k][0], v, rtol=0, atol=1e-12)
+        if off[k].all():
+            checked += 1
+            assert abs(v[1] - V_raw[k, 1]) > 0.5  # the rule replaced the idle reading
+        x = model.step_state(x, m @ base.input_map.T, v, Q)
+    assert checked == 16
+    # over the horizon: the off rows of a forecast made before the unit goes off are held too
+    before = seen[8]  # rows 8..13: 10..13 off
+    assert np.all(np.abs(before[2:, 1] - V_raw[10:14, 1]) > 0.5)
