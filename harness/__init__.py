@@ -37,7 +37,8 @@ def cosim(
     model : ZoneModel or path, optional
         The controller's model (needed by ``"mpc"``), also used to map measured temperatures.
     options : dict, optional
-        Controller options (e.g. ``{"horizon": 12}`` for MPC).
+        Controller options (e.g. ``{"horizon": 12}`` for MPC; without ``horizon`` the MPC plans over 3 h in
+        steps of the data, ``harness.controllers.DEFAULT_HORIZON_H``: 12 steps at 15 min, 36 at 5 min).
     **kwargs
         Passed to :func:`harness.cosim.run_cosim` (``week=``, ``start=``, ``stop=``, ``band=`` [°C],
         ``start_values=``, ``allow_partial=``, ``warmup=`` [s], ``progress=``, ``system=``: ``"schedule"``

@@ -47,6 +47,25 @@ from hvacfmu.errors import HvacfmuError
 #: (the emulator's reheat mode uses 35 °C; warmer air stratifies under the ceiling)
 DEFAULT_T_DISCHARGE_MAX = 35.0
 
+#: The harness's MPC horizon when no ``horizon`` option is given [h]: a duration, what a controls engineer would
+#: use for a building's slow response (issue 18 p.7; ``hvacfmu demo`` runs it), converted to steps of the run's
+#: data by :func:`default_horizon` (12 at 15-min steps, 36 at 5-min). The paper's N = 3 (45 min at 15-min steps)
+#: stays available as ``horizon=3``.
+DEFAULT_HORIZON_H = 3.0
+
+
+def default_horizon(step: float) -> int:
+    """The default MPC horizon [steps]: :data:`DEFAULT_HORIZON_H` at a step of ``step`` [s] (at least 1).
+
+    12 at 900 s, 36 at 300 s. The one place the harness's default is decided: :class:`harness.mpc.CosimMPC`
+    (so ``hvacfmu cosim --controller mpc``, :func:`harness.cosim`, :func:`harness.cosim.make_controller` and
+    :func:`harness.mpc.cosim_controller`) and ``hvacfmu demo`` call it.
+    """
+    step = float(step)
+    if not (np.isfinite(step) and step > 0.0):
+        raise HvacfmuError(f"the MPC horizon needs a positive step [s], got {step!r}")
+    return max(1, int(round(DEFAULT_HORIZON_H * 3600.0 / step)))
+
 
 @dataclasses.dataclass(frozen=True)
 class ControlContext:
@@ -383,10 +402,12 @@ class RuleController:
 
 
 __all__ = [
+    "DEFAULT_HORIZON_H",
     "DEFAULT_T_DISCHARGE_MAX",
     "BoxLimiter",
     "ControlContext",
     "Controller",
     "ReplayController",
     "RuleController",
+    "default_horizon",
 ]

@@ -57,7 +57,7 @@ from hvacfmu.errors import DataError, FMUError, HvacfmuError, problems_message
 from hvacfmu.progress import progress as progress_iter
 from hvacfmu.timeutil import seconds_of_week
 
-from .controllers import ControlContext, ReplayController, RuleController
+from .controllers import DEFAULT_HORIZON_H, ControlContext, ReplayController, RuleController, default_horizon
 from .schedule import SYSTEMS, RunSchedule, check_system, off_steps, running_supply
 
 logger = logging.getLogger(__name__)
@@ -243,6 +243,15 @@ def _mpc_stats_lines(st: dict) -> list:
     if not n or "projected_steps" not in st:
         return []
     out = []
+    if st.get("horizon"):
+        out.append(
+            f"  horizon         {int(st['horizon'])} steps ({float(st['horizon_h']):.3g} h)"
+            + (
+                f" (the default: {DEFAULT_HORIZON_H:g} h at the data's step; --horizon N sets it)"
+                if st.get("horizon_default")
+                else " (--horizon)"
+            )
+        )
     p = int(st.get("projected_steps") or 0)
     if p:
         out.append(
@@ -1389,8 +1398,9 @@ def add_cosim_arguments(parser):
     parser.add_argument(
         "--horizon",
         type=int,
-        help="MPC horizon in steps (passed to harness.mpc; default 3 = 45 min at 15-min steps, the paper's; "
-        "hvacfmu demo runs 12)",
+        help=f"MPC horizon in steps (passed to harness.mpc; default {DEFAULT_HORIZON_H:g} h in steps of the data: "
+        f"{default_horizon(900)} at 15-min steps, {default_horizon(300)} at 5-min, as hvacfmu demo runs; "
+        "--horizon 3 = the paper's 45 min at 15-min steps)",
     )
     parser.add_argument(
         "--option",

@@ -17,7 +17,7 @@ import pandas as pd
 
 from hvacfmu.errors import HvacfmuError, HvacfmuWarning, ModelError
 
-from ..controllers import BoxLimiter
+from ..controllers import BoxLimiter, default_horizon
 from .controller import MPCController, input_limits, input_mapping
 from .heating import HEAT_WEIGHT, box_inlets, discharge_commands, heat_plan, reheat_disturbances
 from .predict import make_predictor, state_from_outputs
@@ -103,6 +103,8 @@ class CosimMPC:
         (offset-free, move suppression, back-off; the model is not the building)
         or ``"paper"`` (the paper's problem as stated).
     **options : MPCSettings fields (``horizon``, ``rho``, ``formulation``, ...)
+        Without ``horizon``: :data:`DEFAULT_HORIZON_H` (3 h) in steps of the run's data
+        (:func:`default_horizon`: of the model's step here, of the run's step at :meth:`reset`).
     """
 
     name = "mpc"
@@ -132,15 +134,27 @@ class CosimMPC:
         _, unknown = settings_from_options(**self.options)
         if unknown:
             raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
-        horizon = int(self.options.get("horizon", MPCSettings.horizon))
-        bilinear = not make_predictor(model).linear
-        self.options = {**preset_options(preset, horizon, bilinear), **self.options}
+        self._explicit = self.options
+        self._bilinear = not make_predictor(model).linear
+        self._configure(model.step)
         self.settings, _ = settings_from_options(**self.options)
         self.mpc = None
+
+    def _configure(self, step) -> None:
+        """:attr:`options`: the preset's under the explicit ones, the horizon defaulted at ``step`` [s] if not given."""
+        self.horizon_default = "horizon" not in self._explicit
+        horizon = default_horizon(step) if self.horizon_default else int(self._explicit["horizon"])
+        self.step_s = float(step)
+        self.options = {
+            **preset_options(self.preset, horizon, self._bilinear),
+            **self._explicit,
+            **({"horizon": horizon} if self.horizon_default else {}),
+        }
 
     # ----- protocol ------------------------------------------------------
     def reset(self, context) -> None:
         model = self.model
+        self._configure(context.step)  # a default horizon in steps of the run's data
         self.settings, _ = settings_from_options(band=context.band, **self.options)
         building = context.building if context.building is not None else self.building
         u_min, u_max = input_limits(model, building)
@@ -189,6 +203,10 @@ class CosimMPC:
         self.V = ext[list(model.disturbances)].to_numpy(dtype=float)
         self._T_supply = ext["T_supply"].to_numpy(dtype=float) if "T_supply" in ext else None
         self.replaced_inlets = self._commanded_inlets(context, ext)
+        self._idle, self._idle_boxes, self._idle_last = self._idle_rule(context), None, None
+        if self._idle is not None:
+            box = {b: i for i, b in enumerate(context.vavs)}
+            self._idle_boxes = np.array([box.get(b, -1) for b in model.base.vavs])
         if hasattr(model, "gains_for_rows"):
             self.Q = np.asarray(model.gains_for_rows(idx), dtype=float)
         else:
@@ -225,12 +243,49 @@ class CosimMPC:
     def __call__(self, k, t, y, v):
         y = np.asarray(y, dtype=float)
         y_model = self._W @ y
-        u = self.mpc.step(y_model, self.V[k : k + self.mpc.N], self.Q[k : k + self.mpc.N], self._off_inputs(k))
+        V = self.V[k : k + self.mpc.N]
+        if self._idle is not None:
+            V = self._idle_preview(k, V, y_model)
+        u = self.mpc.step(y_model, V, self.Q[k : k + self.mpc.N], self._off_inputs(k))
         m = self.limiter(self._split_offset + self._split @ u[: self.n_air], self._context.off_at(k))
         if self.heat is None:
             return m
         T_supply = float(v["T_supply"]) if "T_supply" in v else float(self._T_supply[k])
         return np.concatenate([m, discharge_commands(self.heat, u[self.n_air :], m, T_supply, self._td_boxes)])
+
+    def _idle_rule(self, context):
+        """The model's stored idle supply rule (``meta["idle_supply"]``, :class:`hvacfmu.data.idle.IdleStep`) when the
+        run follows a schedule (``context.off``), else None.
+
+        A model fitted on data whose idle supply temperature was held (``diagnose``'s extended model: airflow-form
+        Model A, where ``T_supply`` enters linearly and acts at zero airflow too) reads, in an off step, the value
+        the rule gives, not the idle duct reading; its FMUs apply the same rule to their input
+        (:mod:`hvacfmu.fmu_slave`), and a plant with no airflow gets no heat from the supply air, which the rule's
+        ``"zone"`` mode (the unit's zones' mean air temperature) reproduces in the model.
+        """
+        if getattr(context, "off", None) is None or not hasattr(self.model, "idle_step"):
+            return None
+        return self.model.idle_step()
+
+    def _idle_preview(self, k, V, y_model):
+        """The disturbance preview from step ``k`` with the idle rule applied in the schedule's off steps.
+
+        :meth:`hvacfmu.data.idle.IdleStep.apply`, the FMUs' own: a box is off in a row where the schedule has it
+        off (the plant then gets 0 airflow), the zone temperatures are the ones measured now (at row 0 exactly what
+        a model FMU as plant uses; held over the horizon), ``"last"`` keeps its memory across steps as the FMU does.
+        """
+        off = self._context.off
+        rows = np.minimum(np.arange(k, k + len(V)), len(off) - 1)
+        boxes = np.where(self._idle_boxes >= 0, self._idle_boxes, 0)
+        shut = off[rows][:, boxes] | (self._idle_boxes < 0)  # a box the plant lacks has no airflow
+        m = np.where(shut, 0.0, np.inf)
+        out = np.array(V, dtype=float)
+        last = self._idle_last
+        for j in range(len(out)):
+            out[j], last = self._idle.apply(out[j], m[j], y_model, last)
+            if j == 0:
+                self._idle_last = last  # the memory after this step, as the plant's
+        return out
 
     def _off_inputs(self, k):
         """``(N, nu)`` bool: model inputs off over the horizon from step ``k`` (None without a schedule).
@@ -251,10 +306,16 @@ class CosimMPC:
         return np.concatenate([air, heat], axis=1)
 
     def stats(self) -> dict:
-        """The MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`)."""
+        """The horizon, the MPC's statistics (:meth:`MPCController.stats`) and the box clipping (:class:`BoxLimiter`).
+
+        Horizon keys: ``horizon`` [steps], ``horizon_h`` [h] and ``horizon_default`` (True: not given, so
+        :data:`DEFAULT_HORIZON_H` at the run's step).
+        """
         if self.mpc is None:
             return {}
-        return {**self.mpc.stats(), **self.limiter.stats()}
+        N = self.mpc.N
+        horizon = {"horizon": N, "horizon_h": N * self.step_s / 3600.0, "horizon_default": self.horizon_default}
+        return {**horizon, **self.mpc.stats(), **self.limiter.stats()}
 
     # ----- mappings ------------------------------------------------------
     def _commanded_inlets(self, context, ext) -> list:

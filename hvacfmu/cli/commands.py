@@ -549,8 +549,8 @@ def _add_demo_parser(sub) -> None:
     p.add_argument(
         "--horizon",
         type=int,
-        default=12,
-        help="MPC horizon in steps of 15 min (default 12 = 3 h; the paper used 3)",
+        default=None,
+        help="MPC horizon in steps of 15 min (default: cosim's, 3 h = 12 steps; the paper used 3)",
     )
     p.set_defaults(func=_cmd_demo)
 

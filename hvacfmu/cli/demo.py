@@ -133,7 +133,7 @@ class _Stages:
 
 
 def run_demo(
-    out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: int = 12, progress: bool = True
+    out="hvacfmu-demo", weeks: int = 51, seed: int = 0, mpc_horizon: int | None = None, progress: bool = True
 ) -> DemoResult:
     """Run the whole paper on the emulated building and write a report.
 
@@ -145,9 +145,9 @@ def run_demo(
         Length of the emulated dataset [weeks] (51 as in the paper).
     seed : int
         Seed of the emulator and of the train/test split.
-    mpc_horizon : int
-        MPC horizon [steps of 15 min]: 12 (3 h) by default, what a controls engineer would use for
-        a building's slow response; the paper used 3. The MPC runs with the harness's ``"plant"``
+    mpc_horizon : int, optional
+        MPC horizon [steps of 15 min]; default the harness's (``harness.controllers.default_horizon``:
+        3 h, 12 steps), what a controls engineer would use for a building's slow response; the paper used 3. The MPC runs with the harness's ``"plant"``
         preset (:func:`harness.mpc.adapter.preset_options`: offset-free estimation, move suppression,
         back-off, move blocking and per-step slack beyond 3 steps).
     progress : bool
@@ -161,12 +161,17 @@ def run_demo(
     for sub in ("models", "fmus", "figures", "results"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     st = _Stages(8)
-    r: dict = {"weeks": weeks, "seed": seed, "mpc_horizon": mpc_horizon}
+    r: dict = {"weeks": weeks, "seed": seed}
 
     r["data"] = st.run(
         "dataset", f"emulated SDH-like floor, {weeks} weeks of 1-minute data (cached)", _stage_dataset, out, weeks, seed
     )
     ds = r["data"]["dataset"] if r["data"] else None
+    if mpc_horizon is None and ds is not None:
+        from harness.controllers import default_horizon  # cosim's default: 3 h at the data's step
+
+        mpc_horizon = default_horizon(ds.step)
+    r["mpc_horizon"] = mpc_horizon
     r["model_a"] = (
         st.run("model A", "fit the lumped and six-zone data-driven models", _stage_model_a, out, ds) if ds else None
     )
