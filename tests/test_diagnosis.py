@@ -15,6 +15,7 @@ the generator's truth afterwards.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import subprocess
 import sys
@@ -743,11 +744,24 @@ def test_one_week_holiday_is_cross_validated_day_by_day():
     assert f["evidence"]["cv_blocks"]["n_folds_active"] == 1
 
 
-def test_two_synthetic_effects_are_both_found():
+@functools.cache
+def two_effects_case():
+    """``(dataset, base)``: solar gain in A and a 30-min delay in C simulated on :func:`row_model` (12 weeks, seed
+    3); computed once per worker (test_diagnosis_budget.py uses the same data)."""
     base = row_model()
     terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
-    ds = simulate_dataset(ExtendedModel(base=base, terms=terms), weeks=12, seed=3)
-    rep = diagnose(ds, model=base, progress=False)
+    return simulate_dataset(ExtendedModel(base=base, terms=terms), weeks=12, seed=3), base
+
+
+@functools.cache
+def two_effects_report():
+    """``diagnose`` of :func:`two_effects_case` with its base and the default options, once per worker."""
+    ds, base = two_effects_case()
+    return diagnose(ds, model=base, progress=False)
+
+
+def test_two_synthetic_effects_are_both_found():
+    rep = two_effects_report()
     assert _found(rep, "solar_gain", zone="A", facade="S")
     assert _found(rep, "actuation_delay", zone="C", delay=2)
     assert sorted(rep.causes) == ["actuation_delay", "solar_gain"]
@@ -1462,9 +1476,10 @@ def fitted_model_a():
     return fit(ds, "zones", progress=False), ds
 
 
-@pytest.mark.parametrize(
-    "noise_seed", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)]
-)
+# slow: 16 emulated weeks generated and fitted (9 CPU-s on an empty cache); the not-slow tier's case of the same
+# path (diagnose on data a Model A simulated, with that model given: no finding) is test_no_false_alarm_on_model_a_data
+@pytest.mark.slow
+@pytest.mark.parametrize("noise_seed", [0, 1, 2])
 def test_no_false_alarm_on_data_simulated_from_fitted_model_a(fitted_model_a, noise_seed):
     """Temperatures simulated at the model step from a fitted Model A (measured airflows and
     weather of the emulator, the model's own gain profiles, 0.05 K process noise): the base
