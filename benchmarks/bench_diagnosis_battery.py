@@ -121,8 +121,9 @@ def git_commit() -> str:
         return ""
 
 
-def run_case(case, weeks):
-    """Generate (cached), diagnose and compare one case; a JSON-ready result record."""
+def run_case(case, weeks, **options):
+    """Generate (cached), diagnose (``options`` go to ``diagnose``) and compare one case; a JSON-ready result
+    record."""
 
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
@@ -135,7 +136,7 @@ def run_case(case, weeks):
     ds = prepare(paths.measurements, paths.building, step=case["step"])
     truth = json.loads(paths.truth.read_text())
     t0, c0 = time.perf_counter(), time.process_time()
-    rep = diagnose(ds, progress=False)
+    rep = diagnose(ds, progress=False, **options)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     cmp = compare_with_truth(rep, truth)
     d = rep.to_dict()

@@ -201,7 +201,10 @@ if _COST_FILE:
 #: order, so a long module late in the alphabet becomes one worker's tail while the other idles:
 #: test_fmu_lifecycle.py (about 190 CPU-s: 40 plant processes, refused steps) ended the slow tier on one worker
 #: (measured with HVACFMU_TEST_CPU: 670 against 571 CPU-s). Whole modules move, so module fixtures stay together.
-RUN_FIRST = ("test_fmu_lifecycle.py",)
+#: test_demo.py (one 70-85 s fixture, slow tier only) follows: replayed on session 14's per-test wall seconds
+#: (benchmarks/bench_test_balance.py), the full suite's workers end at 893 and 953 s with it in alphabetical place,
+#: at 922 and 924 s with it second (ideal 923 s; on CPU seconds both orders end within 1 s).
+RUN_FIRST = ("test_fmu_lifecycle.py", "test_demo.py")
 
 
 def pytest_collection_modifyitems(config, items):

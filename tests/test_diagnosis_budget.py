@@ -7,27 +7,20 @@ Data: the three rooms of ``test_diagnosis`` with two simulated effects (solar ga
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-from test_diagnosis import row_model, simulate_dataset
+from test_diagnosis import two_effects_case, two_effects_report
 
 from hvacfmu.diagnosis import diagnose
 from hvacfmu.diagnosis.selection import BUDGET_STATUS, term_budget
-from hvacfmu.models.extended import ActuationDelay, ExtendedModel, SolarGain
 
-REPO = Path(__file__).resolve().parents[1]
 EFFECTS = {"solar_gain": {"zone": "A", "facade": "S"}, "actuation_delay": {"zone": "C", "delay": 2}}
 
 
 @pytest.fixture(scope="module")
 def two_effects():
-    base = row_model()
-    terms = (SolarGain(zone="A", facade="S", coef=0.0006), ActuationDelay(zone="C", delay=2))
-    return simulate_dataset(ExtendedModel(base=base, terms=terms), weeks=12, seed=3), base
+    ds, base = two_effects_case()  # the data of test_two_synthetic_effects_are_both_found, simulated once per worker
+    return ds, base
 
 
 def test_a_budget_that_binds_names_the_significant_candidates_it_left(two_effects, tmp_path):
@@ -59,7 +52,7 @@ def test_a_budget_that_does_not_bind_says_so(two_effects):
     rep = diagnose(ds, model=base, progress=False, max_terms=2)
     assert sorted(rep.causes) == sorted(EFFECTS), rep.summary()
     assert rep.budget["reached"] is True and rep.budget["left"] == []  # spent, nothing significant left
-    rep3 = diagnose(ds, model=base, progress=False)  # the default budget: 20 at 3 zones
+    rep3 = two_effects_report()  # diagnose(ds, model=base): the default budget, 20 at 3 zones (shared, once per worker)
     assert rep3.causes == rep.causes
     assert rep3.budget == {"max_terms": 20, "rule": "max(20, 4 × 3 zones)", "n_terms": 2, "reached": False, "left": []}
     assert rep3.options["max_terms"] == 20 and rep.budget["rule"] == "given"
@@ -75,16 +68,16 @@ def test_default_term_budget_scales_with_the_zones(given, nz, budget):
     assert term_budget(given, nz) == budget
 
 
-def test_cli_max_terms_and_what_the_budget_left_in_text_and_json(two_effects, tmp_path):
+def test_cli_max_terms_and_what_the_budget_left_in_text_and_json(two_effects, tmp_path, cli):
+    # in-process (the ``cli`` fixture): the real ``python -m hvacfmu.cli diagnose`` subprocess is
+    # test_diagnosis.py::test_cli_diagnose_then_evaluate
     ds, base = two_effects
     frame = ds.frame.drop(columns=[c for c in ds.frame.columns if c.startswith("I_") or c == "excitation"])
     frame.reset_index().to_csv(tmp_path / "data.csv", index=False)
     ds.building.save(tmp_path / "building.toml")
     base.save(tmp_path / "base.json")
-    cmd = [sys.executable, "-m", "hvacfmu.cli", "-q", "diagnose", str(tmp_path / "data.csv")]
-    cmd += ["-b", str(tmp_path / "building.toml"), "-m", str(tmp_path / "base.json"), "--max-terms", "1"]
-    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    r = subprocess.run([*cmd, "--json", str(tmp_path / "r.json")], capture_output=True, text=True, env=env, timeout=600)
+    args = ["-q", "diagnose", tmp_path / "data.csv", "-b", tmp_path / "building.toml", "-m", tmp_path / "base.json"]
+    r = cli(*args, "--max-terms", "1", "--json", tmp_path / "r.json")
     assert r.returncode == 0, r.stderr[-3000:]
     d = json.loads((tmp_path / "r.json").read_text())
     assert len(d["findings"]) == 1 and d["budget"]["reached"] and d["budget"]["max_terms"] == 1
