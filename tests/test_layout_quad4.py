@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+import pytest
 from numpy.testing import assert_allclose
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -85,3 +87,48 @@ def test_battery_on_quad4_covers_every_cause_twice():
                 pair = set(e.split("zones=")[1].split(",")[0].split("+"))
                 assert pair in ({"NW", "SE"}, {"NE", "SW"}), e
     assert {c["layout"] for c in mod.make_cases(48, 2026)} == {"row4", "core9", "sdh"}
+
+
+@pytest.mark.parametrize(
+    "climate, start, hvac",
+    [("hot", "2026-07-06", "vav"), ("cold", "2026-01-12", "reheat"), ("mild", "2025-10-06", "vav")],
+)
+def test_quad4_simulates_plausibly_with_every_effect(climate, start, hvac):
+    """One week with every effect (locations drawn): plausible temperatures, boxes cooling above minimum but not
+    saturated in the hot climate, the coupling on a diagonal, and the plant replays the closed loop exactly."""
+    from hvacfmu.emulator import Plant, make_truth, simulate
+    from hvacfmu.emulator.effects import EFFECT_NAMES
+
+    truth = make_truth(1, 3, list(EFFECT_NAMES), start=start, layout="quad4", climate=climate, hvac=hvac)
+    sim = simulate(truth)
+    T = sim["T_zone"]
+    assert T.shape[1] == 4 and np.all(np.isfinite(T))
+    assert 15.0 < np.percentile(T, 1) and np.percentile(T, 99) < 29.0  # [°C]
+    (pair,) = [set(e["zones"]) for e in truth["effects"] if e["name"] == "zone_coupling"]
+    assert pair in ({"NW", "SE"}, {"NE", "SW"})
+    if climate == "hot":
+        vavs = truth["baseline"]["building"]["vavs"]
+        m_min = np.array([v["m_min"] for v in vavs])
+        m_max = np.array([v["m_max"] for v in vavs])
+        idx = sim["index"]
+        afternoon = np.asarray((idx.day_of_week < 5) & (idx.hour >= 10) & (idx.hour < 18))
+        cooling = np.mean((sim["m_vav"][afternoon] - m_min) / (m_max - m_min))
+        assert 0.1 < cooling < 0.9, cooling
+    if climate == "cold":
+        assert sim["reheat"].sum() > 0
+        plant = Plant.from_truth(truth)
+        assert plant.zones == ("NW", "NE", "SE", "SW")
+        x, out = sim["x0"], []
+        for k in range(720):
+            x, Tz = plant.advance(
+                x,
+                60.0 * k,
+                60.0,
+                sim["m_vav"][k],
+                sim["T_out"][k],
+                sim["T_supply"][k],
+                sim["I"][k],
+                reheat=sim["reheat_command"][k],
+            )
+            out.append(Tz)
+        assert_allclose(np.array(out)[:-1], T[1:720], rtol=0, atol=1e-9)  # [K]
