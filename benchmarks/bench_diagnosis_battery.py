@@ -14,6 +14,7 @@ default options and compared with the emulator's ``truth.json``:
 Prints one line per case, the confusion matrix by cause (rows: injected cause or
 ``clean``; columns: found at the right place, missed, and the causes of false findings)
 and the totals. Run: ``python3 benchmarks/bench_diagnosis_battery.py [--cases 48] [--list]``
+(``--layouts quad4 --cases 20 --clean 4 --pairs 4 --step-min 15``: a battery on other layouts)
 (the whole battery takes hours on the shared 2-core machine: most of it is the emulator's
 one-minute simulation, cached after the first run; ``--start``/``--cases`` run a slice).
 """
@@ -69,19 +70,25 @@ def random_effect(rng, layout, cause):
     return f"thermal_mass:zone={z},capacitance={rng.uniform(1.5e8, 3e8):.3g},ua={rng.uniform(800, 1500):.0f}"
 
 
-def make_cases(n, seed):
-    """``n`` cases: about a quarter clean, a fifth pairs, the rest single effects, causes in turn."""
+def make_cases(n, seed, layouts=None, n_clean=None, n_pair=None, step=None):
+    """``n`` cases: about a quarter clean, a fifth pairs, the rest single effects, causes in turn.
+
+    The defaults are the battery of the README (layouts ``row4``, ``core9``, ``row4``, ``core9``, ``sdh`` in turn,
+    every third case at 5 min); ``layouts`` (cycled), ``n_clean``, ``n_pair`` and ``step`` [s] draw another
+    battery from the same rules (``--layouts quad4 --clean 4 --pairs 4 --step-min 15``); left at ``None`` they
+    keep every case of the default battery as it was.
+    """
     from hvacfmu.emulator.layouts import get_layout
 
     rng = np.random.default_rng(seed)
-    layouts = ["row4", "core9", "row4", "core9", "sdh"]
+    layouts = list(layouts) if layouts else ["row4", "core9", "row4", "core9", "sdh"]
     cases = []
-    n_clean = max(10, n // 4)
-    n_pair = max(5, n // 5)
+    n_clean = max(10, n // 4) if n_clean is None else int(n_clean)
+    n_pair = max(5, n // 5) if n_pair is None else int(n_pair)
     for i in range(n):
         lay = layouts[i % len(layouts)]
         L = get_layout(lay)
-        step = 300.0 if i % 3 == 2 else 900.0
+        dt = (300.0 if i % 3 == 2 else 900.0) if step is None else float(step)
         if i < n_clean:
             eff = []
         elif i < n_clean + n_pair:
@@ -89,7 +96,7 @@ def make_cases(n, seed):
             eff = [random_effect(rng, L, a), random_effect(rng, L, b)]
         else:
             eff = [random_effect(rng, L, CAUSES[i % len(CAUSES)])]
-        cases.append({"id": i, "layout": lay, "step": step, "seed": int(rng.integers(0, 50)), "effects": eff})
+        cases.append({"id": i, "layout": lay, "step": dt, "seed": int(rng.integers(0, 50)), "effects": eff})
     return cases
 
 
@@ -293,6 +300,19 @@ def main():
     ap.add_argument("--weeks", type=int, default=16)
     ap.add_argument("--workers", type=int, default=1, help="parallel worker processes")
     ap.add_argument(
+        "--layouts",
+        default=None,
+        help="comma-separated layouts the cases cycle through (default: row4,core9,row4,core9,sdh, the README's "
+        "battery), e.g. quad4",
+    )
+    ap.add_argument("--clean", type=int, default=None, help="number of clean cases (default max(10, cases / 4))")
+    ap.add_argument(
+        "--pairs", type=int, default=None, help="number of cases with two effects (default max(5, cases / 5))"
+    )
+    ap.add_argument(
+        "--step-min", type=float, default=None, help="model step of every case [min] (default: every third 5, else 15)"
+    )
+    ap.add_argument(
         "--results",
         default="battery-results.jsonl",
         help="JSON-lines file: cases already in it are not rerun (delete it after changing the rule)",
@@ -315,7 +335,9 @@ def main():
         "of --oracle-results are reused for the first try)",
     )
     args = ap.parse_args()
-    cases = make_cases(args.cases, args.seed)[args.start : args.stop]
+    layouts = args.layouts.split(",") if args.layouts else None
+    step = None if args.step_min is None else 60.0 * args.step_min
+    cases = make_cases(args.cases, args.seed, layouts, args.clean, args.pairs, step)[args.start : args.stop]
     if args.only:
         keep = {int(x) for x in args.only.split(",")}
         cases = [c for c in cases if c["id"] in keep]

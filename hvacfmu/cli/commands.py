@@ -325,9 +325,10 @@ def _add_generate_parser(sub) -> None:
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
     p.add_argument(
         "--layout",
-        choices=("sdh", "row4", "core9"),
+        choices=("sdh", "row4", "core9", "quad4"),
         default="sdh",
-        help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core)",
+        help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core), "
+        "quad4 (2 x 2 corner offices)",
     )
     p.add_argument(
         "--construction",

@@ -1,6 +1,6 @@
 """Emulated floors as building files: floor plan, VAV boxes (and air handlers) and construction tables.
 
-The geometry of every layout (``sdh``, ``row4``, ``core9``), the construction
+The geometry of every layout (``sdh``, ``row4``, ``core9``, ``quad4``), the construction
 templates and the climates are tables in :mod:`hvacfmu.emulator.layouts`; this
 module turns them into building-file mappings. The default layout is described here.
 
@@ -382,7 +382,7 @@ def emulated_building(
 
     Parameters
     ----------
-    layout : {"sdh", "row4", "core9"}
+    layout : {"sdh", "row4", "core9", "quad4"}
         Floor layout (see :mod:`hvacfmu.emulator.layouts`).
     construction : {"medium", "light", "heavy"}
         Construction template of the massive layers and furniture.

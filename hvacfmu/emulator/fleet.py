@@ -27,7 +27,7 @@ import numpy as np
 
 from .effects import EFFECT_NAMES, EmulatorError
 from .generate import EMULATOR_VERSION, generate
-from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES, LAYOUTS
+from .layouts import CLIMATES, CONSTRUCTION_TEMPLATES
 
 FLEET_FORMAT = "hvacfmu.fleet/1"
 #: Mondays that start a season's data (used when datasets are shorter than 40 weeks).
@@ -36,6 +36,9 @@ REHEAT_SHARE = 1.0 / 3.0  # [-] share of real-BMS-like buildings
 #: Effects a fleet draws from: the catalogue of emulator 1.4 (``wind_infiltration`` needs a wind column to be
 #: diagnosed and is not drawn, so a seed's fleet stays what it was)
 FLEET_EFFECTS = tuple(e for e in EFFECT_NAMES if e != "wind_infiltration")
+#: Layouts a fleet draws from: those of emulator 1.4. Not :data:`.layouts.LAYOUTS`: a layout added there
+#: (``quad4``) would change the draw ``rng.choice`` makes, hence every building of an existing fleet seed.
+FLEET_LAYOUTS = ("sdh", "row4", "core9")
 
 
 def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
@@ -43,7 +46,7 @@ def fleet_parameters(n: int, seed: int = 0, weeks: int = 51) -> list[dict]:
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(b"fleet")]))
     out = []
     for _ in range(int(n)):
-        layout = str(rng.choice(list(LAYOUTS)))
+        layout = str(rng.choice(list(FLEET_LAYOUTS)))
         climate = str(rng.choice(list(CLIMATES)))
         hvac = str(rng.choice(["reheat", "reheat-dual"])) if rng.random() < REHEAT_SHARE else "vav"
         n_eff = int(rng.choice([0, 1, 2], p=[0.3, 0.45, 0.25]))

@@ -424,7 +424,7 @@ def generate(
         Effects to inject (see :mod:`hvacfmu.emulator.effects`), e.g.
         ``["solar_gain:zone=S", {"name": "zone_coupling"}]``.
     fmt : {"parquet", "csv"}
-    layout : {"sdh", "row4", "core9"}
+    layout : {"sdh", "row4", "core9", "quad4"}
         Floor layout (:mod:`hvacfmu.emulator.layouts`); effect zones and facades
         must exist in it.
     construction : {"medium", "light", "heavy"}

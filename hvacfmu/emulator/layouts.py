@@ -2,7 +2,7 @@
 
 A *layout* is a rectangular floor split into rectangular zones; facades are the
 zone edges on the floor's outline (minus the edges a layout declares blind,
-e.g. a party wall), adjacency is a shared edge of positive length. Three
+e.g. a party wall), adjacency is a shared edge of positive length. Four
 layouts exist:
 
 ``sdh`` (default)
@@ -15,6 +15,15 @@ layouts exist:
 ``core9``
     A 60 m x 45 m floor of nine zones: four corner zones (two facades each), four
     edge zones N, E, S, W (one facade each) and a core C without facades.
+``quad4``
+    A 36 m x 28 m floor of four corner offices NW, NE, SE, SW of unequal size (split at
+    x = 20 m and y = 12 m: 320, 256, 192 and 240 m2), two facades each. An interior wall
+    separates each adjacent pair (NW-NE, NE-SE, SE-SW, SW-NW); the diagonal pairs NW-SE and
+    NE-SW touch at a point only and are not adjacent. Its own boxes (3 in NW, 2 elsewhere),
+    window-to-wall ratios (0.25 on NE's north side to 0.60 on SE's south side), peak gains
+    (11-17 W/m2), no meeting room, and two air handlers (north zones on AHU1, south on AHU2).
+    No diagnosis rule was tuned on it (added in session 15 to measure the diagnosis on a
+    layout it never saw; the fleet does not draw it, so fleet seeds keep their buildings).
 
 A *construction template* scales the massive layers and the furniture mass:
 ``medium`` (the default, the SDH-like concrete frame), ``light`` (steel frame,
@@ -162,7 +171,38 @@ CORE9 = Layout(
     meeting_zone="C",
 )
 
-LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9)}
+_QUAD4_RECTS = {
+    "NW": (0.0, 20.0, 12.0, 28.0),
+    "NE": (20.0, 36.0, 12.0, 28.0),
+    "SE": (20.0, 36.0, 0.0, 12.0),
+    "SW": (0.0, 20.0, 0.0, 12.0),
+}
+QUAD4 = Layout(
+    name="quad4",
+    title="Four corner offices, 2 x 2 (emulated)",
+    extent=(0.0, 36.0, 0.0, 28.0),
+    rects=_QUAD4_RECTS,
+    vavs={
+        "NW": (3, 0.11, 0.45),
+        "NE": (2, 0.14, 0.55),
+        "SE": (2, 0.10, 0.42),
+        "SW": (2, 0.12, 0.50),
+    },
+    peak_gain={"NW": 11.0, "NE": 14.0, "SE": 17.0, "SW": 13.0},
+    window_to_wall={
+        ("NW", "N"): 0.30,
+        ("NW", "W"): 0.35,
+        ("NE", "N"): 0.25,
+        ("NE", "E"): 0.50,
+        ("SE", "S"): 0.60,
+        ("SE", "E"): 0.40,
+        ("SW", "S"): 0.45,
+        ("SW", "W"): 0.55,
+    },
+    ahu_of_zone={"NW": "AHU1", "NE": "AHU1", "SE": "AHU2", "SW": "AHU2"},
+)
+
+LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9, QUAD4)}
 
 
 # --------------------------------------------------------------------------- constructions
