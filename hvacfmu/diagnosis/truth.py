@@ -76,6 +76,16 @@ def finding_supported(finding: dict, truth: dict, step: float = 900.0) -> tuple[
             same = all((set(entry[k]) == set(loc.get(k, [])) if k == "zones" else entry[k] == loc.get(k)) for k in keys)
             if same:
                 return True, f"baseline: {entry.get('source', c)}"
+        unmetered = truth.get("hvac", "vav") == "vav"  # the "reheat" modes log each box's discharge air
+        if (
+            c == "held_setpoint"
+            and unmetered
+            and any(e.get("zone") == loc.get("zone") for e in listed.get("reheat", []))
+        ):
+            # the zone's box controller holds its heating set point with a reheat coil whose heat the data do not
+            # carry (the emulator's "vav" mode logs no discharge air): a set point held by unmetered heat, which is
+            # what the held-setpoint term describes (its lower edge)
+            return True, "baseline: VAV controller holds the heating set point with unmetered reheat"
         return False, "not in the emulator's truth"
     if c == "solar_gain":
         if loc.get("facade") in st.get("solar_gain", {}).get(loc.get("zone"), []):
