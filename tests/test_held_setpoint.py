@@ -128,6 +128,28 @@ def held_b():
     return make_signals(ds, base), dict(DEFAULT_OPTIONS, horizon=96)
 
 
+def test_only_the_zones_with_an_edge_are_fitted_and_scored(held_b, monkeypatch):
+    """Where some zones show an edge, the folds fit and simulate those zones' equations only (B here; A and C
+    are measured in every window): the same candidates as fitting every zone (``benchmarks/held_zones_s15.md``)."""
+    sig, opts = held_b
+    fits, scored = [], []
+    fold_fits, fold_scores = held.fold_fits, held.fold_scores
+
+    def fits_of(sig, plan, terms, zones_idx=None):
+        fits.append(zones_idx)
+        return fold_fits(sig, plan, terms, zones_idx)
+
+    def scores_of(sig, plan, models, zones_idx):
+        scored.append(list(zones_idx))
+        return fold_scores(sig, plan, models, zones_idx)
+
+    monkeypatch.setattr(held, "fold_fits", fits_of)
+    monkeypatch.setattr(held, "fold_scores", scores_of)
+    model, (c,) = held_setpoints(sig, ExtendedModel(base=sig.base), opts)
+    assert fits == [[1]] and scored and all(z == [1] for z in scored)
+    assert c.status == "found" and [t.zone for t in model.terms] == ["B"]
+
+
 def test_a_held_gain_under_the_absolute_floor_is_rejected_naming_it(held_b):
     """The held stage passes the forward selection's acceptance rule (``crossval.gate_failures``), its absolute
     floor ``min_gain_abs`` included (session 14 checked only the gain in % and t: the hospital's patient rooms were

@@ -98,7 +98,7 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
                                    "fewer than 4 training weeks: no cross-validation", ev, term=term))  # fmt: skip
         return model, cands
     terms = list(model.terms)
-    folds = fold_fits(sig, plan, terms)
+    folds = fold_fits(sig, plan, terms, sorted(found))  # only the equations of the zones with an edge are simulated
     alone = {blk[0] for blk in coupled_blocks(sig, terms) if len(blk) == 1}
     final = model
     for zi, (term, ev) in found.items():
