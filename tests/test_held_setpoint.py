@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 from test_diagnosis import row_model, simulate_dataset
 from test_fmu import Slave, extended_model, fmu_setup, reference, run_fmu
 
-from hvacfmu.diagnosis import diagnose
+from hvacfmu.diagnosis import diagnose, held
 from hvacfmu.diagnosis.design import make_signals
 from hvacfmu.diagnosis.held import held_setpoints
 from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
@@ -104,12 +104,76 @@ def test_a_zone_held_by_an_unmetered_heater_is_found():
     assert "open-loop cross-validation only" in rep.format()
 
 
-def test_no_held_setpoint_on_clean_data():
+def test_no_held_setpoint_on_clean_data(monkeypatch):
+    """No zone meets the evidence rule: the stage returns before any plan, fit or cross-validation (it runs in
+    every diagnosis). Main already returned early here (session 15); this keeps it so."""
     base = row_model()
     ds = simulate_dataset(base, weeks=12, seed=10, at_min=0.2)
     sig = make_signals(ds, base)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the held stage cross-validated or refitted although no zone shows an edge")
+
+    for name in ("make_plan", "fold_fits", "fold_scores", "paired_test", "fit_structure", "coupled_blocks"):
+        monkeypatch.setattr(held, name, refuse)
     model, cands = held_setpoints(sig, ExtendedModel(base=sig.base), dict(DEFAULT_OPTIONS, horizon=96))
     assert cands == [] and model.terms == ()
+
+
+@pytest.fixture(scope="module")
+def held_b():
+    """Zone B of the row held at 14 °C by an unmetered heater (12 weeks): ``(signals, options)``."""
+    base = row_model()
+    ds = simulate_dataset(ExtendedModel(base=base, terms=(HELD,)), weeks=12, seed=0, at_min=0.3)
+    return make_signals(ds, base), dict(DEFAULT_OPTIONS, horizon=96)
+
+
+def test_only_the_zones_with_an_edge_are_fitted_and_scored(held_b, monkeypatch):
+    """Where some zones show an edge, the folds fit and simulate those zones' equations only (B here; A and C
+    are measured in every window): the same candidates as fitting every zone (``benchmarks/held_zones_s15.md``)."""
+    sig, opts = held_b
+    fits, scored = [], []
+    fold_fits, fold_scores = held.fold_fits, held.fold_scores
+
+    def fits_of(sig, plan, terms, zones_idx=None):
+        fits.append(zones_idx)
+        return fold_fits(sig, plan, terms, zones_idx)
+
+    def scores_of(sig, plan, models, zones_idx):
+        scored.append(list(zones_idx))
+        return fold_scores(sig, plan, models, zones_idx)
+
+    monkeypatch.setattr(held, "fold_fits", fits_of)
+    monkeypatch.setattr(held, "fold_scores", scores_of)
+    model, (c,) = held_setpoints(sig, ExtendedModel(base=sig.base), opts)
+    assert fits == [[1]] and scored and all(z == [1] for z in scored)
+    assert c.status == "found" and [t.zone for t in model.terms] == ["B"]
+
+
+def test_a_held_gain_under_the_absolute_floor_is_rejected_naming_it(held_b):
+    """The held stage passes the forward selection's acceptance rule (``crossval.gate_failures``), its absolute
+    floor ``min_gain_abs`` included (session 14 checked only the gain in % and t: the hospital's patient rooms were
+    found at +3.4 % of a 0.06 K error, 0.002 K, t 4.5)."""
+    from hvacfmu.diagnosis.crossval import gate_failures
+    from hvacfmu.diagnosis.selection import _cv_accepts, _rejected_reason
+    from hvacfmu.models.causes.base import Candidate
+
+    patroom = {"n_weeks": 30, "gain_abs": 0.002, "gain_percent": 3.4, "se_percent": 0.75, "t": 4.5}
+    assert list(gate_failures(patroom, DEFAULT_OPTIONS)) == ["min_gain_abs"]
+    c = Candidate("solar_gain", {"zone": "A", "facade": "S"}, [], 1)  # the selection reads the same rule
+    c.cv, c.test = patroom, {"delta_bic": 40.0}
+    assert not _cv_accepts(c, DEFAULT_OPTIONS)
+    assert "under the floor min_gain_abs 0.003 K" in _rejected_reason(c, DEFAULT_OPTIONS)
+    # the stage on a real held zone: far above 1 % and t 2; with the floor above its absolute gain it is rejected
+    sig, opts = held_b
+    _, (found,) = held_setpoints(sig, ExtendedModel(base=sig.base), opts)
+    assert found.status == "found"
+    cv = found.cv
+    floor = 2.0 * cv["gain_abs"]  # [K]
+    model, (c,) = held_setpoints(sig, ExtendedModel(base=sig.base), dict(opts, min_gain_abs=floor))
+    assert c.cv == cv and cv["gain_percent"] > 1.0 and cv["t"] >= 2.0 and cv["gain_abs"] < floor
+    assert c.status == "no held-out gain" and model.terms == ()
+    assert f"under the floor min_gain_abs {floor:g} K" in c.reason
 
 
 def test_native_fmu_refuses_and_control_model_leaves_it_out(tmp_path):

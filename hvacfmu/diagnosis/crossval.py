@@ -258,6 +258,36 @@ def paired_test(plan: CVPlan, before: list, after: list) -> dict:
     }
 
 
+def gate_failures(r: dict, opts: dict, min_gain_percent: float | None = None) -> dict:
+    """The conditions of the acceptance rule that the paired test ``r`` fails (empty: it passes).
+
+    One rule for every candidate the diagnosis cross-validates (the forward selection's and the held setpoints'):
+    gain ≥ ``min_gain_percent`` (default ``opts["cv_min_gain_percent"]``; a coupling passes
+    ``opts["coupling_min_gain_percent"]``), absolute gain ≥ ``opts["min_gain_abs"]`` [K] (a percentage of a zone
+    predicted within a few hundredths of a kelvin is no evidence), and week-clustered paired t ≥
+    ``opts["cv_min_t"]``. ``r``: a :func:`paired_test` or :func:`paired_test_days` result. Returns
+    ``{option name: why}``; a test without a gain (fewer than 3 weeks or days scored) fails as ``"gain"``.
+    """
+    need = opts["cv_min_gain_percent"] if min_gain_percent is None else min_gain_percent
+    if r.get("gain_percent") is None:
+        return {"gain": r.get("reason") or "no cross-validated gain (fewer than 3 weeks or days scored)"}
+    out = {}
+    if not r["gain_percent"] >= need:  # written so that NaN fails
+        out["cv_min_gain_percent"] = f"gain {r['gain_percent']:.2f} % under {need:g} %"
+    if not r["gain_abs"] >= opts["min_gain_abs"]:
+        out["min_gain_abs"] = (
+            f"absolute gain {r['gain_abs']:.4f} K under the floor min_gain_abs {opts['min_gain_abs']:g} K"
+        )
+    if not r["t"] >= opts["cv_min_t"]:
+        out["cv_min_t"] = f"paired t {r['t']:.2f} under cv_min_t {opts['cv_min_t']:g}"
+    return out
+
+
+def passes_gate(r: dict, opts: dict, min_gain_percent: float | None = None) -> bool:
+    """Whether the paired test ``r`` passes the acceptance rule (:func:`gate_failures` empty)."""
+    return not gate_failures(r, opts, min_gain_percent)
+
+
 def paired_test_days(plan: CVPlan, before: list, after: list, active: list) -> dict:
     """Paired comparison over the days a calendar term acts on (each 24-hour window one unit).
 
@@ -301,8 +331,10 @@ __all__ = [
     "day_plan",
     "fold_fits",
     "fold_scores",
+    "gate_failures",
     "make_plan",
     "paired_test",
     "paired_test_days",
+    "passes_gate",
     "zone_open_loop_rms",
 ]

@@ -15,8 +15,10 @@ cross-validation. Per zone:
   running unit may also *hold* its setpoint exactly (``hold``: an ideal thermostat with spare capacity, wrong in
   the steps a unit runs short of capacity). Of the variants (kept, censored, hold) the one with the largest
   cross-validated gain is kept (a zone held 95 % of the time leaves too few free rows to refit);
-- the fold's structure without the term and the fit with it predict the fold's 24-hour windows open loop (the other zones measured), and the week-clustered paired test must pass ``cv_min_gain_percent`` and
-  ``cv_min_t``.
+- the fold's structure without the term and the fit with it predict the fold's 24-hour windows open loop (the other
+  zones measured), and the week-clustered paired test must pass the selection's acceptance rule
+  (:func:`~hvacfmu.diagnosis.crossval.gate_failures`: ``cv_min_gain_percent``, the absolute floor ``min_gain_abs``
+  and ``cv_min_t``).
 
 An accepted zone gets the term learned on every training row and, when the censored fit was kept, its censored
 equation (its rows of ``A``, ``B``, ``C``, its internal-gain column and the coefficients of the terms that act on it alone). A
@@ -31,7 +33,7 @@ import numpy as np
 
 from ..models.causes.base import Candidate
 from ..models.causes.held_setpoint import HeldSetpoint
-from .crossval import fold_fits, fold_scores, make_plan, paired_test
+from .crossval import fold_fits, fold_scores, gate_failures, make_plan, paired_test
 from .design import coupled_blocks, fit_structure
 
 
@@ -86,7 +88,7 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
         term, ev = _learn(sig, zi, rows)
         if term is not None:
             found[zi] = (term, ev)
-    if not found:
+    if not found:  # no zone meets the evidence rule: no plan, no fit, no cross-validation
         return model, []
     plan = make_plan(sig, opts.get("cv_folds", 10), opts["horizon"])
     cands = []
@@ -96,7 +98,7 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
                                    "fewer than 4 training weeks: no cross-validation", ev, term=term))  # fmt: skip
         return model, cands
     terms = list(model.terms)
-    folds = fold_fits(sig, plan, terms)
+    folds = fold_fits(sig, plan, terms, sorted(found))  # only the equations of the zones with an edge are simulated
     alone = {blk[0] for blk in coupled_blocks(sig, terms) if len(blk) == 1}
     final = model
     for zi, (term, ev) in found.items():
@@ -124,11 +126,8 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
         censor = variant == "censored"
         if variant == "hold":
             term = dataclasses.replace(term, hold=True)
-        ok = (
-            cv.get("gain_percent") is not None
-            and cv["gain_percent"] >= opts.get("cv_min_gain_percent", 1.0)
-            and cv["t"] >= opts.get("cv_min_t", 2.0)
-        )
+        short = gate_failures(cv, opts)
+        ok = not short
         edges = ", ".join(f"{k} {v:g} °C" for k, v in term.coefficients().items() if k != "u_on")
         ev = {**ev, "censored_fit": censor, "variant": variant}
         ev["cv_gain_percent_by_variant"] = {k: t.get("gain_percent") for k, t in tests.items()}
@@ -140,7 +139,7 @@ def held_setpoints(sig, model, opts: dict) -> tuple:
             "found" if ok else "no held-out gain",
             (f"held edge ({edges}) crossed by the open-loop prediction; limiting it gains {cv['gain_percent']:.1f} % "
              f"(paired t {cv['t']:.1f})") if ok else "limiting the prediction to the held band gains too little "
-            "in the cross-validation",
+            "in the cross-validation: " + "; ".join(short.values()),
             ev,
             test={"open_loop_only": True},
             term=term,

@@ -50,9 +50,11 @@ from .crossval import (
     disturbance_matrix,
     fold_fits,
     fold_scores,
+    gate_failures,
     make_plan,
     paired_test,
     paired_test_days,
+    passes_gate,
 )
 from .design import (
     Signals,
@@ -1031,17 +1033,17 @@ def decisive_cv(c) -> dict:
     return cv
 
 
+def _need_percent(c, opts) -> float:
+    """The least cross-validated gain [%] of candidate ``c``: ``coupling_min_gain_percent`` for a coupling."""
+    return opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
+
+
 def _cv_accepts(c, opts) -> bool:
     cv = c.cv
-    need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
+    need = _need_percent(c, opts)
 
     def passes(r):
-        return (
-            r.get("gain_percent") is not None
-            and r["gain_percent"] >= need
-            and r["gain_abs"] >= opts["min_gain_abs"]
-            and r["t"] >= opts["cv_min_t"]
-        )
+        return passes_gate(r, opts, need)
 
     every = c.evidence.get("cv_all_weeks") or {}
     if every.get("t") is None:
@@ -1056,9 +1058,8 @@ def _cv_accepts(c, opts) -> bool:
 def _found_reason(c, opts) -> str:
     cv = decisive_cv(c)
     every = c.evidence.get("cv_all_weeks") or {}
-    if every.get("t") is not None and not (
-        cv["gain_percent"] >= opts["cv_min_gain_percent"] and cv["t"] >= opts["cv_min_t"]
-    ):  # a calendar term accepted by the test over every week, not on its own days
+    if every.get("t") is not None and not passes_gate(cv, opts):
+        # a calendar term accepted by the test over every week, not on its own days
         cv = every
     if cv.get("gain_percent") is None:
         return f"ΔBIC {c.test['delta_bic']:.1f} > 2 × {opts['bic_margin']:g} (no cross-validation possible)"
@@ -1072,11 +1073,14 @@ def _rejected_reason(c, opts) -> str:
     cv = decisive_cv(c)
     if cv.get("gain_percent") is None:
         return cv.get("reason", "cross-validation not possible")
-    need = opts["coupling_min_gain_percent"] if c.cause == "zone_coupling" else opts["cv_min_gain_percent"]
+    need = _need_percent(c, opts)
     out = (
         f"cross-validated gain {cv['gain_percent']:.2f} ± {cv['se_percent']:.2f} % (t = {cv['t']:.2f}) "
         f"below {need:g} % with t ≥ {opts['cv_min_t']:g}"
     )
+    floor = gate_failures(cv, opts, need).get("min_gain_abs")
+    if floor:
+        out += f" or {opts['min_gain_abs']:g} K: {floor}"
     return out + (_coupling_undecided(c) if c.cause == "zone_coupling" else "")
 
 
