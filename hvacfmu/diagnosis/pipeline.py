@@ -76,6 +76,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     notes = []
     if not dataset.weeks:
         raise DataError("the dataset holds no complete week: nothing to diagnose")
+    _require_two_training_weeks(dataset, notes)
     dataset, idle = _hold_idle_supply(dataset, hold, notes)
     if idle:
         say(notes[-1])
@@ -171,6 +172,35 @@ def _options(dataset, options: dict) -> dict:
     opts = {**DEFAULT_OPTIONS, **options}
     opts["horizon"] = horizon_steps(dataset.step, opts["horizon"])
     return opts
+
+
+def _require_two_training_weeks(dataset, notes: list) -> None:
+    """Refuse data in which no season has two training weeks; note the seasons that have one.
+
+    The diagnosis compares candidates after removing each season's mean at every time-of-week slot (the unknown
+    internal gains, as the base model's profiles do): a season with one training week has one row per slot, so
+    nothing is left of it to fit (every regressor and the target vanish), and with no season of two weeks the
+    least squares have no data at all.
+    """
+    train: dict[str, list] = {}
+    for w in dataset.weeks:
+        if w.train:
+            train.setdefault(w.season, []).append(w)
+    if any(len(ws) >= 2 for ws in train.values()):
+        for season, ws in train.items():
+            if len(ws) == 1:
+                notes.append(
+                    f"season {season} has one training week ({ws[0].start.date()}): its rows cannot inform the "
+                    "diagnosis (the gains of each time-of-week slot need two weeks of a season)"
+                )
+        return
+    found = "; ".join(f"{s}: {len(ws)} ({', '.join(str(w.start.date()) for w in ws)})" for s, ws in train.items())
+    raise DataError(
+        f"{dataset.source}: no season has two training weeks (training weeks by season: {found or 'none'}); the "
+        "diagnosis removes each season's mean at every time-of-week slot, so one week of a season leaves it nothing "
+        "to compare. Fix: give more weeks (at least two training weeks of one season; the held-out weeks come on top), "
+        "or make the seasons of the building file's [[seasons]] cover the data's weeks with fewer seasons"
+    )
 
 
 def _series(sig, train_rows, one_step: tuple, open_loop: tuple) -> dict:
