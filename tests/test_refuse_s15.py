@@ -74,3 +74,20 @@ def test_scattered_missing_cells_do_not_cost_the_open_loop_refinement(tmp_path):
     k = list(model.disturbances).index("T_out")
     lo, hi = sorted((v[gap - 1, k], v[gap + 1, k]))
     assert lo - 1e-9 <= v[gap, k] <= hi + 1e-9  # filled from its neighbours, not read as 0 °C
+
+
+def test_a_clock_that_never_changes_is_named_with_the_zone_to_declare(tmp_path):
+    """A BMS server on standard time all year (or on UTC) writes the autumn's repeated hour once: the file was refused
+    ("appears once only") with a fix that asked for UTC offsets, not for the declaration that reads it right."""
+    f = base_frame(start="2025-11-01 00:00", days=8)
+    std = f.index.tz_convert("Etc/GMT+8").tz_localize(None)  # Pacific standard time all year
+    path = tmp_path / "m.csv"
+    out = f.copy()
+    out.index = [t.isoformat() for t in std]
+    out.index.name = "time"
+    out.to_csv(path)
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)))
+    msg = _one(report.problems, "the repeated hour appears once only")
+    assert 'declare its zone: data_timezone = "UTC" or, for standard time all year, data_timezone = "Etc/GMT+8"' in msg
+    report = check(path, building_from_dict(copy.deepcopy(BUILDING)), timezone="Etc/GMT+8")
+    assert report.ok, report.problems
