@@ -43,12 +43,14 @@ HORIZON_STEPS = 96
 
 
 def training_windows(prep, horizon: int, inputs_ok=None):
-    """Start rows of the training windows: every midnight whose window the evaluation's coverage rules would score.
+    """Start rows of the training windows: every midnight of the training weeks with a day of data to learn from.
 
-    The rules are :mod:`hvacfmu.data.windows`' (a real export's scattered missing cells must not cost whole days):
-    every row of the window in the training weeks, the zone temperatures measured at the start (the initial
-    state), each zone measured in at least :data:`~hvacfmu.data.windows.MIN_OUTPUT_SHARE` of the steps (errors
-    count measured steps only), and no input missing after the short gaps are filled (``inputs_ok``).
+    Days with every zone temperature measured in every step come first (clean targets). When they are fewer than
+    7 or than half of the days the evaluation's coverage rules would score (a real export's scattered missing
+    cells: one blank zone reading cost a whole day), the windows follow those rules instead
+    (:mod:`hvacfmu.data.windows`): the zone temperatures measured at the start, each zone measured in at least
+    :data:`~hvacfmu.data.windows.MIN_OUTPUT_SHARE` of the steps (errors count measured steps only). Either way
+    every row lies in the training weeks and no input is missing after the short gaps are filled (``inputs_ok``).
 
     Parameters
     ----------
@@ -69,12 +71,15 @@ def training_windows(prep, horizon: int, inputs_ok=None):
     n = len(idx)
     y_ok = np.isfinite(prep.T)
     usable = prep.train & (np.ones(n, bool) if inputs_ok is None else np.asarray(inputs_ok, bool))
-    bad = np.r_[0, np.cumsum(~usable)]
-    obs = np.r_[np.zeros((1, y_ok.shape[1]), np.int64), np.cumsum(y_ok, axis=0)]
     mid = np.flatnonzero((idx.hour == 0) & (idx.minute == 0))
     mid = mid[mid + horizon + 1 <= n]
+    bad = np.r_[0, np.cumsum(~(usable & y_ok.all(axis=1)))]
+    complete = mid[bad[mid + horizon + 1] - bad[mid] == 0]
+    bad = np.r_[0, np.cumsum(~usable)]
+    obs = np.r_[np.zeros((1, y_ok.shape[1]), np.int64), np.cumsum(y_ok, axis=0)]
     measured = np.all(obs[mid + horizon + 1] - obs[mid + 1] >= MIN_OUTPUT_SHARE * horizon, axis=1)
-    return mid[(bad[mid + horizon + 1] - bad[mid] == 0) & y_ok[mid].all(axis=1) & measured]
+    covered = mid[(bad[mid + horizon + 1] - bad[mid] == 0) & y_ok[mid].all(axis=1) & measured]
+    return complete if complete.size >= max(7, covered.size / 2) else covered
 
 
 def _filled_signals(model, prep):
