@@ -199,11 +199,9 @@ class CheckReport:
             if lr.native_step:
                 expected = span / lr.native_step + 1
                 native += f", {100 * min(lr.rows / expected, 1.0):.2f} % of the rows expected at that spacing"
-            clock = (
-                "with UTC offsets"
-                if lr.has_offsets or self.dataset is None
-                else (f"naive, read in {self.dataset.building.clock_timezone}")
-            )
+            clock = "with UTC offsets" if lr.has_offsets else "naive"
+            if not lr.has_offsets and self.dataset is not None:
+                clock += f", read in {self.dataset.building.clock_timezone}"
             lines.append(f"Native resolution: {native}; times {clock}")
             coarse = {c: s for c, s in lr.column_steps.items() if s and lr.native_step and s > 1.5 * lr.native_step}
             if coarse:

@@ -386,6 +386,7 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
                 f"{why}{more}; a file in time order must list the repeated hour twice, first in daylight "
                 f"saving time then in standard time; otherwise write times with their UTC offset "
                 f"(e.g. {example}{offsets[0]} for the first occurrence, {example}{offsets[1]} for the second)"
+                + (_clock_never_changes_hint(tz, naive[bad_runs[0][0][0]]) if any(k == 0 for _, k in bad_runs) else "")
             )
     if nonexistent.any():
         problems.append(
@@ -397,6 +398,26 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
     plain = ok & ~amb
     utc[plain] = dst_utc[plain]
     return utc, ok
+
+
+def _clock_never_changes_hint(tz: str, when: pd.Timestamp) -> str:
+    """The fix when the repeated hour appears once only: the export's clock may never change (UTC, standard time).
+
+    A logger on UTC or on standard time all year writes that hour once; read on the wall clock of ``tz`` its
+    times are then an hour (or the UTC offset) off, so the zone is named with its ``Etc/GMT`` equivalent.
+    """
+    std = pd.Timestamp(when).tz_localize(tz, ambiguous=False).utcoffset()
+    hours = -int(std.total_seconds() // 3600) if std is not None else 0
+    fixed = f"Etc/GMT{hours:+d}" if hours and std is not None and std.total_seconds() % 3600 == 0 else None
+    alt = (
+        f' or, for standard time all year, data_timezone = "{fixed}" (UTC{_fmt_offset(-int(std.total_seconds() * 1e9))})'
+        if fixed
+        else ""
+    )
+    return (
+        f". If the export's clock never changes (a server on UTC or on standard time all year writes that hour once), "
+        f'declare its zone: data_timezone = "UTC"{alt} in the building file, or --timezone'
+    )
 
 
 def _fmt_offset(ns: int) -> str:

@@ -334,13 +334,20 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
     width = int(round(ZONE_SPIKE_WINDOW_H * 3600e9 / bin_ns)) | 1
     full = per_bin.reindex(np.arange(int(bins.max()) + 1))
     local = full.rolling(width, center=True, min_periods=max(3, width // 8)).median().to_numpy()[bins]
-    spikes = sel[np.isfinite(local) & (np.abs(v - local) > ZONE_SPIKE_K)]
+    far = np.isfinite(local) & (np.abs(v - local) > ZONE_SPIKE_K)
+    held = _dropout_runs(v, times_ns[sel]) & ~far
+    spikes = sel[far | held]
     if not len(spikes):
         return si
+    runs = (
+        f" or, {held.sum()} of them held at one value, from the zone air before and after that run"
+        if held.any()
+        else ""
+    )
     share = len(spikes) / len(sel)
     text = (
         f"{desc}: {len(spikes)} value(s) ({_pct(share)} of its samples) more than {ZONE_SPIKE_K:g} K away from the "
-        f"median of the surrounding {ZONE_SPIKE_WINDOW_H:g} h, which zone air does not do (an error code or a "
+        f"median of the surrounding {ZONE_SPIKE_WINDOW_H:g} h{runs}, which zone air does not do (an error code or a "
         f"sensor dropout such as 0 or -999?)"
     )
     if share > SPIKE_SHARE_MAX:
@@ -353,6 +360,33 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
     si = si.copy()
     si[spikes] = np.nan
     return si
+
+
+def _dropout_runs(v, t_ns) -> np.ndarray:
+    """Mask of runs of one repeated value :data:`ZONE_SPIKE_K` or more from the zone air on both sides of the run.
+
+    A sensor that drops out for hours writes its default (0 °C, 32 °F, -40, 85) over and over; a run as long as
+    the running median's window moves the median with it, so :func:`check_zone_spikes` compares such a run with
+    the medians of the :data:`ZONE_SPIKE_WINDOW_H` hours before it and after it instead (one side at the ends of
+    the record). Zone air never holds one exact value that far from what it read before and after.
+    """
+    out = np.zeros(len(v), dtype=bool)
+    if len(v) < 3:
+        return out
+    change = np.flatnonzero(np.diff(v) != 0) + 1
+    starts = np.concatenate(([0], change))
+    stops = np.concatenate((change, [len(v)]))
+    jump_in = np.abs(v[starts] - v[np.maximum(starts - 1, 0)]) > ZONE_SPIKE_K
+    jump_out = np.abs(v[stops - 1] - v[np.minimum(stops, len(v) - 1)]) > ZONE_SPIKE_K
+    keep = (stops - starts >= 2) & (jump_in | jump_out)  # a dropout jumps away from the air on one side at least
+    window = int(ZONE_SPIKE_WINDOW_H * 3600e9)
+    for a, b in zip(starts[keep], stops[keep]):
+        before = v[np.searchsorted(t_ns, t_ns[a] - window) : a]
+        after = v[b : np.searchsorted(t_ns, t_ns[b - 1] + window, side="right")]
+        sides = [float(np.median(s)) for s in (before, after) if len(s) >= 4]
+        if sides and all(abs(v[a] - m) > ZONE_SPIKE_K for m in sides):
+            out[a:b] = True
+    return out
 
 
 #: Days of data before a column's day-to-day behaviour is judged (setpoints, constant airflow).

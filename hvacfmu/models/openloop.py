@@ -42,27 +42,56 @@ from .heat import CP_AIR
 HORIZON_STEPS = 96
 
 
-def training_windows(prep, horizon: int):
-    """Start rows of the training windows: every midnight whose window has complete training data.
+def training_windows(prep, horizon: int, inputs_ok=None):
+    """Start rows of the training windows: every midnight of the training weeks with a day of data to learn from.
+
+    Days with every zone temperature measured in every step come first (clean targets). When they are fewer than
+    7 or than half of the days the evaluation's coverage rules would score (a real export's scattered missing
+    cells: one blank zone reading cost a whole day), the windows follow those rules instead
+    (:mod:`hvacfmu.data.windows`): the zone temperatures measured at the start, each zone measured in at least
+    :data:`~hvacfmu.data.windows.MIN_OUTPUT_SHARE` of the steps (errors count measured steps only). Either way
+    every row lies in the training weeks and no input is missing after the short gaps are filled (``inputs_ok``).
 
     Parameters
     ----------
     prep : hvacfmu.models.datadriven._Prepared
         Arrays of the fit (regular grid, training mask).
     horizon : int [steps]
+    inputs_ok : array of bool, optional
+        Rows whose model inputs are known (after :func:`_filled_signals`); default: every row.
 
     Returns
     -------
     array of int
         Row indices into ``prep.frame``.
     """
+    from ..data.windows import MIN_OUTPUT_SHARE
+
     idx = prep.index
     n = len(idx)
-    ok = prep.train & np.all(np.isfinite(prep.T), axis=1)
-    bad = np.r_[0, np.cumsum(~ok)]
+    y_ok = np.isfinite(prep.T)
+    usable = prep.train & (np.ones(n, bool) if inputs_ok is None else np.asarray(inputs_ok, bool))
     mid = np.flatnonzero((idx.hour == 0) & (idx.minute == 0))
     mid = mid[mid + horizon + 1 <= n]
-    return mid[bad[mid + horizon + 1] - bad[mid] == 0]
+    bad = np.r_[0, np.cumsum(~(usable & y_ok.all(axis=1)))]
+    complete = mid[bad[mid + horizon + 1] - bad[mid] == 0]
+    bad = np.r_[0, np.cumsum(~usable)]
+    obs = np.r_[np.zeros((1, y_ok.shape[1]), np.int64), np.cumsum(y_ok, axis=0)]
+    measured = np.all(obs[mid + horizon + 1] - obs[mid + 1] >= MIN_OUTPUT_SHARE * horizon, axis=1)
+    covered = mid[(bad[mid + horizon + 1] - bad[mid] == 0) & y_ok[mid].all(axis=1) & measured]
+    return complete if complete.size >= max(7, covered.size / 2) else covered
+
+
+def _filled_signals(model, prep):
+    """The model's inputs and disturbances with gaps up to :data:`~hvacfmu.data.windows.FILL_INPUTS_H` filled.
+
+    As the evaluation fills them for its simulations (:func:`hvacfmu.data.windows.fill_inputs`); zone
+    temperatures are never filled.
+    """
+    from ..data.windows import FILL_INPUTS_H, fill_inputs
+
+    filled = fill_inputs(prep.frame, prep.building.zone_names, prep.step, FILL_INPUTS_H).frame
+    return (np.asarray(a, float) for a in model.signals(filled))
 
 
 class _Problem:
@@ -85,8 +114,9 @@ class _Problem:
         frame = prep.frame
         self.Y = np.asarray(model.measured_outputs(frame), float)
         u, v = (np.asarray(a, float) for a in model.signals(frame))
+        self.uv_ok = np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)  # measured: the gain rows
+        u, v = _filled_signals(model, prep)  # the simulation's inputs, short gaps filled as in the evaluation
         self.u, self.v = np.nan_to_num(u), np.nan_to_num(v)
-        self.uv_ok = np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)
         self.rng = starts[:, None] + np.arange(horizon)[None, :]
         self.seasons = prep.season
         # every season weighs alike, however many training days it has (the goal is every season)
@@ -320,7 +350,8 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
     """
     from scipy.optimize import least_squares
 
-    starts = training_windows(prep, horizon)
+    u, v = _filled_signals(model, prep)
+    starts = training_windows(prep, horizon, inputs_ok=np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1))
     if starts.size < 7:
         return model, {
             "used": False,
