@@ -21,7 +21,7 @@ import dataclasses
 
 import numpy as np
 
-from .design import Signals, Within, fit_structure
+from .design import Signals, Within, fit_structure, prepare_structure
 
 
 @dataclasses.dataclass
@@ -154,8 +154,9 @@ def fold_fits(sig: Signals, plan: CVPlan, terms, zones_idx=None) -> list:
     ``zones_idx``: fit only the equations of these zones (and the zones coupled to them): the
     others are measured in :func:`zone_open_loop_rms`, so their coefficients are not needed.
     """
+    prepared = prepare_structure(sig, terms)  # the columns are the same in every fold: built once
     return [
-        fit_structure(sig, terms, rows, within=W, only_zones=zones_idx).model
+        fit_structure(sig, terms, rows, within=W, only_zones=zones_idx, prepared=prepared).model
         for rows, W in zip(plan.fit_rows, plan.within)
     ]
 
