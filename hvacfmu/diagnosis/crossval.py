@@ -101,17 +101,22 @@ def disturbance_matrix(sig: Signals, model) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _gains(sig: Signals, model) -> np.ndarray:
-    q = np.zeros((len(sig.Y), sig.nz))
+def _gains(sig: Signals, model, rows=None) -> np.ndarray:
+    """Internal gains (n, nz) [K per step] of ``model`` at every row, or (len(rows), nz) at ``rows`` only (the
+    rollouts read their windows' rows: each row's value is its own, whatever the other rows)."""
+    rows = np.arange(len(sig.Y)) if rows is None else np.asarray(rows, int)
+    q = np.zeros((len(rows), sig.nz))
     calendar = any(
         t.gain_adjustment(sig.index[:1], np.zeros((sig.n_tow, sig.nz)), sig.step) is not None for t in model.terms
     )
+    season = sig.season[rows]
     for s in sig.seasons:
-        m = sig.season == s
+        m = season == s
         if m.any():
             ss = s if s in model.gains else next(iter(model.gains))
             # the slot table read at the rows' time of week (the calendar terms need gains_at)
-            q[m] = model.gains_at(sig.index[m], ss) if calendar else np.asarray(model.gains[ss])[sig.tow[m]]
+            r = rows[m]
+            q[m] = model.gains_at(sig.index[r], ss) if calendar else np.asarray(model.gains[ss])[sig.tow[r]]
     return q
 
 
@@ -121,9 +126,14 @@ def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horiz
     Windows with a missing value are NaN.
     """
     starts = np.asarray(starts, int)
-    U, V, Q = sig.U, disturbance_matrix(sig, model), _gains(sig, model)
+    rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()  # window w's step h is rows[w * horizon + h]
+    U, V = sig.U[rows], disturbance_matrix(sig, model)[rows]
+    Q = _gains(sig, model, rows)
     x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
-    return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[k], V[k], Q[k]))
+    at = np.arange(len(starts)) * horizon
+    return _rollout_rms(
+        sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[at + h], V[at + h], Q[at + h])
+    )
 
 
 def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> np.ndarray:
@@ -142,7 +152,8 @@ def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> n
             x[:, other] = y[:, other]
         e = x[:, zones_idx] - y[:, zones_idx]
         bad |= ~np.isfinite(e).all(axis=1)
-        err2 += np.nan_to_num(e) ** 2
+        with np.errstate(invalid="ignore", over="ignore"):
+            err2 += e**2  # a window with a non-finite error is NaN below, whatever its sum
     out = np.sqrt(err2 / horizon)
     out[bad] = np.nan
     return out
@@ -196,7 +207,7 @@ def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
     rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()
     X = model.teacher_forced(sig.Y, sig.U)
     nx = X.shape[1]
-    U, V, Q = sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model)[rows]
+    U, V, Q = sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model, rows)
     P = np.zeros((nx + 1, len(rows), nx))
     for j in range(nx):
         P[j + 1, :, j] = 1.0
