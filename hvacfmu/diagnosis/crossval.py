@@ -130,10 +130,9 @@ def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horiz
     U, V = sig.U[rows], disturbance_matrix(sig, model)[rows]
     Q = _gains(sig, model, rows)
     x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
-    at = np.arange(len(starts)) * horizon
-    return _rollout_rms(
-        sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[at + h], V[at + h], Q[at + h])
-    )
+    # step h of every window as one contiguous (n_windows, ·) block, the layout U[k] had
+    U, V, Q = (np.ascontiguousarray(a.reshape(len(starts), horizon, -1).swapaxes(0, 1)) for a in (U, V, Q))
+    return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[h], V[h], Q[h]))
 
 
 def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> np.ndarray:
@@ -144,16 +143,15 @@ def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> n
     other = [j for j in range(sig.nz) if j not in zones_idx]
     err2 = np.zeros((len(starts), len(zones_idx)))
     bad = ~np.isfinite(x).all(axis=1)
+    nxt = sig.Y[starts[:, None] + 1 + np.arange(horizon)]  # (n_windows, horizon, nz): the measurements, read once
+    y_other, y_zones = nxt[:, :, other], nxt[:, :, zones_idx]
     for h in range(horizon):
-        k = starts + h
-        x = advance(x, k, h)
-        y = sig.Y[k + 1]
+        x = advance(x, starts + h, h)
         if other:
-            x[:, other] = y[:, other]
-        e = x[:, zones_idx] - y[:, zones_idx]
+            x[:, other] = y_other[:, h]
+        e = x[:, zones_idx] - y_zones[:, h]
         bad |= ~np.isfinite(e).all(axis=1)
-        with np.errstate(invalid="ignore", over="ignore"):
-            err2 += e**2  # a window with a non-finite error is NaN below, whatever its sum
+        err2 += e**2  # a window with a non-finite error is NaN below, whatever its sum
     out = np.sqrt(err2 / horizon)
     out[bad] = np.nan
     return out
