@@ -120,16 +120,25 @@ def _gains(sig: Signals, model, rows=None) -> np.ndarray:
     return q
 
 
-def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horizon: int) -> np.ndarray:
+def _window_inputs(sig: Signals, model, starts, horizon: int) -> tuple:
+    """Teacher-forced states (n, nx) of ``model`` and its airflows, disturbances and gains on the windows' rows
+    (``rows[w * horizon + h] = starts[w] + h``): read once per fold model by the affine map and, when that fails,
+    the step-by-step rollout."""
+    rows = (np.asarray(starts, int)[:, None] + np.arange(horizon)[None, :]).ravel()
+    X = model.teacher_forced(sig.Y, sig.U)
+    return X, sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model, rows)
+
+
+def zone_open_loop_rms(
+    sig: Signals, model, starts: np.ndarray, zones_idx, horizon: int, inputs: tuple | None = None
+) -> np.ndarray:
     """24-hour open-loop RMS (n_windows, len(zones_idx)) [K] of ``zones_idx``, other zones measured.
 
     Windows with a missing value are NaN.
     """
     starts = np.asarray(starts, int)
-    rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()  # window w's step h is rows[w * horizon + h]
-    U, V = sig.U[rows], disturbance_matrix(sig, model)[rows]
-    Q = _gains(sig, model, rows)
-    x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
+    X, U, V, Q = _window_inputs(sig, model, starts, horizon) if inputs is None else inputs
+    x0 = X[starts].copy()
     # step h of every window as one contiguous (n_windows, ·) block, the layout U[k] had
     U, V, Q = (np.ascontiguousarray(a.reshape(len(starts), horizon, -1).swapaxes(0, 1)) for a in (U, V, Q))
     return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[h], V[h], Q[h]))
@@ -180,9 +189,10 @@ def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:
     out: list = [None] * len(models)
     maps = []
     for f, (m, st) in enumerate(zip(models, plan.starts)):
-        aff = affine_steps(sig, m, st, plan.horizon)
+        inputs = _window_inputs(sig, m, st, plan.horizon)
+        aff = affine_steps(sig, m, st, plan.horizon, inputs)
         if aff is None:
-            out[f] = zone_open_loop_rms(sig, m, st, zones_idx, plan.horizon)
+            out[f] = zone_open_loop_rms(sig, m, st, zones_idx, plan.horizon, inputs)
         else:
             maps.append((f, st, aff))
     if maps:
@@ -192,7 +202,7 @@ def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:
     return out
 
 
-def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
+def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int, inputs: tuple | None = None):
     """The one-step map ``x⁺ = M_k x + c_k`` of ``model`` on each row of the windows, or None.
 
     Returns ``(M, c, x0)`` with ``M`` (n_windows, horizon, nx, nx), ``c`` (n_windows, horizon, nx)
@@ -203,9 +213,8 @@ def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
     """
     starts = np.asarray(starts, int)
     rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()
-    X = model.teacher_forced(sig.Y, sig.U)
+    X, U, V, Q = _window_inputs(sig, model, starts, horizon) if inputs is None else inputs
     nx = X.shape[1]
-    U, V, Q = sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model, rows)
     P = np.zeros((nx + 1, len(rows), nx))
     for j in range(nx):
         P[j + 1, :, j] = 1.0
