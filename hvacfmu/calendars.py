@@ -242,14 +242,15 @@ def holiday_slots(index, step: float, holidays) -> tuple:
     import numpy as np
     import pandas as pd
 
-    from .timeutil import n_time_of_week, time_of_week
+    from .timeutil import local_seconds, n_time_of_week
 
     index = pd.DatetimeIndex(index)
-    slots = time_of_week(index, step)
+    secs = local_seconds(index)  # the wall clock once, for the slot and the date (not a conversion per field)
+    sow = ((secs // 86400 + 3) % 7) * 86400 + secs % 86400  # seconds of the week (1970-01-01 was a Thursday)
+    slots = (sow // int(step)).astype(np.int64)
     if not len(index) or not holidays:
         return np.zeros(len(index), bool), slots
-    days = index.normalize().tz_localize(None) if index.tz is not None else index.normalize()
-    on = np.asarray(days.isin(_listed(tuple(holidays)))) & (np.asarray(index.day_of_week) < 5)
+    on = np.isin(secs // 86400, _listed_days(tuple(holidays))) & (sow < 5 * 86400)
     n_tow = n_time_of_week(step)
     if n_tow % 7:
         raise ValueError(f"model step {step} s does not divide a day: a holiday cannot read Sunday's profile")
@@ -263,6 +264,16 @@ def _listed(holidays: tuple):
     import pandas as pd
 
     return pd.DatetimeIndex(pd.to_datetime(list(holidays)))
+
+
+@functools.lru_cache(maxsize=8)
+def _listed_days(holidays: tuple):
+    """The listed dates as local day numbers since 1970-01-01 (a listed time other than midnight matches no day,
+    as in ``normalize().isin``)."""
+    import numpy as np
+
+    secs = np.asarray(_listed(holidays).values).astype("datetime64[s]").astype(np.int64)
+    return secs[secs % 86400 == 0] // 86400
 
 
 def gain_slots(index, step: float, holidays=()):

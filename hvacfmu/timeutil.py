@@ -16,15 +16,22 @@ def n_time_of_week(step: float) -> int:
     return int(round(n))
 
 
+def local_seconds(index: pd.DatetimeIndex) -> np.ndarray:
+    """Seconds since 1970-01-01 00:00 on the local wall clock of each timestamp (int64, floored to whole seconds).
+
+    One conversion to the wall clock for every calendar field read from it (``seconds_of_week``, the local date):
+    each pandas field (``day_of_week``, ``hour`` ...) of a tz-aware index converts it again.
+    """
+    index = pd.DatetimeIndex(index)
+    wall = index.tz_localize(None) if index.tz is not None else index
+    return np.asarray(wall.values).astype("datetime64[s]").astype(np.int64)
+
+
 def seconds_of_week(index: pd.DatetimeIndex) -> np.ndarray:
     """Seconds since Monday 00:00 local time of each timestamp (local wall clock)."""
-    index = pd.DatetimeIndex(index)
-    return (
-        index.day_of_week.to_numpy() * 86400
-        + index.hour.to_numpy() * 3600
-        + index.minute.to_numpy() * 60
-        + index.second.to_numpy()
-    ).astype(np.int64)
+    s = local_seconds(index)
+    # 1970-01-01 was a Thursday (day 3 of a week that starts on Monday)
+    return (((s // 86400 + 3) % 7) * 86400 + s % 86400).astype(np.int64)
 
 
 def time_of_week(index: pd.DatetimeIndex, step: float) -> np.ndarray:

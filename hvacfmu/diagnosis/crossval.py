@@ -21,7 +21,7 @@ import dataclasses
 
 import numpy as np
 
-from .design import Signals, Within, fit_structure
+from .design import Signals, Within, fit_structure, prepare_structure
 
 
 @dataclasses.dataclass
@@ -101,29 +101,47 @@ def disturbance_matrix(sig: Signals, model) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _gains(sig: Signals, model) -> np.ndarray:
-    q = np.zeros((len(sig.Y), sig.nz))
+def _gains(sig: Signals, model, rows=None) -> np.ndarray:
+    """Internal gains (n, nz) [K per step] of ``model`` at every row, or (len(rows), nz) at ``rows`` only (the
+    rollouts read their windows' rows: each row's value is its own, whatever the other rows)."""
+    rows = np.arange(len(sig.Y)) if rows is None else np.asarray(rows, int)
+    q = np.zeros((len(rows), sig.nz))
     calendar = any(
         t.gain_adjustment(sig.index[:1], np.zeros((sig.n_tow, sig.nz)), sig.step) is not None for t in model.terms
     )
+    season = sig.season[rows]
     for s in sig.seasons:
-        m = sig.season == s
+        m = season == s
         if m.any():
             ss = s if s in model.gains else next(iter(model.gains))
             # the slot table read at the rows' time of week (the calendar terms need gains_at)
-            q[m] = model.gains_at(sig.index[m], ss) if calendar else np.asarray(model.gains[ss])[sig.tow[m]]
+            r = rows[m]
+            q[m] = model.gains_at(sig.index[r], ss) if calendar else np.asarray(model.gains[ss])[sig.tow[r]]
     return q
 
 
-def zone_open_loop_rms(sig: Signals, model, starts: np.ndarray, zones_idx, horizon: int) -> np.ndarray:
+def _window_inputs(sig: Signals, model, starts, horizon: int) -> tuple:
+    """Teacher-forced states (n, nx) of ``model`` and its airflows, disturbances and gains on the windows' rows
+    (``rows[w * horizon + h] = starts[w] + h``): read once per fold model by the affine map and, when that fails,
+    the step-by-step rollout."""
+    rows = (np.asarray(starts, int)[:, None] + np.arange(horizon)[None, :]).ravel()
+    X = model.teacher_forced(sig.Y, sig.U)
+    return X, sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model, rows)
+
+
+def zone_open_loop_rms(
+    sig: Signals, model, starts: np.ndarray, zones_idx, horizon: int, inputs: tuple | None = None
+) -> np.ndarray:
     """24-hour open-loop RMS (n_windows, len(zones_idx)) [K] of ``zones_idx``, other zones measured.
 
     Windows with a missing value are NaN.
     """
     starts = np.asarray(starts, int)
-    U, V, Q = sig.U, disturbance_matrix(sig, model), _gains(sig, model)
-    x0 = model.teacher_forced(sig.Y, sig.U)[starts].copy()
-    return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[k], V[k], Q[k]))
+    X, U, V, Q = _window_inputs(sig, model, starts, horizon) if inputs is None else inputs
+    x0 = X[starts].copy()
+    # step h of every window as one contiguous (n_windows, ·) block, the layout U[k] had
+    U, V, Q = (np.ascontiguousarray(a.reshape(len(starts), horizon, -1).swapaxes(0, 1)) for a in (U, V, Q))
+    return _rollout_rms(sig, x0, starts, zones_idx, horizon, lambda x, k, h: model.step_state(x, U[h], V[h], Q[h]))
 
 
 def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> np.ndarray:
@@ -134,15 +152,15 @@ def _rollout_rms(sig: Signals, x, starts, zones_idx, horizon: int, advance) -> n
     other = [j for j in range(sig.nz) if j not in zones_idx]
     err2 = np.zeros((len(starts), len(zones_idx)))
     bad = ~np.isfinite(x).all(axis=1)
+    nxt = sig.Y[starts[:, None] + 1 + np.arange(horizon)]  # (n_windows, horizon, nz): the measurements, read once
+    y_other, y_zones = nxt[:, :, other], nxt[:, :, zones_idx]
     for h in range(horizon):
-        k = starts + h
-        x = advance(x, k, h)
-        y = sig.Y[k + 1]
+        x = advance(x, starts + h, h)
         if other:
-            x[:, other] = y[:, other]
-        e = x[:, zones_idx] - y[:, zones_idx]
+            x[:, other] = y_other[:, h]
+        e = x[:, zones_idx] - y_zones[:, h]
         bad |= ~np.isfinite(e).all(axis=1)
-        err2 += np.nan_to_num(e) ** 2
+        err2 += e**2  # a window with a non-finite error is NaN below, whatever its sum
     out = np.sqrt(err2 / horizon)
     out[bad] = np.nan
     return out
@@ -154,8 +172,9 @@ def fold_fits(sig: Signals, plan: CVPlan, terms, zones_idx=None) -> list:
     ``zones_idx``: fit only the equations of these zones (and the zones coupled to them): the
     others are measured in :func:`zone_open_loop_rms`, so their coefficients are not needed.
     """
+    prepared = prepare_structure(sig, terms)  # the columns are the same in every fold: built once
     return [
-        fit_structure(sig, terms, rows, within=W, only_zones=zones_idx).model
+        fit_structure(sig, terms, rows, within=W, only_zones=zones_idx, prepared=prepared).model
         for rows, W in zip(plan.fit_rows, plan.within)
     ]
 
@@ -170,9 +189,10 @@ def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:
     out: list = [None] * len(models)
     maps = []
     for f, (m, st) in enumerate(zip(models, plan.starts)):
-        aff = affine_steps(sig, m, st, plan.horizon)
+        inputs = _window_inputs(sig, m, st, plan.horizon)
+        aff = affine_steps(sig, m, st, plan.horizon, inputs)
         if aff is None:
-            out[f] = zone_open_loop_rms(sig, m, st, zones_idx, plan.horizon)
+            out[f] = zone_open_loop_rms(sig, m, st, zones_idx, plan.horizon, inputs)
         else:
             maps.append((f, st, aff))
     if maps:
@@ -182,7 +202,7 @@ def fold_scores(sig: Signals, plan: CVPlan, models: list, zones_idx) -> list:
     return out
 
 
-def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
+def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int, inputs: tuple | None = None):
     """The one-step map ``x⁺ = M_k x + c_k`` of ``model`` on each row of the windows, or None.
 
     Returns ``(M, c, x0)`` with ``M`` (n_windows, horizon, nx, nx), ``c`` (n_windows, horizon, nx)
@@ -193,9 +213,8 @@ def affine_steps(sig: Signals, model, starts: np.ndarray, horizon: int):
     """
     starts = np.asarray(starts, int)
     rows = (starts[:, None] + np.arange(horizon)[None, :]).ravel()
-    X = model.teacher_forced(sig.Y, sig.U)
+    X, U, V, Q = _window_inputs(sig, model, starts, horizon) if inputs is None else inputs
     nx = X.shape[1]
-    U, V, Q = sig.U[rows], disturbance_matrix(sig, model)[rows], _gains(sig, model)[rows]
     P = np.zeros((nx + 1, len(rows), nx))
     for j in range(nx):
         P[j + 1, :, j] = 1.0

@@ -185,19 +185,39 @@ class StructureFit:
     resid: np.ndarray  # (n_rows, nz) within residuals on training rows
 
 
-def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None, only_zones=None) -> StructureFit:
+@dataclasses.dataclass
+class Prepared:
+    """What :func:`fit_structure` builds from ``sig`` and ``terms`` alone, whatever its rows: the effective
+    airflows, the terms' features and the zones' (untransformed) designs, filled as they are needed. Shared by
+    the refits of the cross-validation folds (one set of columns, fold after fold on other rows)."""
+
+    U_eff: np.ndarray
+    feats: list
+    designs: dict = dataclasses.field(default_factory=dict)
+
+
+def prepare_structure(sig: Signals, terms) -> Prepared:
+    """The fold-independent part of :func:`fit_structure` for ``terms`` on ``sig``."""
+    U_eff = effective_inputs(sig, terms)
+    return Prepared(U_eff, [term_features(sig, t, U_eff) for t in terms])
+
+
+def fit_structure(
+    sig: Signals, terms, rows=None, within: Within | None = None, only_zones=None, prepared: Prepared | None = None
+) -> StructureFit:
     """Refit base structure + ``terms`` jointly on the training rows; returns an ExtendedModel.
 
     ``only_zones`` (zone indices): fit only the equations of the coupled blocks holding them
     (cross-validation of a local term, where every other zone is measured); the other zones'
-    equations are then left at zero and must not be simulated.
+    equations are then left at zero and must not be simulated. ``prepared``: the result of
+    :func:`prepare_structure` for the same ``sig`` and ``terms`` (reused by several refits).
     """
     rows = sig.rows("train") if rows is None else rows
     if len(rows) < 50:
         raise FitError(f"only {len(rows)} usable one-step rows in the training weeks; need at least 50")
     W = within or Within(sig.group, rows)
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, t, U_eff) for t in terms]
+    prepared = prepare_structure(sig, terms) if prepared is None else prepared
+    U_eff, feats = prepared.U_eff, prepared.feats
     base = sig.base
     nz = sig.nz
     A = np.zeros((nz, nz))
@@ -212,7 +232,7 @@ def fit_structure(sig: Signals, terms, rows=None, within: Within | None = None, 
     for block in coupled_blocks(sig, terms):
         if only_zones is not None and not set(block) & set(only_zones):
             continue
-        bf = fit_block(sig, W, block, terms, U_eff, feats, target_next)
+        bf = fit_block(sig, W, block, terms, U_eff, feats, target_next, prepared.designs)
         for z in block:
             D = bf.designs[z]
             th = bf.theta_of(z)
@@ -287,9 +307,16 @@ class BlockFit:
         return np.array([self.sd[self.keys.index(k)] for k in self.cols[z]])
 
 
-def fit_block(sig: Signals, W: Within, block, terms, U_eff, feats, target_next) -> BlockFit:
-    """Fit the equations of the zones in ``block`` jointly (stacked within-transformed rows)."""
-    designs = {z: zone_design(sig, z, terms, U_eff, feats) for z in block}
+def fit_block(sig: Signals, W: Within, block, terms, U_eff, feats, target_next, cache=None) -> BlockFit:
+    """Fit the equations of the zones in ``block`` jointly (stacked within-transformed rows).
+
+    ``cache``: a dict of zone designs under the same ``terms`` (filled with those it lacks).
+    """
+    cache = {} if cache is None else cache
+    for z in block:
+        if z not in cache:
+            cache[z] = zone_design(sig, z, terms, U_eff, feats)
+    designs = {z: cache[z] for z in block}
     keys, lo, hi, cols = [], [], [], {}
     for z in block:
         D = designs[z]
@@ -366,6 +393,7 @@ def _with_coefs(sig, t, coefs: dict, stds: dict, zones):
 
 __all__ = [
     "MAX_DELAY",
+    "Prepared",
     "Signals",
     "StructureFit",
     "Within",
@@ -378,6 +406,7 @@ __all__ = [
     "fit_block",
     "fit_structure",
     "make_signals",
+    "prepare_structure",
     "shifted",
     "term_features",
     "zone_design",

@@ -329,18 +329,22 @@ class ExtendedModel(ZoneModel):
         v = np.asarray(v, dtype=float)
         b = self.base
         nz = len(self.outputs)
-        shape = np.broadcast_shapes(x.shape[:-1], u.shape[:-1], v.shape[:-1])
+        # (the copies below skip broadcast_to where the shapes already agree: a CV rollout steps ~10 windows at a
+        # time, tens of thousands of times, and the broadcasting cost as much as the arithmetic)
+        same = x.shape[:-1] == u.shape[:-1] == v.shape[:-1]
+        shape = x.shape[:-1] if same else np.broadcast_shapes(x.shape[:-1], u.shape[:-1], v.shape[:-1])
         x_new = np.empty(shape + (self._nx,))
         c = StepContext(x=x, T=x[..., :nz], u=u, u_eff=u, v=v, Tn=None, x_new=x_new, zi=self._zi, vi=self._vi)
         for t, (off, _) in zip(self.terms, self._layout):
             if t.delayed_input() is not None:
                 if c.u_eff is u:
-                    c.u_eff = np.array(np.broadcast_to(u, shape + u.shape[-1:]))
+                    c.u_eff = u.copy() if same else np.array(np.broadcast_to(u, shape + u.shape[-1:]))
                 c.off = off
                 t.shift_input(c)
         nvb = len(b.disturbances)
         Tn = b.step_state(c.T, c.u_eff, v[..., :nvb], q)  # airflow or delivered-heat form
-        c.Tn = np.array(np.broadcast_to(Tn, shape + (nz,)))
+        Tn = np.asarray(Tn)
+        c.Tn = np.array(Tn) if Tn.shape == shape + (nz,) else np.array(np.broadcast_to(Tn, shape + (nz,)))
         for t, off in self._step_order:  # limiters last
             c.off = off
             t.contribute(c)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import functools
 from typing import ClassVar
 
 import numpy as np
@@ -27,6 +28,7 @@ import scipy.ndimage
 
 from ...calendars import gain_slots
 from ...errors import ModelError
+from ...timeutil import local_seconds
 from .base import Candidate, EquationParts, Term, num
 from .signals import dst_active
 
@@ -88,8 +90,8 @@ class InternalGainSchedule(Term):
         coef = np.asarray(self.coef, dtype=float)
         out = np.zeros((len(index), profile.shape[1]))
         if self.variant == "holiday":
-            days = np.array([d.isoformat() for d in index.date]) if len(index) else np.array([], dtype=str)
-            on = np.isin(days, np.asarray(self.dates, dtype=str))
+            # local dates as day numbers (not one ISO string per row: 2/3 of a diagnosis's CPU on 16 weeks)
+            on = np.isin(local_seconds(index) // 86400, _day_numbers(tuple(self.dates)))
             if on.any():
                 clock = gain_clock(index[on], tow[on], n_tow, self.shift)
                 per_day = n_tow // 7
@@ -165,6 +167,20 @@ class InternalGainSchedule(Term):
         if not any(isinstance(t, cls) and t.variant == "dst_shift" for t in terms):
             out.append(dst_candidate(sig, W, options, exclude_dates=unusual))
         return out
+
+
+@functools.lru_cache(maxsize=64)
+def _day_numbers(dates: tuple) -> np.ndarray:
+    """Days since 1970-01-01 of the ISO ``YYYY-MM-DD`` strings among ``dates`` (any other string matches no day)."""
+    days = []
+    for s in map(str, dates):  # as np.asarray(dates, dtype=str) compared them
+        try:
+            d = _dt.date.fromisoformat(s)
+        except (TypeError, ValueError):
+            continue
+        if d.isoformat() == s:  # the exact form a local date prints as
+            days.append((d - _dt.date(1970, 1, 1)).days)
+    return np.array(days, dtype=np.int64)
 
 
 def gain_clock(index: pd.DatetimeIndex, tow: np.ndarray, n_tow: int, shift: int) -> np.ndarray:
