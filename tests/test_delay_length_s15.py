@@ -36,6 +36,7 @@ def test_score_keeps_the_one_step_runners_up_of_a_delay():
     _, _, _, c = _scored([1, 2, 3, 4])
     assert c.term.delay == 3  # white airflow: the one-step fit is right here
     alts = c.alternatives
+    assert all(a["opts"] == S.DEFAULT_OPTIONS for a in alts)
     assert len(alts) == S.DEFAULT_OPTIONS["delay_cv_variants"] - 1
     lrs = [c.test["lr"]] + [a["test"]["lr"] for a in alts]
     assert lrs == sorted(lrs, reverse=True)
@@ -48,7 +49,7 @@ def test_cross_validation_picks_the_delay_length_the_one_step_fit_missed():
     sig, W, plan, c = _scored([1])
     _, _, _, c3 = _scored([3])
     assert c.term.delay == 1 and c.alternatives == []
-    c.alternatives = [{"term": c3.term, "test": c3.test, "W": W}]
+    c.alternatives = [{"term": c3.term, "test": c3.test, "W": W, "opts": S.DEFAULT_OPTIONS}]
     S.cross_validate(sig, plan, [], c, {})
     ev = c.evidence["delay_length_cv"]
     assert ev["one_step_pick"] == 1 and ev["picked"] == 3

@@ -14,7 +14,8 @@ Each round, every registered cause screens the current model's training residual
    blocks of whole training weeks, the affected zones predicted open loop for 24 h with every
    other zone measured: cross-validated gain ≥ ``cv_min_gain_percent`` (1 %; coupling
    ``coupling_min_gain_percent`` 3 %) and ≥ ``min_gain_abs`` (0.003 K), and week-clustered paired
-   t ≥ ``cv_min_t`` (2).
+   t ≥ ``cv_min_t`` (2). A delay's length is the one of its ``delay_cv_variants`` (3) best one-step
+   lengths passing the gates of 1. with the largest cross-validated gain (:func:`_delay_length_by_cv`).
 
 The held-out test weeks are only reported (per finding, per affected zone). Candidates are
 tried in order of ΔBIC; at most one per zone per round; the strongest rival cause at the same
@@ -247,7 +248,7 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
     if isinstance(c.term, ActuationDelay):
         # the runners-up of the one-step fit, for the cross-validation to pick the delay's length
         for alt in sorted(scored, key=lambda s: -s[1])[1 : max(1, int(opts["delay_cv_variants"]))]:
-            c.alternatives.append({"term": alt[0], "test": _one_step_test(sig0, c, N, *alt), "W": W})
+            c.alternatives.append({"term": alt[0], "test": _one_step_test(sig0, c, N, *alt), "W": W, "opts": opts})
     _term_evidence(c, sig_for(sig0, c, c.term), W, terms, c.term, best[3], opts)
 
 
@@ -856,7 +857,7 @@ def _confirm_round(sig, plan, terms, ranked, opts, progress, rows, room=None) ->
             c.cv = {"n_weeks": 0, "reason": "fewer than 4 training weeks: no cross-validation"}
             ok = c.test["delta_bic"] > 2 * opts["bic_margin"]
         else:
-            cross_validate(sig, plan, terms, c, base_scores, opts)
+            cross_validate(sig, plan, terms, c, base_scores)
             ok = _cv_accepts(c, opts)
         if ok:
             c.status = "found"
@@ -913,7 +914,7 @@ def _is_holiday(t) -> bool:
     return isinstance(t, InternalGainSchedule) and t.variant == "holiday"
 
 
-def cross_validate(sig, plan, terms, c, base_scores: dict, opts=None) -> None:
+def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
     """Fill ``c.cv``: blocked cross-validation of the structure with ``c.term`` against ``terms``.
 
     A holiday term acts on a few dated days only: it is scored on its active days
@@ -929,7 +930,7 @@ def cross_validate(sig, plan, terms, c, base_scores: dict, opts=None) -> None:
     after = fold_scores(sig_c, plan, fold_fits(sig_c, plan, list(terms) + [c.term], key), key)
     weeks = paired_test(plan, base_scores[key], after)
     if isinstance(c.term, ActuationDelay) and c.alternatives:
-        after, weeks = _delay_length_by_cv(sig, plan, terms, c, key, base_scores[key], after, weeks, opts)
+        after, weeks = _delay_length_by_cv(sig, plan, terms, c, key, base_scores[key], after, weeks)
     base_scores[("with", id(c))] = after  # a rival reading the same columns is compared with it fold by fold
     if not _is_holiday(c.term):
         c.cv = weeks
@@ -946,7 +947,7 @@ def cross_validate(sig, plan, terms, c, base_scores: dict, opts=None) -> None:
         _cv_days_one_by_one(sig, plan, terms, c, key, np.concatenate([st[a] for st, a in zip(plan.starts, active)]))
 
 
-def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks, opts=None) -> tuple:
+def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:
     """The length of delay candidate ``c`` picked by the blocked 24-h cross-validation (``c`` in place).
 
     The one-step fit favours short delays: ``u(k − 1)`` carries the most of what the controller
@@ -956,9 +957,10 @@ def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks, opts=None)
     one-step fit (``c.alternatives``, ``delay_cv_variants`` − 1 of them) that pass the same gates
     (ΔBIC and the temperature history, :func:`_gate`) are cross-validated on the same folds; the
     variant with the largest gain among those passing the acceptance rule is kept (the one-step
-    pick when none passes), with its own test and evidence. Returns its ``(after, weeks)``.
+    pick when none passes), with its own test and evidence. The options are the scoring's (kept with the
+    runners-up). Returns its ``(after, weeks)``.
     """
-    opts = {**DEFAULT_OPTIONS, **(opts or {})}
+    opts = c.alternatives[0]["opts"]
     first = {"term": c.term, "test": c.test, "history": c.evidence.get("history"), "after": after, "cv": weeks}
     tried = [first]
     for alt in c.alternatives:
@@ -1027,7 +1029,7 @@ def _cv_rival(sig, plan, terms, c, ranked, base_models, base_scores, opts=None) 
     # a rival reading the same measured column competes for the very same gain: it is compared first
     o = next((o for o in rivals if cand.shared_sources(sig, c.term, o.term)), rivals[0])
     if o.cv is None:
-        cross_validate(sig, plan, terms, o, base_scores, opts)
+        cross_validate(sig, plan, terms, o, base_scores)
     ct, ot = decisive_cv(c).get("t") or 0.0, decisive_cv(o).get("t") or 0.0
     c.evidence["rival"] = {
         "cause": o.cause,
