@@ -47,7 +47,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``holiday_min_scale`` (0.33, mean scale of a holiday term), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
         ``coupling_min_gain_percent`` (3.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
-        training weeks), ``cv_min_gain_percent`` (1.0) and ``cv_min_t`` (2.0, week-clustered paired t).
+        training weeks), ``cv_min_gain_percent`` (1.0), ``cv_min_t`` (2.0, week-clustered paired t) and
+        ``delay_cv_variants`` (3: an actuation delay's best one-step lengths cross-validated to pick its length).
 
     Returns
     -------

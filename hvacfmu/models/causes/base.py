@@ -295,6 +295,9 @@ class Candidate:
     profiles: dict | None = None
     cv: dict | None = None
     competitors: list = dataclasses.field(default_factory=list)
+    #: runner-up variants, best one-step fit first, each ``{"term", "test", "history"}``: the diagnosis may
+    #: cross-validate them (an actuation delay's length is picked by the 24-h prediction)
+    alternatives: list = dataclasses.field(default_factory=list)
 
     @property
     def key(self) -> str:
