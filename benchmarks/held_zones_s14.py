@@ -66,19 +66,24 @@ def main(argv=None):
         for c in rep.candidates:
             if c["cause"] == "held_setpoint":
                 print(f"  {c['location']['zone']}: {c['status']}: {c['reason']} (cv {c['cv']})")
-        scores = _per_zone_season(res)
-        for name, per in scores.items():
-            for s, row in per["seasons"].items():
-                print(
-                    f"  {name:>9} {s:>7}: model {np.nanmean(row['model']):.3f} K, persistence "
-                    f"{np.nanmean(row['persistence']):.3f} K  per zone {np.round(row['model'], 3).tolist()}"
-                    f"  persistence {np.round(row['persistence'], 3).tolist()}"
-                )
+        scores = print_scores(_per_zone_season(res))
         print(res.verdict.format())
         rec = {"case": key, "t_diagnose_s": t_diag, "summary": rep.summary(), "scores": scores}
         (out / f"{key}.json").write_text(json.dumps(rec, indent=1, default=str))
         rep.model.save(out / f"{key}_model.json")
         rep.selected_model.save(out / f"{key}_selected_model.json")
+
+
+def print_scores(scores: dict) -> dict:
+    """Print each model's held-out 24-h RMS by season (mean and per zone) against persistence; returns ``scores``."""
+    for name, per in scores.items():
+        for s, row in per["seasons"].items():
+            print(
+                f"  {name:>9} {s:>7}: model {np.nanmean(row['model']):.3f} K, persistence "
+                f"{np.nanmean(row['persistence']):.3f} K  per zone {np.round(row['model'], 3).tolist()}"
+                f"  persistence {np.round(row['persistence'], 3).tolist()}"
+            )
+    return scores
 
 
 if __name__ == "__main__":

@@ -19,12 +19,10 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from energyplus_unseen5_run import CASES, _per_zone_season  # noqa: E402
-from held_zones_s14 import _paths  # noqa: E402
+from held_zones_s14 import _paths, print_scores  # noqa: E402
 
 
 def main(argv=None):
@@ -88,14 +86,7 @@ def main(argv=None):
             }
             held.append(row)
             print(f"  {row}")
-        scores = _per_zone_season(res)
-        for name, per in scores.items():
-            for s, row in per["seasons"].items():
-                print(
-                    f"  {name:>9} {s:>7}: model {np.nanmean(row['model']):.3f} K, persistence "
-                    f"{np.nanmean(row['persistence']):.3f} K  per zone {np.round(row['model'], 3).tolist()}"
-                    f"  persistence {np.round(row['persistence'], 3).tolist()}"
-                )
+        scores = print_scores(_per_zone_season(res))
         rec = {
             "case": key,
             "zones": list(ds.building.zones),
