@@ -91,7 +91,7 @@ def _filled_signals(model, prep):
     from ..data.windows import FILL_INPUTS_H, fill_inputs
 
     filled = fill_inputs(prep.frame, prep.building.zone_names, prep.step, FILL_INPUTS_H).frame
-    return (np.asarray(a, float) for a in model.signals(filled))
+    return tuple(np.asarray(a, float) for a in model.signals(filled))
 
 
 class _Problem:
@@ -109,13 +109,14 @@ class _Problem:
     (no finite differences) and costs about one simulation.
     """
 
-    def __init__(self, model, prep, starts, horizon, couplings=False):
+    def __init__(self, model, prep, starts, horizon, couplings=False, filled=None):
         self.model, self.prep, self.horizon = model, prep, horizon
         frame = prep.frame
         self.Y = np.asarray(model.measured_outputs(frame), float)
         u, v = (np.asarray(a, float) for a in model.signals(frame))
         self.uv_ok = np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1)  # measured: the gain rows
-        u, v = _filled_signals(model, prep)  # the simulation's inputs, short gaps filled as in the evaluation
+        # the simulation's inputs, short gaps filled as in the evaluation (``filled``: already computed)
+        u, v = _filled_signals(model, prep) if filled is None else filled
         self.u, self.v = np.nan_to_num(u), np.nan_to_num(v)
         self.rng = starts[:, None] + np.arange(horizon)[None, :]
         self.seasons = prep.season
@@ -350,7 +351,7 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
     """
     from scipy.optimize import least_squares
 
-    u, v = _filled_signals(model, prep)
+    filled = u, v = _filled_signals(model, prep)
     starts = training_windows(prep, horizon, inputs_ok=np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(v), axis=1))
     if starts.size < 7:
         return model, {
@@ -358,7 +359,7 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
             "reason": f"only {starts.size} complete training days",
             "windows": int(starts.size),
         }
-    pb = _Problem(model, prep, starts, horizon, couplings=couplings)
+    pb = _Problem(model, prep, starts, horizon, couplings=couplings, filled=filled)
     r0 = pb.residuals(pb.theta0)
     sol = least_squares(
         pb.residuals, pb.theta0, jac=pb.jacobian, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev
