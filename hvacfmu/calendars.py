@@ -242,12 +242,12 @@ def holiday_slots(index, step: float, holidays) -> tuple:
     import numpy as np
     import pandas as pd
 
-    from .timeutil import local_seconds, n_time_of_week
+    from .timeutil import local_seconds, n_time_of_week, week_seconds
 
     index = pd.DatetimeIndex(index)
     secs = local_seconds(index)  # the wall clock once, for the slot and the date (not a conversion per field)
-    sow = ((secs // 86400 + 3) % 7) * 86400 + secs % 86400  # seconds of the week (1970-01-01 was a Thursday)
-    slots = (sow // int(step)).astype(np.int64)
+    sow = week_seconds(secs)
+    slots = (sow // int(step)).astype(np.int64)  # as timeutil.time_of_week
     if not len(index) or not holidays:
         return np.zeros(len(index), bool), slots
     on = np.isin(secs // 86400, _listed_days(tuple(holidays))) & (sow < 5 * 86400)

@@ -27,11 +27,16 @@ def local_seconds(index: pd.DatetimeIndex) -> np.ndarray:
     return np.asarray(wall.values).astype("datetime64[s]").astype(np.int64)
 
 
+def week_seconds(local: np.ndarray) -> np.ndarray:
+    """Seconds since Monday 00:00 of wall-clock seconds ``local`` (:func:`local_seconds`)."""
+    local = np.asarray(local, dtype=np.int64)
+    # 1970-01-01 was a Thursday (day 3 of a week that starts on Monday)
+    return ((local // 86400 + 3) % 7) * 86400 + local % 86400
+
+
 def seconds_of_week(index: pd.DatetimeIndex) -> np.ndarray:
     """Seconds since Monday 00:00 local time of each timestamp (local wall clock)."""
-    s = local_seconds(index)
-    # 1970-01-01 was a Thursday (day 3 of a week that starts on Monday)
-    return (((s // 86400 + 3) % 7) * 86400 + s % 86400).astype(np.int64)
+    return week_seconds(local_seconds(index))
 
 
 def time_of_week(index: pd.DatetimeIndex, step: float) -> np.ndarray:
