@@ -111,8 +111,11 @@ def _gain(G: np.ndarray, base: np.ndarray, x: np.ndarray, n: int) -> float:
     return max(0.0, 0.5 * n * float(np.log(rss0 / rss1)))
 
 
-def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
-    """Evidence of each box's heat in each zone (see the module); None without enough rows or boxes."""
+def _usable(frame: pd.DataFrame, building):
+    """Zones, zone temperatures, central changes, usable rows, baselines and the boxes' airflow and inlet air.
+
+    None without two zones and their columns or without :data:`MIN_ROWS` usable rows or any box.
+    """
     zones = list(building.zone_names)
     zone_cols = [f"T_{z}" for z in zones]
     if len(zones) < 2 or any(c not in frame.columns for c in zone_cols):
@@ -138,10 +141,19 @@ def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
             m[v.name], tin[v.name] = flow, inlet
     for v in m:
         ok &= np.isfinite(m[v]) & np.isfinite(tin[v])
+    if int(ok.sum()) < MIN_ROWS or not m:
+        return None
+    return zones, T, dT, ok, base, m, tin
+
+
+def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
+    """Evidence of each box's heat in each zone (see the module); None without enough rows or boxes."""
+    got = _usable(frame, building)
+    if got is None:
+        return None
+    zones, T, dT, ok, base, m, tin = got
     n = int(ok.sum())
     boxes = tuple(m)
-    if n < MIN_ROWS or not boxes:
-        return None
     mapped = {z: [v for v in boxes if building.vav(v).zone == z] for z in zones}
     day = frame.index[ok].normalize().asi8
     zone_ev = {v: {} for v in boxes}
@@ -235,5 +247,123 @@ def check_box_zones(frame: pd.DataFrame, building) -> list[str]:
             f"{ZONE_MARGIN:g} more and a {100 * ZONE_SHARE:g} % share): is box {v} mapped to the wrong "
             f'zone? If it serves {alt}, set zone = "{alt}" in its [[vavs]] entry (name = "{v}") of the building '
             f"file; otherwise check that columns m_{v} and T_{z0} / T_{alt} are mapped to the right points"
+        )
+    return notes
+
+
+@dataclasses.dataclass
+class ZonePairEvidence:
+    """Result of :func:`zone_pair_evidence`.
+
+    ``gain[a][z]``: log-likelihood that zone ``z``'s drivers gain in explaining the central change of column
+    ``T_a``: its boxes' delivered heat (computed with ``T_a``), and the irradiance of its facades;
+    ``boxes_only[a][z]``: the same with the heat alone; ``sunlit``: the zones with facades whose irradiance
+    is in the data; ``rows``: rows used.
+    """
+
+    gain: dict
+    boxes_only: dict
+    sunlit: frozenset
+    rows: int
+
+    def swap(self, a: str, b: str) -> tuple[float, float]:
+        """(own, swapped): evidence of the mapping as declared and with columns ``T_a`` and ``T_b`` exchanged.
+
+        The sun counts only when both zones have facades: an interior zone has no irradiance of its own, and
+        any column gains a little from a facade's irradiance (it moves with the weather and the day).
+        """
+        g = self.gain if a in self.sunlit and b in self.sunlit else self.boxes_only
+        return g[a][a] + g[b][b], g[a][b] + g[b][a]
+
+
+def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None:
+    """How well each zone column's changes follow each zone's drivers; None without enough rows or boxes.
+
+    Per column ``T_a``, the central change is regressed on the baseline of :func:`box_zone_evidence` without
+    irradiance, then on one zone's drivers at a time: the sum of its boxes' heat ``m c_p (T_in - T_a)`` (one
+    coefficient) and the irradiance ``I_<o>`` of each of its facades; coefficients are kept non-negative (heat
+    delivered and sun on a facade warm a zone).
+    """
+    from scipy.optimize import nnls
+
+    got = _usable(frame, building)
+    if got is None:
+        return None
+    zones, T, dT, ok, base, m, tin = got
+    n = int(ok.sum())
+    irr = [c for c in ("I_N", "I_E", "I_S", "I_W") if c in frame.columns]
+    sun = {z: [f"I_{o}" for o in building.zone(z).orientations if f"I_{o}" in irr] for z in zones}
+
+    def gain(y, D, rss0):
+        scale = np.sqrt((D * D).sum(axis=0))
+        scale[scale == 0] = 1.0
+        rss1 = float(nnls(D / scale, y)[1] ** 2)
+        return max(0.0, 0.5 * n * float(np.log(rss0 / rss1))) if rss0 > 0 and rss1 > 0 else 0.0
+
+    full: dict = {}
+    heat_only: dict = {}
+    for j, a in enumerate(zones):
+        Tj = T[ok, j]
+        q, _ = np.linalg.qr(base[j][ok][:, : base[j].shape[1] - len(irr)])  # the baseline ends with irradiance
+        y = dT[ok, j]
+        y = y - q @ (q.T @ y)
+        rss0 = float(y @ y)
+        full[a], heat_only[a] = {}, {}
+        for z in zones:
+            boxes = [v for v in m if building.vav(v).zone == z]
+            cols = [sum(CP_KJ * m[v][ok] * (tin[v][ok] - Tj) for v in boxes)] if boxes else []
+            D = np.column_stack(cols + [frame[c].to_numpy(dtype=float)[ok] for c in sun[z]]) if cols or sun[z] else None
+            if D is None:
+                full[a][z] = heat_only[a][z] = 0.0
+                continue
+            D = D - q @ (q.T @ D)
+            full[a][z] = gain(y, D, rss0)
+            heat_only[a][z] = gain(y, D[:, :1], rss0) if boxes else 0.0
+    return ZonePairEvidence(gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n)
+
+
+#: Evidence [log-likelihood units] by which *each* of two zone columns must follow the other zone's drivers
+#: better than its own before the pair is flagged as swapped ...
+SWAP_MARGIN = 50.0
+#: ... and the least share of the pair's evidence (both columns, both mappings) the exchanged mapping must hold.
+SWAP_SHARE = 0.6
+
+
+def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings for pairs of zone temperature columns that look exchanged (see :func:`zone_pair_evidence`).
+
+    Columns ``T_a`` and ``T_b`` are flagged when ``T_a`` follows zone ``b``'s drivers better than zone ``a``'s
+    by at least :data:`SWAP_MARGIN` and ``T_b`` follows zone ``a``'s better than its own by as much, and the
+    exchanged mapping holds at least :data:`SWAP_SHARE` of the pair's evidence. One column needs the other to
+    prefer it back: a box whose heat moves every zone a little (a big core box on a shared air handler) makes
+    one column prefer it, never both. A zone is named in one pair at most (the strongest).
+    """
+    ev = zone_pair_evidence(frame, building)
+    if ev is None:
+        return []
+    zones = list(ev.gain)
+    found = []
+    for i, a in enumerate(zones):
+        for b in zones[i + 1 :]:
+            g = ev.gain if a in ev.sunlit and b in ev.sunlit else ev.boxes_only
+            aa, ab, ba, bb = g[a][a], g[a][b], g[b][a], g[b][b]
+            lead = min(ab - aa, ba - bb)
+            if lead >= SWAP_MARGIN and ab + ba >= SWAP_SHARE * (aa + ab + ba + bb):
+                found.append((lead, a, b, aa, ab, ba, bb, g is ev.gain))
+    notes, named = [], set()
+    for _lead, a, b, aa, ab, ba, bb, sun in sorted(found, reverse=True):
+        if a in named or b in named:
+            continue
+        named |= {a, b}
+        ca, cb = building.column_for(f"T_{a}"), building.column_for(f"T_{b}")
+        drivers = "delivered heat of its boxes" + (" and the sun on its facades" if sun else "")
+        notes.append(
+            f"columns {ca!r} (T_{a}) and {cb!r} (T_{b}) look swapped: the temperature changes in column {ca!r} "
+            f"follow the {drivers} of zone {b} far better than those of zone {a} (evidence {ab:.0f} against "
+            f"{aa:.0f} log-likelihood units over {ev.rows} steps), and those in column {cb!r} follow zone {a}'s "
+            f"({ba:.0f} against {bb:.0f}); flagged when each column prefers the other zone by {SWAP_MARGIN:g} or "
+            f"more. If the two sensors' points are exchanged in the export or the mapping, map them the other way "
+            f'round in the building\'s [columns] table (T_{a} = "{cb}", T_{b} = "{ca}"); otherwise check that the '
+            f"boxes of zones {a} and {b} are mapped to the right zones in [[vavs]]"
         )
     return notes

@@ -42,6 +42,8 @@ _ATTENTION = {
     "it behaves like return or room air": "supply air looks like room air",
     "the flag looks inverted": "excitation inverted",
     "mapped to the wrong zone?": "box in another zone",
+    "look swapped: the temperature changes": "zone columns swapped",
+    "a frozen outdoor sensor?": "frozen outdoor air",
 }
 
 

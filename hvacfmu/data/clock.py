@@ -173,6 +173,38 @@ def _advice(offset: float, building, has_offsets: bool, when: pd.Timestamp, slac
     )
 
 
+def _ghi_alone(frame, step, building, offset: float, n: float, advice: str) -> str:
+    """The advice for an offset measured on ``ghi``: that column alone, both weather columns, or every timestamp.
+
+    ``T_out``'s daily cycle varies by about ±1.5 h between climates, so it tells whether the outdoor air moved
+    with ``ghi`` only for offsets of :data:`T_OUT_TOLERANCE` h or more.
+    """
+    way = "earlier" if offset > 0 else "later"
+    t_out = _from_t_out(frame, step, building.longitude) if "T_out" in frame.columns else None
+    to = None if t_out is None else t_out[0]
+    if to is not None and abs(to) >= T_OUT_TOLERANCE and abs(to - offset) < T_OUT_TOLERANCE:
+        return (
+            f"{advice}; T_out's daily cycle is off too ({to:+.1f} h from its typical time): if the zone and airflow "
+            "columns are on the building's clock, both weather columns come from a feed on another clock (e.g. UTC) "
+            f"joined to the building's rows: shift ghi and T_out {abs(n):g} h {way}"
+        )
+    if to is not None and abs(to) < T_OUT_TOLERANCE <= min(abs(offset), abs(to - offset)):
+        return (
+            f"only the ghi column is offset: T_out's daily cycle is on time ({to:+.1f} h from its typical time): a "
+            f"pyranometer logger or a weather feed on another clock; shift the ghi column {abs(n):g} h {way}"
+        )
+    tout = (
+        ""
+        if to is None
+        else f" (T_out's daily cycle, {to:+.1f} h from its typical time, varies too much between climates to tell)"
+    )
+    return (
+        f"measured on the ghi column alone{tout}: if the other columns are on the building's clock, the ghi column "
+        f"is offset (a pyranometer logger or a weather feed on another clock): shift ghi {abs(n):g} h {way}; "
+        f"if every column is off, {advice}"
+    )
+
+
 def clock_check(frame: pd.DataFrame, building, step: float, has_offsets: bool = False) -> ClockCheck:
     """Compare the data's daily cycle with the declared clock (see the module docstring).
 
@@ -207,6 +239,8 @@ def clock_check(frame: pd.DataFrame, building, step: float, has_offsets: bool = 
         n = round(offset) if abs(offset) >= 1.5 else round(offset * 2) / 2
         late = "late" if offset > 0 else "early"
         advice = _advice(offset, building, has_offsets, frame.index[len(frame) // 2], 1.0 if method == "ghi" else 2.0)
+        if method == "ghi":
+            advice = _ghi_alone(frame, step, building, offset, n, advice)
         warning = f"the data look {abs(n):g} h {late}: {detail}; {advice}"
     return ClockCheck(method, float(offset), days, detail, warning)
 

@@ -22,6 +22,7 @@ from .plausibility import (
     check_airflow_constant,
     check_irradiance_level,
     check_outdoor,
+    check_outdoor_frozen,
     check_outdoor_unit_mix,
     check_setpoint_like,
     check_stuck,
@@ -552,6 +553,9 @@ def _load(path: Path, building: Building):
         return None, report, problems + duplicates
     raw.columns = [str(c).strip() for c in raw.columns]
     present = _map_columns(raw, building, label, time_name, problems, report)
+    header_rows = _header_rows(raw, present, time_name, label)
+    if header_rows:
+        return None, report, problems + header_rows
     utc, ok, local = _load_times(raw, building, label, time_name, problems, report)
     ctx = _Column(label, building, _Where(local), problems, report, utc, ok, local, n)
     out = {}
@@ -567,6 +571,52 @@ def _load(path: Path, building: Building):
     index.name = "time"
     frame = _frame_from_columns(out, order, index)
     return frame, report, problems
+
+
+#: A row with text (not a number, not a spelling of "missing") in at least this share of the value columns is
+#: a header row (units, descriptions, a second header of concatenated exports), named once instead of per column.
+HEADER_ROW_SHARE = 0.5
+
+
+def _header_rows(raw, present: dict, time_name: str, label: str) -> list[str]:
+    """One problem naming the rows that hold text in most value columns (a units row under the header), if any.
+
+    Only columns read as text are parsed here (a units row makes every column text); the file's other checks run
+    once the rows are gone, so that one row does not yield a non-numeric problem per column.
+    """
+    names = [n for c, n in present.items() if c != "time" and n in raw.columns]
+    text_cols = [n for n in names if not pd.api.types.is_numeric_dtype(raw[n].dtype)]
+    if len(names) < 2 or len(text_cols) < HEADER_ROW_SHARE * len(names):
+        return []
+    count = np.zeros(len(raw), dtype=int)
+    first: dict[int, list] = {}
+    for n in text_cols:
+        _, bad = _numeric(raw[n])
+        count[bad] += 1
+        for r in bad[:50]:
+            first.setdefault(int(r), []).append(n)
+    rows = np.flatnonzero(count >= HEADER_ROW_SHARE * len(names))
+    if not len(rows) or len(rows) > max(3, 0.01 * len(raw)):  # text in most rows: a format, named per column
+        return []
+    r0 = int(rows[0])
+    seen: dict[str, str] = {}
+    for n in first.get(r0, []):
+        seen.setdefault(str(raw[n].iloc[r0]).strip(), n)  # one example per distinct text ('°F', 'CFM', '%')
+    examples = ", ".join(f"{t!r} in {n!r}" for t, n in list(seen.items())[:3])
+    tcell = raw[time_name].iloc[r0] if time_name in raw.columns else None
+    tdesc = "an empty time" if tcell is None or pd.isna(tcell) or not str(tcell).strip() else f"time {str(tcell)!r}"
+    if len(rows) == 1:
+        which = f"row {r0 + 1} holds"
+    else:
+        which = (
+            f"{len(rows)} rows ({', '.join(str(int(r) + 1) for r in rows[:5])}{' ...' if len(rows) > 5 else ''}) hold"
+        )
+    return [
+        f"{label}: {which} text instead of readings in {int(count[r0])} of the {len(names)} value "
+        f"columns (row {r0 + 1}: {examples}; {tdesc}): a units or description row under the header, or the header of another "
+        "export pasted in? a reader takes the first line as the only header: delete those rows (the rest of the "
+        "file is checked once they are gone)"
+    ]
 
 
 def _map_columns(raw, building, label, time_name, problems, report) -> dict:
@@ -789,6 +839,11 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
     si = check_stuck(canonical, si, ctx.utc, f"{label}: {desc}", ctx.rows, report.warnings, ok=ctx.ok)
     if kept > np.isfinite(si).sum():
         report.masked[(canonical, "stuck sensor")] = kept - int(np.isfinite(si).sum())
+    if canonical == "T_out":
+        before = int(np.isfinite(si).sum())
+        si = check_outdoor_frozen(si, ctx.local, ctx.ok, f"{label}: {desc}", ctx.rows, report.warnings)
+        if before > np.isfinite(si).sum():
+            report.masked[(canonical, "frozen sensor")] = before - int(np.isfinite(si).sum())
     if canonical in {f"T_{z}" for z in ctx.building.zone_names}:
         check_setpoint_like(si, ctx.utc, ctx.ok, f"{label}: {desc}", report.warnings)
     elif kind == "airflow":

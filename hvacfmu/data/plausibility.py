@@ -307,6 +307,81 @@ def check_stuck(canonical, si, times_ns, desc, where, warnings, ok=None):
     return si
 
 
+#: Outdoor air whose daily range stays under this [K] on :data:`FROZEN_DAYS` consecutive days is frozen ...
+FROZEN_RANGE_K = 0.5
+#: ... (a run of at least this many full local days) ...
+FROZEN_DAYS = 3
+#: ... while its other full days swing a median of at least this [K] (the column holds real outdoor air).
+FROZEN_OTHER_RANGE_K = 2.0
+
+
+def check_outdoor_frozen(si, local, ok, desc, where, warnings):
+    """Mask runs of full local days on which ``T_out`` barely moves (a frozen sensor with noise); returns the column.
+
+    A day is full when it holds at least 80 % of the samples of the fullest day. A run of
+    :data:`FROZEN_DAYS` or more consecutive full days, each with a range (max - min) under
+    :data:`FROZEN_RANGE_K`, is masked and named, when the other full days (7 or more) swing a median of
+    :data:`FROZEN_OTHER_RANGE_K` or more. Outdoor air moves by more than that on nearly every day (no day of
+    the 16 typical-year weather files of EnergyPlus has a range under 1 K); an exact repeat is
+    :func:`check_stuck`'s.
+    """
+    if local is None or not len(si):
+        return si
+    good = np.isfinite(si) & (ok if ok is not None else True)
+    if good.sum() < 96:
+        return si
+    day = np.asarray(local[good].normalize().asi8)
+    v = si[good]
+    days, inv, counts = np.unique(day, return_inverse=True, return_counts=True)
+    hi = np.full(len(days), -np.inf)
+    lo = np.full(len(days), np.inf)
+    np.maximum.at(hi, inv, v)
+    np.minimum.at(lo, inv, v)
+    rng = hi - lo
+    full = counts >= 0.8 * counts.max()
+    flat = (counts >= 0.25 * counts.max()) & (rng < FROZEN_RANGE_K)  # a day with an outage may bridge a run
+    consecutive = np.diff(days) <= 86400e9 * 1.1  # days are local midnights (23-25 h apart across clock changes)
+    runs, a = [], None
+    for i in range(len(days) + 1):
+        go_on = i < len(days) and flat[i] and a is not None and consecutive[i - 1]
+        if a is not None and not go_on:
+            if full[a:i].sum() >= FROZEN_DAYS:
+                runs.append((a, i - 1))
+            a = None
+        if a is None and i < len(days) and flat[i]:
+            a = i
+    other = full & (rng >= FROZEN_RANGE_K)
+    if not runs or other.sum() < 7 or float(np.median(rng[other])) < FROZEN_OTHER_RANGE_K:
+        return si
+    si = si.copy()
+    pos = np.flatnonzero(good)
+    parts, total = [], 0
+    for a, b in runs:
+        inside = (day >= days[a]) & (day <= days[b])
+        band = (v[inside].min(), v[inside].max())
+        i, j = np.flatnonzero(inside)[[0, -1]]
+        while i > 0 and band[0] <= v[i - 1] <= band[1]:  # the partial days at its ends, as long as it stays frozen
+            i -= 1
+        while j + 1 < len(v) and band[0] <= v[j + 1] <= band[1]:
+            j += 1
+        rows = pos[i : j + 1]
+        parts.append(
+            f"{(local[rows[-1]] - local[rows[0]]).total_seconds() / 86400:.1f} days from {where(rows[:1], None)} to "
+            f"{where(rows[-1:], None)} "
+            f"(daily range {float(rng[a : b + 1].min()):.2g}..{float(rng[a : b + 1].max()):.2g} K)"
+        )
+        total += len(rows)
+        si[rows[0] : rows[-1] + 1] = np.nan
+    more = f" and {len(parts) - 3} more run(s)" if len(parts) > 3 else ""
+    warnings.append(
+        f"{desc}: a frozen outdoor sensor? the outdoor air barely moves for {FROZEN_DAYS} days or more: "
+        f"{'; '.join(parts[:3])}{more}, while on its other {int(other.sum())} full days it swings a median "
+        f"{float(np.median(rng[other])):.2g} K from night to afternoon; {total} sample(s) masked as missing "
+        "(fix the sensor or its trend log, or blank those rows)"
+    )
+    return si
+
+
 #: A zone temperature this far [K] from its running median is an error code or a dropout, not air.
 ZONE_SPIKE_K = 12.0
 #: Width [h] of the running median zone temperatures are compared with.
