@@ -97,9 +97,56 @@ def false_alarms(dirs, out: Path) -> None:
                 messages, status = str(exc).splitlines(), "refused"
             hits = [m for m in messages if any(f in m for f in NEW_MESSAGES)]
             r = {"export": d.name, "status": status, "new_messages": hits, "seconds": round(time.time() - t, 1)}
+            if status == "prepared":
+                r.update(pair_margins(ds.frame, ds.building))
             fh.write(json.dumps(r) + "\n")
             fh.flush()
-            print(f"{d.name}: {status}, new messages {len(hits)}", *hits[:1], flush=True)
+            print(
+                f"{d.name}: {status}, new messages {len(hits)}",
+                *hits[:1],
+                {k: r.get(k) for k in ("worst_lead", "detectable", "pairs")},
+                flush=True,
+            )
+
+
+def pair_margins(frame, building) -> dict:
+    """How close the clean pairs come to the swap test's thresholds, and how many swapped pairs it would flag.
+
+    ``lead``: min over the two columns of (evidence for the other zone's drivers - for its own), ``share``: the
+    exchanged mapping's share of the pair's evidence. For a clean export, the pair with the largest lead (a false
+    alarm needs lead >= SWAP_MARGIN and share >= SWAP_SHARE); exchanging a pair's columns swaps the roles, so
+    the same numbers tell which swaps would be flagged (``detectable``: of ``pairs``; ``adjacent`` pairs apart).
+    """
+    from hvacfmu.data import boxmap
+
+    ev = boxmap.zone_pair_evidence(frame, building)
+    if ev is None:
+        return {"pairs": 0}
+    zones = list(ev.gain)
+    worst, det, det_adj, n_adj = None, 0, 0, 0
+    for i, a in enumerate(zones):
+        for b in zones[i + 1 :]:
+            g = ev.gain if a in ev.sunlit and b in ev.sunlit else ev.boxes_only
+            aa, ab, ba, bb = g[a][a], g[a][b], g[b][a], g[b][b]
+            total = max(aa + ab + ba + bb, 1e-9)
+            lead, share = min(ab - aa, ba - bb), (ab + ba) / total
+            if worst is None or lead > worst[0]:
+                worst = (lead, share, a, b)
+            hit = min(aa - ab, bb - ba) >= boxmap.SWAP_MARGIN and (aa + bb) / total >= boxmap.SWAP_SHARE
+            adj = b in building.zone(a).adjacent or a in building.zone(b).adjacent
+            det += hit
+            det_adj += hit and adj
+            n_adj += adj
+    n = len(zones) * (len(zones) - 1) // 2
+    return {
+        "pairs": n,
+        "worst_lead": round(worst[0], 1),
+        "worst_share": round(worst[1], 3),
+        "worst_pair": worst[2:],
+        "detectable": det,
+        "adjacent_pairs": n_adj,
+        "detectable_adjacent": det_adj,
+    }
 
 
 def totals(path: Path) -> str:

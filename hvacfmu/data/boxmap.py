@@ -356,10 +356,10 @@ def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
             continue
         named |= {a, b}
         ca, cb = building.column_for(f"T_{a}"), building.column_for(f"T_{b}")
-        drivers = "delivered heat of its boxes" + (" and the sun on its facades" if sun else "")
+        drivers = "the heat its boxes deliver" + (" and the sun on its facades" if sun else "")
         notes.append(
             f"columns {ca!r} (T_{a}) and {cb!r} (T_{b}) look swapped: the temperature changes in column {ca!r} "
-            f"follow the {drivers} of zone {b} far better than those of zone {a} (evidence {ab:.0f} against "
+            f"follow zone {b}'s drivers ({drivers}) far better than zone {a}'s (evidence {ab:.0f} against "
             f"{aa:.0f} log-likelihood units over {ev.rows} steps), and those in column {cb!r} follow zone {a}'s "
             f"({ba:.0f} against {bb:.0f}); flagged when each column prefers the other zone by {SWAP_MARGIN:g} or "
             f"more. If the two sensors' points are exchanged in the export or the mapping, map them the other way "
