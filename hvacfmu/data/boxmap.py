@@ -292,33 +292,43 @@ def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None
     zones, T, dT, ok, base, m, tin = got
     n = int(ok.sum())
     irr = [c for c in ("I_N", "I_E", "I_S", "I_W") if c in frame.columns]
-    sun = {z: [f"I_{o}" for o in building.zone(z).orientations if f"I_{o}" in irr] for z in zones}
+    sun = {z: [irr.index(f"I_{o}") for o in building.zone(z).orientations if f"I_{o}" in irr] for z in zones}
+    # a zone's heat with column T_a is c_p (sum m T_in - T_a sum m): two sums per zone serve every column
+    boxes = {z: [v for v in m if building.vav(v).zone == z] for z in zones}
+    flow = np.column_stack([sum((m[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
+    flow_in = np.column_stack([sum((m[v][ok] * tin[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
+    sunlight = np.column_stack([frame[c].to_numpy(dtype=float)[ok] for c in irr]) if irr else np.zeros((n, 0))
 
-    def gain(y, D, rss0):
-        scale = np.sqrt((D * D).sum(axis=0))
-        scale[scale == 0] = 1.0
-        rss1 = float(nnls(D / scale, y)[1] ** 2)
-        return max(0.0, 0.5 * n * float(np.log(rss0 / rss1))) if rss0 > 0 and rss1 > 0 else 0.0
+    def gain(G, g, yy, cols):
+        """Log-likelihood of the non-negative fit of y on the columns ``cols`` (Gram ``G``, ``g`` = D'y)."""
+        A, b = G[np.ix_(cols, cols)], g[cols]
+        scale = np.sqrt(np.diag(A))
+        if not (scale > 0).all():
+            return 0.0
+        A, b = A / np.outer(scale, scale), b / scale
+        try:
+            L = np.linalg.cholesky(A + 1e-12 * np.eye(len(cols)))
+        except np.linalg.LinAlgError:
+            return 0.0
+        c = np.linalg.solve(L, b)
+        x, r = nnls(L.T, c)  # ||L'x - c||^2 = x'Ax - 2 x'b + c'c
+        rss1 = yy - float(c @ c) + float(r * r)
+        return max(0.0, 0.5 * n * float(np.log(yy / rss1))) if yy > 0 and rss1 > 0 else 0.0
 
     full: dict = {}
     heat_only: dict = {}
+    nz = len(zones)
     for j, a in enumerate(zones):
-        Tj = T[ok, j]
         q, _ = np.linalg.qr(base[j][ok][:, : base[j].shape[1] - len(irr)])  # the baseline ends with irradiance
-        y = dT[ok, j]
-        y = y - q @ (q.T @ y)
-        rss0 = float(y @ y)
+        D = np.column_stack([dT[ok, j], CP_KJ * (flow_in - T[ok, j][:, None] * flow), sunlight])
+        D = D - q @ (q.T @ D)
+        G = D.T @ D
+        yy, G, g = float(G[0, 0]), G[1:, 1:], G[1:, 0]
         full[a], heat_only[a] = {}, {}
-        for z in zones:
-            boxes = [v for v in m if building.vav(v).zone == z]
-            cols = [sum(CP_KJ * m[v][ok] * (tin[v][ok] - Tj) for v in boxes)] if boxes else []
-            D = np.column_stack(cols + [frame[c].to_numpy(dtype=float)[ok] for c in sun[z]]) if cols or sun[z] else None
-            if D is None:
-                full[a][z] = heat_only[a][z] = 0.0
-                continue
-            D = D - q @ (q.T @ D)
-            full[a][z] = gain(y, D, rss0)
-            heat_only[a][z] = gain(y, D[:, :1], rss0) if boxes else 0.0
+        for k, z in enumerate(zones):
+            cols = ([k] if boxes[z] else []) + [nz + i for i in sun[z]]
+            full[a][z] = gain(G, g, yy, cols) if cols else 0.0
+            heat_only[a][z] = gain(G, g, yy, [k]) if boxes[z] else 0.0
     return ZonePairEvidence(gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n)
 
 
