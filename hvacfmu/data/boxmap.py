@@ -346,40 +346,70 @@ SWAP_SHARE = 0.6
 
 
 def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
-    """Warnings for pairs of zone temperature columns that look exchanged (see :func:`zone_pair_evidence`).
+    """Warnings for zone temperature columns that look exchanged (see :func:`zone_pair_evidence`).
 
     Columns ``T_a`` and ``T_b`` are flagged when ``T_a`` follows zone ``b``'s drivers better than zone ``a``'s
     by at least :data:`SWAP_MARGIN` and ``T_b`` follows zone ``a``'s better than its own by as much, and the
     exchanged mapping holds at least :data:`SWAP_SHARE` of the pair's evidence. One column needs the other to
     prefer it back: a box whose heat moves every zone a little (a big core box on a shared air handler) makes
-    one column prefer it, never both. A zone is named in one pair at most (the strongest).
+    one column prefer it, never both. Three columns rotated (``T_a`` holds b, ``T_b`` holds c, ``T_c`` holds a)
+    are flagged by the same rule around the cycle. A zone is named once at most: the exchange whose columns gain
+    most in all (sum of the leads) first.
     """
     ev = zone_pair_evidence(frame, building)
     if ev is None:
         return []
     zones = list(ev.gain)
+
+    def edge(a, b):
+        """(lead of column T_a for zone b over zone a, evidence for b, for a, with the sun counted)."""
+        g = ev.gain if a in ev.sunlit and b in ev.sunlit else ev.boxes_only
+        return g[a][b] - g[a][a], g[a][b], g[a][a], g is ev.gain
+
     found = []
     for i, a in enumerate(zones):
         for b in zones[i + 1 :]:
-            g = ev.gain if a in ev.sunlit and b in ev.sunlit else ev.boxes_only
-            aa, ab, ba, bb = g[a][a], g[a][b], g[b][a], g[b][b]
-            lead = min(ab - aa, ba - bb)
-            if lead >= SWAP_MARGIN and ab + ba >= SWAP_SHARE * (aa + ab + ba + bb):
-                found.append((lead, a, b, aa, ab, ba, bb, g is ev.gain))
+            found.append((a, b))
+    strong = {(a, b) for a in zones for b in zones if a != b and edge(a, b)[0] >= SWAP_MARGIN}
+    for a, b in strong:
+        for c in zones:
+            if (b, c) in strong and (c, a) in strong and c != a and a == min(a, b, c):
+                found.append((a, b, c))
+    cycles = []
+    for cyc in found:
+        steps = [edge(x, cyc[(k + 1) % len(cyc)]) for k, x in enumerate(cyc)]
+        lead = min(e[0] for e in steps)
+        theirs, own = sum(e[1] for e in steps), sum(e[2] for e in steps)
+        if lead >= SWAP_MARGIN and theirs >= SWAP_SHARE * (theirs + own):
+            cycles.append((sum(e[0] for e in steps), cyc, steps))
     notes, named = [], set()
-    for _lead, a, b, aa, ab, ba, bb, sun in sorted(found, reverse=True):
-        if a in named or b in named:
+    for _gain, cyc, steps in sorted(cycles, key=lambda x: -x[0]):  # the exchange that explains most first
+        if named & set(cyc):
             continue
-        named |= {a, b}
-        ca, cb = building.column_for(f"T_{a}"), building.column_for(f"T_{b}")
+        named |= set(cyc)
+        col = {z: building.column_for(f"T_{z}") for z in cyc}
+        nxt = {z: cyc[(k + 1) % len(cyc)] for k, z in enumerate(cyc)}
+        sun = all(e[3] for e in steps)
         drivers = "the heat its boxes deliver" + (" and the sun on its facades" if sun else "")
+        a, b = cyc[0], cyc[1]
+        (_, ab, aa, _), rest = steps[0], steps[1:]
+        others = "; ".join(
+            f"those in column {col[z]!r} follow zone {nxt[z]}'s ({e[1]:.0f} against {e[2]:.0f})"
+            for z, e in zip(cyc[1:], rest)
+        )
+        what = "look swapped" if len(cyc) == 2 else "look rotated"
+        names = (
+            " and ".join(f"{col[z]!r} (T_{z})" for z in cyc)
+            if len(cyc) == 2
+            else (", ".join(f"{col[z]!r} (T_{z})" for z in cyc))
+        )
+        fix = ", ".join(f'T_{nxt[z]} = "{col[z]}"' for z in cyc)
         notes.append(
-            f"columns {ca!r} (T_{a}) and {cb!r} (T_{b}) look swapped: the temperature changes in column {ca!r} "
-            f"follow zone {b}'s drivers ({drivers}) far better than zone {a}'s (evidence {ab:.0f} against "
-            f"{aa:.0f} log-likelihood units over {ev.rows} steps), and those in column {cb!r} follow zone {a}'s "
-            f"({ba:.0f} against {bb:.0f}); flagged when each column prefers the other zone by {SWAP_MARGIN:g} or "
-            f"more. If the two sensors' points are exchanged in the export or the mapping, map them the other way "
-            f'round in the building\'s [columns] table (T_{a} = "{cb}", T_{b} = "{ca}"); otherwise check that the '
-            f"boxes of zones {a} and {b} are mapped to the right zones in [[vavs]]"
+            f"columns {names} {what}: the temperature changes in column {col[a]!r} follow zone {b}'s drivers "
+            f"({drivers}) far better than zone {a}'s (evidence {ab:.0f} against {aa:.0f} log-likelihood units over "
+            f"{ev.rows} steps), and {others}; flagged when each column prefers the other zone by {SWAP_MARGIN:g} or "
+            f"more. If the sensors' points are exchanged in the export or the mapping, map them the other way round "
+            f"in the building's [columns] table ({fix}); otherwise check that the boxes of zones "
+            f"{', '.join(cyc[:-1])} and {cyc[-1]} are mapped to the right zones in [[vavs]]"
         )
     return notes
