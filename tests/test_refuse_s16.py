@@ -122,9 +122,12 @@ def test_ghi_late_on_its_own_is_named_as_the_ghi_column(tmp_path):
 def test_check_flags_swapped_zone_columns_in_a_file(tmp_path, winter_paths):
     """The swap test runs where a user meets it: ``check`` on the export, exit 3 with the pair named."""
     frame = pd.read_parquet(winter_paths.measurements)
-    frame = frame.assign(T_S=frame["T_NE"], T_NE=frame["T_S"])
-    path = tmp_path / "m.parquet"
-    frame.to_parquet(path)
-    report = check(path, winter_paths.building)
+    swapped = frame.assign(T_S=frame["T_NE"], T_NE=frame["T_S"])
+    swapped.to_parquet(tmp_path / "m.parquet")
+    report = check(tmp_path / "m.parquet", winter_paths.building)
     assert report.exit_code == 3
     assert "'T_S' (T_S) and 'T_NE' (T_NE) look swapped" in _one(report.attention, "look swapped")
+    rotated = frame.assign(T_NW=frame["T_E"], T_E=frame["T_S"], T_S=frame["T_NW"])
+    rotated.to_parquet(tmp_path / "r.parquet")
+    report = check(tmp_path / "r.parquet", winter_paths.building)
+    assert report.exit_code == 3 and _one(report.attention, "look rotated")

@@ -43,6 +43,7 @@ _ATTENTION = {
     "the flag looks inverted": "excitation inverted",
     "mapped to the wrong zone?": "box in another zone",
     "look swapped: the temperature changes": "zone columns swapped",
+    "look rotated: the temperature changes": "zone columns rotated",
     "a frozen outdoor sensor?": "frozen outdoor air",
 }
 
