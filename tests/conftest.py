@@ -10,6 +10,21 @@ import pytest
 
 from hvacfmu.building import building_from_dict
 
+# ----------------------------------------------------------------------------- BLAS on one thread
+# Each test process runs BLAS on one thread, and the CLI and FMU processes it starts inherit the variables
+# (an explicit OPENBLAS_NUM_THREADS / OMP_NUM_THREADS is kept). ``-n 2`` on 2 cores already keeps both cores busy;
+# OpenBLAS's own second thread only synchronises and spins on small products (hvacfmu.threads): an emulator
+# dataset took 0.85 against 0.56 CPU-s to generate (identical files), a physics FMU cycle 1.16 against 0.19 s,
+# and the not-slow tier's tests 329 against 180 CPU-s (session 16, DEVELOPING.md "Working rules").
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+try:
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(int(os.environ["OPENBLAS_NUM_THREADS"]), user_api="blas")  # numpy is loaded: limit its pool
+except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+    pass
+
 SMALL_BUILDING = {
     "name": "two rooms",
     "latitude": 37.875,

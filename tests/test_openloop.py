@@ -24,9 +24,10 @@ def building():
     return building_from_dict(six_zone_building_dict())
 
 
-@pytest.fixture(scope="module", params=["delivered", "airflow"])
+@pytest.fixture(scope="module", params=["delivered", pytest.param("airflow", marks=pytest.mark.slow)])
 def case(request, tmp_path_factory, building):
-    """(dataset, one-step fitted model) of either heat form; 6 weeks keep the module fast."""
+    """(dataset, one-step fitted model) of either heat form; 6 weeks keep the module fast. The fast tier runs the
+    delivered-heat form (the default for reheat data); the airflow form's copies of the tests are ``slow``."""
     truth = delivered_truth(building) if request.param == "delivered" else true_zone_model(building)
     frame = simulate_frame(truth, building, weeks=6, seed=5)
     if request.param == "airflow":
