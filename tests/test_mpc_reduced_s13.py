@@ -82,9 +82,10 @@ def test_gain_adaptation_stops_the_limit_cycle_on_the_reduced_prediction():
 
 
 def test_gain_adaptation_on_the_reduced_prediction_leaves_a_right_or_moderately_weak_model_alone():
-    """At N = 48, one day: the model as its plant keeps θ = 1; a plant twice as strong is estimated near 2, under
-    the engage threshold; both give exactly the moves without adaptation."""
-    for plant_gain, lo, hi in ((1.0, 1.0, 1.0), (2.0, 1.5, 2.9)):
+    """At N = 48, one day: the model as its plant keeps θ = 1 (to rounding: the one-step errors are ~1e-16, not
+    exactly 0, on some BLAS builds); a plant twice as strong is estimated near 2, under the engage threshold; both
+    give exactly the moves without adaptation."""
+    for plant_gain, lo, hi in ((1.0, 1.0, 1.0 + 1e-9), (2.0, 1.5, 2.9)):
         r_on, c_on, _ = long_horizon_run(plant_gain, n=96)
         r_off, _, _ = long_horizon_run(plant_gain, n=96, gain_adapt=0.0)
         assert lo <= c_on.theta[0] <= hi, (plant_gain, c_on.theta)
