@@ -317,6 +317,13 @@ def main():
         default="battery-results.jsonl",
         help="JSON-lines file: cases already in it are not rerun (delete it after changing the rule)",
     )
+    ap.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a diagnose option (VALUE as JSON, e.g. coupling_alone_unshared=false); repeatable",
+    )
     ap.add_argument("--list", action="store_true", help="print the cases and stop")
     ap.add_argument("--summary", action="store_true", help="only print the matrix of the results file")
     ap.add_argument(
@@ -335,6 +342,7 @@ def main():
         "of --oracle-results are reused for the first try)",
     )
     args = ap.parse_args()
+    options = {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)}
     layouts = args.layouts.split(",") if args.layouts else None
     step = None if args.step_min is None else 60.0 * args.step_min
     cases = make_cases(args.cases, args.seed, layouts, args.clean, args.pairs, step)[args.start : args.stop]
@@ -362,7 +370,7 @@ def main():
         todo = []
     if todo:
         with concurrent.futures.ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:
-            futs = {ex.submit(run_case, c, args.weeks): c for c in todo}
+            futs = {ex.submit(run_case, c, args.weeks, **options): c for c in todo}
             for fut in concurrent.futures.as_completed(futs):
                 r = fut.result()
                 with open(args.results, "a") as f:

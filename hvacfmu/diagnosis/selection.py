@@ -42,6 +42,7 @@ from ..errors import DataError
 from ..models.causes.actuation_delay import HISTORY_S, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
 from ..models.causes.thermal_mass import keep_stable_time_constant
+from ..models.causes.zone_coupling import OthersPlacebo, shared_drivers
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from ..models.loadcheck import model_problems
 from . import candidates as cand
@@ -85,6 +86,7 @@ DEFAULT_OPTIONS = {
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
+    "coupling_alone_unshared": False,
     "horizon": None,
     "cv_folds": 10,
     "cv_min_gain_percent": 1.0,
@@ -276,6 +278,9 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence["history"] = delay_given_history(sig, W, terms, t)
     if isinstance(t, ZoneCoupling):
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
+        shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
+        c.evidence["shared_drivers"] = shared
+        c.evidence["scored_alone"] = bool(options.get("coupling_alone_unshared", False)) and not shared
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
@@ -777,8 +782,10 @@ def _gate(c, opts) -> None:
             f"(LR {c.test['lr_adjusted']:.1f} after autocorrelation correction, "
             f"penalty {c.test['bic_penalty']:.1f})"
         )
-    elif c.cause == "zone_coupling" and not (
-        1.0 / opts["coupling_max_asymmetry"] <= c.evidence["symmetry_ratio"] <= opts["coupling_max_asymmetry"]
+    elif (
+        c.cause == "zone_coupling"
+        and not c.evidence.get("scored_alone")
+        and not (1.0 / opts["coupling_max_asymmetry"] <= c.evidence["symmetry_ratio"] <= opts["coupling_max_asymmetry"])
     ):
         c.status = "no evidence"
         c.reason = (
@@ -924,6 +931,9 @@ def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
     length is picked by this cross-validation among its best one-step variants (:func:`_delay_length_by_cv`).
     """
     key = tuple(sorted(set(_affected(sig, c.term))))
+    if isinstance(c.term, ZoneCoupling) and c.evidence.get("scored_alone"):
+        _cv_coupling_alone(sig, plan, terms, c, base_scores)
+        return
     if key not in base_scores:
         base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
     sig_c = sig_for(sig, c, c.term)
@@ -945,6 +955,56 @@ def cross_validate(sig, plan, terms, c, base_scores: dict) -> None:
     c.evidence["cv_all_weeks"] = weeks
     if c.cv.get("n_folds_active", 0) == 1:
         _cv_days_one_by_one(sig, plan, terms, c, key, np.concatenate([st[a] for st, a in zip(plan.starts, active)]))
+
+
+def _cv_coupling_alone(sig, plan, terms, c, base_scores: dict) -> None:
+    """A coupling between zones that share no facade orientation and no air handler, scored zone by zone.
+
+    Each zone is simulated alone with its partner's measured temperature (as one-zone terms are scored), and the
+    decisive test (``c.cv``) is the zone with the smaller gain: both zones must gain (the exchange shows in both
+    heat balances); ``evidence["cv_by_zone"]`` holds both zones' tests. Simulating the pair together loses even at the true conductance when closed-loop
+    controllers hold both zones (README "couplings"); scoring a zone alone lets a partner that merely carries a
+    driver both zones share pass, which is why this is only done where the pair shares neither of the drivers
+    the data name (:func:`~hvacfmu.models.causes.zone_coupling.shared_drivers`), and each zone must also gain
+    beyond a placebo, the mean temperature of every other zone as a free input
+    (:class:`~hvacfmu.models.causes.zone_coupling.OthersPlacebo`, ``evidence["cv_beyond_others_mean"]``): a
+    partner carrying drivers all zones share explains no more than that mean.
+    """
+    by_zone, beyond = {}, {}
+    pair = (c.term.zone_a, c.term.zone_b)
+    others = tuple(z for z in sig.zones if z not in pair)
+    for z in (sig.zones.index(c.term.zone_a), sig.zones.index(c.term.zone_b)):
+        key = (z,)
+        if key not in base_scores:
+            base_scores[key] = fold_scores(sig, plan, fold_fits(sig, plan, terms, key), key)
+        after = fold_scores(sig, plan, fold_fits(sig, plan, list(terms) + [c.term], key), key)
+        by_zone[sig.zones[z]] = paired_test(plan, base_scores[key], after)
+        if others:
+            p = [OthersPlacebo(zone_a=sig.zones[z], zone_b=sig.zones[z], others=others)]
+            before_p = fold_scores(sig, plan, fold_fits(sig, plan, list(terms) + p, key), key)
+            after_p = fold_scores(sig, plan, fold_fits(sig, plan, list(terms) + p + [c.term], key), key)
+            beyond[sig.zones[z]] = paired_test(plan, before_p, after_p)
+        else:
+            beyond[sig.zones[z]] = by_zone[sig.zones[z]]
+
+    def order(zt):
+        g = zt[1].get("gain_percent")
+        return (-np.inf if g is None else g, zt[1].get("t") or -np.inf)
+
+    # the decisive test: the weakest of the four (each zone alone; each zone beyond the others' mean)
+    weakest = min(
+        [(z, r, "alone") for z, r in by_zone.items()] + [(z, r, "beyond") for z, r in beyond.items()],
+        key=lambda x: order((x[0], x[1])),
+    )
+    c.cv = dict(weakest[1])
+    c.cv["zone"] = weakest[0]
+    c.cv["test"] = "alone" if weakest[2] == "alone" else "beyond the other zones' mean"
+    c.evidence["cv_by_zone"] = by_zone
+    c.evidence["cv_beyond_others_mean"] = beyond
+    c.evidence["scored"] = (
+        "each zone alone, its partner measured (the pair shares no facade and no air handler), "
+        "also beyond the mean temperature of every other zone"
+    )
 
 
 def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:

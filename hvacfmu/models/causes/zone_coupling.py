@@ -5,7 +5,9 @@ fitted as one conductance ``k`` shared by both zones (``coef_ab = k V̄/V_a``, `
 k V̄/V_b``). Screen: every pair not coupled in the base structure; evidence: correlation of
 each zone's residual with the temperature difference toward the other (a real exchange
 shows in both, with opposite signs of the difference); the diagnosis adds the untied fit's
-symmetry ratio.
+symmetry ratio. :func:`shared_drivers` names what a pair shares that a partner's temperature could stand in
+for (a facade orientation, an air handler): where they share neither, the diagnosis can score the coupling zone
+by zone with the partner measured (option ``coupling_alone_unshared``, off by default; README "couplings").
 """
 
 from __future__ import annotations
@@ -17,6 +19,33 @@ import numpy as np
 
 from .base import Candidate, EquationParts, StepContext, Term, corr, num
 from .signals import coupling_ratios
+
+
+def zone_units(sig, z: int) -> set:
+    """Per-unit supply-temperature columns (``T_supply_<ahu>``) of the air handlers serving zone ``z``; empty when
+    the data have one ``T_supply`` for every box (then which unit serves which zone is not measured)."""
+    base = sig.base
+    return {
+        sig.supply_of[v]
+        for j, v in enumerate(base.vavs)
+        if base.input_map[z, j] > 0 and sig.supply_of.get(v, "T_supply") != "T_supply"
+    }
+
+
+def shared_drivers(sig, a: int, b: int) -> list:
+    """What zones ``a`` and ``b`` share that one zone's measured temperature could carry into the other's equation
+    without any heat exchange: a facade orientation (the same sun on walls and windows the model does not
+    describe) and an air handler (the same supply air and its control noise). ``[]`` when they share neither.
+
+    Measured on the emulator's clean floors (``benchmarks/coupling_s16.md``, zone alone with the partner measured,
+    ≥ 3 % at t ≥ 2 in both zones): 16 of 20 ``core9`` and 6 of 15 ``row4`` pairs sharing an orientation pass with no
+    coupling; of the pairs sharing none, 0 of 20 on ``quad4``, 0 of 8 on ``sdh``, but 10 of 100 on ``core9``
+    (2 of them also beyond :class:`OthersPlacebo`). The zone-by-zone score of unshared pairs is therefore an
+    option (``coupling_alone_unshared``), off by default.
+    """
+    out = [f"facade {o}" for o in sorted(set(sig.facades[a]) & set(sig.facades[b]))]
+    out += [f"unit {u}" for u in sorted(zone_units(sig, a) & zone_units(sig, b))]
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,3 +128,41 @@ class ZoneCoupling(Term):
                     )
                 )
         return out
+
+
+@dataclasses.dataclass(frozen=True)
+class OthersPlacebo(ZoneCoupling):
+    """Scoring aid, never a finding: ``p · (mean(x_others) − x_a)`` into ``zone_a`` (``p`` free in [−1, 1]).
+
+    ``others`` are every zone but ``zone_a`` and its candidate partner. A partner that only carries drivers every
+    zone shares (floors above and below, occupancy, weather) explains a zone no better than the mean of all the
+    other zones does; an exchange with that partner does (``benchmarks/coupling_s16.md``). ``zone_b`` equals
+    ``zone_a`` (one zone's equation; the fit's coupled blocks read both).
+    """
+
+    others: tuple = ()
+
+    def zones(self):
+        return (self.zone_a,)
+
+    def location(self):
+        return {"zone": self.zone_a, "others": list(self.others)}
+
+    def features(self, sig, U_eff):
+        a = sig.zones.index(self.zone_a)
+        idx = [sig.zones.index(o) for o in self.others]
+        return [(a, "p", sig.Y[:, idx].mean(axis=1) - sig.Y[:, a], -1.0, 1.0)]
+
+    def with_fit(self, sig, coefs, stds):
+        return dataclasses.replace(self, coef_ab=float(coefs.get("p", 0.0)), std={"coef_ab": stds.get("p", 0.0)})
+
+    def contribute(self, c: StepContext) -> None:
+        a = c.zi[self.zone_a]
+        idx = [c.zi[o] for o in self.others]
+        c.Tn[..., a] += self.coef_ab * (c.T[..., idx].mean(axis=-1) - c.T[..., a])
+
+    def add_equations(self, e: EquationParts) -> None:
+        a = e.zi[self.zone_a]
+        for o in self.others:
+            e.A[a, e.zi[o]] += self.coef_ab / len(self.others)
+        e.A[a, a] -= self.coef_ab
