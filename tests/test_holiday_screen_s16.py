@@ -2,8 +2,8 @@
 benchmarks/diagnosis_holiday_s16.md).
 
 quad4 battery cases 9 (seed 2026) and 15 (seed 2027) hold a holiday week at γ 0.34-0.35 that the screen of
-session 5 missed: the robust spread of the week means was widened by late-fall weeks reading γ −0.1 … −0.3,
-which put the holiday week at z 3.3-3.8 < 4.
+session 5 missed: the robust spread of the week means was widened by single cold weeks reading γ −0.1 … −0.3,
+which put the holiday week at z 3.3-3.8 < 4. The synthetic data widen the spread with a drift.
 """
 
 from __future__ import annotations

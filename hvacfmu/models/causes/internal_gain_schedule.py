@@ -312,8 +312,9 @@ def week_z_needed(gamma: float, week_gamma: float, z: float) -> float:
     way to a Sunday must stand far out of the other weeks), ``z / 2`` from ``week_gamma`` on (the rule for such
     weeks asks z ≥ ``z / 2`` among the days). In between the z asked falls linearly with ``gamma``: the further
     a week's weekdays went toward the reference day, the less of the other weeks' spread it needs to clear
-    (quad4 battery: holiday weeks at γ 0.34-0.35 and z 3.3-3.8, weeks widened by late-fall weeks at γ
-    −0.1 … −0.3; ``benchmarks/diagnosis_holiday_s16.md``). Infinite below ``week_gamma / 2``.
+    (quad4 battery: holiday weeks at γ 0.34-0.35 and z 3.3-3.8, the spread widened by single cold weeks at
+    γ −0.1 … −0.3; a baseline of the neighbouring weeks did not help, those weeks are not a smooth drift;
+    ``benchmarks/diagnosis_holiday_s16.md``). Infinite below ``week_gamma / 2``.
     """
     lo = week_gamma / 2
     if gamma < lo:
