@@ -305,6 +305,24 @@ def zone_week_departures(zones, by_week: dict, g_min: float, z_min: float) -> li
     return sorted(out, key=lambda x: x["week"])
 
 
+def week_z_needed(gamma: float, week_gamma: float, z: float) -> float:
+    """Robust z among the week means that a week of mean departure scale ``gamma`` needs to be proposed.
+
+    The two ends are the screen's week rules of session 5: ``z`` at ``week_gamma / 2`` (a week a fifth of the
+    way to a Sunday must stand far out of the other weeks), ``z / 2`` from ``week_gamma`` on (the rule for such
+    weeks asks z ≥ ``z / 2`` among the days). In between the z asked falls linearly with ``gamma``: the further
+    a week's weekdays went toward the reference day, the less of the other weeks' spread it needs to clear
+    (quad4 battery: holiday weeks at γ 0.34-0.35 and z 3.3-3.8, the spread widened by single cold weeks at
+    γ −0.1 … −0.3; a baseline of the neighbouring weeks did not help, those weeks are not a smooth drift;
+    ``benchmarks/diagnosis_holiday_s16.md``). Infinite below ``week_gamma / 2``.
+    """
+    lo = week_gamma / 2
+    if gamma < lo:
+        return float("inf")
+    frac = min((gamma - lo) / (week_gamma - lo), 1.0)
+    return z - frac * (z / 2)
+
+
 def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     """Weekdays whose gains looked like a weekend day: single days and whole weeks.
 
@@ -347,7 +365,7 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     w_scale = max(float(1.4826 * np.median(np.abs(wg - w_med))) if len(wg) else 0.0, 0.03)
     for wk, g in wmean.items():
         z_w = (g - w_med) / w_scale
-        if (g >= gw_min and (g - med) / scale >= z_min / 2) or (g >= gw_min / 2 and z_w >= z_min):
+        if (g >= gw_min and (g - med) / scale >= z_min / 2) or z_w >= week_z_needed(g, gw_min, z_min):
             weeks.append({"week": wk, "gamma": g, "z_week": z_w})
             picked |= {d["date"] for d in by_week[wk]}
     # a holiday week may show in one zone only: the one whose balance the internal gains dominate, where the
@@ -370,7 +388,8 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
         "week_mean_robust_std": w_scale,
         "rule": (
             f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g} (z >= {z_min / 2:g}), "
-            f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, "
+            f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, the z asked falling "
+            f"linearly to {z_min / 2:g} at week mean gamma {gw_min:g}, "
             f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means"
         ),
     }
