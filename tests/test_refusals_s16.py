@@ -106,3 +106,45 @@ def test_a_scheduled_minimum_flow_gives_the_lowest_running_minimum():
     limits = box_limits(idf, boxes, sizing, rho=1.0)
     assert limits["VAV_OR1"] == (0.2, 1.0)
     assert limits["VAV_Office"] == (0.15, 0.5)
+
+
+def test_zones_energyplus_computes_identically_are_left_out_of_the_export():
+    """The Ref 2004 outpatient clinic's exam halls are copies (16.723 m2, 50.97 m3, one south wall, one box each):
+    EnergyPlus gives them the same air to the last digit, which check refuses as one point exported twice. The
+    generator keeps the first of each set and leaves the copies out with their boxes, saying so."""
+    import pandas as pd
+
+    from hvacfmu.energyplus.generate import _leave_twins_out, twin_zones
+
+    n = 300
+    rng = np.random.default_rng(0)
+    hall = np.round(20 + np.cumsum(rng.normal(0, 0.05, n)), 4)
+    frame = pd.DataFrame(
+        {
+            "T_out": rng.normal(0, 1, n),
+            "T_Hall_1": hall,
+            "T_Hall_2": hall.copy(),
+            "T_Hall_3": hall.copy(),
+            "T_Office": np.round(hall + rng.normal(0, 0.02, n), 4),
+            "T_Const_A": np.full(n, 21.0),
+            "T_Const_B": np.full(n, 21.0),
+        }
+    )
+    typ = "AirTerminal:SingleDuct:VAV:Reheat"
+    boxes = [Box(f"VAV_{z}", z, typ, f"{z} box", f"{z} node", "AHU_2" if z == "Hall_3" else "AHU_1", "n") for z in
+             ("Hall_1", "Hall_2", "Hall_3", "Office", "Const_A", "Const_B")]  # fmt: skip
+    for b in boxes:
+        frame[f"m_{b.name}"] = 0.1
+        frame[f"Td_{b.name}"] = 20.0
+    frame["T_supply_AHU_1"] = frame["T_supply_AHU_2"] = 13.0
+    twins = twin_zones(frame, [b.zone for b in boxes])
+    assert twins == {"Hall_2": "Hall_1", "Hall_3": "Hall_1"}  # constant columns are another check's business
+    left_out: dict = {}
+    ahus = {"AHU_1": "n1", "AHU_2": "n2"}
+    out, kept, ahus, warning = _leave_twins_out(frame, boxes, ahus, twins, left_out)
+    assert [b.zone for b in kept] == ["Hall_1", "Office", "Const_A", "Const_B"]
+    assert list(ahus) == ["AHU_1"]
+    gone = {"T_Hall_2", "T_Hall_3", "m_VAV_Hall_2", "Td_VAV_Hall_2", "m_VAV_Hall_3", "Td_VAV_Hall_3", "T_supply_AHU_2"}
+    assert gone.isdisjoint(out.columns) and set(frame.columns) - set(out.columns) == gone
+    assert set(left_out) == {"Hall_2", "Hall_3"} and "same air as zone Hall_1" in left_out["Hall_2"]
+    assert "Hall_2 (= Hall_1)" in warning
