@@ -410,6 +410,7 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
     full = per_bin.reindex(np.arange(int(bins.max()) + 1))
     local = full.rolling(width, center=True, min_periods=max(3, width // 8)).median().to_numpy()[bins]
     far = np.isfinite(local) & (np.abs(v - local) > ZONE_SPIKE_K)
+    far &= ~_air_excursions(v, local, far)
     held = _dropout_runs(v, times_ns[sel]) & ~far
     spikes = sel[far | held]
     if not len(spikes):
@@ -435,6 +436,43 @@ def check_zone_spikes(si, times_ns, ok, desc, where, problems, warnings):
     si = si.copy()
     si[spikes] = np.nan
     return si
+
+
+#: Fewest samples of an excursion from the running median that can be zone air rather than an error code.
+AIR_EXCURSION_MIN = 3
+
+
+def _air_excursions(v, local, far) -> np.ndarray:
+    """Mask of the ``far`` samples that belong to a smooth excursion of the zone air, not to an error code.
+
+    An excursion is a run of consecutive samples more than half of :data:`ZONE_SPIKE_K` from the running median
+    ``local`` that holds a ``far`` one. It is air when it lasts :data:`AIR_EXCURSION_MIN` samples or more, its
+    values are not one repeated value, every step inside it is under :data:`ZONE_SPIKE_K`, and it enters or
+    leaves the air around it gradually (on at least one side a step under half its largest distance from the
+    median, so the air comes back, or goes, in two steps or more): a school
+    lobby in January falls 15 K in a quarter of an hour when its air handler starts on cold outdoor air and its
+    doors open, stays down an hour and climbs back over the next two (EnergyPlus 90.1 primary and secondary
+    schools, Denver). An error code or a dropout jumps away and back (a step of about its distance from the air
+    on both sides) or holds one value.
+    """
+    out = np.zeros(len(v), dtype=bool)
+    half = 0.5 * ZONE_SPIKE_K
+    wide = np.isfinite(local) & (np.abs(v - local) > half)
+    if not far.any():
+        return out
+    idx = np.flatnonzero(wide)
+    for run in np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1):
+        a, b = int(run[0]), int(run[-1]) + 1
+        if not far[a:b].any() or b - a < AIR_EXCURSION_MIN:
+            continue
+        seg = v[a:b]
+        if np.all(seg == seg[0]) or np.abs(np.diff(seg)).max(initial=0.0) >= ZONE_SPIKE_K:
+            continue
+        steps = [abs(v[a] - v[a - 1])] if a > 0 else []
+        steps += [abs(v[b] - v[b - 1])] if b < len(v) else []
+        if steps and min(steps) < 0.5 * float(np.abs(seg - local[a:b]).max()):
+            out[a:b] = True
+    return out
 
 
 def _dropout_runs(v, t_ns) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from .. import building as _building
-from ..data.plausibility import STUCK_DAYS, STUCK_PREFIXES, stuck_runs
+from ..data.plausibility import IDENTICAL_SHARE, STUCK_DAYS, STUCK_PREFIXES, stuck_runs
 from ..errors import DataError, HvacfmuWarning
 from . import geometry, hvac, inputs, physics
 from .idf import read_idf
@@ -34,7 +34,7 @@ from .run import Probe, simulate, step_times
 log = logging.getLogger(__name__)
 
 #: Version of what the export writes; part of the cache key.
-EXPORT_VERSION = "1.8"
+EXPORT_VERSION = "1.9"
 STEP_HOURS = 1.0 / inputs.STEPS_PER_HOUR
 APPROXIMATIONS = (
     "zone temperatures are EnergyPlus zone mean air temperatures averaged over each 15-minute step",
@@ -199,6 +199,62 @@ def _held_warning(frame: pd.DataFrame) -> str | None:
         f"EnergyPlus holds {len(held)} temperature column(s) at exactly one value for {STUCK_DAYS:g} days or longer "
         f"(ideal control at the setpoint): {', '.join(held)}; hvacfmu's data check masks such runs as a stuck sensor, "
         f"so those steps count as missing (a zone's windows are then skipped): {advice}"
+    )
+
+
+def twin_zones(frame: pd.DataFrame, zones) -> dict:
+    """``{zone: the earlier zone whose air it repeats}`` for zones EnergyPlus computes identically.
+
+    Zones that are copies of each other (the Ref 2004 outpatient clinic's exam halls: same floor, volume, facade,
+    loads and box) get the same ``Zone Mean Air Temperature`` to the last digit in every step. A real BMS never
+    writes that for two sensors, so hvacfmu's data check refuses the pair as one point exported twice
+    (``IDENTICAL_SHARE`` of equal rows, columns that move). The first zone of each set is kept.
+    """
+    cols = {z: f"T_{hvac.sanitise(z)}" for z in zones if f"T_{hvac.sanitise(z)}" in frame.columns}
+    values = {z: frame[c].to_numpy(dtype=float) for z, c in cols.items()}
+    out: dict = {}
+    names = list(values)
+    for i, a in enumerate(names):
+        if a in out:
+            continue
+        x = values[a]
+        for b in names[i + 1 :]:
+            if b in out:
+                continue
+            y = values[b]
+            both = np.isfinite(x) & np.isfinite(y)
+            if both.sum() < 100 or np.std(x[both]) < 0.01:
+                continue
+            if float((x[both] == y[both]).mean()) >= IDENTICAL_SHARE:
+                out[b] = a
+    return out
+
+
+def _leave_twins_out(frame, boxes, ahus, twins, left_out):
+    """Drop the twin zones' columns and boxes (and an air handler left without boxes); note each in ``left_out``;
+    returns ``(frame, boxes, ahus, warning)``."""
+    drop = [f"T_{hvac.sanitise(z)}" for z in twins]
+    for z, keep in twins.items():
+        gone = [b.name for b in boxes if b.zone == z]
+        drop += [f"{p}_{n}" for n in gone for p in ("m", "Td")]
+        left_out[z] = (
+            f"EnergyPlus computes the same air as zone {keep} in every step (a copy of it: same geometry, loads and "
+            f"box); not exported (box {', '.join(gone)} too): two columns of one value read as one point exported "
+            "twice, which hvacfmu's data check refuses"
+        )
+    boxes = [b for b in boxes if b.zone not in twins]
+    kept = {b.ahu for b in boxes}
+    drop += [f"T_supply_{hvac.sanitise(a)}" for a in ahus if a not in kept]
+    ahus = {a: n for a, n in ahus.items() if a in kept}
+    frame = frame.drop(columns=[c for c in drop if c in frame.columns])
+    pairs = ", ".join(f"{z} (= {k})" for z, k in twins.items())
+    return (
+        frame,
+        boxes,
+        ahus,
+        f"EnergyPlus computes {len(twins)} zone(s) exactly as another one in every step (copies of it): {pairs}; "
+        "left out with their boxes (energyplus.json zones_left_out), since two identical columns are refused as one "
+        "point exported twice",
     )
 
 
@@ -446,6 +502,12 @@ def generate(
     lo = pd.Timestamp(first).tz_localize(site.timezone)
     hi = pd.Timestamp(last + _dt.timedelta(days=1)).tz_localize(site.timezone)
     frame = frame[(frame.index >= lo) & (frame.index < hi)]
+    twins = twin_zones(frame, zone_names)
+    if twins:
+        frame, boxes, ahus, twin_warning = _leave_twins_out(frame, boxes, ahus, twins, left_out)
+        zone_names = [z for z in zone_names if z not in twins]
+        warnings.warn(twin_warning, HvacfmuWarning, stacklevel=2)
+        warned.append(twin_warning)
     held = _held_warning(frame)
     if held:
         warnings.warn(held, HvacfmuWarning, stacklevel=2)

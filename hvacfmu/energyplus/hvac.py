@@ -16,7 +16,7 @@ Box limits come from the sizing results EnergyPlus writes to ``eplusout.eio``
 (``Component Sizing Information`` lines: design or user-specified maximum air
 flow [m3/s]), converted to mass flow with the standard air density at the site's
 altitude; ``m_min`` is the terminal's constant minimum flow fraction times that
-maximum (VAV terminals), 0 for constant-volume terminals whose fan cycles.
+maximum (VAV terminals; a scheduled minimum: its smallest positive value), 0 for constant-volume terminals whose fan cycles.
 
 A zone with a multiplier (``Zone`` field Multiplier times its ``ZoneGroup``'s zone list multiplier: the 90.1 large
 office's mid floor stands for 10 floors, the large hotel's ``Room_3_Mult9_Flr_6`` for 9 rooms) is simulated once,
@@ -301,19 +301,29 @@ def _sized(sizing: dict, typ: str, name: str, prefix: str):
     return None
 
 
-def _schedule_max(idf, name: str) -> float:
-    """Largest value of a ``Schedule:Compact``/``Schedule:Constant`` [-] (0 when unknown): the occupied minimum."""
-    for cls, first in (("Schedule:Compact", 2), ("Schedule:Constant", 2)):
+def _schedule_min_positive(idf, name: str) -> float:
+    """Smallest positive value of a ``Schedule:Compact``/``Schedule:Constant`` [-] (0 when unknown): the lowest
+    minimum the box rests at while it runs.
+
+    A scheduled minimum moves through the day: the 90.1 hospital's and outpatient clinic's operating rooms
+    (``OR_MinSA_Sched``) keep 100 % of their design flow from 09:00 to 18:00 on weekdays and 20 % otherwise,
+    the medium office's ``PERIMETER_MID_ZN_2_MDP_Sch`` 9.7 % or 1 %. Their boxes sit at 20 % (1 %) every
+    night, so that is their ``m_min``: the occupied value (exports up to 1.8) put a running box's night
+    airflow under ``0.6 x m_min`` (refused as a unit error) and under the idle bound (read as shut). A zero
+    is the damper closing with its air handler, which the idle rule covers.
+    """
+    for cls in ("Schedule:Compact", "Schedule:Constant"):
         sch = idf.by_name(cls).get(name.lower())
         if sch is None:
             continue
         vals = []
-        for f in sch.fields[first:]:
+        for f in sch.fields[2:]:
             try:
                 vals.append(float(f))
             except ValueError:
                 pass
-        return max(vals) if vals else 0.0
+        positive = [x for x in vals if x > 0]
+        return min(positive) if positive else 0.0
     return 0.0
 
 
@@ -355,7 +365,7 @@ def box_limits(idf, boxes, sizing: dict, rho: float) -> dict:
             elif method == "fixedflowrate":
                 frac = (term.number(7) or 0.0) / v_max
             elif method == "scheduled":
-                frac = _schedule_max(idf, term.get(8))
+                frac = _schedule_min_positive(idf, term.get(8))
         m_max = v_max * rho / b.multiplier
         limits[b.name] = (round(frac * m_max, 5), round(m_max, 5))
     if problems:
