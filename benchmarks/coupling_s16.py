@@ -221,7 +221,13 @@ def main():
     ap.add_argument("--table", default=None, help="reprint a results file")
     ap.add_argument("--controls", default=None, help="results file of the statistics: add the mass controls")
     ap.add_argument("--placebo", default=None, help="results file of the statistics: add the others-mean placebo")
+    ap.add_argument(
+        "--placebo2", default=None, help="set:case:A+B[:inj],...: gains beyond the common-neighbour placebo (s16 2nd)"
+    )
     args = ap.parse_args()
+    if args.placebo2:
+        main_placebo2(args.placebo2, args.out)
+        return
     if args.placebo:
         sets = {n: {c["id"]: c for c in cs} for n, cs in case_sets().items()}
         recs = [json.loads(ln) for ln in open(args.placebo)]
@@ -450,6 +456,117 @@ def control_case(case, set_name, recs, weeks=16) -> list:
                 }
         out.append({**r, "controls": res})
     return out
+
+
+# --- second pass: the common-neighbour placebo ------------------------------------------------------------------
+NB_TAU_H = (3.0, 12.0)  # low-pass filters of a common neighbour's temperature (heat arriving through wall mass)
+
+
+def _common_neighbour_terms(sig, z: str, pair, lowpass: bool) -> list:
+    """Placebo terms for zone ``z`` of ``pair``: per zone adjacent to both zones of the pair, ``p_c · (T_c − T_z)``
+    free in [−1, 1] (:class:`OthersPlacebo` with one zone) and, with ``lowpass``, that zone's measured temperature
+    low-pass filtered at :data:`NB_TAU_H` as free columns. Empty when the pair has no common neighbour."""
+    import dataclasses
+
+    from hvacfmu.models.causes.signals import ema_series
+    from hvacfmu.models.causes.zone_coupling import OthersPlacebo
+    from hvacfmu.models.extended import SolarGain
+
+    @dataclasses.dataclass(frozen=True)
+    class FreeColumn(SolarGain):
+        def features(self, sig, U_eff):
+            return [(sig.zones.index(self.zone), "coef", sig.V[f"I_{self.facade}"], -np.inf, np.inf)]
+
+    a, b = (sig.zones.index(x) for x in pair)
+    common = sorted(set(sig.neighbours[a]) & set(sig.neighbours[b]))
+    out: list = [OthersPlacebo(zone_a=z, zone_b=z, others=(sig.zones[c],)) for c in common]
+    if lowpass:
+        for c in common:
+            for tau in NB_TAU_H:
+                key = f"nb{sig.zones[c]}lp{tau:g}"
+                if f"I_{key}" not in sig.V:
+                    x = np.asarray(sig.Y[:, c], float)
+                    fill = np.where(np.isfinite(x), x, np.nanmean(x))
+                    sig.V[f"I_{key}"] = ema_series(fill, min(sig.step / (tau * 3600.0), 1.0))
+                out.append(FreeColumn(zone=z, facade=key))
+    return out
+
+
+def placebo2_case(case, set_name, pairs, weeks=16) -> list:
+    """Per zone of each pair in ``pairs`` ([(pair, injected)]): the coupling's zone-alone gain over the reference,
+    over reference + others-mean placebo (old), + each common neighbour (new), + their low-pass temperatures."""
+    from battery_oracle import Oracle
+
+    from hvacfmu.data import prepare
+    from hvacfmu.emulator import cached_dataset
+    from hvacfmu.models.causes.zone_coupling import OthersPlacebo
+    from hvacfmu.models.extended import ZoneCoupling
+
+    paths = cached_dataset(weeks=weeks, seed=case["seed"], effects=case["effects"], layout=case["layout"])
+    ds = prepare(paths.measurements, paths.building, step=case["step"])
+    o = Oracle(ds, json.loads(paths.truth.read_text()))
+    sig, ref = o.sig, o.reference()
+    out = []
+    for pair, injected in pairs:
+        za, zb = pair
+        a, b = sig.zones.index(za), sig.zones.index(zb)
+        common = [sig.zones[c] for c in sorted(set(sig.neighbours[a]) & set(sig.neighbours[b]))]
+        others = tuple(x for x in sig.zones if x not in pair)
+        shared = sorted(set(sig.facades[a]) & set(sig.facades[b]))
+        t = ZoneCoupling(zone_a=za, zone_b=zb)
+        res = {}
+        for z in pair:
+            zi = sig.zones.index(z)
+            old = [OthersPlacebo(zone_a=z, zone_b=z, others=others)]
+            new = old + _common_neighbour_terms(sig, z, pair, False)
+            lp = old + _common_neighbour_terms(sig, z, pair, True)
+            row = {}
+            for name, ctl in (("alone", []), ("old", old), ("new", new), ("new_lp", lp)):
+                g = _gain_over(o, ref + ctl, t, (zi,))
+                row[name] = [g["gain_percent"], g["t"]]
+            res[z] = row
+        out.append(
+            {
+                "set": set_name,
+                "case": case["id"],
+                "layout": case["layout"],
+                "step": case["step"],
+                "pair": list(pair),
+                "injected": injected,
+                "common": common,
+                "shared_facades": shared,
+                "gains": res,
+            }
+        )
+    return out
+
+
+def placebo2_line(r) -> str:
+    def cell(k):
+        return " ".join(f"{r['gains'][z][k][0]:+6.1f}/{r['gains'][z][k][1]:4.1f}" for z in r["pair"])
+
+    return (
+        f"{r['set']} {r['case']:3d} {r['layout']:5s} {'+'.join(r['pair']):6s} {'INJ' if r['injected'] else 'cln'} "
+        f"common {','.join(r['common']) or '-':7s} | alone {cell('alone')} | old {cell('old')} | new {cell('new')} "
+        f"| new+lp {cell('new_lp')}"
+    )
+
+
+def main_placebo2(targets: str, out: str | None) -> None:
+    """``targets``: ``set:case:A+B[:inj]`` comma-separated."""
+    sets = {n: {c["id"]: c for c in cs} for n, cs in case_sets().items()}
+    by_case: dict = {}
+    for tgt in targets.split(","):
+        parts = tgt.split(":")
+        by_case.setdefault((parts[0], int(parts[1])), []).append((tuple(parts[2].split("+")), parts[-1] == "inj"))
+    for (name, cid), pairs in by_case.items():
+        t0 = time.process_time()
+        for r in placebo2_case(sets[name][cid], name, pairs):
+            print(placebo2_line(r), flush=True)
+            if out:
+                with open(out, "a") as f:
+                    f.write(json.dumps(r) + "\n")
+        print(f"  ({time.process_time() - t0:.0f} CPU-s)", flush=True)
 
 
 if __name__ == "__main__":
