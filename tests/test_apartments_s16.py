@@ -54,3 +54,34 @@ def test_a_box_with_a_minimum_airflow_keeps_its_threshold():
     term, _ = HeldSetpoint.learn("A", T, u, Ts, np.arange(len(T)), u_min=u_min)
     q = float(np.quantile(u, 0.99))
     assert term.u_on == pytest.approx(max(1.05 * u_min, 0.05 * q) + 1e-6)  # unchanged since session 14
+
+
+def test_a_units_mode_is_read_from_its_own_supply_air():
+    """Split units: one flat heats while the others cool, and the airflow-weighted ``T_supply`` of every unit is
+    cold. The zone's own unit's supply air says it heats, so the held model holds its heating setpoint."""
+    base = row_model()
+    t = HeldSetpoint(zone="A", heating_ceiling=21.1, u_on=0.001, hold=True, supply="T_supply_own")
+    m = ExtendedModel(base=base, terms=(t,))
+    assert m.disturbances[-1] == "T_supply_own"
+    x, q = np.array([20.5, 24.0, 24.0]), np.zeros(3)
+    u = np.array([0.01, 0.2, 0.2])
+    v = np.array([0.0, 13.0, 34.0])  # T_out, weighted T_supply (the cooling units dominate), the zone's own unit
+    assert m.step_state(x, u, v, q)[0] == 21.1
+    again = ExtendedModel.from_dict(m.to_dict())
+    assert again.terms == (t,) and again.to_dict()["terms"][0]["supply"] == "T_supply_own"
+
+
+def test_the_held_stage_reads_the_zones_own_unit():
+    from types import SimpleNamespace
+
+    from hvacfmu.diagnosis.held import own_supply
+
+    base = SimpleNamespace(outputs=("A", "B"), vavs=("a", "b"), input_map=np.eye(2))
+    sig = SimpleNamespace(
+        zones=("A", "B"),
+        base=base,
+        supply_of={"a": "T_supply_U1", "b": "T_supply"},
+        extra={"T_supply_U1": np.zeros(3)},
+    )
+    assert own_supply(sig, 0) == "T_supply_U1"
+    assert own_supply(sig, 1) == "T_supply"  # no unit column of its own: the weighted supply, as before

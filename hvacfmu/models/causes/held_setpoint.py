@@ -111,15 +111,24 @@ class HeldSetpoint(Term):
     u_on: float = 0.0
     #: a running unit holds its setpoint exactly (both sides), not only stops at it (conditional edges only)
     hold: bool = False
+    #: the supply-air column whose difference to the zone tells a running unit's mode: the zone's own unit's
+    #: (``T_supply_<ahu>``) where the zone has one, else the airflow-weighted ``T_supply`` of every unit
+    supply: str = "T_supply"
 
     def columns(self):
-        return ("T_supply",) if self.cooling_floor is not None or self.heating_ceiling is not None else ()
+        return (self.supply,) if self.cooling_floor is not None or self.heating_ceiling is not None else ()
 
     def zones(self):
         return (self.zone,)
 
     def location(self):
         return {"zone": self.zone, **({"hold": True} if self.hold else {})}
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        if self.supply != "T_supply":
+            d["supply"] = self.supply
+        return d
 
     def coefficients(self):
         out = {k: float(v) for k, v in zip(EDGES, self.edges()) if v is not None}
@@ -152,7 +161,12 @@ class HeldSetpoint(Term):
         u_on = num(d, "u_on", what, problems, default=0.0)
         if np.isfinite(u_on) and u_on < 0:
             problems.append(f"{what}: u_on must be >= 0 kg/s, got {u_on}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), u_on=u_on, hold=hold, std=std, **e)
+        supply = d.get("supply", "T_supply")
+        if not isinstance(supply, str) or not supply:
+            problems.append(f"{what}: supply must be a supply-air column name, got {supply!r}")
+            supply = "T_supply"
+        zone = zone_of(d, "zone", zone_names, what, problems)
+        return cls(zone=zone, u_on=u_on, hold=hold, supply=supply, std=std, **e)
 
     def with_fit(self, sig, coefs, stds):
         return self
@@ -162,7 +176,7 @@ class HeldSetpoint(Term):
         T = c.Tn[..., zi]
         if self.cooling_floor is not None or self.heating_ceiling is not None:
             on = c.u[..., zi] > self.u_on
-            dT = c.v[..., c.vi["T_supply"]] - c.T[..., zi]
+            dT = c.v[..., c.vi[self.supply]] - c.T[..., zi]
             if self.cooling_floor is not None:
                 held = self.cooling_floor if self.hold else np.maximum(T, self.cooling_floor)
                 T = np.where(on & (dT < -MODE_DT), held, T)
@@ -204,14 +218,15 @@ class HeldSetpoint(Term):
         return rows[at]
 
     @classmethod
-    def learn(cls, zone, T, u, T_supply, rows, u_min: float = 0.0) -> tuple:
+    def learn(cls, zone, T, u, T_supply, rows, u_min: float = 0.0, supply: str = "T_supply") -> tuple:
         """The term of ``zone`` learned on ``rows`` (None when no edge holds) and its evidence.
 
         ``T`` (n,) the zone's measured temperature [°C], ``u`` (n,) its airflow [kg/s], ``T_supply`` (n,) the
         supply air [°C] (None: only the unconditional edges), ``rows`` the training rows (one-step: ``k`` with
         ``T[k+1]``), ``u_min`` the zone's minimum airflow [kg/s]. The conditional edges read ``T[k+1]`` of the
         rows whose unit runs (``u > u_on``) with supply air :data:`MODE_DT` colder (cooling) or warmer (heating)
-        than the zone: a running unit's own thermostat stops it at its setpoint.
+        than the zone: a running unit's own thermostat stops it at its setpoint. ``supply`` names the column
+        ``T_supply`` was read from (the term reads it when simulating).
         """
         T = np.asarray(T, float)
         rows = np.asarray(rows, int)
@@ -237,6 +252,7 @@ class HeldSetpoint(Term):
                 edges[name] = e[side]
         if all(v is None for v in edges.values()):
             return None, ev
-        term = cls(zone=zone, u_on=u_on if edges.get("cooling_floor") or edges.get("heating_ceiling") else 0.0,
+        conditional = edges.get("cooling_floor") is not None or edges.get("heating_ceiling") is not None
+        term = cls(zone=zone, u_on=u_on if conditional else 0.0, supply=supply if conditional else "T_supply",
                    **{k: edges.get(k) for k in EDGES})  # fmt: skip
         return term, ev
