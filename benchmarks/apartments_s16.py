@@ -13,7 +13,7 @@ season; CPU seconds of each held stage are printed.
 zones have no conditional edge under either gets the same diagnosis by construction.
 
     OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/apartments_s16.py --out DIR wind r3e
-    OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/apartments_s16.py --evidence r2c r1b
+    OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/apartments_s16.py --evidence r2c r1b emulator battery13 battery22
 """
 
 from __future__ import annotations
@@ -54,6 +54,10 @@ class old_rules:
         hs.running_threshold, held.own_supply = self.saved
 
 
+#: ``--evidence`` keys of the emulator's datasets (``held_cost_s15.py``): the tests' 51-week default, battery cases
+EMULATOR = {"emulator": "default51", "battery13": "battery_13", "battery22": "battery_22"}
+
+
 def evidence(key: str) -> list:
     """Per zone: the conditional edges learned on the training rows under the old and the new threshold."""
     from hvacfmu.data import prepare
@@ -61,10 +65,16 @@ def evidence(key: str) -> list:
     from hvacfmu.diagnosis.design import make_signals
     from hvacfmu.fitting import fit
 
-    paths = _paths(key)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ds = prepare(paths.measurements, paths.building)
+        if key in EMULATOR:  # the emulator's datasets of held_cost_s15.py
+            import bench_diagnosis_battery as battery
+            from held_cost_s15 import _dataset
+
+            ds = _dataset(EMULATOR[key], battery)
+        else:
+            paths = _paths(key)
+            ds = prepare(paths.measurements, paths.building)
         base = fit(ds, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)  # as diagnose
         sig = make_signals(ds, base)
     rows, out = sig.rows("train"), []
@@ -82,7 +92,7 @@ def evidence(key: str) -> list:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("cases", nargs="+", choices=sorted(CASES) + ["wind"])
+    ap.add_argument("cases", nargs="+", choices=sorted(CASES) + ["wind"] + sorted(EMULATOR))
     ap.add_argument("--out", help="folder for <case>.json and the three models")
     ap.add_argument("--evidence", action="store_true", help="only the edges under both thresholds (no diagnosis)")
     args = ap.parse_args(argv)
@@ -133,14 +143,15 @@ def main(argv=None):
             {f["location"]["zone"]: {**f, "status": "found"} for f in rep.findings if f["cause"] == "held_setpoint"}
         )
         held = []
-        for c in old_cands:
-            z = c.location["zone"]
+        before = {c.location["zone"]: c for c in old_cands}
+        for z in [*before, *(z for z in after if z not in before)]:
+            c = before.get(z)
             a = after.get(z, {})
             row = {
                 "zone": z,
-                "old_rule": c.status,
-                "old_variant": c.evidence.get("variant"),
-                "old_cv": c.cv,
+                "old_rule": c.status if c else None,
+                "old_variant": c.evidence.get("variant") if c else None,
+                "old_cv": c.cv if c else None,
                 "new_rule": a.get("status"),
                 "new_variant": (a.get("evidence") or {}).get("variant"),
                 "new_cv": a.get("cv"),

@@ -85,3 +85,21 @@ def test_the_held_stage_reads_the_zones_own_unit():
     )
     assert own_supply(sig, 0) == "T_supply_U1"
     assert own_supply(sig, 1) == "T_supply"  # no unit column of its own: the weighted supply, as before
+
+
+def test_a_unit_at_full_airflow_stops_at_its_setpoint_but_does_not_hold_it():
+    """``hold`` stands for a thermostat with spare capacity: at full airflow the apartments' units end the step at
+    24.0 °C in 16-27 % of the steps only, so there the zone may stay above the setpoint (only the floor applies)."""
+    T, u, Ts = _cycling_unit()
+    u[::50] = np.where(u[::50] > 0, FULL, 0.0)  # some running steps flat out
+    term, _ = HeldSetpoint.learn("A", T, u, Ts, np.arange(len(T)), u_min=0.0)
+    assert term.u_full == pytest.approx(0.99 * np.quantile(u, 0.99))
+    t = HeldSetpoint(zone="A", cooling_floor=24.0, u_on=term.u_on, hold=True, u_full=term.u_full)
+    m = ExtendedModel(base=row_model(), terms=(t,))
+    x, v, q = np.array([25.0, 24.0, 24.0]), np.array([30.0, 12.5]), np.zeros(3)
+    full = m.step_state(x, np.array([FULL, 0.0, 0.0]), v, q)[0]
+    assert full > 24.0  # flat out and still above its setpoint: not held
+    assert full == ExtendedModel(base=row_model()).step_state(x, np.array([FULL, 0.0, 0.0]), v, q)[0]
+    assert m.step_state(x, np.array([0.5 * FULL, 0.0, 0.0]), v, q)[0] == 24.0  # spare capacity: held
+    again = ExtendedModel.from_dict(m.to_dict())
+    assert again.terms == (t,) and again.to_dict()["terms"][0]["u_full"] == pytest.approx(term.u_full)
