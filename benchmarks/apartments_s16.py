@@ -37,21 +37,23 @@ def old_threshold(q99: float, u_min: float) -> float:
 
 
 class old_rules:
-    """Within it, the held stage runs main's rules: the old threshold and the weighted ``T_supply`` for every zone."""
+    """Within it, the held stage runs main's rules: the old threshold, the weighted ``T_supply`` for every zone and
+    ``hold`` at every airflow."""
 
     def __enter__(self):
         from hvacfmu.diagnosis import held
         from hvacfmu.models.causes import held_setpoint as hs
 
-        self.saved = hs.running_threshold, held.own_supply
+        self.saved = hs.running_threshold, held.own_supply, hs.FULL_SHARE
         hs.running_threshold = old_threshold
         held.own_supply = lambda sig, zi: "T_supply"
+        hs.FULL_SHARE = float("inf")  # u_full inf (or None): hold at every airflow
 
     def __exit__(self, *exc):
         from hvacfmu.diagnosis import held
         from hvacfmu.models.causes import held_setpoint as hs
 
-        hs.running_threshold, held.own_supply = self.saved
+        hs.running_threshold, held.own_supply, hs.FULL_SHARE = self.saved
 
 
 #: ``--evidence`` keys of the emulator's datasets (``held_cost_s15.py``): the tests' 51-week default, battery cases
