@@ -33,13 +33,25 @@ import numpy as np
 
 from ..models.causes.base import Candidate
 from ..models.causes.held_setpoint import HeldSetpoint
+from ..models.causes.reheat import zone_boxes
 from .crossval import fold_fits, fold_scores, gate_failures, make_plan, paired_test
 from .design import coupled_blocks, fit_structure
 
 
+def own_supply(sig, zi: int) -> str:
+    """The supply-air column of zone ``zi``'s own unit (``T_supply_<ahu>``) when all its boxes have one and the data
+    measure it, else ``T_supply`` (the airflow-weighted supply of every unit). A running unit's mode is read from its
+    own supply air: in a building of split units one flat heats while its neighbour cools, and the weighted mean of
+    their supplies says neither (the EnergyPlus mid-rise apartments, ``benchmarks/apartments_s16.md``)."""
+    cols = {sig.supply_of.get(v, "T_supply") for v in zone_boxes(sig.base, sig.zones[zi])}
+    c = cols.pop() if len(cols) == 1 else "T_supply"
+    return c if c in sig.extra else "T_supply"
+
+
 def _learn(sig, zi: int, rows):
-    Ts = sig.V.get("T_supply")
-    return HeldSetpoint.learn(sig.zones[zi], sig.Y[:, zi], sig.U[:, zi], Ts, rows, float(sig.u_min[zi]))
+    c = own_supply(sig, zi)
+    Ts = sig.extra[c] if c != "T_supply" else sig.V.get("T_supply")
+    return HeldSetpoint.learn(sig.zones[zi], sig.Y[:, zi], sig.U[:, zi], Ts, rows, float(sig.u_min[zi]), supply=c)
 
 
 def _hold(model):

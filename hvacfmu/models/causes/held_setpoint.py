@@ -10,7 +10,7 @@ prediction drifts through it. Term: the simulated zone temperature is limited to
 ``lower`` (a heating setpoint the zone never falls below) and ``upper`` (a cooling setpoint it never exceeds), and
 ``cooling_floor`` / ``heating_ceiling`` (the setpoint a running unit stops at: only while the zone's airflow exceeds
 ``u_on`` with supply air :data:`MODE_DT` colder / warmer than the zone; with ``hold`` the running unit holds it
-exactly, an ideal thermostat with spare capacity) are each optional (``None``: no edge on that side). It is an ideal thermostat of unknown capacity on the side of each
+exactly, an ideal thermostat with spare capacity, below ``u_full``, its full airflow, where it may run short) are each optional (``None``: no edge on that side). It is an ideal thermostat of unknown capacity on the side of each
 edge: whatever the model predicts beyond the edge, the unit supplies (its heat is not in the data), and within the
 band the model runs free.
 
@@ -47,6 +47,32 @@ MAX_BEYOND = 0.005
 #: least rows (and share of the training rows) in which a unit cools or heats for its edge to be learned
 MIN_MODE_ROWS = 200
 MIN_MODE_SHARE = 0.02
+#: a box with a minimum airflow runs a mode above this share of its 99th-percentile airflow (:func:`running_threshold`)
+ON_SHARE_MODULATING = 0.05
+#: a unit without a minimum airflow (it cycles on and off) runs above this share of it: any airflow [-]
+ON_SHARE_CYCLING = 0.001
+#: at this share of its 99th-percentile airflow a unit runs flat out (``u_full``): ``hold`` lets the zone go there.
+#: The apartments' split units end a step at their 24.0 °C setpoint in 84-98 % of the cooling steps below 95 % of
+#: full airflow and in 16-27 % of the steps at full airflow (``benchmarks/apartments_s16.md``)
+FULL_SHARE = 0.99
+
+
+def running_threshold(q99: float, u_min: float) -> float:
+    """The airflow [kg/s] above which a zone's unit runs (``u_on``), from its 99th-percentile airflow ``q99`` on the
+    training rows and its minimum airflow ``u_min``.
+
+    - A box with a minimum airflow (``u_min`` > 0, a VAV box) modulates: it runs a mode when it moves clearly more than
+      its minimum, ``max(1.05 u_min, ON_SHARE_MODULATING q99)``.
+    - A unit without one (``u_min`` 0: a split unit, a furnace, a packaged unit with a cycling fan) turns on and off
+      within the step, so its step-averaged airflow is its duty cycle times its full flow: a short run is a small
+      average, and a thermostat that runs it for a minute holds its setpoint as much as one that runs it all step.
+      It runs whenever it moves air at all, above ``ON_SHARE_CYCLING q99`` (below a flow meter's zero offset).
+    Measured on the EnergyPlus mid-rise apartments (``benchmarks/apartments_s16.md``): the split units' rows with
+    airflow between that floor and 5 % of ``q99`` are 7 % of their cooling rows, and 97-100 % of them end at 24.0 °C.
+    """
+    if u_min > 0:
+        return float(max(1.05 * u_min, ON_SHARE_MODULATING * q99) + 1e-6)
+    return float(ON_SHARE_CYCLING * q99 + 1e-6)
 
 
 def held_edges(T, tol: float = EDGE_TOL, min_pile: float = MIN_PILE, max_beyond: float = MAX_BEYOND) -> dict:
@@ -89,15 +115,29 @@ class HeldSetpoint(Term):
     u_on: float = 0.0
     #: a running unit holds its setpoint exactly (both sides), not only stops at it (conditional edges only)
     hold: bool = False
+    #: the supply-air column whose difference to the zone tells a running unit's mode: the zone's own unit's
+    #: (``T_supply_<ahu>``) where the zone has one, else the airflow-weighted ``T_supply`` of every unit
+    supply: str = "T_supply"
+    #: ``hold`` holds the setpoint while the unit runs below this airflow [kg/s]; at or above it the unit runs at full
+    #: capacity, may fall short, and only stops at its setpoint (None: at every airflow, the session-14 hold)
+    u_full: float | None = None
 
     def columns(self):
-        return ("T_supply",) if self.cooling_floor is not None or self.heating_ceiling is not None else ()
+        return (self.supply,) if self.cooling_floor is not None or self.heating_ceiling is not None else ()
 
     def zones(self):
         return (self.zone,)
 
     def location(self):
         return {"zone": self.zone, **({"hold": True} if self.hold else {})}
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        if self.supply != "T_supply":
+            d["supply"] = self.supply
+        if self.hold and self.u_full is not None:
+            d["u_full"] = float(self.u_full)
+        return d
 
     def coefficients(self):
         out = {k: float(v) for k, v in zip(EDGES, self.edges()) if v is not None}
@@ -130,7 +170,15 @@ class HeldSetpoint(Term):
         u_on = num(d, "u_on", what, problems, default=0.0)
         if np.isfinite(u_on) and u_on < 0:
             problems.append(f"{what}: u_on must be >= 0 kg/s, got {u_on}")
-        return cls(zone=zone_of(d, "zone", zone_names, what, problems), u_on=u_on, hold=hold, std=std, **e)
+        supply = d.get("supply", "T_supply")
+        if not isinstance(supply, str) or not supply:
+            problems.append(f"{what}: supply must be a supply-air column name, got {supply!r}")
+            supply = "T_supply"
+        u_full = num(d, "u_full", what, problems) if d.get("u_full") is not None else None
+        if u_full is not None and np.isfinite(u_full) and u_full <= u_on:
+            problems.append(f"{what}: u_full {u_full} kg/s must be above u_on {u_on} kg/s")
+        zone = zone_of(d, "zone", zone_names, what, problems)
+        return cls(zone=zone, u_on=u_on, hold=hold, supply=supply, u_full=u_full, std=std, **e)
 
     def with_fit(self, sig, coefs, stds):
         return self
@@ -139,13 +187,16 @@ class HeldSetpoint(Term):
         zi = c.zi[self.zone]
         T = c.Tn[..., zi]
         if self.cooling_floor is not None or self.heating_ceiling is not None:
-            on = c.u[..., zi] > self.u_on
-            dT = c.v[..., c.vi["T_supply"]] - c.T[..., zi]
+            u = c.u[..., zi]
+            on = u > self.u_on
+            # a unit at full airflow may run short of capacity: it stops at its setpoint but does not hold it
+            hold = self.hold & (u < self.u_full) if self.u_full is not None else self.hold
+            dT = c.v[..., c.vi[self.supply]] - c.T[..., zi]
             if self.cooling_floor is not None:
-                held = self.cooling_floor if self.hold else np.maximum(T, self.cooling_floor)
+                held = np.where(hold, self.cooling_floor, np.maximum(T, self.cooling_floor))
                 T = np.where(on & (dT < -MODE_DT), held, T)
             if self.heating_ceiling is not None:
-                held = self.heating_ceiling if self.hold else np.minimum(T, self.heating_ceiling)
+                held = np.where(hold, self.heating_ceiling, np.minimum(T, self.heating_ceiling))
                 T = np.where(on & (dT > MODE_DT), held, T)
         if self.lower is not None:
             T = np.maximum(T, self.lower)
@@ -182,26 +233,28 @@ class HeldSetpoint(Term):
         return rows[at]
 
     @classmethod
-    def learn(cls, zone, T, u, T_supply, rows, u_min: float = 0.0) -> tuple:
+    def learn(cls, zone, T, u, T_supply, rows, u_min: float = 0.0, supply: str = "T_supply") -> tuple:
         """The term of ``zone`` learned on ``rows`` (None when no edge holds) and its evidence.
 
         ``T`` (n,) the zone's measured temperature [°C], ``u`` (n,) its airflow [kg/s], ``T_supply`` (n,) the
         supply air [°C] (None: only the unconditional edges), ``rows`` the training rows (one-step: ``k`` with
         ``T[k+1]``), ``u_min`` the zone's minimum airflow [kg/s]. The conditional edges read ``T[k+1]`` of the
         rows whose unit runs (``u > u_on``) with supply air :data:`MODE_DT` colder (cooling) or warmer (heating)
-        than the zone: a running unit's own thermostat stops it at its setpoint.
+        than the zone: a running unit's own thermostat stops it at its setpoint. ``supply`` names the column
+        ``T_supply`` was read from (the term reads it when simulating).
         """
         T = np.asarray(T, float)
         rows = np.asarray(rows, int)
         rows = rows[rows < len(T) - 1]
         ev: dict = {"always": held_edges(T[rows])}
         edges = {"lower": ev["always"]["lower"], "upper": ev["always"]["upper"]}
-        u_on = 0.0
+        u_on, u_full = 0.0, None
         if T_supply is not None and u is not None:
             u = np.asarray(u, float)
             ur = u[rows]
             q = float(np.nanquantile(ur, 0.99)) if np.isfinite(ur).any() else 0.0
-            u_on = float(max(1.05 * u_min, 0.05 * q) + 1e-6)
+            u_on = running_threshold(q, u_min)
+            u_full = FULL_SHARE * q if FULL_SHARE * q > u_on else None
             dT = np.asarray(T_supply, float)[rows] - T[rows]
             on = ur > u_on
             for name, mode, side in (("cooling_floor", on & (dT < -MODE_DT), "lower"),
@@ -215,6 +268,7 @@ class HeldSetpoint(Term):
                 edges[name] = e[side]
         if all(v is None for v in edges.values()):
             return None, ev
-        term = cls(zone=zone, u_on=u_on if edges.get("cooling_floor") or edges.get("heating_ceiling") else 0.0,
-                   **{k: edges.get(k) for k in EDGES})  # fmt: skip
+        conditional = edges.get("cooling_floor") is not None or edges.get("heating_ceiling") is not None
+        term = cls(zone=zone, u_on=u_on if conditional else 0.0, supply=supply if conditional else "T_supply",
+                   u_full=u_full if conditional else None, **{k: edges.get(k) for k in EDGES})  # fmt: skip
         return term, ev
