@@ -19,10 +19,12 @@ not used: the evidence of real swaps is concentrated in few days (t 1.7-4.7 on a
 
 Thresholds (measured, README "What gets refused"): no box of a correct mapping in
 the cached EnergyPlus and emulator exports passes them; see :func:`check_box_zones`.
-A swapped ``Td_`` column is not tested: in EnergyPlus exports a box's heat computed
-with another box's discharge air explains its zone better than its own in 3 of 12
-correct files (a kitchen fed by transfer air from the dining room), as much as in
-real swaps.
+The per-box map does not test a swapped ``Td_`` column: in EnergyPlus exports a box's heat
+computed with another box's discharge air explains its zone better than its own in 3 of 12
+correct files (a kitchen fed by transfer air from the dining room), as much as in real swaps.
+:func:`check_discharge_swaps` (session 16) requires it both ways: box a's zone follows a's heat
+computed with ``Td_b``, *and* box b's zone with ``Td_a`` (largest clean lead 37.9 units on 95
+emulator and EnergyPlus exports, flagged from 50; benchmarks/tdswap_s16.md).
 
 Zone temperature columns exchanged between two zones (:func:`check_zone_swaps`, session 16): per column and
 per zone, the log-likelihood the zone's drivers (its boxes' summed heat computed with that column, its
@@ -411,5 +413,123 @@ def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
             f"more. If the sensors' points are exchanged in the export or the mapping, map them the other way round "
             f"in the building's [columns] table ({fix}); otherwise check that the boxes of zones "
             f"{', '.join(cyc[:-1])} and {cyc[-1]} are mapped to the right zones in [[vavs]]"
+        )
+    return notes
+
+
+@dataclasses.dataclass
+class DischargePairEvidence:
+    """Result of :func:`discharge_pair_evidence`.
+
+    ``own[v]``: log-likelihood that box ``v``'s heat ``m_v c_p (Td_v - T_zone)`` gains in explaining its zone's
+    central change, over the zone's other boxes; ``other[v][w]``: the same with box ``w``'s discharge air
+    ``Td_w`` in place of ``Td_v`` (boxes ``w`` of other zones); ``rows``: rows used.
+    """
+
+    own: dict
+    other: dict
+    rows: int
+
+    def lead(self, a: str, b: str) -> tuple[float, float]:
+        """(lead of ``Td_b`` over ``Td_a`` in box a's zone, lead of ``Td_a`` over ``Td_b`` in box b's zone)."""
+        return self.other[a][b] - self.own[a], self.other[b][a] - self.own[b]
+
+
+def discharge_pair_evidence(frame: pd.DataFrame, building) -> DischargePairEvidence | None:
+    """How well each box's heat explains its zone with its own discharge column and with each other zone's box's.
+
+    Per zone, the central change and its boxes' heat are projected off the baseline of :func:`box_zone_evidence`
+    (as there, with irradiance), then off the zone's other boxes; box ``v``'s heat computed with ``Td_v`` and with
+    each ``Td_w`` of a box in another zone is then added alone: ``n/2 log(RSS without / RSS with)``, 0 for a
+    coefficient <= 0. Only boxes whose inlet air is their own ``Td_`` column take part; None without two of them
+    in different zones, or without enough rows.
+    """
+    got = _usable(frame, building)
+    if got is None:
+        return None
+    zones, T, dT, ok, base, m, tin = got
+    # boxes whose inlet air is their own Td_ column (see _inlet)
+    td = [v for v in m if f"Td_{v}" in frame.columns and np.isfinite(frame[f"Td_{v}"].to_numpy(float)).mean() >= 0.5]
+    zone_of = {v: building.vav(v).zone for v in m}
+    if len({zone_of[v] for v in td}) < 2:
+        return None
+    n = int(ok.sum())
+    own, other = {}, {}
+    for j, z in enumerate(zones):
+        here = [v for v in m if zone_of[v] == z]
+        if not any(v in td for v in here):
+            continue
+        Tz = T[ok, j]
+        q, _ = np.linalg.qr(base[j][ok])
+        H = np.column_stack([dT[ok, j], *(CP_KJ * m[v][ok] * (tin[v][ok] - Tz) for v in here)])
+        H = H - q @ (q.T @ H)
+        for i, a in enumerate(here):
+            if a not in td:
+                continue
+            rest = [k for k in range(len(here)) if k != i]
+            alts = [w for w in td if zone_of[w] != z]
+            X = np.column_stack([H[:, 1 + i], *(CP_KJ * m[a][ok] * (tin[w][ok] - Tz) for w in alts)])
+            X[:, 1:] -= q @ (q.T @ X[:, 1:])
+            y = H[:, 0]
+            if rest:
+                q2, _ = np.linalg.qr(H[:, [1 + k for k in rest]])
+                y = y - q2 @ (q2.T @ y)
+                X = X - q2 @ (q2.T @ X)
+            rss0 = float(y @ y)
+            c, xx = X.T @ y, np.einsum("ij,ij->j", X, X)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rss1 = rss0 - np.where(xx > 0, c * c / xx, 0.0)
+                g = np.where((c > 0) & (rss1 > 0), 0.5 * n * np.log(rss0 / rss1), 0.0) if rss0 > 0 else 0.0 * c
+            own[a] = float(g[0])
+            other[a] = {w: float(x) for w, x in zip(alts, g[1:])}
+    return DischargePairEvidence(own=own, other=other, rows=n)
+
+
+#: Evidence [log-likelihood units] by which *each* of two boxes' heat must explain its zone better with the other
+#: box's discharge column than with its own before the pair is flagged as swapped ...
+TD_SWAP_MARGIN = 50.0
+#: ... and the least share of the pair's evidence (both boxes, both columns) the exchanged columns must hold.
+TD_SWAP_SHARE = 0.6
+
+
+def check_discharge_swaps(frame: pd.DataFrame, building) -> list[str]:
+    """Warnings for discharge-air columns ``Td_a`` and ``Td_b`` of boxes in different zones that look exchanged.
+
+    Box a's heat computed with ``Td_b`` explains a's zone better than with ``Td_a`` by at least
+    :data:`TD_SWAP_MARGIN`, *and* box b's with ``Td_a`` explains b's zone better than with ``Td_b`` by as much,
+    and the exchanged columns hold at least :data:`TD_SWAP_SHARE` of the pair's evidence (see
+    :func:`discharge_pair_evidence`). One direction is not enough: a zone fed by transfer air from another
+    (an EnergyPlus kitchen from its dining room) follows that zone's box's discharge air. A box is named once
+    at most: the pair with the largest summed lead first.
+    """
+    ev = discharge_pair_evidence(frame, building)
+    if ev is None:
+        return []
+    pairs = []
+    boxes = list(ev.own)
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            if b not in ev.other[a] or a not in ev.other[b]:
+                continue
+            la, lb = ev.lead(a, b)
+            theirs, mine = ev.other[a][b] + ev.other[b][a], ev.own[a] + ev.own[b]
+            if min(la, lb) >= TD_SWAP_MARGIN and theirs >= TD_SWAP_SHARE * (theirs + mine):
+                pairs.append((la + lb, a, b))
+    notes, named = [], set()
+    for _lead, a, b in sorted(pairs, key=lambda p: -p[0]):
+        if {a, b} & named:
+            continue
+        named |= {a, b}
+        ca, cb = building.column_for(f"Td_{a}"), building.column_for(f"Td_{b}")
+        za, zb = building.vav(a).zone, building.vav(b).zone
+        notes.append(
+            f"columns {ca!r} (Td_{a}) and {cb!r} (Td_{b}) look swapped: box {a}'s delivered heat m_{a} c_p "
+            f"(Td - T_{za}) explains the temperature changes of its zone {za} far better with column {cb!r} than "
+            f"with its own (evidence {ev.other[a][b]:.0f} against {ev.own[a]:.0f} log-likelihood units over "
+            f"{ev.rows} steps), and box {b}'s explains zone {zb} better with column {ca!r} ({ev.other[b][a]:.0f} "
+            f"against {ev.own[b]:.0f}); flagged when each box prefers the other's column by {TD_SWAP_MARGIN:g} or "
+            f"more. If the discharge sensors' points are exchanged in the export or the mapping, map them the other "
+            f'way round in the building\'s [columns] table (Td_{a} = "{cb}", Td_{b} = "{ca}"); otherwise check '
+            f"that boxes {a} and {b} are mapped to the right zones in [[vavs]]"
         )
     return notes

@@ -44,6 +44,7 @@ _ATTENTION = {
     "mapped to the wrong zone?": "box in another zone",
     "look swapped: the temperature changes": "zone columns swapped",
     "look rotated: the temperature changes": "zone columns rotated",
+    "look swapped: box ": "discharge columns swapped",
     "a frozen outdoor sensor?": "frozen outdoor air",
 }
 

@@ -15,7 +15,7 @@ import pandas as pd
 from ..building import ORIENTATIONS, Building, building_notes
 from ..errors import DataError, HvacfmuWarning, problems_message
 from ..progress import Progress
-from .boxmap import check_box_zones, check_zone_swaps
+from .boxmap import check_box_zones, check_discharge_swaps, check_zone_swaps
 from .holidays import HolidayCalendar, decide_holidays
 from .loading import LoadReport, as_building, load_measurements
 from .plausibility import check_discharge, check_roles, check_supply_assignment
@@ -506,6 +506,7 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
         # on the finished frame: facade irradiance belongs to the baseline the boxes' heat is weighed against
         dataset.warnings.extend(f"{label}: {n}" for n in check_box_zones(dataset.frame, building))
         dataset.warnings.extend(f"{label}: {n}" for n in check_zone_swaps(dataset.frame, building))
+        dataset.warnings.extend(f"{label}: {n}" for n in check_discharge_swaps(dataset.frame, building))
         bar.update()
     return dataset
 
