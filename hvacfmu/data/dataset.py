@@ -505,8 +505,10 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
         )
         # on the finished frame: facade irradiance belongs to the baseline the boxes' heat is weighed against
         dataset.warnings.extend(f"{label}: {n}" for n in check_box_zones(dataset.frame, building))
-        dataset.warnings.extend(f"{label}: {n}" for n in check_zone_swaps(dataset.frame, building))
-        dataset.warnings.extend(f"{label}: {n}" for n in check_discharge_swaps(dataset.frame, building))
+        zone_swaps = check_zone_swaps(dataset.frame, building)
+        dataset.warnings.extend(f"{label}: {n}" for n in zone_swaps)
+        if not zone_swaps:  # swapped zone columns make boxes prefer other boxes' discharge air too: fix them first
+            dataset.warnings.extend(f"{label}: {n}" for n in check_discharge_swaps(dataset.frame, building))
         bar.update()
     return dataset
 
