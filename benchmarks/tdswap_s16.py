@@ -5,7 +5,9 @@ and ``building.toml``); it is prepared (where the check runs) and the test's evi
 swap message (a false alarm), the clean pair that comes closest (``worst_lead``: min over the two boxes of the
 lead of the other box's column over its own), and how many box pairs in different zones would be flagged if
 their ``Td_`` columns were exchanged (exchanging swaps the roles of own and other evidence).
-See benchmarks/tdswap_s16.md.
+``python3 benchmarks/tdswap_s16.py --variants CLEAN_DIR``: ``check`` on every red-team variant
+(benchmarks/redteam_s16.py) of the red team's clean CSV export in CLEAN_DIR; prints the exit code and any
+discharge swap message per variant. See benchmarks/tdswap_s16.md.
 """
 
 from __future__ import annotations
@@ -43,7 +45,38 @@ def margins(frame, building) -> dict:
     return out
 
 
+def variants(clean: Path) -> None:
+    import numpy as np
+    import pandas as pd
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import redteam_s15 as s15
+    import redteam_s16  # noqa: F401  (adds session 16's variants to s15.VARIANTS)
+
+    from hvacfmu.data import check
+
+    f0, b0 = pd.read_csv(clean / "measurements.csv"), (clean / "building.toml").read_text()
+    work = clean.parent / "tdswap_variants"
+    for fn in s15.VARIANTS:
+        out, b = fn(f0.copy(), b0, np.random.default_rng(0))
+        d = work / fn.__name__
+        d.mkdir(parents=True, exist_ok=True)
+        (d / "building.toml").write_text(b)
+        if isinstance(out, str):
+            (d / "m.csv").write_text(out)
+        else:
+            out.to_csv(d / "m.csv", index=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rep = check(d / "m.csv", d / "building.toml")
+        hits = [w[:160] for w in rep.warnings if "look swapped: box" in w]
+        print(json.dumps({"variant": fn.__name__, "exit": rep.exit_code, "td_swap": hits}), flush=True)
+
+
 def main(argv) -> None:
+    if argv[:1] == ["--variants"]:
+        variants(Path(argv[1]))
+        return
     from hvacfmu.data import prepare
     from hvacfmu.errors import DataError
 
