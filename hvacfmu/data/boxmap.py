@@ -23,7 +23,7 @@ The per-box map does not test a swapped ``Td_`` column: in EnergyPlus exports a 
 computed with another box's discharge air explains its zone better than its own in 3 of 12
 correct files (a kitchen fed by transfer air from the dining room), as much as in real swaps.
 :func:`check_discharge_swaps` (session 16) requires it both ways: box a's zone follows a's heat
-computed with ``Td_b``, *and* box b's zone with ``Td_a`` (largest clean lead 37.9 units on 95
+computed with ``Td_b``, *and* box b's zone with ``Td_a`` (largest clean lead 37.9 units on 96
 emulator and EnergyPlus exports, flagged from 50; benchmarks/tdswap_s16.md).
 
 Zone temperature columns exchanged between two zones (:func:`check_zone_swaps`, session 16): per column and
