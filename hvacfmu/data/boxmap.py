@@ -20,11 +20,13 @@ not used: the evidence of real swaps is concentrated in few days (t 1.7-4.7 on a
 Boxes that say nothing of their own (session 16): in another zone a box is weighed against that zone's own
 boxes *and their supply air* (each box's inlet air, its central change and its airflow, free coefficients): a
 small room held by the air its box blows in is explained by that air, not by a box sharing the air handler. A
-box whose airflow is constant or proportional to its air handler's other boxes' summed airflow, or to the
-airflow of a box of the other zone (correlation from :data:`SAME_FLOW`), is not weighed in another zone at all
+box whose airflow is proportional to its air handler's other boxes' summed airflow (or both constant), or to the
+airflow of a box of the other zone on the same unit (correlation from :data:`SAME_FLOW`), is not weighed in
+another zone at all
 (its heat differs from a sibling's only through its discharge air; a zone that swings with the unit's on/off
-cycles seemed to follow any box of it: 33 false warnings on an EnergyPlus outpatient, now 0); nor does it count
-among a zone's drivers in :func:`zone_pair_evidence`.
+cycles seemed to follow any box of it: 33 false warnings on an EnergyPlus outpatient, now 0). Zone columns
+whose boxes are all such boxes of one unit are not tested for an exchange among themselves
+(:func:`check_zone_swaps`).
 
 Thresholds (measured, README "What gets refused"): no box of a correct mapping in
 the cached EnergyPlus and emulator exports passes them; see :func:`check_box_zones`.
@@ -174,6 +176,8 @@ def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
     zone_ev = {v: {} for v in boxes}
     shared = _shared_flow(m, ok, building)
     same = _same_pattern(np.column_stack([m[v][ok] for v in boxes]))
+    unit = np.array([building.supply_column(v) for v in boxes])
+    same &= unit[:, None] == unit[None, :]  # boxes on different units differ by their units' supply air
     fits = {}
     for j, z in enumerate(zones):
         Tz = T[ok, j]
@@ -223,17 +227,18 @@ SAME_FLOW = 0.99
 
 
 def _shared_flow(m: dict, ok: np.ndarray, building) -> dict:
-    """Per box: whether its airflow is constant or follows the summed airflow of its air handler's other boxes.
+    """Per box: whether its airflow follows the summed airflow of its air handler's other boxes (or both are constant).
 
     Such a box (every box of a unit at fixed flow, the unit cycling on and off) says nothing of its own about
     where its air goes: its heat differs from any sibling's only through its discharge air, and a zone that
-    swings with the unit's cycles seems to follow it. Its heat is not weighed in another zone.
+    swings with the unit's cycles seems to follow it. Its heat is not weighed in another zone. A box alone on its
+    unit is never shared: at constant flow, its unit's supply air is its own (a packaged single-zone unit).
     """
     unit = {v: building.supply_column(v) for v in m}
     shared = {}
     for v in m:
-        rest = sum((m[w][ok] for w in m if unit[w] == unit[v] and w != v), np.zeros(int(ok.sum())))
-        shared[v] = float(np.std(m[v][ok])) == 0 or _collinear(m[v][ok], rest)
+        rest = [m[w][ok] for w in m if unit[w] == unit[v] and w != v]
+        shared[v] = bool(rest) and _collinear(m[v][ok], np.sum(rest, axis=0))
     return shared
 
 
@@ -335,13 +340,15 @@ class ZonePairEvidence:
     ``gain[a][z]``: log-likelihood that zone ``z``'s drivers gain in explaining the central change of column
     ``T_a``: its boxes' delivered heat (computed with ``T_a``), and the irradiance of its facades;
     ``boxes_only[a][z]``: the same with the heat alone; ``sunlit``: the zones with facades whose irradiance
-    is in the data; ``rows``: rows used.
+    is in the data; ``rows``: rows used; ``one_pattern[z]``: the air handler of zone ``z`` when all its boxes are
+    on one unit at that unit's airflow pattern (see :func:`_shared_flow`).
     """
 
     gain: dict
     boxes_only: dict
     sunlit: frozenset
     rows: int
+    one_pattern: dict = dataclasses.field(default_factory=dict)
 
     def swap(self, a: str, b: str) -> tuple[float, float]:
         """(own, swapped): evidence of the mapping as declared and with columns ``T_a`` and ``T_b`` exchanged.
@@ -370,10 +377,11 @@ def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None
     n = int(ok.sum())
     irr = [c for c in ("I_N", "I_E", "I_S", "I_W") if c in frame.columns]
     sun = {z: [irr.index(f"I_{o}") for o in building.zone(z).orientations if f"I_{o}" in irr] for z in zones}
-    # a zone's heat with column T_a is c_p (sum m T_in - T_a sum m): two sums per zone serve every column; a box
-    # at constant flow or at its air handler's airflow pattern (see _shared_flow) tells no zone from another
+    # a zone's heat with column T_a is c_p (sum m T_in - T_a sum m): two sums per zone serve every column
+    boxes = {z: [v for v in m if building.vav(v).zone == z] for z in zones}
     shared = _shared_flow(m, ok, building)
-    boxes = {z: [v for v in m if building.vav(v).zone == z and not shared[v]] for z in zones}
+    units = {z: {building.supply_column(v) for v in boxes[z]} for z in zones}
+    one_pattern = {z: next(iter(units[z])) for z in zones if len(units[z]) == 1 and all(shared[v] for v in boxes[z])}
     flow = np.column_stack([sum((m[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
     flow_in = np.column_stack([sum((m[v][ok] * tin[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
     sunlight = np.column_stack([frame[c].to_numpy(dtype=float)[ok] for c in irr]) if irr else np.zeros((n, 0))
@@ -408,7 +416,9 @@ def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None
             cols = ([k] if boxes[z] else []) + [nz + i for i in sun[z]]
             full[a][z] = gain(G, g, yy, cols) if cols else 0.0
             heat_only[a][z] = gain(G, g, yy, [k]) if boxes[z] else 0.0
-    return ZonePairEvidence(gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n)
+    return ZonePairEvidence(
+        gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n, one_pattern=one_pattern
+    )
 
 
 #: Evidence [log-likelihood units] by which *each* of two zone columns must follow the other zone's drivers
@@ -450,6 +460,10 @@ def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
                 found.append((a, b, c))
     cycles = []
     for cyc in found:
+        if len({ev.one_pattern.get(z) for z in cyc}) == 1 and cyc[0] in ev.one_pattern:
+            # every box of these zones on one unit at its airflow pattern: their drivers differ only by the boxes'
+            # discharge air (a small room swinging with the unit's cycles follows any of them)
+            continue
         steps = [edge(x, cyc[(k + 1) % len(cyc)]) for k, x in enumerate(cyc)]
         lead = min(e[0] for e in steps)
         theirs, own = sum(e[1] for e in steps), sum(e[2] for e in steps)
