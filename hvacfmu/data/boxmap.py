@@ -17,6 +17,17 @@ evidence). ``zone_t`` also gives a day-clustered t of the difference; it is repo
 not used: the evidence of real swaps is concentrated in few days (t 1.7-4.7 on an
 8-week emulator export for differences of 150-320 units).
 
+Boxes that say nothing of their own (session 16): in another zone a box is weighed against that zone's own
+boxes *and their supply air* (each box's inlet air, its central change and its airflow, free coefficients): a
+small room held by the air its box blows in is explained by that air, not by a box sharing the air handler. A
+box whose airflow is proportional to its air handler's other boxes' summed airflow (or both constant), or to the
+airflow of a box of the other zone on the same unit (correlation from :data:`SAME_FLOW`), is not weighed in
+another zone at all
+(its heat differs from a sibling's only through its discharge air; a zone that swings with the unit's on/off
+cycles seemed to follow any box of it: 33 false warnings on an EnergyPlus outpatient, now 0). Zone columns
+whose boxes are all such boxes of one unit are not tested for an exchange among themselves
+(:func:`check_zone_swaps`).
+
 Thresholds (measured, README "What gets refused"): no box of a correct mapping in
 the cached EnergyPlus and emulator exports passes them; see :func:`check_box_zones`.
 The per-box map does not test a swapped ``Td_`` column: in EnergyPlus exports a box's heat
@@ -165,19 +176,33 @@ def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
     mapped = {z: [v for v in boxes if building.vav(v).zone == z] for z in zones}
     day = frame.index[ok].normalize().asi8
     zone_ev = {v: {} for v in boxes}
+    shared = _shared_flow(m, ok, building)
+    same = _same_pattern(np.column_stack([m[v][ok] for v in boxes]))
+    unit = np.array([building.supply_column(v) for v in boxes])
+    same &= unit[:, None] == unit[None, :]  # boxes on different units differ by their units' supply air
     fits = {}
     for j, z in enumerate(zones):
         Tz = T[ok, j]
-        Z = np.column_stack([dT[ok, j], *(CP_KJ * m[v][ok] * (tin[v][ok] - Tz) for v in boxes)])
+        supply = _supply_drivers(m, tin, ok, mapped[z])
+        Z = np.column_stack([dT[ok, j], *(CP_KJ * m[v][ok] * (tin[v][ok] - Tz) for v in boxes), supply])
         q, _ = np.linalg.qr(base[j][ok])
         Zx = Z - q @ (q.T @ Z)
         fits[z] = (Zx, Zx.T @ Zx)
         G = fits[z][1]
+        k, e = len(boxes), supply.shape[1]
+        own_drivers = np.vstack([np.zeros((k, e)), np.eye(e)])
         for i, v in enumerate(boxes):
             # in its own zone a box is weighed against the baseline alone: a sibling box with the same airflow
-            # pattern would otherwise take its evidence; elsewhere against that zone's own boxes
-            here = [] if building.vav(v).zone == z else mapped[z]
-            zone_ev[v][z] = _gain(G, _others(boxes, here, v), _unit(len(boxes), i), n)
+            # pattern would otherwise take its evidence; elsewhere against that zone's own boxes and their supply
+            # air (its level and its change, and the boxes' airflow, free coefficients): a zone whose air follows
+            # the air its own boxes blow in (a small room at constant flow) is explained by it, not by a box that
+            # shares its air handler
+            if building.vav(v).zone == z:
+                zone_ev[v][z] = _gain(G, np.zeros((k + e, 0)), _unit(k + e, i), n)
+            else:
+                here = np.vstack([_others(boxes, mapped[z], v), np.zeros((e, len(mapped[z]) - (v in mapped[z])))])
+                same_flow = shared[v] or any(same[i, boxes.index(w)] for w in mapped[z])
+                zone_ev[v][z] = 0.0 if same_flow else _gain(G, np.hstack([here, own_drivers]), _unit(k + e, i), n)
     zone_t = {}
     for i, v in enumerate(boxes):
         z0 = building.vav(v).zone
@@ -186,6 +211,57 @@ def box_zone_evidence(frame: pd.DataFrame, building) -> BoxZoneEvidence | None:
             d = _row_gain(fits[alt], boxes, mapped[alt], v, i) - _row_gain(fits[z0], boxes, [], v, i)
             zone_t[v] = (alt, _clustered_t(d, day))
     return BoxZoneEvidence(zone=zone_ev, rows=n, boxes=boxes, zone_t=zone_t)
+
+
+def _supply_drivers(m: dict, tin: dict, ok: np.ndarray, here: list) -> np.ndarray:
+    """Per box of a zone: its inlet air, the central change of it, and its airflow (rows ``ok``), one column each."""
+    cols = []
+    for v in here:
+        t = tin[v]
+        d = np.full_like(t, np.nan)
+        d[1:-1] = t[2:] - t[:-2]
+        cols += [t[ok], np.nan_to_num(d[ok]), m[v][ok]]
+    return np.column_stack(cols) if cols else np.zeros((int(ok.sum()), 0))
+
+
+#: Correlation of two boxes' airflow from which they are taken to share one pattern (a schedule at fixed flow).
+SAME_FLOW = 0.99
+
+
+def _shared_flow(m: dict, ok: np.ndarray, building) -> dict:
+    """Per box: whether its airflow follows the summed airflow of its air handler's other boxes (or both are constant).
+
+    Such a box (every box of a unit at fixed flow, the unit cycling on and off) says nothing of its own about
+    where its air goes: its heat differs from any sibling's only through its discharge air, and a zone that
+    swings with the unit's cycles seems to follow it. Its heat is not weighed in another zone. A box alone on its
+    unit is never shared: at constant flow, its unit's supply air is its own (a packaged single-zone unit).
+    """
+    unit = {v: building.supply_column(v) for v in m}
+    shared = {}
+    for v in m:
+        rest = [m[w][ok] for w in m if unit[w] == unit[v] and w != v]
+        shared[v] = bool(rest) and _collinear(m[v][ok], np.sum(rest, axis=0))
+    return shared
+
+
+def _same_pattern(flows: np.ndarray) -> np.ndarray:
+    """Boolean matrix: whether the airflows of boxes i and j (columns) are proportional (see :func:`_collinear`)."""
+    sd = flows.std(axis=0)
+    const = sd == 0
+    z = (flows - flows.mean(axis=0)) / np.where(const, 1.0, sd)
+    same = (z.T @ z) / len(flows) >= SAME_FLOW
+    same[np.ix_(const, const)] = True
+    same[np.ix_(const, ~const)] = False
+    same[np.ix_(~const, const)] = False
+    return same
+
+
+def _collinear(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether airflows ``a`` and ``b`` are proportional to each other (correlation from :data:`SAME_FLOW`)."""
+    sa, sb = float(np.std(a)), float(np.std(b))
+    if sa == 0 or sb == 0:
+        return sa == sb
+    return float(np.corrcoef(a, b)[0, 1]) >= SAME_FLOW
 
 
 def _unit(k: int, i: int) -> np.ndarray:
@@ -208,7 +284,7 @@ def _row_gain(fit, boxes, here, v, col) -> np.ndarray:
     Zx, _ = fit
     y = Zx[:, 0]
     base = _others(boxes, here, v)
-    A0 = Zx[:, 1:] @ base
+    A0 = Zx[:, 1 : 1 + len(boxes)] @ base
     r0 = y - A0 @ np.linalg.lstsq(A0, y, rcond=None)[0] if base.shape[1] else y
     A1 = np.column_stack([A0, Zx[:, 1 + col]])
     coef = np.linalg.lstsq(A1, y, rcond=None)[0]
@@ -266,13 +342,15 @@ class ZonePairEvidence:
     ``gain[a][z]``: log-likelihood that zone ``z``'s drivers gain in explaining the central change of column
     ``T_a``: its boxes' delivered heat (computed with ``T_a``), and the irradiance of its facades;
     ``boxes_only[a][z]``: the same with the heat alone; ``sunlit``: the zones with facades whose irradiance
-    is in the data; ``rows``: rows used.
+    is in the data; ``rows``: rows used; ``one_pattern[z]``: the air handler of zone ``z`` when all its boxes are
+    on one unit at that unit's airflow pattern (see :func:`_shared_flow`).
     """
 
     gain: dict
     boxes_only: dict
     sunlit: frozenset
     rows: int
+    one_pattern: dict = dataclasses.field(default_factory=dict)
 
     def swap(self, a: str, b: str) -> tuple[float, float]:
         """(own, swapped): evidence of the mapping as declared and with columns ``T_a`` and ``T_b`` exchanged.
@@ -303,6 +381,9 @@ def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None
     sun = {z: [irr.index(f"I_{o}") for o in building.zone(z).orientations if f"I_{o}" in irr] for z in zones}
     # a zone's heat with column T_a is c_p (sum m T_in - T_a sum m): two sums per zone serve every column
     boxes = {z: [v for v in m if building.vav(v).zone == z] for z in zones}
+    shared = _shared_flow(m, ok, building)
+    units = {z: {building.supply_column(v) for v in boxes[z]} for z in zones}
+    one_pattern = {z: next(iter(units[z])) for z in zones if len(units[z]) == 1 and all(shared[v] for v in boxes[z])}
     flow = np.column_stack([sum((m[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
     flow_in = np.column_stack([sum((m[v][ok] * tin[v][ok] for v in boxes[z]), np.zeros(n)) for z in zones])
     sunlight = np.column_stack([frame[c].to_numpy(dtype=float)[ok] for c in irr]) if irr else np.zeros((n, 0))
@@ -337,7 +418,9 @@ def zone_pair_evidence(frame: pd.DataFrame, building) -> ZonePairEvidence | None
             cols = ([k] if boxes[z] else []) + [nz + i for i in sun[z]]
             full[a][z] = gain(G, g, yy, cols) if cols else 0.0
             heat_only[a][z] = gain(G, g, yy, [k]) if boxes[z] else 0.0
-    return ZonePairEvidence(gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n)
+    return ZonePairEvidence(
+        gain=full, boxes_only=heat_only, sunlit=frozenset(z for z in zones if sun[z]), rows=n, one_pattern=one_pattern
+    )
 
 
 #: Evidence [log-likelihood units] by which *each* of two zone columns must follow the other zone's drivers
@@ -379,6 +462,10 @@ def check_zone_swaps(frame: pd.DataFrame, building) -> list[str]:
                 found.append((a, b, c))
     cycles = []
     for cyc in found:
+        if len({ev.one_pattern.get(z) for z in cyc}) == 1 and cyc[0] in ev.one_pattern:
+            # every box of these zones on one unit at its airflow pattern: their drivers differ only by the boxes'
+            # discharge air (a small room swinging with the unit's cycles follows any of them)
+            continue
         steps = [edge(x, cyc[(k + 1) % len(cyc)]) for k, x in enumerate(cyc)]
         lead = min(e[0] for e in steps)
         theirs, own = sum(e[1] for e in steps), sum(e[2] for e in steps)
