@@ -36,7 +36,7 @@ def _max_fraction(idf, name: str) -> float:
 def rewrite_m_min(src: Path, out: Path) -> tuple[Path, list[str]]:
     """A copy of ``src`` (measurements linked) with the 1.9 ``m_min`` of every scheduled-minimum box."""
     info = json.loads((src / "energyplus.json").read_text())
-    if info.get("export_version", "0") >= "1.9":
+    if tuple(int(x) for x in info.get("export_version", "0").split(".")) >= (1, 9):
         return src, []
     idf = read_idf(info["idf"])
     text = (src / "building.toml").read_text()
