@@ -258,10 +258,7 @@ def _same_pattern(flows: np.ndarray) -> np.ndarray:
 
 def _collinear(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether airflows ``a`` and ``b`` are proportional to each other (correlation from :data:`SAME_FLOW`)."""
-    sa, sb = float(np.std(a)), float(np.std(b))
-    if sa == 0 or sb == 0:
-        return sa == sb
-    return float(np.corrcoef(a, b)[0, 1]) >= SAME_FLOW
+    return bool(_same_pattern(np.column_stack([a, b]))[0, 1])
 
 
 def _unit(k: int, i: int) -> np.ndarray:
