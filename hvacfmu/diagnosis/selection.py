@@ -987,14 +987,13 @@ def _cv_coupling_alone(sig, plan, terms, c, base_scores: dict) -> None:
         else:
             beyond[sig.zones[z]] = by_zone[sig.zones[z]]
 
-    def order(zt):
-        g = zt[1].get("gain_percent")
-        return (-np.inf if g is None else g, zt[1].get("t") or -np.inf)
+    def order(x):
+        g = x[1].get("gain_percent")
+        return (-np.inf if g is None else g, x[1].get("t") or -np.inf)
 
     # the decisive test: the weakest of the four (each zone alone; each zone beyond the others' mean)
     weakest = min(
-        [(z, r, "alone") for z, r in by_zone.items()] + [(z, r, "beyond") for z, r in beyond.items()],
-        key=lambda x: order((x[0], x[1])),
+        [(z, r, "alone") for z, r in by_zone.items()] + [(z, r, "beyond") for z, r in beyond.items()], key=order
     )
     c.cv = dict(weakest[1])
     c.cv["zone"] = weakest[0]
