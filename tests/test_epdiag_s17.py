@@ -1,0 +1,60 @@
+"""The EnergyPlus diagnosis bed's injected schedules follow the hours they state (benchmarks/diagnosis_energyplus_s17.md).
+
+pvlib 0.16's ``read_epw`` labels an EPW row with its hour's start; the bed took the label for the hour's end and
+subtracted an hour, so its off-hours heaters ran the first HVAC hour (6-7 h) with the boxes on and stayed off the
+first hour after the HVAC stopped. ``hour_start`` reads the hour from the EPW's own ``month``/``day``/``hour`` fields.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def _bed():
+    if str(BENCH) not in sys.path:
+        sys.path.insert(0, str(BENCH))  # the bed imports bench_diagnosis_battery by name
+    spec = importlib.util.spec_from_file_location("bench_diagnosis_energyplus", BENCH / "bench_diagnosis_energyplus.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_hour_start_reads_the_epw_hour_field_whatever_the_index_says():
+    bed = _bed()
+    # two labellings of the same EPW rows (hour 1 = 00:00-01:00): by the hour's start and by its end
+    fields = pd.DataFrame({"month": [1, 1, 12], "day": [1, 1, 31], "hour": [1, 2, 24]})
+    for first in ("2017-01-01 00:00", "2017-01-01 01:00"):
+        data = fields.set_index(pd.DatetimeIndex([first] * 3).tz_localize("Etc/GMT+7"))
+        got = bed.hour_start(data)
+        assert [str(t) for t in got] == [
+            "2017-01-01 00:00:00-07:00",
+            "2017-01-01 01:00:00-07:00",
+            "2017-12-31 23:00:00-07:00",
+        ]
+
+
+def test_the_off_hours_heater_is_off_in_every_hvac_hour_and_on_in_the_hours_around_them():
+    pytest.importorskip("pyenergyplus")
+    pytest.importorskip("pvlib")
+    bed = _bed()
+    data, _ = bed.read_weather("denver")
+    on = bed.heater_on("denver", 0.0) > 0
+    start = bed.hour_start(data).tz_convert(bed.TIMEZONES["denver"])
+    t_out = data["temp_air"].to_numpy()
+    occupied = np.zeros(len(start), bool)
+    for d, (h0, h1) in bed.OCCUPIED.items():
+        occupied |= (start.day_of_week == d) & (start.hour >= h0) & (start.hour < h1)
+    assert not (on & occupied).any()  # main: on in 89 of its 957 hours (the first HVAC hour of cold mornings)
+    assert np.array_equal(on, (t_out < 0.0) & ~occupied)
+    # Tuesday 10 January 2017, -4 °C before dawn: on until the HVAC starts at 6 h, off from then
+    day = start.normalize() == pd.Timestamp("2017-01-10", tz=bed.TIMEZONES["denver"])
+    hours = dict(zip(start.hour[day], on[day]))
+    assert hours[5] and not hours[6]
