@@ -58,3 +58,44 @@ def test_the_off_hours_heater_is_off_in_every_hvac_hour_and_on_in_the_hours_arou
     day = start.normalize() == pd.Timestamp("2017-01-10", tz=bed.TIMEZONES["denver"])
     hours = dict(zip(start.hour[day], on[day]))
     assert hours[5] and not hours[6]
+
+
+# --- the on/off reheat's regime is picked by the cross-validation among its best one-step variants -------------
+
+
+def test_the_heaters_regime_is_the_cross_validations_pick_among_the_best_one_step_variants():
+    from test_diagnosis import row_model
+    from test_diagnosis_boxoff import HEATER, boxes_off_at_night
+
+    from hvacfmu.diagnosis import diagnose
+    from hvacfmu.models.extended import ExtendedModel
+
+    base = row_model()
+    rep = diagnose(boxes_off_at_night(ExtendedModel(base=base, terms=(HEATER,))), model=base, progress=False)
+    hits = [f for f in rep.findings if f["cause"] == "reheat"]
+    assert [f["location"] for f in hits] == [{"zone": "B"}], rep.summary()
+    ev = hits[0]["evidence"]["threshold_cv"]  # main: no such evidence (the one-step fit's pick, never compared)
+    gains = ev["gain_percent_by_regime"]
+    assert len(gains) >= 2 and ev["one_step_pick"] in gains, ev
+    assert gains[ev["picked"]] == max(gains.values()), ev
+    assert ev["picked"].endswith(f", {HEATER.T_threshold:g} °C"), ev  # the heater's own threshold
+    assert hits[0]["parameters"]["T_threshold"]["value"] == HEATER.T_threshold
+
+
+@pytest.mark.slow
+def test_energyplus_heater_below_0C_is_found_at_its_threshold():
+    """The bed's case 6 (3 kW heater in ZN_3, box off and T_out < 0 °C): the one-step fit picks 2 °C (LR 129
+    against 71), cross-validated +7.6 %; the cross-validation's pick is 0 °C, +13.7 % (main: 2 °C)."""
+    pytest.importorskip("pyenergyplus")
+    pytest.importorskip("pvlib")
+    from hvacfmu.data import prepare
+    from hvacfmu.diagnosis import diagnose
+
+    bed = _bed()
+    case = next(c for c in bed.CASES if c["id"] == 6)
+    paths = bed.export(case)
+    rep = diagnose(prepare(paths.measurements, paths.building), progress=False)
+    hits = [f for f in rep.findings if f["cause"] == "reheat" and f["location"] == {"zone": "Perimeter_mid_ZN_3"}]
+    assert len(hits) == 1, rep.summary()
+    assert hits[0]["parameters"]["T_threshold"]["value"] == 0.0, hits[0]["parameters"]
+    assert hits[0]["cv"]["gain_percent"] > 10.0, hits[0]["cv"]
