@@ -15,7 +15,8 @@ Each round, every registered cause screens the current model's training residual
    other zone measured: cross-validated gain ≥ ``cv_min_gain_percent`` (1 %; coupling
    ``coupling_min_gain_percent`` 3 %) and ≥ ``min_gain_abs`` (0.003 K), and week-clustered paired
    t ≥ ``cv_min_t`` (2). A delay's length is the one of its ``delay_cv_variants`` (3) best one-step
-   lengths passing the gates of 1. with the largest cross-validated gain (:func:`_delay_length_by_cv`).
+   lengths passing the gates of 1. with the largest cross-validated gain (:func:`_delay_length_by_cv`), and an
+   on/off reheat's regime the same way among its 3 best (:func:`_threshold_by_cv`).
 
 The held-out test weeks are only reported (per finding, per affected zone). Candidates are
 tried in order of ΔBIC; at most one per zone per round; the strongest rival cause at the same
