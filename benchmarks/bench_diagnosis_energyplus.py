@@ -102,12 +102,28 @@ def read_weather(weather: str):
     return data, _meta
 
 
+def hour_start(data):
+    """Start of each EPW row's hour, local standard time (the EPW's ``hour`` field 1-24 is the hour ending then).
+
+    Read from the EPW's own fields, not from pvlib's index: pvlib 0.16 labels a row with its hour's **start**
+    (hour 1 -> 00:00), while this script, written against an older convention, took the index for the hour's end
+    and subtracted an hour, which put the heater schedule (and the solar schedule's sun position) one hour late:
+    the EnergyPlus heaters of cases 6 and 7 ran 6-7 h with the boxes already on and were off 22-23 h with the boxes
+    off (session 17, ``diagnosis_energyplus_s17.md``).
+    """
+    import pandas as pd
+
+    day = pd.to_datetime({"year": YEAR, "month": data["month"], "day": data["day"]})
+    start = day + pd.to_timedelta(data["hour"].astype(int) - 1, unit="h")
+    return pd.DatetimeIndex(start).tz_localize(data.index.tz)
+
+
 def facade_irradiance(weather: str, facade: str) -> np.ndarray:
     """Hourly irradiance [W/m²] on a vertical ``facade`` over the EPW's year (8760 values, hour i = row i)."""
     import pvlib
 
     data, meta = read_weather(weather)
-    mid = data.index - np.timedelta64(30, "m")
+    mid = hour_start(data) + np.timedelta64(30, "m")
     sp = pvlib.solarposition.get_solarposition(mid, meta["latitude"], meta["longitude"], altitude=meta["altitude"])
     poa = pvlib.irradiance.get_total_irradiance(
         90.0,
@@ -125,10 +141,9 @@ def facade_irradiance(weather: str, facade: str) -> np.ndarray:
 
 def heater_on(weather: str, below: float) -> np.ndarray:
     """Hourly 0/1: outdoor temperature below ``below`` [°C] outside the HVAC's operating hours (local clock)."""
-    import pandas as pd
 
     data, _ = read_weather(weather)
-    start = (data.index - pd.Timedelta(hours=1)).tz_convert(TIMEZONES[weather])
+    start = hour_start(data).tz_convert(TIMEZONES[weather])
     hour = start.hour.to_numpy()
     dow = start.dayofweek.to_numpy()
     occ = np.zeros(len(start), bool)
@@ -219,10 +234,8 @@ def detectability(case: dict, truth: dict, frame) -> dict:
     e = case["effect"]
     cause = e["cause"]
     if cause in ("solar_gain", "reheat"):
-        import pandas as pd
-
         data, _ = read_weather(case["weather"])
-        hours = (data.index - pd.Timedelta(hours=1)).tz_convert(frame.index.tz)
+        hours = hour_start(data).tz_convert(frame.index.tz)
         keep = (hours >= frame.index[0]) & (hours <= frame.index[-1])
         w = truth["hourly_W"][keep]
         on = w > 1.0

@@ -123,7 +123,7 @@ def hourly_to_rows(sig, hourly: np.ndarray, weather: str) -> np.ndarray:
     import pandas as pd
 
     data, _ = bed.read_weather(weather)
-    start = data.index - pd.Timedelta(hours=1)  # hour start (EPW index = hour end)
+    start = bed.hour_start(data)  # hour start (from the EPW's fields; bed.hour_start)
     s = pd.Series(np.asarray(hourly, float), index=start.tz_convert("UTC"))
     idx = sig.index.tz_convert("UTC").floor("h")
     return s.reindex(idx).to_numpy(dtype=float)
