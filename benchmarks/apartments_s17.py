@@ -11,8 +11,9 @@ As ``apartments_s16.py``: one ``diagnose`` per case, its held stage run twice on
 old share (``old_rule``) and with the new one (``extended``, what ``diagnose`` saves); the three models scored on the
 same held-out windows per zone and season.
 
-``--evidence CASE ...`` only learns each zone's edges on the training rows under both rules (no fit of a held
-model): a case whose edges are the same under both gets the same diagnosis by construction.
+``--evidence CASE ...`` only learns each zone's edges on the training rows and on each cross-validation fold's fit
+rows under both rules (no fit of a held model): a case whose edges are the same everywhere under both gets the same
+diagnosis by construction.
 
     OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/apartments_s17.py --out DIR wind
     OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/apartments_s17.py --evidence wind r3e r2c r1b emulator battery13
@@ -50,10 +51,13 @@ class old_rules:
 
 
 def evidence(key: str) -> list:
-    """Per zone: the edges learned on the training rows under the old and the new rule, and whether they differ."""
+    """Per zone: the edges learned on the training rows and on each fold's fit rows under the old and the new rule,
+    and whether they differ anywhere (where they do not, the held stage is the same under both)."""
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import held
+    from hvacfmu.diagnosis.crossval import make_plan
     from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.diagnosis.selection import horizon_steps
     from hvacfmu.fitting import fit
 
     with warnings.catch_warnings():
@@ -80,7 +84,19 @@ def evidence(key: str) -> list:
             "mode_rows": {k: ev[k].get("n") for k in ("cooling_floor", "heating_ceiling") if k in ev},
             "train_rows": len(rows),
         }
-        row["changed"] = row["old_rule"] != row["new_rule"]
+        # the held stage also learns the edges on each cross-validation fold's fit rows (fewer, fewer of a season)
+        plan = make_plan(sig, 10, horizon_steps(ds.step))
+        folds = [] if plan is None else plan.fit_rows
+        n_fold_diff = 0
+        for fr in folds:
+            with old_rules():
+                f_old, _ = held._learn(sig, zi, fr)
+            f_new, _ = held._learn(sig, zi, fr)
+            n_fold_diff += (None if f_old is None else f_old.coefficients()) != (
+                None if f_new is None else f_new.coefficients()
+            )
+        row["folds_changed"] = f"{n_fold_diff} of {len(folds)}"
+        row["changed"] = row["old_rule"] != row["new_rule"] or n_fold_diff > 0
         out.append(row)
         print(f"  {key} {row}")
     print(f"  {key}: {sum(r['changed'] for r in out)} of {len(out)} zones change their edges")
