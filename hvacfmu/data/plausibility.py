@@ -240,6 +240,46 @@ def check_outdoor(si, unit, index, latitude, desc, problems):
     )
 
 
+def shoulder_low(latitude: float) -> float:
+    """Lowest plausible monthly mean outdoor temperature [°C] in a cold-half month outside midwinter.
+
+    October, November and March in the north (April, May and September in the south), at stations below 2000 m:
+    none colder than -2 °C within 35° of the equator (Kabul, 1790 m: November 3.5 °C), -10 °C to 45° (the
+    coldest, Hohhot and Urumqi, about -4 °C in November), -20 °C to 60° (Ulaanbaatar, 1350 m: November -13 °C).
+    """
+    a = abs(latitude)
+    return -2.0 if a <= 35 else (-10.0 if a <= 45 else (-20.0 if a <= 60 else -50.0))
+
+
+def check_outdoor_shoulder(raw, unit, si, index, latitude, desc, warnings):
+    """Flag ``T_out`` whose autumn or spring months are colder than any station's while another unit fits.
+
+    °C declared as °F (the zones' unit) reads 10 °C as -12.2 °C: inside the wide cold-half envelope of
+    :func:`outdoor_envelope` that must admit midwinter, but colder than any October, November or March below
+    60° (:func:`shoulder_low`). Said only when the other reading of the same numbers fits that month.
+    """
+    alt = {"degF": "degC", "degC": "degF"}.get(unit)
+    if alt is None or index is None:
+        return
+    north = latitude >= 0
+    months = [x for x in outdoor_months(si, index, latitude) if x[0] in ((10, 11, 3) if north else (4, 5, 9))]
+    lo = shoulder_low(latitude)
+    cold = [x for x in months if x[1] < lo]
+    if not cold:
+        return
+    as_alt = outdoor_months(to_si(raw, alt), index, latitude)
+    fits = {m: mu for m, mu, a, b in as_alt if max(a, lo) <= mu <= b}
+    if not all(m in fits for m, *_ in cold):
+        return
+    alt_text = ", ".join(f"{pd.Timestamp(2001, m, 1):%b} {fits[m]:.1f} °C" for m, *_ in cold[:4])
+    warnings.append(
+        f"{desc}: monthly mean outdoor temperature ({_months_text(cold)}; declared {unit}) is below {lo:g} °C, "
+        f"colder than any weather station below 2000 m at latitude {latitude:g}° in that month; read as {alt} it "
+        f"would be {alt_text}: is the outdoor air in {alt} (a weather feed in another unit than the BMS)? declare "
+        f'its unit in the building\'s [units] table (T_out = "{alt}")'
+    )
+
+
 def check_outdoor_unit_mix(raw, unit, zone_unit, index, latitude, desc, warnings):
     """Flag ``T_out`` declared in another temperature unit than the zones when the zones' unit fits it too.
 
@@ -506,6 +546,63 @@ def _dropout_runs(v, t_ns) -> np.ndarray:
 BEHAVIOUR_DAYS = 7.0
 #: A zone temperature changing value at most this many times on a median day is a setpoint, not a sensor.
 SETPOINT_CHANGES_PER_DAY = 2
+
+
+#: A zone temperature repeating one value this long [h] (and under :data:`STUCK_DAYS`) is held, ...
+HELD_HOURS = 6.0
+#: ... when it then jumps by at least this much [K] and this multiple of the column's median change ...
+HELD_JUMP_K, HELD_JUMP_FACTOR = 0.5, 5.0
+#: ... on at least this many days, holding at least this many distinct values (a simulated zone resting at one
+#: setpoint repeats that value each night: 2 days at most in 55 EnergyPlus exports).
+HELD_RUNS = 5
+
+
+def check_zone_held(si, times_ns, ok, desc, where, warnings):
+    """Mask held stretches of a zone temperature (a controller offline that repeats its last reading); returns it.
+
+    A run of one exact value lasting :data:`HELD_HOURS` or more that ends with a jump (the sensor's real
+    value after hours of silence) is not air: the zone's temperature moves every hour. Flagged when such
+    runs occur on :data:`HELD_RUNS` days or more with as many distinct held values (a zone resting at its
+    setpoint holds the same value every night and leaves it smoothly); the samples after each run's first
+    are masked.
+    """
+    if times_ns is None:
+        return si
+    v = np.where(ok, si, np.nan)
+    fin = np.flatnonzero(np.isfinite(v))
+    if len(fin) < 2:
+        return si
+    steps = np.abs(np.diff(v[fin]))
+    steps = steps[steps > 0]
+    if not len(steps):
+        return si
+    jump_min = max(HELD_JUMP_K, HELD_JUMP_FACTOR * float(np.median(steps)))
+    held = []
+    for a, b in stuck_runs(v, times_ns, HELD_HOURS * 3600):
+        if (times_ns[b - 1] - times_ns[a]) >= STUCK_DAYS * 86400e9:
+            continue  # a stuck sensor: check_stuck's
+        after = fin[fin >= b]
+        if len(after) and abs(v[after[0]] - v[a]) >= jump_min:
+            held.append((a, b))
+    days = {int(times_ns[a] // 86400e9) for a, _ in held}
+    values = {float(v[a]) for a, _ in held}
+    if min(len(days), len(values)) < HELD_RUNS:
+        return si
+    si = si.copy()
+    total = 0
+    for a, b in held:
+        total += int(np.isfinite(si[a + 1 : b]).sum())
+        si[a + 1 : b] = np.nan
+    hours = [(times_ns[b - 1] - times_ns[a]) / 3600e9 for a, b in held]
+    a0, b0 = held[0]
+    warnings.append(
+        f"{desc}: a held sensor? the value repeats exactly for {HELD_HOURS:g} h or more and then jumps by "
+        f"{jump_min:.2g} K or more, {len(held)} times on {len(days)} days ({min(hours):.0f}-{max(hours):.0f} h; "
+        f"first: {v[a0]:.4g} from {where([a0], None)} to {where([b0 - 1], None)}): zone air moves every hour, "
+        "so the controller repeated its last reading (offline, or trend-logged on change of value with a "
+        f"coarse threshold); {total} held sample(s) masked as missing (fix the trend log or its polling)"
+    )
+    return si
 
 
 def check_setpoint_like(si, times_ns, ok, desc, warnings):
