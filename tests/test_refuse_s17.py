@@ -157,3 +157,26 @@ def test_date_and_time_in_two_columns_and_local_times_marked_utc_are_named(tmp_p
     assert "times go backwards at 1 place(s)" in msg
     assert "step back in the hour that America/Los_Angeles's clocks repeat when daylight saving time ends" in msg
     assert "local wall-clock times written with a 'Z'? drop the 'Z'" in msg
+
+
+def test_a_totals_row_at_the_end_is_named(tmp_path):
+    """An 'Average' row appended by the report: main said only that 'Average' is not an ISO 8601 time."""
+    path = tmp_path / "m.csv"
+    path.write_text(_text(base_frame(), tmp_path) + "Average,21.6,22.0,0.2,0.1,13.0,14.0,14.0,200,25.0,0.5,0\n")
+    msg = _problems(path)
+    assert "'Average' at row 769; the last rows of the file hold words, not times ('Average')" in msg
+    assert "a summary row (total, average, min/max) that the report appends? delete it" in msg
+
+
+def test_irradiance_per_square_foot_is_named_and_can_be_declared(tmp_path):
+    """ghi in W/ft² read as W/m² (a tenth): main's warning offered energy per interval or a shaded sensor (red
+    team: 5.1 K on the clean data). The warning now names W/ft², and declaring it reads the column right."""
+    frame = base_frame()
+    frame["ghi"] = frame["ghi"] / 10.7639
+    _, rep = load_measurements(write(frame, tmp_path / "m.csv", "offset"), _building())
+    msg = next(w for w in rep.warnings if "is not W/m²" in w)
+    assert "read as W/ft2 (x 10.76 W/m²) its highest peak would be 700 W/m²" in msg
+    assert 'declare ghi = "W/ft2" in the building\'s [units] table' in msg
+    got, rep = load_measurements(tmp_path / "m.csv", _building(units={"ghi": "W/ft2"}))
+    assert not [w for w in rep.warnings if "is not W/m²" in w]
+    assert np.allclose(got["ghi"], base_frame()["ghi"].to_numpy(), atol=1e-6)

@@ -364,11 +364,22 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         problems.append(
             f"{label}: column {name!r}: {len(bad)} values are not ISO 8601 times, e.g. "
             f"{_Where(None).rows(bad, values=text.to_numpy())}{_time_format_hint(stripped.iloc[bad[:200]])}"
+            + _summary_rows_hint(stripped, bad, n)
         )
     if empty.any():
         bad = np.flatnonzero(empty)
         problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
     return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _summary_rows_hint(text: pd.Series, bad: np.ndarray, n: int) -> str:
+    """A hint when the unparseable times are a few words in the last rows (a totals or average row)."""
+    if not 0 < len(bad) <= 5 or bad[0] < n - 10 or not text.iloc[bad].str.contains(r"[A-Za-z]{3}", na=False).all():
+        return ""
+    return (
+        f"; the last rows of the file hold words, not times ({', '.join(repr(x) for x in text.iloc[bad][:3])}): "
+        "a summary row (total, average, min/max) that the report appends? delete it (its numbers are not readings)"
+    )
 
 
 def _time_format_hint(text: pd.Series) -> str:

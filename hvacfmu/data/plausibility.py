@@ -738,11 +738,21 @@ def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, wa
     if ratio >= GHI_LEVEL_SHARE:
         return
     peak = float(measured[good].max())
+    per_ft2 = ""
+    for name, factor in (("W/ft2", 1 / 0.3048**2), ("Btu/h/ft2", 1055.05585262 / 3600 / 0.3048**2)):
+        if unit == "W/m2" and GHI_LEVEL_SHARE <= ratio * factor <= 1.3:
+            per_ft2 = (
+                f"; read as {name} (x {factor:.2f} W/m²) its highest peak would be {peak * factor:.0f} W/m², "
+                f'{100 * ratio * factor:.0f} % of the clear sky: declare ghi = "{name}" in the building\'s '
+                "[units] table if the station reports per square foot"
+            )
+            break
     warnings.append(
         f"{desc}: its highest daily peak over {int(good.sum())} days is {peak:.4g} W/m² (declared {unit}), only "
         f"{100 * ratio:.0f} % of the clear-sky peak that day at latitude {latitude:g}°, longitude {longitude:g}°: "
         "an irradiance this low on every day is not W/m²; energy per trend interval (Wh/m² per 15 min reads "
         "a quarter of W/m²)? a shaded or dirty sensor? convert the column to W/m² (average power) or fix the sensor"
+        + per_ft2
     )
 
 
