@@ -180,3 +180,16 @@ def test_irradiance_per_square_foot_is_named_and_can_be_declared(tmp_path):
     got, rep = load_measurements(tmp_path / "m.csv", _building(units={"ghi": "W/ft2"}))
     assert not [w for w in rep.warnings if "is not W/m²" in w]
     assert np.allclose(got["ghi"], base_frame()["ghi"].to_numpy(), atol=1e-6)
+
+
+def test_the_most_specific_unit_glob_wins(tmp_path):
+    """[units] "T_*" = "degF" then "T_supply_*" = "degC": main took the first matching glob (°F) for the supply
+    air, whatever the more specific line said (red team: a wrong "T_supply_*" line was silently ignored, a right
+    one refused); the most specific glob now wins."""
+    frame = base_frame()
+    for c in ("T_A", "T_B", "T_out"):
+        frame[c] = frame[c] * 1.8 + 32
+    b = _building(units={"T_*": "degF", "T_supply_*": "degC"})
+    assert b.unit_for("T_supply_AHU1") == "degC" and b.unit_for("T_A") == "degF"
+    got, _ = load_measurements(write(frame, tmp_path / "m.csv", "offset"), b)
+    assert np.allclose(got["T_supply_AHU1"], base_frame()["T_supply_AHU1"].to_numpy())
