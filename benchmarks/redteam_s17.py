@@ -234,8 +234,8 @@ def setpoint_with_ramp(f, b, rng):
     """Zone S's column is its active setpoint with a 2-h morning warm-up ramp in 0.5 °F steps."""
     t = _times(f)
     h = t.dt.hour + t.dt.minute / 60
-    occ = (t.dt.dayofweek < 5) & (h >= 8) & (h < 18)
-    ramp = (t.dt.dayofweek < 5) & (h >= 6) & (h < 8)
+    occ = (t.dt.day_of_week < 5) & (h >= 8) & (h < 18)
+    ramp = (t.dt.day_of_week < 5) & (h >= 6) & (h < 8)
     sp = np.where(occ, 71.0, np.where(ramp, 65.0 + np.floor((h - 6) * 6) * 0.5, 65.0))
     return f.assign(T_S=np.where(f["T_S"].isna(), np.nan, sp)), b
 

@@ -1028,10 +1028,7 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
             report.masked[(canonical, "frozen sensor")] = before - int(np.isfinite(si).sum())
     if canonical in {f"T_{z}" for z in ctx.building.zone_names}:
         check_setpoint_like(si, ctx.utc, ctx.ok, f"{label}: {desc}", report.warnings)
-        before = int(np.isfinite(si).sum())
-        si = check_zone_held(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, report.warnings)
-        if before > np.isfinite(si).sum():
-            report.masked[(canonical, "held sensor")] = before - int(np.isfinite(si).sum())
+        check_zone_held(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, report.warnings)
     elif kind == "airflow":
         box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
         check_airflow_constant(si, ctx.utc, ctx.ok, box, f"{label}: {desc}", report.warnings)

@@ -558,13 +558,14 @@ HELD_RUNS = 5
 
 
 def check_zone_held(si, times_ns, ok, desc, where, warnings):
-    """Mask held stretches of a zone temperature (a controller offline that repeats its last reading); returns it.
+    """Flag held stretches of a zone temperature (a controller offline that repeats its last reading).
 
     A run of one exact value lasting :data:`HELD_HOURS` or more that ends with a jump (the sensor's real
     value after hours of silence) is not air: the zone's temperature moves every hour. Flagged when such
     runs occur on :data:`HELD_RUNS` days or more with as many distinct held values (a zone resting at its
-    setpoint holds the same value every night and leaves it smoothly); the samples after each run's first
-    are masked.
+    setpoint holds the same value every night and leaves it smoothly). The samples are kept: masking them
+    leaves the zone without its nights, and the red team's model got worse (1.44 K on the clean data
+    against 0.25 K with the held values, 0.20 K clean). Returns the column unchanged.
     """
     if times_ns is None:
         return si
@@ -588,11 +589,7 @@ def check_zone_held(si, times_ns, ok, desc, where, warnings):
     values = {float(v[a]) for a, _ in held}
     if min(len(days), len(values)) < HELD_RUNS:
         return si
-    si = si.copy()
-    total = 0
-    for a, b in held:
-        total += int(np.isfinite(si[a + 1 : b]).sum())
-        si[a + 1 : b] = np.nan
+    total = sum(int(np.isfinite(si[a + 1 : b]).sum()) for a, b in held)
     hours = [(times_ns[b - 1] - times_ns[a]) / 3600e9 for a, b in held]
     a0, b0 = held[0]
     warnings.append(
@@ -600,7 +597,9 @@ def check_zone_held(si, times_ns, ok, desc, where, warnings):
         f"{jump_min:.2g} K or more, {len(held)} times on {len(days)} days ({min(hours):.0f}-{max(hours):.0f} h; "
         f"first: {v[a0]:.4g} from {where([a0], None)} to {where([b0 - 1], None)}): zone air moves every hour, "
         "so the controller repeated its last reading (offline, or trend-logged on change of value with a "
-        f"coarse threshold); {total} held sample(s) masked as missing (fix the trend log or its polling)"
+        f"coarse threshold); {total} held sample(s), kept as read: the models learn those flat stretches as "
+        "zone air, and blanking them would leave the zone without those hours; fix the trend log (poll the "
+        "sensor, or log on a finer change of value) and export again"
     )
     return si
 
