@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 
 import numpy as np
+import pandas as pd
 import pytest
 from test_properties import BUILDING, base_frame, write
 
@@ -193,3 +194,22 @@ def test_the_most_specific_unit_glob_wins(tmp_path):
     assert b.unit_for("T_supply_AHU1") == "degC" and b.unit_for("T_A") == "degF"
     got, _ = load_measurements(write(frame, tmp_path / "m.csv", "offset"), b)
     assert np.allclose(got["T_supply_AHU1"], base_frame()["T_supply_AHU1"].to_numpy())
+
+
+def test_a_clock_that_never_springs_forward_is_named(tmp_path):
+    """A logger on standard time all year writes the hour that local clocks skip in spring: main said only 'write
+    times with their UTC offset'; the message now names the fix for a clock that never changes, as it does for the
+    autumn hour written once."""
+    frame = base_frame(start="2025-03-06 00:00", days=6)
+    std = frame.index.tz_convert("UTC") - pd.Timedelta(hours=8)  # Pacific standard time all year
+    path = tmp_path / "m.csv"
+    out = frame.reset_index(drop=True)
+    out.insert(0, "time", [t.tz_localize(None).isoformat() for t in std])
+    out.to_csv(path, index=False)
+    msg = _problems(path)
+    assert "4 naive local times do not exist (skipped when daylight saving time starts" in msg
+    assert "if the export inserted rows for the skipped hour, delete them" in msg
+    assert "writes the hour that local clocks skip), declare its zone" in msg
+    assert 'data_timezone = "Etc/GMT+8" (UTC-08:00)' in msg
+    got, _ = load_measurements(path, _building(data_timezone="Etc/GMT+8"))
+    assert len(got) == len(frame)

@@ -475,7 +475,8 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
         problems.append(
             f"{label}: column {name!r}: {int(nonexistent.sum())} naive local times do not exist (skipped when "
             f"daylight saving time starts in {tz}): {_naive_rows(naive, rows, nonexistent)}; "
-            "write times with their UTC offset"
+            "write times with their UTC offset (if the export inserted rows for the skipped hour, delete them)"
+            + _clock_never_changes_hint(tz, naive[np.flatnonzero(nonexistent)[0]], "the hour that local clocks skip")
         )
     ok = ~(unresolved | nonexistent | unparsed)
     plain = ok & ~amb
@@ -483,13 +484,15 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
     return utc, ok
 
 
-def _clock_never_changes_hint(tz: str, when: pd.Timestamp) -> str:
+def _clock_never_changes_hint(tz: str, when: pd.Timestamp, what: str = "that hour once") -> str:
     """The fix when the repeated hour appears once only: the export's clock may never change (UTC, standard time).
 
     A logger on UTC or on standard time all year writes that hour once; read on the wall clock of ``tz`` its
     times are then an hour (or the UTC offset) off, so the zone is named with its ``Etc/GMT`` equivalent.
     """
-    std = pd.Timestamp(when).tz_localize(tz, ambiguous=False).utcoffset()
+    std = pd.Timestamp(when).tz_localize(tz, ambiguous=False, nonexistent="shift_backward").utcoffset()
+    if "skip" in what:  # a time the clocks skip lies in daylight saving time's first hour: standard time is before
+        std = (pd.Timestamp(when) - pd.Timedelta(hours=2)).tz_localize(tz, ambiguous=False).utcoffset()
     hours = -int(std.total_seconds() // 3600) if std is not None else 0
     fixed = f"Etc/GMT{hours:+d}" if hours and std is not None and std.total_seconds() % 3600 == 0 else None
     alt = (
@@ -498,7 +501,7 @@ def _clock_never_changes_hint(tz: str, when: pd.Timestamp) -> str:
         else ""
     )
     return (
-        f". If the export's clock never changes (a server on UTC or on standard time all year writes that hour once), "
+        f". If the export's clock never changes (a server on UTC or on standard time all year writes {what}), "
         f'declare its zone: data_timezone = "UTC"{alt} in the building file, or --timezone'
     )
 
