@@ -1,4 +1,4 @@
-"""Red team of the data path, session 17: 36 new corruptions of the real-world-like export.
+"""Red team of the data path, session 17: 44 new corruptions of the real-world-like export.
 
 Same protocol and scoring as ``benchmarks/redteam_s15.py`` / ``redteam_s16.py`` (clean export: °F, CFM, %,
 naive Chicago wall clock across the autumn clock change, outages, two air handlers, ``Td_``/``rh_``; CSV at
@@ -13,7 +13,9 @@ never leaves summer time, rows newest first / shuffled / exactly duplicated / mo
 Kelvin, a °C outdoor or supply column among °F, one °F zone among °C, declared units that do not match,
 setpoints with ramps, stale or interpolated sensors, negative airflow at night, a +2 K sensor offset, a box off
 for three weeks, ``ghi`` in W/ft² or lux, a totals row, BOM, UTF-16 and cp1252 files, a report preamble, split
-date and time columns, day-first dates, quoted thousands separators, descriptive headers with units.
+date and time columns, day-first dates, quoted thousands separators, descriptive headers with units, one box in
+L/s, discharge sensors reading the supply air, an inverted reheat signal, a supply setpoint, doubled airflows, and
+return air as a zone.
 
 Run: ``python3 benchmarks/redteam_s17.py [--out DIR] [--only NAME ...]``; ``--table BEFORE AFTER`` prints the
 markdown table of two results files and the totals; ``HVACFMU_CODE=/path/to/checkout`` runs another checkout's
@@ -293,6 +295,46 @@ def t_out_hourly_steps(f, b, rng):
     return out, b
 
 
+def one_box_litres_declared_cfm(f, b, rng):
+    """Box E_2's flow in L/s (a replaced controller), declared CFM like the others."""
+    return f.assign(m_VAV_E_2=(f["m_VAV_E_2"] * 0.471947).round(0)), b
+
+
+def all_discharge_is_supply(f, b, rng):
+    """Every Td_ column holds its air handler's supply air (discharge sensors upstream of the coils)."""
+    out = f.copy()
+    for c in [c for c in f.columns if c.startswith("Td_")]:
+        ahu = "T_supply_AHU2" if "_C_" in c else "T_supply_AHU1"
+        out[c] = f[ahu]
+    return out, b
+
+
+def reheat_inverted(f, b, rng):
+    """The reheat valve exported inverted (100 - %), a normally-open actuator's signal."""
+    out = f.copy()
+    for c in [c for c in f.columns if c.startswith("rh_")]:
+        out[c] = 100 - f[c]
+    return out, b
+
+
+def supply_is_setpoint(f, b, rng):
+    """Both T_supply columns hold the discharge-air setpoint (55 °F all along), not the measured supply air."""
+    return f.assign(T_supply_AHU1=55.0, T_supply_AHU2=55.0), b
+
+
+def airflow_doubled(f, b, rng):
+    """Every box's flow doubled (the point sums two boxes behind one controller), declared CFM."""
+    out = f.copy()
+    out[_box_cols(f)] = f[_box_cols(f)] * 2
+    return out, b
+
+
+def zone_is_return_air(f, b, rng):
+    """Zone W's column is the return air of its unit (the airflow-weighted mean of AHU1's zones)."""
+    z = ["T_NW", "T_W", "T_S", "T_E", "T_NE"]
+    return f.assign(T_W=f[z].mean(axis=1).round(1)), b
+
+
 VARIANTS = [
     epoch_seconds, epoch_milliseconds, local_times_with_z, dst_never_falls_back, reverse_chronological,
     shuffled_rows, exact_duplicate_rows, months_concatenated_wrong_order, dayfirst_dates, date_and_time_columns,
@@ -301,7 +343,8 @@ VARIANTS = [
     zone_in_kelvin, t_out_in_celsius, one_zone_in_f_rest_c, supply_in_celsius, supply_declared_celsius,
     one_discharge_in_celsius, rh_percent_declared_fraction, ghi_w_per_ft2, ghi_in_lux, damper_position_all_boxes,
     setpoint_with_ramp, zone_stale_nightly, interpolated_outages, airflow_negative_at_night, zone_offset_plus_2k,
-    zone_sensor_drift, box_zero_three_weeks, t_out_hourly_steps,
+    zone_sensor_drift, box_zero_three_weeks, t_out_hourly_steps, one_box_litres_declared_cfm,
+    all_discharge_is_supply, reheat_inverted, supply_is_setpoint, airflow_doubled, zone_is_return_air,
 ]  # fmt: skip
 #: Fragments of the messages of the session-17 rules that can fire on readable data (a false alarm on a clean export).
 NEW_MESSAGES = (
