@@ -349,7 +349,8 @@ VARIANTS = [
 #: Fragments of the messages of the session-17 rules that can fire on readable data (a false alarm on a clean export).
 NEW_MESSAGES = (
     "a held sensor?", "colder than any weather station", "lines 1-", "the rows run newest first",
-    "the name with a unit appended", "repeat the row before them exactly",
+    "the name with a unit appended", "repeat the row before them exactly", "(the last) ends the file",
+    "unknown column(s) ignored: ''",
 )  # fmt: skip
 #: Variants where nothing is wrong for the model (controls): a warning there is noise, silent is right.
 CONTROLS = {"times_offset_7_min", "descriptive_headers_mapped"}

@@ -213,3 +213,28 @@ def test_a_clock_that_never_springs_forward_is_named(tmp_path):
     assert 'data_timezone = "Etc/GMT+8" (UTC-08:00)' in msg
     got, _ = load_measurements(path, _building(data_timezone="Etc/GMT+8"))
     assert len(got) == len(frame)
+
+
+def test_file_level_slips_are_named(tmp_path):
+    """A workbook saved under .csv was 'no data rows', an empty file pandas' 'No columns to parse from file', a row
+    with two extra fields only pandas' tokenizer error; a separator at the end of every line (Excel) was an
+    'unknown column ignored' that needs action; a last line cut off mid-row was read, its cut value included."""
+    path = tmp_path / "m.csv"
+    path.write_bytes(b"PK\x03\x04" + bytes(100))
+    assert "the file is an Excel workbook (.xlsx) or another zip archive, not text" in _problems(path)
+    path.write_bytes(b"")
+    assert "m.csv: the file is empty (0 bytes)" in _problems(path)
+    lines = _text(base_frame(), tmp_path).splitlines()
+    path.write_text("\n".join(lines[:50] + [lines[50] + ",1,2"] + lines[51:]) + "\n")
+    assert "(line 51 holds 14 fields where the header has 12: a value holding the separator unquoted" in _problems(path)
+    path.write_text("\n".join(x + "," for x in lines) + "\n")
+    _, rep = load_measurements(path, _building())
+    assert not rep.unknown_columns and not [w for w in rep.warnings if "unknown column" in w]
+    path.write_text("\n".join(lines)[:-25])
+    got, rep = load_measurements(path, _building())
+    msg = next(w for w in rep.warnings if "(the last) ends the file" in w)
+    assert msg.startswith("m.csv: row 768 (the last) ends the file after") and "the row is dropped" in msg
+    assert len(got) == 767
+    path.write_text("\n".join(lines))  # only the final line break missing: nothing to say
+    got, rep = load_measurements(path, _building())
+    assert len(got) == 768 and not [w for w in rep.warnings if "(the last)" in w]

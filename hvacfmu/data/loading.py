@@ -153,6 +153,10 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
                 frame = frame.reset_index()
             return frame
         if suffix in (".csv", ".csv.gz", ".txt"):
+            other = _not_text(path)
+            if other:
+                problems.append(other)
+                return None
             enc = _encoding(path)
             sep = _sniff_separator(path, enc)
             preamble = _preamble(path, sep, enc)
@@ -167,10 +171,43 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
                 problems += _thousands_dots(path, sep, frame, time_name, enc)
             return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
-        problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
+        problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}{_reader_hint(str(exc))}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
+
+
+def _not_text(path: Path) -> str | None:
+    """A problem when a .csv file is empty or another format under that name (an Excel workbook, parquet)."""
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rb") as f:
+        head = f.read(8)
+    if not head:
+        return f"{path.name}: the file is empty (0 bytes): export the trend data again"
+    kinds = {b"PK\x03\x04": "an Excel workbook (.xlsx) or another zip archive", b"PAR1": "a parquet file",
+             b"\xd0\xcf\x11\xe0": "an old Excel workbook (.xls)"}  # fmt: skip
+    kind = next((k for magic, k in kinds.items() if head.startswith(magic)), None)
+    if kind is None:
+        return None
+    return (
+        f"{path.name}: the file is {kind}, not text separated by commas: save the sheet as CSV (UTF-8) "
+        "or give the file its own extension (.parquet is read)"
+    )
+
+
+def _reader_hint(error: str) -> str:
+    """What a pandas tokenizer error means in a trend export (a row with more fields than the header)."""
+    m = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", error)
+    if not m:
+        return ""
+    want, line, got = map(int, m.groups())
+    return (
+        f" (line {line} holds {got} fields where the header has {want}: a value holding the separator unquoted "
+        "(a thousands separator such as 1,006, a decimal comma, a status text with a comma) or a row of another "
+        f"export with more columns; fix or delete line {line})"
+    )
 
 
 def _encoding(path: Path) -> str:
@@ -630,6 +667,8 @@ def _load(path: Path, building: Building):
     if raw is None:
         return None, report, problems
     label = path.name
+    raw = _drop_empty_unnamed(raw)
+    raw = _drop_cut_last_row(raw, path, label, report)
     report.rows = n = len(raw)
     if n == 0:
         problems.append(f"{label}: no data rows")
@@ -759,6 +798,42 @@ def _map_columns(raw, building, label, time_name, problems, report) -> dict:
             "and no 'ghi' column to compute them from"
         )
     return present
+
+
+def _drop_empty_unnamed(raw):
+    """The frame without columns that have no name and no value (a separator at the end of every line)."""
+    keep = [
+        i
+        for i, c in enumerate(raw.columns)
+        if not ((str(c).strip() == "" or str(c).startswith("Unnamed: ")) and raw.iloc[:, i].isna().all())
+    ]
+    return raw if len(keep) == raw.shape[1] else raw.iloc[:, keep]
+
+
+def _drop_cut_last_row(raw, path: Path, label: str, report):
+    """The frame without its last row when the file ends in the middle of that row (copied while being written).
+
+    Its last field may be a number cut short ('48' of '484'), so the row is dropped with a warning.
+    """
+    if path.suffix.lower() not in (".csv", ".txt") or len(raw) < 2:
+        return raw
+    with open(path, "rb") as f:
+        f.seek(max(0, path.stat().st_size - 65536))
+        tail = f.read()
+    if tail.endswith((b"\n", b"\r")) or b"\x00" in tail[-4:]:
+        return raw  # a complete last line (UTF-16 ends in a NUL byte; its lines are judged by the reader)
+    import csv
+
+    line = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    filled = len(next(csv.reader([line], delimiter=_sniff_separator(path)), []))
+    if filled >= raw.shape[1]:
+        return raw  # every field present: the last line lacks only its line break
+    report.warnings.append(
+        f"{label}: row {len(raw)} (the last) ends the file after {filled} of its {raw.shape[1]} fields without a "
+        "line break: a file copied while the export was written? the row is dropped (its last value may be cut "
+        "short); export the file again to keep it"
+    )
+    return raw.iloc[:-1]
 
 
 def _split_date_time(raw) -> tuple[str, str] | None:
