@@ -357,6 +357,75 @@ CONTROLS = {"times_offset_7_min", "descriptive_headers_mapped"}
 
 
 # --------------------------------------------------------------------------- running
+# --------------------------------------------------------------------------- check-only probes
+def _probe_files(clean_dir: Path) -> dict:
+    """File-level slips of the clean CSV (name -> bytes), judged by ``check`` alone (no model is fitted)."""
+    import gzip
+
+    text = (clean_dir / "measurements.csv").read_text()
+    lines = text.splitlines()
+    return {
+        "empty_file": b"",
+        "header_only": (lines[0] + "\n").encode(),
+        "crlf": ("\r\n".join(lines) + "\r\n").encode(),
+        "trailing_comma": ("\n".join(x + "," for x in lines) + "\n").encode(),
+        "blank_lines_between": ("\n\n".join(lines) + "\n").encode(),
+        "truncated_last_line": text[: len(text) - 200].encode(),
+        "ragged_row_extra_field": ("\n".join(lines[:100] + [lines[100] + ",99,98"] + lines[101:]) + "\n").encode(),
+        "xlsx_renamed_csv": b"PK\x03\x04" + bytes(200),
+        "gz_csv_with_bom": gzip.compress(("\ufeff" + text).encode()),
+        "header_repeated_midfile": ("\n".join(lines[:1500] + [lines[0]] + lines[1500:]) + "\n").encode(),
+        "quoted_everything": ("\n".join(",".join(f'"{x}"' for x in line.split(",")) for line in lines) + "\n").encode(),
+    }
+
+
+def _spring_variants(spring_dir: Path) -> dict:
+    """Naive local times around the spring change (name -> CSV text), from a clean export spanning 8 March 2026."""
+    f = pd.read_csv(spring_dir / "measurements.csv", dtype={"time": str})
+    i = int(np.flatnonzero(f["time"] == "2026-03-08T01:45:00")[0])
+    ins = f.iloc[[i] * 4].copy()
+    ins["time"] = [f"2026-03-08T02:{m:02d}:00" for m in (0, 15, 30, 45)]
+    inst = pd.DatetimeIndex(_times(f)).tz_localize(TZ, nonexistent="raise")
+    std = (inst.tz_convert("UTC") - pd.Timedelta(hours=6)).tz_localize(None)
+    return {
+        "spring_gap_filled": pd.concat([f.iloc[: i + 1], ins, f.iloc[i + 1 :]]).to_csv(index=False),
+        "dst_never_springs_forward": f.assign(time=_iso(std)).to_csv(index=False),
+        "spring_hour_written_twice": pd.concat([f.iloc[: i + 1], f.iloc[i - 3 : i + 1], f.iloc[i + 1 :]]).to_csv(
+            index=False
+        ),
+    }
+
+
+def probe(out: Path) -> None:
+    """``check`` on the file-level slips and the spring variants; prints exit code and first problem or warning."""
+    from hvacfmu.data import check
+
+    clean_dir, spring_dir = out / "clean", out / "spring"
+    for d, start in ((clean_dir, "2025-10-20"), (spring_dir, "2026-02-23")):
+        if not (d / "measurements.csv").exists():
+            args = list(s15.GENERATE)
+            args[args.index("--start") + 1] = start
+            s15._cli("generate", d, *args)
+    items = {**_probe_files(clean_dir), **_spring_variants(spring_dir)}
+    for name, content in items.items():
+        src = (
+            spring_dir
+            if name in ("spring_gap_filled", "dst_never_springs_forward", "spring_hour_written_twice")
+            else clean_dir
+        )
+        work = out / "probe" / name
+        work.mkdir(parents=True, exist_ok=True)
+        data = work / ("measurements.csv.gz" if name.startswith("gz_") else "measurements.csv")
+        data.write_bytes(content if isinstance(content, bytes) else content.encode())
+        (work / "building.toml").write_text((src / "building.toml").read_text())
+        try:
+            rep = check(data, work / "building.toml")
+            first = (rep.problems or rep.attention or [""])[0]
+            print(f"| `{name}` | exit {rep.exit_code} | {first[:220]} |", flush=True)
+        except Exception as exc:  # noqa: BLE001 - a crash is a finding
+            print(f"| `{name}` | crash | {type(exc).__name__}: {exc} |", flush=True)
+
+
 def run_one(name, data: Path, building: Path, clean: dict, work: Path) -> dict:
     """s15's run_one, with a crash (traceback) from ``check``, ``fit`` or ``evaluate`` as its own outcome."""
     try:
@@ -378,6 +447,7 @@ def main(argv=None):
     ap.add_argument("--table", nargs=2, metavar=("BEFORE", "AFTER"), help="print the markdown table of two results")
     ap.add_argument("--only", nargs="*", help="variant names to run (default all)")
     ap.add_argument("--false-alarms", nargs="*", metavar="DIR", help="only load these clean exports")
+    ap.add_argument("--probe", action="store_true", help="only run check on the file-level and spring probes")
     ap.add_argument("--results", default=None, help="JSON-lines file (default OUT/results.jsonl)")
     args = ap.parse_args(argv)
     if args.table:
@@ -388,6 +458,9 @@ def main(argv=None):
         return
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.probe:
+        probe(out)
+        return
     if args.false_alarms is not None:
         s15.NEW_MESSAGES = NEW_MESSAGES
         s15.false_alarms(args.false_alarms, Path(args.results) if args.results else out / "false_alarms.jsonl")
