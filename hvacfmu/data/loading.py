@@ -163,7 +163,9 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
             if preamble:
                 problems.append(preamble)
                 return None
-            frame = pd.read_csv(path, sep=sep, dtype={time_name: str}, low_memory=False, encoding=enc)
+            frame = pd.read_csv(
+                path, sep=sep, dtype={time_name: str}, low_memory=False, encoding=enc, encoding_errors="replace"
+            )
             header = _csv_header(path, sep, enc)
             if len(header) == frame.shape[1]:
                 frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
@@ -213,8 +215,9 @@ def _reader_hint(error: str) -> str:
 def _encoding(path: Path) -> str:
     """The text encoding of a CSV file: UTF-16 by its byte-order mark, else UTF-8 (BOM or not), else cp1252.
 
-    Excel's "Unicode text" is UTF-16 with a BOM; older BMS tools write Windows-1252 ('°' as byte 0xB0),
-    which is not UTF-8 and which every byte decodes as (a cp1252 file that was UTF-8 would have failed).
+    Excel's "Unicode text" is UTF-16 with a BOM; older BMS tools write Windows-1252 ('°' as the single byte
+    0xB0), which is not valid UTF-8. A file that decodes as UTF-8 is read as UTF-8; the five bytes cp1252
+    leaves undefined are read as replacement characters (they only occur in names and texts).
     """
     import codecs
     import gzip
@@ -247,7 +250,9 @@ def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str, e
     numeric = [c for c in frame.columns if c != time_name and pd.api.types.is_float_dtype(frame[c].dtype)]
     if not numeric:
         return []
-    text = pd.read_csv(path, sep=sep, dtype=str, usecols=numeric, encoding=enc, low_memory=False)
+    text = pd.read_csv(
+        path, sep=sep, dtype=str, usecols=numeric, encoding=enc, encoding_errors="replace", low_memory=False
+    )
     out = []
     for c in numeric:
         col = text[c].dropna().str.strip()
