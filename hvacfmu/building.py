@@ -329,13 +329,17 @@ class Building:
         return canonical
 
     def unit_for(self, canonical: str) -> str | None:
-        """Declared unit of canonical column ``canonical`` (exact name beats glob), or None."""
+        """Declared unit of canonical column ``canonical`` (exact name beats glob), or None.
+
+        Of several matching globs the most specific wins (the most characters that are not wildcards:
+        ``T_supply_*`` over ``T_*``), whatever their order in the file; ties go to the first.
+        """
         if canonical in self.units:
             return self.units[canonical]
-        for pattern, unit in self.units.items():
-            if fnmatch.fnmatchcase(canonical, pattern):
-                return unit
-        return None
+        matching = [(p, u) for p, u in self.units.items() if fnmatch.fnmatchcase(canonical, p)]
+        if not matching:
+            return None
+        return max(matching, key=lambda pu: len(pu[0].replace("*", "").replace("?", "")))[1]
 
     def expected_columns(self) -> dict[str, bool]:
         """Canonical columns a measurement file should have -> whether required."""

@@ -46,6 +46,8 @@ _ATTENTION = {
     "look rotated: the temperature changes": "zone columns rotated",
     "look swapped: box ": "discharge columns swapped",
     "a frozen outdoor sensor?": "frozen outdoor air",
+    "a held sensor? the value repeats": "held zone sensor",
+    "colder than any weather station below 2000 m": "outdoor air unit",
 }
 
 

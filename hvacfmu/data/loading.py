@@ -10,6 +10,7 @@ file with its header on line 1).
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +24,11 @@ from .plausibility import (
     check_irradiance_level,
     check_outdoor,
     check_outdoor_frozen,
+    check_outdoor_shoulder,
     check_outdoor_unit_mix,
     check_setpoint_like,
     check_stuck,
+    check_zone_held,
     check_zone_spikes,
     clear_sky_ghi,
     identical_columns,
@@ -150,25 +153,95 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
                 frame = frame.reset_index()
             return frame
         if suffix in (".csv", ".csv.gz", ".txt"):
-            sep = _sniff_separator(path)
-            frame = pd.read_csv(path, sep=sep, dtype={time_name: str}, low_memory=False, encoding="utf-8-sig")
-            header = _csv_header(path, sep)
+            other = _not_text(path)
+            if other:
+                problems.append(other)
+                return None
+            enc = _encoding(path)
+            sep = _sniff_separator(path, enc)
+            preamble = _preamble(path, sep, enc)
+            if preamble:
+                problems.append(preamble)
+                return None
+            frame = pd.read_csv(
+                path, sep=sep, dtype={time_name: str}, low_memory=False, encoding=enc, encoding_errors="replace"
+            )
+            header = _csv_header(path, sep, enc)
             if len(header) == frame.shape[1]:
                 frame.columns = header  # the names as written: pandas renames a repeated name 'X' to 'X.1'
             if sep != "," and not frame.columns.duplicated().any():  # repeated names are reported by _load
-                problems += _thousands_dots(path, sep, frame, time_name)
+                problems += _thousands_dots(path, sep, frame, time_name, enc)
             return frame
     except Exception as exc:  # noqa: BLE001 - any reader failure is reported as a data problem
-        problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}")
+        problems.append(f"{path.name}: cannot be read as {suffix[1:]}: {exc}{_reader_hint(str(exc))}")
         return None
     problems.append(f"{path.name}: unknown file type {suffix!r}; measurements must be .csv or .parquet")
     return None
 
 
+def _not_text(path: Path) -> str | None:
+    """A problem when a .csv file is empty or another format under that name (an Excel workbook, parquet)."""
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rb") as f:
+        head = f.read(8)
+    if not head:
+        return f"{path.name}: the file is empty (0 bytes): export the trend data again"
+    kinds = {b"PK\x03\x04": "an Excel workbook (.xlsx) or another zip archive", b"PAR1": "a parquet file",
+             b"\xd0\xcf\x11\xe0": "an old Excel workbook (.xls)"}  # fmt: skip
+    kind = next((k for magic, k in kinds.items() if head.startswith(magic)), None)
+    if kind is None:
+        return None
+    return (
+        f"{path.name}: the file is {kind}, not text separated by commas: save the sheet as CSV (UTF-8) "
+        "or give the file its own extension (.parquet is read)"
+    )
+
+
+def _reader_hint(error: str) -> str:
+    """What a pandas tokenizer error means in a trend export (a row with more fields than the header)."""
+    m = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", error)
+    if not m:
+        return ""
+    want, line, got = map(int, m.groups())
+    return (
+        f" (line {line} holds {got} fields where the header has {want}: a value holding the separator unquoted "
+        "(a thousands separator such as 1,006, a decimal comma, a status text with a comma) or a row of another "
+        f"export with more columns; fix or delete line {line})"
+    )
+
+
+def _encoding(path: Path) -> str:
+    """The text encoding of a CSV file: UTF-16 by its byte-order mark, else UTF-8 (BOM or not), else cp1252.
+
+    Excel's "Unicode text" is UTF-16 with a BOM; older BMS tools write Windows-1252 ('°' as the single byte
+    0xB0), which is not valid UTF-8. A file that decodes as UTF-8 is read as UTF-8; the five bytes cp1252
+    leaves undefined are read as replacement characters (they only occur in names and texts).
+    """
+    import codecs
+    import gzip
+
+    opener = gzip.open if path.suffix.lower() == ".gz" else open
+    with opener(path, "rb") as f:
+        head = f.read(4)
+        if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+            return "utf-16"
+        f.seek(0)
+        decoder = codecs.getincrementaldecoder("utf-8-sig")(errors="strict")
+        try:
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                decoder.decode(chunk)
+            decoder.decode(b"", final=True)
+        except UnicodeDecodeError:
+            return "cp1252"
+    return "utf-8-sig"
+
+
 _THOUSANDS_DOT = r"^\s*[-+]?[1-9]\d{0,2}(\.\d{3})+\s*$"
 
 
-def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str) -> list[str]:
+def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str, enc: str = "utf-8-sig") -> list[str]:
     """Problems for '.' thousands separators among whole numbers (a European export: '1.006' is 1006, not 1.006).
 
     Read as numbers they would be a thousand times too small without a trace;
@@ -177,7 +250,9 @@ def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str) -
     numeric = [c for c in frame.columns if c != time_name and pd.api.types.is_float_dtype(frame[c].dtype)]
     if not numeric:
         return []
-    text = pd.read_csv(path, sep=sep, dtype=str, usecols=numeric, encoding="utf-8-sig", low_memory=False)
+    text = pd.read_csv(
+        path, sep=sep, dtype=str, usecols=numeric, encoding=enc, encoding_errors="replace", low_memory=False
+    )
     out = []
     for c in numeric:
         col = text[c].dropna().str.strip()
@@ -194,13 +269,13 @@ def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str) -
     return out
 
 
-def _csv_header(path: Path, sep: str) -> list[str]:
+def _csv_header(path: Path, sep: str, enc: str = "utf-8-sig") -> list[str]:
     """The header names of a CSV file as written (quotes removed), empty if unreadable."""
     import csv
     import gzip
 
     opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rt", encoding="utf-8-sig", errors="replace", newline="") as f:
+    with opener(path, "rt", encoding=enc, errors="replace", newline="") as f:
         return next(csv.reader(f, delimiter=sep), [])
 
 
@@ -218,16 +293,54 @@ def _duplicate_names(names, label) -> list[str]:
     ]
 
 
-def _sniff_separator(path: Path) -> str:
-    """',' unless the header line is clearly separated by ';' or tabs (common in BMS exports)."""
+def _head_lines(path: Path, enc: str, n: int) -> list[str]:
     import gzip
 
     opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rt", encoding="utf-8-sig", errors="replace") as f:
-        header = f.readline()
-    counts = {sep: header.count(sep) for sep in (",", ";", "\t")}
+    with opener(path, "rt", encoding=enc, errors="replace") as f:
+        return [line for _, line in zip(range(n), f)]
+
+
+def _separator_of(line: str) -> tuple[str, int]:
+    counts = {sep: line.count(sep) for sep in (",", ";", "\t")}
     best = max(counts, key=counts.get)
-    return best if counts[best] > 0 else ","
+    return (best, counts[best]) if counts[best] > 0 else (",", 0)
+
+
+def _sniff_separator(path: Path, enc: str = "utf-8-sig") -> str:
+    """',' unless the header line is clearly separated by ';' or tabs (common in BMS exports).
+
+    Lines above the header with no separator (a report title) are passed over, so that :func:`_preamble` can
+    name them.
+    """
+    lines = _head_lines(path, enc, 30)
+    return next((sep for sep, n in map(_separator_of, lines) if n > 0), ",")
+
+
+def _preamble(path: Path, sep: str, enc: str) -> str | None:
+    """A problem naming report lines above the header (title, site, period), or None.
+
+    The header is the first of the file's first lines to hold as many separators as the line after it, where
+    that count is the most common one; lines before it are a preamble that shifts every column.
+    """
+    import csv
+
+    lines = [line.rstrip("\r\n") for line in _head_lines(path, enc, 30)]
+    counts = [len(next(csv.reader([line], delimiter=sep), [])) for line in lines]
+    if len(counts) < 3:
+        return None
+    common = max(set(counts), key=counts.count)
+    if common < 2 or counts[0] == common:
+        return None
+    first = next((i for i in range(len(counts) - 1) if counts[i] == common == counts[i + 1]), None)
+    if first is None or first == 0:
+        return None
+    shown = "; ".join(repr(x[:60]) for x in lines[:first][:3])
+    return (
+        f"{path.name}: lines 1-{first} above the header hold {', '.join(str(c) for c in counts[:first])} field(s) "
+        f"where the rest of the file has {common} ({shown}): a report title or description above the column "
+        f"names? the header looks like line {first + 1} ({lines[first][:60]!r}...); delete the lines above it"
+    )
 
 
 def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list):
@@ -293,11 +406,22 @@ def _parse_times(col: pd.Series, tz: str, name: str, label: str, problems: list)
         problems.append(
             f"{label}: column {name!r}: {len(bad)} values are not ISO 8601 times, e.g. "
             f"{_Where(None).rows(bad, values=text.to_numpy())}{_time_format_hint(stripped.iloc[bad[:200]])}"
+            + _summary_rows_hint(stripped, bad, n)
         )
     if empty.any():
         bad = np.flatnonzero(empty)
         problems.append(f"{label}: column {name!r}: {len(bad)} empty times at {_Where(None).rows(bad)}")
     return utc, ok, bool(has_offset.any() and not naive_sel.any())
+
+
+def _summary_rows_hint(text: pd.Series, bad: np.ndarray, n: int) -> str:
+    """A hint when the unparseable times are a few words in the last rows (a totals or average row)."""
+    if not 0 < len(bad) <= 5 or bad[0] < n - 10 or not text.iloc[bad].str.contains(r"[A-Za-z]{3}", na=False).all():
+        return ""
+    return (
+        f"; the last rows of the file hold words, not times ({', '.join(repr(x) for x in text.iloc[bad][:3])}): "
+        "a summary row (total, average, min/max) that the report appends? delete it (its numbers are not readings)"
+    )
 
 
 def _time_format_hint(text: pd.Series) -> str:
@@ -393,7 +517,8 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
         problems.append(
             f"{label}: column {name!r}: {int(nonexistent.sum())} naive local times do not exist (skipped when "
             f"daylight saving time starts in {tz}): {_naive_rows(naive, rows, nonexistent)}; "
-            "write times with their UTC offset"
+            "write times with their UTC offset (if the export inserted rows for the skipped hour, delete them)"
+            + _clock_never_changes_hint(tz, naive[np.flatnonzero(nonexistent)[0]], "the hour that local clocks skip")
         )
     ok = ~(unresolved | nonexistent | unparsed)
     plain = ok & ~amb
@@ -401,13 +526,15 @@ def _localize(naive: pd.DatetimeIndex, unparsed, tz, name, label, problems, rows
     return utc, ok
 
 
-def _clock_never_changes_hint(tz: str, when: pd.Timestamp) -> str:
+def _clock_never_changes_hint(tz: str, when: pd.Timestamp, what: str = "that hour once") -> str:
     """The fix when the repeated hour appears once only: the export's clock may never change (UTC, standard time).
 
     A logger on UTC or on standard time all year writes that hour once; read on the wall clock of ``tz`` its
     times are then an hour (or the UTC offset) off, so the zone is named with its ``Etc/GMT`` equivalent.
     """
-    std = pd.Timestamp(when).tz_localize(tz, ambiguous=False).utcoffset()
+    std = pd.Timestamp(when).tz_localize(tz, ambiguous=False, nonexistent="shift_backward").utcoffset()
+    if "skip" in what:  # a time the clocks skip lies in daylight saving time's first hour: standard time is before
+        std = (pd.Timestamp(when) - pd.Timedelta(hours=2)).tz_localize(tz, ambiguous=False).utcoffset()
     hours = -int(std.total_seconds() // 3600) if std is not None else 0
     fixed = f"Etc/GMT{hours:+d}" if hours and std is not None and std.total_seconds() % 3600 == 0 else None
     alt = (
@@ -416,7 +543,7 @@ def _clock_never_changes_hint(tz: str, when: pd.Timestamp) -> str:
         else ""
     )
     return (
-        f". If the export's clock never changes (a server on UTC or on standard time all year writes that hour once), "
+        f". If the export's clock never changes (a server on UTC or on standard time all year writes {what}), "
         f'declare its zone: data_timezone = "UTC"{alt} in the building file, or --timezone'
     )
 
@@ -545,6 +672,8 @@ def _load(path: Path, building: Building):
     if raw is None:
         return None, report, problems
     label = path.name
+    raw = _drop_empty_unnamed(raw)
+    raw = _drop_cut_last_row(raw, path, label, report)
     report.rows = n = len(raw)
     if n == 0:
         problems.append(f"{label}: no data rows")
@@ -635,7 +764,14 @@ def _map_columns(raw, building, label, time_name, problems, report) -> dict:
             present[canonical] = building.column_for("T_supply")  # the single unit's plain T_supply column
         elif required:
             mapped = f" (mapped from {canonical})" if name != canonical else ""
-            problems.append(f"{label}: missing required column {name!r}{mapped}")
+            near = _with_unit(raw.columns, name)
+            hint = (
+                f": the file has {near!r}, the name with a unit appended; map it in the building's [columns] "
+                f'table ({canonical} = "{near}") or export the header without units (declare them in [units])'
+                if near
+                else ""
+            )
+            problems.append(f"{label}: missing required column {name!r}{mapped}{hint}")
     if (
         building.ahus
         and "T_supply" in present
@@ -669,6 +805,97 @@ def _map_columns(raw, building, label, time_name, problems, report) -> dict:
     return present
 
 
+def _drop_empty_unnamed(raw):
+    """The frame without columns that have no name and no value (a separator at the end of every line)."""
+    keep = [
+        i
+        for i, c in enumerate(raw.columns)
+        if not ((str(c).strip() == "" or str(c).startswith("Unnamed: ")) and raw.iloc[:, i].isna().all())
+    ]
+    return raw if len(keep) == raw.shape[1] else raw.iloc[:, keep]
+
+
+def _drop_cut_last_row(raw, path: Path, label: str, report):
+    """The frame without its last row when the file ends in the middle of that row (copied while being written).
+
+    Its last field may be a number cut short ('48' of '484'), so the row is dropped with a warning.
+    """
+    if path.suffix.lower() not in (".csv", ".txt") or len(raw) < 2:
+        return raw
+    with open(path, "rb") as f:
+        f.seek(max(0, path.stat().st_size - 65536))
+        tail = f.read()
+    if tail.endswith((b"\n", b"\r")) or b"\x00" in tail[-4:]:
+        return raw  # a complete last line (UTF-16 ends in a NUL byte; its lines are judged by the reader)
+    import csv
+
+    line = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    filled = len(next(csv.reader([line], delimiter=_sniff_separator(path)), []))
+    if filled >= raw.shape[1]:
+        return raw  # every field present: the last line lacks only its line break
+    report.warnings.append(
+        f"{label}: row {len(raw)} (the last) ends the file after {filled} of its {raw.shape[1]} fields without a "
+        "line break: a file copied while the export was written? the row is dropped (its last value may be cut "
+        "short); export the file again to keep it"
+    )
+    return raw.iloc[:-1]
+
+
+def _split_date_time(raw) -> tuple[str, str] | None:
+    """The names of a dates-only column and the times-of-day column after it (Excel's split), or None."""
+    cols = list(raw.columns[:3])
+    for a, b in zip(cols, cols[1:]):
+        da = raw[a].dropna().astype(str).head(200).str.strip()
+        db = raw[b].dropna().astype(str).head(200).str.strip()
+        if len(da) and len(db):
+            dates = da.str.fullmatch(r"\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[/.]\d{1,2}[/.]\d{2,4}").mean()
+            times = db.str.fullmatch(r"\d{1,2}:\d{2}(:\d{2}(\.\d+)?)?(\s*[AaPp][Mm])?").mean()
+            if dates > 0.9 and times > 0.9:
+                return str(a), str(b)
+    return None
+
+
+def _utc_marked_local(text, back_rows, tz) -> str:
+    """A hint when times marked UTC step back where ``tz``'s clocks go back: local wall-clock times with a 'Z'."""
+    rows = [r for r in back_rows if isinstance(text[r], str)]
+    if not rows or not all(str(text[r]).strip().endswith(("Z", "+00:00")) for r in rows):
+        return ""
+    naive = pd.to_datetime(
+        [str(text[r]).strip().removesuffix("Z").removesuffix("+00:00") for r in rows], format="ISO8601", errors="coerce"
+    )
+    try:
+        repeated = pd.DatetimeIndex(naive).tz_localize(tz, ambiguous="NaT", nonexistent="NaT").isna()
+    except (TypeError, ValueError):  # pragma: no cover - an unusual time zone
+        return ""
+    if not repeated.all() or pd.DatetimeIndex(naive).isna().any():
+        return ""
+    return (
+        f"; the times are marked UTC ('Z' or +00:00) but step back in the hour that {tz}'s clocks repeat when "
+        f"daylight saving time ends ({naive[0]:%Y-%m-%d %H:%M}): local wall-clock times written with a 'Z'? drop "
+        "the 'Z' so that they are read in the building's time zone, or export true UTC times"
+    )
+
+
+def _repeated_rows(raw, rows, previous) -> int:
+    """How many of ``rows`` hold exactly the values of the row at ``previous`` (same position) in every column."""
+    a = raw.iloc[rows].reset_index(drop=True)
+    b = raw.iloc[previous].reset_index(drop=True)
+    same = (a == b) | (a.isna() & b.isna())
+    return int(same.all(axis=1).sum())
+
+
+_UNIT_SUFFIX = re.compile(r"^(.*?)\s*(\([^()]*\)|\[[^\[\]]*\])\s*$")
+
+
+def _with_unit(columns, name: str) -> str | None:
+    """The file column that is ``name`` with a unit in brackets appended ('T_NW (°F)', 'T_NW [degF]'), or None."""
+    for c in map(str, columns):
+        m = _UNIT_SUFFIX.match(c)
+        if m and m.group(1).strip().lower() == name.strip().lower():
+            return c
+    return None
+
+
 def _load_times(raw, building, label, time_name, problems, report):
     """(UTC ns, valid mask, local DatetimeIndex) of the time column, or (None, None, None) without one."""
     if time_name not in raw.columns:
@@ -680,8 +907,16 @@ def _load_times(raw, building, label, time_name, problems, report):
             if first is not None and first != time_name
             else ""
         )
+        split = _split_date_time(raw)
+        if split:
+            hint = (
+                f" (the file splits each time over columns {split[0]!r} (dates, e.g. {raw[split[0]].iloc[0]!r}) and "
+                f"{split[1]!r} (times of day, e.g. {raw[split[1]].iloc[0]!r}): join them into one column of times "
+                "such as 2025-03-03T00:00:00 named time, or mapped in the building's [columns] table)"
+            )
         problems.append(f"{label}: missing time column {time_name!r}{mapped}{hint}")
         return None, None, None
+    n_before, amb = len(problems), []
     utc, ok, has_offsets = _parse_times(raw[time_name], building.clock_timezone, time_name, label, problems)
     report.has_offsets = has_offsets
     local = pd.DatetimeIndex(np.where(ok, utc, np.iinfo(np.int64).min).view("M8[ns]"))
@@ -693,9 +928,30 @@ def _load_times(raw, building, label, time_name, problems, report):
         where = _Where(local)
         dup = valid_pos[1:][d == 0]
         if len(dup):
-            problems.append(f"{label}: column {time_name!r}: {len(dup)} duplicate timestamps at {where.rows(dup)}")
+            same = _repeated_rows(raw, dup, valid_pos[:-1][d == 0])
+            hint = (
+                f"; {same} of them repeat the row before them exactly (every column): a logger re-sending records? "
+                "drop the repeated rows"
+                if same
+                else ""
+            )
+            problems.append(
+                f"{label}: column {time_name!r}: {len(dup)} duplicate timestamps at {where.rows(dup)}{hint}"
+            )
         back = np.flatnonzero(d < 0)
-        if len(back):
+        if len(back) > 1 or len(dup):
+            # the repeated autumn hour of naive local times is resolved from the row order: with the order broken
+            # elsewhere, its messages only confuse; the order is the problem to fix first
+            amb = [p for p in problems[n_before:] if "naive local times are ambiguous" in p]
+            problems[:] = [p for p in problems if p not in amb]
+        if len(back) > 1 and len(back) >= 0.9 * len(d):
+            problems.append(
+                f"{label}: column {time_name!r}: the rows run newest first (times go backwards at {len(back)} of "
+                f"{len(d)} steps, from {_fmt_time(local[valid_pos[0]])} at row 1 to "
+                f"{_fmt_time(local[valid_pos[-1]])} at row {valid_pos[-1] + 1}): sort the file oldest first"
+                + (" (the repeated autumn hour then reads in order)" if amb else "")
+            )
+        elif len(back):
             parts = ", ".join(
                 f"row {valid_pos[i + 1] + 1} ({_fmt_time(local[valid_pos[i + 1]])}) after row {valid_pos[i] + 1} "
                 f"({_fmt_time(local[valid_pos[i]])})"
@@ -705,6 +961,15 @@ def _load_times(raw, building, label, time_name, problems, report):
             problems.append(
                 f"{label}: column {time_name!r}: times go backwards at {len(back)} place(s): {parts}{more}; "
                 "rows must be sorted by time"
+                + _utc_marked_local(raw[time_name].to_numpy(), valid_pos[back + 1], building.timezone)
+                + (
+                    f" (at {len(back)} places the rows are in no time order, e.g. merged from a database "
+                    "without sorting: sort the file by time"
+                    + (", the first occurrence of the repeated autumn hour before the second" if amb else "")
+                    + ")"
+                    if len(back) > 1
+                    else ""
+                )
             )
         if not len(back):
             problems += _stray_rows(tv, valid_pos, local, label, time_name)
@@ -846,6 +1111,7 @@ def _column_values(ctx: _Column, canonical: str, name: str, column: pd.Series):
             report.masked[(canonical, "frozen sensor")] = before - int(np.isfinite(si).sum())
     if canonical in {f"T_{z}" for z in ctx.building.zone_names}:
         check_setpoint_like(si, ctx.utc, ctx.ok, f"{label}: {desc}", report.warnings)
+        check_zone_held(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, report.warnings)
     elif kind == "airflow":
         box = next((v for v in ctx.building.vavs if f"m_{v.name}" == canonical), None)
         check_airflow_constant(si, ctx.utc, ctx.ok, box, f"{label}: {desc}", report.warnings)
@@ -890,6 +1156,7 @@ def _checked_si(ctx: _Column, canonical, desc, kind, unit, values, finite):
             zone_unit = _zone_temperature_unit(ctx.building)
             lat = ctx.building.latitude
             check_outdoor_unit_mix(values, unit, zone_unit, ctx.local, lat, f"{label}: {desc}", report.warnings)
+            check_outdoor_shoulder(values, unit, si, ctx.local, lat, f"{label}: {desc}", report.warnings)
         if canonical in {f"T_{z}" for z in ctx.building.zone_names} and len(problems) == n_before:
             kept = int(np.isfinite(si).sum())
             si = check_zone_spikes(si, ctx.utc, ctx.ok, f"{label}: {desc}", ctx.rows, problems, report.warnings)

@@ -240,6 +240,46 @@ def check_outdoor(si, unit, index, latitude, desc, problems):
     )
 
 
+def shoulder_low(latitude: float) -> float:
+    """Lowest plausible monthly mean outdoor temperature [°C] in a cold-half month outside midwinter.
+
+    October, November and March in the north (April, May and September in the south), at stations below 2000 m:
+    none colder than -2 °C within 35° of the equator (Kabul, 1790 m: November 3.5 °C), -10 °C to 45° (the
+    coldest, Hohhot and Urumqi, about -4 °C in November), -20 °C to 60° (Ulaanbaatar, 1350 m: November -13 °C).
+    """
+    a = abs(latitude)
+    return -2.0 if a <= 35 else (-10.0 if a <= 45 else (-20.0 if a <= 60 else -50.0))
+
+
+def check_outdoor_shoulder(raw, unit, si, index, latitude, desc, warnings):
+    """Flag ``T_out`` whose autumn or spring months are colder than any station's while another unit fits.
+
+    °C declared as °F (the zones' unit) reads 10 °C as -12.2 °C: inside the wide cold-half envelope of
+    :func:`outdoor_envelope` that must admit midwinter, but colder than any October, November or March below
+    60° (:func:`shoulder_low`). Said only when the other reading of the same numbers fits that month.
+    """
+    alt = {"degF": "degC", "degC": "degF"}.get(unit)
+    if alt is None or index is None:
+        return
+    north = latitude >= 0
+    months = [x for x in outdoor_months(si, index, latitude) if x[0] in ((10, 11, 3) if north else (4, 5, 9))]
+    lo = shoulder_low(latitude)
+    cold = [x for x in months if x[1] < lo]
+    if not cold:
+        return
+    as_alt = outdoor_months(to_si(raw, alt), index, latitude)
+    fits = {m: mu for m, mu, a, b in as_alt if max(a, lo) <= mu <= b}
+    if not all(m in fits for m, *_ in cold):
+        return
+    alt_text = ", ".join(f"{pd.Timestamp(2001, m, 1):%b} {fits[m]:.1f} °C" for m, *_ in cold[:4])
+    warnings.append(
+        f"{desc}: monthly mean outdoor temperature ({_months_text(cold)}; declared {unit}) is below {lo:g} °C, "
+        f"colder than any weather station below 2000 m at latitude {latitude:g}° in that month; read as {alt} it "
+        f"would be {alt_text}: is the outdoor air in {alt} (a weather feed in another unit than the BMS)? declare "
+        f'its unit in the building\'s [units] table (T_out = "{alt}")'
+    )
+
+
 def check_outdoor_unit_mix(raw, unit, zone_unit, index, latitude, desc, warnings):
     """Flag ``T_out`` declared in another temperature unit than the zones when the zones' unit fits it too.
 
@@ -508,6 +548,62 @@ BEHAVIOUR_DAYS = 7.0
 SETPOINT_CHANGES_PER_DAY = 2
 
 
+#: A zone temperature repeating one value this long [h] (and under :data:`STUCK_DAYS`) is held, ...
+HELD_HOURS = 6.0
+#: ... when it then jumps by at least this much [K] and this multiple of the column's median change ...
+HELD_JUMP_K, HELD_JUMP_FACTOR = 0.5, 5.0
+#: ... on at least this many days, holding at least this many distinct values (a simulated zone resting at one
+#: setpoint repeats that value each night: 2 days at most in 55 EnergyPlus exports).
+HELD_RUNS = 5
+
+
+def check_zone_held(si, times_ns, ok, desc, where, warnings):
+    """Flag held stretches of a zone temperature (a controller offline that repeats its last reading).
+
+    A run of one exact value lasting :data:`HELD_HOURS` or more that ends with a jump (the sensor's real
+    value after hours of silence) is not air: the zone's temperature moves every hour. Flagged when such
+    runs occur on :data:`HELD_RUNS` days or more with as many distinct held values (a zone resting at its
+    setpoint holds the same value every night and leaves it smoothly). The samples are kept: masking them
+    leaves the zone without its nights, and the red team's model got worse (1.44 K on the clean data
+    against 0.25 K with the held values, 0.20 K clean). Returns the column unchanged.
+    """
+    if times_ns is None:
+        return si
+    v = np.where(ok, si, np.nan)
+    fin = np.flatnonzero(np.isfinite(v))
+    if len(fin) < 2:
+        return si
+    steps = np.abs(np.diff(v[fin]))
+    steps = steps[steps > 0]
+    if not len(steps):
+        return si
+    jump_min = max(HELD_JUMP_K, HELD_JUMP_FACTOR * float(np.median(steps)))
+    held = []
+    for a, b in stuck_runs(v, times_ns, HELD_HOURS * 3600):
+        if (times_ns[b - 1] - times_ns[a]) >= STUCK_DAYS * 86400e9:
+            continue  # a stuck sensor: check_stuck's
+        after = fin[fin >= b]
+        if len(after) and abs(v[after[0]] - v[a]) >= jump_min:
+            held.append((a, b))
+    days = {int(times_ns[a] // 86400e9) for a, _ in held}
+    values = {float(v[a]) for a, _ in held}
+    if min(len(days), len(values)) < HELD_RUNS:
+        return si
+    total = sum(int(np.isfinite(si[a + 1 : b]).sum()) for a, b in held)
+    hours = [(times_ns[b - 1] - times_ns[a]) / 3600e9 for a, b in held]
+    a0, b0 = held[0]
+    warnings.append(
+        f"{desc}: a held sensor? the value repeats exactly for {HELD_HOURS:g} h or more and then jumps by "
+        f"{jump_min:.2g} K or more, {len(held)} times on {len(days)} days ({min(hours):.0f}-{max(hours):.0f} h; "
+        f"first: {v[a0]:.4g} from {where([a0], None)} to {where([b0 - 1], None)}): zone air moves every hour, "
+        "so the controller repeated its last reading (offline, or trend-logged on change of value with a "
+        f"coarse threshold); {total} held sample(s), kept as read: the models learn those flat stretches as "
+        "zone air, and blanking them would leave the zone without those hours; fix the trend log (poll the "
+        "sensor, or log on a finer change of value) and export again"
+    )
+    return si
+
+
 def check_setpoint_like(si, times_ns, ok, desc, warnings):
     """Flag a zone temperature that changes value only a few times a day (a setpoint exported as the sensor)."""
     if times_ns is None:
@@ -641,11 +737,21 @@ def check_irradiance_level(si, times_ns, ok, latitude, longitude, desc, unit, wa
     if ratio >= GHI_LEVEL_SHARE:
         return
     peak = float(measured[good].max())
+    per_ft2 = ""
+    for name, factor in (("W/ft2", 1 / 0.3048**2), ("Btu/h/ft2", 1055.05585262 / 3600 / 0.3048**2)):
+        if unit == "W/m2" and GHI_LEVEL_SHARE <= ratio * factor <= 1.3:
+            per_ft2 = (
+                f"; read as {name} (x {factor:.2f} W/m²) its highest peak would be {peak * factor:.0f} W/m², "
+                f'{100 * ratio * factor:.0f} % of the clear sky: declare ghi = "{name}" in the building\'s '
+                "[units] table if the station reports per square foot"
+            )
+            break
     warnings.append(
         f"{desc}: its highest daily peak over {int(good.sum())} days is {peak:.4g} W/m² (declared {unit}), only "
         f"{100 * ratio:.0f} % of the clear-sky peak that day at latitude {latitude:g}°, longitude {longitude:g}°: "
         "an irradiance this low on every day is not W/m²; energy per trend interval (Wh/m² per 15 min reads "
         "a quarter of W/m²)? a shaded or dirty sensor? convert the column to W/m² (average power) or fix the sensor"
+        + per_ft2
     )
 
 

@@ -33,11 +33,16 @@ CFM_IN_M3_PER_S = 0.3048**3 / 60.0
 KINDS = {
     "temperature": ("degC", ("degC", "degF", "K")),
     "airflow": ("kg/s", ("kg/s", "m3/s", "L/s", "cfm", "m3/h")),
-    "irradiance": ("W/m2", ("W/m2", "kW/m2")),
+    "irradiance": ("W/m2", ("W/m2", "kW/m2", "W/ft2", "Btu/h/ft2")),
     "flag": ("1", ("1",)),
     "fraction": ("1", ("1", "%")),
     "speed": ("m/s", ("m/s", "km/h", "mph", "kn")),
 }
+
+#: One square foot in square metres [m2].
+FT2_IN_M2 = 0.3048**2
+#: One Btu (international table) per hour in watts [W].
+BTU_PER_H_IN_W = 1055.05585262 / 3600.0
 
 #: One knot (international nautical mile per hour) in m/s.
 KNOT_IN_M_PER_S = 1852.0 / 3600.0
@@ -80,6 +85,17 @@ _ALIASES = {
     "kw/m2": "kW/m2",
     "kw/m^2": "kW/m2",
     "kw/m²": "kW/m2",
+    "w/ft2": "W/ft2",
+    "w/ft^2": "W/ft2",
+    "w/ft²": "W/ft2",
+    "w/sqft": "W/ft2",
+    "btu/h/ft2": "Btu/h/ft2",
+    "btu/hr/ft2": "Btu/h/ft2",
+    "btu/h-ft2": "Btu/h/ft2",
+    "btu/hr-ft2": "Btu/h/ft2",
+    "btu/h·ft²": "Btu/h/ft2",
+    "btu/(h ft2)": "Btu/h/ft2",
+    "btuh/ft2": "Btu/h/ft2",
     "1": "1",
     "-": "1",
     "": "1",
@@ -150,7 +166,7 @@ def to_si(values, unit: str):
         Values in ``unit``.
     unit : str
         One of ``degC``, ``degF``, ``K``, ``kg/s``, ``m3/s``, ``L/s``, ``cfm``, ``m3/h``,
-        ``W/m2``, ``kW/m2``, ``1``, ``%``, ``m/s``, ``km/h``, ``mph``, ``kn`` (canonical spellings, see
+        ``W/m2``, ``kW/m2``, ``W/ft2``, ``Btu/h/ft2``, ``1``, ``%``, ``m/s``, ``km/h``, ``mph``, ``kn`` (canonical spellings, see
         :func:`normalize_unit`).
 
     Returns
@@ -176,6 +192,10 @@ def to_si(values, unit: str):
         return x * (AIR_DENSITY / 3600.0)
     if unit == "kW/m2":
         return x * 1000.0
+    if unit == "W/ft2":
+        return x / FT2_IN_M2
+    if unit == "Btu/h/ft2":
+        return x * (BTU_PER_H_IN_W / FT2_IN_M2)
     if unit == "%":
         return x / 100.0
     if unit == "km/h":
@@ -206,6 +226,10 @@ def from_si(values, unit: str):
         return x / (AIR_DENSITY / 3600.0)
     if unit == "kW/m2":
         return x / 1000.0
+    if unit == "W/ft2":
+        return x * FT2_IN_M2
+    if unit == "Btu/h/ft2":
+        return x / (BTU_PER_H_IN_W / FT2_IN_M2)
     if unit == "%":
         return x * 100.0
     if unit == "km/h":
