@@ -369,6 +369,7 @@ def _pick_days(sig, deps: list, options: dict) -> dict:
         d["z"] = (d["gamma"] - med) / scale
     g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
     picked = {d["date"] for d in deps if d["gamma"] >= g_min and d["z"] >= z_min}
+    day_picks = set(picked)
     by_week: dict = {}
     for d in deps:
         wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
@@ -392,6 +393,7 @@ def _pick_days(sig, deps: list, options: dict) -> dict:
         picked |= {d["date"] for d in by_week[zw["week"]]}
     return {
         "picked": picked,
+        "days": day_picks,
         "weeks": weeks,
         "zone_weeks": zone_weeks,
         "by_week": by_week,
@@ -427,27 +429,48 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     pick = _pick_days(sig, deps, options)
     picked, weeks, zone_weeks, by_week = pick["picked"], pick["weeks"], pick["zone_weeks"], pick["by_week"]
     # the season's time-of-week gain profile holds the season's mean sun: a dark week reads as a closed building
-    # in the zones the sun reaches. The same rules are run on the residual less each zone's regression on its
-    # facades' irradiance anomaly; a day they do not pick there is the week's weather, not a holiday
+    # in the zones the sun reaches. Each pick must keep the departure its rule asks (a day γ ≥ holiday_gamma, a
+    # week's mean γ ≥ holiday_week_gamma / 2, the least any week rule takes, a zone's week mean γ ≥
+    # holiday_gamma) on the residual less each zone's regression on its facades' irradiance anomaly
+    # (:func:`sun_partialled`); the z stays the one-step residual's. A pick that loses it is the weather
     weather = {}
-    sun = sun_partialled(sig, resid_all, W.rows)
-    if sun is not None and picked:
-        pick_sun = _pick_days(sig, day_departures(sig, sun, rows=W.rows, shift=shift), options)
-        gone = picked - pick_sun["picked"]
-        if gone:
-            picked = picked & pick_sun["picked"]
-            out = {w["week"] for w in weeks + zone_weeks if not {d["date"] for d in by_week[w["week"]]} <= picked}
+    sun = sun_partialled(sig, resid_all, W.rows) if picked else None
+    if sun is not None:
+        g_min, gw_min = options["holiday_gamma"], options["holiday_week_gamma"]
+        deps_sun = {d["date"]: d for d in day_departures(sig, sun, rows=W.rows, shift=shift)}
+
+        def sun_mean(wk, j=None):
+            v = [
+                deps_sun[d["date"]]["gamma"] if j is None else deps_sun[d["date"]]["gamma_by_zone"][j]
+                for d in by_week[wk]
+                if d["date"] in deps_sun
+            ]
+            v = [x for x in v if x is not None]
+            return float(np.mean(v)) if v else float("nan")
+
+        days = {d for d in pick["days"] if d in deps_sun and deps_sun[d]["gamma"] >= g_min}
+        out_weeks = []
+        for w in weeks:
+            w["gamma_sun"] = sun_mean(w["week"])
+            if not w["gamma_sun"] >= gw_min / 2:
+                out_weeks.append(w)
+        for w in zone_weeks:
+            w["gamma_sun"] = {z: sun_mean(w["week"], sig.zones.index(z)) for z in w["zones"]}
+            if not any(g >= g_min for g in w["gamma_sun"].values()):
+                out_weeks.append(w)
+        weeks = [w for w in weeks if w not in out_weeks]
+        zone_weeks = [w for w in zone_weeks if w not in out_weeks]
+        kept = days | {d["date"] for w in weeks + zone_weeks for d in by_week[w["week"]]}
+        if kept != picked:
             weather = {
-                "dates": sorted(gone),
+                "dates": sorted(picked - kept),
+                "days": sorted(pick["days"] - days),
                 "weeks": [
-                    {"week": wk, "gamma": pick["week_means"].get(wk), "gamma_sun": pick_sun["week_means"].get(wk)}
-                    for wk in sorted(out)
+                    {"week": wk, "gamma": pick["week_means"].get(wk), "gamma_sun": sun_mean(wk)}
+                    for wk in sorted({w["week"] for w in out_weeks} - {w["week"] for w in weeks + zone_weeks})
                 ],
-                "week_mean_median_sun": pick_sun["week_mean_median"],
-                "week_mean_robust_std_sun": pick_sun["week_mean_robust_std"],
             }
-            weeks = [w for w in weeks if w["week"] not in out]
-            zone_weeks = [w for w in zone_weeks if w["week"] not in out]
+            picked = kept
     med, mad = pick["gamma_median"], pick["gamma_robust_std"]
     g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
     ev = {
@@ -469,8 +492,8 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, the z asked falling "
             f"linearly to {z_min / 2:g} at week mean gamma {gw_min:g}, "
             f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means; "
-            "on the one-step residuals and again on them less each zone's regression on its facades' "
-            "irradiance anomaly (a day must be picked on both)"
+            f"; each keeps gamma >= {g_min:g} (day, zone) or >= {gw_min / 2:g} (week mean) on the residual less "
+            "each zone's regression on its facades' irradiance anomaly"
         ),
     }
     if len(deps) < 10:
@@ -489,8 +512,9 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             evidence=ev,
             reason="no weekday departs from the seasonal profile toward a weekend day"
             + (
-                f" once the sun is accounted for (weeks {', '.join(str(w['week']) for w in weather['weeks'])}: the "
-                "departure is gone on the residual less its regression on the facades' irradiance anomaly)"
+                f" once the sun is accounted for ({len(weather['dates'])} weekday(s) proposed, weeks "
+                f"{[w['week'] for w in weather['weeks']]}: their departure falls below the rule's on the residual "
+                "less its regression on the facades' irradiance anomaly)"
                 if weather
                 else ""
             ),
