@@ -323,6 +323,14 @@ def week_z_needed(gamma: float, week_gamma: float, z: float) -> float:
     return z - frac * (z / 2)
 
 
+#: Least share of a proposed holiday's departure scale γ (a day's, a week's mean, or a zone's week mean) that must
+#: remain once each zone's residual is regressed on its facades' irradiance anomaly (:func:`sun_partialled`).
+#: Battery (``benchmarks/diagnosis_holiday_s17.md``): the proposed true holiday weeks keep 0.93-1.1 of their γ,
+#: the dark weeks read as holidays keep 0.36 (quad4 case 20, week 14: 0.53 -> 0.19) and below 0 (case 7, week 10:
+#: 0.27 -> -0.01).
+SUN_KEEP = 0.5
+
+
 def sun_partialled(sig, resid_all: np.ndarray, rows) -> np.ndarray | None:
     """The one-step residuals less each zone's least-squares regression on its facades' irradiance anomaly.
 
@@ -429,10 +437,11 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     pick = _pick_days(sig, deps, options)
     picked, weeks, zone_weeks, by_week = pick["picked"], pick["weeks"], pick["zone_weeks"], pick["by_week"]
     # the season's time-of-week gain profile holds the season's mean sun: a dark week reads as a closed building
-    # in the zones the sun reaches. Each pick must keep the departure its rule asks (a day γ ≥ holiday_gamma, a
-    # week's mean γ ≥ holiday_week_gamma / 2, the least any week rule takes, a zone's week mean γ ≥
-    # holiday_gamma) on the residual less each zone's regression on its facades' irradiance anomaly
-    # (:func:`sun_partialled`); the z stays the one-step residual's. A pick that loses it is the weather
+    # in the zones the sun reaches. On the residual less each zone's regression on its facades' irradiance
+    # anomaly (:func:`sun_partialled`) each pick must keep at least half its departure and what its rule asks
+    # (a day γ ≥ holiday_gamma, a week's mean γ ≥ holiday_week_gamma / 2, the least any week rule takes, a
+    # zone's week mean γ ≥ holiday_gamma); the z stays the one-step residual's. A pick that does not is the
+    # weather: the sun explains most of it (:data:`SUN_KEEP`)
     weather = {}
     sun = sun_partialled(sig, resid_all, W.rows) if picked else None
     if sun is not None:
@@ -448,15 +457,16 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             v = [x for x in v if x is not None]
             return float(np.mean(v)) if v else float("nan")
 
-        days = {d for d in pick["days"] if d in deps_sun and deps_sun[d]["gamma"] >= g_min}
+        raw_day = {d["date"]: d["gamma"] for d in deps}
+        days = {d for d in pick["days"] if d in deps_sun and deps_sun[d]["gamma"] >= max(g_min, SUN_KEEP * raw_day[d])}
         out_weeks = []
         for w in weeks:
             w["gamma_sun"] = sun_mean(w["week"])
-            if not w["gamma_sun"] >= gw_min / 2:
+            if not w["gamma_sun"] >= max(gw_min / 2, SUN_KEEP * w["gamma"]):
                 out_weeks.append(w)
         for w in zone_weeks:
             w["gamma_sun"] = {z: sun_mean(w["week"], sig.zones.index(z)) for z in w["zones"]}
-            if not any(g >= g_min for g in w["gamma_sun"].values()):
+            if not any(g >= max(g_min, SUN_KEEP * w["zones"][z]["gamma"]) for z, g in w["gamma_sun"].items()):
                 out_weeks.append(w)
         weeks = [w for w in weeks if w not in out_weeks]
         zone_weeks = [w for w in zone_weeks if w not in out_weeks]
@@ -492,8 +502,8 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, the z asked falling "
             f"linearly to {z_min / 2:g} at week mean gamma {gw_min:g}, "
             f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means; "
-            f"; each keeps gamma >= {g_min:g} (day, zone) or >= {gw_min / 2:g} (week mean) on the residual less "
-            "each zone's regression on its facades' irradiance anomaly"
+            f"; each keeps half its gamma and gamma >= {g_min:g} (day, zone) or >= {gw_min / 2:g} (week mean) on "
+            "the residual less each zone's regression on its facades' irradiance anomaly"
         ),
     }
     if len(deps) < 10:
