@@ -3,16 +3,15 @@
 For each case (cached emulator data, as ``bench_diagnosis_battery.py`` makes them) the diagnosis runs with its
 default options while every call of the holiday screen is recorded with the day-by-day departures (pooled γ and
 γ by zone, training weeks only, what the screen sees) and the weeks it picked; the weekday means of the outdoor
-temperature and of the global irradiance by week are read from the data, and the holiday candidates of the
-report (accepted or not) are kept with their fitted scale by zone. One JSON line per case goes to ``--out``;
-``--results`` also appends the battery's record of the same run. The rules compared in the write-up are computed
-offline from these records (``--summary``).
+temperature and of the global irradiance by week are read from the data, and the screen's picks set down to
+the weather (``weather_explained``) are kept. One JSON line per case goes to
+``--out``; ``--results`` also appends the battery's record of the same run. The zone-agreement ratios of the
+write-up were computed offline from these records.
 
 Run::
 
     python3 benchmarks/holiday_zones_s17.py --layouts quad4 --cases 32 --clean 4 --pairs 4 --step-min 15 \
         --only 20 --out zones.jsonl --results b.jsonl
-    python3 benchmarks/holiday_zones_s17.py --summary --out zones.jsonl
 """
 
 from __future__ import annotations

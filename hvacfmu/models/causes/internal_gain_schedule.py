@@ -325,7 +325,7 @@ def week_z_needed(gamma: float, week_gamma: float, z: float) -> float:
 
 #: Least share of a proposed holiday's departure scale γ (a day's, a week's mean, or a zone's week mean) that must
 #: remain once each zone's residual is regressed on its facades' irradiance anomaly (:func:`sun_partialled`).
-#: Battery (``benchmarks/diagnosis_holiday_s17.md``): the proposed true holiday weeks keep 0.93-1.1 of their γ,
+#: Battery (``benchmarks/diagnosis_holiday_s17.md``): quad4's proposed true holiday weeks keep 0.97-1.06 of their γ,
 #: the dark weeks read as holidays keep 0.36 (quad4 case 20, week 14: 0.53 -> 0.19) and below 0 (case 7, week 10:
 #: 0.27 -> -0.01).
 SUN_KEEP = 0.5
