@@ -323,6 +323,96 @@ def week_z_needed(gamma: float, week_gamma: float, z: float) -> float:
     return z - frac * (z / 2)
 
 
+#: Least share of a proposed holiday's departure scale γ (a day's, a week's mean, or a zone's week mean) that must
+#: remain once each zone's residual is regressed on its facades' irradiance anomaly (:func:`sun_partialled`).
+#: Battery (``benchmarks/diagnosis_holiday_s17.md``): quad4's proposed true holiday weeks keep 0.97-1.06 of their γ,
+#: the dark weeks read as holidays keep 0.36 (quad4 case 20, week 14: 0.53 -> 0.19) and below 0 (case 7, week 10:
+#: 0.27 -> -0.01).
+SUN_KEEP = 0.5
+
+
+def sun_partialled(sig, resid_all: np.ndarray, rows) -> np.ndarray | None:
+    """The one-step residuals less each zone's least-squares regression on its facades' irradiance anomaly.
+
+    The anomaly of facade ``o`` is ``I_o`` minus its mean at the same (season, time of week) over the training
+    rows ``rows``: what the model's seasonal gain profile, which absorbed the season's mean sun, misses in a week
+    darker or brighter than the season. Each zone's coefficients are fitted over ``rows`` (the few holiday days
+    weigh little in them). None when the data have no facade irradiance.
+    """
+    V = getattr(sig, "V", None) or {}
+    if not getattr(sig, "has_solar", False) or any(f"I_{o}" not in V for o in "NESW"):
+        return None
+    ok = np.zeros(len(resid_all), bool)
+    ok[np.asarray(rows)] = True
+    key = np.asarray(sig.season_id) * sig.n_tow + np.asarray(sig.tow)
+    ok &= np.isfinite(resid_all).all(axis=1) & (key >= 0)
+    if ok.sum() < 2:
+        return None
+    key = np.where(key >= 0, key, 0)
+    anom = {}
+    for o in "NESW":
+        irr = np.nan_to_num(np.asarray(V[f"I_{o}"], dtype=float))
+        total = np.bincount(key[ok], irr[ok], minlength=key.max() + 1)
+        count = np.bincount(key[ok], minlength=key.max() + 1)
+        anom[o] = irr - (total / np.maximum(count, 1))[key]
+    out = resid_all.copy()
+    for j in range(resid_all.shape[1]):
+        fac = [o for o in (sig.facades[j] if j < len(sig.facades) else ()) if o in anom]
+        if not fac:
+            continue
+        X = np.column_stack([anom[o] for o in fac])
+        b, *_ = np.linalg.lstsq(X[ok], resid_all[ok, j], rcond=None)
+        out[:, j] = resid_all[:, j] - X @ b
+    return out
+
+
+def _pick_days(sig, deps: list, options: dict) -> dict:
+    """The screen's rules on the day departures ``deps`` (:func:`day_departures`): picked dates, the weeks the
+    pooled and the one-zone week rules propose, and the statistics they were judged on."""
+    gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
+    med = float(np.median(gam)) if len(gam) else 0.0
+    mad = float(1.4826 * np.median(np.abs(gam - med))) if len(gam) else 0.0
+    scale = max(mad, 0.05)
+    for d in deps:
+        d["z"] = (d["gamma"] - med) / scale
+    g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
+    picked = {d["date"] for d in deps if d["gamma"] >= g_min and d["z"] >= z_min}
+    day_picks = set(picked)
+    by_week: dict = {}
+    for d in deps:
+        wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
+        by_week.setdefault(wk, []).append(d)
+    weeks = []
+    # whole weeks are judged against the spread of the week means (averaging five days takes out
+    # most of the day-to-day noise, so a quiet week stands out there even at a mean gamma of 0.2-0.3)
+    wmean = {wk: float(np.mean([d["gamma"] for d in ds])) for wk, ds in by_week.items() if len(ds) >= 3}
+    wg = np.array(list(wmean.values()))
+    w_med = float(np.median(wg)) if len(wg) else 0.0
+    w_scale = max(float(1.4826 * np.median(np.abs(wg - w_med))) if len(wg) else 0.0, 0.03)
+    for wk, g in wmean.items():
+        z_w = (g - w_med) / w_scale
+        if (g >= gw_min and (g - med) / scale >= z_min / 2) or z_w >= week_z_needed(g, gw_min, z_min):
+            weeks.append({"week": wk, "gamma": g, "z_week": z_w})
+            picked |= {d["date"] for d in by_week[wk]}
+    # a holiday week may show in one zone only: the one whose balance the internal gains dominate, where the
+    # HVAC's other operation that week is not itself misread (pooled over the zones, the others can cancel it)
+    zone_weeks = zone_week_departures(sig.zones, {wk: ds for wk, ds in by_week.items() if wk in wmean}, g_min, z_min)
+    for zw in zone_weeks:
+        picked |= {d["date"] for d in by_week[zw["week"]]}
+    return {
+        "picked": picked,
+        "days": day_picks,
+        "weeks": weeks,
+        "zone_weeks": zone_weeks,
+        "by_week": by_week,
+        "gamma_median": med,
+        "gamma_robust_std": mad,
+        "week_means": wmean,
+        "week_mean_median": w_med,
+        "week_mean_robust_std": w_scale,
+    }
+
+
 def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     """Weekdays whose gains looked like a weekend day: single days and whole weeks.
 
@@ -344,35 +434,55 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", reason="no one-step residuals"
         )
     deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
-    gam = np.array([d["gamma"] for d in deps]) if deps else np.zeros(0)
-    med = float(np.median(gam)) if len(gam) else 0.0
-    mad = float(1.4826 * np.median(np.abs(gam - med))) if len(gam) else 0.0
-    scale = max(mad, 0.05)
-    for d in deps:
-        d["z"] = (d["gamma"] - med) / scale
+    pick = _pick_days(sig, deps, options)
+    picked, weeks, zone_weeks, by_week = pick["picked"], pick["weeks"], pick["zone_weeks"], pick["by_week"]
+    # the season's time-of-week gain profile holds the season's mean sun: a dark week reads as a closed building
+    # in the zones the sun reaches. On the residual less each zone's regression on its facades' irradiance
+    # anomaly (:func:`sun_partialled`) each pick must keep at least half its departure and what its rule asks
+    # (a day γ ≥ holiday_gamma, a week's mean γ ≥ holiday_week_gamma / 2, the least any week rule takes, a
+    # zone's week mean γ ≥ holiday_gamma); the z stays the one-step residual's. A pick that does not is the
+    # weather: the sun explains most of it (:data:`SUN_KEEP`)
+    weather = {}
+    sun = sun_partialled(sig, resid_all, W.rows) if picked else None
+    if sun is not None:
+        g_min, gw_min = options["holiday_gamma"], options["holiday_week_gamma"]
+        deps_sun = {d["date"]: d for d in day_departures(sig, sun, rows=W.rows, shift=shift)}
+
+        def sun_mean(wk, j=None):
+            v = [
+                deps_sun[d["date"]]["gamma"] if j is None else deps_sun[d["date"]]["gamma_by_zone"][j]
+                for d in by_week[wk]
+                if d["date"] in deps_sun
+            ]
+            v = [x for x in v if x is not None]
+            return float(np.mean(v)) if v else float("nan")
+
+        raw_day = {d["date"]: d["gamma"] for d in deps}
+        days = {d for d in pick["days"] if d in deps_sun and deps_sun[d]["gamma"] >= max(g_min, SUN_KEEP * raw_day[d])}
+        out_weeks = []
+        for w in weeks:
+            w["gamma_sun"] = sun_mean(w["week"])
+            if not w["gamma_sun"] >= max(gw_min / 2, SUN_KEEP * w["gamma"]):
+                out_weeks.append(w)
+        for w in zone_weeks:
+            w["gamma_sun"] = {z: sun_mean(w["week"], sig.zones.index(z)) for z in w["zones"]}
+            if not any(g >= max(g_min, SUN_KEEP * w["zones"][z]["gamma"]) for z, g in w["gamma_sun"].items()):
+                out_weeks.append(w)
+        weeks = [w for w in weeks if w not in out_weeks]
+        zone_weeks = [w for w in zone_weeks if w not in out_weeks]
+        kept = days | {d["date"] for w in weeks + zone_weeks for d in by_week[w["week"]]}
+        if kept != picked:
+            weather = {
+                "dates": sorted(picked - kept),
+                "days": sorted(pick["days"] - days),
+                "weeks": [
+                    {"week": wk, "gamma": pick["week_means"].get(wk), "gamma_sun": sun_mean(wk)}
+                    for wk in sorted({w["week"] for w in out_weeks} - {w["week"] for w in weeks + zone_weeks})
+                ],
+            }
+            picked = kept
+    med, mad = pick["gamma_median"], pick["gamma_robust_std"]
     g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
-    picked = {d["date"] for d in deps if d["gamma"] >= g_min and d["z"] >= z_min}
-    by_week = {}
-    for d in deps:
-        wk = int(sig.week[sig.index.searchsorted(pd.Timestamp(d["date"]).tz_localize(sig.index.tz))])
-        by_week.setdefault(wk, []).append(d)
-    weeks = []
-    # whole weeks are judged against the spread of the week means (averaging five days takes out
-    # most of the day-to-day noise, so a quiet week stands out there even at a mean gamma of 0.2-0.3)
-    wmean = {wk: float(np.mean([d["gamma"] for d in ds])) for wk, ds in by_week.items() if len(ds) >= 3}
-    wg = np.array(list(wmean.values()))
-    w_med = float(np.median(wg)) if len(wg) else 0.0
-    w_scale = max(float(1.4826 * np.median(np.abs(wg - w_med))) if len(wg) else 0.0, 0.03)
-    for wk, g in wmean.items():
-        z_w = (g - w_med) / w_scale
-        if (g >= gw_min and (g - med) / scale >= z_min / 2) or z_w >= week_z_needed(g, gw_min, z_min):
-            weeks.append({"week": wk, "gamma": g, "z_week": z_w})
-            picked |= {d["date"] for d in by_week[wk]}
-    # a holiday week may show in one zone only: the one whose balance the internal gains dominate, where the
-    # HVAC's other operation that week is not itself misread (pooled over the zones, the others can cancel it)
-    zone_weeks = zone_week_departures(sig.zones, {wk: ds for wk, ds in by_week.items() if wk in wmean}, g_min, z_min)
-    for zw in zone_weeks:
-        picked |= {d["date"] for d in by_week[zw["week"]]}
     ev = {
         "weekdays_checked": len(deps),
         "gamma_median": med,
@@ -383,14 +493,17 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
         )[:40],
         "weeks": weeks,
         "zone_weeks": zone_weeks,
-        "week_means": {str(wk): round(g, 4) for wk, g in sorted(wmean.items())},
-        "week_mean_median": w_med,
-        "week_mean_robust_std": w_scale,
+        "weather_explained": weather,
+        "week_means": {str(wk): round(g, 4) for wk, g in sorted(pick["week_means"].items())},
+        "week_mean_median": pick["week_mean_median"],
+        "week_mean_robust_std": pick["week_mean_robust_std"],
         "rule": (
             f"weekday gamma >= {g_min:g} and z >= {z_min:g}, or week mean gamma >= {gw_min:g} (z >= {z_min / 2:g}), "
             f"or week mean gamma >= {gw_min / 2:g} at z >= {z_min:g} among the week means, the z asked falling "
             f"linearly to {z_min / 2:g} at week mean gamma {gw_min:g}, "
-            f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means"
+            f"or, in one zone, week mean gamma >= {g_min:g} at z >= {z_min:g} among that zone's week means; "
+            f"; each keeps half its gamma and gamma >= {g_min:g} (day, zone) or >= {gw_min / 2:g} (week mean) on "
+            "the residual less each zone's regression on its facades' irradiance anomaly"
         ),
     }
     if len(deps) < 10:
@@ -407,7 +520,14 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             {"variant": "holiday"},
             status="not significant",
             evidence=ev,
-            reason="no weekday departs from the seasonal profile toward a weekend day",
+            reason="no weekday departs from the seasonal profile toward a weekend day"
+            + (
+                f" once the sun is accounted for ({len(weather['dates'])} weekday(s) proposed, weeks "
+                f"{[w['week'] for w in weather['weeks']]}: their departure falls below the rule's on the residual "
+                "less its regression on the facades' irradiance anomaly)"
+                if weather
+                else ""
+            ),
         )
     dates = tuple(sorted(picked))
     term = InternalGainSchedule(
