@@ -1,0 +1,90 @@
+"""The ``ell5`` layout: an L-shaped five-zone floor no rule was tuned on (session 17), and the defects the
+pipeline showed on it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from numpy.testing import assert_allclose
+
+
+def test_ell5_geometry_as_designed():
+    """Five unequal zones on an L: an interior C, two zones with three facades (one on the re-entrant corner's
+    notch each), N and E touching at the inner corner only, boxes 1-4 and two air handlers."""
+    from hvacfmu.building import validate_building
+    from hvacfmu.emulator import emulated_building
+    from hvacfmu.emulator.layouts import ahu_groups
+
+    b = emulated_building("ell5")
+    assert validate_building(b) == []
+    assert b.zone_names == ("N", "W", "C", "S", "E")
+    areas = {z.name: z.area for z in b.zones}
+    assert_allclose([areas[z] for z in b.zone_names], [480.0, 192.0, 256.0, 128.0, 960.0], rtol=0, atol=1e-9)
+    facades = {z.name: sorted(f.orientation for f in z.facades) for z in b.zones}
+    # N's east facade and E's north facade face the notch: on main's outline rule (edges on the bounding
+    # rectangle) they were interior walls to nowhere, N had two facades and E two
+    assert facades == {"N": ["E", "N", "W"], "W": ["S", "W"], "C": [], "S": ["S"], "E": ["E", "N", "S"]}
+    pairs = {frozenset(p) for p in b.adjacency_pairs()}
+    expected = [("N", "W"), ("N", "C"), ("W", "C"), ("W", "S"), ("C", "S"), ("C", "E"), ("S", "E")]
+    assert pairs == {frozenset(p) for p in expected}
+    assert "E" not in b.zone("N").adjacent  # the inner corner is a point
+    ratios = {
+        (z.name, f.orientation): f.window_area / (f.window_area + f.wall_area) for z in b.zones for f in z.facades
+    }
+    assert_allclose(ratios[("S", "S")], 0.65, rtol=0, atol=1e-9)
+    assert_allclose(ratios[("N", "E")], 0.55, rtol=0, atol=1e-9)
+    assert [len(b.vavs_of(z)) for z in b.zone_names] == [3, 2, 2, 1, 4]
+    assert ahu_groups("ell5") == {"N": "AHU1", "W": "AHU1", "C": "AHU1", "S": "AHU2", "E": "AHU2"}
+
+
+def test_open_edge_rule_keeps_the_tiled_layouts():
+    """On the four layouts whose zones tile their rectangle, the edges no other zone covers are exactly the
+    edges on the rectangle: the ``outline="zones"`` rule would give them the same facades."""
+    from hvacfmu.emulator.building import _facades_of, _open_edges
+    from hvacfmu.emulator.layouts import LAYOUTS
+
+    for name, lay in LAYOUTS.items():
+        if lay.outline != "extent":
+            continue
+        for z, rect in lay.rects.items():
+            others = [r for k, r in lay.rects.items() if k != z]
+            assert _open_edges(rect, others) == _facades_of(rect, lay.extent), (name, z)
+
+
+def test_layout_choices_everywhere():
+    """The CLI's ``--layout`` choices and ``check_options`` know every layout of :data:`LAYOUTS`."""
+    from hvacfmu.cli.commands import build_parser
+    from hvacfmu.emulator.layouts import LAYOUTS, check_options
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    gen = sub.choices["generate"]
+    layout = next(a for a in gen._actions if a.dest == "layout")
+    assert tuple(layout.choices) == tuple(LAYOUTS)
+    for name in LAYOUTS:
+        assert name in layout.help
+        assert check_options(layout=name) == []
+
+
+@pytest.mark.slow
+def test_ell5_generates_with_its_meeting_room(tmp_path):
+    """``generate --layout ell5`` writes a real-BMS-like week (two air handlers, Td columns) that ``check``
+    accepts; the truth records the meeting room S with its own meeting gain and says so in words."""
+    from hvacfmu.data.check import check
+
+    out = tmp_path / "e"
+    cmd = [sys.executable, "-m", "hvacfmu", "-q", "generate", str(out), "--layout", "ell5", "--weeks", "1"]
+    cmd += ["--seed", "1", "--hvac", "reheat", "--units", "us", "--clock", "naive-local"]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    rep = check(out / "measurements.parquet", out / "building.toml", step=900.0)
+    assert rep.ok, rep.problems
+    truth = json.loads((out / "truth.json").read_text())
+    occ = truth["baseline"]["occupancy"]
+    assert occ["meeting_zone"] == "S" and occ["meeting_gain"] == 3500.0 and occ["meeting_probability"] == 0.5
+    assert "meetings in S" in json.dumps(truth)
+    toml = (out / "building.toml").read_text()
+    assert "AHU1" in toml and "AHU2" in toml
