@@ -170,7 +170,23 @@ class CosimResult:
                 f"  oscillation     {', '.join(f'{k} {n}' for k, n in worst)} of {n_steps} "
                 f"steps reverse a move of more than {OSCILLATION_K:g} K"
             )
-            if worst[0][1] >= 0.1 * n_steps:  # a tenth of the run: sustained, not a few disturbances
+            measured = s.get("measured_oscillation")
+            name, count = worst[0]
+            sustained = count >= 0.1 * n_steps  # a tenth of the run: sustained, not a few disturbances
+            if sustained and measured is not None and measured.get(name, 0) >= count:
+                # the data reverse at least as often: the building's own loop, not the controller and the plant
+                line += (
+                    f"; the measured zone temperatures reverse as often ({name} {measured.get(name, 0)}): "
+                    "the building's own loop cycles at this step (e.g. a small zone on one fast box), not the "
+                    "controller with the plant"
+                )
+            elif sustained and s.get("controller") == "replay":
+                line += (
+                    f": the replayed airflows do not respond to the run, so the model's own response to the "
+                    f"measured inputs reverses more often than the data ({name} {(measured or {}).get(name, 0)}): "
+                    "see fit's warnings (a first-step gain far above the building's)"
+                )
+            elif sustained:
                 line += (
                     ": the controller cycles with the plant (for MPC: the model's first-step response is far "
                     "below the plant's; the offset-free estimate, --option offset_gain, can drive the cycle; the "
@@ -1147,6 +1163,24 @@ def _measured_violation(run: _Run, completed: int):
 
     The figure that makes the run's own readable: a band that is not the building's (the default 20-22 degC against a
     restaurant held at 24 degC all summer) shows as the measured data being far outside it too."""
+    Y = _measured_outputs(run, completed)
+    if Y is None:
+        return None
+    below, above = _band_excess(Y, run.band)
+    return float(np.nansum(below + above) * run.step / 3600.0)
+
+
+def _measured_oscillation(run: _Run, completed: int):
+    """:func:`oscillation_counts` of the measured zone temperatures over the steps taken (None without them).
+
+    A zone whose own loop cycles at the data's step (a small zone on one fast box) reverses in the data as in the
+    run: the run's count is then the building's, not a controller cycling with the plant."""
+    Y = _measured_outputs(run, completed)
+    return None if Y is None else oscillation_counts(Y, run.out_names)
+
+
+def _measured_outputs(run: _Run, completed: int):
+    """The measured zone temperatures of the run's outputs over the steps taken [°C] (None without them)."""
     weights = dict(zip(run.building.zone_names, run.building.area_weights())) if run.building is not None else {}
     columns = []
     for o in run.out_names:
@@ -1159,8 +1193,7 @@ def _measured_violation(run: _Run, completed: int):
     Y = np.column_stack(columns)[1 : completed + 1]
     if not len(Y) or not np.isfinite(Y).any():
         return None
-    below, above = _band_excess(Y, run.band)
-    return float(np.nansum(below + above) * run.step / 3600.0)
+    return Y
 
 
 def _band_excess(Y, band):
@@ -1214,6 +1247,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "filled_inputs": run.filled,
         "defaulted_inputs": run.defaulted,
         "oscillation": oscillation_counts(Yc, run.out_names),
+        "measured_oscillation": _measured_oscillation(run, c),
         "controller_stats": stats() if callable(stats) else {},
         "start_values": sv,
         "warmup_steps": run.nw,

@@ -88,3 +88,28 @@ def test_ell5_generates_with_its_meeting_room(tmp_path):
     assert "meetings in S" in json.dumps(truth)
     toml = (out / "building.toml").read_text()
     assert "AHU1" in toml and "AHU2" in toml
+
+
+def test_cosim_oscillation_names_the_building_when_the_data_cycle():
+    """A replayed run whose zone reverses step after step as the measured zone does (ell5's meeting room S:
+    one fast box on 128 m2) is the building's own loop; main's summary blamed "the controller cycles with the
+    plant" and gave MPC advice. A replay that reverses more than the data points at the model instead."""
+    from types import SimpleNamespace
+
+    from harness.cosim import CosimResult
+
+    s = {
+        "fmu": "zones.fmu", "controller": "replay", "start": "a", "end": "b", "steps_requested": 40, "step": 900.0,
+        "steps_completed": 40, "covered": True, "energy_proxy": 1.0, "total_airflow_kg": 1.0, "mean_airflow": 1.0,
+        "comfort_violation_Kh": 0.0, "band": [20.0, 22.0], "step_time_median": 0.0, "step_time_max": 0.0,
+        "controller_time_median": 0.0, "fmu_time_median": 0.0, "oscillation": {"T_S": 9},
+        "measured_oscillation": {"T_S": 18},
+    }  # fmt: skip
+    text = CosimResult.format_summary(SimpleNamespace(summary=s))
+    assert "the measured zone temperatures reverse as often (T_S 18)" in text
+    assert "the controller cycles with the plant" not in text
+    text = CosimResult.format_summary(SimpleNamespace(summary={**s, "measured_oscillation": {}}))
+    assert "the replayed airflows do not respond to the run" in text and "(T_S 0)" in text
+    assert "the controller cycles with the plant" not in text
+    mpc = CosimResult.format_summary(SimpleNamespace(summary={**s, "controller": "mpc", "measured_oscillation": {}}))
+    assert "the controller cycles with the plant" in mpc  # a controller in the loop keeps main's advice
