@@ -158,8 +158,15 @@ class CosimResult:
                 )
                 + (f" (+{len(by) - 5} more)" if len(by) > 5 and by[5][0] >= 0.05 else "")
             )
+        heating = f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>"
+        if not s.get("heating_commanded", True):
+            # a model FMU reads the data's discharge air as an input: no reheat is commanded, whatever the data heat
+            heating = (
+                "  heating         none commanded: the FMU has no Td_<vav> command input (a model FMU reads the "
+                "data's Td_<vav> as measured inputs; a plant FMU takes reheat commands)"
+            )
         lines += [
-            f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>",
+            heating,
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
         ]
@@ -1239,6 +1246,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
             )
         },
         "heating_kWh": _heating_kwh(run, tr),
+        "heating_commanded": bool(run.discharge),
         "band": [float(lo), float(hi)],
         "step_time_median": med(st),
         "step_time_max": float(np.max(st)) if c else math.nan,

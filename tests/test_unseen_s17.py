@@ -113,3 +113,24 @@ def test_cosim_oscillation_names_the_building_when_the_data_cycle():
     assert "the controller cycles with the plant" not in text
     mpc = CosimResult.format_summary(SimpleNamespace(summary={**s, "controller": "mpc", "measured_oscillation": {}}))
     assert "the controller cycles with the plant" in mpc  # a controller in the loop keeps main's advice
+
+
+def test_cosim_heating_line_says_when_nothing_is_commanded():
+    """A model FMU replayed on a cold winter week read the data's Td_<vav> and printed "0.0 kWh of reheat
+    commanded": a zero that reads as "no heating" (ell5 cold seed 1, November). The line now says the FMU takes no
+    reheat command; the figure stays 0.0 in the summary for the scripts that sum it."""
+    from types import SimpleNamespace
+
+    from harness.cosim import CosimResult
+
+    s = {
+        "fmu": "zones.fmu", "controller": "replay", "start": "a", "end": "b", "steps_requested": 40, "step": 900.0,
+        "steps_completed": 40, "covered": True, "energy_proxy": 1.0, "total_airflow_kg": 1.0, "mean_airflow": 1.0,
+        "comfort_violation_Kh": 0.0, "band": [20.0, 22.0], "step_time_median": 0.0, "step_time_max": 0.0,
+        "controller_time_median": 0.0, "fmu_time_median": 0.0, "heating_kWh": 0.0, "heating_commanded": False,
+    }  # fmt: skip
+    text = CosimResult.format_summary(SimpleNamespace(summary=s))
+    assert "none commanded: the FMU has no Td_<vav> command input" in text
+    assert "0.0 kWh of reheat" not in text
+    plant = CosimResult.format_summary(SimpleNamespace(summary={**s, "heating_kWh": 12.5, "heating_commanded": True}))
+    assert "12.5 kWh of reheat commanded through Td_<vav>" in plant
