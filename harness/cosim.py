@@ -1380,6 +1380,22 @@ def _parse_options(items) -> dict:
     return out
 
 
+def _check_controller_options(name, cls, options) -> None:
+    """HvacfmuError naming the options ``cls`` does not take (``--horizon`` is the MPC's), and the ones it does."""
+    import inspect
+
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    params = [n for n, p in inspect.signature(cls).parameters.items() if p.kind in kinds]
+    unknown = [k for k in options if k not in params]
+    if unknown:
+        what = ", ".join("horizon (--horizon is the MPC's)" if k == "horizon" else k for k in unknown)
+        takes = ", ".join(params) if params else "none"
+        raise HvacfmuError(
+            f"controller {name!r} takes no option {what}; its options (--option KEY=VALUE): {takes}. "
+            "Drop it, or use --controller mpc"
+        )
+
+
 def make_controller(name, model=None, building=None, options=None):
     """A controller by name: ``replay``, ``rule`` or ``mpc``.
 
@@ -1389,10 +1405,10 @@ def make_controller(name, model=None, building=None, options=None):
     :mod:`harness.controllers`.
     """
     options = dict(options or {})
-    if name == "replay":
-        return ReplayController(**options)
-    if name == "rule":
-        return RuleController(**options)
+    if name in ("replay", "rule"):
+        cls = ReplayController if name == "replay" else RuleController
+        _check_controller_options(name, cls, options)
+        return cls(**options)
     if name == "mpc":
         if model is None:
             raise HvacfmuError("--controller mpc needs the controller's model: --model model.json")

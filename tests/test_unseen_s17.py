@@ -134,3 +134,16 @@ def test_cosim_heating_line_says_when_nothing_is_commanded():
     assert "0.0 kWh of reheat" not in text
     plant = CosimResult.format_summary(SimpleNamespace(summary={**s, "heating_kWh": 12.5, "heating_commanded": True}))
     assert "12.5 kWh of reheat commanded through Td_<vav>" in plant
+
+
+def test_rule_controller_refuses_mpc_options_with_a_message():
+    """``cosim --controller rule --horizon 12`` (a user comparing rule and MPC on the same command line) ended in a
+    TypeError traceback on main; it is now an HvacfmuError naming the option and the rule's own options."""
+    from harness.cosim import make_controller
+    from hvacfmu.errors import HvacfmuError
+
+    with pytest.raises(HvacfmuError, match=r"controller 'rule' takes no option horizon \(--horizon is the MPC's\)"):
+        make_controller("rule", options={"horizon": 12})
+    with pytest.raises(HvacfmuError, match=r"controller 'replay' takes no option kp; its options .*: none"):
+        make_controller("replay", options={"kp": 0.5})
+    assert make_controller("rule", options={"kp": 0.8}).kp == 0.8
