@@ -40,6 +40,19 @@ CASES = [
         + ["--effect", "solar_gain:zone=N,facade=E"],
         "physics",
     ),
+    # the other export style: SI units, ISO times with offsets, a 1-minute log, one air handler (vav), a box with
+    # data in ~6 % of rows, heavy masonry, a wind column; spring into summer
+    (
+        "hot4",
+        "hot",
+        "vav",
+        4,
+        "2026-03-02",
+        20,
+        ["--units", "si", "--clock", "aware", "--export-step", "60", "--fault", "sparse_box", "--construction", "heavy"]
+        + ["--wind", "m/s"],
+        "zones",
+    ),
 ]
 KINDS = ("lumped", "zones", "physics")
 

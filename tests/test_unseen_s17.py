@@ -147,3 +147,24 @@ def test_rule_controller_refuses_mpc_options_with_a_message():
     with pytest.raises(HvacfmuError, match=r"controller 'replay' takes no option kp; its options .*: none"):
         make_controller("replay", options={"kp": 0.5})
     assert make_controller("rule", options={"kp": 0.8}).kp == 0.8
+
+
+@pytest.mark.slow
+def test_thin_box_in_a_minute_file_names_the_bridge(tmp_path):
+    """A 1-minute export whose box answers every ~12 min (``--fault sparse_box`` at ``--export-step 60``) has no
+    15-min step with half of the file's samples: ``check`` refused the whole building with "no model step of 900 s
+    has enough samples" and no fix, and ``fit`` then blamed every zone ("only 0 usable transitions"). The refusal
+    now names the fix that works, ``--interpolate-gaps``; with it the data pass."""
+    from hvacfmu.data.check import check
+
+    out = tmp_path / "m"  # found on ell5; quad4 here so that the test runs on main's layouts too
+    cmd = [sys.executable, "-m", "hvacfmu", "-q", "generate", str(out), "--layout", "quad4", "--weeks", "2"]
+    cmd += ["--seed", "4", "--hvac", "vav", "--export-step", "60", "--fault", "sparse_box", "--start", "2026-03-02"]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    rep = check(out / "measurements.parquet", out / "building.toml", step=900.0)
+    assert not rep.ok
+    thin = [p for p in rep.problems if "m_VAV_" in p]
+    assert thin and all("--interpolate-gaps MINUTES" in p for p in thin), rep.problems
+    bridged = check(out / "measurements.parquet", out / "building.toml", step=900.0, interpolate_limit=30)
+    assert bridged.ok, bridged.problems
