@@ -168,3 +168,28 @@ def test_thin_box_in_a_minute_file_names_the_bridge(tmp_path):
     assert thin and all("--interpolate-gaps MINUTES" in p for p in thin), rep.problems
     bridged = check(out / "measurements.parquet", out / "building.toml", step=900.0, interpolate_limit=30)
     assert bridged.ok, bridged.problems
+
+
+@pytest.mark.slow
+def test_physics_refusal_names_the_column_that_breaks_every_weekend(tmp_path):
+    """Model B identifies on whole weekend days; one box with a short gap every day left none, and the refusal said
+    only "no usable weekend segment" (ell5's 1-minute export with a thin box: 35 of 35 days broken by m_VAV_E_3).
+    It now names the columns and how many days each breaks, and the fixes."""
+    import pandas as pd
+
+    out = tmp_path / "q"
+    cmd = [sys.executable, "-m", "hvacfmu", "-q", "generate", str(out), "--layout", "quad4", "--weeks", "3"]
+    cmd += ["--seed", "2", "--format", "csv"]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    path = out / "measurements.csv"
+    df = pd.read_csv(path)
+    hour = pd.to_datetime(df["time"], utc=True).dt.hour
+    df.loc[hour == 12, "m_VAV_SW_1"] = float("nan")  # an hour's gap every day in one box
+    df.to_csv(path, index=False)
+    fit = [sys.executable, "-m", "hvacfmu", "-q", "fit", str(path), "-b", str(out / "building.toml")]
+    fit += ["--model", "physics", "-o", str(tmp_path / "p.json")]
+    run = subprocess.run(fit, capture_output=True, text=True)
+    assert run.returncode != 0
+    assert "no usable weekend segment" in run.stderr
+    assert "m_VAV_SW_1 (" in run.stderr and "--interpolate-gaps MINUTES" in run.stderr, run.stderr[-600:]
