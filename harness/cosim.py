@@ -162,8 +162,8 @@ class CosimResult:
         if not s.get("heating_commanded", True):
             # a model FMU reads the data's discharge air as an input: no reheat is commanded, whatever the data heat
             heating = (
-                "  heating         none commanded: the FMU has no Td_<vav> command input (a model FMU reads the "
-                "data's Td_<vav> as measured inputs; a plant FMU takes reheat commands)"
+                "  heating         none commanded: the FMU has no Td_<vav> command input (a model FMU takes the "
+                "data's measured inputs, their Td_<vav> if any; a plant FMU takes reheat commands)"
             )
         lines += [
             heating,
