@@ -158,8 +158,15 @@ class CosimResult:
                 )
                 + (f" (+{len(by) - 5} more)" if len(by) > 5 and by[5][0] >= 0.05 else "")
             )
+        heating = f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>"
+        if not s.get("heating_commanded", True):
+            # a model FMU reads the data's discharge air as an input: no reheat is commanded, whatever the data heat
+            heating = (
+                "  heating         none commanded: the FMU has no Td_<vav> command input (a model FMU takes the "
+                "data's measured inputs, their Td_<vav> if any; a plant FMU takes reheat commands)"
+            )
         lines += [
-            f"  heating         {s.get('heating_kWh', 0.0):.1f} kWh of reheat commanded through Td_<vav>",
+            heating,
             f"  compute / step  median {1e3 * s['step_time_median']:.3f} ms, max {1e3 * s['step_time_max']:.3f} ms "
             f"(controller median {1e3 * s['controller_time_median']:.3f} ms, FMU median {1e3 * s['fmu_time_median']:.3f} ms)",
         ]
@@ -170,7 +177,23 @@ class CosimResult:
                 f"  oscillation     {', '.join(f'{k} {n}' for k, n in worst)} of {n_steps} "
                 f"steps reverse a move of more than {OSCILLATION_K:g} K"
             )
-            if worst[0][1] >= 0.1 * n_steps:  # a tenth of the run: sustained, not a few disturbances
+            measured = s.get("measured_oscillation")
+            name, count = worst[0]
+            sustained = count >= 0.1 * n_steps  # a tenth of the run: sustained, not a few disturbances
+            if sustained and measured is not None and measured.get(name, 0) >= count:
+                # the data reverse at least as often: the building's own loop, not the controller and the plant
+                line += (
+                    f"; the measured zone temperatures reverse as often ({name} {measured.get(name, 0)}): "
+                    "the building's own loop cycles at this step (e.g. a small zone on one fast box), not the "
+                    "controller with the plant"
+                )
+            elif sustained and s.get("controller") == "replay":
+                line += (
+                    f": the replayed airflows do not respond to the run, so the model's own response to the "
+                    f"measured inputs reverses more often than the data ({name} {(measured or {}).get(name, 0)}): "
+                    "see fit's warnings (a first-step gain far above the building's)"
+                )
+            elif sustained:
                 line += (
                     ": the controller cycles with the plant (for MPC: the model's first-step response is far "
                     "below the plant's; the offset-free estimate, --option offset_gain, can drive the cycle; the "
@@ -1147,6 +1170,24 @@ def _measured_violation(run: _Run, completed: int):
 
     The figure that makes the run's own readable: a band that is not the building's (the default 20-22 degC against a
     restaurant held at 24 degC all summer) shows as the measured data being far outside it too."""
+    Y = _measured_outputs(run, completed)
+    if Y is None:
+        return None
+    below, above = _band_excess(Y, run.band)
+    return float(np.nansum(below + above) * run.step / 3600.0)
+
+
+def _measured_oscillation(run: _Run, completed: int):
+    """:func:`oscillation_counts` of the measured zone temperatures over the steps taken (None without them).
+
+    A zone whose own loop cycles at the data's step (a small zone on one fast box) reverses in the data as in the
+    run: the run's count is then the building's, not a controller cycling with the plant."""
+    Y = _measured_outputs(run, completed)
+    return None if Y is None else oscillation_counts(Y, run.out_names)
+
+
+def _measured_outputs(run: _Run, completed: int):
+    """The measured zone temperatures of the run's outputs over the steps taken [°C] (None without them)."""
     weights = dict(zip(run.building.zone_names, run.building.area_weights())) if run.building is not None else {}
     columns = []
     for o in run.out_names:
@@ -1159,8 +1200,7 @@ def _measured_violation(run: _Run, completed: int):
     Y = np.column_stack(columns)[1 : completed + 1]
     if not len(Y) or not np.isfinite(Y).any():
         return None
-    below, above = _band_excess(Y, run.band)
-    return float(np.nansum(below + above) * run.step / 3600.0)
+    return Y
 
 
 def _band_excess(Y, band):
@@ -1206,6 +1246,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
             )
         },
         "heating_kWh": _heating_kwh(run, tr),
+        "heating_commanded": bool(run.discharge),
         "band": [float(lo), float(hi)],
         "step_time_median": med(st),
         "step_time_max": float(np.max(st)) if c else math.nan,
@@ -1214,6 +1255,7 @@ def _summary(run: _Run, tr: _Trace, fmu_path, controller, sv) -> dict:
         "filled_inputs": run.filled,
         "defaulted_inputs": run.defaulted,
         "oscillation": oscillation_counts(Yc, run.out_names),
+        "measured_oscillation": _measured_oscillation(run, c),
         "controller_stats": stats() if callable(stats) else {},
         "start_values": sv,
         "warmup_steps": run.nw,
@@ -1338,6 +1380,22 @@ def _parse_options(items) -> dict:
     return out
 
 
+def _check_controller_options(name, cls, options) -> None:
+    """HvacfmuError naming the options ``cls`` does not take (``--horizon`` is the MPC's), and the ones it does."""
+    import inspect
+
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    params = [n for n, p in inspect.signature(cls).parameters.items() if p.kind in kinds]
+    unknown = [k for k in options if k not in params]
+    if unknown:
+        what = ", ".join("horizon (--horizon is the MPC's)" if k == "horizon" else k for k in unknown)
+        takes = ", ".join(params) if params else "none"
+        raise HvacfmuError(
+            f"controller {name!r} takes no option {what}; its options (--option KEY=VALUE): {takes}. "
+            "Drop it, or use --controller mpc"
+        )
+
+
 def make_controller(name, model=None, building=None, options=None):
     """A controller by name: ``replay``, ``rule`` or ``mpc``.
 
@@ -1347,10 +1405,10 @@ def make_controller(name, model=None, building=None, options=None):
     :mod:`harness.controllers`.
     """
     options = dict(options or {})
-    if name == "replay":
-        return ReplayController(**options)
-    if name == "rule":
-        return RuleController(**options)
+    if name in ("replay", "rule"):
+        cls = ReplayController if name == "replay" else RuleController
+        _check_controller_options(name, cls, options)
+        return cls(**options)
     if name == "mpc":
         if model is None:
             raise HvacfmuError("--controller mpc needs the controller's model: --model model.json")

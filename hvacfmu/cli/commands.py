@@ -325,10 +325,10 @@ def _add_generate_parser(sub) -> None:
     p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
     p.add_argument(
         "--layout",
-        choices=("sdh", "row4", "core9", "quad4"),
+        choices=("sdh", "row4", "core9", "quad4", "ell5"),
         default="sdh",
         help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core), "
-        "quad4 (2 x 2 corner offices)",
+        "quad4 (2 x 2 corner offices), ell5 (L-shaped floor, five unequal zones, a meeting room)",
     )
     p.add_argument(
         "--construction",

@@ -11,7 +11,7 @@ import pandas as pd
 from ..errors import BuildingError, DataError
 from ..progress import Progress
 from .clock import ClockCheck, clock_check, outdoor_phase_warning
-from .dataset import Dataset, _prepare, option_problems, sparse_columns, sparse_message
+from .dataset import _BRIDGE, Dataset, _prepare, option_problems, sparse_columns, sparse_message
 from .loading import WIND_MAX, LoadReport, _load, as_building
 from .plausibility import SPIKE_FACTOR, SPIKE_SHARE_MAX, STUCK_DAYS
 from .resample import MIN_COVERAGE
@@ -433,7 +433,8 @@ def _coverage(dataset, building, label, min_coverage):
         if col in required and missing_all[col]:
             problems.append(
                 f"{label}: column {building.column_for(col)!r}: no model step of {step_s:g} s has enough samples "
-                f"(at least {100 * min_coverage:g} % of the step){_masked_note(dataset, col)}"
+                f"(at least {100 * min_coverage:g} % of the step){_masked_note(dataset, col)}; if the sensor logs "
+                f"thinly all along (samples sparser than the file's rows): {_BRIDGE}"
             )
     sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
     for msg, col in sparse.items():

@@ -434,7 +434,13 @@ def sparse_message(name: str, canonical: str, coverage: float, threshold: float 
         + f": a value in only {100 * coverage:.1f} % of the model steps, below the {100 * threshold:g} % that "
         f"fitting and evaluation need ({what}); trim the file to the span the sensor covers, fix the export"
         + ("" if what.startswith("a required") else ", or drop the column")
+        + f"; a sensor logging thinly all along: {_BRIDGE}"
     )
+
+
+#: The fix for a column whose samples are spread thinly over the whole span (change-of-value logging, or a
+#: box that answers every ~12 min in a 1-minute file): each model step has too few of the file's samples.
+_BRIDGE = "bridge its samples with --interpolate-gaps MINUTES (a little over its spacing)"
 
 
 def option_problems(step, train_fraction=0.9, interpolate_limit=None, min_coverage=MIN_COVERAGE) -> list[str]:

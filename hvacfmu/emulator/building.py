@@ -67,6 +67,42 @@ def _facades_of(rect, extent=FLOOR_EXTENT):
     return out
 
 
+def _open_edges(rect, others):
+    """Edge lengths [m] of a zone rectangle by orientation that no other zone rectangle covers.
+
+    On a floor whose zones tile its outline rectangle these are the edges on the outline; on an
+    L-shaped floor (``ell5``) they also include the edges on the re-entrant corner's notch.
+    """
+    x0, x1, y0, y1 = rect
+    edges = {
+        "N": (y1, x0, x1, "h", 1),
+        "S": (y0, x0, x1, "h", -1),
+        "E": (x1, y0, y1, "v", 1),
+        "W": (x0, y0, y1, "v", -1),
+    }
+    out = {}
+    for o, (c, a0, a1, kind, side) in edges.items():
+        covered = []
+        for bx0, bx1, by0, by1 in others:
+            if kind == "h" and (by0 if side > 0 else by1) == c:
+                lo, hi = max(a0, bx0), min(a1, bx1)
+            elif kind == "v" and (bx0 if side > 0 else bx1) == c:
+                lo, hi = max(a0, by0), min(a1, by1)
+            else:
+                continue
+            if hi > lo:
+                covered.append((lo, hi))
+        open_len, pos = 0.0, a0
+        for lo, hi in sorted(covered):
+            if lo > pos:
+                open_len += lo - pos
+            pos = max(pos, hi)
+        open_len += max(0.0, a1 - pos)
+        if open_len > 0:
+            out[o] = open_len
+    return out
+
+
 def _shared_length(a, b):
     """Length [m] of the common boundary of two rectangles (0 if they only touch at a corner)."""
     ax0, ax1, ay0, ay1 = a
@@ -93,7 +129,12 @@ def floor_plan(layout: str = "sdh"):
     for name in order:
         x0, x1, y0, y1 = lay.rects[name]
         area = (x1 - x0) * (y1 - y0)
-        facades = {o: v for o, v in _facades_of(lay.rects[name], lay.extent).items() if (name, o) not in lay.blind}
+        if lay.outline == "zones":
+            others = [r for z, r in lay.rects.items() if z != name]
+            edges = _open_edges(lay.rects[name], others)
+        else:
+            edges = _facades_of(lay.rects[name], lay.extent)
+        facades = {o: v for o, v in edges.items() if (name, o) not in lay.blind}
         zones[name] = {"area": area, "volume": area * CEILING_HEIGHT, "facades": facades}
     shared = {}
     for i, a in enumerate(order):
@@ -382,7 +423,7 @@ def emulated_building(
 
     Parameters
     ----------
-    layout : {"sdh", "row4", "core9", "quad4"}
+    layout : {"sdh", "row4", "core9", "quad4", "ell5"}
         Floor layout (see :mod:`hvacfmu.emulator.layouts`).
     construction : {"medium", "light", "heavy"}
         Construction template of the massive layers and furniture.

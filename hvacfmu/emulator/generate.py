@@ -151,6 +151,10 @@ def make_truth(
     occupancy = json.loads(json.dumps(DEFAULT_OCCUPANCY))
     occupancy["peak_gain"] = dict(lay.peak_gain)
     occupancy["meeting_zone"] = lay.meeting_zone
+    if lay.meeting_gain is not None:
+        occupancy["meeting_gain"] = float(lay.meeting_gain)
+    if lay.meeting_probability is not None:
+        occupancy["meeting_probability"] = float(lay.meeting_probability)
     closed = None
     if holidays is not None:
         from ..calendars import public_holidays
@@ -263,7 +267,8 @@ def _structure(truth: dict, core) -> dict:
             "reheat_rise": base["controllers"]["reheat_rise"],
         },
         "internal_gains": "area x (base + peak x occupancy): seasonal level (semesters, winter break, "
-        "summer), weekday/weekend, random arrival/departure and day factors, meetings in C; local "
+        "summer), weekday/weekend, random arrival/departure and day factors, meetings in "
+        f"{truth['baseline']['occupancy'].get('meeting_zone') or 'C'}; local "
         "wall clock, no holidays",
         "adjacent_floors": "T_fl = mean + workday rise x occupancy + AR(1) noise",
         # diagnosis cause ids present in the baseline (before any injected effect), by location
@@ -424,7 +429,7 @@ def generate(
         Effects to inject (see :mod:`hvacfmu.emulator.effects`), e.g.
         ``["solar_gain:zone=S", {"name": "zone_coupling"}]``.
     fmt : {"parquet", "csv"}
-    layout : {"sdh", "row4", "core9", "quad4"}
+    layout : {"sdh", "row4", "core9", "quad4", "ell5"}
         Floor layout (:mod:`hvacfmu.emulator.layouts`); effect zones and facades
         must exist in it.
     construction : {"medium", "light", "heavy"}

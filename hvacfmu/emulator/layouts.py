@@ -2,7 +2,7 @@
 
 A *layout* is a rectangular floor split into rectangular zones; facades are the
 zone edges on the floor's outline (minus the edges a layout declares blind,
-e.g. a party wall), adjacency is a shared edge of positive length. Four
+e.g. a party wall), adjacency is a shared edge of positive length. Five
 layouts exist:
 
 ``sdh`` (default)
@@ -24,6 +24,17 @@ layouts exist:
     (11-17 W/m2), no meeting room, and two air handlers (north zones on AHU1, south on AHU2).
     No diagnosis rule was tuned on it (added in session 15 to measure the diagnosis on a
     layout it never saw; the fleet does not draw it, so fleet seeds keep their buildings).
+``ell5``
+    An L-shaped floor (the 64 m x 44 m rectangle less its 40 m x 20 m north-east corner),
+    five zones of unequal size: N (480 m2, the north end of the west wing, three facades N,
+    W and E, its east facade on the re-entrant corner), W (192 m2, W and S), an interior
+    zone C (256 m2, no facade), S (128 m2, south only: a glazed meeting room with a strong
+    meeting schedule, 3.5 kW meetings in half the weekday hours 9..17) and E (960 m2, the
+    east wing, three facades S, E and N, its north facade on the notch). Boxes 1-4 per zone
+    (S 1, W 2, C 2, N 3, E 4), window ratios 0.30-0.65, two air handlers (west wing N, W, C
+    on AHU1; S and E on AHU2). N and E touch at the inner corner's point only. Facades are
+    the zone edges no other zone covers (``outline="zones"``). Added in session 17 so the
+    whole pipeline can be run on a floor no rule was tuned on; the fleet does not draw it.
 
 A *construction template* scales the massive layers and the furniture mass:
 ``medium`` (the default, the SDH-like concrete frame), ``light`` (steel frame,
@@ -64,6 +75,14 @@ class Layout:
     ahu_of_zone : dict zone -> air handler name, optional
         Air handlers of the ``reheat`` HVAC mode; default: perimeter zones on
         ``AHU1``, zones without facades on ``AHU2``.
+    outline : {"extent", "zones"}
+        Where the facades are: ``extent`` (default) the zone edges on the ``extent``
+        rectangle (the zones tile it); ``zones`` every zone edge no other zone covers
+        (a floor that is not a rectangle, e.g. the L of ``ell5``).
+    meeting_gain : float or None
+        [W] gain of one meeting in ``meeting_zone``; None: the occupancy default.
+    meeting_probability : float or None
+        [-] probability of a meeting per weekday hour 9..17; None: the occupancy default.
     """
 
     name: str
@@ -76,6 +95,9 @@ class Layout:
     blind: frozenset = frozenset()
     meeting_zone: str | None = None
     ahu_of_zone: dict = dataclasses.field(default_factory=dict)
+    outline: str = "extent"
+    meeting_gain: float | None = None
+    meeting_probability: float | None = None
 
     @property
     def zone_order(self) -> tuple:
@@ -202,7 +224,45 @@ QUAD4 = Layout(
     ahu_of_zone={"NW": "AHU1", "NE": "AHU1", "SE": "AHU2", "SW": "AHU2"},
 )
 
-LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9, QUAD4)}
+_ELL5_RECTS = {
+    "N": (0.0, 24.0, 24.0, 44.0),
+    "W": (0.0, 8.0, 0.0, 24.0),
+    "C": (8.0, 24.0, 8.0, 24.0),
+    "S": (8.0, 24.0, 0.0, 8.0),
+    "E": (24.0, 64.0, 0.0, 24.0),
+}
+ELL5 = Layout(
+    name="ell5",
+    title="L-shaped floor of five zones (emulated)",
+    extent=(0.0, 64.0, 0.0, 44.0),
+    rects=_ELL5_RECTS,
+    vavs={
+        "N": (3, 0.14, 0.60),
+        "W": (2, 0.10, 0.42),
+        "C": (2, 0.11, 0.45),
+        "S": (1, 0.16, 0.65),
+        "E": (4, 0.19, 0.75),
+    },
+    peak_gain={"N": 12.0, "W": 14.0, "C": 15.0, "S": 9.0, "E": 16.0},
+    window_to_wall={
+        ("N", "N"): 0.35,
+        ("N", "W"): 0.30,
+        ("N", "E"): 0.55,
+        ("W", "W"): 0.50,
+        ("W", "S"): 0.40,
+        ("S", "S"): 0.65,
+        ("E", "S"): 0.45,
+        ("E", "E"): 0.30,
+        ("E", "N"): 0.40,
+    },
+    meeting_zone="S",
+    meeting_gain=3500.0,
+    meeting_probability=0.5,
+    ahu_of_zone={"N": "AHU1", "W": "AHU1", "C": "AHU1", "S": "AHU2", "E": "AHU2"},
+    outline="zones",
+)
+
+LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9, QUAD4, ELL5)}
 
 
 # --------------------------------------------------------------------------- constructions

@@ -105,6 +105,9 @@ def _weekend_segments(dataset, model, nw, ns, max_segments):
     u_all, v_all = model.signals(frame)
     nz = len(model.outputs)
     starts, seasons = [], []
+    names = [*model.inputs, *model.disturbances]
+    broken = np.zeros(len(names), dtype=int)  # weekend days each input column breaks (a gap in the segment)
+    n_days = 0
     for week in dataset.weeks:
         if not week.train:
             continue
@@ -116,16 +119,27 @@ def _weekend_segments(dataset, model, nw, ns, max_segments):
             if r is None or not _regular(index, r - nw, nw + ns, step):
                 continue
             seg = slice(r, r + ns)
-            if np.isnan(u_all[seg]).any() or np.isnan(v_all[seg]).any():
+            n_days += 1
+            gaps = np.concatenate([np.isnan(u_all[seg]).any(axis=0), np.isnan(v_all[seg]).any(axis=0)])
+            if gaps.any():
+                broken += gaps
                 continue
             if np.isfinite(y_all[r + 1 : r + ns + 1]).mean() < 0.5 or np.isnan(y_all[r]).all():
                 continue
             starts.append(r)
             seasons.append(week.season)
     if not starts:
+        worst = [(names[j], int(broken[j])) for j in np.argsort(-broken, kind="stable") if broken[j]][:5]
+        culprits = (
+            "; the input columns with a gap in most of the "
+            f"{n_days} weekend days: " + ", ".join(f"{c} ({n})" for c, n in worst) + ": fill their short gaps "
+            "(--interpolate-gaps MINUTES), fix the export, or fit a model that needs no whole days (zones, lumped)"
+            if worst
+            else ""
+        )
         raise FitError(
             "no usable weekend segment in the training weeks (need complete airflows and disturbances over "
-            f"{ns} steps after a {nw}-step warm-up on Saturdays/Sundays)"
+            f"{ns} steps after a {nw}-step warm-up on Saturdays/Sundays){culprits}"
         )
     starts = np.asarray(starts)
     seasons = np.asarray(seasons)
