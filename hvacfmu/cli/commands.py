@@ -315,14 +315,16 @@ def _add_generate_parser(sub) -> None:
         help="emulator (default) or energyplus (pip install 'hvacfmu[energyplus]')",
     )
     p.add_argument("--weeks", type=int, default=None, help="length [weeks] (emulator default 51, energyplus: a year)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="emulator seed: same seed, same data (default 0)")
     p.add_argument(
         "--effect",
         action="append",
         metavar="NAME[:key=value,...]",
         help="inject an effect, e.g. solar_gain:zone=S or zone_coupling:zones=NW+C (repeatable)",
     )
-    p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.add_argument(
+        "--format", choices=("parquet", "csv"), default="parquet", help="measurements file format (default parquet)"
+    )
     p.add_argument(
         "--layout",
         choices=("sdh", "row4", "core9", "quad4", "ell5"),
@@ -545,8 +547,8 @@ def _add_demo_parser(sub) -> None:
     """The ``demo`` subcommand."""
     p = sub.add_parser("demo", help="the paper end to end on the built-in emulated building, with a report")
     p.add_argument("--out", default="hvacfmu-demo", help="output folder (default ./hvacfmu-demo)")
-    p.add_argument("--weeks", type=int, default=51)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--weeks", type=int, default=51, help="weeks of emulated 1-minute data (default 51, cached)")
+    p.add_argument("--seed", type=int, default=0, help="emulator seed (default 0)")
     p.add_argument(
         "--horizon",
         type=int,
