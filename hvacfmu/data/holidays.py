@@ -268,6 +268,7 @@ def decide_holidays(frame: pd.DataFrame, building, weeks) -> HolidayCalendar:
             notes.append(
                 f"{len(pub)} public holiday(s) of {country} fall on weekdays in the data ("
                 + ", ".join(f"{d} {n}" for d, n in list(pub.items())[:3])
+                + (f" and {len(pub) - 3} more" if len(pub) > 3 else "")
                 + "); too few training workdays and Sundays to tell whether the building closes on them: the models "
                 f'treat them as workdays. If it closes on them, add [holidays] country = "{country}" to the building file'
             )
