@@ -47,7 +47,7 @@ def test_instrument_rejects_a_shared_driver_and_keeps_a_real_exchange():
         iv = c.evidence["instrument"]
         # measured: open loop 0.001 (t −0.1); closed loop −0.19 (t −4.1), the boxes answer the driver
         assert iv["iv_t"] < 1.0
-        assert c.status == "no evidence" and "instrumented conductance" in c.reason
+        assert c.status == "no evidence" and "not shown to be an exchange" in c.reason
     # a real 0.04/step exchange: the instrumented conductance is the true one
     real = ExtendedModel(base=row_model(), terms=(ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.04, coef_ba=0.04),))
     c = _gated(simulate_dataset(real, weeks=12, seed=0))

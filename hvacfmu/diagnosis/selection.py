@@ -872,12 +872,13 @@ def _gate(c, opts) -> None:
     elif c.cause == "zone_coupling" and c.evidence.get("scored_alone") and not _instrumented(c, opts):
         iv = c.evidence["instrument"]
         c.status = "no evidence"
+        zs = list(c.term.zones())
         c.reason = (
-            f"the partners' own airflow moves do not reach each other through the pair's temperature difference: "
-            f"instrumented conductance {iv['iv_coef']:.3g} per step, t = {iv['iv_t']:.1f} < "
-            f"{opts['coupling_instrument_min_t']:g} (each zone's airflow changes of the last "
-            f"{opts['coupling_instrument_hours']:g} h as instruments, week-clustered): the partner's temperature "
-            f"stands in for a driver both zones share, not a heat exchange"
+            f"not shown to be an exchange: the partners' own airflow changes of the last "
+            f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference, give a "
+            f"conductance of {iv['iv_coef']:.3g} per step, t = {iv['iv_t']:.1f} < {opts['coupling_instrument_min_t']:g} "
+            f"(week-clustered; first-stage F {iv[f'iv_first_F_{zs[0]}']:.1f} / {iv[f'iv_first_F_{zs[1]}']:.1f}); "
+            f"each zone's gain alone with its partner measured can come from a driver both zones share"
         )
     elif c.cause == "actuation_delay" and not _delay_beyond_history(c, opts):
         h = c.evidence["history"]
