@@ -284,7 +284,7 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
         c.evidence["shared_drivers"] = shared
         c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and not shared
-        if c.evidence["scored_alone"]:
+        if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
             hours = float(options.get("coupling_instrument_hours", DEFAULT_OPTIONS["coupling_instrument_hours"]))
             c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, max(1, round(hours * 3600.0 / sig.step)))
     if hasattr(t, "alpha"):
