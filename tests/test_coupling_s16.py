@@ -3,8 +3,9 @@ handler scored zone by zone, each zone alone and beyond the mean of every other 
 
 ``benchmarks/coupling_s16.md``: on ``quad4`` the diagonal pairs share no facade orientation; their injected
 couplings gain +7.5 … +21 % per zone with the partner measured but lose when the pair is simulated together, so
-the default rule misses them. The option is off by default: on ``core9`` it raises false couplings (clean battery
-cases 1 and 6: N+W, N+E).
+the pair rule misses them. The option was off by default in session 16: on ``core9`` it raised false couplings
+(clean battery cases 1 and 6: N+W, N+E). Session 17 added an instrument check and turned it on
+(``tests/test_coupling_s17.py``).
 """
 
 from __future__ import annotations
@@ -58,5 +59,5 @@ def test_a_diagonal_coupling_is_found_zone_by_zone_and_missed_by_the_pair_rule(q
     for tests in (ev["cv_by_zone"], ev["cv_beyond_others_mean"]):
         assert set(tests) == {"NW", "SE"}
         assert all(r["gain_percent"] >= 3.0 and r["t"] >= 2.0 for r in tests.values())
-    # the default rule (the pair simulated together) misses it on the same data
-    assert _couplings(diagnose(quad4, progress=False)) == []
+    # the pair rule (the pair simulated together; the default before session 17) misses it on the same data
+    assert _couplings(diagnose(quad4, progress=False, coupling_alone_unshared=False)) == []

@@ -822,10 +822,13 @@ def test_bilinear_screen_and_refit_give_the_airflow_coefficient_the_same_bound()
     assert refit.model.base.B[0, 0] <= 0.0  # Model A's sign: airflow cools
 
 
-def _scored_coupling(ds):
+def _scored_coupling(ds, options=None):
     """``(signals, the A+C coupling candidate)`` of ``ds`` screened and scored on the training rows (base:
-    :func:`row_model`)."""
+    :func:`row_model`). ``options`` default: the pair rule (``coupling_alone_unshared`` off; A and C share no
+    facade, so the default scores them zone by zone, ``tests/test_coupling_s17.py``)."""
     from hvacfmu.diagnosis import selection as S
+
+    options = {**S.DEFAULT_OPTIONS, "coupling_alone_unshared": False} if options is None else options
     from hvacfmu.diagnosis.design import Within, fit_structure, make_signals
 
     sig = make_signals(ds, row_model())
@@ -834,7 +837,7 @@ def _scored_coupling(ds):
     cur = fit_structure(sig, [], rows)
     (c,) = [c for c in ZoneCoupling.screen(sig, [], W, cur.resid, {}) if c.location["zones"] == ["A", "C"]]
     factors = [S.ess_factor(S.lag1(cur.resid[:, z])) for z in range(sig.nz)]
-    S.score_candidate(sig, W, [], [ls.rss for ls in cur.zone_ls], factors, c, S.DEFAULT_OPTIONS)
+    S.score_candidate(sig, W, [], [ls.rss for ls in cur.zone_ls], factors, c, options)
     return sig, c
 
 

@@ -46,9 +46,11 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5, daylight-saving shift),
         ``holiday_min_scale`` (0.33, mean scale of a holiday term), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
-        ``coupling_min_gain_percent`` (3.0), ``coupling_alone_unshared`` (False: True scores a coupling of two zones
-        that share no facade and no measured air handler zone by zone, each alone and beyond the other zones' mean;
-        ``benchmarks/coupling_s16.md``), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
+        ``coupling_min_gain_percent`` (3.0), ``coupling_alone_unshared`` (True: a coupling of two zones
+        that share no facade and no measured air handler is scored zone by zone, each alone and beyond the other
+        zones' mean, and must pass an instrument check; False: the pair simulated together;
+        ``benchmarks/coupling_s16.md``, ``coupling_s17.md``), ``coupling_instrument_hours`` (6: the partners'
+        airflow changes of the last 6 h instrument the conductance), ``coupling_instrument_min_t`` (2.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0), ``cv_min_t`` (2.0, week-clustered paired t) and
         ``delay_cv_variants`` (3: an actuation delay's best one-step lengths cross-validated to pick its length).
 

@@ -68,6 +68,7 @@ from .design import (
     effective_inputs,
     fit_block,
     fit_structure,
+    shifted,
     term_features,
     zone_design,
 )
@@ -87,7 +88,9 @@ DEFAULT_OPTIONS = {
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
-    "coupling_alone_unshared": False,
+    "coupling_alone_unshared": True,
+    "coupling_instrument_hours": 6.0,
+    "coupling_instrument_min_t": 2.0,
     "horizon": None,
     "cv_folds": 10,
     "cv_min_gain_percent": 1.0,
@@ -286,7 +289,10 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
         shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
         c.evidence["shared_drivers"] = shared
-        c.evidence["scored_alone"] = bool(options.get("coupling_alone_unshared", False)) and not shared
+        c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and not shared
+        if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
+            hours = float(options.get("coupling_instrument_hours", DEFAULT_OPTIONS["coupling_instrument_hours"]))
+            c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, max(1, round(hours * 3600.0 / sig.step)))
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
@@ -412,6 +418,75 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
     out["asymmetry_t"] = float(max(tstats))
     out["asymmetry_weeks"] = int(len(np.unique(week)))
     out["dT_within_std_K"] = float(np.nanstd(W(d)))
+    return out
+
+
+def coupling_instrument(
+    sig: Signals, W: Within, terms, t, lags: int = 24, first: int = 1, levels: bool = False
+) -> dict:
+    """Instrumental-variable check of a coupling: do the partner's own airflow moves reach the zone through ``T_p``?
+
+    Per zone ``z`` of the pair (partner ``p``): zone ``z``'s equation (base + ``terms``, all coefficients free)
+    with the coupling column ``T_p − T_z`` instrumented by the partner's airflow changes ``Δu_p`` at lags
+    ``first``..``lags`` (``levels``: the airflow itself), two-stage least squares on the within-transformed
+    training rows. A partner's box moves ``T_p``; a real exchange carries that into ``z`` with the conductance's
+    sign. A partner whose temperature only stands in for a driver both zones share does not: its airflow
+    follows that driver (closed loop), which gives the instrumented coefficient the opposite sign, or is
+    unrelated to it (open loop), which gives none. Evidence: per zone ``iv_coef_<z>`` (volume-scaled to ``k``),
+    its week-clustered ``iv_t_<z>``, the first stage's F (``iv_first_F_<z>``) and the OLS value
+    (``iv_ols_<z>``); pooled over both equations (one ``k``): ``iv_coef``, ``iv_t`` (the gate,
+    ``coupling_instrument_min_t``). Measured (``benchmarks/coupling_s17.md``, 6 h at 15 min): injected
+    ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3.
+    """
+    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    U_eff = effective_inputs(sig, terms)
+    feats = [term_features(sig, tt, U_eff) for tt in terms]
+    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+    ra, rb = coupling_ratios(sig, a, b)
+    d = sig.Y[:, b] - sig.Y[:, a]
+    week = sig.week[W.rows]
+    out = {}
+    pooled = []
+    for z, p, col, r in ((a, b, d, ra), (b, a, -d, rb)):
+        D = zone_design(sig, z, terms, U_eff, feats)
+        du = U_eff[:, p] if levels else np.diff(U_eff[:, p], prepend=U_eff[0, p])
+        Z = np.column_stack([np.nan_to_num(shifted(du, lag)) for lag in range(first, lags + 1)])
+        Xw = W(D.X)
+        keep = (Xw * Xw).sum(axis=0) > 1e-300
+        Xw = Xw[:, keep]
+        Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
+        G = Xw.T @ Xw + 1e-10 * np.eye(Xw.shape[1])
+
+        def resid(v, Xw=Xw, G=G):
+            return v - Xw @ np.linalg.solve(G, Xw.T @ v)
+
+        yt = resid(W(target[:, z] - D.offset))
+        dt = resid(W(col))
+        Zt = resid(W(Z))
+        pi, *_ = np.linalg.lstsq(Zt, dt, rcond=None)
+        dh = Zt @ pi
+        e1 = dt - dh
+        m = Zt.shape[1]
+        n = len(dt)
+        ess = float(dh @ dh)
+        F = (ess / m) / (float(e1 @ e1) / max(n - m - Xw.shape[1], 1))
+        den = float(dh @ dt)
+        k_iv = float(dh @ yt) / den if den != 0 else 0.0
+        e = yt - k_iv * dt
+        se = _clustered_se(dh * e / den, week) if den != 0 else np.inf
+        k_ols = float(dt @ yt) / float(dt @ dt)
+        pooled.append((dh * r, dt * r, yt))
+        zn = sig.zones[z]
+        out[f"iv_coef_{zn}"] = k_iv / r
+        out[f"iv_t_{zn}"] = float(k_iv / se) if se > 0 else 0.0
+        out[f"iv_first_F_{zn}"] = float(F)
+        out[f"iv_ols_{zn}"] = k_ols / r
+    den = sum(float(h @ x) for h, x, _ in pooled)
+    k = sum(float(h @ y) for h, _, y in pooled) / den if den != 0 else 0.0
+    u = sum(h * (y - k * x) for h, x, y in pooled) / den if den != 0 else np.zeros(len(week))
+    se = _clustered_se(u, week)
+    out["iv_coef"] = float(k)
+    out["iv_t"] = float(k / se) if se > 0 else 0.0
     return out
 
 
@@ -800,6 +875,17 @@ def _gate(c, opts) -> None:
             f"not a heat exchange between them (t = {c.evidence['asymmetry_t']:.1f} beyond the factor, "
             f"week-clustered)"
         )
+    elif c.cause == "zone_coupling" and c.evidence.get("scored_alone") and not _instrumented(c, opts):
+        iv = c.evidence["instrument"]
+        c.status = "no evidence"
+        zs = list(c.term.zones())
+        c.reason = (
+            f"not shown to be an exchange: the partners' own airflow changes of the last "
+            f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference, give a "
+            f"conductance of {iv['iv_coef']:.3g} per step, t = {iv['iv_t']:.1f} < {opts['coupling_instrument_min_t']:g} "
+            f"(week-clustered; first-stage F {iv[f'iv_first_F_{zs[0]}']:.1f} / {iv[f'iv_first_F_{zs[1]}']:.1f}); "
+            f"each zone's gain alone with its partner measured can come from a driver both zones share"
+        )
     elif c.cause == "actuation_delay" and not _delay_beyond_history(c, opts):
         h = c.evidence["history"]
         c.status = "no evidence"
@@ -820,6 +906,13 @@ def _gate(c, opts) -> None:
         # evidence only: in closed loop a real delay also shows in the future airflow (the emulator's
         # 30-min delay in C failed a hard past-over-future rule); the gate is the temperature history above
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
+
+
+def _instrumented(c, opts) -> bool:
+    """A coupling scored zone by zone passes its instrument check (:func:`coupling_instrument`): the conductance
+    instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``."""
+    iv = c.evidence.get("instrument") or {}
+    return iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
 
 
 def _delay_beyond_history(c, opts) -> bool:
@@ -976,7 +1069,9 @@ def _cv_coupling_alone(sig, plan, terms, c, base_scores: dict) -> None:
     the data name (:func:`~hvacfmu.models.causes.zone_coupling.shared_drivers`), and each zone must also gain
     beyond a placebo, the mean temperature of every other zone as a free input
     (:class:`~hvacfmu.models.causes.zone_coupling.OthersPlacebo`, ``evidence["cv_beyond_others_mean"]``): a
-    partner carrying drivers all zones share explains no more than that mean.
+    partner carrying drivers all zones share explains no more than that mean. Before this, :func:`_gate` has
+    required the conductance instrumented by the partners' own airflow changes to be positive
+    (:func:`coupling_instrument`): the placebo keeps drivers that reach only the two zones.
     """
     by_zone, beyond = {}, {}
     pair = (c.term.zone_a, c.term.zone_b)

@@ -6,8 +6,9 @@ k V̄/V_b``). Screen: every pair not coupled in the base structure; evidence: co
 each zone's residual with the temperature difference toward the other (a real exchange
 shows in both, with opposite signs of the difference); the diagnosis adds the untied fit's
 symmetry ratio. :func:`shared_drivers` names what a pair shares that a partner's temperature could stand in
-for (a facade orientation, an air handler): where they share neither, the diagnosis can score the coupling zone
-by zone with the partner measured (option ``coupling_alone_unshared``, off by default; README "couplings").
+for (a facade orientation, an air handler): where they share neither, the diagnosis scores the coupling zone
+by zone with the partner measured and requires the conductance instrumented by the partners' own airflow changes
+to be positive (option ``coupling_alone_unshared``, on by default since session 17; README "couplings").
 """
 
 from __future__ import annotations
@@ -40,8 +41,9 @@ def shared_drivers(sig, a: int, b: int) -> list:
     Measured on the emulator's clean floors (``benchmarks/coupling_s16.md``, zone alone with the partner measured,
     ≥ 3 % at t ≥ 2 in both zones): 16 of 20 ``core9`` and 6 of 15 ``row4`` pairs sharing an orientation pass with no
     coupling; of the pairs sharing none, 0 of 20 on ``quad4``, 0 of 8 on ``sdh``, but 10 of 100 on ``core9``
-    (2 of them also beyond :class:`OthersPlacebo`). The zone-by-zone score of unshared pairs is therefore an
-    option (``coupling_alone_unshared``), off by default.
+    (2 of them also beyond :class:`OthersPlacebo`). The zone-by-zone score of unshared pairs
+    (``coupling_alone_unshared``) is on by default with the instrument check that rejects those two
+    (``benchmarks/coupling_s17.md``).
     """
     out = [f"facade {o}" for o in sorted(set(sig.facades[a]) & set(sig.facades[b]))]
     out += [f"unit {u}" for u in sorted(zone_units(sig, a) & zone_units(sig, b))]
