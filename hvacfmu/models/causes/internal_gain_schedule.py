@@ -539,12 +539,35 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
         shift=shift,
     )
     in_weeks = {w["week"] for w in weeks} | {w["week"] for w in zone_weeks}
-    n_choices = len(in_weeks) + len(
-        [d for d in dates if not any(d in {x["date"] for x in by_week[w]} for w in in_weeks)]
-    )
+    singles = [d for d in dates if not any(d in {x["date"] for x in by_week[w]} for w in in_weeks)]
+    n_choices = len(in_weeks) + len(singles)
+    ev["groups"] = holiday_groups(weeks, zone_weeks, singles, by_week)
     return Candidate(
         InternalGainSchedule.cause, {"variant": "holiday", "dates": list(dates)}, [term], max(n_choices, 1), evidence=ev
     )
+
+
+def holiday_groups(weeks, zone_weeks, singles, by_week) -> list:
+    """The screen's picks as the groups the scale gate judges one by one (:mod:`hvacfmu.diagnosis.selection`).
+
+    Each week is a group (``rule`` ``"week"``: the pooled week rule; ``"zone_week"``: the one-zone rule only, with
+    the ``zones`` whose departure proposed it; a week both rules propose is ``"week"`` with those ``zones``); the
+    single days that no week holds are one group (``rule`` ``"days"``). ``dates``: the group's ISO dates, sorted.
+    """
+    zones_of = {w["week"]: sorted(w["zones"]) for w in zone_weeks}
+    pooled = {w["week"] for w in weeks}
+    out = [
+        {
+            "rule": "week" if wk in pooled else "zone_week",
+            "week": int(wk),
+            **({"zones": zones_of[wk]} if wk in zones_of else {}),
+            "dates": sorted(d["date"] for d in by_week[wk]),
+        }
+        for wk in sorted(pooled | set(zones_of))
+    ]
+    if singles:
+        out.append({"rule": "days", "dates": sorted(singles)})
+    return out
 
 
 #: Lags [steps] searched when aligning the daylight-saving and standard-time weekday gain profiles.
