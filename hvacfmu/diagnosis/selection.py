@@ -40,7 +40,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import DataError
-from ..models.causes.actuation_delay import HISTORY_S, temperature_history
+from ..models.causes.actuation_delay import HISTORY_S, lowpass_airflow, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
 from ..models.causes.thermal_mass import keep_stable_time_constant
 from ..models.causes.zone_coupling import OthersPlacebo, shared_drivers
@@ -285,6 +285,7 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
     if isinstance(t, ActuationDelay):
         c.location = {**c.location, "delay": int(t.delay)}
         c.evidence["history"] = delay_given_history(sig, W, terms, t)
+        c.evidence["history_lowpass"] = delay_given_history(sig, W, terms, t, True)
     if isinstance(t, ZoneCoupling):
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
         shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
@@ -312,7 +313,7 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence["scale_weight_by_zone"] = dict(zip(sig.zones, (float(x) for x in w)))
 
 
-def delay_given_history(sig: Signals, W: Within, terms, t) -> dict:
+def delay_given_history(sig: Signals, W: Within, terms, t, lowpass: bool = False) -> dict:
     """The delay's likelihood ratio when the zone's own past temperatures are in both equations.
 
     Feedback is not delay: in closed loop ``u(k − d)`` is what the controller made of the zone's
@@ -323,9 +324,15 @@ def delay_given_history(sig: Signals, W: Within, terms, t) -> dict:
     ``lr = N ln(RSS_0 / RSS_1)``, deflated by ``(1 − ρ)/(1 + ρ)`` of the history fit's residual as the
     screen's, minus the BIC penalty ``ln N`` of the delay: ``delta_bic`` must exceed ``bic_margin``
     as the screen's. ``b``: the delayed airflow's coefficient in that fit [K/step per kg/s] (0 at its
-    bound: the delayed airflow does not cool the zone at all once the history is known).
+    bound: the delayed airflow does not cool the zone at all once the history is known). ``lowpass``:
+    the zone's airflow is replaced by :func:`~hvacfmu.models.causes.actuation_delay.lowpass_airflow` in
+    both equations (a loop cycling at two steps is not a delay).
     """
     z = sig.zones.index(t.zone)
+    if lowpass:
+        U = sig.U.copy()
+        U[:, z] = lowpass_airflow(sig.U[:, z])
+        sig = dataclasses.replace(sig, U=U)
     H = temperature_history(sig.Y[:, z], sig.step)
     keep = np.isfinite(H[W.rows]).all(axis=1)
     rows = W.rows[keep]
@@ -354,6 +361,7 @@ def delay_given_history(sig: Signals, W: Within, terms, t) -> dict:
         "lr_adjusted": lr * factor,
         "delta_bic": float(lr * factor - np.log(n)),
         "b": float(ls1.theta[names1.index("b")]),
+        "lowpass": bool(lowpass),
     }
 
 
@@ -989,6 +997,15 @@ def _gate(c, opts) -> None:
             f"{h['b']:.3g}): the airflow of {c.term.delay} step(s) before stands in for the zone's past temperature "
             f"through its controller (feedback), not an airflow acting late"
         )
+    elif c.cause == "actuation_delay" and not _delay_beyond_history(c, opts, "history_lowpass"):
+        h = c.evidence["history_lowpass"]
+        c.status = "no evidence"
+        c.reason = (
+            f"ΔBIC {c.test['delta_bic']:.1f} falls to {h['delta_bic']:.1f} ≤ {opts['bic_margin']:g} when the airflow "
+            f"is low-passed (centred [1, 2, 1]/4, no cycle of two steps) with the zone's own temperatures of the "
+            f"last {h['history_h']:g} h in the equation: the delay fits the sampled phase of a loop cycling at "
+            f"twice the data's step, not an airflow acting late"
+        )
     elif c.cause == "internal_gain_schedule" and c.evidence.get("scale_mean", 1.0) < _schedule_min_scale(c, opts):
         c.status = "not significant"
         c.reason = (
@@ -1009,9 +1026,10 @@ def _instrumented(c, opts) -> bool:
     return iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
 
 
-def _delay_beyond_history(c, opts) -> bool:
-    """A delay's gain survives the zone's own temperature history (:func:`delay_given_history`); True when not computable."""
-    d = (c.evidence.get("history") or {}).get("delta_bic")
+def _delay_beyond_history(c, opts, key: str = "history") -> bool:
+    """A delay's gain survives the zone's own temperature history (:func:`delay_given_history`; ``key``
+    ``history_lowpass``: with the airflow low-passed too); True when not computable."""
+    d = (c.evidence.get(key) or {}).get("delta_bic")
     return d is None or d > opts["bic_margin"]
 
 
@@ -1253,6 +1271,7 @@ def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:
         c.term, c.test = pick["term"], pick["test"]
         c.location = {**c.location, "delay": int(c.term.delay)}
         c.evidence["history"] = pick["history"]
+        c.evidence["history_lowpass"] = delay_given_history(sig, pick["W"], terms, pick["term"], True)
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
     return pick["after"], pick["cv"]
 

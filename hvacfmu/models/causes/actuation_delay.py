@@ -19,6 +19,16 @@ equation with and without the delay on that history and requires the same ΔBIC 
 ``benchmarks/diagnosis_energyplus_s12.md``): the battery's seven injected delays score ΔBIC 1 021–3 117
 given the history (plain 677–1 954); the 99 emulator zones without a delay −1 489 … −51 (plain all
 negative); the 60 EnergyPlus zones −115 … 6.6, while 37 of them pass the plain screen (up to 628).
+
+A loop that cycles at twice the data's step is not a delay either. At that period the airflow's cycle
+flips sign from one step to the next, ``u(k − 1) − ū ≈ −(u(k) − ū)``, so a delay by an odd number of steps
+can fit the cycle's sampled phase (the airflow at the sampling instant against the heat of the whole step)
+and survive the history test (ell5 cold1, zone S: one box whose PI loop cycles every 30 min in 15-min data;
+ΔBIC 125 given the history, no delay in the truth; ``benchmarks/delayguard_s17.md``). A real delay acts on
+the airflow's slower moves as well, so it must also hold with the airflow low-passed by
+:func:`lowpass_airflow` (the centred ``[1, 2, 1] / 4`` filter: zero gain at a period of two steps, no phase
+shift) in both equations (``evidence["history_lowpass"]``, same margin). Measured at the base structure: the
+quad4 and default battery's true delays 265 … 1 897 (LR, not deflated), S −31.
 """
 
 from __future__ import annotations
@@ -45,6 +55,21 @@ def temperature_history(y: np.ndarray, step: float) -> np.ndarray:
     """The zone's own past temperatures ``y(k − 1) … y(k − L)`` (n, L) [°C], L = :func:`history_lags` (NaN before the data)."""
     y = np.asarray(y, dtype=float)
     return np.column_stack([shifted(y, j) for j in range(1, history_lags(step) + 1)])
+
+
+def lowpass_airflow(u: np.ndarray) -> np.ndarray:
+    """``(u(k − 1) + 2 u(k) + u(k + 1)) / 4`` (n,) [kg/s]: the airflow without a cycle of period two steps.
+
+    Centred, so no phase shift (a one-sided mean would itself be half a step of delay); where a neighbour
+    is missing (the ends, gaps) it stands in with ``u(k)``. It reads ``u(k + 1)``, which a controller sets
+    from ``T(k + 1)``: that favours the equation without the delay, so the test it serves is conservative
+    for a delay.
+    """
+    u = np.asarray(u, dtype=float)
+    prv, nxt = shifted(u, 1), np.r_[u[1:], np.nan]
+    prv = np.where(np.isfinite(prv), prv, u)
+    nxt = np.where(np.isfinite(nxt), nxt, u)
+    return 0.25 * (prv + 2.0 * u + nxt)
 
 
 @dataclasses.dataclass(frozen=True)
