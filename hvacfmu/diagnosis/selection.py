@@ -89,6 +89,7 @@ DEFAULT_OPTIONS = {
     "coupling_max_asymmetry": 4.0,
     "coupling_min_gain_percent": 3.0,
     "coupling_alone_unshared": True,
+    "coupling_alone_shared": False,
     "coupling_instrument_hours": 6.0,
     "coupling_instrument_min_t": 2.0,
     "horizon": None,
@@ -290,7 +291,9 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
         shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
         c.evidence["shared_drivers"] = shared
-        c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and not shared
+        c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and (
+            not shared or bool(options.get("coupling_alone_shared", False))
+        )
         if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
             hours = float(options.get("coupling_instrument_hours", DEFAULT_OPTIONS["coupling_instrument_hours"]))
             c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, max(1, round(hours * 3600.0 / sig.step)))
