@@ -5,7 +5,8 @@ check) only where the two zones share no facade orientation and no measured air 
 ``row4`` pair shares a facade (S; R1+R4 and R2+R4 also N), so its couplings are scored as the pair, which misses all six of the
 README battery (seeds 2026/2027). The option ``coupling_alone_shared`` applies the zone-by-zone rule to shared pairs
 too: it finds all six, but also a coupling on 4 of 10 clean ``row4`` cases, instrument check passing
-(``benchmarks/coupling_row4_s17.md``). The instrument does not replace the exclusion; these tests hold both sides.
+(``benchmarks/coupling_row4_s17.md``). The instrument does not replace the exclusion; the clean-case side is measured in the benchmark (a
+test of it would take 2.5 min of the suite for a known limitation of an option that is off).
 """
 
 from __future__ import annotations
@@ -45,19 +46,3 @@ def test_zone_by_zone_rule_on_shared_facades_finds_a_row4_coupling_the_default_m
     assert list(opt) == ["R2+R4"]
     ev = opt["R2+R4"]["evidence"]
     assert ev["scored_alone"] and ev["instrument"]["iv_t"] >= 2.0
-
-
-@pytest.mark.slow
-def test_zone_by_zone_rule_on_shared_facades_raises_a_false_row4_coupling():
-    """README battery 2026 clean case 0 (seed 42): the option reports R1+R4 (the two end zones; measured +3.5 %,
-    t 5.2 at its weakest of the four zone tests) and the instrument check passes it: the exclusion of shared
-    pairs is still needed. The default reports no coupling."""
-    from hvacfmu.diagnosis import diagnose
-
-    ds = _dataset({"weeks": 16, "seed": 42, "effects": [], "layout": "row4"})
-    assert _couplings(diagnose(ds, progress=False).to_dict()) == {}
-    false = _couplings(diagnose(ds, progress=False, coupling_alone_shared=True).to_dict())
-    assert list(false) == ["R1+R4"]
-    ev = false["R1+R4"]["evidence"]
-    assert ev["scored_alone"] and ev["shared_drivers"] == ["facade N", "facade S"]
-    assert ev["instrument"]["iv_coef"] > 0 and ev["instrument"]["iv_t"] >= 2.0
