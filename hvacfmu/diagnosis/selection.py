@@ -608,6 +608,7 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     opts["horizon"] = horizon_steps(sig.step, opts["horizon"])
     given_budget = opts["max_terms"] is not None
     opts["max_terms"] = term_budget(opts["max_terms"], sig.nz)
+    opts["_holiday_weather"] = {}  # holiday picks set down to the weather, kept down in later rounds
     rows = sig.rows("train")
     terms = list(initial_terms)
     W = Within(sig.group, rows)

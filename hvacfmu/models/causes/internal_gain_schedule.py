@@ -443,6 +443,27 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     # zone's week mean γ ≥ holiday_gamma); the z stays the one-step residual's. A pick that does not is the
     # weather: the sun explains most of it (:data:`SUN_KEEP`)
     weather = {}
+    # a week (or day) set down to the weather in an earlier round stays down: once solar terms are in the model
+    # the residual's regression on the irradiance anomaly has less left to remove, and what the dark week kept
+    # of its departure is still the weather (quad4 2031 case 8, week 13: 0.44 -> 0.11 in round 1, then proposed
+    # at 0.30, 0.24 with the sun regressed out; ``benchmarks/diagnosis_sunweek_s17.md``). ``_holiday_weather``:
+    # the diagnosis's record across rounds (absent: no memory)
+    memo = options.get("_holiday_weather")
+    earlier = {"weeks": [], "days": []}
+    if isinstance(memo, dict) and memo:
+        earlier["weeks"] = sorted({w["week"] for w in weeks + zone_weeks if w["week"] in memo.get("weeks", {})})
+        earlier["days"] = sorted(d for d in pick["days"] if d in memo.get("days", set()))
+        weeks = [w for w in weeks if w["week"] not in earlier["weeks"]]
+        zone_weeks = [w for w in zone_weeks if w["week"] not in earlier["weeks"]]
+        pick["days"] = pick["days"] - set(earlier["days"])
+        kept = pick["days"] | {d["date"] for w in weeks + zone_weeks for d in by_week[w["week"]]}
+        if kept != picked:
+            weather = {
+                "dates": sorted(picked - kept),
+                "days": earlier["days"],
+                "weeks": [{"week": wk, **memo["weeks"][wk], "earlier_round": True} for wk in earlier["weeks"]],
+            }
+            picked = kept
     sun = sun_partialled(sig, resid_all, W.rows) if picked else None
     if sun is not None:
         g_min, gw_min = options["holiday_gamma"], options["holiday_week_gamma"]
@@ -472,7 +493,7 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
         zone_weeks = [w for w in zone_weeks if w not in out_weeks]
         kept = days | {d["date"] for w in weeks + zone_weeks for d in by_week[w["week"]]}
         if kept != picked:
-            weather = {
+            now = {
                 "dates": sorted(picked - kept),
                 "days": sorted(pick["days"] - days),
                 "weeks": [
@@ -480,7 +501,15 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
                     for wk in sorted({w["week"] for w in out_weeks} - {w["week"] for w in weeks + zone_weeks})
                 ],
             }
+            weather = {k: sorted(set(weather.get(k, [])) | set(now[k])) for k in ("dates", "days")} | {
+                "weeks": weather.get("weeks", []) + now["weeks"]
+            }
             picked = kept
+            if isinstance(memo, dict):
+                memo.setdefault("days", set()).update(now["days"])
+                memo.setdefault("weeks", {}).update(
+                    {w["week"]: {"gamma": w["gamma"], "gamma_sun": w["gamma_sun"]} for w in now["weeks"]}
+                )
     med, mad = pick["gamma_median"], pick["gamma_robust_std"]
     g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
     ev = {
