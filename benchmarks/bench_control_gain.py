@@ -76,6 +76,8 @@ DEFAULT_CASES = (
 )
 #: the MPC's default comfort penalty (:class:`harness.mpc.problem.MPCSettings`) [1/K per output and step]
 DEFAULT_WEIGHT = 1.0e4
+#: options passed to ``diagnose`` (``--diagnose-option``; part of the diagnosis cache key and of the row labels)
+DIAGNOSE_OPTIONS: dict = {}
 #: the comfort weights swept per model (the default first)
 DEFAULT_WEIGHTS = (DEFAULT_WEIGHT, 50.0, 30.0, 10.0)
 
@@ -117,17 +119,40 @@ def diagnosed(paths, ds):
     from hvacfmu.models import load_model
 
     root = Path(os.environ.get("HVACFMU_CACHE", Path.home() / ".cache" / "hvacfmu"))
-    folder = root / "bench_control_gain" / f"{Path(paths.truth).parent.name}-{_source_hash()}"
+    opts = "".join(f"-{k}={v}" for k, v in sorted(DIAGNOSE_OPTIONS.items()))
+    folder = root / "bench_control_gain" / f"{Path(paths.truth).parent.name}-{_source_hash()}{opts}"
     if (folder / "findings.json").is_file():
         findings = json.loads((folder / "findings.json").read_text(encoding="utf-8"))
         return load_model(folder / "base.json"), findings, load_model(folder / "extended.json")
-    rep = diagnose(ds, progress=False)
+    rep = diagnose(ds, progress=False, **DIAGNOSE_OPTIONS)
     folder.mkdir(parents=True, exist_ok=True)
     rep.base_model.save(folder / "base.json")
     rep.model.save(folder / "extended.json")
-    findings = [{"cause": f["cause"], "location": f.get("location")} for f in rep.findings]
+    # every finding's place with its cross-validated gain [%] and t; the coupling candidates not found, with their
+    # status and reason, beside them (a missed coupling says why)
+    findings = [{"cause": f["cause"], "location": f.get("location"), **_cv(f)} for f in rep.findings]
+    couplings = [
+        {"location": c.get("location"), "status": c.get("status"), "reason": c.get("reason"), **_cv(c)}
+        for c in rep.candidates
+        if c["cause"] == "zone_coupling"
+    ]
+    (folder / "coupling_candidates.json").write_text(json.dumps(couplings), encoding="utf-8")
     (folder / "findings.json").write_text(json.dumps(findings), encoding="utf-8")
     return rep.base_model, findings, rep.model
+
+
+def _option_value(text: str):
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    try:
+        return float(text) if any(ch in text for ch in ".eE") else int(text)
+    except ValueError:
+        return text
+
+
+def _cv(c: dict) -> dict:
+    cv = c.get("cv") or {}
+    return {"cv_gain_percent": cv.get("gain_percent"), "cv_t": cv.get("t")}
 
 
 def injected_found(effect: dict, findings) -> str:
@@ -222,6 +247,8 @@ def run_case(case: str, seasons, horizon: int, days: float, names, weights, out=
     from hvacfmu.fmu import export_plant_fmu
 
     layout, seed, spec, label = parse_case(case)
+    if DIAGNOSE_OPTIONS:
+        label += " [" + ", ".join(f"{k}={v}" for k, v in sorted(DIAGNOSE_OPTIONS.items())) + "]"
     paths = cached_dataset(
         weeks=51, seed=seed, effects=case_effects(spec), **({} if layout == "sdh" else {"layout": layout})
     )
@@ -592,7 +619,17 @@ def main(argv=None) -> int:
         help="for coupling cases: open-loop prediction of the pair with base / without / extended on the weeks "
         "the extended model controls, the heat the coupling carries, and the applied moves with and without it",
     )
+    ap.add_argument(
+        "--diagnose-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an option of diagnose (true/false, a number or a word), e.g. coupling_alone_unshared=false",
+    )
     args = ap.parse_args(argv)
+    for kv in args.diagnose_option:
+        key, _, value = kv.partition("=")
+        DIAGNOSE_OPTIONS[key] = _option_value(value)
     if args.explain:
         for case in args.cases:
             explain_coupling(case, args.seasons, args.horizon, args.days)
