@@ -283,4 +283,27 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
         meta={**{k: v for k, v in dyn.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
     )
     new_terms = tuple(t if t.cause in keep else t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
+    zeroed = zeroed_terms(terms, coefs, keep)
+    if zeroed:
+        # not silent: a term the diagnosis accepted that the refit on the control base drops (every coefficient at
+        # 0) is absent from the control model (session 17: a quad4 coupling found at t 5.3 was refitted to 0 and the
+        # MPC controlled without it; with the diagnosis's conductance kept it controlled better,
+        # ``benchmarks/control_gain_coupling_s17.md``)
+        note = (
+            "the control model's refit on the base sets "
+            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in zeroed)
+            + " to 0 (every coefficient at its bound): the MPC controls without "
+            + ("it" if len(zeroed) == 1 else "them")
+            + "; keep=("
+            + ", ".join(sorted({repr(t.cause) for t in zeroed}))
+            + ",) keeps the diagnosis's coefficients instead"
+        )
+        warnings.warn(note, HvacfmuWarning, stacklevel=2)
+        meta.setdefault("control_base", {}).setdefault("notes", []).append(note)
+        meta["zeroed"] = [t.to_dict() for t in zeroed]
     return ExtendedModel(base=new_base, terms=new_terms, meta=meta)
+
+
+def zeroed_terms(terms, coefs, keep=()) -> list:
+    """The refitted terms (cause not in ``keep``) whose every refitted coefficient (``coefs[i]``: name -> value) is 0."""
+    return [t for t, c in zip(terms, coefs) if t.cause not in keep and c and all(v == 0.0 for v in c.values())]
