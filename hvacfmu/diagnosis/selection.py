@@ -292,10 +292,10 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
         c.evidence["shared_drivers"] = shared
         c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and (
-            not shared or bool(options.get("coupling_alone_shared", False))
+            not shared or bool(options["coupling_alone_shared"])
         )
         if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
-            hours = float(options.get("coupling_instrument_hours", DEFAULT_OPTIONS["coupling_instrument_hours"]))
+            hours = float(options["coupling_instrument_hours"])
             c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, max(1, round(hours * 3600.0 / sig.step)))
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
@@ -914,8 +914,8 @@ def _holiday_by_group(sig, W, terms, cur_rss, factors, c, opts, cache, plan=None
         }
         if entry["kept"] and plan is not None:
             cross_validate(sig, plan, terms, sub, base_scores)
-            entry["cv_gain_percent"] = decisive_cv(sub).get("gain_percent")
-            entry["cv_t"] = decisive_cv(sub).get("t")
+            cv = decisive_cv(sub)
+            entry["cv_gain_percent"], entry["cv_t"] = cv.get("gain_percent"), cv.get("t")
             entry["kept"] = bool(_cv_accepts(sub, opts))
         judged.append(entry)
         if entry["kept"]:
@@ -1259,11 +1259,7 @@ def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:
         a_after = fold_scores(sig_a, plan, fold_fits(sig_a, plan, list(terms) + [alt["term"]], key), key)
         tried.append({**alt, "history": hist, "after": a_after, "cv": paired_test(plan, base, a_after)})
 
-    def rank(v):
-        g = v["cv"].get("gain_percent")
-        return (passes_gate(v["cv"], opts, _need_percent(c, opts)), -np.inf if g is None else g)
-
-    pick = max(tried, key=rank)
+    pick = max(tried, key=_cv_rank(c, opts))
     c.evidence["delay_length_cv"] = {
         "one_step_pick": int(first["term"].delay),
         "one_step_pick_delta_bic": first["test"]["delta_bic"],
@@ -1278,6 +1274,17 @@ def _delay_length_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:
         c.evidence["history_lowpass"] = delay_given_history(sig, pick["W"], terms, pick["term"], True)
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
     return pick["after"], pick["cv"]
+
+
+def _cv_rank(c, opts):
+    """Order of cross-validated variants of candidate ``c`` (a delay's lengths, an on/off reheat's regimes): those
+    passing the acceptance rule first, then the larger cross-validated gain."""
+
+    def rank(v):
+        g = v["cv"].get("gain_percent")
+        return (passes_gate(v["cv"], opts, _need_percent(c, opts)), -np.inf if g is None else g)
+
+    return rank
 
 
 #: On/off reheat thresholds cross-validated per candidate: the one-step pick and its best runners-up.
@@ -1311,11 +1318,7 @@ def _threshold_by_cv(sig, plan, terms, c, key, base, after, weeks) -> tuple:
         a_after = fold_scores(sig_a, plan, fold_fits(sig_a, plan, list(terms) + [alt["term"]], key), key)
         tried.append({**alt, "after": a_after, "cv": paired_test(plan, base, a_after)})
 
-    def rank(v):
-        g = v["cv"].get("gain_percent")
-        return (passes_gate(v["cv"], opts, _need_percent(c, opts)), -np.inf if g is None else g)
-
-    pick = max(tried, key=rank)
+    pick = max(tried, key=_cv_rank(c, opts))
     name = "{:.4g} kg/s, {:g} °C".format
     c.evidence["threshold_cv"] = {
         "one_step_pick": name(first["term"].u_min, first["term"].T_threshold),
