@@ -179,12 +179,17 @@ def _read(path: Path, problems: list, time_name: str = "time") -> pd.DataFrame |
     return None
 
 
-def _not_text(path: Path) -> str | None:
-    """A problem when a .csv file is empty or another format under that name (an Excel workbook, parquet)."""
+def _opener(path: Path):
+    """``open``, or ``gzip.open`` for a ``.gz`` file (the CSV readers' one rule)."""
     import gzip
 
-    opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rb") as f:
+    return gzip.open if path.suffix.lower() == ".gz" else open
+
+
+def _not_text(path: Path) -> str | None:
+    """A problem when a .csv file is empty or another format under that name (an Excel workbook, parquet)."""
+
+    with _opener(path)(path, "rb") as f:
         head = f.read(8)
     if not head:
         return f"{path.name}: the file is empty (0 bytes): export the trend data again"
@@ -220,10 +225,8 @@ def _encoding(path: Path) -> str:
     leaves undefined are read as replacement characters (they only occur in names and texts).
     """
     import codecs
-    import gzip
 
-    opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rb") as f:
+    with _opener(path)(path, "rb") as f:
         head = f.read(4)
         if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
             return "utf-16"
@@ -272,10 +275,8 @@ def _thousands_dots(path: Path, sep: str, frame: pd.DataFrame, time_name: str, e
 def _csv_header(path: Path, sep: str, enc: str = "utf-8-sig") -> list[str]:
     """The header names of a CSV file as written (quotes removed), empty if unreadable."""
     import csv
-    import gzip
 
-    opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rt", encoding=enc, errors="replace", newline="") as f:
+    with _opener(path)(path, "rt", encoding=enc, errors="replace", newline="") as f:
         return next(csv.reader(f, delimiter=sep), [])
 
 
@@ -294,10 +295,8 @@ def _duplicate_names(names, label) -> list[str]:
 
 
 def _head_lines(path: Path, enc: str, n: int) -> list[str]:
-    import gzip
 
-    opener = gzip.open if path.suffix.lower() == ".gz" else open
-    with opener(path, "rt", encoding=enc, errors="replace") as f:
+    with _opener(path)(path, "rt", encoding=enc, errors="replace") as f:
         return [line for _, line in zip(range(n), f)]
 
 
