@@ -650,7 +650,10 @@ def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool =
     - **a day-to-day disturbance no column carries**: the windows' mean errors fall on both sides by at least
       :data:`DAY_TO_DAY_K`, spread by at least :data:`DAY_TO_DAY_SHARE` of the RMS, and follow none of the
       weather columns of ``frame`` (the dataset's; ``T_out``, ``ghi``) by :data:`DAY_TO_DAY_WEATHER_R` or more
-      (see :func:`day_to_day_line`);
+      (see :func:`day_to_day_line`); with a ``wind`` column, a disturbance that follows the windows' mean
+      ``wind · (T_out − T_zone)`` by that much (more than any weather column, on the side a leak errs) is named as
+      wind-driven infiltration (session 18: the EnergyPlus apartments' winter, r +0.57 to +0.73 for the zones and
+      lumped models, where the line said "no column carries" it);
     - **one test week**: the season is judged on the windows of a single held-out week;
     - **holiday** (with ``model`` and ``dataset``): the windows cover a weekday public holiday (of the country
       of the building's time zone) that the model's calendar does not hold, so it predicts a working day there
@@ -681,7 +684,7 @@ def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool =
             "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; the physics "
             "model, or `hvacfmu diagnose` (thermal_mass), tests it"
         )
-    day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame)
+    day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame, _wind_terms(model))
     if day:
         out.append(day)
     if sv.n_weeks == 1:
@@ -763,7 +766,39 @@ DAY_TO_DAY_WEATHER_R = 0.5
 DAY_TO_DAY_MIN_WINDOWS = 3
 
 
-def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
+def _wind_terms(model) -> set | None:
+    """Zones of ``model``'s ``wind_infiltration`` terms (None without a model)."""
+    if model is None:
+        return None
+    return {t.zone for t in getattr(model, "terms", ()) if getattr(t, "cause", "") == "wind_infiltration"}
+
+
+def _window_means(col, starts, horizon) -> np.ndarray:
+    """The mean of the series ``col`` over each window (``horizon`` steps from each of ``starts``)."""
+    return np.array(
+        [np.nanmean(col.iloc[col.index.searchsorted(t) : col.index.searchsorted(t) + horizon]) for t in starts]
+    )
+
+
+def _wind_follow(frame, output: str, starts, horizon, m) -> tuple | None:
+    """``(label, r)``: the correlation of the windows' mean errors ``m`` with the windows' mean wind-driven exchange
+    ``wind · (T_out − T_<output>)`` (the zone's measured temperature; the wind speed alone for an output without
+    its own column, a lumped floor), or None when the data have no wind column or too few windows."""
+    if frame is None or "wind" not in frame.columns or "T_out" not in frame.columns:
+        return None
+    zone = f"T_{output}"
+    if zone in frame.columns:
+        label, col = "wind·(T_out − T_zone)", frame["wind"] * (frame["T_out"] - frame[zone])
+    else:
+        label, col = "wind", frame["wind"]
+    w = _window_means(col, starts, horizon)
+    good = np.isfinite(w)
+    if good.sum() < DAY_TO_DAY_MIN_WINDOWS or np.std(w[good]) == 0:
+        return None
+    return label, float(np.corrcoef(w[good], m[good])[0, 1])
+
+
+def day_to_day_line(sv, e, starts, horizon, frame=None, wind_zones=None) -> str:
     """The line for a zone-season whose windows' mean errors ``e`` (windows x steps, measured minus predicted)
     change sign from day to day ('' when they do not): a heat flow no column carries when they follow no weather
     column of ``frame``, the model's response to that weather when they follow one by :data:`DAY_TO_DAY_WEATHER_R`
@@ -793,15 +828,20 @@ def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
         for c in ("T_out", "ghi"):
             if c not in frame.columns:
                 continue
-            col = frame[c]
-            w = np.array(
-                [np.nanmean(col.iloc[col.index.searchsorted(t) : col.index.searchsorted(t) + horizon]) for t in starts]
-            )
+            w = _window_means(frame[c], starts, horizon)
             good = np.isfinite(w)
             if good.sum() < DAY_TO_DAY_MIN_WINDOWS or np.std(w[good]) == 0:
                 continue
             follows.append((c, float(np.corrcoef(w[good], m[good])[0, 1])))
     weather = [(c, r) for c, r in follows if abs(r) >= DAY_TO_DAY_WEATHER_R]
+    wind = _wind_follow(frame, sv.output, starts, horizon, m) if frame is not None else None
+    # a leak brings more of the outdoors on windy days: the zone colder than predicted where wind·(T_out − T) is most
+    # negative (r > 0), warmer than predicted on calm days; the wind speed alone, the other way round (r < 0)
+    if wind is not None:
+        label, r_w = wind
+        right_side = r_w > 0 if label != "wind" else r_w < 0
+        if right_side and abs(r_w) >= DAY_TO_DAY_WEATHER_R and all(abs(r_w) > abs(r) for _, r in weather):
+            return _wind_line(sv, m, spread, label, r_w, follows, wind_zones)
     if weather:
         c, r = max(weather, key=lambda cr: abs(cr[1]))
         what = {"T_out": ("warmer", "outdoor temperature"), "ghi": ("sunnier", "sun")}[c]
@@ -836,6 +876,28 @@ def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
             if frame is not None and "wind" in frame.columns
             else "(a wind speed column, if the site has one, lets `hvacfmu diagnose` test wind-driven infiltration)"
         )
+    )
+
+
+def _wind_line(sv, m, spread, label, r_w, follows, wind_zones) -> str:
+    """The day-to-day line of a zone-season whose windows' mean errors follow the wind-driven exchange."""
+    others = ", ".join(f"{c} {r:+.2f}" for c, r in follows)
+    if wind_zones is not None and sv.output in wind_zones:
+        fix = (
+            "the model's wind_infiltration term in this zone is too weak for this season (it is fitted on the "
+            "training year, where a unit that runs hides the leak)"
+        )
+    else:
+        fix = (
+            "the model has no wind-driven infiltration here: `hvacfmu diagnose` tests it (the wind_infiltration cause)"
+        )
+    return (
+        f"{sv.output} in {sv.season}: the error's mean over a window changes sign from day to day ({m.min():+.2f} to "
+        f"{m.max():+.2f} K, sd {spread:.2f} K over {len(m)} windows, of {sv.rms:.2f} K RMS) and follows the "
+        f"window's mean {label} (r {r_w:+.2f}" + (f"; {others}" if others else "") + "): on windy days the zone "
+        "loses more heat to (or gains more from) outdoors than predicted: outdoor air leaking in with the wind; "
+        + fix
+        + "; persistence wins where a thermostat holds the zone against it"
     )
 
 

@@ -1,0 +1,85 @@
+"""Wind-driven losses in one season: the verdict names them, and the diagnosis can re-test them (session 18).
+
+- The evaluate verdict's day-to-day line correlated a losing zone-season's window means only with ``T_out`` and
+  ``ghi`` and, with a ``wind`` column in the data, still said the error "follows no weather column" (the EnergyPlus
+  apartments' winter: r +0.57 to +0.73 with the window's mean ``wind · (T_out − T_zone)`` for the zones model,
+  ``benchmarks/apartments_s18.md``). It now names the wind-driven exchange when it follows it (tests 1-2 fail on main).
+- ``diagnose(..., wind_retest=...)`` (off by default): the option is known and checked, and without a held zone
+  it changes nothing (:mod:`hvacfmu.diagnosis.retest`).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hvacfmu.evaluation.verdict import SeasonVerdict, day_to_day_line
+
+H = 96  # steps of a window (24 h at 15 min)
+
+
+def _winter(n_windows=7, seed=3, follow=True):
+    """``n_windows`` daily windows of a floating flat: wind and outdoor temperature change by day; the windows' mean
+    errors (measured − predicted) are proportional to the day's ``wind · (T_out − T_zone)`` (``follow``) or random."""
+    rng = np.random.default_rng(seed)
+    idx = pd.date_range("2017-01-22", periods=n_windows * H, freq="15min", tz="America/New_York")
+    wind_day = np.array([5.1, 3.6, 2.1, 4.5, 4.1, 3.1, 5.3, 2.5, 4.0][:n_windows])
+    tout_day = np.array([5.8, 6.8, 0.1, 4.7, -1.6, 0.7, 3.6, 2.0, 1.0][:n_windows])
+    frame = pd.DataFrame(
+        {
+            "wind": np.repeat(wind_day, H) + rng.normal(0, 0.3, n_windows * H),
+            "T_out": np.repeat(tout_day, H) + rng.normal(0, 0.5, n_windows * H),
+            "T_S1": 22.0 + rng.normal(0, 0.05, n_windows * H),
+            "ghi": np.tile(np.clip(np.sin(np.linspace(-np.pi / 2, 1.5 * np.pi, H)), 0, None) * 300, n_windows),
+        },
+        index=idx,
+    )
+    loss = wind_day * (tout_day - 22.0)
+    dev = loss - loss.mean()
+    if follow:
+        means = 0.02 * dev
+    else:  # day means with no correlation with the day's wind-driven loss (it is projected out)
+        r = rng.permutation(np.linspace(-0.6, 0.6, n_windows))
+        means = r - dev * (r @ dev) / (dev @ dev)
+    e = np.repeat(means[:, None], H, axis=1) + rng.normal(0, 0.05, (n_windows, H))
+    starts = list(idx[::H])
+    sv = SeasonVerdict("zones", "S1", "winter", 0.46, 0.36, 0.50, n_windows, 1)
+    return sv, e, starts, frame
+
+
+def test_a_day_to_day_error_that_follows_the_wind_driven_loss_is_named_as_wind_infiltration():
+    sv, e, starts, frame = _winter()
+    line = day_to_day_line(sv, e, starts, H, frame, wind_zones=set())
+    # main: "follows no weather column (r with the window's mean T_out +0.09)"
+    m = re.search(r"follows the window's mean wind·\(T_out − T_zone\) \(r ([+-][0-9.]+)", line)
+    assert m and float(m.group(1)) > 0.9, line
+    assert "no wind-driven infiltration here" in line and "wind_infiltration" in line
+
+
+def test_a_model_with_a_wind_term_there_is_told_the_term_is_too_weak_for_the_season():
+    sv, e, starts, frame = _winter()
+    line = day_to_day_line(sv, e, starts, H, frame, wind_zones={"S1"})
+    assert "wind_infiltration term in this zone is too weak" in line
+
+
+def test_without_a_wind_column_or_with_an_unrelated_error_the_line_stays_as_before():
+    """Guards (pass on main too): no wind column, or day means that do not follow the wind, name no wind."""
+    sv, e, starts, frame = _winter()
+    line = day_to_day_line(sv, e, starts, H, frame.drop(columns="wind"))
+    assert "follows no weather column" in line and "a wind speed column, if the site has one" in line
+    sv, e, starts, frame = _winter(follow=False)
+    line = day_to_day_line(sv, e, starts, H, frame)
+    assert line and "follows the window's mean wind" not in line
+
+
+def test_wind_retest_is_a_checked_diagnosis_option_that_is_off_by_default():
+    from hvacfmu.diagnosis.retest import wind_after_held
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
+
+    assert DEFAULT_OPTIONS["wind_retest"] is False
+    with pytest.raises(ValueError, match="wind_retest must be one of"):
+        wind_after_held(None, None, [], [], {"wind_retest": "winter"}, None)
+    assert wind_after_held(None, None, [], [], {"wind_retest": False}, None) == ([], [])
