@@ -83,3 +83,34 @@ def test_wind_retest_is_a_checked_diagnosis_option_that_is_off_by_default():
     with pytest.raises(ValueError, match="wind_retest must be one of"):
         wind_after_held(None, None, [], [], {"wind_retest": "winter"}, None)
     assert wind_after_held(None, None, [], [], {"wind_retest": False}, None) == ([], [])
+
+
+def test_a_drift_in_a_zone_that_already_has_a_thermal_mass_term_does_not_send_the_user_to_diagnose_it_again():
+    """The apartments' diagnosed S1 in winter drifts colder; the verdict advised `hvacfmu diagnose (thermal_mass)`
+    for a model whose S1 already has a thermal_mass term (fails on main)."""
+    import types
+
+    from hvacfmu.evaluation.result import ModelScore
+    from hvacfmu.evaluation.verdict import season_causes
+    from hvacfmu.models.causes import ThermalMass
+
+    idx = pd.date_range("2025-01-06", periods=2 * H, freq="15min", tz="UTC")
+    ramp = np.tile(np.linspace(0.0, 1.0, H), 2)
+    score = ModelScore(
+        name="m",
+        kind="extended",
+        outputs=("A",),
+        starts=[idx[0], idx[H]],
+        seasons=["winter", "winter"],
+        weeks=[1, 2],
+        rms=np.ones((2, 1)),
+        baselines={},
+        skipped={},
+        residuals=pd.DataFrame({"A": ramp}, index=idx),
+    )
+    sv = SeasonVerdict("m", "A", "winter", float(np.sqrt(np.mean(ramp**2))), 0.3, np.nan, 2, 2)
+    with_mass = types.SimpleNamespace(terms=(ThermalMass(zone="A"),))
+    (drift,) = season_causes(score, sv, model=with_mass)
+    assert "already carries a thermal_mass term in this zone" in drift and "(thermal_mass), tests it" not in drift
+    (drift,) = season_causes(score, sv, model=types.SimpleNamespace(terms=(ThermalMass(zone="B"),)))
+    assert "`hvacfmu diagnose` (thermal_mass), tests it" in drift

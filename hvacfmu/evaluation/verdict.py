@@ -681,8 +681,12 @@ def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool =
             f"(persistence {sv.persistence:.2f} K): the measured temperature is {abs(bias):.2f} K {side} than "
             f"predicted on average (of {sv.rms:.2f} K RMS) and the mean error grows from {first:.2f} K in the first "
             f"to {last:.2f} K in the last quarter of the day: a slow heat store the model lacks (thermal mass, "
-            "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; the physics "
-            "model, or `hvacfmu diagnose` (thermal_mass), tests it"
+            "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; "
+            + (
+                "the model already carries a thermal_mass term in this zone, so the physics model tests the rest"
+                if sv.output in _cause_zones(model, "thermal_mass")
+                else "the physics model, or `hvacfmu diagnose` (thermal_mass), tests it"
+            )
         )
     day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame, _wind_terms(model))
     if day:
@@ -766,11 +770,14 @@ DAY_TO_DAY_WEATHER_R = 0.5
 DAY_TO_DAY_MIN_WINDOWS = 3
 
 
+def _cause_zones(model, cause: str) -> set:
+    """Zones of ``model``'s extension terms of ``cause`` (none for a base model or no model)."""
+    return {z for t in getattr(model, "terms", ()) if getattr(t, "cause", "") == cause for z in t.zones()}
+
+
 def _wind_terms(model) -> set | None:
     """Zones of ``model``'s ``wind_infiltration`` terms (None without a model)."""
-    if model is None:
-        return None
-    return {t.zone for t in getattr(model, "terms", ()) if getattr(t, "cause", "") == "wind_infiltration"}
+    return None if model is None else _cause_zones(model, "wind_infiltration")
 
 
 def _window_means(col, starts, horizon) -> np.ndarray:
