@@ -621,6 +621,7 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
     out += _unused_columns(model, score, dataset, losing)
     out += _sparse_columns(model, score, dataset)
     out += _airflow_gain(model, dataset)
+    out += _short_memory(model)
     out += _bandwidth_edge(model)
     out += [
         f"loading warned: {w}"
@@ -1096,6 +1097,48 @@ def _airflow_gain(model, dataset) -> list[str]:
         f"airflow gain not identifiable: |B| up to {np.abs(B).max():.2g} K/step per kg/s moves the zones by "
         f"at most {effect.max():.2g} K per step for the airflow's variation; from {closed} the fit learned "
         "the thermostat loop, not the building (add forced-response weeks, or use the physics model)"
+    ]
+
+
+#: slowest time constant of a fitted model, in model steps, under which it keeps no memory of its state: every step
+#: forgets more than 63 % of it (the apartments' zones model: 0.3-0.6 steps; the emulator's fitted zones and lumped
+#: models, which beat persistence, 1.4-2.9 steps at 15 min)
+SHORT_MEMORY_STEPS = 1.0
+
+
+def _short_memory(model) -> list[str]:
+    """A fitted model whose every mode decays within :data:`SHORT_MEMORY_STEPS` model steps (``meta["plausibility"]``):
+    its 24-hour prediction is the weather response plus the gain profile, whatever the zone's temperature at the start.
+
+    The EnergyPlus mid-rise apartments (``benchmarks/apartments_s18.md``): the zones model's one-step fit has
+    ``a`` = 0.0001, the open-loop refinement lifts it to time constants of 4-8 min; it loses 20 of 32 flat-seasons
+    to persistence, and the verdict named only the day-to-day weather."""
+    meta = getattr(model, "meta", None) or {}
+    tc = (meta.get("plausibility") or {}).get("time_constants_h") if isinstance(meta, dict) else None
+    if not tc:
+        return []
+    try:
+        slowest = max(float(t) for t in tc)
+    except (TypeError, ValueError):
+        return []
+    step_h = float(getattr(model, "step", 0) or 0) / 3600.0
+    if not np.isfinite(slowest) or step_h <= 0 or slowest >= SHORT_MEMORY_STEPS * step_h:
+        return []
+    ol = meta.get("open_loop") or {}
+    refined = ""
+    if isinstance(ol, dict) and ol.get("used") and ol.get("rms_before") is not None:
+        refined = (
+            f"; the open-loop refinement ran (training windows' RMS {float(ol['rms_before']):.2f} -> "
+            f"{float(ol['rms_after']):.2f} K) and left it there"
+        )
+    modes = f"all {len(tc)} modes" if len(tc) > 1 else "its only mode"
+    return [
+        f"the model's slowest time constant is {60 * slowest:.0f} min ({modes}), shorter than its "
+        f"{60 * step_h:.0f}-min step{refined}: a 24-hour prediction forgets the zone's temperature at its start within the first hour and "
+        "becomes the response to the weather and the time-of-week gain profile, so it cannot follow a zone that "
+        "floats away from its usual level, which persistence keeps; closed-loop data where the fit learned the "
+        "thermostat loop, not the building. The physics model, or `hvacfmu diagnose` (its own one-step base in the "
+        "airflow form), test a slower building"
     ]
 
 
