@@ -136,3 +136,30 @@ def test_a_fitted_model_whose_every_mode_decays_within_an_hour_is_named_as_the_l
     assert V._short_memory(types.SimpleNamespace(meta=quick, step=900.0)) == []
     assert V._short_memory(types.SimpleNamespace(meta=meta, step=300.0)) == []
     assert V._short_memory(types.SimpleNamespace(meta={}, step=900.0)) == []
+
+
+def test_floating_windows_are_those_whose_unit_runs_in_at_most_a_tenth_of_the_steps_and_are_scored_alone():
+    """The regime of ``wind_retest="floating"``, declared from the airflow before any score: a window floats when the
+    zone's (cycling) unit runs in at most 10 % of its steps; the paired test is then over those windows only."""
+    import types
+
+    from hvacfmu.diagnosis.crossval import CVPlan
+    from hvacfmu.diagnosis.retest import FLOATING_SHARE, _subset_test, floating_windows
+
+    h, n_days = 96, 12
+    u = np.zeros(h * (n_days + 1))
+    runs = [0, 5, 9, 10, 20, 96, 0, 3, 50, 9, 11, 0]  # steps per day the split unit runs
+    for d, k in enumerate(runs):
+        u[d * h : d * h + k] = 0.2
+    sig = types.SimpleNamespace(U=u[:, None], u_min=np.zeros(1), rows=lambda which: np.arange(len(u) - 1))
+    starts = [np.arange(0, 6) * h, np.arange(6, 12) * h]
+    plan = CVPlan([[0], [1]], [None, None], [None, None], starts, [np.arange(6), np.arange(6, 12)], h)
+    fl = floating_windows(sig, 0, plan)
+    assert FLOATING_SHARE == 0.1
+    assert [list(f) for f in fl] == [[k <= 9 for k in runs[:6]], [k <= 9 for k in runs[6:]]]
+    before = [np.full((6, 1), 0.5), np.full((6, 1), 0.5)]
+    after = [np.where(f[:, None], 0.4, 0.6) for f in fl]  # better on the floating windows, worse on the others
+    on = _subset_test(plan, before, after, fl)
+    off = _subset_test(plan, before, after, [~f for f in fl])
+    assert on["n_weeks"] == 7 and on["gain_percent"] == pytest.approx(20.0)
+    assert off["n_weeks"] == 5 and off["gain_percent"] == pytest.approx(-20.0)
