@@ -19,6 +19,7 @@ from . import residuals as R
 from .design import make_signals
 from .held import held_setpoints
 from .report import DiagnosisReport
+from .retest import wind_after_held
 from .selection import DEFAULT_OPTIONS, forward_select, horizon_steps, one_step_residuals, term_budget
 
 
@@ -54,7 +55,10 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``row4`` cases, ``benchmarks/coupling_row4_s17.md``), ``coupling_instrument_hours`` (6: the partners'
         airflow changes of the last 6 h instrument the conductance), ``coupling_instrument_min_t`` (2.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0), ``cv_min_t`` (2.0, week-clustered paired t) and
-        ``delay_cv_variants`` (3: an actuation delay's best one-step lengths cross-validated to pick its length).
+        ``delay_cv_variants`` (3: an actuation delay's best one-step lengths cross-validated to pick its length) and
+        ``wind_retest`` (False; ``"year"`` or ``"floating"``: the selection's unaccepted wind_infiltration candidates
+        in zones with a held setpoint cross-validated again with the held term in the fold models, over every window
+        or also over the windows the zone floats in, :mod:`hvacfmu.diagnosis.retest`).
 
     Returns
     -------
@@ -119,6 +123,11 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     say("testing held setpoints (zones a local thermostat holds at a band edge)")
     selected = final
     final, held = held_setpoints(sig, final, opts)
+    others = list(sel.candidates)
+    final, selected, held, retested = _wind_retest(sig, final, selected, held, others, opts, say, notes)
+    if retested:
+        findings = list(findings) + retested
+        others = [c for c in others if c not in retested]
     held_found = [c for c in held if c.status == "found"]
     if held_found:
         final.meta["diagnosis"]["causes"] += [c.cause for c in held_found]
@@ -149,7 +158,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     report = DiagnosisReport(
         verdict="found" if findings else ("unexplained" if unexplained else "nothing missing"),
         findings=[{**c.to_dict(), "parameters": _params_of(final, c.term)} for c in findings],
-        candidates=[c.to_dict() for c in list(sel.candidates) + [c for c in held if c.status != "found"]],
+        candidates=[c.to_dict() for c in others + [c for c in held if c.status != "found"]],
         unexplained=unexplained,
         whiteness={"before": white_before, "after": white_after},
         errors=errors,
@@ -169,6 +178,35 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         report.plot(plots)
     say(f"done: {report.summary()}")
     return report
+
+
+def _wind_retest(sig, final, selected, held, others, opts, say, notes) -> tuple:
+    """Option ``wind_retest`` (:mod:`hvacfmu.diagnosis.retest`): the selection's unaccepted wind candidates in held
+    zones cross-validated again with the held terms in the fold models. Where one passes, the selected structure is
+    refitted with it and the held stage runs again on that structure. Returns ``(final, selected, held, accepted)``."""
+    if not opts.get("wind_retest"):
+        return final, selected, held, []
+    from .selection import fit_consistent
+
+    rows = sig.rows("train")
+
+    def refit(terms):
+        return fit_consistent(sig, terms, rows).model
+
+    say("re-testing wind infiltration after the held setpoints (option wind_retest)")
+    accepted, said = wind_after_held(sig, final, held, others, opts, refit)
+    notes += said
+    if not accepted:
+        return final, selected, held, []
+    base_terms = [t for t in selected.terms] + [c.term for c in accepted]
+    fitted = refit(base_terms)
+    selected = ExtendedModel(base=fitted.base, terms=fitted.terms, meta=selected.meta)
+    selected.meta["diagnosis"]["causes"] += [c.cause for c in accepted]
+    for c in accepted:
+        c.term = next(t for t in fitted.terms if t.cause == c.cause and t.location() == c.term.location())
+    say("testing held setpoints again on the structure with the re-tested wind terms")
+    final, held = held_setpoints(sig, selected, opts)
+    return final, selected, held, accepted
 
 
 def _options(dataset, options: dict) -> dict:

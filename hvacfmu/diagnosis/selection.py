@@ -97,6 +97,7 @@ DEFAULT_OPTIONS = {
     "cv_min_gain_percent": 1.0,
     "cv_min_t": 2.0,
     "delay_cv_variants": 3,
+    "wind_retest": False,
 }
 
 

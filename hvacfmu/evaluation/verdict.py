@@ -621,6 +621,7 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
     out += _unused_columns(model, score, dataset, losing)
     out += _sparse_columns(model, score, dataset)
     out += _airflow_gain(model, dataset)
+    out += _short_memory(model)
     out += _bandwidth_edge(model)
     out += [
         f"loading warned: {w}"
@@ -650,7 +651,10 @@ def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool =
     - **a day-to-day disturbance no column carries**: the windows' mean errors fall on both sides by at least
       :data:`DAY_TO_DAY_K`, spread by at least :data:`DAY_TO_DAY_SHARE` of the RMS, and follow none of the
       weather columns of ``frame`` (the dataset's; ``T_out``, ``ghi``) by :data:`DAY_TO_DAY_WEATHER_R` or more
-      (see :func:`day_to_day_line`);
+      (see :func:`day_to_day_line`); with a ``wind`` column, a disturbance that follows the windows' mean
+      ``wind · (T_out − T_zone)`` by that much (more than any weather column, on the side a leak errs) is named as
+      wind-driven infiltration (session 18: the EnergyPlus apartments' winter, r +0.57 to +0.73 for the zones and
+      lumped models, where the line said "no column carries" it);
     - **one test week**: the season is judged on the windows of a single held-out week;
     - **holiday** (with ``model`` and ``dataset``): the windows cover a weekday public holiday (of the country
       of the building's time zone) that the model's calendar does not hold, so it predicts a working day there
@@ -678,10 +682,14 @@ def season_causes(score, sv, frame=None, model=None, dataset=None, drift: bool =
             f"(persistence {sv.persistence:.2f} K): the measured temperature is {abs(bias):.2f} K {side} than "
             f"predicted on average (of {sv.rms:.2f} K RMS) and the mean error grows from {first:.2f} K in the first "
             f"to {last:.2f} K in the last quarter of the day: a slow heat store the model lacks (thermal mass, "
-            "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; the physics "
-            "model, or `hvacfmu diagnose` (thermal_mass), tests it"
+            "the ground slab, neighbouring zones) or a season level its internal-gain profile misses; "
+            + (
+                "the model already carries a thermal_mass term in this zone, so the physics model tests the rest"
+                if sv.output in _cause_zones(model, "thermal_mass")
+                else "the physics model, or `hvacfmu diagnose` (thermal_mass), tests it"
+            )
         )
-    day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame)
+    day = day_to_day_line(sv, e, [t for t, ok in zip(score.starts, sel) if ok], N, frame, _wind_terms(model))
     if day:
         out.append(day)
     if sv.n_weeks == 1:
@@ -763,7 +771,42 @@ DAY_TO_DAY_WEATHER_R = 0.5
 DAY_TO_DAY_MIN_WINDOWS = 3
 
 
-def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
+def _cause_zones(model, cause: str) -> set:
+    """Zones of ``model``'s extension terms of ``cause`` (none for a base model or no model)."""
+    return {z for t in getattr(model, "terms", ()) if getattr(t, "cause", "") == cause for z in t.zones()}
+
+
+def _wind_terms(model) -> set | None:
+    """Zones of ``model``'s ``wind_infiltration`` terms (None without a model)."""
+    return None if model is None else _cause_zones(model, "wind_infiltration")
+
+
+def _window_means(col, starts, horizon) -> np.ndarray:
+    """The mean of the series ``col`` over each window (``horizon`` steps from each of ``starts``)."""
+    return np.array(
+        [np.nanmean(col.iloc[col.index.searchsorted(t) : col.index.searchsorted(t) + horizon]) for t in starts]
+    )
+
+
+def _wind_follow(frame, output: str, starts, horizon, m) -> tuple | None:
+    """``(label, r)``: the correlation of the windows' mean errors ``m`` with the windows' mean wind-driven exchange
+    ``wind · (T_out − T_<output>)`` (the zone's measured temperature; the wind speed alone for an output without
+    its own column, a lumped floor), or None when the data have no wind column or too few windows."""
+    if frame is None or "wind" not in frame.columns or "T_out" not in frame.columns:
+        return None
+    zone = f"T_{output}"
+    if zone in frame.columns:
+        label, col = "wind·(T_out − T_zone)", frame["wind"] * (frame["T_out"] - frame[zone])
+    else:
+        label, col = "wind", frame["wind"]
+    w = _window_means(col, starts, horizon)
+    good = np.isfinite(w)
+    if good.sum() < DAY_TO_DAY_MIN_WINDOWS or np.std(w[good]) == 0:
+        return None
+    return label, float(np.corrcoef(w[good], m[good])[0, 1])
+
+
+def day_to_day_line(sv, e, starts, horizon, frame=None, wind_zones=None) -> str:
     """The line for a zone-season whose windows' mean errors ``e`` (windows x steps, measured minus predicted)
     change sign from day to day ('' when they do not): a heat flow no column carries when they follow no weather
     column of ``frame``, the model's response to that weather when they follow one by :data:`DAY_TO_DAY_WEATHER_R`
@@ -793,15 +836,20 @@ def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
         for c in ("T_out", "ghi"):
             if c not in frame.columns:
                 continue
-            col = frame[c]
-            w = np.array(
-                [np.nanmean(col.iloc[col.index.searchsorted(t) : col.index.searchsorted(t) + horizon]) for t in starts]
-            )
+            w = _window_means(frame[c], starts, horizon)
             good = np.isfinite(w)
             if good.sum() < DAY_TO_DAY_MIN_WINDOWS or np.std(w[good]) == 0:
                 continue
             follows.append((c, float(np.corrcoef(w[good], m[good])[0, 1])))
     weather = [(c, r) for c, r in follows if abs(r) >= DAY_TO_DAY_WEATHER_R]
+    wind = _wind_follow(frame, sv.output, starts, horizon, m) if frame is not None else None
+    # a leak brings more of the outdoors on windy days: the zone colder than predicted where wind·(T_out − T) is most
+    # negative (r > 0), warmer than predicted on calm days; the wind speed alone, the other way round (r < 0)
+    if wind is not None:
+        label, r_w = wind
+        right_side = r_w > 0 if label != "wind" else r_w < 0
+        if right_side and abs(r_w) >= DAY_TO_DAY_WEATHER_R and all(abs(r_w) > abs(r) for _, r in weather):
+            return _wind_line(sv, m, spread, label, r_w, follows, wind_zones)
     if weather:
         c, r = max(weather, key=lambda cr: abs(cr[1]))
         what = {"T_out": ("warmer", "outdoor temperature"), "ghi": ("sunnier", "sun")}[c]
@@ -836,6 +884,28 @@ def day_to_day_line(sv, e, starts, horizon, frame=None) -> str:
             if frame is not None and "wind" in frame.columns
             else "(a wind speed column, if the site has one, lets `hvacfmu diagnose` test wind-driven infiltration)"
         )
+    )
+
+
+def _wind_line(sv, m, spread, label, r_w, follows, wind_zones) -> str:
+    """The day-to-day line of a zone-season whose windows' mean errors follow the wind-driven exchange."""
+    others = ", ".join(f"{c} {r:+.2f}" for c, r in follows)
+    if wind_zones is not None and sv.output in wind_zones:
+        fix = (
+            "the model's wind_infiltration term in this zone is too weak for this season (it is fitted on the "
+            "training year, where a unit that runs hides the leak)"
+        )
+    else:
+        fix = (
+            "the model has no wind-driven infiltration here: `hvacfmu diagnose` tests it (the wind_infiltration cause)"
+        )
+    return (
+        f"{sv.output} in {sv.season}: the error's mean over a window changes sign from day to day ({m.min():+.2f} to "
+        f"{m.max():+.2f} K, sd {spread:.2f} K over {len(m)} windows, of {sv.rms:.2f} K RMS) and follows the "
+        f"window's mean {label} (r {r_w:+.2f}" + (f"; {others}" if others else "") + "): on windy days the zone "
+        "loses more heat to (or gains more from) outdoors than predicted: outdoor air leaking in with the wind; "
+        + fix
+        + "; persistence wins where a thermostat holds the zone against it"
     )
 
 
@@ -1027,6 +1097,48 @@ def _airflow_gain(model, dataset) -> list[str]:
         f"airflow gain not identifiable: |B| up to {np.abs(B).max():.2g} K/step per kg/s moves the zones by "
         f"at most {effect.max():.2g} K per step for the airflow's variation; from {closed} the fit learned "
         "the thermostat loop, not the building (add forced-response weeks, or use the physics model)"
+    ]
+
+
+#: slowest time constant of a fitted model, in model steps, under which it keeps no memory of its state: every step
+#: forgets more than 63 % of it (the apartments' zones model: 0.3-0.6 steps; the emulator's fitted zones and lumped
+#: models, which beat persistence, 1.4-2.9 steps at 15 min)
+SHORT_MEMORY_STEPS = 1.0
+
+
+def _short_memory(model) -> list[str]:
+    """A fitted model whose every mode decays within :data:`SHORT_MEMORY_STEPS` model steps (``meta["plausibility"]``):
+    its 24-hour prediction is the weather response plus the gain profile, whatever the zone's temperature at the start.
+
+    The EnergyPlus mid-rise apartments (``benchmarks/apartments_s18.md``): the zones model's one-step fit has
+    ``a`` = 0.0001, the open-loop refinement lifts it to time constants of 4-8 min; it loses 20 of 32 flat-seasons
+    to persistence, and the verdict named only the day-to-day weather."""
+    meta = getattr(model, "meta", None) or {}
+    tc = (meta.get("plausibility") or {}).get("time_constants_h") if isinstance(meta, dict) else None
+    if not tc:
+        return []
+    try:
+        slowest = max(float(t) for t in tc)
+    except (TypeError, ValueError):
+        return []
+    step_h = float(getattr(model, "step", 0) or 0) / 3600.0
+    if not np.isfinite(slowest) or step_h <= 0 or slowest >= SHORT_MEMORY_STEPS * step_h:
+        return []
+    ol = meta.get("open_loop") or {}
+    refined = ""
+    if isinstance(ol, dict) and ol.get("used") and ol.get("rms_before") is not None:
+        refined = (
+            f"; the open-loop refinement ran (training windows' RMS {float(ol['rms_before']):.2f} -> "
+            f"{float(ol['rms_after']):.2f} K) and left it there"
+        )
+    modes = f"all {len(tc)} modes" if len(tc) > 1 else "its only mode"
+    return [
+        f"the model's slowest time constant is {60 * slowest:.0f} min ({modes}), shorter than its "
+        f"{60 * step_h:.0f}-min step{refined}: a 24-hour prediction forgets the zone's temperature at its start within the first hour and "
+        "becomes the response to the weather and the time-of-week gain profile, so it cannot follow a zone that "
+        "floats away from its usual level, which persistence keeps; closed-loop data where the fit learned the "
+        "thermostat loop, not the building. The physics model, or `hvacfmu diagnose` (its own one-step base in the "
+        "airflow form), test a slower building"
     ]
 
 
