@@ -112,3 +112,23 @@ def test_a_standard_time_schedule_that_also_drifts_with_the_weather_is_still_fou
     assert step["weather"] == ["T_out"]
     assert step["days_dst"] == 25 and step["days_standard"] == 25
     assert step["t"] >= DST_MIN_STEP_T and step["jump_given_weather"] >= DST_MIN_STEP_KEPT * step["jump"], step
+
+
+def test_a_found_shift_prints_its_weather_test():
+    from hvacfmu.diagnosis.report import _short_evidence
+
+    step = {"jump": 0.70, "jump_given_weather": 0.85, "se": 0.14, "t": 5.9, "weather": ["T_out", "irradiance"]}
+    ev = {"lag_h": 1.25, "r2_at_lag": 0.56, "scale_at_lag": 0.58, "dst_fraction_of_training_rows": 0.68}
+    f = {"cause": "internal_gain_schedule", "location": {"variant": "dst_shift", "shift": -4}, "evidence": ev}
+    ev["step_given_weather"] = step
+    assert "morning jump +0.70, +0.85 with the day's weather held (t 5.9)" in _short_evidence(f)
+    # retested after a rival: the numbers of the round its screen passed
+    ev["screen_passed"] = {
+        "lag_steps": 5,
+        "lag_h": 1.25,
+        "r2_at_lag": 0.36,
+        "scale_at_lag": 0.41,
+        "step_given_weather": step,
+    }
+    del ev["step_given_weather"]
+    assert "(t 5.9) in the round its screen passed" in _short_evidence(f)
