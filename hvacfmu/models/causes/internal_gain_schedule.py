@@ -752,7 +752,7 @@ def _day_weather(sig) -> dict:
 def dst_step_given_weather(sig, gains: np.ndarray, rows: np.ndarray, lag: int, window: tuple = DST_WINDOW_H) -> dict:
     """The weekday shift day by day, and its jump at the change with the day's weather held.
 
-    For each season with both sides of a change (as :func:`dst_profile_lag`), the standard-time
+    For each season with both sides of a change (the day counts of :func:`dst_profile_lag`), the standard-time
     weekday-minus-weekend profile ``P`` (75-min running median) gives the shape of a shift by
     ``lag`` steps in the local hours ``window``, ``x = P(t − lag) − P(t)``. Each training weekday's
     own profile minus its side's weekend profile, minus ``P``, is projected on ``x``: ``g`` ≈ 1 on a
@@ -792,10 +792,13 @@ def dst_step_given_weather(sig, gains: np.ndarray, rows: np.ndarray, lag: int, w
     for k, s in enumerate(sig.seasons):
         m = ok & (sig.season == s)
         wk_p, we_p = {}, {}
+        enough = True
         for side in (True, False):
             sm = m & (sig.dst == side)
             wk_p[side], we_p[side] = mean_profile(sm & weekday), mean_profile(sm & ~weekday)
-        if any(p is None for p in (*wk_p.values(), *we_p.values())):
+            n_wk, n_we = len(np.unique(dates[sm & weekday])), len(np.unique(dates[sm & ~weekday]))
+            enough &= n_wk >= DST_MIN_DAYS and n_we >= DST_MIN_WEEKEND_DAYS
+        if not enough or any(p is None for p in (*wk_p.values(), *we_p.values())):
             continue
         P = scipy.ndimage.median_filter(wk_p[False] - we_p[False], size=5, mode="wrap")
         x = (np.roll(P, lag) - P)[win]
@@ -813,7 +816,10 @@ def dst_step_given_weather(sig, gains: np.ndarray, rows: np.ndarray, lag: int, w
             y[slot[sel]] = total[sel]
             y = scipy.ndimage.median_filter(y - we_p[side], size=5, mode="wrap") - P
             d = y[win] - y[win].mean()
-            means = [float(np.nanmean(v[sel])) for v in weather.values()]
+            means = [
+                float(np.mean(v[sel][np.isfinite(v[sel])])) if np.isfinite(v[sel]).any() else np.nan
+                for v in weather.values()
+            ]
             recs.append((k, side, float(d @ x) / xx, *means))
     if not recs:
         return {**out, "days_dst": 0, "days_standard": 0}
