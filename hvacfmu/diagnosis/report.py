@@ -469,6 +469,12 @@ def _short_evidence(f: dict) -> str:
                 if eve
                 else ""
             )
+            stp = sc.get("step_given_weather") or {}
+            if stp.get("t") is not None:
+                evening += (
+                    f", morning jump {stp['jump']:+.2f}, {stp['jump_given_weather']:+.2f} with the day's weather held "
+                    f"(t {stp['t']:.1f})"
+                )
             return (
                 f"weekday morning gains {60 * sc['lag_h']:+.0f} min later under daylight saving "
                 f"(R² {sc.get('r2_at_lag', 0):.2f}, scale {sc.get('scale_at_lag', 0):.2f}{evening}{when}); "

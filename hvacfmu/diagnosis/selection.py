@@ -799,7 +799,7 @@ def _carry_displaced_dst(ranked, opts: dict) -> None:
         rival = (c.evidence.get("rival") or {}).get("favoured")
         if c.status == "no evidence" and rival not in (None, c.cause):
             ev = c.evidence
-            keys = ("lag_steps", "lag_h", "r2_at_lag", "scale_at_lag", "evening")
+            keys = ("lag_steps", "lag_h", "r2_at_lag", "scale_at_lag", "evening", "step_given_weather")
             passed = ev.get("screen_passed") or {k: ev[k] for k in keys if k in ev}
             opts["_dst_retest"] = {"shift": int(c.term.shift), "screen_passed": passed}
         elif c.status in ("found", "no cross-validated gain"):
