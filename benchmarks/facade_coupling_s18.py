@@ -9,7 +9,9 @@ the final terms (couplings left out), with control columns added to both zones' 
   the season's time-of-week mean);
 - ``sun_lp``: as ``sun`` plus ``I_o`` low-passed at 3, 12, 48 h and the outdoor temperature low-passed at 3, 12,
   48 h (the day-to-day weather anomaly reaching a zone through its walls' mass);
-- ``all_lp``: as ``sun_lp`` with every facade of either zone (not only the shared ones).
+- ``all_lp``: as ``sun_lp`` with every facade of either zone (not only the shared ones) (the option's controls);
+- ``others_du``: the other zones' mean airflow change at the instruments' lags (moves the whole floor makes at
+  once: arrival times, a day's occupancy level); ``others_du_all_lp``: both.
 
 One JSON line per pair and control set. Write-up: ``benchmarks/facade_coupling_s18.md``.
 
@@ -105,12 +107,20 @@ def run(spec: str, lags_h: float, options: dict) -> list:
                 "sun_lp": controls(sig, shared_f, True),
                 "all_lp": controls(sig, either, True),
             }
-            sets["own"] = None
-            sets["own_all_lp"] = sets["all_lp"]
+            # the other zones' mean airflow change at the instruments' lags: box moves the whole floor makes
+            # together (arrival times, a day's occupancy level) are no instrument of this pair's exchange
+            from hvacfmu.models.causes.signals import effective_inputs, shifted
+
+            U = effective_inputs(sig, terms)
+            du = np.diff(U, axis=0, prepend=U[:1])
+            rest = [j for j in range(sig.nz) if j not in (a, b)]
+            if rest:
+                m = du[:, rest].mean(axis=1)
+                odu = np.column_stack([np.nan_to_num(shifted(m, lag)) for lag in range(1, lags + 1)])
+                sets["others_du"] = odu
+                sets["others_du_all_lp"] = odu if sets["all_lp"] is None else np.column_stack([odu, sets["all_lp"]])
             for cname, ctl in sets.items():
-                ev = S.coupling_instrument(
-                    sig, W, terms, ZoneCoupling(zone_a=za, zone_b=zb), lags, controls=ctl, own_lags=cname.startswith("own")
-                )
+                ev = S.coupling_instrument(sig, W, terms, ZoneCoupling(zone_a=za, zone_b=zb), lags, controls=ctl)
                 out.append(
                     {
                         "case": spec,

@@ -451,7 +451,6 @@ def coupling_instrument(
     first: int = 1,
     levels: bool = False,
     controls=None,
-    own_lags: bool = False,
 ) -> dict:
     """Instrumental-variable check of a coupling: do the partner's own airflow moves reach the zone through ``T_p``?
 
@@ -465,7 +464,8 @@ def coupling_instrument(
     its week-clustered ``iv_t_<z>``, the first stage's F (``iv_first_F_<z>``) and the OLS value
     (``iv_ols_<z>``); pooled over both equations (one ``k``): ``iv_coef``, ``iv_t`` (the gate,
     ``coupling_instrument_min_t``). Measured (``benchmarks/coupling_s17.md``, 6 h at 15 min): injected
-    ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3.
+    ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3. ``controls``
+    (n, m): further columns in both zones' equations (:func:`weather_controls`, option ``coupling_shared_weather``).
     """
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
     U_eff = effective_inputs(sig, terms)
@@ -480,11 +480,7 @@ def coupling_instrument(
         D = zone_design(sig, z, terms, U_eff, feats)
         du = U_eff[:, p] if levels else np.diff(U_eff[:, p], prepend=U_eff[0, p])
         Z = np.column_stack([np.nan_to_num(shifted(du, lag)) for lag in range(first, lags + 1)])
-        X = D.X if controls is None else np.column_stack([D.X, controls])
-        if own_lags:  # the zone's own airflow changes at the instruments' lags (boxes moved at the same times)
-            du_z = np.diff(U_eff[:, z], prepend=U_eff[0, z])
-            X = np.column_stack([X] + [np.nan_to_num(shifted(du_z, lag)) for lag in range(first, lags + 1)])
-        Xw = W(X)
+        Xw = W(D.X if controls is None else np.column_stack([D.X, controls]))
         keep = (Xw * Xw).sum(axis=0) > 1e-300
         Xw = Xw[:, keep]
         Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
