@@ -53,7 +53,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         sharing a facade or unit the same way: finds every ``row4`` coupling but raises false ones on 4 of 10 clean
         ``row4`` cases, ``benchmarks/coupling_row4_s17.md``), ``coupling_shared_weather`` (False; True: such a
         shared pair must also pass the instrument with its facades' weather controlled and both zones'
-        coefficients positive; still false couplings on ``core9``, ``benchmarks/facade_coupling_s18.md``),
+        coefficients positive; false couplings on 2 of 28 clean cases, ``benchmarks/facade_coupling_s18.md``),
         ``coupling_instrument_hours`` (6: the partners'
         airflow changes of the last 6 h instrument the conductance), ``coupling_instrument_min_t`` (2.0), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0), ``cv_min_t`` (2.0, week-clustered paired t) and
