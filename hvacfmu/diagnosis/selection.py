@@ -42,6 +42,7 @@ from scipy import stats
 from ..errors import DataError
 from ..models.causes.actuation_delay import HISTORY_S, lowpass_airflow, temperature_history
 from ..models.causes.internal_gain_schedule import on_gain_clock
+from ..models.causes.signals import ema_series
 from ..models.causes.thermal_mass import keep_stable_time_constant
 from ..models.causes.zone_coupling import OthersPlacebo, shared_drivers
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
@@ -90,6 +91,7 @@ DEFAULT_OPTIONS = {
     "coupling_min_gain_percent": 3.0,
     "coupling_alone_unshared": True,
     "coupling_alone_shared": False,
+    "coupling_shared_weather": False,
     "coupling_instrument_hours": 6.0,
     "coupling_instrument_min_t": 2.0,
     "horizon": None,
@@ -296,8 +298,15 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
             not shared or bool(options["coupling_alone_shared"])
         )
         if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
-            hours = float(options["coupling_instrument_hours"])
-            c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, max(1, round(hours * 3600.0 / sig.step)))
+            lags = max(1, round(float(options["coupling_instrument_hours"]) * 3600.0 / sig.step))
+            c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, lags)
+            a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+            if any(d.startswith("facade ") for d in shared) and options["coupling_shared_weather"]:
+                names, cols = weather_controls(sig, sorted(set(sig.facades[a]) | set(sig.facades[b])))
+                c.evidence["instrument_weather"] = {
+                    **coupling_instrument(sig, W, terms, t, lags, controls=cols),
+                    "controls": names,
+                }
     if hasattr(t, "alpha"):
         c.evidence["alpha"] = float(t.alpha)
         c.evidence["time_constant_h"] = float(sig.step / t.alpha / 3600.0)
@@ -435,7 +444,14 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
 
 
 def coupling_instrument(
-    sig: Signals, W: Within, terms, t, lags: int = 24, first: int = 1, levels: bool = False
+    sig: Signals,
+    W: Within,
+    terms,
+    t,
+    lags: int = 24,
+    first: int = 1,
+    levels: bool = False,
+    controls=None,
 ) -> dict:
     """Instrumental-variable check of a coupling: do the partner's own airflow moves reach the zone through ``T_p``?
 
@@ -449,7 +465,8 @@ def coupling_instrument(
     its week-clustered ``iv_t_<z>``, the first stage's F (``iv_first_F_<z>``) and the OLS value
     (``iv_ols_<z>``); pooled over both equations (one ``k``): ``iv_coef``, ``iv_t`` (the gate,
     ``coupling_instrument_min_t``). Measured (``benchmarks/coupling_s17.md``, 6 h at 15 min): injected
-    ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3.
+    ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3. ``controls``
+    (n, m): further columns in both zones' equations (:func:`weather_controls`, option ``coupling_shared_weather``).
     """
     target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
     U_eff = effective_inputs(sig, terms)
@@ -464,7 +481,7 @@ def coupling_instrument(
         D = zone_design(sig, z, terms, U_eff, feats)
         du = U_eff[:, p] if levels else np.diff(U_eff[:, p], prepend=U_eff[0, p])
         Z = np.column_stack([np.nan_to_num(shifted(du, lag)) for lag in range(first, lags + 1)])
-        Xw = W(D.X)
+        Xw = W(D.X if controls is None else np.column_stack([D.X, controls]))
         keep = (Xw * Xw).sum(axis=0) > 1e-300
         Xw = Xw[:, keep]
         Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
@@ -501,6 +518,36 @@ def coupling_instrument(
     out["iv_coef"] = float(k)
     out["iv_t"] = float(k / se) if se > 0 else 0.0
     return out
+
+
+#: Low-pass time constants [h] of the weather controls of a facade-sharing pair's instrument (:func:`weather_controls`).
+WEATHER_CONTROL_TAUS_H = (3.0, 12.0, 48.0)
+
+
+def weather_controls(sig: Signals, facades) -> tuple:
+    """Control columns for the instrument of a pair sharing a facade: names and an (n, m) array.
+
+    The irradiance ``I_o`` of each of ``facades`` (the diagnosis passes every facade of either zone) and ``I_o``
+    low-passed at :data:`WEATHER_CONTROL_TAUS_H`, and the outdoor temperature low-passed at the same time
+    constants. In the within transform (season × time of week) each column is its anomaly: the day-to-day weather
+    the base model's time-of-week profile does not carry, which reaches both zones of the pair through their
+    facades and their walls' mass (``benchmarks/facade_coupling_s18.md``).
+    """
+    names, cols = [], []
+    for o in facades:
+        if f"I_{o}" not in sig.V:
+            continue
+        irr = np.nan_to_num(np.asarray(sig.V[f"I_{o}"], dtype=float))
+        names.append(f"I_{o}")
+        cols.append(irr)
+        for tau in WEATHER_CONTROL_TAUS_H:
+            names.append(f"I_{o} low-passed {tau:g} h")
+            cols.append(ema_series(irr, min(sig.step / (tau * 3600.0), 1.0)))
+    tout = np.asarray(sig.V["T_out"], dtype=float)
+    for tau in WEATHER_CONTROL_TAUS_H:
+        names.append(f"T_out low-passed {tau:g} h")
+        cols.append(np.nan_to_num(ema_series(tout, min(sig.step / (tau * 3600.0), 1.0))))
+    return names, np.column_stack(cols)
 
 
 def _coefficient_influence(Xw: np.ndarray, yw: np.ndarray, theta: np.ndarray, lower, upper) -> np.ndarray:
@@ -986,6 +1033,17 @@ def _gate(c, opts) -> None:
         iv = c.evidence["instrument"]
         c.status = "no evidence"
         zs = list(c.term.zones())
+        ivw = c.evidence.get("instrument_weather")
+        if ivw is not None and iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]:
+            c.reason = (
+                f"not shown to be an exchange beyond the weather of their facades: the partners' own airflow "
+                f"changes give a conductance of {iv['iv_coef']:.3g} per step (t = {iv['iv_t']:.1f}; per zone "
+                f"{iv[f'iv_coef_{zs[0]}']:.3g} / {iv[f'iv_coef_{zs[1]}']:.3g}), but {ivw['iv_coef']:.3g}, "
+                f"t = {ivw['iv_t']:.1f} (per zone {ivw[f'iv_coef_{zs[0]}']:.3g} / {ivw[f'iv_coef_{zs[1]}']:.3g}) with "
+                f"the weather controls in both zones' equations ({_controls_text(ivw['controls'])}); an exchange needs t ≥ "
+                f"{opts['coupling_instrument_min_t']:g} and both zones' coefficients > 0 with the controls"
+            )
+            return
         c.reason = (
             f"not shown to be an exchange: the partners' own airflow changes of the last "
             f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference, give a "
@@ -1024,11 +1082,27 @@ def _gate(c, opts) -> None:
         c.evidence["past_stronger_than_future"] = _delay_is_causal(c)
 
 
+def _controls_text(names) -> str:
+    """``weather_controls``' column names in a few words: the facades and the low-pass time constants."""
+    facades = [n[2:] for n in names if n.startswith("I_") and " " not in n]
+    taus = ", ".join(f"{t:g}" for t in WEATHER_CONTROL_TAUS_H)
+    sun = f"irradiance of facade(s) {', '.join(facades)} and its low-pass at {taus} h, " if facades else ""
+    return f"{sun}outdoor temperature low-passed at {taus} h"
+
+
 def _instrumented(c, opts) -> bool:
     """A coupling scored zone by zone passes its instrument check (:func:`coupling_instrument`): the conductance
-    instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``."""
+    instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``. With
+    ``coupling_shared_weather``, a pair sharing a facade must also pass with the weather controls
+    (``evidence["instrument_weather"]``, :func:`weather_controls`), and each zone's own instrumented coefficient
+    with those controls must be positive (an exchange shows in both heat balances)."""
     iv = c.evidence.get("instrument") or {}
-    return iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
+    ok = iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
+    if ok and "instrument_weather" in c.evidence:
+        ivw = c.evidence["instrument_weather"]
+        ok = ivw["iv_coef"] > 0.0 and ivw["iv_t"] >= opts["coupling_instrument_min_t"]
+        ok = ok and all(ivw[f"iv_coef_{z}"] > 0.0 for z in c.term.zones())
+    return ok
 
 
 def _delay_beyond_history(c, opts, key: str = "history") -> bool:
