@@ -18,7 +18,6 @@ import os
 import sys
 
 import numpy as np
-import pandas as pd
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -93,8 +92,14 @@ def main():
         rounds.clear()
         r = run_case(c, 16)
         with open(a.out, "a") as f:
-            rec = {"id": c["id"], "seed": a.seed, "effects": c["effects"], "found": r["found"],
-                   "unsupported": r["unsupported"], "rounds": list(rounds)}
+            rec = {
+                "id": c["id"],
+                "seed": a.seed,
+                "effects": c["effects"],
+                "found": r["found"],
+                "unsupported": r["unsupported"],
+                "rounds": list(rounds),
+            }
             f.write(json.dumps(rec, default=str) + "\n")
         print(c["id"], r["found"], r["unsupported"], flush=True)
 

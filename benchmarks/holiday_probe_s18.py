@@ -47,16 +47,33 @@ def main():
                     "scale_by_zone": ev.get("scale_by_zone"),
                     "scale_weight_by_zone": ev.get("scale_weight_by_zone"),
                     "groups": [{k: v for k, v in g.items() if k != "dates"} for g in ev.get("groups", [])],
+                    "week_likelihood": ev.get("week_likelihood"),
+                    "scale_mean_all_zones": ev.get("scale_mean_all_zones"),
+                    "scale_zone_departure": ev.get("scale_zone_departure"),
                 }
             )
 
     selection._gate = gate
+    orig_fb = selection._holiday_week_by_likelihood
+
+    def fb(sig, W, terms, cur_rss, factors, c, o, cache, resid_all):
+        orig_fb(sig, W, terms, cur_rss, factors, c, o, cache, resid_all)
+        seen.append({"fallback": c.evidence.get("week_likelihood"), "status": c.status})
+
+    selection._holiday_week_by_likelihood = fb
     for c in cases:
         seen.clear()
         r = run_case(c, 16, **opts)
         with open(a.out, "a") as f:
-            rec = {"id": c["id"], "seed": a.seed, "effects": c["effects"], "found": r["found"],
-                   "missed": r["missed"], "unsupported": r["unsupported"], "holiday_candidates": list(seen)}
+            rec = {
+                "id": c["id"],
+                "seed": a.seed,
+                "effects": c["effects"],
+                "found": r["found"],
+                "missed": r["missed"],
+                "unsupported": r["unsupported"],
+                "holiday_candidates": list(seen),
+            }
             f.write(json.dumps(rec, default=str) + "\n")
         print(c["id"], r["found"], r["unsupported"], flush=True)
 
