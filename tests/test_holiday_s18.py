@@ -23,6 +23,28 @@ from hvacfmu.models.causes.internal_gain_schedule import one_sided_departure
 ZONES = ("NW", "NE", "SE", "SW")
 
 
+def test_a_zone_at_the_bound_leaves_the_scale_only_when_it_reads_against_the_holiday():
+    g, w = [0.37, 0.60, 0.0, 0.0], [0.015, 0.020, 0.011, 0.014]
+    # case 4's week 12 in the round the screen proposes it: SE reads -0.16 over the days, SW -0.00
+    ev = {"scale_mean": float(np.dot(g, w) / sum(w))}
+    _holiday_scale_with(
+        ev, g, w, ZONES, {"NW": (0.29, 18.6), "NE": (0.45, 16.7), "SE": (-0.16, -0.8), "SW": (0.0, 0.0)}
+    )
+    assert ev["scale_zones_at_bound"] == ["SE"]
+    assert ev["scale_mean"] == pytest.approx((0.37 * 0.015 + 0.60 * 0.020) / 0.049)
+    assert ev["scale_mean"] >= 0.33 > ev["scale_mean_all_zones"]
+    assert ev["scale_zone_departure"]["SE"] == {"gamma": -0.16, "t": -0.8}
+
+    # case 6's spurious dark week 13 (no holiday; weights illustrative): NW at the bound reads -0.07 only, it stays in at 0
+    g6, w6 = [0.0, 0.19, 0.58, 0.10], [0.013, 0.015, 0.018, 0.014]
+    ev6 = {"scale_mean": float(np.dot(g6, w6) / sum(w6))}
+    _holiday_scale_with(
+        ev6, g6, w6, ZONES, {"NW": (-0.07, -1.8), "NE": (0.17, 3.4), "SE": (0.48, 8.2), "SW": (0.1, 1.3)}
+    )
+    assert ev6["scale_mean"] == pytest.approx(float(np.dot(g6, w6) / sum(w6))) and ev6["scale_mean"] < 0.33
+    assert "scale_zones_at_bound" not in ev6
+
+
 def test_the_scale_gate_reads_the_zones_above_the_bound_when_they_hold_half_the_weight():
     # case 4's week 12 (hold-out record): NW/NE 0.37/0.60, SE and SW at the bound 0
     g, w = [0.37, 0.60, 0.0, 0.0], [0.015, 0.020, 0.011, 0.014]
