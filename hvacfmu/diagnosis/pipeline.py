@@ -45,7 +45,10 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``bic_margin`` (10), ``min_gain_percent`` (1.0), ``min_gain_abs`` (0.003 K),
         ``max_terms`` (default ``max(20, 4 × zones)``: at most this many terms; the report names what a budget reached left, ``budget``), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5, daylight-saving shift),
-        ``holiday_min_scale`` (0.33, mean scale of a holiday term), ``dst_min_r2`` (0.2) and ``dst_min_scale``
+        ``holiday_min_scale`` (0.33, mean scale of a holiday term, over the zones above the bound 0 when they hold
+        half its amplitude weight), ``holiday_week_bic`` (True: when the holiday screen's rules propose no weekday,
+        the training week whose weekdays scored as a holiday give the largest ΔBIC is proposed if it passes
+        ``bic_margin`` and keeps half its departure once the sun is regressed out; ``benchmarks/holiday_s18.md``), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
         ``coupling_min_gain_percent`` (3.0), ``coupling_alone_unshared`` (True: a coupling of two zones
         that share no facade and no measured air handler is scored zone by zone, each alone and beyond the other

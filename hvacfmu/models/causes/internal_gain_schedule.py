@@ -226,7 +226,8 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, 
 
     Returns
     -------
-    list of dict with ``date``, ``gamma``, ``t``, ``n``, ``gamma_by_zone``.
+    list of dict with ``date``, ``gamma``, ``t``, ``n``, ``gamma_by_zone``, ``weight_by_zone`` (each zone's
+    sum of squared profile differences over the day: the weight of its ``gamma`` in the pooled one).
     """
     idx = sig.index
     per_day = sig.n_tow // 7
@@ -267,6 +268,7 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, 
                 "t": float(g / np.sqrt(s2 / hh)),
                 "n": int(m.sum()),
                 "gamma_by_zone": [float(x) if w > 0 else None for x, w in zip(gz, hz)],
+                "weight_by_zone": [float(w) for w in hz],
             }
         )
     return out
@@ -366,6 +368,33 @@ def sun_partialled(sig, resid_all: np.ndarray, rows) -> np.ndarray | None:
         b, *_ = np.linalg.lstsq(X[ok], resid_all[ok, j], rcond=None)
         out[:, j] = resid_all[:, j] - X @ b
     return out
+
+
+def one_sided_departure(deps: list, dates) -> float:
+    """Mean departure scale of the weekdays ``dates`` with each zone's departure floored at 0 (nan without data).
+
+    Each zone's ``gamma`` over those days (``deps``: :func:`day_departures` records) is weighted by its profile
+    amplitude as in the pooled ``gamma``, but a zone reading toward a busier weekday counts as 0, not against:
+    a holiday term's coefficient is one per zone, bounded at 0, so such a zone is fitted at 0 and carries no
+    evidence either way (quad4 hold-out 2031 case 9, week 14: zone SE reads -0.24 against the other zones'
+    +0.16 ... +0.39 because the holiday itself moved SE out of its cooling control; ``benchmarks/holiday_s18.md``).
+    """
+    want = set(dates)
+    days = [d for d in deps if d["date"] in want]
+    if not days:
+        return float("nan")
+    nz = len(days[0]["gamma_by_zone"])
+    num = np.zeros(nz)
+    den = np.zeros(nz)
+    for d in days:
+        for j, (g, w) in enumerate(zip(d["gamma_by_zone"], d.get("weight_by_zone", [1.0] * nz))):
+            if g is not None and w > 0:
+                num[j] += g * w
+                den[j] += w
+    if den.sum() <= 0:
+        return float("nan")
+    g_zone = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    return float((den * np.maximum(g_zone, 0.0)).sum() / den.sum())
 
 
 def _pick_days(sig, deps: list, options: dict) -> dict:
