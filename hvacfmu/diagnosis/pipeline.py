@@ -48,7 +48,7 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``holiday_min_scale`` (0.33, mean scale of a holiday term, over the zones above the bound 0 when they hold
         half its amplitude weight), ``holiday_week_bic`` (True: when the holiday screen's rules propose no weekday,
         the training week whose weekdays scored as a holiday give the largest ΔBIC is proposed if it passes
-        ``bic_margin`` and keeps half its departure once the sun is regressed out; ``benchmarks/holiday_s18.md``), ``dst_min_r2`` (0.2) and ``dst_min_scale``
+        ``bic_margin`` and keeps half its departure once the sun is regressed out; ``benchmarks/holiday_s18.md``), ``holiday_week_bic_top`` (3: only the weeks whose residual projection, other coefficients held, gains most are scored by the full refit), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),
         ``coupling_min_gain_percent`` (3.0), ``coupling_alone_unshared`` (True: a coupling of two zones
         that share no facade and no measured air handler is scored zone by zone, each alone and beyond the other

@@ -93,6 +93,7 @@ DEFAULT_OPTIONS = {
     "schedule_min_scale": 0.5,
     "holiday_min_scale": 0.33,
     "holiday_week_bic": True,
+    "holiday_week_bic_top": 3,
     "dst_min_r2": 0.2,
     "dst_min_scale": 0.3,
     "coupling_max_asymmetry": 4.0,
@@ -1011,13 +1012,20 @@ def _holiday_week_by_likelihood(sig, W, terms, cur_rss, factors, c, opts, cache,
     weekday = np.asarray(idx.day_of_week) < 5
     ok = np.isfinite(resid_all[rows]).all(axis=1)
     shift = dst_shift_of(terms)
-    scored = []
+    deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
+    weeks = []
     for w in sorted(set(wk[weekday & ok & (wk >= 0)].tolist())):
         if w in down:
             continue
         dates = sorted({d.isoformat() for d in idx[weekday & ok & (wk == w)].date})
         if len(dates) < 3:
             continue
+        weeks.append((_holiday_week_gain(deps, dates, resid_all[rows][ok]), int(w), dates))
+    # only the weeks whose one-sided projection gains most are scored by the full refit (each a structure fit)
+    ranked_all = weeks
+    weeks = sorted(weeks, key=lambda x: -x[0])[: int(opts["holiday_week_bic_top"])]
+    scored = []
+    for _, w, dates in weeks:
         t = InternalGainSchedule(
             variant="holiday",
             zone_names=tuple(sig.zones),
@@ -1032,11 +1040,16 @@ def _holiday_week_by_likelihood(sig, W, terms, cur_rss, factors, c, opts, cache,
     if not scored:
         return
     dbic, w, dates, sub = max(scored, key=lambda x: x[0])
-    info = {"week": w, "delta_bic": float(dbic), "weeks_scored": len(scored), "bic_margin": opts["bic_margin"]}
+    info = {
+        "week": w,
+        "delta_bic": float(dbic),
+        "weeks_scored": len(scored),
+        "weeks_ranked": len(ranked_all),
+        "bic_margin": opts["bic_margin"],
+    }
     c.evidence["week_likelihood"] = info
     if dbic <= opts["bic_margin"]:
         return
-    deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
     sun = sun_partialled(sig, resid_all, W.rows)
     info["gamma_one_sided"] = one_sided_departure(deps, dates)
     if sun is not None:
@@ -1058,6 +1071,32 @@ def _holiday_week_by_likelihood(sig, W, terms, cur_rss, factors, c, opts, cache,
     c.status, c.reason = "not tested", ""
     score_candidate(sig, W, terms, cur_rss, factors, c, opts, cache)
     _gate(c, opts)
+
+
+def _holiday_week_gain(deps: list, dates, resid) -> float:
+    """Noise-weighted residual sum of squares a holiday on ``dates`` would remove with the model held (a ranking).
+
+    Per zone, the days' departures (:func:`~hvacfmu.models.causes.internal_gain_schedule.day_departures`: the
+    one-step residual projected on the reference day's gain profile minus the day's own) pooled over ``dates``
+    give the least-squares coefficient ``γ`` of the holiday term in that zone with every other coefficient held,
+    floored at 0 as the term's is; the sum of squares it removes, ``γ² Σh²``, is divided by the zone's residual
+    variance (``resid``: the training rows' one-step residuals). The exact score refits the whole structure
+    (:func:`score_candidate`); this projection only orders the weeks for it.
+    """
+    want = set(dates)
+    days = [d for d in deps if d["date"] in want]
+    if not days:
+        return 0.0
+    nz = len(days[0]["gamma_by_zone"])
+    num, den = np.zeros(nz), np.zeros(nz)
+    for d in days:
+        for j, (g, w) in enumerate(zip(d["gamma_by_zone"], d.get("weight_by_zone", [1.0] * nz))):
+            if g is not None and w > 0:
+                num[j] += g * w
+                den[j] += w
+    var = np.nanvar(resid, axis=0) if len(resid) > 1 else np.ones(nz)
+    g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    return float((np.maximum(g, 0.0) ** 2 * den / np.where(var > 0, var, np.inf)).sum())
 
 
 def _fails_scale_only(c, opts) -> bool:
