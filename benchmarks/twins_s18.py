@@ -9,7 +9,9 @@ persistence, and ``memory_warnings`` of both.
 with the pair simulated together (the rest measured) and each flat alone (its twin measured), all and winter
 windows, and each fold's smallest eigenvalue of the pair's block of A.
 
-Run it under main and under this branch (``PYTHONPATH``) for before -> after:
+The benchmarks' helper modules put this checkout first on ``sys.path``: run a copy of the script inside the
+checkout to be measured (``git show BRANCH:benchmarks/twins_s18.py > CHECKOUT/benchmarks/twins_s18.py``). ``refit``
+needs no second run: ``saved`` is the model main's ``diagnose`` saved, ``refit`` its structure refitted here.
 
     OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/twins_s18.py refit --model DIAGNOSED.json
     OMP_NUM_THREADS=1 nice -n 10 python3 benchmarks/twins_s18.py pairs --model DIAGNOSED.json
@@ -100,15 +102,12 @@ def pairs(path: str) -> None:
         alone = [fold_scores(sig, plan, fits, [zi]) for zi in zis]
 
         def mean(scores, only=None):
-            xs = [x if only is None else x[k] for x, k in zip(scores, only or [None] * len(scores))]
-            a = np.concatenate(xs)
-            return np.round(np.nanmean(a, axis=0), 3)
+            xs = scores if only is None else [x[k] for x, k in zip(scores, only)]
+            return [round(float(v), 3) for v in np.nanmean(np.concatenate(xs), axis=0)]
 
         print(pair, "per fold, pair simulated:", np.round([float(np.nanmean(x)) for x in together], 3))
-        print("    all windows: together", mean(together), "alone", [float(mean(a)) for a in alone])
-        print(
-            "    winter:      together", mean(together, only=wint), "alone", [float(mean(a, only=wint)) for a in alone]
-        )
+        print("    all windows: together", mean(together), "alone", [mean(a)[0] for a in alone])
+        print("    winter:      together", mean(together, only=wint), "alone", [mean(a, only=wint)[0] for a in alone])
         lam = [float(np.min(np.linalg.eigvals(np.asarray(f.base.A)[np.ix_(zis, zis)]).real)) for f in fits]
         print("    smallest eigenvalue of the pair's block, per fold", np.round(lam, 2))
 
