@@ -14,7 +14,8 @@ regressor's mean over the training rows of the same season and slot), so the
 coefficients are those of the fixed-effects estimator; the profile is then
 the slot mean of the remaining residual. Coefficients carry Model A's sign
 constraints (0 ≤ a_zz ≤ 1, a_zj ≥ 0, b ≤ 0, c ≥ 0) and physical signs for the
-extensions, solved as a bounded least-squares problem on the Gram matrix.
+extensions, solved as a bounded least-squares problem on the Gram matrix, plus the
+dominant diagonal ``a_zj ≤ a_zz`` (:func:`dominance_pairs`): a zone's memory is its own.
 """
 
 from __future__ import annotations
@@ -131,9 +132,35 @@ class LSResult:
     sigma2: float
 
 
-def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0) -> LSResult:
+#: Slack of the dominance constraint ``a_zj <= a_zz`` (a violation below it is not re-solved).
+DOMINANCE_TOL = 1e-9
+
+
+def dominance_pairs(names) -> list:
+    """Column pairs ``(own, neighbour)`` of a zone design for ``a[neighbour] <= a_self``.
+
+    Why (RC physics): a zone's one-step row of A is ``I − Δt C⁻¹K`` to first order, so ``a_zz ≈ 1 − Δt K_zz / C_z``
+    and ``a_zj = Δt k_zj / C_z``; over a step shorter than the zone's own time constant every coupling is
+    smaller than the zone's memory, and the exact discretisation ``exp(−Δt C⁻¹K)`` has a positive spectrum (a
+    pair of equal zones: ``a_zz − a_zj`` is its fast eigenvalue, ``> 0``). One-step least squares does not
+    know this when a neighbour's temperature is nearly collinear with the zone's own (mirror twins,
+    correlation 0.9999): it may put the zone's memory on the twin (``a_zz = 0``, ``a_zj = 0.7``), a state
+    matrix with negative eigenvalues whose pair, simulated together, feeds its own errors
+    (``benchmarks/twins_s18.md``).
+    """
+    names = list(names)
+    if "a_self" not in names:
+        return []
+    i = names.index("a_self")
+    return [(i, j) for j, nm in enumerate(names) if isinstance(nm, str) and nm.startswith("a[")]
+
+
+def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0, dominance=()) -> LSResult:
     """min ‖Xw θ − yw‖² subject to lower ≤ θ ≤ upper, solved on the Cholesky factor of the Gram matrix.
 
+    ``dominance``: column pairs ``(i, j)`` with ``θ_j ≤ θ_i`` (:func:`dominance_pairs`); a bounded solution
+    that violates one is re-solved as a quadratic programme (Clarabel) with every pair's constraint, the
+    constrained optimum of the convex problem (the same solution when no pair binds).
     ``cov`` is the unconstrained asymptotic covariance σ² (XᵀX)⁻¹ with σ² the residual
     variance after ``dof_extra`` further degrees of freedom (the group means).
     """
@@ -157,6 +184,9 @@ def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0)
     else:
         sol = lsq_linear(L.T, rhs, bounds=(lo, hi), method="bvls", lsmr_tol=None)
         ts = sol.x
+    pairs = [(i, j) for i, j in dominance if ts[j] / scale[j] > ts[i] / scale[i] + DOMINANCE_TOL]
+    if pairs:
+        ts = _dominant_qp(G + ridge * np.eye(p), r, lo, hi, scale, list(dominance), ts)
     theta = ts / scale
     res = yw - Xw @ theta
     rss = float(res @ res)
@@ -169,6 +199,43 @@ def bounded_ls(Xw: np.ndarray, yw: np.ndarray, lower, upper, dof_extra: int = 0)
         cov[:, zero] = 0.0
         cov[zero, zero] = np.inf
     return LSResult(theta, rss, n, cov, sigma2)
+
+
+def _dominant_qp(G, r, lo, hi, scale, pairs, fallback) -> np.ndarray:
+    """min ½ tsᵀ G ts − rᵀ ts over the scaled coefficients, within the bounds and ``θ_j ≤ θ_i`` for every pair."""
+    import qpsolvers
+    import scipy.sparse
+
+    p = G.shape[0]
+    rows, h = [], []
+    for i, j in pairs:  # θ_j − θ_i ≤ 0, θ = ts / scale
+        g = np.zeros(p)
+        g[j], g[i] = 1.0 / scale[j], -1.0 / scale[i]
+        rows.append(g)
+        h.append(0.0)
+    eye = np.eye(p)
+    for k in range(p):
+        if np.isfinite(hi[k]):
+            rows.append(eye[k])
+            h.append(hi[k])
+        if np.isfinite(lo[k]):
+            rows.append(-eye[k])
+            h.append(-lo[k])
+    Gm = np.array(rows)
+    norm = max(float(np.max(np.abs(np.diag(G)))), 1e-300)
+    try:
+        ts = qpsolvers.solve_qp(
+            scipy.sparse.csc_matrix(0.5 * (G + G.T) / norm),
+            -r / norm,
+            G=scipy.sparse.csc_matrix(Gm),
+            h=np.array(h, float),
+            solver="clarabel",
+        )
+    except Exception:  # noqa: BLE001 - a solver failure: keep the bounded solution, said by the plausibility check
+        ts = None
+    if ts is None or not np.all(np.isfinite(ts)):
+        return fallback
+    return np.clip(ts, lo, hi)
 
 
 # ----------------------------------------------------------------------------
@@ -337,7 +404,10 @@ def fit_block(sig: Signals, W: Within, block, terms, U_eff, feats, target_next, 
         for j, key in enumerate(cols[z]):
             X[i * n : (i + 1) * n, keys.index(key)] = Xw[:, j]
         y[i * n : (i + 1) * n] = W(target_next[:, z] - D.offset)
-    ls = bounded_ls(X, y, lo, hi, dof_extra=W.n_groups * len(block))
+    dom = []
+    for z in block:  # the block's columns of each zone's own and adjacent temperatures
+        dom += [(keys.index(cols[z][i]), keys.index(cols[z][j])) for i, j in dominance_pairs(designs[z].names)]
+    ls = bounded_ls(X, y, lo, hi, dof_extra=W.n_groups * len(block), dominance=dom)
     sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
     res = y - X @ ls.theta
     zone_ls, resid = {}, {}
@@ -400,6 +470,7 @@ __all__ = [
     "base_linear",
     "base_solar",
     "bounded_ls",
+    "dominance_pairs",
     "coupled_blocks",
     "coupling_ratios",
     "effective_inputs",

@@ -14,6 +14,7 @@ from ..data.idle import hold_idle_supply, idle_supply_rule, unit_off_bounds
 from ..errors import DataError, HvacfmuWarning
 from ..models.extended import ExtendedModel
 from ..models.loadcheck import model_problems
+from ..models.plausibility import memory_warnings
 from ..threads import one_blas_thread
 from . import residuals as R
 from .design import make_signals
@@ -148,6 +149,9 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
         warnings.warn(msg, HvacfmuWarning, stacklevel=2)
         notes.append(msg)
 
+    for msg in memory_warnings(final.base.A, final.base.outputs):  # a_ij <= a_ii is fitted; said if it failed
+        warnings.warn(f"the extended model: {msg}", HvacfmuWarning, stacklevel=2)
+        notes.append(f"the extended model: {msg}")
     # --- residuals of the final model ------------------------------------------------------
     r1_final, rol_final, white_after = _residuals(sig, final, dataset, starts, seasons, opts["horizon"], train_rows)
     after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)

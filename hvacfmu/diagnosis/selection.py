@@ -73,6 +73,7 @@ from .design import (
     bounded_ls,
     coupled_blocks,
     coupling_ratios,
+    dominance_pairs,
     effective_inputs,
     fit_block,
     fit_structure,
@@ -229,7 +230,12 @@ def score_candidate(sig: Signals, W: Within, terms, cur_rss, factors, c: cand.Ca
             new = [f for f in term_features(sig, t, cache["U_eff"]) if f[0] == z]
             Xw = np.column_stack([Xw0] + [W(f[2]) for f in new])
             ls = bounded_ls(
-                Xw, yw, np.r_[lo0, [f[3] for f in new]], np.r_[hi0, [f[4] for f in new]], dof_extra=W.n_groups
+                Xw,
+                yw,
+                np.r_[lo0, [f[3] for f in new]],
+                np.r_[hi0, [f[4] for f in new]],
+                dof_extra=W.n_groups,
+                dominance=dominance_pairs(names0),
             )
             lr = N * np.log(cur_rss[z] / ls.rss)
             sd = np.sqrt(np.maximum(np.diag(ls.cov), 0.0))

@@ -622,6 +622,7 @@ def likely_causes(model, score, dataset, losing) -> list[str]:
     out += _sparse_columns(model, score, dataset)
     out += _airflow_gain(model, dataset)
     out += _short_memory(model)
+    out += _twin_memory(model, losing)
     out += _bandwidth_edge(model)
     out += [
         f"loading warned: {w}"
@@ -1140,6 +1141,29 @@ def _short_memory(model) -> list[str]:
         "thermostat loop, not the building. The physics model, or `hvacfmu diagnose` (its own one-step base in the "
         "airflow form), test a slower building"
     ]
+
+
+def _twin_memory(model, losing) -> list[str]:
+    """A state matrix whose zone memory sits on a neighbour, or with negative eigenvalues
+    (:func:`~hvacfmu.models.plausibility.memory_warnings`), for the losing zones it names (every one when the
+    losing outputs are not zones).
+
+    The EnergyPlus apartments' diagnosed model (``benchmarks/twins_s18.md``): its mirror-twin flats S1/S2 had
+    ``a_S1,S1 = 0``, ``a_S1,S2 = 0.698`` and eigenvalues -0.56 / -0.67; they lost to persistence in winter and no
+    line said the model's matrix was not a building's."""
+    from ..models.plausibility import memory_warnings
+
+    A = getattr(getattr(model, "base", model), "A", None)
+    names = getattr(getattr(model, "base", model), "outputs", None)
+    if A is None or names is None or getattr(model, "kind", None) == "lumped":
+        return []
+    try:
+        lines = memory_warnings(A, names)
+    except (ValueError, np.linalg.LinAlgError):
+        return []
+    lost = [str(z) for z in (losing or [])]
+    named = [w for w in lines if any(z in w for z in lost)] if any(z in names for z in lost) else lines
+    return [f"the fitted state matrix is not an RC network's: {w}" for w in named]
 
 
 def _bandwidth_edge(model) -> list[str]:

@@ -1217,7 +1217,12 @@ def fit_zones(dataset, **options):
     :func:`fit_lumped` option ``heat``); ``x(k+1) = A x(k) + B u(k) + C v(k) + q_IG(k)`` with
 
     - ``A`` sparse by adjacency (diagonal + ``building.adjacency_pairs()``),
-      elementwise non-negative with row sums ``<= 1 - stability_margin``. A
+      elementwise non-negative with row sums ``<= 1 - stability_margin`` and
+      every coupling at most the zone's own coefficient (``a_ij <= a_ii``: over a
+      step shorter than the zone's time constant ``A ≈ I − Δt C⁻¹K`` has
+      ``a_ij = Δt k_ij / C_i`` below ``a_ii``; without it, one-step least squares
+      may put a zone's memory on a mirror-twin neighbour whose temperature is
+      nearly collinear with its own, ``a_ii = 0``, giving negative eigenvalues). A
       non-negative matrix with all row sums below one has
       ``rho(A) <= ||A||_inf < 1``, so every identified model is stable; the
       sign follows from Newton's law of cooling (a warmer neighbour warms the
@@ -1363,9 +1368,13 @@ def _fit_one_zone(prep: _Prepared, opts, D, lay, lump, i):
     lo, hi = prep.drive_bounds
     lb = np.r_[A_EPS, np.zeros(na - 1), lo, np.zeros(len(vcols))]
     ub = np.r_[1 - A_EPS, np.ones(na - 1), hi, np.full(len(vcols), np.inf)]
-    G = np.zeros((1, p))
+    # row sum below one (stability), and every coupling at most the zone's own coefficient (a_ij <= a_ii: a
+    # zone's memory is its own, see hvacfmu.diagnosis.design.dominance_pairs for the RC-physics reason)
+    G = np.zeros((na, p))
     G[0, :na] = 1.0
-    h = np.array([1.0 - float(opts["stability_margin"])])
+    G[np.arange(1, na), np.arange(1, na)] = 1.0
+    G[1:, 0] = -1.0
+    h = np.r_[1.0 - float(opts["stability_margin"]), np.zeros(na - 1)]
     free = bayes_cls(Zi, yi, lb=lb, ub=ub, G=G, h=h)
     if not free.found:
         raise FitError(f"zone {z}: the constrained least-squares fit without priors failed (Clarabel)")

@@ -150,7 +150,9 @@ class _Problem:
         a_hi = np.maximum(self.row_limit, 2e-4)
         d_lo, d_hi = (np.zeros(nx), np.full(nx, np.inf)) if self.delivered else (np.full(nx, -np.inf), np.zeros(nx))
         nc, no = ci.size, oi.size
-        self.lb = np.r_[np.full(nx, 1e-4), d_lo, np.zeros(nc), np.zeros(no)]
+        # a_ii >= every fixed coupling of its row (the one-step fit's a_ij <= a_ii, kept by the refinement)
+        a_lo = np.minimum(np.maximum(np.abs(self.A_fixed).max(axis=1), 1e-4), a_hi - 1e-6)
+        self.lb = np.r_[a_lo, d_lo, np.zeros(nc), np.zeros(no)]
         self.ub = np.r_[a_hi, d_hi, np.full(nc, np.inf), np.ones(no)]
         self.theta0 = np.clip(self.theta0, self.lb, np.where(np.isfinite(self.ub), self.ub - 1e-9, self.ub))
         rows = np.flatnonzero(

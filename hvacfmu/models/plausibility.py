@@ -17,7 +17,11 @@ Flagged (a :class:`~hvacfmu.errors.HvacfmuWarning` and ``model.meta["warnings"]`
   drive moves the zone temperature by less than ``min_effect_k`` in steady
   state over its observed range (5 %..95 %), typically together with time
   constants of minutes (``a`` of 0.4-0.6 per 15 minutes): the model learned
-  the thermostat loop, not the building.
+  the thermostat loop, not the building;
+- a zone whose memory sits on a neighbour (``a_ij > a_ii``) or a state matrix with a negative real
+  eigenvalue below ``-NEGATIVE_EIGENVALUE`` (:func:`memory_warnings`): not a building's RC network (whose
+  exact discretisation has a positive spectrum), but what one-step least squares makes of mirror-twin
+  zones whose temperatures are nearly collinear; the zones named, simulated together, feed each other's errors.
 
 The numbers go to ``model.meta["plausibility"]``.
 """
@@ -37,6 +41,11 @@ FAST_TIME_CONSTANT_H = 1.0
 #: A sign-constrained coefficient this far below 0 is the bounded solver's rounding of 0, not a sign error
 #: (the diagnosis's joint refit of the EnergyPlus apartments gave C = -1.99e-19 on T_supply)
 SIGN_TOL = 1e-12
+#: A real eigenvalue of A below minus this is flagged: a mode that flips sign every step (no RC network has one;
+#: the apartments' twin flats S1/S2 had -0.56 and -0.67 at 15 min) [-]
+NEGATIVE_EIGENVALUE = 0.1
+#: A coupling larger than the zone's own coefficient by more than this is flagged [-]
+DOMINANCE_TOL = 1e-6
 
 
 def time_constants_h(A, step) -> np.ndarray:
@@ -45,6 +54,43 @@ def time_constants_h(A, step) -> np.ndarray:
     with np.errstate(divide="ignore"):
         tau = np.where(lam >= 1.0, np.inf, np.where(lam <= 0.0, 0.0, -float(step) / np.log(np.maximum(lam, 1e-300))))
     return np.sort(tau)[::-1] / 3600.0
+
+
+def memory_warnings(A, names) -> list[str]:
+    """Warnings for a one-step state matrix ``A`` (states ``names``) that is not an RC network's.
+
+    Names every zone whose own coefficient is below a neighbour's (``a_ij > a_ii``: its memory is carried by the
+    neighbour, typically a mirror twin whose temperature is nearly collinear with its own), and every real
+    eigenvalue below ``-NEGATIVE_EIGENVALUE`` with the zones that carry its mode (share of the eigenvector >= 20 %).
+    Empty for a plausible matrix.
+    """
+    A = np.asarray(A, float)
+    names = [str(n) for n in names]
+    n = min(A.shape[0], len(names))
+    out = []
+    for i in range(n):
+        row = A[i, :n].copy()
+        row[i] = -np.inf
+        j = int(np.argmax(row))
+        if n > 1 and row[j] > A[i, i] + DOMINANCE_TOL:
+            out.append(
+                f"zone {names[i]}: its own coefficient a = {A[i, i]:.3g} is below its neighbour {names[j]}'s "
+                f"{row[j]:.3g} (its memory sits on {names[j]}; near-collinear temperatures, e.g. mirror twins: "
+                "simulated together the two feed each other's errors)"
+            )
+    if A.shape[0] and np.all(np.isfinite(A)):
+        lam, vec = np.linalg.eig(A)
+        for k in np.argsort(lam.real):
+            if abs(lam[k].imag) > 1e-9 or lam[k].real >= -NEGATIVE_EIGENVALUE:
+                continue
+            w = np.abs(vec[:n, k]) ** 2
+            w = w / max(float(w.sum()), 1e-300)
+            zones = [names[i] for i in np.argsort(-w) if w[i] >= 0.2]
+            out.append(
+                f"A has the eigenvalue {lam[k].real:.3g} < -{NEGATIVE_EIGENVALUE:g} (a mode that flips sign every "
+                f"step, which no thermal RC network has), carried by {', '.join(zones)}"
+            )
+    return out
 
 
 def linear_problems(model, max_time_constant_h: float = MAX_TIME_CONSTANT_H, free_airflow=()) -> tuple[list[str], dict]:
@@ -230,6 +276,9 @@ def check_fitted(
             msg += _identifiability_advice(model, frame, fast)
             notes.append(msg)
     numbers["identifiable"] = not notes
+    memory = memory_warnings(model.A, model.outputs) if model.kind != "lumped" else []
+    numbers["memory_warnings"] = memory
+    notes += memory
     for msg in notes:
         (warn or (lambda m: warnings.warn(m, HvacfmuWarning, stacklevel=3)))(msg)
     meta = dict(model.meta)
@@ -320,4 +369,11 @@ def _plain(x):
     return x
 
 
-__all__ = ["check_fitted", "check_physics", "drive_effect_k", "linear_problems", "time_constants_h"]
+__all__ = [
+    "check_fitted",
+    "check_physics",
+    "drive_effect_k",
+    "linear_problems",
+    "memory_warnings",
+    "time_constants_h",
+]
