@@ -537,9 +537,19 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
             }
             picked = kept
             if isinstance(memo, dict):
-                memo.setdefault("days", set()).update(now["days"])
+                # remembered for the later rounds: what the sun explained (it kept less than SUN_KEEP of the
+                # departure), not a pick that kept its departure and fell only below the rule's floor (quad4
+                # 2034 case 7, week 5: a true holiday in ordinary weather kept 95 % of it, 0.199 against the
+                # floor 0.20, and was kept down while its departure rose to 0.31-0.38; diagnosis_holdout_s18.md)
+                memo.setdefault("days", set()).update(
+                    d for d in now["days"] if not deps_sun[d]["gamma"] >= SUN_KEEP * raw_day[d]
+                )
                 memo.setdefault("weeks", {}).update(
-                    {w["week"]: {"gamma": w["gamma"], "gamma_sun": w["gamma_sun"]} for w in now["weeks"]}
+                    {
+                        w["week"]: {"gamma": w["gamma"], "gamma_sun": w["gamma_sun"]}
+                        for w in now["weeks"]
+                        if not (w["gamma"] is not None and w["gamma_sun"] >= SUN_KEEP * w["gamma"])
+                    }
                 )
     med, mad = pick["gamma_median"], pick["gamma_robust_std"]
     g_min, z_min, gw_min = options["holiday_gamma"], options["holiday_z"], options["holiday_week_gamma"]
