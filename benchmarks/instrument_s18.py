@@ -182,12 +182,13 @@ def main():
     ap.add_argument("--cases", default="")
     ap.add_argument("--variants", default="none,du,u")
     ap.add_argument("--raw", action="append", default=[], help="raw:LAYOUT/SEED/WEEKS/EFFECT&EFFECT (repeatable)")
+    ap.add_argument("--option", action="append", default=[], help="diagnose option KEY=VALUE (JSON value)")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
     variants = args.variants.split(",")
     with open(args.out, "a") as fh:
         for spec in (args.cases.split(",") if args.cases else []) + args.raw:
-            for r in run(spec, variants, {}):
+            for r in run(spec, variants, {k: json.loads(v) for k, v in (o.split("=", 1) for o in args.option)}):
                 fh.write(json.dumps(r) + "\n")
                 if r["injected"] or r["found"] or r["none"]["t"] >= 2:
                     s = " | ".join(f"{v} {r[v]['coef']:+.3f} t {r[v]['t']:+.1f}" for v in variants)

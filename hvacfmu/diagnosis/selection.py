@@ -1150,6 +1150,8 @@ def _reject_through_neighbours(c, opts) -> None:
 def _instrumented(c, opts) -> bool:
     """A coupling scored zone by zone passes its instrument check (:func:`coupling_instrument`): the conductance
     instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``."""
+    if opts.get("coupling_instrument_neighbours") == "replace":  # measured only (instrument_s18.md)
+        return True
     iv = c.evidence.get("instrument") or {}
     return iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
 
