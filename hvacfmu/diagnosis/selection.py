@@ -561,15 +561,7 @@ def coupling_instrument(
         D = zone_design(sig, z, terms, U_eff, feats)
         du = U_eff[:, p] if levels else np.diff(U_eff[:, p], prepend=U_eff[0, p])
         Z = np.column_stack([np.nan_to_num(shifted(du, lag)) for lag in range(first, lags + 1)])
-        Xw = W(D.X if controls is None else np.column_stack([D.X, controls]))
-        keep = (Xw * Xw).sum(axis=0) > 1e-300
-        Xw = Xw[:, keep]
-        Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
-        G = Xw.T @ Xw + 1e-10 * np.eye(Xw.shape[1])
-
-        def resid(v, Xw=Xw, G=G):
-            return v - Xw @ np.linalg.solve(G, Xw.T @ v)
-
+        Xw, resid = _partial_out(W(D.X if controls is None else np.column_stack([D.X, controls])))
         yt = resid(W(target[:, z] - D.offset))
         dt = resid(W(col))
         Zt = resid(W(Z))
@@ -591,12 +583,7 @@ def coupling_instrument(
         out[f"iv_t_{zn}"] = float(k_iv / se) if se > 0 else 0.0
         out[f"iv_first_F_{zn}"] = float(F)
         out[f"iv_ols_{zn}"] = k_ols / r
-    den = sum(float(h @ x) for h, x, _ in pooled)
-    k = sum(float(h @ y) for h, _, y in pooled) / den if den != 0 else 0.0
-    u = sum(h * (y - k * x) for h, x, y in pooled) / den if den != 0 else np.zeros(len(week))
-    se = _clustered_se(u, week)
-    out["iv_coef"] = float(k)
-    out["iv_t"] = float(k / se) if se > 0 else 0.0
+    out.update(_pooled_iv(pooled, week))
     return out
 
 
@@ -671,15 +658,7 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         nb = [j for j in sig.neighbours[z] if j != p]
         idx = [D.names.index(f"a[{sig.zones[j]}]") for j in nb]
         hist = [np.nan_to_num(shifted(sig.Y[:, j], lag)) for j in nb for lag in NEIGHBOUR_HISTORY_LAGS]
-        Xw = W(np.column_stack([np.delete(D.X, idx, axis=1)] + hist))
-        keep = (Xw * Xw).sum(axis=0) > 1e-300
-        Xw = Xw[:, keep]
-        Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
-        G = Xw.T @ Xw + 1e-10 * np.eye(Xw.shape[1])
-
-        def resid(v, Xw=Xw, G=G):
-            return v - Xw @ np.linalg.solve(G, Xw.T @ v)
-
+        Xw, resid = _partial_out(W(np.column_stack([np.delete(D.X, idx, axis=1)] + hist)))
         yt = resid(W(target[:, z] - D.offset))
         dt = resid(W(col))
         Zp = resid(W(np.column_stack(moves(p))))
@@ -708,14 +687,32 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         out[f"iv_coef_{zn}"] = k_iv / r
         out[f"iv_t_{zn}"] = float(k_iv / se) if se > 0 else 0.0
         out[f"iv_first_F_{zn}"] = float(F)
+    out.update(_pooled_iv(pooled, week))
+    out["neighbour_history_lags"] = list(NEIGHBOUR_HISTORY_LAGS)
+    return out
+
+
+def _partial_out(Xw: np.ndarray) -> tuple:
+    """Columns ``Xw`` (within-transformed controls) without the empty ones, scaled to unit norm, and the function
+    that takes them out of a vector or matrix (least squares, ridge 1e-10): the instrument checks' controls."""
+    Xw = Xw[:, (Xw * Xw).sum(axis=0) > 1e-300]
+    Xw = Xw / np.sqrt((Xw * Xw).sum(axis=0))
+    G = Xw.T @ Xw + 1e-10 * np.eye(Xw.shape[1])
+
+    def resid(v):
+        return v - Xw @ np.linalg.solve(G, Xw.T @ v)
+
+    return Xw, resid
+
+
+def _pooled_iv(pooled: list, week: np.ndarray) -> dict:
+    """One conductance from both zones' instrumented equations (``pooled``: per equation the fitted instrument,
+    the regressor and the target, each scaled to the pair's conductance) and its week-clustered t."""
     den = sum(float(h @ x) for h, x, _ in pooled)
     k = sum(float(h @ y) for h, _, y in pooled) / den if den != 0 else 0.0
     u = sum(h * (y - k * x) for h, x, y in pooled) / den if den != 0 else np.zeros(len(week))
     se = _clustered_se(u, week)
-    out["iv_coef"] = float(k)
-    out["iv_t"] = float(k / se) if se > 0 else 0.0
-    out["neighbour_history_lags"] = list(NEIGHBOUR_HISTORY_LAGS)
-    return out
+    return {"iv_coef": float(k), "iv_t": float(k / se) if se > 0 else 0.0}
 
 
 def _coefficient_influence(Xw: np.ndarray, yw: np.ndarray, theta: np.ndarray, lower, upper) -> np.ndarray:
