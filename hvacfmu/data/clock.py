@@ -122,8 +122,8 @@ def _from_ghi(frame, step, longitude):
     return offset, detail
 
 
-def _from_t_out(frame, step, longitude):
-    t = frame["T_out"]
+def _from_t_out(frame, step, longitude, column="T_out"):
+    t = frame[column]
     t = t[np.isfinite(t.to_numpy(dtype=float))]
     if len(t) * step < MIN_DAYS * 86400:
         return None
@@ -248,6 +248,10 @@ def clock_check(frame: pd.DataFrame, building, step: float, has_offsets: bool = 
 def outdoor_phase_warning(frame: pd.DataFrame, building, step: float, clock: ClockCheck) -> str | None:
     """A warning when ``T_out``'s daily cycle is shifted against the sun that ``ghi`` puts on time.
 
+    When a supply air column carries the outdoor air's daily cycle on time
+    instead (and swings more than ``T_out``), the two columns are named as
+    swapped rather than ``T_out`` as shifted.
+
     With the clock confirmed by ``ghi``, the outdoor temperature's first daily
     harmonic must still peak about :data:`T_OUT_PEAK_SOLAR_HOUR` apparent solar
     time; :data:`T_OUT_TOLERANCE` hours or more off is a weather feed joined on
@@ -257,13 +261,55 @@ def outdoor_phase_warning(frame: pd.DataFrame, building, step: float, clock: Clo
         return None
     found = _from_t_out(frame, step, building.longitude)
     if found is None:
+        swapped = _outdoor_in_supply(frame, step, building.longitude, clock.offset)
+        if swapped:
+            return (
+                f"column T_out: its daily cycle is under 0.5 K while column {swapped} has the outdoor air's daily "
+                f"cycle on time: {swapped} and T_out look swapped (the outdoor and supply air points mapped to each "
+                "other's columns); fix the column mapping of the export"
+            )
         return None
     offset, detail = found
     if abs(offset - clock.offset) < T_OUT_TOLERANCE:
         return None
     n = round(offset - clock.offset)
     late = "late" if n > 0 else "early"
+    swapped = _outdoor_in_supply(frame, step, building.longitude, clock.offset)
+    if swapped:
+        return (
+            f"column T_out: its daily cycle is {abs(n):g} h {late} against the sun that ghi puts on time ({detail}), "
+            f"while column {swapped} has the outdoor air's daily cycle on time: {swapped} and T_out look swapped "
+            "(the outdoor and supply air points mapped to each other's columns); fix the column mapping of the export"
+        )
     return (
         f"column T_out: its daily cycle is {abs(n):g} h {late} against the sun that ghi puts on time ({detail}): "
         "outdoor air joined from a weather feed on another clock (UTC?); shift the T_out column to the data's clock"
     )
+
+
+def _outdoor_in_supply(frame: pd.DataFrame, step: float, longitude: float, clock_offset: float) -> str | None:
+    """The supply air column whose daily cycle peaks when outdoor air does, if ``T_out``'s does not.
+
+    Supply air is held at a set point (or reset slowly); a daily cycle that
+    peaks in mid-afternoon apparent solar time, on the clock ``ghi`` confirmed,
+    is outdoor air exported under the supply air's name. It must also swing
+    more within the day than ``T_out`` does (a mixed-air supply that follows
+    the outdoor air through an economiser swings less than the outdoor air).
+    """
+    units = [c for c in frame.columns if c.startswith("T_supply_")]  # the derived T_supply mixes them: name the unit's
+    for column in units or [c for c in frame.columns if c == "T_supply"]:
+        found = _from_t_out(frame, step, longitude, column)
+        if (
+            found is not None
+            and abs(found[0] - clock_offset) < T_OUT_TOLERANCE
+            and _daily_swing(frame[column]) > _daily_swing(frame["T_out"])
+        ):
+            return column
+    return None
+
+
+def _daily_swing(t: pd.Series) -> float:
+    """Standard deviation [K] of a temperature about each UTC day's mean."""
+    t = t[np.isfinite(t.to_numpy(dtype=float))]
+    day = t.index.tz_convert("UTC").floor("D")
+    return float(np.std(t.to_numpy(dtype=float) - t.groupby(day).transform("mean").to_numpy(dtype=float)))
