@@ -1232,16 +1232,25 @@ def _error_code_hint(si_values, unit) -> str:
     )
 
 
+def _large_temperature_guess(med: float) -> str:
+    """What a temperature column whose median is above 200 (in degC or degF) is likely written in."""
+    kelvin = 220 <= med <= 340  # -53..67 °C
+    tenths_c = 5 <= med / 10 <= 40
+    tenths_f = 40 <= med / 10 <= 105
+    guesses = ["K"] if kelvin else []
+    guesses += ["tenths of a degree C (divide by 10)"] if tenths_c else []
+    guesses += ["tenths of a degree F (divide by 10)"] if tenths_f else []
+    return ", or ".join(guesses) if guesses else "another unit or scale (check the export's point definition)"
+
+
 def _check_temperature(canonical, desc, label, unit, raw_values, finite, si, where, problems):
     med = float(np.median(_sample(finite)))
     indoor = canonical != "T_out"
     guess = None
-    if unit == "degC" and med > 200:
-        guess = "K" if not 5 <= med / 10 <= 40 else "K, or tenths of a degree C (divide by 10)"
+    if unit in ("degC", "degF") and med > 200:
+        guess = _large_temperature_guess(med)
     elif unit == "degC" and med > 45:
         guess = "degF"
-    elif unit == "degF" and med > 200:
-        guess = "K"
     elif unit == "degF" and indoor and med < 40:
         guess = "degC"
     elif unit == "K" and med < 150:
