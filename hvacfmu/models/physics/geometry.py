@@ -51,6 +51,8 @@ RHO_AIR = 1.2
 CP_AIR = 1005.0
 #: Default heat capacity of furniture lumped into the air node [J/(K m2) of floor area].
 DEFAULT_FURNITURE_CAPACITY = 3000.0
+#: Thickest layer [m] a construction may declare; above it the value is in another unit (mm, cm).
+MAX_PLAUSIBLE_LAYER_THICKNESS = 2.0
 #: Default maximum thickness of one node of a massive layer [m].
 DEFAULT_MAX_LAYER_THICKNESS = 0.02
 
@@ -415,6 +417,12 @@ def _parse_constructions(phys: dict, materials: dict, problems: list) -> dict:
                     positive=not (mat is not None and mat.massless),
                     nonneg=True,
                 )
+                if thick > MAX_PLAUSIBLE_LAYER_THICKNESS:
+                    problems.append(
+                        f"{lw}: thickness [m] = {thick:g} m is thicker than any building layer "
+                        f"(> {MAX_PLAUSIBLE_LAYER_THICKNESS:g} m): is it in mm ({thick / 1000:g} m) or cm "
+                        f"({thick / 100:g} m)? thicknesses are in m"
+                    )
             if mat is not None:
                 layers.append(Layer(mat, thick))
         films = r.get("films", ["none", "none"])
