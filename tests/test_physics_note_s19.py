@@ -49,3 +49,13 @@ def test_a_building_file_without_physics_tables_gets_a_one_line_note(tmp_path):
     assert physics_problems(building_from_dict(copy.deepcopy(BUILDING)))[0].startswith(
         "no [[elements]] or [[constructions]] tables"
     )  # the CLI's short note keys on this first problem
+
+
+def test_a_template_refusal_on_one_line_is_a_physics_problem():
+    """physics_problems dropped a one-line BuildingError (a template beside its own tables) and said "usable"."""
+    d = copy.deepcopy(BUILDING)
+    d["construction_template"] = "concrete_slab_office_1990s"
+    assert physics_problems(building_from_dict(copy.deepcopy(d))) == []
+    d["windows"] = [{"name": "w", "zone": "A", "orientation": "S", "area": 10.0, "u_value": 2.6, "shgc": 0.4}]
+    (problem,) = physics_problems(building_from_dict(d))
+    assert "construction_template 'concrete_slab_office_1990s' and the tables ['windows'] are both given" in problem

@@ -227,7 +227,9 @@ def physics_problems(building: Building) -> list[str]:
     try:
         parse_physics(building)
     except BuildingError as exc:
-        return [line[4:] for line in str(exc).splitlines()[1:]]
+        lines = str(exc).splitlines()
+        # a list of problems under a heading ("  - ..." lines), or one problem on one line (a template's refusal)
+        return [line[4:] for line in lines[1:]] if len(lines) > 1 else lines
     return []
 
 
