@@ -105,3 +105,23 @@ def test_quad4_holdout_2034_case_15_holiday_is_found():
     assert ev["scale_zones_uninformative"] == ["SE"] and ev["scale_mean_all_zones"] < 0.33 <= ev["scale_mean"], ev
     # every finding is in the truth (the four facades' sun are the building's baseline)
     assert {f["cause"] for f in rep.findings} <= {"internal_gain_schedule", "solar_gain"}
+
+
+def test_pooled_zone_departures_serve_the_week_ranking_and_the_one_sided_departure():
+    from hvacfmu.diagnosis.selection import _holiday_week_gain
+    from hvacfmu.models.causes.internal_gain_schedule import one_sided_departure, pooled_zone_departures
+
+    days = [
+        {"date": "2025-12-01", "gamma_by_zone": [0.2, None, -0.5], "weight_by_zone": [1.0, 2.0, 2.0]},
+        {"date": "2025-12-02", "gamma_by_zone": [0.6, 0.3, -0.1], "weight_by_zone": [3.0, 0.0, 2.0]},
+        {"date": "2025-12-03", "gamma_by_zone": [0.9, 0.9, 0.9], "weight_by_zone": [1.0, 1.0, 1.0]},
+    ]
+    dates = ["2025-12-01", "2025-12-02"]
+    g, w = pooled_zone_departures(days, dates)
+    # zone 0: (0.2*1 + 0.6*3) / 4; zone 1: no weighted day (None, weight 0) -> 0 at weight 0; zone 2: -0.3
+    assert g == pytest.approx([0.5, 0.0, -0.3]) and w == pytest.approx([4.0, 0.0, 4.0])
+    assert pooled_zone_departures(days, ["2025-11-03"]) is None
+    assert one_sided_departure(days, dates) == pytest.approx(0.5 * 4.0 / 8.0)
+    resid = np.array([[1.0, 0.0, 2.0], [-1.0, 0.0, -2.0]])  # variances 1, 0, 4
+    assert _holiday_week_gain(days, dates, resid) == pytest.approx(0.5**2 * 4.0 / 1.0)
+    assert _holiday_week_gain(days, ["2025-11-03"], resid) == 0.0

@@ -47,6 +47,7 @@ from ..models.causes.internal_gain_schedule import (
     dst_shift_of,
     on_gain_clock,
     one_sided_departure,
+    pooled_zone_departures,
     sun_partialled,
 )
 from ..models.causes.signals import ema_series
@@ -1206,24 +1207,16 @@ def _holiday_week_gain(deps: list, dates, resid) -> float:
 
     Per zone, the days' departures (:func:`~hvacfmu.models.causes.internal_gain_schedule.day_departures`: the
     one-step residual projected on the reference day's gain profile minus the day's own) pooled over ``dates``
-    give the least-squares coefficient ``γ`` of the holiday term in that zone with every other coefficient held,
+    (:func:`~hvacfmu.models.causes.internal_gain_schedule.pooled_zone_departures`) give the least-squares coefficient ``γ`` of the holiday term in that zone with every other coefficient held,
     floored at 0 as the term's is; the sum of squares it removes, ``γ² Σh²``, is divided by the zone's residual
     variance (``resid``: the training rows' one-step residuals). The exact score refits the whole structure
     (:func:`score_candidate`); this projection only orders the weeks for it.
     """
-    want = set(dates)
-    days = [d for d in deps if d["date"] in want]
-    if not days:
+    pooled = pooled_zone_departures(deps, dates)
+    if pooled is None:
         return 0.0
-    nz = len(days[0]["gamma_by_zone"])
-    num, den = np.zeros(nz), np.zeros(nz)
-    for d in days:
-        for j, (g, w) in enumerate(zip(d["gamma_by_zone"], d.get("weight_by_zone", [1.0] * nz))):
-            if g is not None and w > 0:
-                num[j] += g * w
-                den[j] += w
-    var = np.nanvar(resid, axis=0) if len(resid) > 1 else np.ones(nz)
-    g = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    g, den = pooled
+    var = np.nanvar(resid, axis=0) if len(resid) > 1 else np.ones(len(g))
     return float((np.maximum(g, 0.0) ** 2 * den / np.where(var > 0, var, np.inf)).sum())
 
 
