@@ -51,6 +51,53 @@ def _holiday_record(c) -> dict:
     }
 
 
+def summary(path: str) -> None:
+    """Print a probe file: each case's outcome, its holiday candidates by zone (fitted scale, amplitude weight, mean
+    departure over the days ± its standard error, flags: B left out at the bound reading against, U left out as
+    uninformative) and its daylight-saving screens that reached the weather test."""
+    for line in open(path):
+        r = json.loads(line)
+        print(
+            f"== {r['layout']} {r['seed']} case {r['id']} {r['effects']}: found {r['found']} "
+            f"missed {[m['name'] for m in r['missed']]} false {r['unsupported']}"
+        )
+        for h in r["holiday_candidates"]:
+            at = set(h.get("scale_zones_at_bound") or ())
+            un = set(h.get("scale_zones_uninformative") or ())
+            all_z = h.get("scale_mean_all_zones")
+            print(
+                f"   holiday {h['dates'][:1]} ({len(h['dates'])} d) {h['status']}, dBIC {h['delta_bic'] or 0:.1f}, "
+                f"scale {h['scale_mean'] or 0:.3f}"
+                + ("" if all_z is None else f" (all zones {all_z:.3f})")
+                + f", groups {[g.get('rule') for g in h['groups']]}"
+            )
+            dep = h.get("scale_zone_departure") or {}
+            for z, g in (h.get("scale_by_zone") or {}).items():
+                d = dep.get(z)
+                txt = ""
+                if d:
+                    se = abs(d["gamma"] / d["t"]) if d["t"] else float("nan")
+                    txt = f" departure {d['gamma']:+.3f} ± {se:.3f} (t {d['t']:+.2f})"
+                flag = ("B" if z in at and z not in un else "") + ("U" if z in un else "")
+                print(f"      {z:3s} scale {g:.3f} w {h['scale_weight_by_zone'][z]:.4f}{txt} {flag}")
+        for d in r["dst_screens"]:
+            if "gate" in d:
+                print(
+                    f"   dst_shift candidate at the gate: {d['gate']}, dBIC {d['delta_bic'] or 0:.1f} {d['reason'][:120]}"
+                )
+                continue
+            st = d.get("step_given_weather") or {}
+            if st.get("t") is not None:
+                print(
+                    f"   dst screen {d['status']}: lag {d['lag_h']} h, jump {st['jump']:+.3f} -> "
+                    f"{st['jump_given_weather']:+.3f} with the weather held (t {st['t']:.2f})"
+                )
+        for c in r.get("candidates") or []:
+            loc = c.get("location") or {}
+            if loc.get("variant") in ("holiday", "dst_shift") and c.get("status") != "found":
+                print(f"   candidate {c['cause']} {loc.get('variant')} {c.get('status')}: {str(c.get('reason'))[:160]}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seed", type=int, default=2040)
@@ -63,10 +110,14 @@ def main():
     ap.add_argument(
         "--extra", action="append", default=[], help="NAME:LAYOUT:SEED:EFFECT[;EFFECT] an extra case (repeatable)"
     )
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--out", help="JSON-lines file of the probe records (appended)")
+    ap.add_argument("--print", dest="print_file", help="print the probe file FILE and stop")
     ap.add_argument("--results", help="also the battery's record of each case (JSON lines: --summary reads it)")
     ap.add_argument("--option", action="append", default=[], help="KEY=JSON diagnose option")
     a = ap.parse_args()
+    if a.print_file:
+        summary(a.print_file)
+        return
     opts = {k: json.loads(v) for k, v in (o.split("=", 1) for o in a.option)}
     only = {int(x) for x in a.only.split(",") if x}
     cases = [
@@ -87,6 +138,8 @@ def main():
         orig_gate(c, o)
         if selection._is_holiday(c.term):
             seen.append(_holiday_record(c))
+        if selection._is_dst(c.term):
+            dst.append({"gate": c.status, "reason": c.reason, "delta_bic": c.test.get("delta_bic")})
 
     orig_dst = igs.dst_candidate
 
@@ -119,6 +172,7 @@ def main():
             "missed": r["missed"],
             "unsupported": r["unsupported"],
             "findings": r["findings"],
+            "candidates": r["candidates"],
             "holiday_candidates": list(seen),
             "dst_screens": list(dst),
             "diagnose_cpu_s": r["diagnose_cpu_s"],
