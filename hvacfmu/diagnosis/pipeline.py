@@ -47,7 +47,8 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``max_terms`` (default ``max(20, 4 × zones)``: at most this many terms; the report names what a budget reached left, ``budget``), ``max_tries`` (8 held-out checks per round), ``holiday_gamma`` (0.6), ``holiday_z`` (4.0),
         ``holiday_week_gamma`` (0.4), ``schedule_min_scale`` (0.5, daylight-saving shift),
         ``holiday_min_scale`` (0.33, mean scale of a holiday term, over the zones above the bound 0 when they hold
-        half its amplitude weight), ``holiday_week_bic`` (True: when the holiday screen's rules propose no weekday,
+        half its amplitude weight, and without a zone whose days lie within two standard errors of both 0 and
+        the gate), ``holiday_week_bic`` (True: when the holiday screen's rules propose no weekday,
         the training week whose weekdays scored as a holiday give the largest ΔBIC is proposed if it passes
         ``bic_margin`` and keeps half its departure once the sun is regressed out; ``benchmarks/holiday_s18.md``), ``holiday_week_bic_top`` (3: only the weeks whose residual projection, other coefficients held, gains most are scored by the full refit), ``dst_min_r2`` (0.2) and ``dst_min_scale``
         (0.3) of the morning profile shift at the daylight-saving change, ``coupling_max_asymmetry`` (4.0),

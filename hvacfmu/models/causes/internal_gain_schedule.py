@@ -370,19 +370,19 @@ def sun_partialled(sig, resid_all: np.ndarray, rows) -> np.ndarray | None:
     return out
 
 
-def one_sided_departure(deps: list, dates) -> float:
-    """Mean departure scale of the weekdays ``dates`` with each zone's departure floored at 0 (nan without data).
+def pooled_zone_departures(deps: list, dates) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each zone's departure scale pooled over the weekdays ``dates`` and its weight (None without one of them).
 
-    Each zone's ``gamma`` over those days (``deps``: :func:`day_departures` records) is weighted by its profile
-    amplitude as in the pooled ``gamma``, but a zone reading toward a busier weekday counts as 0, not against:
-    a holiday term's coefficient is one per zone, bounded at 0, so such a zone is fitted at 0 and carries no
-    evidence either way (quad4 hold-out 2031 case 9, week 14: zone SE reads -0.24 against the other zones'
-    +0.16 ... +0.39 because the holiday itself moved SE out of its cooling control; ``benchmarks/holiday_s18.md``).
+    ``deps``: :func:`day_departures` records. A zone's days are pooled as in the day's own ``gamma``: weighted by
+    the day's ``weight_by_zone`` (the sum of squared profile differences, 1 when absent); a zone without data on
+    those days has ``gamma`` 0 and weight 0. Its ``gamma`` is then the least-squares coefficient of a holiday on
+    ``dates`` in that zone with the rest of the model held, and the weight that coefficient's ``Σh²``.
+    Returns ``(gamma_by_zone, weight_by_zone)``.
     """
     want = set(dates)
     days = [d for d in deps if d["date"] in want]
     if not days:
-        return float("nan")
+        return None
     nz = len(days[0]["gamma_by_zone"])
     num = np.zeros(nz)
     den = np.zeros(nz)
@@ -391,9 +391,23 @@ def one_sided_departure(deps: list, dates) -> float:
             if g is not None and w > 0:
                 num[j] += g * w
                 den[j] += w
-    if den.sum() <= 0:
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), den
+
+
+def one_sided_departure(deps: list, dates) -> float:
+    """Mean departure scale of the weekdays ``dates`` with each zone's departure floored at 0 (nan without data).
+
+    Each zone's ``gamma`` over those days (``deps``: :func:`day_departures` records) is weighted by its profile
+    amplitude as in the pooled ``gamma`` (:func:`pooled_zone_departures`), but a zone reading toward a busier
+    weekday counts as 0, not against: a holiday term's coefficient is one per zone, bounded at 0, so such a zone is
+    fitted at 0 and carries no evidence either way (quad4 hold-out 2031 case 9, week 14: zone SE reads -0.24
+    against the other zones' +0.16 ... +0.39 because the holiday itself moved SE out of its cooling control;
+    ``benchmarks/holiday_s18.md``).
+    """
+    pooled = pooled_zone_departures(deps, dates)
+    if pooled is None or pooled[1].sum() <= 0:
         return float("nan")
-    g_zone = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+    g_zone, den = pooled
     return float((den * np.maximum(g_zone, 0.0)).sum() / den.sum())
 
 
