@@ -123,9 +123,37 @@ def emulator(out: Path, cases, seeds, forced=False) -> None:
                 )
 
 
+def energyplus(out: Path, dirs) -> None:
+    """Export folders (``measurements.parquet``, ``building.toml``): the default fits; where ``meta["memory"]`` was
+    checked, main's fit too and both scored (elsewhere the model is main's: the selection did not run)."""
+    from hvacfmu.data import prepare
+    from hvacfmu.fitting import fit
+
+    for d in dirs:
+        d = Path(d)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds = prepare(d / "measurements.parquet", d / "building.toml")
+            models, cpu = {}, {}
+            for k in ("zones", "lumped"):
+                t1 = time.process_time()
+                m = fit(ds, k, progress=False)
+                cpu[k] = time.process_time() - t1
+                info = m.meta.get("memory", {})
+                print(
+                    f"{d.name} {k}: fit CPU {cpu[k]:.1f} s; memory: {json.dumps(info, default=str)[:400]}", flush=True
+                )
+                if info.get("checked"):
+                    models[f"{k}_memory"] = m
+                    models[f"{k}_main"] = fit(ds, k, progress=False, memory=False)
+            if models:
+                _score(models, ds, out, d.name, {"fit_cpu_s": cpu})
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["apartments", "emulator"])
+    ap.add_argument("what", choices=["apartments", "emulator", "energyplus"])
+    ap.add_argument("--dirs", nargs="*", default=[], help="energyplus: export folders")
     ap.add_argument("--out", required=True)
     ap.add_argument("--case", nargs="+", default=["default"])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -135,6 +163,8 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     if args.what == "apartments":
         apartments(out)
+    elif args.what == "energyplus":
+        energyplus(out, args.dirs)
     else:
         emulator(out, args.case, args.seeds, args.forced)
 

@@ -92,3 +92,26 @@ def test_option_memory_is_checked(data):
     _, ds = data
     with pytest.raises(FitError, match="option memory must be 'auto', True or False"):
         _fit(ds, memory="yes")
+
+
+def test_the_verdict_says_when_the_memory_check_kept_a_forgetful_fit():
+    """A model that still forgets after the check: the short-memory line says the week cross-validation kept it, with
+    the scores (fails on main: the line did not know of the check)."""
+    import types
+
+    from hvacfmu.evaluation import verdict as V
+
+    meta = {
+        "plausibility": {"time_constants_h": [0.14, 0.1]},
+        "memory": {
+            "checked": True,
+            "kept": "fit",
+            "week_cv": {"fit": {"rms": 0.63}, "within_one_step": {"rms": 0.67}, "slow_cross_fitted": {"rms": 0.64}},
+        },
+    }
+    (line,) = V._short_memory(types.SimpleNamespace(meta=meta, step=900.0))
+    assert "the fit's memory check kept it: blocked week cross-validation on the training weeks (fit 0.63 K, " in line
+    assert "slow_cross_fitted 0.64 K)" in line
+    meta["memory"]["kept"] = "within_one_step"  # not the fit: nothing said about the check
+    (line,) = V._short_memory(types.SimpleNamespace(meta=meta, step=900.0))
+    assert "memory check" not in line

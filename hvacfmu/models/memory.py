@@ -19,10 +19,13 @@ the same structure is refitted by one-step least squares on the raw series, each
 within-transformed by season and time-of-week slot over the training rows (the fixed-effects estimator: the gain
 profile is a free value per slot, so it cannot take what the state explains; no LOESS bandwidth to choose), under
 the fit's bounds (``0 < a_ii < 1``, ``0 <= a_ij <= a_ii``, row sums below one, the drive's sign, ``c >= 0``).
-The two candidates are compared by blocked week cross-validation on the training weeks only
-(:func:`week_cv`): each training week in turn is left out of the gain profiles, and the 24-h open-loop windows
-starting in it are simulated with the profiles of the other weeks of the season. The candidate with the lower
-cross-validated RMS (every season weighs alike) is kept; ``meta["memory"]`` records both scores.
+That refit, and the same refit with every zone's own coefficient held at the memory of :data:`SLOW_START_H`, start
+an open-loop refinement (:mod:`hvacfmu.models.openloop`) whose windows are simulated with *cross-fitted* gain
+profiles (each window's from the other training weeks). The candidates (the fit, the within refit, the two
+refinements) are compared by blocked week cross-validation on the training weeks only (:func:`week_cv`): each
+training week in turn is left out of the gain profiles, and the 24-h open-loop windows starting in it are simulated
+with the profiles of the other weeks of the season. The candidate with the lowest cross-validated RMS (every season
+weighs alike) is kept; ``meta["memory"]`` records every score. The held-out test weeks are never read.
 
 The coefficients themselves are not refitted per fold (the refinement's cost, run once per week, would be that of
 the whole fit times the number of weeks): they are few (two per zone plus the weather's), against 672 gain values
@@ -41,6 +44,12 @@ from .heat import delivered_heat
 #: forgets more than 63 % of it (the apartments' zones model: 0.3-0.6 steps; the emulator's fitted zones and lumped
 #: models, which beat persistence, 1.4-2.9 steps at 15 min).
 SHORT_MEMORY_STEPS = 1.0
+
+#: Time constant [h] of the second start of the cross-fitted refinement: every zone's own coefficient held at
+#: ``exp(-step / SLOW_START_H)`` (0.951 at 15 min) in a within one-step refit of the rest. The refinement has
+#: several local optima on closed-loop data; a start with the memory of a building's mass reaches one the
+#: one-step start does not (the apartments' winter, ``benchmarks/memory_s19.md``).
+SLOW_START_H = 5.0
 
 
 def slowest_steps(model) -> float:
@@ -189,11 +198,11 @@ def _vcols(prep, model, i) -> list:
     return list(range(n_temps)) + [k for k, vn in enumerate(prep.v_names) if k >= n_temps and vn[2:] in orient]
 
 
-def within_refit(model, prep, stability_margin: float = 1e-3, horizon: int = 96):
+def within_refit(model, prep, stability_margin: float = 1e-3, horizon: int = 96, a_own: float | None = None):
     """``model``'s structure refitted by one-step least squares on the raw series, within-transformed by season and
     time-of-week slot over the training rows (the fixed-effects estimator of :mod:`hvacfmu.diagnosis.design`), under
-    the fit's bounds; gains re-estimated from the new coefficients' one-step residuals. ``None`` if a zone's
-    problem has no solution."""
+    the fit's bounds; gains re-estimated from the new coefficients' one-step residuals. ``a_own``: every zone's own
+    coefficient held at this value (the others fitted given it). ``None`` if a zone's problem has no solution."""
     from .datadriven import A_EPS, bayes_cls
     from .openloop import _adjacent_mask
 
@@ -228,8 +237,8 @@ def within_refit(model, prep, stability_margin: float = 1e-3, horizon: int = 96)
         Zw, yw = within(Z), within(y[:, None])[:, 0]
         na = 1 + len(nb)
         p = Z.shape[1]
-        lb = np.r_[A_EPS, np.zeros(na - 1), lo_d, np.zeros(len(vc))]
-        ub = np.r_[1 - A_EPS, np.ones(na - 1), hi_d, np.full(len(vc), np.inf)]
+        lb = np.r_[A_EPS if a_own is None else a_own, np.zeros(na - 1), lo_d, np.zeros(len(vc))]
+        ub = np.r_[1 - A_EPS if a_own is None else a_own, np.ones(na - 1), hi_d, np.full(len(vc), np.inf)]
         G = np.zeros((na, p))
         G[0, :na] = 1.0
         G[np.arange(1, na), np.arange(1, na)] = 1.0
@@ -278,10 +287,19 @@ def keep_memory(model, prep, opts, horizon: int = 96):
         return model, {**info, "checked": False, "reason": "the within one-step refit found no solution"}
     from .openloop import refine_open_loop
 
-    refined, rinfo = refine_open_loop(alt, prep, horizon, weeks=week_ids(prep))
     candidates = {"fit": model, "within_one_step": alt}
-    if rinfo.get("used"):
-        candidates["within_cross_fitted"] = refined
+    weeks = week_ids(prep)
+    refinements = {}
+    a_slow = float(np.exp(-float(model.step) / (SLOW_START_H * 3600.0)))
+    slow = within_refit(model, prep, float(opts.get("stability_margin", 1e-3)), horizon, a_own=a_slow)
+    for name, start in (("within_cross_fitted", alt), ("slow_cross_fitted", slow)):
+        if start is None:
+            refinements[name] = {"used": False, "reason": "the within one-step refit found no solution"}
+            continue
+        refined, rinfo = refine_open_loop(start, prep, horizon, weeks=weeks)
+        refinements[name] = {k: rinfo.get(k) for k in ("used", "reason", "rms_before", "rms_after", "nfev")}
+        if rinfo.get("used"):
+            candidates[name] = refined
     cv = {name: week_cv(m, prep, horizon) for name, m in candidates.items()}
     finite = {name: c["rms"] for name, c in cv.items() if np.isfinite(c["rms"])}
     kept = min(finite, key=lambda k: finite[k]) if finite else "fit"
@@ -291,7 +309,8 @@ def keep_memory(model, prep, opts, horizon: int = 96):
         if form is True
         else f"slowest time constant {steps:.2f} steps < {SHORT_MEMORY_STEPS:g}",
         week_cv=cv,
-        cross_fitted_refinement={k: rinfo.get(k) for k in ("used", "reason", "rms_before", "rms_after", "nfev")},
+        cross_fitted_refinements=refinements,
+        slow_start_a=a_slow,
         candidates={
             name: {"A_diag": np.diag(m.A).tolist(), "slowest_time_constant_steps": slowest_steps(m)}
             for name, m in candidates.items()
