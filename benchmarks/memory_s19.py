@@ -82,20 +82,21 @@ def _score(models, ds, out: Path, tag: str, extra=None) -> dict:
     return rec
 
 
-def apartments(out: Path) -> None:
+def apartments(out: Path, split_seed: int = 0) -> None:
     from held_zones_s14 import _paths
 
     from hvacfmu.data import prepare
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ds = prepare(*(lambda p: (p.measurements, p.building))(_paths("wind")))
+        paths = _paths("wind")
+        ds = prepare(paths.measurements, paths.building, seed=split_seed)
         models, cpu = _fit_both(ds)
         _score(
             models,
             ds,
             out,
-            "apartments",
+            "apartments" if split_seed == 0 else f"apartments_split{split_seed}",
             {"fit_cpu_s": cpu, "memory": {k: m.meta.get("memory") for k, m in models.items()}},
         )
 
@@ -123,9 +124,10 @@ def emulator(out: Path, cases, seeds, forced=False) -> None:
                 )
 
 
-def energyplus(out: Path, dirs) -> None:
+def energyplus(out: Path, dirs, forced=False) -> None:
     """Export folders (``measurements.parquet``, ``building.toml``): the default fits; where ``meta["memory"]`` was
-    checked, main's fit too and both scored (elsewhere the model is main's: the selection did not run)."""
+    checked, main's fit too and both scored (elsewhere the model is main's: the selection did not run). ``forced``:
+    also ``memory=True``, scored beside main's."""
     from hvacfmu.data import prepare
     from hvacfmu.fitting import fit
 
@@ -143,17 +145,30 @@ def energyplus(out: Path, dirs) -> None:
                 print(
                     f"{d.name} {k}: fit CPU {cpu[k]:.1f} s; memory: {json.dumps(info, default=str)[:400]}", flush=True
                 )
-                if info.get("checked"):
+                if info.get("checked") or forced:
                     models[f"{k}_memory"] = m
                     models[f"{k}_main"] = fit(ds, k, progress=False, memory=False)
+                if forced:
+                    t1 = time.process_time()
+                    models[f"{k}_forced"] = fit(ds, k, progress=False, memory=True)
+                    cpu[f"{k}_forced"] = time.process_time() - t1
+                    mem = models[f"{k}_forced"].meta["memory"]
+                    print(f"  forced: CPU {cpu[k + '_forced']:.1f} s, kept {mem['kept']}", flush=True)
             if models:
-                _score(models, ds, out, d.name, {"fit_cpu_s": cpu})
+                _score(
+                    models,
+                    ds,
+                    out,
+                    d.name,
+                    {"fit_cpu_s": cpu, "memory": {k: m.meta.get("memory") for k, m in models.items()}},
+                )
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("what", choices=["apartments", "emulator", "energyplus"])
     ap.add_argument("--dirs", nargs="*", default=[], help="energyplus: export folders")
+    ap.add_argument("--split-seed", type=int, default=0, help="apartments: seed of the train/test week split")
     ap.add_argument("--out", required=True)
     ap.add_argument("--case", nargs="+", default=["default"])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -162,9 +177,9 @@ def main(argv=None):
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.what == "apartments":
-        apartments(out)
+        apartments(out, args.split_seed)
     elif args.what == "energyplus":
-        energyplus(out, args.dirs)
+        energyplus(out, args.dirs, args.forced)
     else:
         emulator(out, args.case, args.seeds, args.forced)
 
