@@ -115,3 +115,15 @@ def test_the_verdict_says_when_the_memory_check_kept_a_forgetful_fit():
     meta["memory"]["kept"] = "within_one_step"  # not the fit: nothing said about the check
     (line,) = V._short_memory(types.SimpleNamespace(meta=meta, step=900.0))
     assert "memory check" not in line
+
+
+def test_no_season_with_two_training_weeks_is_said_not_guessed(data):
+    """With one training week per season there is nothing to cross-validate: the fit is kept and the record says why
+    (the EnergyPlus 2004 medium office export, one training week per season, scored every candidate NaN)."""
+    _, ds = data
+    model = _fit(ds, memory=False, **FORGETFUL)
+    prep = datadriven._Prepared(ds, datadriven._options({}))
+    prep.train_weeks = {s: w[:1] for s, w in prep.train_weeks.items()}
+    kept, info = memory.keep_memory(model, prep, {"memory": "auto"})
+    assert kept is model
+    assert info["checked"] is False and info["reason"].startswith("no season has two training weeks")

@@ -282,6 +282,13 @@ def keep_memory(model, prep, opts, horizon: int = 96):
             "checked": False,
             "reason": f"slowest time constant {steps:.2f} steps >= {SHORT_MEMORY_STEPS:g}",
         }
+    if not any(len(set(w)) >= 2 for w in prep.train_weeks.values()):
+        return model, {
+            **info,
+            "checked": False,
+            "reason": "no season has two training weeks: a left-out week has no other week's gain profile "
+            "(nothing to cross-validate)",
+        }
     alt = within_refit(model, prep, float(opts.get("stability_margin", 1e-3)), horizon)
     if alt is None:
         return model, {**info, "checked": False, "reason": "the within one-step refit found no solution"}
