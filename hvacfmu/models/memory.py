@@ -136,7 +136,8 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
     -------
     dict
         ``rms`` [K] (root of the mean over seasons of each season's mean squared error), ``season_rms`` [K],
-        ``windows`` (scored), ``unscored`` (windows whose season has a single training week), ``weeks`` (folds).
+        ``persistence_season_rms`` [K] (persistence on the same windows), ``windows`` (scored), ``unscored``
+        (windows whose season has a single training week), ``weeks`` (folds).
     """
     arr = _arrays(model, prep, horizon) if arrays is None else arrays
     wk = week_ids(prep)
