@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ..models.memory import SHORT_MEMORY_STEPS  # one constant with the fit's memory check
 from ..models.plausibility import MIN_EFFECT_K
 
 #: ASHRAE Guideline 14 calibration thresholds for hourly data [%]
@@ -1101,12 +1102,6 @@ def _airflow_gain(model, dataset) -> list[str]:
     ]
 
 
-#: slowest time constant of a fitted model, in model steps, under which it keeps no memory of its state: every step
-#: forgets more than 63 % of it (the apartments' zones model: 0.3-0.6 steps; the emulator's fitted zones and lumped
-#: models, which beat persistence, 1.4-2.9 steps at 15 min)
-SHORT_MEMORY_STEPS = 1.0
-
-
 def _short_memory(model) -> list[str]:
     """A fitted model whose every mode decays within :data:`SHORT_MEMORY_STEPS` model steps (``meta["plausibility"]``):
     its 24-hour prediction is the weather response plus the gain profile, whatever the zone's temperature at the start.
@@ -1131,6 +1126,16 @@ def _short_memory(model) -> list[str]:
         refined = (
             f"; the open-loop refinement ran (training windows' RMS {float(ol['rms_before']):.2f} -> "
             f"{float(ol['rms_after']):.2f} K) and left it there"
+        )
+    mem = meta.get("memory") or {}
+    if isinstance(mem, dict) and mem.get("checked") and mem.get("kept") == "fit":
+        cv = mem.get("week_cv") or {}
+        scores = ", ".join(
+            f"{k} {float(v['rms']):.2f} K" for k, v in cv.items() if isinstance(v, dict) and v.get("rms") is not None
+        )
+        refined += (
+            f"; the fit's memory check kept it: blocked week cross-validation on the training weeks ({scores}) found "
+            "no refit with memory that predicts a left-out week better"
         )
     modes = f"all {len(tc)} modes" if len(tc) > 1 else "its only mode"
     return [

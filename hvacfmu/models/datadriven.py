@@ -584,6 +584,7 @@ DEFAULTS: dict[str, Any] = {
     "plausibility": True,
     "open_loop": "auto",
     "open_loop_couplings": False,
+    "memory": "auto",
 }
 
 #: With option heat="auto", the delivered-heat form is used when an air handler is off in more than this share
@@ -601,6 +602,8 @@ def _options(opts: dict) -> dict:
     out.update(opts)
     if out["open_loop"] not in ("auto", True, False):
         raise FitError(f"option open_loop must be 'auto', True or False, got {out['open_loop']!r}")
+    if out["memory"] not in ("auto", True, False):
+        raise FitError(f"option memory must be 'auto', True or False, got {out['memory']!r}")
     if not isinstance(out["open_loop_couplings"], bool):
         raise FitError(f"option open_loop_couplings must be True or False, got {out['open_loop_couplings']!r}")
     return out
@@ -1456,6 +1459,7 @@ def _finish(prep: _Prepared, opts, kind, A, drive, C, gains, meta, weights):
             **common,
         )
     model = _refined(prep, opts, model)
+    model = _memory_kept(prep, opts, model)
     if opts["plausibility"]:
         model = check_fitted(model, prep.dataset, warn=prep.warn)
     return model
@@ -1492,6 +1496,17 @@ def _refined(prep: _Prepared, opts, model):
         "C": model.C,
     }
     return dataclasses.replace(new, meta=_jsonable({**model.meta, "open_loop": info}))
+
+
+def _memory_kept(prep: _Prepared, opts, model):
+    """The model, or its within one-step refit when it keeps no memory and that predicts left-out weeks better
+    (option ``memory``, :mod:`.memory`); ``meta["memory"]`` records it."""
+    from .memory import keep_memory
+
+    t0 = time.perf_counter()
+    new, info = keep_memory(model, prep, opts)
+    info["seconds"] = round(time.perf_counter() - t0, 3)
+    return dataclasses.replace(new, meta=_jsonable({**model.meta, "memory": info}))
 
 
 __all__ = [

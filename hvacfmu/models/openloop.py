@@ -109,8 +109,12 @@ class _Problem:
     (no finite differences) and costs about one simulation.
     """
 
-    def __init__(self, model, prep, starts, horizon, couplings=False, filled=None):
+    def __init__(self, model, prep, starts, horizon, couplings=False, filled=None, weeks=None):
         self.model, self.prep, self.horizon = model, prep, horizon
+        # cross-fitted gains: each window simulated with the profiles of the other training weeks (``weeks``: the
+        # week number of every row), so a profile is never judged on the week it was estimated from
+        self.weeks = weeks
+        self.window_week = None if weeks is None else np.asarray(weeks)[starts]
         frame = prep.frame
         self.Y = np.asarray(model.measured_outputs(frame), float)
         u, v = (np.asarray(a, float) for a in model.signals(frame))
@@ -192,14 +196,28 @@ class _Problem:
         y0, y1 = self.Y[r], self.Y[r + 1]
         base = y1 - self._fixed(y0, r)
         phi = self._features(y0, r)
-        self.q0, self.qp = {}, {}
+        both = np.c_[base, phi]
+
+        def parts(keep):
+            q0, qp = {}, {}
+            for s in self.model.gains:
+                sel = keep & (self.seasons[r] == s) & self.prep.gain_ok[r]
+                if sel.any():
+                    est, _ = estimate_gains(both[sel], self.slots[r][sel], self.prep.n_slots)
+                    q0[s], qp[s] = est[:, : self.nx], est[:, self.nx :]
+            return q0, qp
+
+        self.q0, self.qp = parts(np.ones(r.size, bool))
         for s, prof in self.model.gains.items():
-            sel = (self.seasons[r] == s) & self.prep.gain_ok[r]
-            if sel.any():
-                est, _ = estimate_gains(np.c_[base[sel], phi[sel]], self.slots[r][sel], self.prep.n_slots)
-                self.q0[s], self.qp[s] = est[:, : self.nx], est[:, self.nx :]
-            else:
+            if s not in self.q0:
                 self.q0[s], self.qp[s] = np.asarray(prof, float), np.zeros((len(prof), self.n_par))
+        self.cross = None
+        if self.weeks is not None:  # week -> (q0, qp) without that week (a season with no other week: all weeks')
+            row_week = np.asarray(self.weeks)[r]
+            self.cross = {}
+            for w in np.unique(self.window_week):
+                q0, qp = parts(row_week != w)
+                self.cross[w] = ({**self.q0, **q0}, {**self.qp, **qp})
 
     def gains_of(self, theta):
         """Season -> gains profile (n_slots, nx) for theta (the linear form of :meth:`gains_for`)."""
@@ -273,25 +291,40 @@ class _Problem:
             X[:, k] = x
         return X
 
-    def _at_windows(self, profiles, width):
+    def _at_windows(self, profiles, width, windows=None):
         """Season profiles (n_slots, width) gathered at every window step (W, H, width), each window in its start's
-        season (zeros where the season has none)."""
+        season (zeros where the season has none); only the ``windows`` (a mask) when given."""
         out = np.zeros(self.rng.shape + (width,))
         season0 = self.seasons[self.rng[:, 0]]
         for s, prof in profiles.items():
             sel = season0 == s
+            if windows is not None:
+                sel &= windows
             if sel.any():
                 out[sel] = prof[self.slots[self.rng[sel]] % len(prof)]
         return out
 
     def _window_gains(self, theta):
         """Gains at every window step (W, H, nx) for theta."""
-        return self._at_windows(self.gains_of(theta), self.nx)
+        if self.cross is None:
+            return self._at_windows(self.gains_of(theta), self.nx)
+        out = np.zeros(self.rng.shape + (self.nx,))
+        for w, (q0, qp) in self.cross.items():
+            sel = self.window_week == w
+            prof = {s: q0[s] - self._scatter(qp[s] * theta) for s in q0}
+            out[sel] = self._at_windows(prof, self.nx, sel)[sel]
+        return out
 
     @functools.cached_property
     def _window_qp(self):
         """d gains / d theta_p at every window step (W, H, P) on row i_p (it does not depend on theta)."""
-        return self._at_windows(self.qp, self.n_par)
+        if self.cross is None:
+            return self._at_windows(self.qp, self.n_par)
+        out = np.zeros(self.rng.shape + (self.n_par,))
+        for w, (_, qp) in self.cross.items():
+            sel = self.window_week == w
+            out[sel] = self._at_windows(qp, self.n_par, sel)[sel]
+        return out
 
     def _penalty(self, theta):
         """Stability: each row of |A| sums below 1 (hinge; only with free couplings; the entries are >= 0)."""
@@ -328,7 +361,9 @@ def _adjacent_mask(model, building):
     return mask
 
 
-def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 60, couplings: bool = False):
+def refine_open_loop(
+    model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 60, couplings: bool = False, weeks=None
+):
     """Re-fit ``model``'s coefficients for open-loop prediction over ``horizon`` steps (see module docstring).
 
     Parameters
@@ -341,6 +376,9 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
         Length of the simulated windows (default 96 = 24 h at 15 minutes).
     max_nfev : int
         Function-evaluation budget of the trust-region solver.
+    weeks : array of int, optional
+        Week number of every row: the gain profiles of each window are then estimated without its week
+        (cross-fitted, :mod:`hvacfmu.models.memory`); the returned model's are from every training week.
 
     Returns
     -------
@@ -361,7 +399,7 @@ def refine_open_loop(model, prep, horizon: int = HORIZON_STEPS, max_nfev: int = 
             "reason": f"only {starts.size} complete training days",
             "windows": int(starts.size),
         }
-    pb = _Problem(model, prep, starts, horizon, couplings=couplings, filled=filled)
+    pb = _Problem(model, prep, starts, horizon, couplings=couplings, filled=filled, weeks=weeks)
     r0 = pb.residuals(pb.theta0)
     sol = least_squares(
         pb.residuals, pb.theta0, jac=pb.jacobian, bounds=(pb.lb, pb.ub), x_scale="jac", max_nfev=max_nfev
