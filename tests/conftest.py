@@ -212,14 +212,21 @@ if _COST_FILE:
 
 
 # ----------------------------------------------------------------------------- order: the longest module first
-#: Modules whose tests start the run. pytest-xdist's default ``load`` scheduling hands out tests in collection
-#: order, so a long module late in the alphabet becomes one worker's tail while the other idles:
-#: test_fmu_lifecycle.py (about 190 CPU-s: 40 plant processes, refused steps) ended the slow tier on one worker
-#: (measured with HVACFMU_TEST_CPU: 670 against 571 CPU-s). Whole modules move, so module fixtures stay together.
-#: test_demo.py (one 70-85 s fixture, slow tier only) follows: replayed on session 14's per-test wall seconds
-#: (benchmarks/bench_test_balance.py), the full suite's workers end at 893 and 953 s with it in alphabetical place,
-#: at 922 and 924 s with it second (ideal 923 s; on CPU seconds both orders end within 1 s).
-RUN_FIRST = ("test_fmu_lifecycle.py", "test_demo.py")
+#: Modules that start the run, the most CPU-expensive first (full suite, ``-n 1``, empty cache, session 19:
+#: ``benchmarks/test_tiers_s19.md``); the rest keep pytest's alphabetical order. pytest-xdist runs with
+#: ``--dist loadfile --no-loadscope-reorder`` (``pyproject.toml`` addopts): each worker takes one whole file at a
+#: time in this order, so a module's fixtures and per-worker caches (test_diagnosis.py's emulator diagnoses, module
+#: fixtures that fit or export) are built once, and with the longest files handed out first (LPT) the two workers
+#: end within about the length of the last small file. Under ``load`` (session 16-18) xdist handed out contiguous
+#: chunks of tests and a module could run on both workers. A new file that costs more than about 15 CPU-s belongs
+#: in this list at its place.
+RUN_FIRST = (
+    "test_diagnosis.py",  # 462 CPU-s (19 emulator diagnoses of 16 weeks, 8 battery cases)
+    "test_fmu_lifecycle.py",  # 149 (60 plant FMU processes)
+    "test_bms_walkthrough.py",  # 95 (17 CLI processes)
+    "test_energyplus_slow.py",  # 78
+    "test_demo.py",  # 65 (one `hvacfmu demo` process)
+)
 
 
 def pytest_collection_modifyitems(config, items):

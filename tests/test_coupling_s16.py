@@ -49,13 +49,20 @@ def test_shared_drivers_name_a_common_facade(quad4):
 
 
 def test_a_diagonal_coupling_is_found_zone_by_zone_and_missed_by_the_pair_rule(quad4):
+    """Also session 17's ``test_default_finds_a_quad4_diagonal_coupling`` (``quad4`` battery 2026 case 13, the same
+    data): the option is the default since session 17, so this one diagnosis is the default's, and the found pair
+    must pass the instrument check (merged here in session 19: one 16-week diagnosis fewer)."""
     from hvacfmu.diagnosis import diagnose
+    from hvacfmu.diagnosis.selection import DEFAULT_OPTIONS
 
+    assert DEFAULT_OPTIONS["coupling_alone_unshared"] is True  # the explicit option below is the default
     rep = diagnose(quad4, progress=False, coupling_alone_unshared=True)
     found = _couplings(rep)
     assert [sorted(f["location"]["zones"]) for f in found] == [["NW", "SE"]]
     ev = found[0]["evidence"]
     assert ev["shared_drivers"] == [] and ev["scored_alone"]
+    # session 17's instrument check passes (measured: pooled 0.11 per step, t 3.2)
+    assert ev["instrument"]["iv_coef"] > 0 and ev["instrument"]["iv_t"] >= 2.0
     for tests in (ev["cv_by_zone"], ev["cv_beyond_others_mean"]):
         assert set(tests) == {"NW", "SE"}
         assert all(r["gain_percent"] >= 3.0 and r["t"] >= 2.0 for r in tests.values())

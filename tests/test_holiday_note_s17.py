@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import copy
 
+from conftest import SMALL_BUILDING
+from test_data import make_measurements, write
+
 from hvacfmu.building import building_from_dict
 from hvacfmu.data import check
-from tests.conftest import SMALL_BUILDING
-from tests.test_data import make_measurements, write
 
 
 def test_too_few_days_note_counts_the_holidays_it_does_not_list(tmp_path):
