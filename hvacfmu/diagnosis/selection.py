@@ -1142,11 +1142,12 @@ def _holiday_week_by_likelihood(sig, W, terms, cur_rss, factors, c, opts, cache,
     ok = np.isfinite(resid_all[rows]).all(axis=1)
     shift = dst_shift_of(terms)
     deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
+    known = {d for t in terms if _is_holiday(t) for d in t.dates}  # a holiday term of the model holds them
     weeks = []
     for w in sorted(set(wk[weekday & ok & (wk >= 0)].tolist())):
         if w in down:
             continue
-        dates = sorted({d.isoformat() for d in idx[weekday & ok & (wk == w)].date})
+        dates = sorted({d.isoformat() for d in idx[weekday & ok & (wk == w)].date} - known)
         if len(dates) < 3:
             continue
         weeks.append((_holiday_week_gain(deps, dates, resid_all[rows][ok]), int(w), dates))

@@ -162,10 +162,12 @@ class InternalGainSchedule(Term):
         # days already explained by a holiday term, or picked by this round's holiday screen, are not
         # ordinary weekdays: a quiet week after the change looks like a shifted morning ramp
         unusual = {d for t in terms if isinstance(t, cls) and t.variant == "holiday" for d in t.dates}
-        if not any(isinstance(t, cls) and t.variant == "holiday" for t in terms):
-            hc = holiday_candidate(sig, W, options, shift=dst_shift_of(terms))
-            unusual |= set((hc.location or {}).get("dates", []))
-            out.append(hc)
+        # with a holiday in the model the screen looks for further holiday days among the others (a second
+        # term on its own dates, judged by the same gates): a holiday found week by week is not cut to its first
+        # week (quad4 2026 case 27, weeks 3 + 4; ``benchmarks/holgrow_s19.md``)
+        hc = holiday_candidate(sig, W, options, shift=dst_shift_of(terms), known=frozenset(unusual))
+        unusual |= set((hc.location or {}).get("dates", []))
+        out.append(hc)
         if not any(isinstance(t, cls) and t.variant == "dst_shift" for t in terms):
             out.append(dst_candidate(sig, W, options, exclude_dates=unusual))
         return out
@@ -458,7 +460,7 @@ def _pick_days(sig, deps: list, options: dict) -> dict:
     }
 
 
-def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
+def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Candidate:
     """Weekdays whose gains looked like a weekend day: single days and whole weeks.
 
     A weekday is picked when its departure scale ``gamma`` (see :func:`day_departures`)
@@ -471,14 +473,15 @@ def holiday_candidate(sig, W, options, shift: int = 0) -> Candidate:
     Only the training rows ``W.rows`` are screened: dates in held-out weeks are not looked at
     (that would be a leak). ``shift``:
     the model's ``dst_shift`` (0 without one); the days are screened, and the term built, on
-    the clock the model's gains follow (:func:`day_departures`).
+    the clock the model's gains follow (:func:`day_departures`). ``known``: ISO dates a holiday term of the
+    model already holds; they are not screened (neither picked nor counted among the ordinary weekdays).
     """
     resid_all = options.get("_resid_all")
     if resid_all is None or sig.n_tow % 7:
         return Candidate(
             InternalGainSchedule.cause, {"variant": "holiday"}, status="untestable", reason="no one-step residuals"
         )
-    deps = day_departures(sig, resid_all, rows=W.rows, shift=shift)
+    deps = [d for d in day_departures(sig, resid_all, rows=W.rows, shift=shift) if d["date"] not in known]
     pick = _pick_days(sig, deps, options)
     picked, weeks, zone_weeks, by_week = pick["picked"], pick["weeks"], pick["zone_weeks"], pick["by_week"]
     # the season's time-of-week gain profile holds the season's mean sun: a dark week reads as a closed building
