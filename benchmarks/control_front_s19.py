@@ -130,7 +130,8 @@ def front_gap(ref, model, x: str = "energy_proxy", n: int = 201) -> dict | None:
     lo, hi = max(fr[0][x], fm[0][x]), min(fr[-1][x], fm[-1][x])
     if lo > hi:
         return None
-    grid = [lo + (hi - lo) * i / (n - 1) for i in range(n)] if hi > lo else [lo]
+    # clamped: lo + (hi - lo) * 1 can round past hi and off the front
+    grid = [min(hi, lo + (hi - lo) * i / (n - 1)) for i in range(n - 1)] + [hi] if hi > lo else [lo]
     d = [interp(fr, g, x) - interp(fm, g, x) for g in grid]
     return {"lo": lo, "hi": hi, "at_lo": d[0], "at_hi": d[-1], "min": min(d), "max": max(d), "mean": sum(d) / len(d)}
 
@@ -267,9 +268,17 @@ def main(argv=None) -> int:
         help="ref:model pairs to compare (ref first; the model's gain is positive)",
     )
     ap.add_argument("--plot", help="draw the fronts (K·h against Σu² and against reheat) into this PNG")
+    ap.add_argument(
+        "--min-weight",
+        type=float,
+        default=0.0,
+        help="leave out runs below this comfort weight (a weight where the MPC gives up comfort wholesale makes a "
+        "knee that a straight line across does not describe)",
+    )
     args = ap.parse_args(argv)
     if args.from_json:
         rows = [r for f in args.from_json for r in json.loads(Path(f).read_text(encoding="utf-8"))]
+        rows = [r for r in rows if r["weight"] >= args.min_weight]
     else:
         from bench_control_gain import run_case
 

@@ -66,3 +66,6 @@ def test_front_gap_over_the_common_range():
     g = front_gap(base, crossing)
     assert g["at_lo"] == pytest.approx(1.0) and g["at_hi"] == pytest.approx(-1.0) and g["mean"] == pytest.approx(0.0)
     assert front_gap(base, [run(1e4, 0.0, 500.0)]) is None  # no common energy
+    # session 19's quad4 summer fronts: the grid's last energy must not round past the common range's end
+    g = front_gap([run(30, 0.47, 391.7), run(10, 0.54, 375.4)], [run(30, 0.13, 405.2), run(10, 0.27, 374.2)])
+    assert g["hi"] == 391.7 and g["at_hi"] > 0.0
