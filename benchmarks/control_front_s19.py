@@ -25,8 +25,8 @@ so its ``--json`` files are read here too::
 
     python3 benchmarks/control_front_s19.py --cases "quad4/34:zone_coupling:zones=NW+SE,ua=1051" \\
         --models base extended kept:zone_coupling --weights 10000 100 30 10 3 --json q34.json
-    python3 benchmarks/control_front_s19.py --from-json q34.json [--pairs base:extended base:kept:zone_coupling] \\
-        [--plot fronts.png]
+    python3 benchmarks/control_front_s19.py --from-json q34.json [--pairs base,extended base,kept:zone_coupling] \\
+        [--min-weight 10] [--plot fronts.png]
 """
 
 from __future__ import annotations
@@ -244,9 +244,9 @@ def plot(rows, pairs, path) -> None:
 def _pairs(texts) -> list:
     out = []
     for t in texts:
-        ref, _, model = t.partition(":")
+        ref, _, model = t.partition(",")
         if not model:
-            raise SystemExit(f"--pairs wants ref:model, got {t!r}")
+            raise SystemExit(f"--pairs wants ref,model (model names hold colons), got {t!r}")
         out.append((ref, model))
     return out
 
@@ -264,8 +264,15 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--pairs",
         nargs="+",
-        default=["base:extended", "base:kept:zone_coupling", "extended:kept:zone_coupling"],
-        help="ref:model pairs to compare (ref first; the model's gain is positive)",
+        default=[
+            "base,extended",
+            "base,kept:zone_coupling",
+            "extended,kept:zone_coupling",
+            "base,refit:zone_coupling",
+            "refit:zone_coupling,kept:zone_coupling",
+            "without:zone_coupling,extended",
+        ],
+        help="ref,model pairs to compare (ref first; the model's gain is positive); pairs without runs are skipped",
     )
     ap.add_argument("--plot", help="draw the fronts (K·h against Σu² and against reheat) into this PNG")
     ap.add_argument(
