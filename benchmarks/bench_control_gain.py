@@ -39,8 +39,11 @@ Usage::
 Several effects in one dataset are joined by ``&`` (``core9/3:solar_gain:zone=SW,facade=W&zone_coupling:zones=SW+NW``).
 Cases on another floor layout are written ``layout/seed:effect`` (``core9/3:zone_coupling:zones=N+SE,ua=1051``,
 the coupling the diagnosis finds). ``without:<cause>`` controls with the extended model without that
-cause's terms, ``kept:<cause>`` with them at the diagnosis's own coefficients: their verdicts against
-each other and the extended model say what the cause's terms themselves bring.
+cause's terms, ``kept:<cause>`` with them at the diagnosis's own coefficients, ``refit:<cause>`` with them
+refitted even where the refit zeroes them (session 17's control model; since session 19 a zone coupling the
+refit zeroes keeps the diagnosis's conductance by default): their verdicts against each other and the
+extended model say what the cause's terms themselves bring. ``control_front_s19.py`` compares the models'
+comfort-against-energy fronts over the weights.
 """
 
 from __future__ import annotations
@@ -219,8 +222,10 @@ def control_models(ds, base0, ext_joint, names) -> dict:
     cause's terms bring (e.g. the coupling, beside the solar terms found with it).
     ``kept:<cause>`` is the extended model with that cause's terms at the diagnosis's own
     coefficients (not refitted on the base's dynamics; the others refitted around them).
+    ``refit:<cause>`` refits that cause's terms even where the refit sets them to 0 (``keep_zeroed``
+    without the cause; session 17's control model for a coupling).
     """
-    from hvacfmu.diagnosis.control import terms_on_base
+    from hvacfmu.diagnosis.control import KEEP_ZEROED, terms_on_base
 
     out = {}
     for name in names:
@@ -232,11 +237,20 @@ def control_models(ds, base0, ext_joint, names) -> dict:
             out[name] = ext_joint
         elif name.startswith("kept:"):
             out[name] = terms_on_base(ds, base0, ext_joint.terms, keep=(name.partition(":")[2],))
+        elif name.startswith("refit:"):
+            # session 17's control model: the cause's terms refitted even where the refit drops them (zeroes
+            # every coefficient); the default keeps the diagnosis's coefficients there (``keep_zeroed``)
+            cause = name.partition(":")[2]
+            out[name] = terms_on_base(
+                ds, base0, ext_joint.terms, keep_zeroed=tuple(c for c in KEEP_ZEROED if c != cause)
+            )
         elif name.startswith("without:"):
             cause = name.partition(":")[2]
             out[name] = terms_on_base(ds, base0, [t for t in ext_joint.terms if t.cause != cause])
         else:
-            raise SystemExit(f"unknown model {name!r}: base, extended, joint refit, kept:<cause> or without:<cause>")
+            raise SystemExit(
+                f"unknown model {name!r}: base, extended, joint refit, kept:<cause>, refit:<cause> or without:<cause>"
+            )
     return out
 
 
@@ -608,7 +622,8 @@ def main(argv=None) -> int:
         nargs="+",
         default=["base", "extended"],
         help="models to control with: base, extended, 'joint refit', without:<cause> (the extended model "
-        "without that cause's terms, e.g. without:zone_coupling)",
+        "without that cause's terms, e.g. without:zone_coupling), kept:<cause> (at the diagnosis's coefficients), "
+        "refit:<cause> (refitted even where the refit zeroes them)",
     )
     ap.add_argument("--json", help="write every run's figures here (rewritten after each run)")
     ap.add_argument("--from-json", nargs="+", help="print the tables of --json files (joined) without running")

@@ -4,6 +4,8 @@
 term at its bound 0 removes the term from the control model: the MPC then controls without it. Session 17 measured
 that on a quad4 coupling found at t 5.3 (``benchmarks/control_gain_coupling_s17.md``); it now warns, records it in
 ``meta["control_base"]["notes"]`` and ``meta["zeroed"]``, and names ``keep=`` as the way to keep the diagnosis's value.
+Session 19 (``benchmarks/control_front_s19.md``): a zone coupling the refit zeroes keeps the diagnosis's
+coefficients by default (``keep_zeroed``), said by a warning; a term that comes without coefficients stays dropped.
 """
 
 from __future__ import annotations
@@ -45,3 +47,18 @@ def test_control_model_warns_when_its_refit_drops_a_coupling():
     assert pair.coef_ab == pair.coef_ba == 0.0 and sun.coef > 0.0
     assert [z["zones"] for z in model.meta["zeroed"]] == [["NW", "S"]]
     assert any("NW, S to 0" in n for n in model.meta["control_base"]["notes"])
+    assert model.meta["zeroed"][0]["kept"] is False  # it came without coefficients: nothing to keep
+
+    # a coupling that comes with the diagnosis's coefficients keeps them where the refit zeroes it (session 19)
+    found = ZoneCoupling(zone_a="NW", zone_b="S", coef_ab=0.05, coef_ba=0.04)
+    with pytest.warns(HvacfmuWarning, match=r"sets zone_coupling in NW, S to 0 .* keeps the diagnosis's coefficients"):
+        kept = terms_on_base(ds, base, [found, SolarGain(zone="S", facade="S")])
+    (pair_k, sun_k) = kept.terms
+    assert (pair_k.coef_ab, pair_k.coef_ba) == (0.05, 0.04)
+    assert sun_k.coef != sun.coef  # the solar term is refitted around the kept conductance
+    assert kept.meta["zeroed"][0]["kept"] is True
+    # keep_zeroed=() is session 17's control model: the refit's 0, warned as before
+    with pytest.warns(HvacfmuWarning, match=r"sets zone_coupling in NW, S to 0 .* keep=\('zone_coupling',\)"):
+        dropped = terms_on_base(ds, base, [found, SolarGain(zone="S", facade="S")], keep_zeroed=())
+    assert dropped.terms[0].coef_ab == dropped.terms[0].coef_ba == 0.0
+    assert dropped.terms[1].coef == sun.coef

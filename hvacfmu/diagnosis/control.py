@@ -53,6 +53,10 @@ def _acts_on_airflow(term) -> bool:
     return term.cause in AIRFLOW_CAUSES
 
 
+#: causes whose terms keep the diagnosis's coefficients where the refit on the base zeroes them (session 19)
+KEEP_ZEROED = ("zone_coupling",)
+
+
 def _fixed_prediction(sig, base, U_eff, dataset=None) -> np.ndarray:
     """The base model's step at every row without internal gains [°C]: ``A y + B u + C v`` (airflow form),
     plus ``beta Σ m c_p (T_in - y)`` of the boxes (delivered-heat form, read from ``dataset``'s frame)."""
@@ -167,9 +171,9 @@ def _kept_values(sig, term) -> dict:
     raise FitError(f"terms_on_base: cannot keep the coefficients of a {term.cause} term; refit it instead")
 
 
-def _solve(sig, terms, keep, keys, X, y, lo, hi, dof_extra):
-    """(θ, 1-σ) of the block's least squares, with the kept terms' coefficients fixed at their values."""
-    pinned = {j: _kept_values(sig, terms[own])[nm] for j, (own, nm) in enumerate(keys) if terms[own].cause in keep}
+def _solve(sig, terms, kept, keys, X, y, lo, hi, dof_extra):
+    """(θ, 1-σ) of the block's least squares, with the kept terms' (indices ``kept``) coefficients fixed."""
+    pinned = {j: _kept_values(sig, terms[own])[nm] for j, (own, nm) in enumerate(keys) if own in kept}
     if not pinned:
         ls = bounded_ls(X, y, lo, hi, dof_extra=dof_extra)
         return ls.theta, np.sqrt(np.maximum(np.diag(ls.cov), 0.0))
@@ -185,7 +189,7 @@ def _solve(sig, terms, keep, keys, X, y, lo, hi, dof_extra):
     return theta, sd
 
 
-def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> ExtendedModel:
+def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto", keep_zeroed=KEEP_ZEROED) -> ExtendedModel:
     """The base model (``A, B, C`` kept) with ``terms`` refitted on it, and its gain profiles re-estimated.
 
     Parameters
@@ -206,6 +210,10 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
         Causes whose terms keep the coefficients they come with (e.g. the diagnosis's
         ``zone_coupling`` conductance) instead of being refitted; the other terms and the gain
         profiles are fitted around them.
+    keep_zeroed : sequence of str
+        Causes whose terms keep the coefficients they come with **when the refit sets every coefficient of
+        the term to 0** (default :data:`KEEP_ZEROED`: ``("zone_coupling",)``, the diagnosis's coupling
+        conductance; a warning names each such term); ``()`` lets the refit drop them (a warning names them).
 
     Returns
     -------
@@ -248,6 +256,63 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
     if len(rows) < 50:
         raise FitError(f"only {len(rows)} usable one-step rows in the training weeks; need at least 50")
     W = Within(sig.group, rows)
+    kept = {i for i, t in enumerate(terms) if t.cause in keep}
+    coefs, stds, yhat = _refit(sig, terms, kept, U_eff, feats, target, W)
+    zeroed = zeroed_terms(terms, coefs, keep)
+    # a term of a ``keep_zeroed`` cause that the refit drops keeps the coefficients it comes with (when it has any),
+    # the others refitted around it: session 19 (``benchmarks/control_front_s19.md``) measured the MPC with a quad4
+    # coupling's diagnosed conductance kept against the refit's zero on comfort-against-energy fronts
+    restored = [
+        i
+        for i, t in enumerate(terms)
+        if any(t is z for z in zeroed) and t.cause in keep_zeroed and any(v != 0.0 for v in t.coefficients().values())
+    ]
+    if restored:
+        kept |= set(restored)
+        coefs, stds, yhat = _refit(sig, terms, kept, U_eff, feats, target, W)
+    gains = _gains_from_fit(sig, rows, target - yhat, W)
+    new_base = dataclasses.replace(
+        dyn,
+        gains=gains,
+        meta={**{k: v for k, v in dyn.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
+    )
+    new_terms = tuple(t if i in kept else t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
+    # not silent: a term the diagnosis accepted that the refit on the control base drops (every coefficient at 0) is
+    # named, whether the control model keeps the diagnosis's coefficients (``keep_zeroed``) or controls without it
+    # (session 17: a quad4 coupling found at t 5.3 was refitted to 0, ``benchmarks/control_gain_coupling_s17.md``)
+    notes = []
+    back = [terms[i] for i in restored]
+    dropped = [t for t in zeroed if not any(t is b for b in back)]
+    if back:
+        notes.append(
+            "the control model's refit on the base sets "
+            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in back)
+            + " to 0 (every coefficient at its bound); the control model keeps the diagnosis's coefficients "
+            "instead, the other terms refitted around them (keep_zeroed=() drops "
+            + ("it" if len(back) == 1 else "them")
+            + ")"
+        )
+    if dropped:
+        notes.append(
+            "the control model's refit on the base sets "
+            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in dropped)
+            + " to 0 (every coefficient at its bound): the MPC controls without "
+            + ("it" if len(dropped) == 1 else "them")
+            + "; keep=("
+            + ", ".join(sorted({repr(t.cause) for t in dropped}))
+            + ",) keeps the coefficients the terms come with instead"
+        )
+    for note in notes:
+        warnings.warn(note, HvacfmuWarning, stacklevel=2)
+        meta.setdefault("control_base", {}).setdefault("notes", []).append(note)
+    if zeroed:
+        meta["zeroed"] = [{**t.to_dict(), "kept": any(t is b for b in back)} for t in zeroed]
+    return ExtendedModel(base=new_base, terms=new_terms, meta=meta)
+
+
+def _refit(sig, terms, kept, U_eff, feats, target, W):
+    """(coefficients, their 1-σ, the terms' one-step prediction) of every coupled block's least squares, with the
+    terms of indices ``kept`` at the coefficients they come with."""
     yhat = np.zeros_like(target)
     coefs = [dict() for _ in terms]
     stds = [dict() for _ in terms]
@@ -269,39 +334,14 @@ def terms_on_base(dataset, base, terms=(), meta=None, keep=(), heat="auto") -> E
             Xw = W(cols[z][1])
             for j, (nm, own) in enumerate(zip(cols[z][0], cols[z][4])):
                 X[i * n : (i + 1) * n, keys.index((own, nm))] = Xw[:, j]
-        theta, sd = _solve(sig, terms, keep, keys, X, y, lo, hi, W.n_groups * len(block))
+        theta, sd = _solve(sig, terms, kept, keys, X, y, lo, hi, W.n_groups * len(block))
         for (own, nm), th, s in zip(keys, theta, sd):
             coefs[own][nm], stds[own][nm] = float(th), float(s)
         for z in block:
             th = np.array([theta[keys.index((own, nm))] for nm, own in zip(cols[z][0], cols[z][4])])
             with np.errstate(invalid="ignore"):
                 yhat[:, z] = cols[z][1] @ th
-    gains = _gains_from_fit(sig, rows, target - yhat, W)
-    new_base = dataclasses.replace(
-        dyn,
-        gains=gains,
-        meta={**{k: v for k, v in dyn.meta.items() if k != "uncertainty"}, "refit": "gains on the base's A, B, C"},
-    )
-    new_terms = tuple(t if t.cause in keep else t.with_fit(sig, coefs[i], stds[i]) for i, t in enumerate(terms))
-    zeroed = zeroed_terms(terms, coefs, keep)
-    if zeroed:
-        # not silent: a term the diagnosis accepted that the refit on the control base drops (every coefficient at
-        # 0) is absent from the control model (session 17: a quad4 coupling found at t 5.3 was refitted to 0 and the
-        # MPC controlled without it; with the diagnosis's conductance kept it controlled better,
-        # ``benchmarks/control_gain_coupling_s17.md``)
-        note = (
-            "the control model's refit on the base sets "
-            + ", ".join(f"{t.cause} in {', '.join(t.zones())}" for t in zeroed)
-            + " to 0 (every coefficient at its bound): the MPC controls without "
-            + ("it" if len(zeroed) == 1 else "them")
-            + "; keep=("
-            + ", ".join(sorted({repr(t.cause) for t in zeroed}))
-            + ",) keeps the diagnosis's coefficients instead"
-        )
-        warnings.warn(note, HvacfmuWarning, stacklevel=2)
-        meta.setdefault("control_base", {}).setdefault("notes", []).append(note)
-        meta["zeroed"] = [t.to_dict() for t in zeroed]
-    return ExtendedModel(base=new_base, terms=new_terms, meta=meta)
+    return coefs, stds, yhat
 
 
 def zeroed_terms(terms, coefs, keep=()) -> list:
