@@ -45,10 +45,12 @@ def test_check_of_a_usable_building_file_adds_no_physics_note(short_paths, cli):
     assert r.returncode == 0 and "physics" not in r.stdout.split("Warnings")[-1], r.stdout[-3000:]
 
 
-def test_a_building_file_without_physics_tables_gets_a_one_line_note(tmp_path):
+def test_a_building_file_without_physics_tables_gets_no_physics_note():
+    """A BMS building file with zones and boxes only is for the data-driven kinds: no note. The CLI keys on the
+    first problem physics_problems gives for it (test_data.py::test_check_cli counts the notes of such a file)."""
     assert physics_problems(building_from_dict(copy.deepcopy(BUILDING)))[0].startswith(
         "no [[elements]] or [[constructions]] tables"
-    )  # the CLI's short note keys on this first problem
+    )
 
 
 def test_a_template_refusal_on_one_line_is_a_physics_problem():

@@ -72,7 +72,7 @@ def _cmd_check(args):
 
 
 def _physics_note(report, args) -> None:
-    """Name, as a note, what keeps ``fit --kind physics`` from building its network from the building file.
+    """Name, as a note, what keeps ``fit --kind physics`` from building its network from the building file's tables.
 
     The data-driven kinds do not read the physics tables, so this does not make the data unusable; but the
     user learns it from ``check`` rather than from a later ``fit`` or ``demo``.
@@ -83,11 +83,8 @@ def _physics_note(report, args) -> None:
     building = as_building(args.building, args.timezone)
     problems = physics_problems(building)
     if problems and problems[0].startswith("no [[elements]] or [[constructions]] tables"):
-        report.warnings.append(
-            "building file: no physics tables ([[constructions]] and [[elements]], or construction_template), so "
-            "fit --kind physics cannot build its network; the data-driven kinds (lumped, zones) need none"
-        )
-    elif problems:
+        return  # no physics tables at all: the user fits the data-driven kinds (fit --kind physics says what it needs)
+    if problems:
         shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
         report.warnings.append(
             f"building file: the physics model (fit --kind physics) cannot be built from its tables "
