@@ -486,12 +486,7 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
     after its season × time-of-week means (the part the zones' gain profiles cannot absorb;
     heat a conductance ``UA`` carries beyond the profiles is about ``UA`` times it).
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
     out = {}
     ks, kfree, infl = [], [], []
     for z, col, r in ((a, d, ra), (b, -d, rb)):
@@ -510,7 +505,6 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
         infl.append(_coefficient_influence(Xw, yw, free.theta, D.lower, D.upper) / r)
     ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
     out["symmetry_ratio"] = float(ratio)
-    week = sig.week[W.rows]
     m = float(tolerance)
     tstats = []
     for (k1, u1), (k2, u2) in (((kfree[0], infl[0]), (kfree[1], infl[1])), ((kfree[1], infl[1]), (kfree[0], infl[0]))):
@@ -548,13 +542,7 @@ def coupling_instrument(
     ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3. ``controls``
     (n, m): further columns in both zones' equations (:func:`weather_controls`, option ``coupling_shared_weather``).
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
-    week = sig.week[W.rows]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
     out = {}
     pooled = []
     for z, p, col, r in ((a, b, d, ra), (b, a, -d, rb)):
@@ -640,13 +628,7 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
     case 16's false NE+SW (SE's reheat reaching both, pooled t 4.3 without the neighbours held) t 1.1;
     the injected ``quad4`` couplings t 3.2 … 8.9.
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
-    week = sig.week[W.rows]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
 
     def moves(j):
         du = np.diff(U_eff[:, j], prepend=U_eff[0, j])
@@ -690,6 +672,18 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
     out.update(_pooled_iv(pooled, week))
     out["neighbour_history_lags"] = list(NEIGHBOUR_HISTORY_LAGS)
     return out
+
+
+def _pair_setup(sig: Signals, W: Within, terms, t) -> tuple:
+    """What the coupling checks of a pair ``t`` start from: the one-step-ahead target (NaN on the last row), the
+    effective inputs and the features of ``terms``, the zones' indices ``a``, ``b``, their conductance-to-
+    coefficient ratios (:func:`coupling_ratios`), the difference ``T_b − T_a`` [K] and the training rows' weeks."""
+    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    U_eff = effective_inputs(sig, terms)
+    feats = [term_features(sig, tt, U_eff) for tt in terms]
+    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+    ra, rb = coupling_ratios(sig, a, b)
+    return target, U_eff, feats, a, b, ra, rb, sig.Y[:, b] - sig.Y[:, a], sig.week[W.rows]
 
 
 def _partial_out(Xw: np.ndarray) -> tuple:
