@@ -1317,7 +1317,8 @@ def _gate(c, opts) -> None:
         c.status = "no evidence"
         zs = list(c.term.zones())
         ivw = c.evidence.get("instrument_weather")
-        if ivw is not None and iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]:
+        passes = iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]
+        if ivw is not None and (passes or _replaced(opts)):
             c.reason = (
                 f"not shown to be an exchange beyond the weather of their facades: the partners' own airflow "
                 f"changes give a conductance of {iv['iv_coef']:.3g} per step (t = {iv['iv_t']:.1f}; per zone "
@@ -1411,16 +1412,23 @@ def _instrumented(c, opts) -> bool:
     instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``. With
     ``coupling_shared_weather``, a pair sharing a facade must also pass with the weather controls
     (``evidence["instrument_weather"]``, :func:`weather_controls`), and each zone's own instrumented coefficient
-    with those controls must be positive (an exchange shows in both heat balances)."""
-    if opts.get("coupling_instrument_neighbours") == "replace":  # measured only (instrument_s18.md)
-        return True
+    with those controls must be positive (an exchange shows in both heat balances). With
+    ``coupling_instrument_neighbours="replace"`` the plain instrument is not a condition (the neighbour-held one
+    is, :func:`_instrumented_beyond_neighbours`); the weather-controlled one still is: it answers a different
+    question, a shared facade's weather (``benchmarks/replace_s19.md``)."""
     iv = c.evidence.get("instrument") or {}
     ok = iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
+    ok = ok or _replaced(opts)
     if ok and "instrument_weather" in c.evidence:
         ivw = c.evidence["instrument_weather"]
         ok = ivw["iv_coef"] > 0.0 and ivw["iv_t"] >= opts["coupling_instrument_min_t"]
         ok = ok and all(ivw[f"iv_coef_{z}"] > 0.0 for z in c.term.zones())
     return ok
+
+
+def _replaced(opts) -> bool:
+    """``coupling_instrument_neighbours="replace"``: the neighbour-held instrument instead of the plain one."""
+    return opts.get("coupling_instrument_neighbours") == "replace"
 
 
 def _delay_beyond_history(c, opts, key: str = "history") -> bool:
