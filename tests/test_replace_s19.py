@@ -67,3 +67,19 @@ def test_replace_drops_only_the_plain_instrument():
     assert c.status == "not tested"
     c = _gate(_candidate(weather=False, plain_t=0.9), coupling_instrument_neighbours=True)
     assert c.status == "no evidence" and "not shown to be an exchange" in c.reason
+
+
+def test_replace_names_the_held_instrument_when_both_fail():
+    """Under ``"replace"`` a pair failing both instruments is not said to pass "through the zones between them"
+    (that reason holds when the plain instrument passes). Fails before session 19."""
+    c = _candidate(weather=False, plain_t=0.9)
+    c.evidence["instrument_neighbours"] = _iv(1.1, 0.03)
+    c = _gate(c, coupling_instrument_neighbours="replace")
+    assert c.status == "no evidence"
+    assert "through the zones between them" not in c.reason
+    assert "with each zone's neighbours held" in c.reason and "t = 1.1 < 2" in c.reason
+    # both required: the plain instrument passing, the held one failing, keeps session 18's reason
+    c = _candidate(weather=False, plain_t=2.83)
+    c.evidence["instrument_neighbours"] = _iv(1.1, 0.03)
+    c = _gate(c, coupling_instrument_neighbours=True)
+    assert c.status == "no evidence" and "through the zones between them" in c.reason

@@ -1395,9 +1395,23 @@ def _instrumented_beyond_neighbours(c, opts) -> bool:
 
 
 def _reject_through_neighbours(c, opts) -> None:
-    """Status and reason of a coupling whose instrument passes only through the zones between the pair."""
+    """Status and reason of a coupling whose instrument passes only through the zones between the pair, or (under
+    ``coupling_instrument_neighbours="replace"``) whose neighbour-held instrument fails with the plain one."""
     iv, iv0 = c.evidence["instrument_neighbours"], c.evidence["instrument"]
     c.status = "no evidence"
+    if not (iv0["iv_coef"] > 0.0 and iv0["iv_t"] >= opts["coupling_instrument_min_t"]):
+        zs = list(c.term.zones())
+        c.reason = (
+            f"not shown to be an exchange: the partners' own airflow changes of the last "
+            f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference with each "
+            f"zone's neighbours held (their temperatures instrumented by their own airflow changes, their history as "
+            f"controls), give a conductance of {iv['iv_coef']:.3g} per step, t = {iv['iv_t']:.1f} < "
+            f"{opts['coupling_instrument_min_t']:g} (week-clustered; first-stage F {iv[f'iv_first_F_{zs[0]}']:.1f} / "
+            f"{iv[f'iv_first_F_{zs[1]}']:.1f}; without the neighbours held {iv0['iv_coef']:.3g}, t = "
+            f"{iv0['iv_t']:.1f}); each zone's gain alone with its partner measured can come from a driver both "
+            f"zones share"
+        )
+        return
     c.reason = (
         f"not shown to be an exchange between them: the partners' own airflow changes give a conductance of "
         f"{iv0['iv_coef']:.3g} per step (t = {iv0['iv_t']:.1f}), but {iv['iv_coef']:.3g}, t = {iv['iv_t']:.1f} < "
