@@ -83,3 +83,25 @@ def test_replace_names_the_held_instrument_when_both_fail():
     c.evidence["instrument_neighbours"] = _iv(1.1, 0.03)
     c = _gate(c, coupling_instrument_neighbours=True)
     assert c.status == "no evidence" and "through the zones between them" in c.reason
+
+
+def test_a_coupled_zone_is_held_as_a_neighbour():
+    """Row model A–B–C with a coupling A+C already in the model: the held instrument of the pair A+B holds C in
+    A's equation too (a coupling carries heat as a wall does); before session 19 A's equation held no zone, so a
+    move of B reaching A through C was credited to A+B (checked battery case 43: a false N+E through the injected
+    N+SE, ``benchmarks/replace_s19.md``). Fails before session 19 (no ``held_<zone>`` evidence, C not held)."""
+    from test_diagnosis import row_model, simulate_dataset
+
+    from hvacfmu.diagnosis import selection as S
+    from hvacfmu.diagnosis.design import make_signals
+    from hvacfmu.models.causes.signals import Within
+
+    sig = make_signals(simulate_dataset(row_model(), weeks=8, seed=1), row_model())
+    W = Within(sig.group, sig.rows("train"))
+    pair = ZoneCoupling(zone_a="A", zone_b="B", coef_ab=0.0, coef_ba=0.0)
+    ac = ZoneCoupling(zone_a="A", zone_b="C", coef_ab=0.01, coef_ba=0.01)
+    held = S.coupling_instrument_beyond_neighbours(sig, W, [ac], pair, 24)
+    assert held["held_A"] == ["C"] and held["held_B"] == ["C"]
+    plain = S.coupling_instrument_beyond_neighbours(sig, W, [], pair, 24)
+    assert plain["held_A"] == [] and plain["held_B"] == ["C"]
+    assert held["iv_t"] != plain["iv_t"]  # C's move is now taken out of A's equation

@@ -639,6 +639,10 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         D = zone_design(sig, z, terms, U_eff, feats)
         nb = [j for j in sig.neighbours[z] if j != p]
         idx = [D.names.index(f"a[{sig.zones[j]}]") for j in nb]
+        for q, col_q in _coupled_zones(sig, z, terms, D):  # a coupling in the model makes its partner a neighbour
+            if q != p and q not in nb:
+                nb.append(q)
+                idx.append(col_q)
         hist = [np.nan_to_num(shifted(sig.Y[:, j], lag)) for j in nb for lag in NEIGHBOUR_HISTORY_LAGS]
         Xw, resid = _partial_out(W(np.column_stack([np.delete(D.X, idx, axis=1)] + hist)))
         yt = resid(W(target[:, z] - D.offset))
@@ -669,8 +673,23 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         out[f"iv_coef_{zn}"] = k_iv / r
         out[f"iv_t_{zn}"] = float(k_iv / se) if se > 0 else 0.0
         out[f"iv_first_F_{zn}"] = float(F)
+        out[f"held_{zn}"] = [sig.zones[j] for j in nb]
     out.update(_pooled_iv(pooled, week))
     out["neighbour_history_lags"] = list(NEIGHBOUR_HISTORY_LAGS)
+    return out
+
+
+def _coupled_zones(sig: Signals, z: int, terms, D) -> list:
+    """``(q, column)`` for every zone ``q`` a :class:`ZoneCoupling` of ``terms`` joins to zone ``z``, with the index
+    of that coupling's column ``T_q − T_z`` in ``D`` (:func:`zone_design` of ``z``). An accepted coupling carries
+    heat between its zones as a shared wall does, so :func:`coupling_instrument_beyond_neighbours` holds ``q`` as
+    one of ``z``'s neighbours (``benchmarks/replace_s19.md``: checked battery case 43, N+SE injected, gave a false
+    N+E through SE)."""
+    out = []
+    for ti, tt in enumerate(terms):
+        if isinstance(tt, ZoneCoupling) and sig.zones[z] in (tt.zone_a, tt.zone_b):
+            q = sig.zones.index(tt.zone_b if tt.zone_a == sig.zones[z] else tt.zone_a)
+            out.append((q, D.owner.index(ti)))
     return out
 
 
