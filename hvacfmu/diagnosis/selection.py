@@ -522,12 +522,7 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
     after its season × time-of-week means (the part the zones' gain profiles cannot absorb;
     heat a conductance ``UA`` carries beyond the profiles is about ``UA`` times it).
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
     out = {}
     ks, kfree, infl = [], [], []
     for z, col, r in ((a, d, ra), (b, -d, rb)):
@@ -546,7 +541,6 @@ def coupling_symmetry(sig: Signals, W: Within, terms, t, tolerance: float = 4.0)
         infl.append(_coefficient_influence(Xw, yw, free.theta, D.lower, D.upper) / r)
     ratio = ks[0] / ks[1] if ks[1] > 0 else (np.inf if ks[0] > 0 else 1.0)
     out["symmetry_ratio"] = float(ratio)
-    week = sig.week[W.rows]
     m = float(tolerance)
     tstats = []
     for (k1, u1), (k2, u2) in (((kfree[0], infl[0]), (kfree[1], infl[1])), ((kfree[1], infl[1]), (kfree[0], infl[0]))):
@@ -584,13 +578,7 @@ def coupling_instrument(
     ``quad4`` couplings pooled t 2.5 … 6.0, session 16's false ``core9`` N+W / N+E 0.4 / 0.3. ``controls``
     (n, m): further columns in both zones' equations (:func:`weather_controls`, option ``coupling_shared_weather``).
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
-    week = sig.week[W.rows]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
     out = {}
     pooled = []
     for z, p, col, r in ((a, b, d, ra), (b, a, -d, rb)):
@@ -676,13 +664,7 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
     case 16's false NE+SW (SE's reheat reaching both, pooled t 4.3 without the neighbours held) t 1.1;
     the injected ``quad4`` couplings t 3.2 … 8.9.
     """
-    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
-    U_eff = effective_inputs(sig, terms)
-    feats = [term_features(sig, tt, U_eff) for tt in terms]
-    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-    ra, rb = coupling_ratios(sig, a, b)
-    d = sig.Y[:, b] - sig.Y[:, a]
-    week = sig.week[W.rows]
+    target, U_eff, feats, a, b, ra, rb, d, week = _pair_setup(sig, W, terms, t)
 
     def moves(j):
         du = np.diff(U_eff[:, j], prepend=U_eff[0, j])
@@ -693,6 +675,10 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         D = zone_design(sig, z, terms, U_eff, feats)
         nb = [j for j in sig.neighbours[z] if j != p]
         idx = [D.names.index(f"a[{sig.zones[j]}]") for j in nb]
+        for q, col_q in _coupled_zones(sig, z, terms, D):  # a coupling in the model makes its partner a neighbour
+            if q != p and q not in nb:
+                nb.append(q)
+                idx.append(col_q)
         hist = [np.nan_to_num(shifted(sig.Y[:, j], lag)) for j in nb for lag in NEIGHBOUR_HISTORY_LAGS]
         Xw, resid = _partial_out(W(np.column_stack([np.delete(D.X, idx, axis=1)] + hist)))
         yt = resid(W(target[:, z] - D.offset))
@@ -723,9 +709,36 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         out[f"iv_coef_{zn}"] = k_iv / r
         out[f"iv_t_{zn}"] = float(k_iv / se) if se > 0 else 0.0
         out[f"iv_first_F_{zn}"] = float(F)
+        out[f"held_{zn}"] = [sig.zones[j] for j in nb]
     out.update(_pooled_iv(pooled, week))
     out["neighbour_history_lags"] = list(NEIGHBOUR_HISTORY_LAGS)
     return out
+
+
+def _coupled_zones(sig: Signals, z: int, terms, D) -> list:
+    """``(q, column)`` for every zone ``q`` a :class:`ZoneCoupling` of ``terms`` joins to zone ``z``, with the index
+    of that coupling's column ``T_q − T_z`` in ``D`` (:func:`zone_design` of ``z``). An accepted coupling carries
+    heat between its zones as a shared wall does, so :func:`coupling_instrument_beyond_neighbours` holds ``q`` as
+    one of ``z``'s neighbours (``benchmarks/replace_s19.md``: checked battery case 43, N+SE injected, gave a false
+    N+E through SE)."""
+    out = []
+    for ti, tt in enumerate(terms):
+        if isinstance(tt, ZoneCoupling) and sig.zones[z] in (tt.zone_a, tt.zone_b):
+            q = sig.zones.index(tt.zone_b if tt.zone_a == sig.zones[z] else tt.zone_a)
+            out.append((q, D.owner.index(ti)))
+    return out
+
+
+def _pair_setup(sig: Signals, W: Within, terms, t) -> tuple:
+    """What the coupling checks of a pair ``t`` start from: the one-step-ahead target (NaN on the last row), the
+    effective inputs and the features of ``terms``, the zones' indices ``a``, ``b``, their conductance-to-
+    coefficient ratios (:func:`coupling_ratios`), the difference ``T_b − T_a`` [K] and the training rows' weeks."""
+    target = np.vstack([sig.Y[1:], np.full((1, sig.nz), np.nan)])
+    U_eff = effective_inputs(sig, terms)
+    feats = [term_features(sig, tt, U_eff) for tt in terms]
+    a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+    ra, rb = coupling_ratios(sig, a, b)
+    return target, U_eff, feats, a, b, ra, rb, sig.Y[:, b] - sig.Y[:, a], sig.week[W.rows]
 
 
 def _partial_out(Xw: np.ndarray) -> tuple:
@@ -1352,7 +1365,8 @@ def _gate(c, opts) -> None:
         c.status = "no evidence"
         zs = list(c.term.zones())
         ivw = c.evidence.get("instrument_weather")
-        if ivw is not None and iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]:
+        passes = iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]
+        if ivw is not None and (passes or _replaced(opts)):
             c.reason = (
                 f"not shown to be an exchange beyond the weather of their facades: the partners' own airflow "
                 f"changes give a conductance of {iv['iv_coef']:.3g} per step (t = {iv['iv_t']:.1f}; per zone "
@@ -1429,9 +1443,23 @@ def _instrumented_beyond_neighbours(c, opts) -> bool:
 
 
 def _reject_through_neighbours(c, opts) -> None:
-    """Status and reason of a coupling whose instrument passes only through the zones between the pair."""
+    """Status and reason of a coupling whose instrument passes only through the zones between the pair, or (under
+    ``coupling_instrument_neighbours="replace"``) whose neighbour-held instrument fails with the plain one."""
     iv, iv0 = c.evidence["instrument_neighbours"], c.evidence["instrument"]
     c.status = "no evidence"
+    if not (iv0["iv_coef"] > 0.0 and iv0["iv_t"] >= opts["coupling_instrument_min_t"]):
+        zs = list(c.term.zones())
+        c.reason = (
+            f"not shown to be an exchange: the partners' own airflow changes of the last "
+            f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference with each "
+            f"zone's neighbours held (their temperatures instrumented by their own airflow changes, their history as "
+            f"controls), give a conductance of {iv['iv_coef']:.3g} per step, t = {iv['iv_t']:.1f} < "
+            f"{opts['coupling_instrument_min_t']:g} (week-clustered; first-stage F {iv[f'iv_first_F_{zs[0]}']:.1f} / "
+            f"{iv[f'iv_first_F_{zs[1]}']:.1f}; without the neighbours held {iv0['iv_coef']:.3g}, t = "
+            f"{iv0['iv_t']:.1f}); each zone's gain alone with its partner measured can come from a driver both "
+            f"zones share"
+        )
+        return
     c.reason = (
         f"not shown to be an exchange between them: the partners' own airflow changes give a conductance of "
         f"{iv0['iv_coef']:.3g} per step (t = {iv0['iv_t']:.1f}), but {iv['iv_coef']:.3g}, t = {iv['iv_t']:.1f} < "
@@ -1446,16 +1474,23 @@ def _instrumented(c, opts) -> bool:
     instrumented by the partners' own airflow changes is positive at ``coupling_instrument_min_t``. With
     ``coupling_shared_weather``, a pair sharing a facade must also pass with the weather controls
     (``evidence["instrument_weather"]``, :func:`weather_controls`), and each zone's own instrumented coefficient
-    with those controls must be positive (an exchange shows in both heat balances)."""
-    if opts.get("coupling_instrument_neighbours") == "replace":  # measured only (instrument_s18.md)
-        return True
+    with those controls must be positive (an exchange shows in both heat balances). With
+    ``coupling_instrument_neighbours="replace"`` the plain instrument is not a condition (the neighbour-held one
+    is, :func:`_instrumented_beyond_neighbours`); the weather-controlled one still is: it answers a different
+    question, a shared facade's weather (``benchmarks/replace_s19.md``)."""
     iv = c.evidence.get("instrument") or {}
     ok = iv.get("iv_coef", 0.0) > 0.0 and iv.get("iv_t", 0.0) >= opts["coupling_instrument_min_t"]
+    ok = ok or _replaced(opts)
     if ok and "instrument_weather" in c.evidence:
         ivw = c.evidence["instrument_weather"]
         ok = ivw["iv_coef"] > 0.0 and ivw["iv_t"] >= opts["coupling_instrument_min_t"]
         ok = ok and all(ivw[f"iv_coef_{z}"] > 0.0 for z in c.term.zones())
     return ok
+
+
+def _replaced(opts) -> bool:
+    """``coupling_instrument_neighbours="replace"``: the neighbour-held instrument instead of the plain one."""
+    return opts.get("coupling_instrument_neighbours") == "replace"
 
 
 def _delay_beyond_history(c, opts, key: str = "history") -> bool:
