@@ -683,21 +683,20 @@ def coupling_instrument_beyond_neighbours(sig: Signals, W: Within, terms, t, lag
         Xw, resid = _partial_out(W(np.column_stack([np.delete(D.X, idx, axis=1)] + hist)))
         yt = resid(W(target[:, z] - D.offset))
         dt = resid(W(col))
-        Zp = resid(W(np.column_stack(moves(p))))
         Zt = resid(W(np.column_stack(moves(p) + [m for j in nb for m in moves(j)])))
-        dh = Zt @ np.linalg.lstsq(Zt, dt, rcond=None)[0]
+        Zp, Zn = Zt[:, :lags], Zt[:, lags:]  # the partner's instruments, the neighbours' (column by column as Zt)
+        Ect = resid(W(D.X[:, idx])) if nb else np.empty((len(dt), 0))
+        fitted = Zt @ np.linalg.lstsq(Zt, np.column_stack([dt, Ect]), rcond=None)[0]  # one factorisation of Zt
+        dh, Ech = fitted[:, 0], fitted[:, 1:]
+        e1 = dt - dh
         if nb:
-            Ect = resid(W(D.X[:, idx]))
-            Ech = Zt @ np.linalg.lstsq(Zt, Ect, rcond=None)[0]
             # 2SLS of y on [T_j, T_p - T_z]: the neighbours' coefficients; then the coupling's by Frisch-Waugh
             yt = yt - Ect @ np.linalg.lstsq(np.column_stack([Ech, dh]), yt, rcond=None)[0][: len(nb)]
             dh = dh - Ech @ np.linalg.lstsq(Ech, dh, rcond=None)[0]
             # the partner's own instruments beyond the neighbours' (first-stage F of the excluded ones)
-            Zn = resid(W(np.column_stack([m for j in nb for m in moves(j)])))
             en = dt - Zn @ np.linalg.lstsq(Zn, dt, rcond=None)[0]
         else:
             en = dt
-        e1 = dt - Zt @ np.linalg.lstsq(Zt, dt, rcond=None)[0]
         m, n = Zp.shape[1], len(dt)
         gain = float(en @ en) - float(e1 @ e1)
         F = (gain / m) / (float(e1 @ e1) / max(n - Zt.shape[1] - Xw.shape[1], 1))
