@@ -249,9 +249,14 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, 
         m = sig.season == s
         prof = sig.base_profiles[s]
         h_all[m] = prof[ref_weekday * per_day + tow[m] % per_day] - prof[tow[m]]
+    # each date's rows (in time order) from one sort of the dates' codes, not a comparison of every row per date
+    codes, uniq = pd.factorize(dates)
+    order = np.argsort(codes, kind="stable")
+    bounds = np.searchsorted(codes[order], np.arange(len(uniq) + 1))
+    rows_of = {uniq[c]: order[bounds[c] : bounds[c + 1]] for c in range(len(uniq))}
     for d in np.unique(dates[ok_rows & (wd < 5)]):
-        m = ok_rows & (dates == d)
-        if m.sum() < per_day // 2:
+        m = rows_of[d][ok_rows[rows_of[d]]]  # row indices, ascending: the same rows as the boolean mask
+        if len(m) < per_day // 2:
             continue
         h = h_all[m].ravel()
         r = resid_all[m].ravel()
@@ -268,7 +273,7 @@ def day_departures(sig, resid_all: np.ndarray, ref_weekday: int = 6, rows=None, 
                 "date": d.isoformat(),
                 "gamma": float(g),
                 "t": float(g / np.sqrt(s2 / hh)),
-                "n": int(m.sum()),
+                "n": len(m),
                 "gamma_by_zone": [float(x) if w > 0 else None for x, w in zip(gz, hz)],
                 "weight_by_zone": [float(w) for w in hz],
             }
