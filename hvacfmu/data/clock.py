@@ -260,29 +260,24 @@ def outdoor_phase_warning(frame: pd.DataFrame, building, step: float, clock: Clo
     if clock.method != "ghi" or clock.offset is None or abs(clock.offset) >= GHI_TOLERANCE or "T_out" not in frame:
         return None
     found = _from_t_out(frame, step, building.longitude)
+    if found is not None and abs(found[0] - clock.offset) < T_OUT_TOLERANCE:
+        return None
     if found is None:
-        swapped = _outdoor_in_supply(frame, step, building.longitude, clock.offset)
-        if swapped:
-            return (
-                f"column T_out: its daily cycle is under 0.5 K while column {swapped} has the outdoor air's daily "
-                f"cycle on time: {swapped} and T_out look swapped (the outdoor and supply air points mapped to each "
-                "other's columns); fix the column mapping of the export"
-            )
-        return None
-    offset, detail = found
-    if abs(offset - clock.offset) < T_OUT_TOLERANCE:
-        return None
-    n = round(offset - clock.offset)
-    late = "late" if n > 0 else "early"
+        cycle = "is under 0.5 K"
+    else:
+        n = round(found[0] - clock.offset)
+        cycle = f"is {abs(n):g} h {'late' if n > 0 else 'early'} against the sun that ghi puts on time ({found[1]})"
     swapped = _outdoor_in_supply(frame, step, building.longitude, clock.offset)
     if swapped:
         return (
-            f"column T_out: its daily cycle is {abs(n):g} h {late} against the sun that ghi puts on time ({detail}), "
-            f"while column {swapped} has the outdoor air's daily cycle on time: {swapped} and T_out look swapped "
-            "(the outdoor and supply air points mapped to each other's columns); fix the column mapping of the export"
+            f"column T_out: its daily cycle {cycle}, while column {swapped} has the outdoor air's daily cycle on "
+            f"time: {swapped} and T_out look swapped (the outdoor and supply air points mapped to each other's "
+            "columns); fix the column mapping of the export"
         )
+    if found is None:
+        return None
     return (
-        f"column T_out: its daily cycle is {abs(n):g} h {late} against the sun that ghi puts on time ({detail}): "
+        f"column T_out: its daily cycle {cycle}: "
         "outdoor air joined from a weather feed on another clock (UTC?); shift the T_out column to the data's clock"
     )
 
