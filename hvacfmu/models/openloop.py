@@ -219,9 +219,11 @@ class _Problem:
                 q0, qp = parts(row_week != w)
                 self.cross[w] = ({**self.q0, **q0}, {**self.qp, **qp})
 
-    def gains_of(self, theta):
-        """Season -> gains profile (n_slots, nx) for theta (the linear form of :meth:`gains_for`)."""
-        return {s: self.q0[s] - self._scatter(self.qp[s] * theta) for s in self.q0}
+    def gains_of(self, theta, q0=None, qp=None):
+        """Season -> gains profile (n_slots, nx) for theta (the linear form of :meth:`gains_for`); ``q0``, ``qp``:
+        another estimate's parts (a left-out week's cross-fitted ones), default this problem's."""
+        q0, qp = (self.q0, self.qp) if q0 is None else (q0, qp)
+        return {s: q0[s] - self._scatter(qp[s] * theta) for s in q0}
 
     # --- model and errors -------------------------------------------------------------------------------------
     def with_theta(self, theta, gains=None):
@@ -311,8 +313,7 @@ class _Problem:
         out = np.zeros(self.rng.shape + (self.nx,))
         for w, (q0, qp) in self.cross.items():
             sel = self.window_week == w
-            prof = {s: q0[s] - self._scatter(qp[s] * theta) for s in q0}
-            out[sel] = self._at_windows(prof, self.nx, sel)[sel]
+            out[sel] = self._at_windows(self.gains_of(theta, q0, qp), self.nx, sel)[sel]
         return out
 
     @functools.cached_property
