@@ -36,6 +36,7 @@ from ..models.causes.signals import (
     shifted,
 )
 from ..models.causes.signals import make_signals as _make_signals
+from ..models.datadriven import bound_rows
 from ..models.extended import ExtendedModel, ZoneCoupling
 from ..models.linear import LinearZoneModel
 
@@ -213,15 +214,9 @@ def _dominant_qp(G, r, lo, hi, scale, pairs, fallback) -> np.ndarray:
         g[j], g[i] = 1.0 / scale[j], -1.0 / scale[i]
         rows.append(g)
         h.append(0.0)
-    eye = np.eye(p)
-    for k in range(p):
-        if np.isfinite(hi[k]):
-            rows.append(eye[k])
-            h.append(hi[k])
-        if np.isfinite(lo[k]):
-            rows.append(-eye[k])
-            h.append(-lo[k])
-    Gm = np.array(rows)
+    more_rows, more_h = bound_rows(lo, hi)
+    Gm = np.array(rows + more_rows)
+    h += more_h
     norm = max(float(np.max(np.abs(np.diag(G)))), 1e-300)
     try:
         ts = qpsolvers.solve_qp(

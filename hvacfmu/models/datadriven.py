@@ -375,6 +375,22 @@ class BayesClsResult:
     problem: dict
 
 
+def bound_rows(lo, hi) -> tuple[list, list]:
+    """The finite bounds ``lo <= x <= hi`` as inequality rows ``g @ x <= h`` (``+e_j`` for an upper bound, then
+    ``-e_j`` for a lower one, variable by variable): lists of rows and right-hand sides for a QP solver that must
+    not see infinite bounds."""
+    rows, h = [], []
+    eye = np.eye(len(lo))
+    for j in range(len(lo)):
+        if np.isfinite(hi[j]):
+            rows.append(eye[j])
+            h.append(hi[j])
+        if np.isfinite(lo[j]):
+            rows.append(-eye[j])
+            h.append(-lo[j])
+    return rows, h
+
+
 def bayes_cls(Z, y, *, lb=None, ub=None, G=None, h=None, prior_mean=None, prior_sd=None, sigma2=None):
     """Bayesian constrained least squares (eq. (data_opt) of [1]_) as a QP solved by Clarabel.
 
@@ -438,15 +454,7 @@ def bayes_cls(Z, y, *, lb=None, ub=None, G=None, h=None, prior_mean=None, prior_
     hs = None if h is None else np.asarray(h, dtype=float)
     problem = {"P": P, "q": q, "G": Gs, "h": hs, "lb": lbs, "ub": ubs, "scale": s}
     # finite bounds become inequality rows (qpsolvers would pass infinite ones on to Clarabel)
-    rows_G, rows_h = [], []
-    eye = np.eye(p)
-    for j in range(p):
-        if np.isfinite(ubs[j]):
-            rows_G.append(eye[j])
-            rows_h.append(ubs[j])
-        if np.isfinite(lbs[j]):
-            rows_G.append(-eye[j])
-            rows_h.append(-lbs[j])
+    rows_G, rows_h = bound_rows(lbs, ubs)
     if Gs is not None:
         rows_G += list(np.atleast_2d(Gs))
         rows_h += list(np.atleast_1d(hs))
