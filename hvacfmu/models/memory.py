@@ -308,7 +308,8 @@ def keep_memory(model, prep, opts, horizon: int = 96):
         refinements[name] = {k: rinfo.get(k) for k in ("used", "reason", "rms_before", "rms_after", "nfev")}
         if rinfo.get("used"):
             candidates[name] = refined
-    cv = {name: week_cv(m, prep, horizon) for name, m in candidates.items()}
+    arr = _arrays(model, prep, horizon)  # the candidates share the fit's inputs and outputs: one set of arrays
+    cv = {name: week_cv(m, prep, horizon, arrays=arr) for name, m in candidates.items()}
     finite = {name: c["rms"] for name, c in cv.items() if np.isfinite(c["rms"])}
     kept = min(finite, key=lambda k: finite[k]) if finite else "fit"
     info.update(
