@@ -300,8 +300,15 @@ def _base_model(dataset, model, say, notes) -> tuple:
 
         model = load_model(model)
     if given:
+        from ..errors import ModelError, problems_message
         from ..models.base import building_mismatch
+        from ..models.loadcheck import box_drive_problems
 
+        drive = box_drive_problems(model, dataset.building)
+        if drive:
+            raise ModelError(
+                problems_message(f"the model cannot be a model of building {dataset.building.name!r}", drive)
+            )
         for note in building_mismatch(getattr(model, "base", model), dataset.building)[1]:
             warnings.warn(note, HvacfmuWarning, stacklevel=3)
             notes.append(note)

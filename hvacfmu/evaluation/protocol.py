@@ -40,8 +40,9 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from ..errors import DataError, HvacfmuWarning, problems_message
+from ..errors import DataError, HvacfmuWarning, ModelError, problems_message
 from ..models.base import building_mismatch
+from ..models.loadcheck import box_drive_problems
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
@@ -142,7 +143,10 @@ def evaluate(
         dataset.frame, b.zone_names, float(dataset.step), float(fill_inputs_h), float(min_output_share)
     )
     notes = _season_notes(dataset)
-    for model in models:
+    for name, model in zip(names, models):
+        drive = box_drive_problems(model, b)
+        if drive:
+            raise ModelError(problems_message(f"model {name!r} cannot be a model of building {b.name!r}", drive))
         for note in building_mismatch(model, b)[1]:
             warnings.warn(note, HvacfmuWarning, stacklevel=2)
             notes.append(note)

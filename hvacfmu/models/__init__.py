@@ -54,9 +54,36 @@ def load_model(path) -> ZoneModel:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ModelError(f"model file {path} is not valid JSON: {exc}") from None
     try:
-        return model_from_dict(d)
+        model = model_from_dict(d)
     except ModelError as exc:
         raise ModelError(f"{path}: {exc}") from None
+    _warn_if_edited(d, path)
+    return model
+
+
+def _warn_if_edited(d: dict, path: Path) -> None:
+    """Warn when the numbers of model file ``path`` differ from those :meth:`ZoneModel.save` sealed."""
+    import warnings
+
+    from ..errors import HvacfmuWarning
+    from .base import coefficients_sha256
+
+    meta = d.get("meta") if isinstance(d.get("meta"), dict) else {}
+    sealed = meta.get("coefficients_sha256")
+    if not isinstance(sealed, str):
+        return  # written before session 20, or by another tool: nothing to compare
+    try:
+        now = coefficients_sha256(d)
+    except (TypeError, ValueError):
+        return
+    if now != sealed:
+        warnings.warn(
+            f"{path}: the model's coefficients were changed after hvacfmu wrote the file (edited by hand or by "
+            "another tool): the fit's checks and scores in its meta describe another model. It passed the load "
+            "checks (stability, signs, size); refit with hvacfmu fit to trust it",
+            HvacfmuWarning,
+            stacklevel=2,
+        )
 
 
 __all__ = [

@@ -133,10 +133,27 @@ class ZoneModel(abc.ABC):
     def from_dict(cls, d: dict[str, Any]) -> ZoneModel: ...
 
     def save(self, path) -> Path:
+        """Write the model as JSON; ``meta["coefficients_sha256"]`` seals its numbers (:func:`coefficients_sha256`)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False), encoding="utf-8")
+        d = self.to_dict()
+        if isinstance(d.get("meta"), dict):
+            d = {**d, "meta": {**d["meta"], "coefficients_sha256": coefficients_sha256(d)}}
+        path.write_text(json.dumps(d, indent=1, allow_nan=False), encoding="utf-8")
         return path
+
+
+def coefficients_sha256(d: dict) -> str:
+    """SHA-256 of a model file's mapping without its top-level ``meta`` (coefficients, names, gains, terms).
+
+    :meth:`ZoneModel.save` stores it in ``meta``; :func:`hvacfmu.models.load_model` warns when a file's numbers no
+    longer match it (edited by hand or by another tool: the fit's checks and scores in ``meta`` then describe
+    another model). JSON floats round-trip exactly, so a file read back unchanged always matches.
+    """
+    import hashlib
+
+    body = {k: v for k, v in d.items() if k != "meta"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, allow_nan=False, separators=(",", ":")).encode()).hexdigest()
 
 
 # ----------------------------------------------------------------------------
@@ -218,7 +235,8 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
     """``(problems, notes)`` of using ``model`` with ``building`` (a :class:`~hvacfmu.building.Building`).
 
     Problems: boxes of the model that the building file does not declare (its
-    limits and zones cannot be the model's). Notes: the model's provenance
+    limits and zones cannot be the model's); box coefficients that at the building's ``m_max`` would take a
+    room past its supply air in one step (:func:`~hvacfmu.models.loadcheck.box_drive_problems`). Notes: the model's provenance
     (``meta["building"]``, ``meta["building_sha256"]``, written by ``fit``) names
     another building, or the same building from a file that has changed since the
     fit (box limits, zones or areas may differ from what the model learned).
@@ -236,6 +254,9 @@ def building_mismatch(model, building) -> tuple[list[str], list[str]]:
             f"are not declared in building {building.name!r} (its boxes: {sorted(known)[:6]}"
             f"{' ...' if len(known) > 6 else ''}): use the building file the model was fitted on"
         )
+    from .loadcheck import box_drive_problems
+
+    problems += box_drive_problems(model, building)
     own = getattr(model, "building", None)  # a physics model carries its building
     if own is not None and hasattr(own, "zones") and hasattr(own, "vavs"):
         if own.name != building.name:

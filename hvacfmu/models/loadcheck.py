@@ -38,6 +38,13 @@ MAX_GAIN_STEP_K = 50.0
 MAX_RESPONSE_K = 1.0e4
 #: Largest internal gain [W/m²] of a physics model's zone (a dense server room is about 1000).
 MAX_GAIN_W_PER_M2 = 3000.0
+#: Largest change [K] of a state in one step that its boxes at ``m_max`` may cause (airflow form): air that leaves a
+#: box cannot take the room past its own temperature, and room and supply air are less than 30 K apart in any
+#: building (fitted models: under 2 K on the emulator).
+MAX_STEP_DRIVE_K = 30.0
+#: Largest share of the gap between inlet air and room that the boxes at ``m_max`` may close in one step
+#: (delivered-heat form): a fully mixed room reaches its inlet temperature only with infinite airflow.
+MAX_GAP_SHARE = 1.0
 
 
 def model_problems(model) -> list[str]:
@@ -64,6 +71,66 @@ def require_plausible(model, source: str = "model file"):
             )
         )
     return model
+
+
+def box_drive(model, building) -> dict:
+    """State name -> ``(what, value)``: what the state's boxes at their ``m_max`` do in one step.
+
+    ``("K", v)``: airflow form, ``v = sum_j |B u_j|`` [K per step] with ``u_j`` box j at its ``m_max``;
+    ``("share", v)``: delivered-heat form, ``v = beta c_p sum_j m_max_j`` [-], the share of the gap between the
+    boxes' inlet air and the state closed in one step. Empty for models without such coefficients (physics)
+    or boxes the building does not declare (``building_mismatch`` names them).
+    """
+    linear = getattr(model, "base", model)
+    if getattr(linear, "kind", None) not in ("lumped", "zones") or building is None:
+        return {}
+    limits = {v.name: float(v.m_max) for v in getattr(building, "vavs", ())}
+    boxes = [str(v) for v in linear.vavs]
+    if any(b not in limits for b in boxes):
+        return {}
+    m_max = np.array([limits[b] for b in boxes])
+    out: dict = {}
+    Bbox = np.abs(np.asarray(linear.B, float) @ np.asarray(linear.input_map, float))  # state x box
+    drive_k = Bbox @ m_max
+    beta = getattr(linear, "beta", None)
+    for i, name in enumerate(linear.outputs):
+        if beta is not None:
+            from .heat import CP_AIR
+
+            share = abs(float(beta[i])) * CP_AIR / 1000.0 * float(np.asarray(linear.heat_map, float)[i] @ m_max)
+            out[name] = ("share", share, float(drive_k[i]))
+        else:
+            out[name] = ("K", float(drive_k[i]), 0.0)
+    return out
+
+
+def box_drive_problems(model, building) -> list[str]:
+    """Reasons why ``model``'s box coefficients cannot be a building with ``building``'s box limits.
+
+    An airflow gain that moves a state by more than :data:`MAX_STEP_DRIVE_K` in one step at the boxes' ``m_max``,
+    or a delivered-heat coefficient that closes more than :data:`MAX_GAP_SHARE` of the gap to the inlet air in
+    one step (the room would overshoot the air that cools or heats it): an edited file or a unit slip (airflow
+    in L/s fitted as kg/s), never a fit on kg/s data.
+    """
+    problems = []
+    for name, (what, value, extra_k) in box_drive(model, building).items():
+        if what == "K" and value > MAX_STEP_DRIVE_K:
+            problems.append(
+                f"state {name}: its boxes at m_max ({building.name!r}) move it by {value:.3g} K in one step, above "
+                f"{MAX_STEP_DRIVE_K:g} K (no supply air is that far from the room): the airflow coefficients (B) "
+                "are too large, an edited model file or airflows fitted in other units than kg/s"
+            )
+        elif what == "share" and (value > MAX_GAP_SHARE or extra_k > MAX_STEP_DRIVE_K):
+            problems.append(
+                f"state {name}: its boxes at m_max ({building.name!r}) close {value:.3g} of the gap to their inlet "
+                f"air in one step (at most {MAX_GAP_SHARE:g}: the room would overshoot the air that heats or cools "
+                "it): the delivered-heat coefficient (beta) is too large, an edited model file or airflows fitted in "
+                "other units than kg/s"
+                if value > MAX_GAP_SHARE
+                else f"state {name}: its boxes at m_max ({building.name!r}) move it by {extra_k:.3g} K in one step "
+                f"through B, above {MAX_STEP_DRIVE_K:g} K: an edited model file"
+            )
+    return problems
 
 
 def _linear(model, free_airflow=()) -> list[str]:
@@ -233,7 +300,11 @@ def _physics(model) -> list[str]:
 __all__ = [
     "MAX_GAIN_STEP_K",
     "MAX_GAIN_W_PER_M2",
+    "MAX_GAP_SHARE",
     "MAX_RESPONSE_K",
+    "MAX_STEP_DRIVE_K",
+    "box_drive",
+    "box_drive_problems",
     "model_problems",
     "require_plausible",
     "response_k",

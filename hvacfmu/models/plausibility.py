@@ -249,6 +249,10 @@ def check_fitted(
     from ..errors import HvacfmuWarning
 
     problems, numbers = linear_problems(model, max_time_constant_h)
+    if dataset is not None and getattr(dataset, "building", None) is not None:
+        from .loadcheck import box_drive_problems
+
+        problems += box_drive_problems(model, dataset.building)
     if problems:
         raise FitError(problems_message(f"The fitted {model.kind} model is implausible and was refused", problems))
     notes = []
