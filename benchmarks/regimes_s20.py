@@ -3,7 +3,7 @@
 Issue 13 p.8 on the EnergyPlus mid-rise apartments (``memory_s19.py``'s bed). The fit's memory check
 (:mod:`hvacfmu.models.memory`) builds four candidates and scores them by blocked week cross-validation on the
 training weeks. Each candidate is also scored on the held-out windows (per flat and season, against persistence and
-the time-of-week mean), and the held-out tables of three selections are put side by side:
+the time-of-week mean), and the held-out tables of these selections and switches are put side by side:
 
 - ``fit`` (main before session 19, ``memory=False``);
 - ``mean`` (session 19's default rule: the lowest cross-validated RMS, seasons weighed alike);
@@ -11,7 +11,10 @@ the time-of-week mean), and the held-out tables of three selections are put side
   standard error of the paired week difference);
 - ``season_switch`` (not a model the package can ship: per season the candidate the week cross-validation ranks
   first in that season, ``meta["memory"]["season_best"]``; its held-out table is assembled from the candidates'
-  tables, exact because every scored 24-h window lies in one season's label and would run that season's set).
+  tables, exact because every scored 24-h window lies in one season's label and would run that season's set);
+- ``unit_switch`` (:class:`UnitSwitched`, simulated: per zone and step the fit's equation where the zone's unit
+  runs, the slow refinement's elsewhere) and ``window_switch`` (per zone and window the slow refinement's RMS where
+  the unit runs in at most :data:`FLOATING_SHARE` of the window's steps, else the fit's): neither can be shipped.
 
 Counted: zone-seasons behind persistence / behind the time-of-week mean; mean over the flats per season and year.
 
@@ -32,9 +35,73 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
+
+from hvacfmu.models.base import ZoneModel
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-RULES = ("fit", "mean", "no_season_worse", "season_switch")
+RULES = ("fit", "mean", "no_season_worse", "season_switch", "unit_switch", "window_switch")
+
+
+class UnitSwitched(ZoneModel):
+    """Not a model the package can ship (no matrix form, ``regimes_s20.md``): each zone's next temperature from
+    ``held``'s equation (the memoryless fit) in a step where the zone's unit runs (its measured airflow above
+    :func:`hvacfmu.models.causes.held_setpoint.running_threshold` of its training airflows, a cycling unit's floor),
+    else from ``floating``'s (the slow refinement). The regime is read from the model's own input, never from the
+    temperature it predicts. Each state's gain profile follows its own equation."""
+
+    def __init__(self, held, floating, prep_train_u):
+        from hvacfmu.models.causes.held_setpoint import running_threshold
+
+        self.held, self.floating = held, floating
+        self.kind, self.step, self.outputs, self.gains = held.kind, held.step, held.outputs, held.gains
+        self.meta: dict = {}
+        zu = self._zone_u(prep_train_u)
+        self.u_on = np.array(
+            [running_threshold(float(np.nanquantile(zu[:, i], 0.99)), 0.0) for i in range(zu.shape[1])]
+        )
+        self.nx = len(held.outputs)
+        self.inputs, self.disturbances, self.holidays = held.inputs, held.disturbances, held.holidays
+
+    @property
+    def n_states(self) -> int:
+        return self.nx
+
+    def to_dict(self):
+        raise NotImplementedError("a benchmark's regime-switched model has no file form")
+
+    @classmethod
+    def from_dict(cls, d):
+        raise NotImplementedError("a benchmark's regime-switched model has no file form")
+
+    def _zone_u(self, u):
+        u = np.asarray(u, float)
+        hm = self.held.heat_map if self.held.heat_map is not None else self.held.input_map
+        hm = np.asarray(hm, float)
+        return u @ hm.T if u.shape[-1] == hm.shape[1] else u
+
+    def signals(self, frame):
+        return self.held.signals(frame)
+
+    def measured_outputs(self, frame):
+        return self.held.measured_outputs(frame)
+
+    def initial_state(self, frame, k0):
+        return self.held.initial_state(frame, k0)
+
+    def output(self, x):
+        return np.asarray(x)
+
+    def gains_at(self, index, season):
+        return np.concatenate([self.held.gains_at(index, season), self.floating.gains_at(index, season)], axis=-1)
+
+    def step_state(self, x, u, v, q):
+        nx = self.nx
+        xh = self.held.step_state(x, u, v, q[..., :nx])
+        xf = self.floating.step_state(x, u, v, q[..., nx:])
+        on = np.nan_to_num(self._zone_u(u)) > self.u_on
+        return np.where(on, xh, xf)
 
 
 def _fit_capturing(ds, kind, **opts):
@@ -76,6 +143,40 @@ def _compose(scores: dict, pick: dict) -> dict:
     return {"outputs": first["outputs"], "seasons": rows}
 
 
+#: a zone floats in a window when its unit runs in at most this share of the window's steps (``apartments_s18.md``'s
+#: floating regime of the wind re-test, declared there before any score was read)
+FLOATING_SHARE = 0.10
+
+
+def _window_switch(res, ds, sw) -> dict:
+    """Per window and zone, the slow refinement's RMS where the zone floats in the window (its unit runs in at most
+    :data:`FLOATING_SHARE` of the steps, from the measured airflows), the fit's elsewhere; per season the mean."""
+    sc = {s.name: s for s in res.scores}
+    fit, slow = sc["fit"], sc["slow_cross_fitted"]
+    idx = ds.frame.index
+    u = np.asarray(sw.held.signals(ds.frame)[0], float)
+    on = np.nan_to_num(sw._zone_u(u)) > sw.u_on
+    N = 96  # the evaluation's 24-h horizon at 15 min
+    k0 = idx.get_indexer(fit.starts)
+    share = np.stack([on[k : k + N].mean(axis=0) for k in k0])  # (W, ny)
+    if share.shape[1] != fit.rms.shape[1]:
+        share = np.broadcast_to(share.mean(axis=1, keepdims=True), fit.rms.shape)
+    floating = share <= FLOATING_SHARE
+    rms = np.where(floating, slow.rms, fit.rms)
+    seasons = np.asarray(fit.seasons, dtype=object)
+    rows = {}
+    for s in [*dict.fromkeys(fit.seasons), "all"]:
+        sel = np.ones(len(seasons), bool) if s == "all" else seasons == s
+        rows[s] = {
+            "windows": int(sel.sum()),
+            "model": np.nanmean(rms[sel], axis=0).tolist(),
+            "persistence": np.nanmean(fit.baselines["persistence"][sel], axis=0).tolist(),
+            "time_of_week": np.nanmean(fit.baselines["time-of-week mean"][sel], axis=0).tolist(),
+            "floating_share": float(np.mean(floating[sel])),
+        }
+    return {"outputs": list(fit.outputs), "seasons": rows}
+
+
 def _summary(per: dict) -> dict:
     """Zone-seasons behind persistence / time-of-week; per season the mean over outputs of model and baselines."""
     import numpy as np
@@ -115,12 +216,27 @@ def _selections(ds, kind, opts, tag, out: Path) -> dict:
         "mean": select_candidate(cv, "mean")[0],
         "no_season_worse": select_candidate(cv, "no_season_worse")[0],
     }
-    res = evaluate(list(cands.values()), ds, names=list(cands))
+    models = dict(cands)
+    if "slow_cross_fitted" in cands:
+        from hvacfmu.models.datadriven import _options, _Prepared
+
+        prep = _Prepared(ds, _options({}))
+        u_tr = np.asarray(cands["fit"].signals(prep.frame)[0], float)[prep.train]
+        models["unit_switch"] = UnitSwitched(cands["fit"], cands["slow_cross_fitted"], u_tr)
+        print(f"  unit_switch: running thresholds {np.round(models['unit_switch'].u_on, 5).tolist()} kg/s")
+    res = evaluate(list(models.values()), ds, names=list(models))
     scores = _per_zone_season(res)
     seasons = [s for s in scores["fit"]["seasons"] if s != "all"]
     best = mem.get("season_best") or {}
     tables = {r: scores[p] for r, p in picks.items()}
     tables["season_switch"] = _compose(scores, {s: best.get(s, "fit") for s in seasons})
+    if "unit_switch" in scores:
+        tables["unit_switch"] = scores.pop("unit_switch")
+        tables["window_switch"] = _window_switch(res, ds, models["unit_switch"])
+        print(
+            "  window_switch: zone-windows floating per season "
+            + " ".join(f"{k[:2]} {r['floating_share']:.2f}" for k, r in tables["window_switch"]["seasons"].items())
+        )
     rec.update(
         picks=picks, season_best=best, candidate_scores=scores, summaries={r: _summary(t) for r, t in tables.items()}
     )
