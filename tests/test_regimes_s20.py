@@ -9,6 +9,7 @@ errors, values]`` per left-out week).
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -113,6 +114,7 @@ def test_week_cv_records_the_folds_the_rule_pairs(data):  # noqa: F811
     assert info["kept"] != "fit"
     assert info["selection"]["worse_seasons"][info["kept"]] == []
     assert set(info["season_best"]) == set(cv["fit"]["season_rms"])
+    json.dumps(model.to_dict(), allow_nan=False)  # the record is saved with the model file
 
 
 def test_option_memory_select_is_checked(data):  # noqa: F811
