@@ -104,6 +104,59 @@ class UnitSwitched(ZoneModel):
         return np.where(on, xh, xf)
 
 
+class SeasonSwitched(ZoneModel):
+    """Not a model the package can ship (``regimes_s20.md`` section 3): the coefficients of ``by_season[s]`` in the
+    windows of season ``s``. The season travels as a last column of the gain term (``gains_at`` knows the season,
+    ``step_state`` does not); used to check that the composed ``season_switch`` table is what a simulation gives."""
+
+    def __init__(self, by_season: dict):
+        first = next(iter(by_season.values()))
+        self.by_season = by_season
+        self.names = list(by_season)
+        self.kind, self.step, self.outputs, self.gains = first.kind, first.step, first.outputs, first.gains
+        self.inputs, self.disturbances, self.holidays = first.inputs, first.disturbances, first.holidays
+        self.meta: dict = {}
+        self.first = first
+
+    @property
+    def n_states(self) -> int:
+        return len(self.outputs)
+
+    def to_dict(self):
+        raise NotImplementedError("a benchmark's season-switched model has no file form")
+
+    @classmethod
+    def from_dict(cls, d):
+        raise NotImplementedError("a benchmark's season-switched model has no file form")
+
+    def signals(self, frame):
+        return self.first.signals(frame)
+
+    def measured_outputs(self, frame):
+        return self.first.measured_outputs(frame)
+
+    def initial_state(self, frame, k0):
+        return self.first.initial_state(frame, k0)
+
+    def output(self, x):
+        return np.asarray(x)
+
+    def gains_at(self, index, season):
+        q = self.by_season[season].gains_at(index, season)
+        return np.concatenate([q, np.full(q.shape[:-1] + (1,), float(self.names.index(season)))], axis=-1)
+
+    def step_state(self, x, u, v, q):
+        which = q[..., -1]
+        out = None
+        for i, s in enumerate(self.names):
+            sel = which == i
+            if not np.any(sel):
+                continue
+            xs = np.asarray(self.by_season[s].step_state(x, u, v, q[..., :-1]))
+            out = xs if out is None else np.where(sel[..., None], xs, out)
+        return out
+
+
 def _fit_capturing(ds, kind, **opts):
     """``fit(ds, kind, **opts)`` and the memory check's candidate models (empty if the check did not run)."""
     from hvacfmu.fitting import fit
@@ -224,12 +277,17 @@ def _selections(ds, kind, opts, tag, out: Path) -> dict:
         u_tr = np.asarray(cands["fit"].signals(prep.frame)[0], float)[prep.train]
         models["unit_switch"] = UnitSwitched(cands["fit"], cands["slow_cross_fitted"], u_tr)
         print(f"  unit_switch: running thresholds {np.round(models['unit_switch'].u_on, 5).tolist()} kg/s")
+    best = mem.get("season_best") or {}
+    if best:
+        models["season_switch_sim"] = SeasonSwitched({s: cands[best.get(s, "fit")] for s in cands["fit"].gains})
     res = evaluate(list(models.values()), ds, names=list(models))
     scores = _per_zone_season(res)
     seasons = [s for s in scores["fit"]["seasons"] if s != "all"]
     best = mem.get("season_best") or {}
     tables = {r: scores[p] for r, p in picks.items()}
     tables["season_switch"] = _compose(scores, {s: best.get(s, "fit") for s in seasons})
+    if "season_switch_sim" in scores:
+        tables["season_switch_sim"] = scores.pop("season_switch_sim")
     if "unit_switch" in scores:
         tables["unit_switch"] = scores.pop("unit_switch")
         tables["window_switch"] = _window_switch(res, ds, models["unit_switch"])

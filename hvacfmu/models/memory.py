@@ -25,7 +25,11 @@ profiles (each window's from the other training weeks). The candidates (the fit,
 refinements) are compared by blocked week cross-validation on the training weeks only (:func:`week_cv`): each
 training week in turn is left out of the gain profiles, and the 24-h open-loop windows starting in it are simulated
 with the profiles of the other weeks of the season. The candidate with the lowest cross-validated RMS (every season
-weighs alike) is kept; ``meta["memory"]`` records every score. The held-out test weeks are never read.
+weighs alike) is kept (option ``memory_select="mean"``, the default); ``memory_select="no_season_worse"`` keeps
+only a candidate not worse than the fit in any season beyond one standard error of the paired week difference
+(:func:`select_candidate`: a candidate that wins the floating winter by losing the thermostat-held summer is not
+kept; ``benchmarks/regimes_s20.md``). ``meta["memory"]`` records every score, the rule's verdicts and each season's
+best candidate. The held-out test weeks are never read.
 
 The coefficients themselves are not refitted per fold (the refinement's cost, run once per week, would be that of
 the whole fit times the number of weeks): they are few (two per zone plus the weather's), against 672 gain values
@@ -204,7 +208,7 @@ def season_differences(cv: dict, ref: str = "fit") -> dict:
 
     ``cv``: candidate name -> :func:`week_cv` record (with ``season_folds``). For a season with folds (left-out
     weeks) ``w`` holding ``n_w`` values and per-fold mean squared errors ``e_w`` (the candidate's) and ``r_w``
-    (``ref``'s), the difference is ``D = sum n_w (e_w - r_w) / sum n_w`` [K²] (the season's MSE difference when
+    (``ref``'s), the difference is ``D = sum n_w d_w / sum n_w`` with ``d_w = e_w - r_w`` [K²] (the season's MSE difference when
     both score the same values) and its standard error the weeks-as-clusters one,
     ``sqrt(k / (k - 1) * sum n_w² (d_w - D)²) / sum n_w`` over the ``k`` folds (NaN for a season with one fold).
 
