@@ -593,6 +593,7 @@ DEFAULTS: dict[str, Any] = {
     "open_loop": "auto",
     "open_loop_couplings": False,
     "memory": "auto",
+    "memory_select": "mean",
 }
 
 #: With option heat="auto", the delivered-heat form is used when an air handler is off in more than this share
@@ -612,6 +613,8 @@ def _options(opts: dict) -> dict:
         raise FitError(f"option open_loop must be 'auto', True or False, got {out['open_loop']!r}")
     if out["memory"] not in ("auto", True, False):
         raise FitError(f"option memory must be 'auto', True or False, got {out['memory']!r}")
+    if out["memory_select"] not in ("mean", "no_season_worse"):
+        raise FitError(f"option memory_select must be 'mean' or 'no_season_worse', got {out['memory_select']!r}")
     if not isinstance(out["open_loop_couplings"], bool):
         raise FitError(f"option open_loop_couplings must be True or False, got {out['open_loop_couplings']!r}")
     return out

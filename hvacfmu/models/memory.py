@@ -25,7 +25,11 @@ profiles (each window's from the other training weeks). The candidates (the fit,
 refinements) are compared by blocked week cross-validation on the training weeks only (:func:`week_cv`): each
 training week in turn is left out of the gain profiles, and the 24-h open-loop windows starting in it are simulated
 with the profiles of the other weeks of the season. The candidate with the lowest cross-validated RMS (every season
-weighs alike) is kept; ``meta["memory"]`` records every score. The held-out test weeks are never read.
+weighs alike) is kept (option ``memory_select="mean"``, the default); ``memory_select="no_season_worse"`` keeps
+only a candidate not worse than the fit in any season beyond one standard error of the paired week difference
+(:func:`select_candidate`: a candidate that wins the floating winter by losing the thermostat-held summer is not
+kept; ``benchmarks/regimes_s20.md``). ``meta["memory"]`` records every score, the rule's verdicts and each season's
+best candidate. The held-out test weeks are never read.
 
 The coefficients themselves are not refitted per fold (the refinement's cost, run once per week, would be that of
 the whole fit times the number of weeks): they are few (two per zone plus the weather's), against 672 gain values
@@ -137,7 +141,8 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
     dict
         ``rms`` [K] (root of the mean over seasons of each season's mean squared error), ``season_rms`` [K],
         ``persistence_season_rms`` [K] (persistence on the same windows), ``windows`` (scored), ``unscored``
-        (windows whose season has a single training week), ``weeks`` (folds).
+        (windows whose season has a single training week), ``weeks`` (folds), ``season_folds`` (season -> one
+        ``[week, sum of squared errors [K²], values]`` per fold: what :func:`season_differences` pairs).
     """
     arr = _arrays(model, prep, horizon) if arrays is None else arrays
     wk = week_ids(prep)
@@ -147,6 +152,7 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
     sse: dict = {}
     cnt: dict = {}
     pse: dict = {}
+    fold_rec: dict = {}
     unscored, folds = 0, 0
     for w in np.unique(wk[arr.starts]):
         st = arr.starts[wk[arr.starts] == w]
@@ -173,9 +179,11 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
         per = arr.Y[rng + 1] - arr.Y[st][:, None, :]
         for s in set(season0):
             e = err[season0 == s]
-            sse[s] = sse.get(s, 0.0) + float(np.nansum(e**2))
-            cnt[s] = cnt.get(s, 0) + int(np.sum(np.isfinite(e)))
+            se_w, n_w = float(np.nansum(e**2)), int(np.sum(np.isfinite(e)))
+            sse[s] = sse.get(s, 0.0) + se_w
+            cnt[s] = cnt.get(s, 0) + n_w
             pse[s] = pse.get(s, 0.0) + float(np.nansum(per[season0 == s] ** 2))
+            fold_rec.setdefault(str(s), []).append([int(w), se_w, n_w])
     season_rms = {s: float(np.sqrt(sse[s] / cnt[s])) for s in sse if cnt[s] > 0}
     persistence = {s: float(np.sqrt(pse[s] / cnt[s])) for s in season_rms}
     rms = float(np.sqrt(np.mean([r**2 for r in season_rms.values()]))) if season_rms else float("nan")
@@ -187,7 +195,110 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
         "windows": n_win,
         "unscored": unscored,
         "weeks": folds,
+        "season_folds": fold_rec,
     }
+
+
+#: Rules of option ``memory_select`` by which :func:`keep_memory` keeps one of its candidates (:func:`select_candidate`).
+SELECT_RULES = ("mean", "no_season_worse")
+
+
+def season_differences(cv: dict, ref: str = "fit") -> dict:
+    """Per candidate and season: its week cross-validated mean squared error minus ``ref``'s, paired by fold.
+
+    ``cv``: candidate name -> :func:`week_cv` record (with ``season_folds``). For a season with folds (left-out
+    weeks) ``w`` holding ``n_w`` values and per-fold mean squared errors ``e_w`` (the candidate's) and ``r_w``
+    (``ref``'s), the difference is ``D = sum n_w d_w / sum n_w`` with ``d_w = e_w - r_w`` [K²] (the season's MSE difference when
+    both score the same values) and its standard error the weeks-as-clusters one,
+    ``sqrt(k / (k - 1) * sum n_w² (d_w - D)²) / sum n_w`` over the ``k`` folds (NaN for a season with one fold).
+
+    Returns
+    -------
+    dict
+        name -> season -> ``{"mse_difference", "se", "folds", "rms", "rms_ref"}``.
+    """
+    base = {s: {int(w): (e, n) for w, e, n in f} for s, f in (cv[ref].get("season_folds") or {}).items()}
+    out: dict = {}
+    for name, c in cv.items():
+        per: dict = {}
+        for s, folds in (c.get("season_folds") or {}).items():
+            b = base.get(s, {})
+            pairs = [
+                (e / n - b[int(w)][0] / b[int(w)][1], n)
+                for w, e, n in folds
+                if int(w) in b and n > 0 and b[int(w)][1] > 0
+            ]
+            if not pairs:
+                continue
+            d = np.array([p[0] for p in pairs])
+            n = np.array([p[1] for p in pairs], float)
+            D = float(np.sum(n * d) / np.sum(n))
+            k = d.size
+            se = float(np.sqrt(k / (k - 1) * np.sum(n**2 * (d - D) ** 2)) / np.sum(n)) if k > 1 else float("nan")
+            per[s] = {
+                "mse_difference": D,
+                "se": se,
+                "folds": int(k),
+                "rms": c["season_rms"].get(s),
+                "rms_ref": cv[ref]["season_rms"].get(s),
+            }
+        out[name] = per
+    return out
+
+
+def select_candidate(cv: dict, rule: str = "mean", ref: str = "fit") -> tuple[str, dict]:
+    """The candidate :func:`keep_memory` keeps, by ``rule``, from the week cross-validation records ``cv``.
+
+    ``"mean"`` (session 19): the lowest ``rms`` (every season weighs alike), whatever it costs in one season.
+    ``"no_season_worse"``: the lowest ``rms`` among ``ref`` and the candidates that are not worse than ``ref`` in
+    any season it scores by more than one standard error of the paired difference (:func:`season_differences`; in a
+    season with one fold, not worse at all): a candidate that wins winter by losing summer is not kept. ``ref`` if
+    no candidate scored.
+
+    Returns the name kept and the record: per candidate the seasons in which it is worse beyond noise.
+    """
+    if rule not in SELECT_RULES:
+        raise ValueError(f"memory selection rule must be one of {SELECT_RULES}, got {rule!r}")
+    finite = {name: c["rms"] for name, c in cv.items() if np.isfinite(c["rms"])}
+    rec: dict = {"rule": rule}
+    if not finite:
+        return ref, rec
+    if rule == "mean":
+        return min(finite, key=lambda k: finite[k]), rec
+    diffs = season_differences(cv, ref)
+    seasons = set((cv[ref].get("season_folds") or {}).keys())
+    worse: dict = {}
+    for name in finite:
+        if name == ref:
+            worse[name] = []
+            continue
+        per = diffs.get(name, {})
+        bad = []
+        for s in sorted(seasons):
+            r = per.get(s)
+            if r is None:
+                bad.append(s)  # a season the reference scores and the candidate does not
+                continue
+            limit = r["se"] if np.isfinite(r["se"]) else 0.0
+            if r["mse_difference"] > limit:
+                bad.append(s)
+        worse[name] = bad
+    admissible = {name: v for name, v in finite.items() if not worse[name]}
+    kept = min(admissible, key=lambda k: admissible[k]) if admissible else ref
+    rec.update(worse_seasons=worse, season_differences=diffs)
+    return kept, rec
+
+
+def season_best(cv: dict) -> dict:
+    """Season -> the candidate with the lowest week cross-validated RMS in it: what a model whose coefficients
+    switch by season would hold (information; the base kinds carry one set, ``benchmarks/regimes_s20.md``)."""
+    seasons = {s for c in cv.values() for s in c.get("season_rms", {})}
+    out = {}
+    for s in sorted(seasons):
+        sc = {n: c["season_rms"][s] for n, c in cv.items() if np.isfinite(c.get("season_rms", {}).get(s, np.nan))}
+        if sc:
+            out[s] = min(sc, key=lambda k: sc[k])
+    return out
 
 
 def _vcols(prep, model, i) -> list:
@@ -265,6 +376,28 @@ def within_refit(model, prep, stability_margin: float = 1e-3, horizon: int = 96,
     return dataclasses.replace(new, gains={**model.gains, **gains})
 
 
+def memory_candidates(model, alt, prep, opts, horizon: int = 96) -> tuple[dict, dict, float]:
+    """The candidates :func:`keep_memory` compares: the fit ``model``, its within one-step refit ``alt``, and the
+    cross-fitted open-loop refinements started from ``alt`` and from the refit with own coefficients at
+    ``exp(-step / SLOW_START_H)``. Returns ``(name -> model, the refinements' records, that own coefficient)``."""
+    from .openloop import refine_open_loop
+
+    candidates = {"fit": model, "within_one_step": alt}
+    weeks = week_ids(prep)
+    refinements: dict = {}
+    a_slow = float(np.exp(-float(model.step) / (SLOW_START_H * 3600.0)))
+    slow = within_refit(model, prep, float(opts.get("stability_margin", 1e-3)), horizon, a_own=a_slow)
+    for name, start in (("within_cross_fitted", alt), ("slow_cross_fitted", slow)):
+        if start is None:
+            refinements[name] = {"used": False, "reason": "the within one-step refit found no solution"}
+            continue
+        refined, rinfo = refine_open_loop(start, prep, horizon, weeks=weeks)
+        refinements[name] = {k: rinfo.get(k) for k in ("used", "reason", "rms_before", "rms_after", "nfev")}
+        if rinfo.get("used"):
+            candidates[name] = refined
+    return candidates, refinements, a_slow
+
+
 def keep_memory(model, prep, opts, horizon: int = 96):
     """The fitted ``model`` or its within one-step refit, whichever predicts the left-out training weeks better.
 
@@ -293,26 +426,13 @@ def keep_memory(model, prep, opts, horizon: int = 96):
     alt = within_refit(model, prep, float(opts.get("stability_margin", 1e-3)), horizon)
     if alt is None:
         return model, {**info, "checked": False, "reason": "the within one-step refit found no solution"}
-    from .openloop import refine_open_loop
-
-    candidates = {"fit": model, "within_one_step": alt}
-    weeks = week_ids(prep)
-    refinements = {}
-    a_slow = float(np.exp(-float(model.step) / (SLOW_START_H * 3600.0)))
-    slow = within_refit(model, prep, float(opts.get("stability_margin", 1e-3)), horizon, a_own=a_slow)
-    for name, start in (("within_cross_fitted", alt), ("slow_cross_fitted", slow)):
-        if start is None:
-            refinements[name] = {"used": False, "reason": "the within one-step refit found no solution"}
-            continue
-        refined, rinfo = refine_open_loop(start, prep, horizon, weeks=weeks)
-        refinements[name] = {k: rinfo.get(k) for k in ("used", "reason", "rms_before", "rms_after", "nfev")}
-        if rinfo.get("used"):
-            candidates[name] = refined
+    candidates, refinements, a_slow = memory_candidates(model, alt, prep, opts, horizon)
     arr = _arrays(model, prep, horizon)  # the candidates share the fit's inputs and outputs: one set of arrays
     cv = {name: week_cv(m, prep, horizon, arrays=arr) for name, m in candidates.items()}
-    finite = {name: c["rms"] for name, c in cv.items() if np.isfinite(c["rms"])}
-    kept = min(finite, key=lambda k: finite[k]) if finite else "fit"
+    kept, selection = select_candidate(cv, str(opts.get("memory_select", "mean")))
     info.update(
+        selection=selection,
+        season_best=season_best(cv),
         checked=True,
         why="option memory=True"
         if form is True
@@ -329,4 +449,16 @@ def keep_memory(model, prep, opts, horizon: int = 96):
     return candidates[kept], info
 
 
-__all__ = ["SHORT_MEMORY_STEPS", "gains_on_training", "keep_memory", "slowest_steps", "week_cv", "within_refit"]
+__all__ = [
+    "SELECT_RULES",
+    "SHORT_MEMORY_STEPS",
+    "gains_on_training",
+    "keep_memory",
+    "memory_candidates",
+    "season_best",
+    "season_differences",
+    "select_candidate",
+    "slowest_steps",
+    "week_cv",
+    "within_refit",
+]
