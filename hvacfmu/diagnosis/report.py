@@ -388,7 +388,9 @@ def _holiday_lines(ev: dict) -> list:
         )
         for p in hm["parts"]:
             L.append(
-                f"      part {p['dates'][0]}…{p['dates'][-1]} ({len(p['dates'])} d): when found {pct(p['cv_when_found'])}"
+                f"      part {p['dates'][0]}…{p['dates'][-1]} ({len(p['dates'])} d): when found"
+                + ("" if p.get("delta_bic") is None else f" ΔBIC {p['delta_bic']:.1f},")
+                + f" {pct(p['cv_when_found'])}"
                 f", merged term on its days {pct(p['merged_over_none_on_its_days'])}"
             )
     look = ev.get("heldout_lookalike") or {}
