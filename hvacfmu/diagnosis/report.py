@@ -325,8 +325,14 @@ def _finding_lines(i: int, f: dict) -> list:
     if t.get("open_loop_only"):  # a limiter (held_setpoint): no one-step regressor, cross-validated open loop only
         L.append("    test: open-loop cross-validation only (a limiter leaves the one-step prediction unchanged)")
     else:
+        hm = (f.get("evidence") or {}).get("holiday_merge") or {}
+        of = (
+            f" (its first part, {hm['parts'][0]['dates'][0]}…{hm['parts'][0]['dates'][-1]})"
+            if hm.get("merged") and hm.get("parts")
+            else ""
+        )
         L.append(
-            f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+            f"    test{of}: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
             f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
         )
     ev = _short_evidence(f)
