@@ -165,3 +165,29 @@ def test_mpc_predicts_a_model_with_a_holiday_beside_an_on_off_reheat():
         X[k + 1] = model.step_state(X[k], U[k], V[k], Q[k])
     assert_allclose(pred.simulate(x0, U, V, Q), X, rtol=0, atol=1e-10)  # [K]
     assert check_equations(model, ExtendedModel(base=base, terms=model.terms[:1]).equations()) <= 1e-9
+
+
+@pytest.mark.slow
+def test_holiday_terms_kept_apart_are_reported_as_one_holiday(case27, monkeypatch):
+    """The path where the separate terms beat the merged one (forced here: no battery case took it): both terms stay
+    in the model, each finding carries the whole holiday (all dates, every part's gains) and the report says so."""
+    from hvacfmu.diagnosis import diagnose, selection
+
+    merge = selection._merge_holidays
+
+    def apart(*args, **kwargs):
+        out = merge(*args, **kwargs)
+        if out is not None:
+            out.update(merged=False, why="forced apart")
+        return out
+
+    monkeypatch.setattr(selection, "_merge_holidays", apart)
+    rep = diagnose(case27[0], progress=False)
+    hits = _holidays(rep.findings)
+    assert [f["location"]["dates"] for f in hits] == [WEEK3, WEEK4]
+    for f in hits:
+        rec = f["evidence"]["holiday_merge"]
+        assert rec["merged"] is False and rec["dates"] == WEEK3 + WEEK4
+        assert [p["dates"] for p in rec["parts"]] == [WEEK3, WEEK4]
+    assert sum(t.cause == "internal_gain_schedule" for t in rep.model.terms) == 2
+    assert rep.format().count("one holiday on 10 weekdays, found as 2 terms: kept as 2 terms (one holiday)") == 2
