@@ -112,6 +112,8 @@ def _brief(c: dict) -> dict:
         "cv_gain_percent": cv.get("gain_percent"),
         "cv_se_percent": cv.get("se_percent"),
         "cv_t": cv.get("t"),
+        # a holiday's merge test (session 20) and the held-out weekdays named as looking like it (never fitted)
+        **{k: v for k, v in (c.get("evidence") or {}).items() if k in ("holiday_merge", "heldout_lookalike")},
     }
 
 

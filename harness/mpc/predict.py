@@ -645,6 +645,9 @@ def model_equations(model):
             pass
         except ModelError as exc:  # e.g. calendar terms: no time-invariant equations, but a probed step may be
             refused = exc
+            eq = equations_beside_calendar(model)
+            if eq is not None:
+                return eq
     if hasattr(model, "step_state") and hasattr(model, "gains") and hasattr(model, "n_states"):
         try:
             return probe_equations(model)
@@ -655,6 +658,40 @@ def model_equations(model):
     if refused is not None:
         raise refused
     return None
+
+
+def equations_beside_calendar(model):
+    """The equations of an extended model without its calendar terms (holidays, a daylight-saving shift), or None.
+
+    Calendar terms act on the internal gains only (``gains_at``, which the controller's gain forecast reads: the
+    adapter's ``Q``), not on the step: the model's ``step_state`` at given gains is that of the model without them.
+    Their ``add_equations`` refuses because time-invariant equations alone would lose the calendar (an FMU exported
+    from them); for a predictor fed the calendar's gains they are exact, and :func:`check_equations` verifies it
+    against the full model's step. None when the model has no calendar term, or the rest gives no equations (a
+    probed step then decides, as before). Needed where the rest has a switch the probe cannot read (the diagnosis's
+    on/off reheat beside a holiday, ``benchmarks/holmerge_s20.md``).
+    """
+    import dataclasses
+
+    import pandas as pd
+
+    from hvacfmu.models.equations import check_equations
+
+    terms = tuple(getattr(model, "terms", ()) or ())
+    gains = getattr(model, "gains", None)
+    if not terms or not gains or not dataclasses.is_dataclass(model):
+        return None
+    profile = np.zeros_like(np.asarray(next(iter(gains.values())), dtype=float))
+    probe = pd.DatetimeIndex(["2025-01-06 00:00"], tz="UTC")
+    calendar = [t for t in terms if t.gain_adjustment(probe, profile, float(model.step)) is not None]
+    if not calendar:
+        return None
+    try:
+        eq = dataclasses.replace(model, terms=tuple(t for t in terms if all(t is not c for c in calendar))).equations()
+        check_equations(model, eq)
+    except (ModelError, NotImplementedError):
+        return None
+    return eq
 
 
 def probe_equations(model):

@@ -12,7 +12,8 @@ import numpy as np
 
 from ..data.idle import hold_idle_supply, idle_supply_rule, unit_off_bounds
 from ..errors import DataError, HvacfmuWarning
-from ..models.extended import ExtendedModel
+from ..models.causes.internal_gain_schedule import dst_shift_of, heldout_lookalike
+from ..models.extended import ExtendedModel, InternalGainSchedule
 from ..models.loadcheck import model_problems
 from ..models.plausibility import memory_warnings
 from ..threads import one_blas_thread
@@ -159,6 +160,7 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     # --- residuals of the final model ------------------------------------------------------
     r1_final, rol_final, white_after = _residuals(sig, final, dataset, starts, seasons, opts["horizon"], train_rows)
     after = R.breakdown(rol_final, ctx, sig.zones, sig.week >= 0)
+    _heldout_holidays(sig, final, findings, r1_final, opts, notes)
     errors["open_loop_after"] = {"zone": after["zone"], "hour": after["hour"]}
     unexplained = _unexplained(white_after)
 
@@ -396,6 +398,35 @@ def _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle=None) 
         },
     )
     return final
+
+
+def _heldout_holidays(sig, final, findings, r1_final, opts, notes) -> None:
+    """Held-out weekdays that look like a holiday on the final model's residuals, when a holiday was found (in place).
+
+    Named in the holiday findings' evidence (``heldout_lookalike``) and in a note, never added to the model's
+    calendar (:func:`~hvacfmu.models.causes.internal_gain_schedule.heldout_lookalike`).
+    """
+    hol = [c for c in findings if isinstance(c.term, InternalGainSchedule) and c.term.variant == "holiday"]
+    if not hol:
+        return
+    known = frozenset(
+        d for t in final.terms if isinstance(t, InternalGainSchedule) and t.variant == "holiday" for d in t.dates
+    )
+    sig_f = dataclasses.replace(
+        sig, base_profiles={s: np.asarray(final.base.gains[s]) for s in sig.seasons if s in final.base.gains}
+    )
+    look = heldout_lookalike(sig_f, r1_final, opts, known=known, shift=dst_shift_of(final.terms))
+    if not look.get("dates"):
+        return
+    for c in hol:
+        c.evidence["heldout_lookalike"] = look
+    weeks = "; ".join(
+        f"{w['dates'][0]}…{w['dates'][-1]} ({len(w['dates'])} d, γ {w['gamma']:.2f})" for w in look["weeks"]
+    )
+    notes.append(
+        f"also looks like a holiday: {weeks} in held-out weeks (the holiday screen's rules on the final model's "
+        "one-step residuals): not used in fitting; the held-out RMS is measured without them in the holiday calendar"
+    )
 
 
 def _unexplained(white_after: dict) -> list:

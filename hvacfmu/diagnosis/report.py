@@ -325,8 +325,14 @@ def _finding_lines(i: int, f: dict) -> list:
     if t.get("open_loop_only"):  # a limiter (held_setpoint): no one-step regressor, cross-validated open loop only
         L.append("    test: open-loop cross-validation only (a limiter leaves the one-step prediction unchanged)")
     else:
+        hm = (f.get("evidence") or {}).get("holiday_merge") or {}
+        of = (
+            f" (its first part, {hm['parts'][0]['dates'][0]}…{hm['parts'][0]['dates'][-1]})"
+            if hm.get("merged") and hm.get("parts")
+            else ""
+        )
         L.append(
-            f"    test: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
+            f"    test{of}: LR {t['lr']:.1f} (autocorrelation-adjusted {t['lr_adjusted']:.1f}), "
             f"dof {t['dof']}, ΔBIC {t['delta_bic']:.1f}"
         )
     ev = _short_evidence(f)
@@ -334,6 +340,7 @@ def _finding_lines(i: int, f: dict) -> list:
         L.append(f"    evidence: {ev}")
     if f.get("parameters"):
         L.append(f"    parameters: {_fmt_params(f['parameters'])}")
+    L += _holiday_lines(f.get("evidence") or {})
     cv = f.get("cv") or {}
     if cv.get("gain_percent") is not None:
         L.append(
@@ -369,6 +376,37 @@ def _finding_lines(i: int, f: dict) -> list:
     if h.get("zones"):
         zz = ", ".join(f"{z} {v['before']:.3f}->{v['after']:.3f}" for z, v in h["zones"].items())
         L.append(f"    held-out RMS [K]: {zz}; gain {h['gain_percent']:.1f} %")
+    return L
+
+
+def _holiday_lines(ev: dict) -> list:
+    """A holiday's parts (found week by week, merged or kept apart) and held-out weekdays that look like it."""
+    L = []
+    hm = ev.get("holiday_merge")
+    if hm:
+
+        def pct(r):
+            return "n/a" if r.get("gain_percent") is None else f"{r['gain_percent']:+.1f} ± {r['se_percent']:.1f} %"
+
+        head = "merged into this one term" if hm["merged"] else f"kept as {len(hm['parts'])} terms (one holiday)"
+        L.append(
+            f"    one holiday on {len(hm['dates'])} weekdays, found as {len(hm['parts'])} terms: {head}; {hm['why']}"
+        )
+        for p in hm["parts"]:
+            L.append(
+                f"      part {p['dates'][0]}…{p['dates'][-1]} ({len(p['dates'])} d): when found"
+                + ("" if p.get("delta_bic") is None else f" ΔBIC {p['delta_bic']:.1f},")
+                + f" {pct(p['cv_when_found'])}"
+                f", merged term on its days {pct(p['merged_over_none_on_its_days'])}"
+            )
+    look = ev.get("heldout_lookalike") or {}
+    if look.get("dates"):
+        weeks = "; ".join(
+            f"{w['dates'][0]}…{w['dates'][-1]} ({len(w['dates'])} d, γ {w['gamma']:.2f})" for w in look["weeks"]
+        )
+        L.append(
+            f"    also looks like a holiday (held-out weeks, final model's residuals): {weeks}; not used in fitting"
+        )
     return L
 
 

@@ -963,6 +963,20 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             c.term = next(
                 (t for t in cur.model.terms if t.cause == c.term.cause and t.location() == c.term.location()), c.term
             )
+    merge = _merge_holidays(_round_signals(sig0, cur, fixed_profiles), plan, terms, findings, opts, fixed_profiles)
+    if merge is not None and merge["merged"]:
+        fit = fit_consistent(_round_signals(sig0, cur, fixed_profiles), merge["terms"], rows, fixed_profiles is None)
+        failing = _new_load_problems(fit.model, base_fails)
+        if failing:
+            merge.update(
+                merged=False, why="the refit with the merged term fails the load checks: " + "; ".join(failing)
+            )
+        else:
+            prev_ho, cur_ho, cur, terms = cur_ho, ho.rms(fit.model), fit, merge["terms"]
+            findings = _merged_finding(sig, findings, merge, cur.model, ho.compare, prev_ho, cur_ho)
+    if merge is not None and not merge["merged"]:
+        for c in merge["parts"]:
+            c.evidence["holiday_merge"] = _merge_record(merge)
     budget = {
         "max_terms": int(opts["max_terms"]),
         "rule": "given" if given_budget else f"max({MIN_TERMS}, {TERMS_PER_ZONE} × {sig.nz} zones)",
@@ -979,6 +993,145 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
     seen = {c.key for c in others}
     others += [c for c in rejected_cands if c.key not in seen and not seen.add(c.key)]
     return SelectionResult(terms, findings, others, cur, ref_fit, ref_ho, cur_ho, rounds, budget)
+
+
+#: A holiday found as several terms (one per week, accepted in different rounds; ``benchmarks/holgrow_s19.md``) is
+#: merged into one term on the union of their dates unless the separate terms beat the merged one by the acceptance
+#: gate (:func:`~hvacfmu.diagnosis.crossval.passes_gate`: gain ≥ ``cv_min_gain_percent``, ≥ ``min_gain_abs`` and
+#: paired t ≥ ``cv_min_t``), each active training day held out alone (:func:`~hvacfmu.diagnosis.crossval.day_plan`):
+#: one coefficient per zone for one effect unless the data show the weeks differ (``benchmarks/holmerge_s20.md``).
+HOLIDAY_MERGE_RULE = (
+    "merged into one term on the union of the dates unless the separate terms beat it on the active days, each held "
+    "out alone, by the acceptance gate (gain >= cv_min_gain_percent and min_gain_abs, paired t >= cv_min_t)"
+)
+
+
+def _merge_holidays(sig: Signals, plan, terms, findings, opts, fixed_profiles) -> dict | None:
+    """Whether the holiday terms the selection accepted (two or more) merge into one term (:data:`HOLIDAY_MERGE_RULE`).
+
+    The holidays of a given base model are not touched. Each active training day (a 24-hour window a holiday acts on)
+    is predicted by the structure fitted on every other training row three ways: without the selection's holidays,
+    with them apart and with the merged term. Returns None when there is nothing to merge (fewer than two holiday
+    findings, different reference days or clocks, no cross-validation plan, fewer than 3 active days), else
+    ``{"merged", "terms", "parts", "term", "split", "cv", "cv_apart", "by_part", "why"}``: ``split`` is the paired
+    test of keeping them apart against the merge (its gain is what separate coefficients add), ``cv`` the merged
+    term's against none, ``by_part`` that gain on each part's days.
+    """
+    parts = [c for c in findings if _is_holiday(c.term)]
+    if len(parts) < 2 or plan is None or len({(c.term.ref_weekday, c.term.shift) for c in parts}) > 1:
+        return None
+    own = {tuple(c.term.dates) for c in parts}
+    first = next(i for i, t in enumerate(terms) if _is_holiday(t) and tuple(t.dates) in own)
+    dates = tuple(sorted({d for c in parts for d in c.term.dates}))
+    merged = dataclasses.replace(parts[0].term, dates=dates, coef=tuple(0.0 for _ in parts[0].term.coef), std={})
+    without = [t for t in terms if not (_is_holiday(t) and tuple(t.dates) in own)]
+    together = without[:first] + [merged] + without[first:]
+    on = np.zeros(len(sig.Y), bool)
+    for f in term_features(sig, merged, sig.U):
+        on |= np.nan_to_num(np.abs(f[2])) > 0
+    cum = np.concatenate([[0], np.cumsum(on)])
+    starts = np.concatenate(plan.starts)
+    starts = starts[(cum[np.minimum(starts + plan.horizon, len(on))] - cum[starts]) > 0]
+    if len(starts) < 3:
+        return None
+    key = tuple(sorted(set(_affected(sig, merged))))
+    dplan = day_plan(sig, starts, plan.horizon)
+
+    def scores(ts):
+        return fold_scores(sig, dplan, fold_fits(sig, dplan, ts, key), key)
+
+    none, apart, one = scores(without), scores(terms), scores(together)
+    every = [np.ones(1, bool)] * len(starts)
+    split = paired_test_days(dplan, one, apart, every)
+    day_of = [sig.index[st].date().isoformat() for st in starts]
+    by_part = [paired_test_days(dplan, none, one, [np.array([d in set(c.term.dates)]) for d in day_of]) for c in parts]
+    fails = gate_failures(split, opts)
+    out = {
+        "merged": bool(fails),
+        "terms": together,
+        "parts": parts,
+        "term": merged,
+        "split": split,
+        "cv": {**paired_test_days(dplan, none, one, every), "folds": "one per active day"},
+        "cv_apart": {**paired_test_days(dplan, none, apart, every), "folds": "one per active day"},
+        "by_part": by_part,
+    }
+    if fails:
+        out["why"] = "separate terms do not pass the gate against the merged one: " + "; ".join(fails.values())
+    else:
+        out["why"] = (
+            f"the separate terms beat the merged one by {split['gain_percent']:.1f} ± {split['se_percent']:.1f} % "
+            f"(t {split['t']:.1f}) on the active days: the weeks differ"
+        )
+    return out
+
+
+def _merge_record(merge: dict) -> dict:
+    """The JSON-ready record of a holiday merge test (:func:`_merge_holidays`), with each part's dates and gains."""
+
+    def brief(r):
+        return {k: r.get(k) for k in ("n_days", "gain_percent", "se_percent", "t", "gain_abs", "folds") if k in r}
+
+    return {
+        "rule": HOLIDAY_MERGE_RULE,
+        "merged": merge["merged"],
+        "why": merge["why"],
+        "dates": list(merge["term"].dates),
+        "apart_over_merged": brief(merge["split"]),
+        "merged_over_none": brief(merge["cv"]),
+        "apart_over_none": brief(merge["cv_apart"]),
+        "parts": [
+            {
+                "dates": list(c.term.dates),
+                "delta_bic": c.test.get("delta_bic"),
+                "cv_when_found": brief(decisive_cv(c)),
+                "merged_over_none_on_its_days": brief(r),
+                "coef": c.term.coefficients().get("coef"),
+                "reason": c.reason,
+            }
+            for c, r in zip(merge["parts"], merge["by_part"])
+        ],
+    }
+
+
+def _merged_finding(sig: Signals, findings, merge: dict, model, compare, prev_ho, cur_ho) -> list:
+    """``findings`` with the merged holiday (one candidate, at the first part's place) instead of its parts."""
+    parts = merge["parts"]
+    first = parts[0]
+    term = next(
+        (t for t in model.terms if _is_holiday(t) and tuple(t.dates) == tuple(merge["term"].dates)), merge["term"]
+    )
+    rec = _merge_record(merge)
+    cv = merge["cv"]
+    c = cand.Candidate(
+        first.cause,
+        {"variant": "holiday", "dates": list(term.dates)},
+        [merge["term"]],
+        first.hyper,
+        status="found",
+        evidence={**first.evidence, "holiday_merge": rec},
+        test=dict(first.test),
+        term=term,
+        cv=cv,
+    )
+    c.reason = (
+        f"one holiday on {len(term.dates)} weekdays, found as {len(parts)} terms in separate rounds and merged "
+        f"({rec['why']}); cross-validated gain {cv['gain_percent']:.1f} ± {cv['se_percent']:.1f} % over "
+        f"{cv['n_days']} active days, each held out alone, paired t = {cv['t']:.1f}; by part: "
+        + "; ".join(
+            f"{p['dates'][0]}…{p['dates'][-1]} ({len(p['dates'])} d) "
+            + ("n/a" if (g := p["merged_over_none_on_its_days"].get("gain_percent")) is None else f"{g:+.1f} %")
+            for p in rec["parts"]
+        )
+    )
+    c.heldout = compare(prev_ho, cur_ho, _affected(sig, term), term, sig)
+    out = []
+    for f in findings:
+        if f is first:
+            out.append(c)
+        elif f not in parts:
+            out.append(f)
+    return out
 
 
 #: Status of a candidate significant against the final model that the term budget left untried.

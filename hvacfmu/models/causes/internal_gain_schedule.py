@@ -639,6 +639,68 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
     )
 
 
+def heldout_lookalike(sig, resid_all: np.ndarray, options: dict, known=frozenset(), shift: int = 0) -> dict:
+    """Held-out weekdays that look like a holiday on a final model's one-step residuals: named, never fitted.
+
+    The holiday screen reads the training weeks only (:func:`holiday_candidate`), so a holiday spanning a training and
+    a held-out week is fitted on its training days alone. Here the screen's rules (:func:`_pick_days`) run on the
+    final model's one-step residuals ``resid_all`` over the training and held-out weekdays together (the model's
+    holiday ``known`` dates left out), and the picks that fall in held-out weeks are returned, each held-out week's
+    picks kept only when they reach the scale gate any holiday term must pass (``holiday_min_scale``, on
+    :func:`one_sided_departure`: checked battery case 12's held-out week 11, between its holiday weeks 10 and 12,
+    passes the week rule at γ 0.27, z 4.0, and is no holiday) and their mean departure keeps :data:`SUN_KEEP` of it on
+    the residual less the facades' irradiance anomaly (a dark week is the weather). Adding these dates to the model's holiday term would choose the
+    held-out calendar by looking at the held-out data, so the term's dates stay the training ones (the held-out RMS
+    is then what a user without that calendar gets) and the dates are reported for the user to check.
+
+    Returns
+    -------
+    dict
+        ``{}`` without held-out weekdays, else ``dates`` (ISO, sorted), ``weeks`` (``week``, ``dates``, ``gamma``:
+        the picked days' mean departure scale, ``gamma_sun``, ``scale``: the one-sided departure the gate reads),
+        ``weather_explained`` (weeks dropped by the sun check), ``below_scale`` (weeks below the gate) and ``rule``.
+    """
+    train, test = sig.rows("train"), sig.rows("test")
+    if len(test) == 0 or resid_all is None or sig.n_tow % 7:
+        return {}
+    rows = np.union1d(train, test)
+    deps = [d for d in day_departures(sig, resid_all, rows=rows, shift=shift) if d["date"] not in known]
+    test_dates = {d.isoformat() for d in np.unique(np.array(sig.index[test].date))}
+    if not any(d["date"] in test_dates for d in deps) or len(deps) < 10:
+        return {}
+    pick = _pick_days(sig, deps, options)
+    hits = sorted(d for d in pick["picked"] if d in test_dates)
+    gamma = {d["date"]: d["gamma"] for d in deps}
+    sun = sun_partialled(sig, resid_all, rows) if hits else None
+    gamma_sun = (
+        {d["date"]: d["gamma"] for d in day_departures(sig, sun, rows=rows, shift=shift)} if sun is not None else {}
+    )
+    weeks, dropped, below = [], [], []
+    for wk, ds in pick["by_week"].items():
+        days = sorted(d["date"] for d in ds if d["date"] in hits)
+        if not days:
+            continue
+        g = float(np.mean([gamma[d] for d in days]))
+        gs = float(np.mean([gamma_sun[d] for d in days if d in gamma_sun])) if gamma_sun else None
+        scale = one_sided_departure(deps, days)
+        rec = {"week": int(wk), "dates": days, "gamma": g, "gamma_sun": gs, "scale": scale}
+        if not scale >= options["holiday_min_scale"]:
+            below.append(rec)
+            continue
+        (weeks if gs is None or gs >= SUN_KEEP * g else dropped).append(rec)
+    return {
+        "dates": sorted(d for w in weeks for d in w["dates"]),
+        "weeks": sorted(weeks, key=lambda w: w["week"]),
+        "weather_explained": sorted(dropped, key=lambda w: w["week"]),
+        "below_scale": sorted(below, key=lambda w: w["week"]),
+        "rule": "the holiday screen's day and week rules on the final model's one-step residuals over the training "
+        "and held-out weekdays (the model's holiday dates left out), picks in held-out weeks; each week's picks reach "
+        f"the scale gate holiday_min_scale {options['holiday_min_scale']:g} (each zone's departure floored at 0) and "
+        f"keep {SUN_KEEP:g} of their departure on the residual less the facades' irradiance anomaly. Not used in "
+        "fitting",
+    }
+
+
 def holiday_groups(weeks, zone_weeks, singles, by_week) -> list:
     """The screen's picks as the groups the scale gate judges one by one (:mod:`hvacfmu.diagnosis.selection`).
 
