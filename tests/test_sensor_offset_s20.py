@@ -178,6 +178,12 @@ def test_truth_match_needs_the_zone_and_the_day():
     assert effect_matches(f("NE", "2025-10-18T09:00:00-07:00"), e, truth)
     assert not effect_matches(f("NE", "2025-10-18T11:00:00-07:00"), e, truth)
     assert not effect_matches(f("NW", "2025-10-17T10:00:00-07:00"), e, truth)
+    # bracketed between training days (a change inside a held-out week): the truth must lie inside the bracket
+    inside = f("NE", "2025-10-20T00:00:00-07:00")
+    inside["location"]["after"] = "2025-10-12T23:45:00-07:00"
+    assert effect_matches(inside, e, truth)
+    inside["location"]["after"] = "2025-10-19T23:45:00-07:00"
+    assert not effect_matches(inside, e, truth)
 
 
 def _diagnose(effects):
@@ -216,7 +222,7 @@ def test_diagnosis_names_an_injected_offset_at_its_zone_and_day():
     idx = pd.date_range("2025-10-16", periods=192, freq="15min", tz=ds.building.timezone)
     dq = ctl.gains_at(idx, "fall") - ctl.base.gains_at(idx, "fall")
     after = np.asarray(idx >= pd.Timestamp(t.start))
-    assert t.coef > 0.05 and np.all(dq[after, 1] == t.coef) and not dq[~after].any()
+    assert t.coef > 0.05 and np.allclose(dq[after, 1], t.coef, rtol=0, atol=1e-12) and not dq[~after].any()
 
 
 @pytest.mark.slow

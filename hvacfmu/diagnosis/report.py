@@ -491,6 +491,8 @@ def _short_evidence(f: dict) -> str:
 def sensor_offset_evidence(loc: dict, ev: dict) -> str:
     """The sensor-offset finding in words: zone, offset, date, what to check, and the numbers behind it."""
     when = str(loc.get("start", "?")).replace("T", " ")[:16]
+    if loc.get("after"):  # between training days: the change lies in the held-out week or gap before ``start``
+        when = f"between {str(loc['after']).replace('T', ' ')[:16]} and {when} (days without training data)"
     d = ev.get("offset_K")
     off = "?" if d is None else f"{d:+.2f}"
     text = (

@@ -61,10 +61,13 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
         err_s = abs(int(loc.get("delay", 0)) * float(step) - float(effect["minutes"]) * 60.0)
         return loc.get("zone") == effect["zone"] and err_s <= max(float(step), 900.0)
     if name == "sensor_offset":
-        # the right zone, its change within one day of the injected one
+        # the right zone, its change within one day of the injected one (or inside its bracket)
         if loc.get("zone") != effect["zone"] or not loc.get("start"):
             return False
-        return abs(pd.Timestamp(loc["start"]) - sensor_offset_time(truth, effect)) <= pd.Timedelta(days=1)
+        at, day = sensor_offset_time(truth, effect), pd.Timedelta(days=1)
+        if loc.get("after"):  # bracketed between training days: the true change inside the bracket
+            return pd.Timestamp(loc["after"]) - day <= at <= pd.Timestamp(loc["start"]) + day
+        return abs(pd.Timestamp(loc["start"]) - at) <= day
     if name == "internal_gain_schedule":
         kind = effect.get("kind", "holiday")
         if kind == "dst":
