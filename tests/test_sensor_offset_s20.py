@@ -186,13 +186,13 @@ def test_truth_match_needs_the_zone_and_the_day():
     assert not effect_matches(inside, e, truth)
 
 
-def _diagnose(effects):
+def _diagnose(effects, weeks=16):
     from hvacfmu.data import prepare
     from hvacfmu.diagnosis import diagnose
     from hvacfmu.diagnosis.truth import compare_with_truth
     from hvacfmu.emulator import cached_dataset
 
-    paths = cached_dataset(weeks=16, seed=5, layout="quad4", effects=effects)
+    paths = cached_dataset(weeks=weeks, seed=5, layout="quad4", effects=effects)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
         ds = prepare(paths.measurements, paths.building, step=900.0)
@@ -231,3 +231,15 @@ def test_diagnosis_names_no_offset_on_the_same_building_without_one():
     assert not [f for f in rep.findings if f["cause"] == "sensor_offset"], rep.summary()
     cands = [c for c in rep.to_dict()["candidates"] if c["cause"] == "sensor_offset"]
     assert cands and all(c["status"] == "no evidence" for c in cands)
+
+
+@pytest.mark.slow
+def test_a_change_inside_a_held_out_week_is_bracketed_not_placed():
+    """The same +2.5 K on day 65 (2025-11-05, inside the held-out week 11-03 .. 11-09): the training rows show no
+    jump, so the finding brackets the change by the training rows around that week and says so."""
+    rep, cmp, _ = _diagnose(["sensor_offset:delta=2.5,day=65"])
+    assert [e["name"] for e in cmp["found"]] == ["sensor_offset"], rep.summary()
+    assert cmp["unsupported"] == []
+    (f,) = [f for f in rep.findings if f["cause"] == "sensor_offset"]
+    assert f["location"]["after"][:10] == "2025-11-02" and f["location"]["start"][:10] == "2025-11-10"
+    assert "between 2025-11-02" in str(rep)
