@@ -60,7 +60,8 @@ LOCAL_DAYS = 3
 MIN_LOCAL_SHARE = 0.5
 #: share of the shift each half of the after-period must keep (persistent)
 MIN_PERSIST_SHARE = 0.5
-#: other zones' same-direction shift at the split, as a share of the zone's (one zone, not the floor)
+#: another zone moving against the rest at the split (or jumping at the step), as a share of the zone's move: the
+#: floor, not one zone
 MAX_OTHER_SHARE = 0.5
 #: a one-step residual this many robust standard deviations out marks the jump's row
 SPIKE_Z = 6.0
@@ -73,11 +74,6 @@ MIN_GAP_T = 10.0
 #: start: core9 case 3's C, stopped there only by the one-zone rule, SE and SW moving 0.76 / 0.64 K against 0.58)
 MIN_GAP_OFFSET_K = 1.5
 MIN_GAP_LOCAL_SHARE = 0.8
-
-
-def _ts(text) -> pd.Timestamp | None:
-    t = pd.Timestamp(text)
-    return None if t is pd.NaT else t
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,7 +173,7 @@ class SensorOffset(Term):
 
 
 def _day_means(day: np.ndarray, r: np.ndarray, min_rows: int):
-    """Days (sorted) with at least ``min_rows`` finite residuals, their means and variances."""
+    """Days (sorted) with at least ``min_rows`` finite values of ``r``, their means and row counts."""
     ok = np.isfinite(r)
     d, r = day[ok], r[ok]
     if not len(d):
@@ -293,13 +289,11 @@ def offset_candidate(sig, R: np.ndarray, zi: int) -> Candidate | None:
         "residual_mad_K": mad,
     }
     u = np.asarray(sig.U, float)[:, zi]
-    on = np.arange(len(u)) >= k0
     pre, post = pre_rows & np.isfinite(u), post_rows & np.isfinite(u)
     if pre.any() and post.any():
         # a set point moved by the offset changes the airflow; a sensor read by no controller does not
         ev["airflow_local_before"] = float(u[pre].mean())
         ev["airflow_local_after"] = float(u[post].mean())
-    del on
     loc = {"zone": z, "start": start}
     if bracket is not None:
         loc["after"] = bracket  # the change lies between the last training row before and ``start``
