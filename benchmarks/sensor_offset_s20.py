@@ -37,6 +37,10 @@ CASES = [
     ("quad4", 5, 900.0, "sensor_offset:delta=0.7"),
     ("quad4", 5, 900.0, "sensor_offset:delta=2.5,day=65"),
     ("quad4", 5, 900.0, "sensor_offset:delta=-2.5,day=30,hour=3"),
+    # the low end of 1.5 - 3 K on more seeds
+    ("quad4", 21, 900.0, "sensor_offset:delta=1.5"),
+    ("core9", 22, 900.0, "sensor_offset:delta=-1.5"),
+    ("row4", 23, 900.0, "sensor_offset:delta=1.5"),
 ]
 
 
