@@ -73,7 +73,7 @@ def native_equations(model, model_name="the model"):
     if calendar_dependent(without_holidays(model)):
         raise FMUError(
             f"cannot export {model_name} as a native FMU: its internal gains depend on the calendar "
-            "(holidays or daylight-saving terms), which the native FMU does not compute; export the "
+            "(holidays, daylight-saving or sensor-offset terms), which the native FMU does not compute; export the "
             "pythonfmu FMU instead (without --native; its calendar's time zone from --timezone or the building "
             "file, -b)"
         )

@@ -9,7 +9,8 @@ gain, forward selection), :mod:`.report` (text, JSON schema ``hvacfmu.diagnosis/
 and :mod:`.plots` (figures, matplotlib Agg).
 
 Cause ids: ``solar_gain``, ``supply_air_bilinear``, ``zone_coupling``,
-``thermal_mass``, ``internal_gain_schedule``, ``actuation_delay``, ``reheat``.
+``thermal_mass``, ``internal_gain_schedule``, ``actuation_delay``, ``reheat``,
+``unused_input``, ``wind_infiltration``, ``sensor_offset``, ``held_setpoint`` (:data:`CAUSES`).
 """
 
 from ..models.extended import CAUSES

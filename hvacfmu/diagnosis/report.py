@@ -448,6 +448,8 @@ def _short_evidence(f: dict) -> str:
             f"corr(residual, I) {ev.get('corr', float('nan')):+.2f}; mean one-step residual sunny "
             f"{(s.get('mean') or 0):+.4f} K vs cloudy {(cl.get('mean') or 0):+.4f} K" + ph
         )
+    if c == "sensor_offset":
+        return sensor_offset_evidence(f["location"], ev)
     if c == "unused_input":
         return (
             f"column {ev.get('column')} (coverage {100 * (ev.get('coverage') or 0):.0f} %): corr(residual, column) "
@@ -522,6 +524,31 @@ def _short_evidence(f: dict) -> str:
     if c == "held_setpoint":
         return held_evidence(ev)
     return ""
+
+
+def sensor_offset_evidence(loc: dict, ev: dict) -> str:
+    """The sensor-offset finding in words: zone, offset, date, what to check, and the numbers behind it."""
+    when = str(loc.get("start", "?")).replace("T", " ")[:16]
+    if loc.get("after"):  # between training days: the change lies in the held-out week or gap before ``start``
+        when = f"between {str(loc['after']).replace('T', ' ')[:16]} and {when} (days without training data)"
+    d = ev.get("offset_K")
+    off = "?" if d is None else f"{d:+.2f}"
+    text = (
+        f"zone {loc.get('zone')} reads {off} K from {when} on (a re-calibrated/replaced sensor, or a changed "
+        "setpoint offset): check the sensor's history; "
+    )
+    text += f"its level against the other zones splits there (t {ev.get('split_t', float('nan')):.1f})"
+    p = ev.get("persist_halves_K")
+    if p:
+        text += f", kept {p[0]:+.2f} / {p[1]:+.2f} K over the halves after"
+    if ev.get("jump_residual_K") is not None:
+        text += f"; one-step residual at the jump {ev['jump_residual_K']:+.2f} K"
+    if ev.get("airflow_local_before") is not None:
+        text += (
+            f"; the zone's airflow {ev['airflow_local_before']:.3f} -> {ev['airflow_local_after']:.3f} kg/s over the "
+            "days around it (a set point moved by the offset would change it; weather changes it too)"
+        )
+    return text
 
 
 def held_evidence(ev: dict) -> str:

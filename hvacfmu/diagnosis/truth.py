@@ -30,6 +30,16 @@ def _holiday_dates(truth, effect) -> set:
     return out
 
 
+def sensor_offset_time(truth, effect) -> pd.Timestamp:
+    """The instant an injected ``sensor_offset`` starts (``hvacfmu.emulator.effects.sensor_offset_time``; repeated
+    here: the diagnosis reads only truth.json): ``day`` days after the first local midnight, at ``hour``."""
+    tz = truth.get("timezone", "UTC")
+    t0 = pd.Timestamp(truth.get("start", "2025-09-01"))
+    t0 = t0.tz_localize(tz) if t0.tzinfo is None else t0.tz_convert(tz)
+    day = (t0.normalize() + pd.Timedelta(days=int(effect["day"]))).tz_localize(None)
+    return (day + pd.Timedelta(hours=float(effect.get("hour", 10.0)))).tz_localize(tz, nonexistent="shift_forward")
+
+
 def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0) -> bool:
     """True if ``finding`` (a report finding dict) names ``effect``'s cause and location.
 
@@ -50,6 +60,14 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
         # within one step or 15 minutes, whichever is longer (the same tolerance in time at 5 and 15 min)
         err_s = abs(int(loc.get("delay", 0)) * float(step) - float(effect["minutes"]) * 60.0)
         return loc.get("zone") == effect["zone"] and err_s <= max(float(step), 900.0)
+    if name == "sensor_offset":
+        # the right zone, its change within one day of the injected one (or inside its bracket)
+        if loc.get("zone") != effect["zone"] or not loc.get("start"):
+            return False
+        at, day = sensor_offset_time(truth, effect), pd.Timedelta(days=1)
+        if loc.get("after"):  # bracketed between training days: the true change inside the bracket
+            return pd.Timestamp(loc["after"]) - day <= at <= pd.Timestamp(loc["start"]) + day
+        return abs(pd.Timestamp(loc["start"]) - at) <= day
     if name == "internal_gain_schedule":
         kind = effect.get("kind", "holiday")
         if kind == "dst":

@@ -40,6 +40,12 @@ effect                       parameters (default)
                              occupant's space heater or a frost-protection loop; needs
                              ``generate(schedule="night-off")`` (boxes are never shut otherwise).
                              Diagnosis cause ``reheat`` at the zone (its box-off variant)
+``sensor_offset``            ``zone`` (random), ``delta`` [K] added to the zone's *measured* temperature
+                             (2.0) from ``day`` (random, in the middle half of the dataset; days
+                             from the first midnight) at ``hour`` (10.0, local) on: a sensor
+                             re-calibrated or replaced, a BMS point re-mapped. The plant and its
+                             controllers are unchanged (they act on the true room temperature); only
+                             the exported column reads ``+delta``. Requested only (not drawn by fleets)
 ============================ ==================================================================
 """
 
@@ -48,6 +54,7 @@ from __future__ import annotations
 import zlib
 
 import numpy as np
+import pandas as pd
 
 from ..errors import HvacfmuError, problems_message
 
@@ -63,7 +70,9 @@ EFFECT_NAMES = (
 #: Effects that need a non-default ``generate(schedule=...)`` (kept out of :data:`EFFECT_NAMES`, which every
 #: dataset accepts and ``generate-fleet`` draws from, so fleets and seeds are unchanged).
 SCHEDULE_EFFECTS = ("off_hours_heater",)
-ALL_EFFECT_NAMES = EFFECT_NAMES + SCHEDULE_EFFECTS
+#: Effects on the measurements only (kept out of :data:`EFFECT_NAMES` too: fleets and battery draws are unchanged).
+MEASUREMENT_EFFECTS = ("sensor_offset",)
+ALL_EFFECT_NAMES = EFFECT_NAMES + SCHEDULE_EFFECTS + MEASUREMENT_EFFECTS
 
 #: Diagnosis cause id of every effect whose name is not itself a cause id.
 EFFECT_CAUSES = {"off_hours_heater": "reheat"}
@@ -77,6 +86,7 @@ EFFECT_DEFAULTS = {
     "thermal_mass": {"capacitance": 2.0e8, "ua": 1000.0},
     "wind_infiltration": {"ua": 40.0},
     "off_hours_heater": {"power": 2000.0, "below": 5.0},
+    "sensor_offset": {"delta": 2.0, "hour": 10.0},
 }
 EFFECT_KEYS = {
     "solar_gain": {"zone", "facade", "shgc", "scale"},
@@ -87,6 +97,7 @@ EFFECT_KEYS = {
     "thermal_mass": {"zone", "capacitance", "ua"},
     "wind_infiltration": {"zone", "ua"},
     "off_hours_heater": {"zone", "power", "below"},
+    "sensor_offset": {"zone", "delta", "day", "hour"},
 }
 
 
@@ -324,6 +335,30 @@ def _resolve_wind_infiltration(e, r, rng, ctx, where, problems) -> None:
         problems.append(f"{where}: ua must be > 0 W/K per m/s, got {r['ua']!r}")
 
 
+def _resolve_sensor_offset(e, r, rng, ctx, where, problems) -> None:
+    if "zone" not in e:
+        r["zone"] = str(rng.choice(ctx["zones"]))
+    _check_zone(r["zone"], ctx["zones"], where, problems)
+    days = 7 * int(ctx["weeks"])
+    if "day" not in e:
+        r["day"] = float(rng.integers(days // 4, max(days // 4 + 1, (3 * days) // 4)))
+    d, h = r["day"], r["hour"]
+    if not isinstance(d, float) or d != int(d) or not 0 < d < days:
+        problems.append(f"{where}: day must be a whole day number in 1..{days - 1}, got {d!r}")
+    if not isinstance(h, float) or not 0.0 <= h < 24.0:
+        problems.append(f"{where}: hour must be in [0, 24), got {h!r}")
+    if not isinstance(r["delta"], float) or r["delta"] == 0.0 or abs(r["delta"]) > 20.0:
+        problems.append(f"{where}: delta must be a non-zero offset within ±20 K, got {r['delta']!r}")
+
+
+def sensor_offset_time(start, timezone: str, effect: dict) -> pd.Timestamp:
+    """The local instant a ``sensor_offset`` effect starts: ``day`` days after the first midnight at ``hour``."""
+    t0 = pd.Timestamp(start)
+    t0 = t0.tz_localize(timezone) if t0.tzinfo is None else t0.tz_convert(timezone)
+    day = (t0.normalize() + pd.Timedelta(days=int(effect["day"]))).tz_localize(None)
+    return (day + pd.Timedelta(hours=float(effect["hour"]))).tz_localize(timezone, nonexistent="shift_forward")
+
+
 _RESOLVERS = {
     "solar_gain": _resolve_solar_gain,
     "zone_coupling": _resolve_zone_coupling,
@@ -333,6 +368,7 @@ _RESOLVERS = {
     "thermal_mass": _resolve_thermal_mass,
     "wind_infiltration": _resolve_wind_infiltration,
     "off_hours_heater": _resolve_reheat,  # the same parameters: zone, power [W], below [°C]
+    "sensor_offset": _resolve_sensor_offset,
 }
 
 

@@ -16,7 +16,7 @@ import pandas as pd
 from ..building import building_from_dict
 from .building import TRUE_PARAMETERS, building_dict, true_building_dict
 from .controllers import NIGHT_OFF, REHEAT_MODE_AHUS, SCHEDULES
-from .effects import EmulatorError, parse_effect, resolve_effects
+from .effects import EmulatorError, parse_effect, resolve_effects, sensor_offset_time
 from .export import (
     UNITS_TABLE,
     apply_faults,
@@ -343,6 +343,10 @@ def _measured_frame(sim: dict, truth: dict) -> pd.DataFrame:
     cols = {"time": _iso_times(index)}
     nz = NOISE["T_zone"]
     Tn = sim["T_zone"] + rng.normal(0.0, nz["std"], sim["T_zone"].shape)
+    for e in truth.get("effects", []):
+        if e["name"] == "sensor_offset":  # the measured column only: the plant's controllers read the true room
+            on = np.asarray(index >= sensor_offset_time(truth["start"], truth["timezone"], e))
+            Tn[on, zones.index(e["zone"])] += e["delta"]
     for i, z in enumerate(zones):
         cols[f"T_{z}"] = _quantise(Tn[:, i], nz["quantum"])
     nm = NOISE["m_vav"]

@@ -100,7 +100,7 @@ def calendar_dependent(model) -> bool:
 
     That is a model overriding :meth:`~hvacfmu.models.ZoneModel.gains_at` with
     calendar terms: an ``internal_gain_schedule`` term (holidays, daylight-saving
-    shift), or gains that differ from the seasonal time-of-week profile on some
+    shift) or a ``sensor_offset`` (``Term.calendar``), or gains that differ from the seasonal time-of-week profile on some
     day of a year in UTC; or a model with a holiday calendar (``holidays``, the
     dataset's :class:`~hvacfmu.data.holidays.HolidayCalendar`).
     """
@@ -113,7 +113,7 @@ def calendar_dependent(model) -> bool:
         return True
     if type(model).gains_at is ZoneModel.gains_at:
         return False
-    if any(getattr(t, "cause", None) == "internal_gain_schedule" for t in getattr(model, "terms", ())):
+    if any(getattr(t, "calendar", False) for t in getattr(model, "terms", ())):
         return True
     index = pd.date_range("2025-01-06", "2026-01-05", freq=f"{int(model.step)}s", tz="UTC", inclusive="left")
     for season, prof in model.gains.items():

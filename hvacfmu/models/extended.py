@@ -37,6 +37,11 @@ cause it models (the cause ids of :mod:`hvacfmu.diagnosis`):
     [K per step per (m/s · K)]; its matrix form multiplies a disturbance by the state
     (``ModelEquations.Bxv``/``Bvv``).
 
+``sensor_offset``
+    a zone's measured column reads an offset from a date on (a sensor re-calibrated or replaced):
+    ``coef · 1[start <= t < end]`` into the zone [K per step], through the gains (``gains_at``), a calendar
+    term like a holiday.
+
 Hidden states (thermal masses, delayed inputs) are appended to the state after
 the zone temperatures; :meth:`ExtendedModel.output` returns the zone
 temperatures and :meth:`ExtendedModel.initial_state` estimates the hidden states
@@ -362,7 +367,7 @@ class ExtendedModel(ZoneModel):
         Raises
         ------
         ModelError
-            For calendar terms (holidays, daylight-saving shift): no time-invariant equations.
+            For calendar terms (holidays, daylight-saving shift, sensor offsets): no time-invariant equations.
         """
         from .equations import ModelEquations
 

@@ -25,6 +25,7 @@ from .base import Candidate, Term, term_params
 from .held_setpoint import HeldSetpoint
 from .internal_gain_schedule import InternalGainSchedule
 from .reheat import Reheat
+from .sensor_offset import SensorOffset
 from .solar_gain import SolarGain
 from .supply_air_bilinear import SupplyAirBilinear
 from .thermal_mass import ThermalMass
@@ -103,6 +104,7 @@ for _cls in (
     Reheat,
     UnusedInput,
     WindInfiltration,
+    SensorOffset,
     HeldSetpoint,
 ):
     register_cause(_cls)
@@ -113,6 +115,7 @@ __all__ = [
     "HeldSetpoint",
     "InternalGainSchedule",
     "Reheat",
+    "SensorOffset",
     "SolarGain",
     "SupplyAirBilinear",
     "Term",

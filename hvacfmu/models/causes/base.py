@@ -135,6 +135,9 @@ class Term:
     #: True for a term that limits the next zone temperature (``held_setpoint``): its :meth:`contribute` runs after
     #: every other term's
     limiter: ClassVar[bool] = False
+    #: True for a term that depends on the date (holidays, a daylight-saving shift, a sensor offset from a date on):
+    #: it acts through :meth:`gain_adjustment`, has no time-invariant matrix form, and its FMU reads the calendar
+    calendar: ClassVar[bool] = False
     #: searched hyper-parameters charged in the information criterion for one candidate
     std: dict = dataclasses.field(default_factory=dict, compare=False)
 

@@ -52,6 +52,7 @@ class InternalGainSchedule(Term):
 
     cause: ClassVar[str] = "internal_gain_schedule"
     description: ClassVar[str] = "holiday dates or a daylight-saving shift of the internal-gain schedule"
+    calendar: ClassVar[bool] = True
     variant: str = "holiday"
     zone_names: tuple = ()
     coef: tuple = ()
