@@ -683,7 +683,11 @@ def equations_beside_calendar(model):
         return None
     profile = np.zeros_like(np.asarray(next(iter(gains.values())), dtype=float))
     probe = pd.DatetimeIndex(["2025-01-06 00:00"], tz="UTC")
-    calendar = [t for t in terms if t.gain_adjustment(probe, profile, float(model.step)) is not None]
+    calendar = [
+        t
+        for t in terms
+        if getattr(t, "calendar", False) or t.gain_adjustment(probe, profile, float(model.step)) is not None
+    ]
     if not calendar:
         return None
     try:
