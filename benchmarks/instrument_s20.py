@@ -39,7 +39,9 @@ def _case(args) -> dict:
                 r = json.loads(line)
                 if r["case"]["id"] == args.only:
                     return r["checked"]
-    for c in bb.make_cases(args.cases, args.seed):
+    layouts = args.layouts.split(",") if args.layouts else None
+    step = None if args.step_min is None else 60.0 * args.step_min
+    for c in bb.make_cases(args.cases, args.seed, layouts, args.clean, args.pairs, step):
         if c["id"] == args.only:
             return c
     raise SystemExit(f"no case {args.only}")
@@ -128,6 +130,10 @@ def main() -> int:
     r.add_argument("--only", type=int, required=True, help="case id")
     r.add_argument("--seed", type=int, default=2026)
     r.add_argument("--cases", type=int, default=48)
+    r.add_argument("--layouts", default=None, help="as bench_diagnosis_battery.py (with --clean, --pairs, --step-min)")
+    r.add_argument("--clean", type=int, default=None)
+    r.add_argument("--pairs", type=int, default=None)
+    r.add_argument("--step-min", type=float, default=None)
     r.add_argument("--checked", default=None, help="the checked battery's case file (effect cases)")
     r.add_argument("--option", action="append", default=[], help="diagnose option key=JSON")
     r.add_argument("--profile", default=None)
