@@ -63,3 +63,62 @@ def test_fitted_values_match_lstsq(name, A):
 def test_fitted_values_without_columns():
     V = np.ones((5, 2))
     assert_allclose(fitted_values(np.empty((5, 0)), V), np.zeros((5, 2)), rtol=0, atol=0)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the first-stage F floor of the neighbour-held instrument (coupling_instrument_min_F)
+
+
+def _iv(t: float, coef: float, F: tuple, zones=("NW", "SE")) -> dict:
+    return {
+        "iv_coef": coef,
+        "iv_t": t,
+        **{f"iv_coef_{z}": coef for z in zones},
+        **{f"iv_first_F_{z}": f for z, f in zip(zones, F)},
+    }
+
+
+def _candidate(held_F: tuple, plain_t: float = -0.1):
+    """A coupling NW+SE scored zone by zone whose neighbour-held instrument passes its t (2.5) on a first stage of
+    first-stage F ``held_F`` (the false NW+SE of default battery 2027 clean case 11 under ``"replace"`` had a weak
+    held first stage in NW)."""
+    from types import SimpleNamespace
+
+    from hvacfmu.models.causes import ZoneCoupling
+
+    return SimpleNamespace(
+        cause="zone_coupling",
+        test={"delta_bic": 249.0},
+        evidence={
+            "scored_alone": True,
+            "symmetry_ratio": 1.0,
+            "instrument": _iv(plain_t, 0.01 * plain_t, (8.6, 36.0)),
+            "instrument_neighbours": _iv(2.5, 0.02, held_F),
+        },
+        term=ZoneCoupling(zone_a="NW", zone_b="SE", coef_ab=0.01, coef_ba=0.01),
+        status="not tested",
+        reason="",
+    )
+
+
+def _gate(c, **options):
+    from hvacfmu.diagnosis import selection as S
+
+    S._gate(c, {**S.DEFAULT_OPTIONS, **options})
+    return c
+
+
+def test_weak_held_first_stage_is_no_evidence():
+    """Fails on main (no floor): a held instrument passing its t on a first stage of F 5.8 accepted the pair."""
+    c = _gate(_candidate((5.8, 43.0)), coupling_instrument_neighbours="replace", coupling_instrument_min_F=10.0)
+    assert c.status == "no evidence"
+    assert "weak first stage" in c.reason and "5.8" in c.reason
+    # a strong first stage in both zones passes the same gate
+    c = _gate(_candidate((12.0, 43.0)), coupling_instrument_neighbours="replace", coupling_instrument_min_F=10.0)
+    assert c.status == "not tested"
+    # the floor applies where the held instrument gates: in the default mode too, behind a passing plain instrument
+    c = _gate(_candidate((5.8, 43.0), plain_t=3.0), coupling_instrument_min_F=10.0)
+    assert c.status == "no evidence" and "weak first stage" in c.reason
+    # and 0 is no floor
+    c = _gate(_candidate((5.8, 43.0)), coupling_instrument_neighbours="replace", coupling_instrument_min_F=0.0)
+    assert c.status == "not tested"

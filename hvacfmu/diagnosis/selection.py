@@ -106,6 +106,7 @@ DEFAULT_OPTIONS = {
     "coupling_instrument_hours": 6.0,
     "coupling_instrument_min_t": 2.0,
     "coupling_instrument_neighbours": True,
+    "coupling_instrument_min_F": 0.0,
     "horizon": None,
     "cv_folds": 10,
     "cv_min_gain_percent": 1.0,
@@ -1471,7 +1472,16 @@ def _instrumented_beyond_neighbours(c, opts) -> bool:
     iv = c.evidence.get("instrument_neighbours")
     if not opts.get("coupling_instrument_neighbours", True) or iv is None:
         return True
-    return iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"]
+    return iv["iv_coef"] > 0.0 and iv["iv_t"] >= opts["coupling_instrument_min_t"] and _held_first_stage_strong(c, opts)
+
+
+def _held_first_stage_strong(c, opts) -> bool:
+    """The neighbour-held instrument's first stage is strong in both zones of the pair: the partner's own moves
+    beyond the neighbours' have first-stage F ≥ ``coupling_instrument_min_F`` in each zone's equation (0: no
+    floor). A weak first stage biases the instrumented coefficient toward least squares and makes its t
+    unreliable (Stock and Yogo 2005: F < 10 is the usual warning; ``benchmarks/instrument_s20.md``)."""
+    iv = c.evidence["instrument_neighbours"]
+    return min(iv[f"iv_first_F_{z}"] for z in c.term.zones()) >= opts.get("coupling_instrument_min_F", 0.0)
 
 
 def _reject_through_neighbours(c, opts) -> None:
@@ -1479,8 +1489,22 @@ def _reject_through_neighbours(c, opts) -> None:
     ``coupling_instrument_neighbours="replace"``) whose neighbour-held instrument fails with the plain one."""
     iv, iv0 = c.evidence["instrument_neighbours"], c.evidence["instrument"]
     c.status = "no evidence"
+    zs = list(c.term.zones())
+    if (
+        iv["iv_coef"] > 0.0
+        and iv["iv_t"] >= opts["coupling_instrument_min_t"]
+        and not _held_first_stage_strong(c, opts)
+    ):
+        c.reason = (
+            f"not shown to be an exchange: with each zone's neighbours held, the partners' own airflow changes of the "
+            f"last {opts['coupling_instrument_hours']:g} h give a conductance of {iv['iv_coef']:.3g} per step, t = "
+            f"{iv['iv_t']:.1f}, but from a weak first stage: F {iv[f'iv_first_F_{zs[0]}']:.1f} / "
+            f"{iv[f'iv_first_F_{zs[1]}']:.1f} < {opts['coupling_instrument_min_F']:g} "
+            f"(coupling_instrument_min_F; the partner's moves beyond the neighbours' barely move the pair's "
+            f"difference, so the instrumented t is unreliable)"
+        )
+        return
     if not (iv0["iv_coef"] > 0.0 and iv0["iv_t"] >= opts["coupling_instrument_min_t"]):
-        zs = list(c.term.zones())
         c.reason = (
             f"not shown to be an exchange: the partners' own airflow changes of the last "
             f"{opts['coupling_instrument_hours']:g} h, as instruments of the pair's temperature difference with each "
