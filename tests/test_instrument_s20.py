@@ -109,7 +109,8 @@ def _gate(c, **options):
 
 
 def test_weak_held_first_stage_is_no_evidence():
-    """Fails on main (no floor): a held instrument passing its t on a first stage of F 5.8 accepted the pair."""
+    """Fails on main (no floor): a held instrument passing its t on a first stage of F 5.8 accepted the pair. Default
+    2027 clean case 11 under ``"replace"``: the false NW+SE had held t 12.7 on NW's first-stage F 7.0."""
     c = _gate(_candidate((5.8, 43.0)), coupling_instrument_neighbours="replace", coupling_instrument_min_F=10.0)
     assert c.status == "no evidence"
     assert "weak first stage" in c.reason and "5.8" in c.reason
@@ -119,6 +120,9 @@ def test_weak_held_first_stage_is_no_evidence():
     # the floor applies where the held instrument gates: in the default mode too, behind a passing plain instrument
     c = _gate(_candidate((5.8, 43.0), plain_t=3.0), coupling_instrument_min_F=10.0)
     assert c.status == "no evidence" and "weak first stage" in c.reason
+    # the default floor is 10 (session 20): fails on main, where the pair passes
+    c = _gate(_candidate((5.8, 43.0)), coupling_instrument_neighbours="replace")
+    assert c.status == "no evidence" and "weak first stage" in c.reason and "< 10" in c.reason
     # and 0 is no floor
     c = _gate(_candidate((5.8, 43.0)), coupling_instrument_neighbours="replace", coupling_instrument_min_F=0.0)
     assert c.status == "not tested"

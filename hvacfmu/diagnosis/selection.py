@@ -106,7 +106,7 @@ DEFAULT_OPTIONS = {
     "coupling_instrument_hours": 6.0,
     "coupling_instrument_min_t": 2.0,
     "coupling_instrument_neighbours": True,
-    "coupling_instrument_min_F": 0.0,
+    "coupling_instrument_min_F": 10.0,
     "horizon": None,
     "cv_folds": 10,
     "cv_min_gain_percent": 1.0,
