@@ -65,7 +65,9 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         airflow changes of the last 6 h instrument the conductance), ``coupling_instrument_min_t`` (2.0), ``coupling_instrument_neighbours`` (True: the instrument must also hold
         with each zone's neighbours held, and with any zone a coupling in the model joins to it,
         ``benchmarks/instrument_s18.md``; ``"replace"``: the neighbour-held instrument instead of the plain one,
-        the facade weather check kept; not the default, ``benchmarks/replace_s19.md``), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
+        the facade weather check kept; not the default, ``benchmarks/replace_s19.md``), ``coupling_instrument_min_F``
+        (10: the neighbour-held instrument also needs a first-stage F of at least 10 in both zones' equations, the
+        usual weak-instrument warning; 0: no floor; ``benchmarks/instrument_s20.md``), ``horizon`` (steps; default 24 h: 96 at 15 min, 288 at 5 min), ``cv_folds`` (10 blocks of whole
         training weeks), ``cv_min_gain_percent`` (1.0), ``cv_min_t`` (2.0, week-clustered paired t) and
         ``delay_cv_variants`` (3: an actuation delay's best one-step lengths cross-validated to pick its length) and
         ``wind_retest`` (False; ``"year"`` or ``"floating"``: the selection's unaccepted wind_infiltration candidates
