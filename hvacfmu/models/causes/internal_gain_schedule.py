@@ -1020,10 +1020,12 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
     legal = int(np.sign(L)) * steps
     eve = dst_profile_lag(sig, gains, rows, window=DST_EVENING_H)
     r2_eve = float(eve.get("r2_by_lag", {}).get(str(legal), 0.0))
+    r2_eve_opposite = float(eve.get("r2_by_lag", {}).get(str(-legal), 0.0))
     ev["evening"] = {
         "window_h": list(DST_EVENING_H),
         "legal_lag_h": legal * sig.step / 3600.0,
         "r2_at_legal_lag": r2_eve,
+        "r2_at_opposite_lag": r2_eve_opposite,
         **{k: eve[k] for k in ("lag_h", "r2_at_lag", "scale_at_lag") if k in eve},
     }
     if r2_eve < r2_min:
@@ -1035,6 +1037,19 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
             f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) does not move {legal * sig.step / 60:+.0f} min "
             f"(R² {r2_eve:.2f} < {r2_min:g}): a change of the morning, not of the clock the gains follow",
+        )
+    if r2_eve_opposite > r2_eve:
+        # a clock moves the morning and the evening the same way; an evening that aligns better moved by the
+        # legal hour the other way has changed with something else (the season's light, the weather)
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="not significant",
+            evidence=ev,
+            reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
+            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) aligns better moved {-legal * sig.step / 60:+.0f} "
+            f"min (R² {r2_eve_opposite:.2f}) than {legal * sig.step / 60:+.0f} min (R² {r2_eve:.2f}): the two ends "
+            "of the day move in opposite directions, not with the clock the gains follow",
         )
     # a clock moves every daylight-saving day alike: the morning's jump at the change must stay with the
     # day's weather held (a morning that moves with the weather drifts with it on each side)
