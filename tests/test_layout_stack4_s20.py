@@ -149,3 +149,33 @@ def test_stack4_coupling_across_storeys_is_diagnosed():
     coupling = next(f for f in rep.to_dict()["findings"] if f["cause"] == "zone_coupling")
     assert sorted(coupling["location"]["zones"]) == ["N1", "S2"]
     assert coupling["cv"]["t"] >= 2.0
+
+
+@pytest.mark.slow
+def test_stack4_clean_has_no_dst_shift_whose_evening_moves_the_other_way(monkeypatch):
+    """Hold-out draw 2061 clean case 4 (stack4, emulator seed 30, no effect): the weekday mornings move +1.25 h at the
+    daylight-saving change while the evenings align far better moved -1 h; main's screen asked only R² >= 0.2 at the
+    legal hour (0.42) and found a false ``dst_shift`` (cv t 3.6). A clock moves both ends of the day one way: refused."""
+    import hvacfmu.models.causes.internal_gain_schedule as igs
+    from hvacfmu.data import prepare
+    from hvacfmu.diagnosis import diagnose
+    from hvacfmu.diagnosis.truth import compare_with_truth
+    from hvacfmu.emulator import cached_dataset
+
+    screens = []
+    screen = igs.dst_candidate
+
+    def recorded(sig, W, options, exclude_dates=()):
+        c = screen(sig, W, options, exclude_dates=exclude_dates)
+        screens.append(c)
+        return c
+
+    monkeypatch.setattr(igs, "dst_candidate", recorded)
+    paths = cached_dataset(weeks=16, seed=30, effects=[], layout="stack4")
+    rep = diagnose(prepare(paths.measurements, paths.building, step=900.0), progress=False)
+    assert compare_with_truth(rep, json.loads(paths.truth.read_text()))["unsupported"] == []
+    assert not any(f["location"].get("variant") == "dst_shift" for f in rep.to_dict()["findings"])
+    refused = [c for c in screens if "the two ends of the day move in opposite directions" in c.reason]
+    assert refused, [c.reason for c in screens]
+    eve = refused[0].evidence["evening"]
+    assert eve["r2_at_opposite_lag"] > eve["r2_at_legal_lag"] >= 0.2
