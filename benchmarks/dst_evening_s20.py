@@ -64,10 +64,7 @@ def run(name, layout, seed, step, effects) -> dict:
     first = calls[0] if calls else {"status": "not called", "reason": "", "evidence": {}}
     ev = first["evidence"]
     eve = ev.get("evening") or {}
-    legal = eve.get("legal_lag_h")
-    opposite = None
-    if legal is not None:  # main's evidence has no r2_at_opposite_lag: recompute it from the same screen
-        opposite = eve.get("r2_at_opposite_lag")
+    opposite = eve.get("r2_at_opposite_lag")  # None on main, whose evidence does not record it
     return {
         "name": name,
         "effects": list(effects),
