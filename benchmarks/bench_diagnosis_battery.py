@@ -34,6 +34,11 @@ CAUSES = ("solar_gain", "zone_coupling", "actuation_delay", "internal_gain_sched
 
 
 def _facades(layout, zone):
+    if layout.storeys:  # a building of several storeys: its floor plan knows the facades of each storey
+        from hvacfmu.emulator.building import floor_plan
+
+        facades = floor_plan(layout.name)["zones"][zone]["facades"]
+        return [o for o in ("W", "E", "S", "N") if o in facades and layout.wwr(zone, o) > 0]
     x0, x1, y0, y1 = layout.rects[zone]
     X0, X1, Y0, Y1 = layout.extent
     out = [o for o, on in (("W", x0 == X0), ("E", x1 == X1), ("S", y0 == Y0), ("N", y1 == Y1)) if on]
@@ -41,6 +46,11 @@ def _facades(layout, zone):
 
 
 def _adjacent(layout, a, b):
+    if layout.storeys:  # walls within a storey and slabs between storeys
+        from hvacfmu.emulator.building import floor_plan
+
+        plan = floor_plan(layout.name)
+        return any(p in {**plan["shared"], **plan["slabs"]} for p in ((a, b), (b, a)))
     ax0, ax1, ay0, ay1 = layout.rects[a]
     bx0, bx1, by0, by1 = layout.rects[b]
     share_x = min(ax1, bx1) - max(ax0, bx0)

@@ -350,10 +350,11 @@ def _add_generate_parser(sub) -> None:
     )
     p.add_argument(
         "--layout",
-        choices=("sdh", "row4", "core9", "quad4", "ell5"),
+        choices=("sdh", "row4", "core9", "quad4", "ell5", "stack4"),
         default="sdh",
         help="floor layout: sdh (six zones, default), row4 (four-zone row), core9 (nine zones with a core), "
-        "quad4 (2 x 2 corner offices), ell5 (L-shaped floor, five unequal zones, a meeting room)",
+        "quad4 (2 x 2 corner offices), ell5 (L-shaped floor, five unequal zones, a meeting room), "
+        "stack4 (a whole two-storey building, two zones per storey, roof and slab on grade)",
     )
     p.add_argument(
         "--construction",

@@ -1,6 +1,6 @@
 """Emulated floors as building files: floor plan, VAV boxes (and air handlers) and construction tables.
 
-The geometry of every layout (``sdh``, ``row4``, ``core9``, ``quad4``), the construction
+The geometry of every layout (``sdh``, ``row4``, ``core9``, ``quad4``, ``ell5``, ``stack4``), the construction
 templates and the climates are tables in :mod:`hvacfmu.emulator.layouts`; this
 module turns them into building-file mappings. The default layout is described here.
 
@@ -130,7 +130,7 @@ def floor_plan(layout: str = "sdh"):
         x0, x1, y0, y1 = lay.rects[name]
         area = (x1 - x0) * (y1 - y0)
         if lay.outline == "zones":
-            others = [r for z, r in lay.rects.items() if z != name]
+            others = [r for z, r in lay.rects.items() if z != name and lay.storey(z) == lay.storey(name)]
             edges = _open_edges(lay.rects[name], others)
         else:
             edges = _facades_of(lay.rects[name], lay.extent)
@@ -139,10 +139,30 @@ def floor_plan(layout: str = "sdh"):
     shared = {}
     for i, a in enumerate(order):
         for b in order[i + 1 :]:
-            length = _shared_length(lay.rects[a], lay.rects[b])
+            length = _shared_length(lay.rects[a], lay.rects[b]) if lay.storey(a) == lay.storey(b) else 0.0
             if length > 0:
                 shared[(a, b)] = length
-    return {"zones": zones, "shared": shared}
+    plan = {"zones": zones, "shared": shared}
+    if lay.storeys:
+        plan["slabs"] = _slabs(lay)
+    return plan
+
+
+def _overlap_area(a, b):
+    """Area [m2] common to two rectangles in plan (0 if they do not overlap)."""
+    return max(0.0, min(a[1], b[1]) - max(a[0], b[0])) * max(0.0, min(a[3], b[3]) - max(a[2], b[2]))
+
+
+def _slabs(lay) -> dict:
+    """{(upper zone, lower zone): slab area [m2]} of the zones of consecutive storeys whose plans overlap."""
+    out = {}
+    for upper in lay.zone_order:
+        for lower in lay.zone_order:
+            if lay.storey(upper) == lay.storey(lower) + 1:
+                area = _overlap_area(lay.rects[upper], lay.rects[lower])
+                if area > 0:
+                    out[(upper, lower)] = area
+    return out
 
 
 # --------------------------------------------------------------------------- materials
@@ -205,6 +225,48 @@ def constructions_of(template: str = "medium") -> dict:
     return out
 
 
+#: Constructions of a whole building of several storeys (layouts with ``storeys``), on top of the exterior
+#: and interior walls: the slab between two storeys (side 1 = the upper zone, carpet on top; side 2 = the lower
+#: zone, suspended ceiling), the roof (side 1 = ambient: insulation on the concrete deck) and the ground floor's
+#: slab on grade (side 2 = the ground). Thicknesses of the medium template; see :func:`storey_constructions`.
+STOREY_CONSTRUCTIONS = {
+    "intermediate_slab": {
+        "layers": [("carpet", 0.0), ("concrete", 0.20), ("ceiling_plenum", 0.0)],
+        "films": ["floor", "ceiling"],
+    },
+    "roof": {
+        "layers": [("insulation", 0.12), ("concrete", 0.20), ("ceiling_plenum", 0.0)],
+        "films": ["ambient", "ceiling"],
+    },
+    "ground_slab": {
+        "layers": [("carpet", 0.0), ("concrete", 0.20), ("insulation", 0.05)],
+        "films": ["floor", "none"],
+    },
+}
+#: Soil under the slab on grade in the emulator's truth [m]: its far side faces the outdoor air.
+SOIL_DEPTH = 1.0
+SOIL = {"conductivity": 1.5, "density": 1800.0, "specific_heat": 1000.0}
+
+
+def storey_constructions(template: str = "medium") -> dict:
+    """Walls of ``template`` (:func:`constructions_of`) and the slabs and roof of a building of several storeys.
+
+    The slab thickness follows the template; the roof's insulation is the walls' plus 4 cm.
+    """
+    t = CONSTRUCTION_TEMPLATES[template]
+    walls = constructions_of(template)
+    out = {k: walls[k] for k in ("exterior_wall", "interior_wall")}
+    for name, c in copy.deepcopy(STOREY_CONSTRUCTIONS).items():
+        if template != "medium":
+            roof_ins = t["insulation"] + 0.04
+            c["layers"] = [
+                (m, t["slab"] if m == "concrete" else (roof_ins if (name, m) == ("roof", "insulation") else d))
+                for m, d in c["layers"]
+            ]
+        out[name] = c
+    return out
+
+
 #: The paper's five physical parameters: nominal (handbook) and true values.
 NOMINAL_PARAMETERS = {
     "U_win": 2.6,  # [W/(m2 K)]
@@ -233,7 +295,7 @@ STOREYS_BOUNDARY = "ground"
 STOREYS_TEMPERATURE = 22.0  # [°C] the storeys' mean air temperature, rounded
 
 
-def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "medium") -> dict:
+def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "medium", climate: str = "mild") -> dict:
     lay = get_layout(layout)
     plan = floor_plan(layout)
     materials = NOMINAL_MATERIALS if nominal else TRUE_MATERIALS
@@ -243,7 +305,8 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
     for name, props in materials.items():
         mats.append({"name": name, **props})
     cons = []
-    for name, c in constructions_of(construction).items():
+    constructions = storey_constructions(construction) if lay.storeys else constructions_of(construction)
+    for name, c in constructions.items():
         cons.append(
             {
                 "name": name,
@@ -266,12 +329,17 @@ def _physics_tables(nominal: bool, layout: str = "sdh", construction: str = "med
                 "side2": b,
             }
         )
+    ground_temperature = STOREYS_TEMPERATURE
+    if lay.storeys:
+        elements += _storey_elements(lay, plan)
+        # the slab on grade faces the ground, declared at the climate's annual mean (as a user would)
+        ground_temperature = round(sum(CLIMATES[climate]["monthly_mean"]) / 12.0 * 2.0) / 2.0
     mass = (NOMINAL_INTERNAL_MASS if nominal else TRUE_INTERNAL_MASS) * CONSTRUCTION_TEMPLATES[construction][
         "internal_mass_factor"
     ]
     physics = {
         "ambient_film": AMBIENT_FILM,
-        "ground_temperature": STOREYS_TEMPERATURE,
+        "ground_temperature": ground_temperature,
         "internal_mass": mass,
         "nominal": dict(params),
     }
@@ -304,6 +372,8 @@ def _zone_envelope(zname: str, z: dict, lay, u_win: float, shgc: float) -> tuple
                 "orientation": orient,
             }
         )
+    if lay.storeys:  # whole building: roof, slab on grade and the slabs between storeys, see _storey_elements
+        return windows, elements
     elements.append(
         {
             "name": f"{zname}_floor",
@@ -325,6 +395,31 @@ def _zone_envelope(zname: str, z: dict, lay, u_win: float, shgc: float) -> tuple
     return windows, elements
 
 
+def _storey_elements(lay, plan) -> list[dict]:
+    """Roofs of the top storey's zones, slabs on grade of storey 0's, and the slabs between storeys."""
+    top = max(lay.storey(z) for z in lay.zone_order)
+    out = []
+    for z in lay.zone_order:
+        area = plan["zones"][z]["area"]
+        if lay.storey(z) == top:
+            out.append({"name": f"{z}_roof", "construction": "roof", "area": area, "side1": "ambient", "side2": z})
+        if lay.storey(z) == 0:
+            out.append(
+                {"name": f"{z}_ground", "construction": "ground_slab", "area": area, "side1": z, "side2": "ground"}
+            )
+    for (upper, lower), area in plan["slabs"].items():
+        out.append(
+            {
+                "name": f"{upper}_{lower}_slab",
+                "construction": "intermediate_slab",
+                "area": area,
+                "side1": upper,
+                "side2": lower,
+            }
+        )
+    return out
+
+
 def _check(layout, construction, climate, hvac="vav"):
     problems = check_options(layout, construction, climate, hvac)
     if problems:
@@ -342,10 +437,10 @@ def building_dict(
     order = lay.zone_order
     zones = []
     adjacent = {n: [] for n in order}
-    for a, b in plan["shared"]:
+    for a, b in list(plan["shared"]) + list(plan.get("slabs", {})):
         adjacent[a].append(b)
         adjacent[b].append(a)
-    tables = _physics_tables(nominal, layout, construction)
+    tables = _physics_tables(nominal, layout, construction, climate)
     win_area = {(w["zone"], w["orientation"]): w["area"] for w in tables["windows"]}
     for name in order:
         z = plan["zones"][name]
@@ -423,7 +518,7 @@ def emulated_building(
 
     Parameters
     ----------
-    layout : {"sdh", "row4", "core9", "quad4", "ell5"}
+    layout : {"sdh", "row4", "core9", "quad4", "ell5", "stack4"}
         Floor layout (see :mod:`hvacfmu.emulator.layouts`).
     construction : {"medium", "light", "heavy"}
         Construction template of the massive layers and furniture.
@@ -480,4 +575,14 @@ def true_building_dict(
     for el in d["elements"]:
         if el["construction"] in ("floor_slab", "ceiling_slab"):
             el["side2"] = "adjacent_floor"
+    if get_layout(layout).storeys:
+        # the slab on grade lies on SOIL_DEPTH of soil whose far side follows the outdoor air (the file's
+        # constant ground temperature is the user's simplification)
+        d["materials"].append({"name": "soil", **SOIL})
+        for c in d["constructions"]:
+            if c["name"] == "ground_slab":
+                c["layers"].append({"material": "soil", "thickness": SOIL_DEPTH})
+        for el in d["elements"]:
+            if el["construction"] == "ground_slab":
+                el["side2"] = "ambient"
     return d

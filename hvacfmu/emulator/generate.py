@@ -229,26 +229,30 @@ def _structure(truth: dict, core) -> dict:
     solar = {}
     for w in bld["windows"]:
         solar.setdefault(w["zone"], []).append(w["orientation"])
-    kinds = {"exterior_wall": 0, "interior_wall": 0, "floor_slab": 0, "ceiling_slab": 0}
+    storeys = bool(get_layout(truth["layout"]).storeys)
+    kinds = {"exterior_wall": 0, "interior_wall": 0}
+    kinds.update(
+        {"intermediate_slab": 0, "roof": 0, "ground_slab": 0} if storeys else {"floor_slab": 0, "ceiling_slab": 0}
+    )
     el_cons = {e["name"]: e["construction"] for e in bld["elements"]}
     for name in core.node_names:
         if ":" in name:
             kinds[el_cons[name.split(":")[0]]] += 1
+    slabs = (
+        "a whole building: concrete slabs between its storeys (floor of the upper zone, ceiling of the lower "
+        "one), an insulated roof over the top storey (no solar on it), the ground floor on a slab on grade over "
+        "soil whose far side follows T_out; no slab faces T_fl"
+        if storeys
+        else "concrete floor and ceiling slabs of every zone; their far side faces the floors "
+        "below/above at temperature T_fl (not adiabatic)"
+    )
     return {
         "n_states": int(core.n_thermal),
-        "node_counts": {
-            "air": len(truth["zones"]),
-            "furniture": len(truth["zones"]),
-            "exterior_wall": kinds["exterior_wall"],
-            "interior_wall": kinds["interior_wall"],
-            "floor_slab": kinds["floor_slab"],
-            "ceiling_slab": kinds["ceiling_slab"],
-        },
+        "node_counts": {"air": len(truth["zones"]), "furniture": len(truth["zones"]), **kinds},
         "walls": "multi-node walls: every massive layer split into nodes at most "
         f"{ex['max_node_thickness']} m thick; exterior walls absorb solar on their outer surface "
         f"(absorptance {ex['wall_solar_absorptance']})",
-        "slabs": "concrete floor and ceiling slabs of every zone; their far side faces the floors "
-        "below/above at temperature T_fl (not adiabatic)",
+        "slabs": slabs,
         "thermal_mass": {"walls": True, "slabs": True, "furniture_J_per_K_m2": bld["physics"]["internal_mass"]},
         "windows": windows,
         "solar_gain": solar,
@@ -433,7 +437,7 @@ def generate(
         Effects to inject (see :mod:`hvacfmu.emulator.effects`), e.g.
         ``["solar_gain:zone=S", {"name": "zone_coupling"}]``.
     fmt : {"parquet", "csv"}
-    layout : {"sdh", "row4", "core9", "quad4", "ell5"}
+    layout : {"sdh", "row4", "core9", "quad4", "ell5", "stack4"}
         Floor layout (:mod:`hvacfmu.emulator.layouts`); effect zones and facades
         must exist in it.
     construction : {"medium", "light", "heavy"}

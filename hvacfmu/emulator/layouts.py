@@ -2,8 +2,8 @@
 
 A *layout* is a rectangular floor split into rectangular zones; facades are the
 zone edges on the floor's outline (minus the edges a layout declares blind,
-e.g. a party wall), adjacency is a shared edge of positive length. Five
-layouts exist:
+e.g. a party wall), adjacency is a shared edge of positive length (or, in a
+building of several storeys, a shared slab). Six layouts exist:
 
 ``sdh`` (default)
     The SDH-like 4th floor of the paper: NW, W, S, E, NE and a core C (2,560 m2).
@@ -35,6 +35,29 @@ layouts exist:
     on AHU1; S and E on AHU2). N and E touch at the inner corner's point only. Facades are
     the zone edges no other zone covers (``outline="zones"``). Added in session 17 so the
     whole pipeline can be run on a floor no rule was tuned on; the fleet does not draw it.
+``stack4``
+    A whole two-storey building (32 m x 20 m, 3.9 m storeys), split north/south at y = 8 m on
+    both storeys: N1 (384 m2) and S1 (256 m2) on the ground floor, N2 and S2 above them::
+
+        storey 1 (roof above)        storey 0 (slab on grade)
+        y=20 +--------------+        y=20 +--------------+
+             |      N2      |        party|      N1      |
+         y=8 +--------------+         y=8 + wall -------+
+             |      S2      |        (W)  |      S1      |
+         y=0 +--------------+         y=0 +--------------+
+            x=0            32            x=0            32
+
+    The storeys are joined by a 20 cm concrete slab (floor of N2 / S2, ceiling of N1 / S1):
+    N1-N2 and S1-S2 are adjacent through it, N1-S1 and N2-S2 through an interior wall; the
+    diagonal pairs N1-S2 and S1-N2 touch along a line only and are not adjacent. Physics none of
+    the single-floor layouts has: an insulated roof to ambient on the upper storey only (no sun
+    on it: the emulator's inputs carry vertical irradiance only), the ground floor on a slab on
+    grade (in the emulator's truth 1 m of soil down to the outdoor air; the building file declares
+    ``ground`` at the climate's annual mean), no slab facing other storeys (``T_fl`` unused), a
+    party wall on the ground floor's west side (its upper storey has a west facade), a
+    shop-front south glazing in S1 (0.60), its own boxes and gains, meetings upstairs in N2,
+    one air handler per storey. Added in session 20 to test the diagnosis on a building no rule
+    was tuned on; the fleet does not draw it.
 
 A *construction template* scales the massive layers and the furniture mass:
 ``medium`` (the default, the SDH-like concrete frame), ``light`` (steel frame,
@@ -83,6 +106,12 @@ class Layout:
         [W] gain of one meeting in ``meeting_zone``; None: the occupancy default.
     meeting_probability : float or None
         [-] probability of a meeting per weekday hour 9..17; None: the occupancy default.
+    storeys : dict zone -> storey (0 = ground floor), optional
+        Empty (default): one floor of a taller building, its slabs facing the storeys below and
+        above (``T_fl``). Given: a whole building of ``max + 1`` storeys, each tiling ``extent``;
+        the top storey's zones are under a roof (to ambient), storey 0's on a slab on grade (the
+        ground), zones of consecutive storeys whose plans overlap share an intermediate slab
+        (floor of the upper zone, ceiling of the lower one) and are adjacent.
     """
 
     name: str
@@ -98,6 +127,7 @@ class Layout:
     outline: str = "extent"
     meeting_gain: float | None = None
     meeting_probability: float | None = None
+    storeys: dict = dataclasses.field(default_factory=dict)
 
     @property
     def zone_order(self) -> tuple:
@@ -105,6 +135,10 @@ class Layout:
 
     def wwr(self, zone: str, orientation: str) -> float:
         return float(self.window_to_wall.get((zone, orientation), WINDOW_TO_WALL))
+
+    def storey(self, zone: str) -> int:
+        """The storey of ``zone`` (0 = ground floor; 0 for every zone of a single-floor layout)."""
+        return int(self.storeys.get(zone, 0))
 
 
 WINDOW_TO_WALL = 0.45  # default window fraction of the facade area [-]
@@ -262,7 +296,43 @@ ELL5 = Layout(
     outline="zones",
 )
 
-LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9, QUAD4, ELL5)}
+_STACK4_RECTS = {
+    "N1": (0.0, 32.0, 8.0, 20.0),
+    "S1": (0.0, 32.0, 0.0, 8.0),
+    "N2": (0.0, 32.0, 8.0, 20.0),
+    "S2": (0.0, 32.0, 0.0, 8.0),
+}
+STACK4 = Layout(
+    name="stack4",
+    title="Two-storey building, 2 zones per storey (emulated)",
+    extent=(0.0, 32.0, 0.0, 20.0),
+    rects=_STACK4_RECTS,
+    vavs={
+        "N1": (3, 0.12, 0.50),
+        "S1": (2, 0.14, 0.55),
+        "N2": (3, 0.13, 0.55),
+        "S2": (2, 0.15, 0.60),
+    },
+    peak_gain={"N1": 11.0, "S1": 17.0, "N2": 13.0, "S2": 12.0},
+    window_to_wall={
+        ("N1", "N"): 0.25,
+        ("N1", "E"): 0.35,
+        ("S1", "S"): 0.60,
+        ("S1", "E"): 0.30,
+        ("N2", "N"): 0.35,
+        ("N2", "E"): 0.40,
+        ("N2", "W"): 0.30,
+        ("S2", "S"): 0.45,
+        ("S2", "E"): 0.25,
+        ("S2", "W"): 0.55,
+    },
+    blind=frozenset({("N1", "W"), ("S1", "W")}),
+    meeting_zone="N2",
+    ahu_of_zone={"N1": "AHU1", "S1": "AHU1", "N2": "AHU2", "S2": "AHU2"},
+    storeys={"N1": 0, "S1": 0, "N2": 1, "S2": 1},
+)
+
+LAYOUTS = {lay.name: lay for lay in (SDH, ROW4, CORE9, QUAD4, ELL5, STACK4)}
 
 
 # --------------------------------------------------------------------------- constructions

@@ -740,6 +740,11 @@ DST_MIN_WEEKEND_DAYS = 4
 #: outdoor temperature of the early hours, which is milder on the daylight-saving side of the season,
 #: while the evening stays on the local clock; benchmarks/diagnosis_dst_s14.md).
 DST_EVENING_H = (13.0, 21.0)
+#: The evening must favour the clock's direction: its R² at the legal lag at least this many times its R² at the
+#: opposite legal lag (a clock moves both ends of the day one way). Session 20, benchmarks/layout_stack4_s20.md:
+#: every injected shift of benchmarks/dst_s18.py reads 3.9-60 times on its first screen; stack4's false shifts read
+#: 0.6-1.0 (seed 30: 0.42 / 0.65; seed 6: 0.359 / 0.355, passed by "opposite not higher" and then found).
+DST_EVENING_OVER_OPPOSITE = 2.0
 
 
 #: Minimum t of the jump of the weekday morning shift at the change once the day's weather is held
@@ -1083,10 +1088,12 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
     legal = int(np.sign(L)) * steps
     eve = dst_profile_lag(sig, gains, rows, window=DST_EVENING_H)
     r2_eve = float(eve.get("r2_by_lag", {}).get(str(legal), 0.0))
+    r2_eve_opposite = float(eve.get("r2_by_lag", {}).get(str(-legal), 0.0))
     ev["evening"] = {
         "window_h": list(DST_EVENING_H),
         "legal_lag_h": legal * sig.step / 3600.0,
         "r2_at_legal_lag": r2_eve,
+        "r2_at_opposite_lag": r2_eve_opposite,
         **{k: eve[k] for k in ("lag_h", "r2_at_lag", "scale_at_lag") if k in eve},
     }
     if r2_eve < r2_min:
@@ -1098,6 +1105,20 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
             reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
             f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) does not move {legal * sig.step / 60:+.0f} min "
             f"(R² {r2_eve:.2f} < {r2_min:g}): a change of the morning, not of the clock the gains follow",
+        )
+    if r2_eve < DST_EVENING_OVER_OPPOSITE * r2_eve_opposite:
+        # a clock moves the morning and the evening the same way; an evening that aligns better moved by the
+        # legal hour the other way has changed with something else (the season's light, the weather)
+        return Candidate(
+            InternalGainSchedule.cause,
+            loc,
+            status="not significant",
+            evidence=ev,
+            reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
+            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) aligns as well or better moved "
+            f"{-legal * sig.step / 60:+.0f} min (R² {r2_eve_opposite:.2f}) than {legal * sig.step / 60:+.0f} min "
+            f"(R² {r2_eve:.2f}, needs {DST_EVENING_OVER_OPPOSITE:g} times): the two ends "
+            "of the day move in opposite directions, not with the clock the gains follow",
         )
     # a clock moves every daylight-saving day alike: the morning's jump at the change must stay with the
     # day's weather held (a morning that moves with the weather drifts with it on each side)
