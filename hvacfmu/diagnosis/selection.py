@@ -997,9 +997,10 @@ def forward_select(sig: Signals, dataset, initial_terms=(), options=None, progre
             c.term = next(
                 (t for t in cur.model.terms if t.cause == c.term.cause and t.location() == c.term.location()), c.term
             )
-    merge = _merge_holidays(_round_signals(sig0, cur, fixed_profiles), plan, terms, findings, opts, fixed_profiles)
+    sig_round = _round_signals(sig0, cur, fixed_profiles)
+    merge = _merge_holidays(sig_round, plan, terms, findings, opts)
     if merge is not None and merge["merged"]:
-        fit = fit_consistent(_round_signals(sig0, cur, fixed_profiles), merge["terms"], rows, fixed_profiles is None)
+        fit = fit_consistent(sig_round, merge["terms"], rows, fixed_profiles is None)
         failing = _new_load_problems(fit.model, base_fails)
         if failing:
             merge.update(
@@ -1040,7 +1041,7 @@ HOLIDAY_MERGE_RULE = (
 )
 
 
-def _merge_holidays(sig: Signals, plan, terms, findings, opts, fixed_profiles) -> dict | None:
+def _merge_holidays(sig: Signals, plan, terms, findings, opts) -> dict | None:
     """Whether the holiday terms the selection accepted (two or more) merge into one term (:data:`HOLIDAY_MERGE_RULE`).
 
     The holidays of a given base model are not touched. Each active training day (a 24-hour window a holiday acts on)

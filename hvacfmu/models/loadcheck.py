@@ -93,10 +93,10 @@ def box_drive(model, building) -> dict:
     Bbox = np.abs(np.asarray(linear.B, float) @ np.asarray(linear.input_map, float))  # state x box
     drive_k = Bbox @ m_max
     beta = getattr(linear, "beta", None)
+    from .heat import CP_AIR
+
     for i, name in enumerate(linear.outputs):
         if beta is not None:
-            from .heat import CP_AIR
-
             share = abs(float(beta[i])) * CP_AIR / 1000.0 * float(np.asarray(linear.heat_map, float)[i] @ m_max)
             out[name] = ("share", share, float(drive_k[i]))
         else:

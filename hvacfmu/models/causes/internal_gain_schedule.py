@@ -1096,29 +1096,29 @@ def dst_candidate(sig, W, options: dict, exclude_dates=()) -> Candidate:
         "r2_at_opposite_lag": r2_eve_opposite,
         **{k: eve[k] for k in ("lag_h", "r2_at_lag", "scale_at_lag") if k in eve},
     }
+    # the evening must move with the morning, and with the clock's direction rather than the other way (a clock
+    # moves both ends of the day one way; an evening that aligns as well moved the other way changed with something
+    # else: the season's light, the weather)
+    why = None
     if r2_eve < r2_min:
-        return Candidate(
-            InternalGainSchedule.cause,
-            loc,
-            status="not significant",
-            evidence=ev,
-            reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
-            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) does not move {legal * sig.step / 60:+.0f} min "
-            f"(R² {r2_eve:.2f} < {r2_min:g}): a change of the morning, not of the clock the gains follow",
+        why = (
+            f"does not move {legal * sig.step / 60:+.0f} min (R² {r2_eve:.2f} < {r2_min:g}): a change of the morning, "
+            "not of the clock the gains follow"
         )
-    if r2_eve < DST_EVENING_OVER_OPPOSITE * r2_eve_opposite:
-        # a clock moves the morning and the evening the same way; an evening that aligns better moved by the
-        # legal hour the other way has changed with something else (the season's light, the weather)
+    elif r2_eve < DST_EVENING_OVER_OPPOSITE * r2_eve_opposite:
+        why = (
+            f"aligns as well or better moved {-legal * sig.step / 60:+.0f} min (R² {r2_eve_opposite:.2f}) than "
+            f"{legal * sig.step / 60:+.0f} min (R² {r2_eve:.2f}, needs {DST_EVENING_OVER_OPPOSITE:g} times): the two "
+            "ends of the day move in opposite directions, not with the clock the gains follow"
+        )
+    if why is not None:
         return Candidate(
             InternalGainSchedule.cause,
             loc,
             status="not significant",
             evidence=ev,
             reason=f"the weekday morning gains move {L * sig.step / 60:+.0f} min at the change but the evening "
-            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) aligns as well or better moved "
-            f"{-legal * sig.step / 60:+.0f} min (R² {r2_eve_opposite:.2f}) than {legal * sig.step / 60:+.0f} min "
-            f"(R² {r2_eve:.2f}, needs {DST_EVENING_OVER_OPPOSITE:g} times): the two ends "
-            "of the day move in opposite directions, not with the clock the gains follow",
+            f"ramp-down ({DST_EVENING_H[0]:g}-{DST_EVENING_H[1]:g} h) {why}",
         )
     # a clock moves every daylight-saving day alike: the morning's jump at the change must stay with the
     # day's weather held (a morning that moves with the weather drifts with it on each side)

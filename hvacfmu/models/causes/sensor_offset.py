@@ -233,7 +233,8 @@ def offset_candidate(sig, R: np.ndarray, zi: int) -> Candidate | None:
     others_idx = [j for j in range(nz) if j != zi]
     level = Y[:, zi] - _rest(Y, others_idx)
     level = np.where(train, level, np.nan)
-    day = local_seconds(sig.index) // 86400
+    seconds = local_seconds(sig.index)
+    day = seconds // 86400
     per_day = max(1, int(round(86400.0 / sig.step)))
     days, means, _ = _day_means(day, level, per_day // 2)
     if len(days) < 2 * MIN_SIDE_DAYS:
@@ -260,7 +261,7 @@ def offset_candidate(sig, R: np.ndarray, zi: int) -> Candidate | None:
             jumps[sig.zones[j]] = float(b.mean() - a.mean()) if len(others_idx) > 1 else float("nan")
     # the same at every hour: the level's move by quarter of the local day, MIN_SIDE_DAYS training days each side
     wlo, whi = days[max(0, s - MIN_SIDE_DAYS)], days[min(len(days) - 1, s + MIN_SIDE_DAYS - 1)]
-    quarter = (local_seconds(sig.index) % 86400) // 21600
+    quarter = (seconds % 86400) // 21600
     hour_moves = []
     for qd in range(4):
         a = level[(day >= wlo) & (day < days[s]) & (quarter == qd)]
@@ -331,17 +332,14 @@ def offset_candidate(sig, R: np.ndarray, zi: int) -> Candidate | None:
         fails.append(
             f"not persistent: the halves after it keep {persist[0]:+.2f} / {persist[1]:+.2f} K of the jump {local:+.2f} K"
         )
-    uneven = [
-        f"{6 * q:02d}-{6 * q + 6:02d} h {m:+.2f} K"
-        for q, m in enumerate(hour_moves)
-        if not sign * m >= MIN_HOUR_SHARE * abs(local)
-    ]
+    uneven = [q for q, m in enumerate(hour_moves) if not sign * m >= MIN_HOUR_SHARE * abs(local)]
     if uneven:
         fails.append(
             f"not the same at every hour: over {MIN_SIDE_DAYS} training days each side the level moves "
             + ", ".join(f"{6 * q:02d}-{6 * q + 6:02d} h {m:+.2f} K" for q, m in enumerate(hour_moves))
-            + f"; under {MIN_HOUR_SHARE:g} of the jump {local:+.2f} K at {', '.join(u.split(' ')[0] for u in uneven)} "
-            "(an offset of the reading moves every hour alike; a heater or a control loop moves some)"
+            + f"; under {MIN_HOUR_SHARE:g} of the jump {local:+.2f} K at "
+            + ", ".join(f"{6 * q:02d}-{6 * q + 6:02d}" for q in uneven)
+            + " (an offset of the reading moves every hour alike; a heater or a control loop moves some)"
         )
     floor = [o for o, v in jumps.items() if np.isfinite(v) and abs(v) >= MAX_OTHER_SHARE * abs(local)]
     if floor:
