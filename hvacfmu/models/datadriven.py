@@ -613,8 +613,12 @@ def _options(opts: dict) -> dict:
         raise FitError(f"option open_loop must be 'auto', True or False, got {out['open_loop']!r}")
     if out["memory"] not in ("auto", True, False):
         raise FitError(f"option memory must be 'auto', True or False, got {out['memory']!r}")
-    if out["memory_select"] not in ("mean", "no_season_worse"):
-        raise FitError(f"option memory_select must be 'mean' or 'no_season_worse', got {out['memory_select']!r}")
+    from .memory import SELECT_RULES
+
+    if out["memory_select"] not in SELECT_RULES:
+        raise FitError(
+            f"option memory_select must be {' or '.join(repr(r) for r in SELECT_RULES)}, got {out['memory_select']!r}"
+        )
     if not isinstance(out["open_loop_couplings"], bool):
         raise FitError(f"option open_loop_couplings must be True or False, got {out['open_loop_couplings']!r}")
     return out
