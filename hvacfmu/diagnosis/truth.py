@@ -31,13 +31,11 @@ def _holiday_dates(truth, effect) -> set:
 
 
 def sensor_offset_time(truth, effect) -> pd.Timestamp:
-    """The instant an injected ``sensor_offset`` starts (``hvacfmu.emulator.effects.sensor_offset_time``; repeated
-    here: the diagnosis reads only truth.json): ``day`` days after the first local midnight, at ``hour``."""
-    tz = truth.get("timezone", "UTC")
-    t0 = pd.Timestamp(truth.get("start", "2025-09-01"))
-    t0 = t0.tz_localize(tz) if t0.tzinfo is None else t0.tz_convert(tz)
-    day = (t0.normalize() + pd.Timedelta(days=int(effect["day"]))).tz_localize(None)
-    return (day + pd.Timedelta(hours=float(effect.get("hour", 10.0)))).tz_localize(tz, nonexistent="shift_forward")
+    """The instant an injected ``sensor_offset`` starts, from truth.json's ``start`` and ``timezone``
+    (:func:`hvacfmu.emulator.effects.sensor_offset_time`): ``day`` days after the first local midnight, at ``hour``."""
+    from ..emulator.effects import sensor_offset_time as at
+
+    return at(truth.get("start", "2025-09-01"), truth.get("timezone", "UTC"), {"hour": 10.0, **effect})
 
 
 def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0) -> bool:
