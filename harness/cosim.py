@@ -1526,16 +1526,14 @@ def _warn_building_mismatch(args, model, building) -> None:
     """Warn when the model or the FMU's model was fitted with another building file than ``building``."""
     import warnings
 
-    from hvacfmu.errors import HvacfmuWarning, ModelError, problems_message
+    from hvacfmu.errors import HvacfmuWarning
     from hvacfmu.models.base import building_mismatch
-    from hvacfmu.models.loadcheck import box_drive_problems
+    from hvacfmu.models.loadcheck import require_box_drive
 
     for what, m in ((args.model, model), (args.fmu, _fmu_model(args.fmu))):
         if m is None:
             continue
-        drive = box_drive_problems(m, building)
-        if drive:
-            raise ModelError(problems_message(f"{what} cannot be a model of building {building.name!r}", drive))
+        require_box_drive(m, building, str(what))
         problems, notes = building_mismatch(m, building)
         for note in problems + notes:
             warnings.warn(f"{what}: {note}", HvacfmuWarning, stacklevel=3)

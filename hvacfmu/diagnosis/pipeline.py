@@ -304,15 +304,10 @@ def _base_model(dataset, model, say, notes) -> tuple:
 
         model = load_model(model)
     if given:
-        from ..errors import ModelError, problems_message
         from ..models.base import building_mismatch
-        from ..models.loadcheck import box_drive_problems
+        from ..models.loadcheck import require_box_drive
 
-        drive = box_drive_problems(model, dataset.building)
-        if drive:
-            raise ModelError(
-                problems_message(f"the model cannot be a model of building {dataset.building.name!r}", drive)
-            )
+        require_box_drive(model, dataset.building)
         for note in building_mismatch(getattr(model, "base", model), dataset.building)[1]:
             warnings.warn(note, HvacfmuWarning, stacklevel=3)
             notes.append(note)

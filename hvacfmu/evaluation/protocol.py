@@ -40,9 +40,9 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from ..errors import DataError, HvacfmuWarning, ModelError, problems_message
+from ..errors import DataError, HvacfmuWarning, problems_message
 from ..models.base import building_mismatch
-from ..models.loadcheck import box_drive_problems
+from ..models.loadcheck import require_box_drive
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
 from .verdict import make_verdict
@@ -144,9 +144,7 @@ def evaluate(
     )
     notes = _season_notes(dataset)
     for name, model in zip(names, models):
-        drive = box_drive_problems(model, b)
-        if drive:
-            raise ModelError(problems_message(f"model {name!r} cannot be a model of building {b.name!r}", drive))
+        require_box_drive(model, b, f"model {name!r}")
         for note in building_mismatch(model, b)[1]:
             warnings.warn(note, HvacfmuWarning, stacklevel=2)
             notes.append(note)

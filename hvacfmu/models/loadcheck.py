@@ -133,6 +133,14 @@ def box_drive_problems(model, building) -> list[str]:
     return problems
 
 
+def require_box_drive(model, building, what: str = "the model") -> None:
+    """Raise :class:`ModelError` naming ``what`` and every :func:`box_drive_problems` reason, if there are any
+    (``evaluate``, ``diagnose --model``, ``cosim``: where a model meets the building it is run with)."""
+    problems = box_drive_problems(model, building)
+    if problems:
+        raise ModelError(problems_message(f"{what} cannot be a model of building {building.name!r}", problems))
+
+
 def _linear(model, free_airflow=()) -> list[str]:
     from .plausibility import linear_problems
 
@@ -306,6 +314,7 @@ __all__ = [
     "box_drive",
     "box_drive_problems",
     "model_problems",
+    "require_box_drive",
     "require_plausible",
     "response_k",
 ]
