@@ -130,6 +130,8 @@ def without_holidays(model):
 
     if not getattr(model, "holidays", ()):
         return model
+    if getattr(model, "seasonal", False):
+        return model.map_sets(lambda m: dataclasses.replace(m, holidays=()))
     if hasattr(model, "base") and getattr(model.base, "holidays", ()):
         return dataclasses.replace(model, base=dataclasses.replace(model.base, holidays=()))
     return dataclasses.replace(model, holidays=())
