@@ -242,6 +242,10 @@ def test_both_fmus_run_the_set_of_their_season_parameter(tmp_path, native):
         if native
         else export_fmu(sm.save(tmp_path / "s.json"), tmp_path / "S.fmu")
     )
+    from fmpy import read_model_description
+
+    season_var = {v.name: v for v in read_model_description(str(path)).modelVariables}["season"]
+    assert "1 = winter, 2 = summer" in season_var.description and "coefficient set" in season_var.description
     n = 192
     idx = pd.date_range("2025-01-06", periods=n, freq="15min", tz="UTC")  # a Monday 00:00: time of week 0
     m, v = _signals(n)
@@ -311,3 +315,71 @@ def test_diagnosis_refuses_a_seasonal_base():
 
     with pytest.raises(FitError, match="one coefficient set per season"):
         base_linear(two_season())
+
+
+# ----------------------------------------------------------------------------- evaluation, diagnosis
+@pytest.fixture(scope="module")
+def two_season_data(short_paths, tmp_path_factory):
+    """The 8-week emulator dataset with its fall cut in two seasons (fall: 4 weeks, "late": 4), a test week each."""
+    from pathlib import Path
+
+    from hvacfmu.data import prepare
+
+    text = Path(short_paths.building).read_text()
+    old = '{ name = "fall", start = "09-01", end = "12-15" }'
+    assert old in text
+    text = text.replace(
+        old, '{ name = "fall", start = "09-01", end = "09-28" }, { name = "late", start = "09-29", end = "12-15" }'
+    )
+    d = tmp_path_factory.mktemp("late")
+    (d / "building.toml").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        return prepare(short_paths.measurements, d / "building.toml")
+
+
+@pytest.mark.slow
+def test_evaluation_runs_each_window_with_its_seasons_set(two_season_data):
+    """Every held-out window of the seasonal model scores exactly as its season's set alone; the verdict runs."""
+    from hvacfmu.evaluation import evaluate
+    from tests.test_fmu import zones_model
+
+    ds = two_season_data
+    assert {w.season for w in ds.test_weeks()} == {"fall", "late"}
+    m0, m5 = zones_model(ds.building, 0), zones_model(ds.building, 5)
+    sm = SeasonalZoneModel(sets={"fall": m0, "late": m5})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        res = evaluate([sm, m0, m5], ds, names=["seasonal", "fall_set", "late_set"])
+    sc = {s.name: s for s in res.scores}
+    seasons = np.array(sc["seasonal"].seasons)
+    assert set(seasons) == {"fall", "late"} and sc["seasonal"].starts == sc["fall_set"].starts
+    for s, ref in (("fall", "fall_set"), ("late", "late_set")):
+        assert_allclose(sc["seasonal"].rms[seasons == s], sc[ref].rms[seasons == s], rtol=0, atol=1e-12)
+    other = {"fall": "late_set", "late": "fall_set"}
+    for s, ref in other.items():  # the sets differ: running the other season's set would show
+        assert np.abs(sc["seasonal"].rms[seasons == s] - sc[ref].rms[seasons == s]).max() > 0.05
+    assert res.verdict is not None and any(z.model == "seasonal" for z in res.verdict.zones)
+
+
+def test_diagnose_fits_its_base_with_one_set(monkeypatch):
+    """The diagnosis refits and extends one A over the year: its own base fit asks for memory_select='mean'."""
+    import hvacfmu.fitting
+    from hvacfmu.diagnosis import pipeline
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake_fit(dataset, kind, **kw):
+        seen.update(kw, kind=kind)
+        raise Stop
+
+    monkeypatch.setattr(hvacfmu.fitting, "fit", fake_fit)
+    with pytest.raises(Stop):
+        pipeline._base_model(None, None, lambda *a: None, [])
+    assert seen["kind"] == "zones" and seen["memory_select"] == "mean"
+    from hvacfmu.models.datadriven import DEFAULTS
+
+    assert DEFAULTS["memory_select"] == "season"  # the fit's default (session 21)

@@ -514,8 +514,14 @@ class SeasonalZoneModel(ZoneModel):
         """Each season's :meth:`LinearZoneModel.summary`, headed by the season."""
         parts = [f"Model A ({self.kind}) with one coefficient set per season: {', '.join(self.sets)}"]
         for s in self.sets:
-            parts.append(f"--- season {s} ---\n" + self.for_season(s).summary())
-        return "\n".join(parts)
+            parts.append(f"--- season {s} ---\n" + dataclasses.replace(self.sets[s], meta={}).summary())
+        first = next(iter(self.sets))
+        bare = set(dataclasses.replace(self.sets[first], meta={}).summary().splitlines())
+        provenance = [line for line in self.for_season(first).summary().splitlines() if line not in bare]
+        kept = (self.meta.get("memory") or {}).get("kept") if isinstance(self.meta, dict) else None
+        if kept:
+            provenance.insert(0, f"memory check (week cross-validation) kept {kept}")
+        return "\n".join(parts + (["--- the fit ---"] + provenance if provenance else []))
 
     # --- persistence --------------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

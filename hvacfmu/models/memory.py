@@ -25,12 +25,13 @@ profiles (each window's from the other training weeks). The candidates (the fit,
 refinements) are compared by blocked week cross-validation on the training weeks only (:func:`week_cv`): each
 training week in turn is left out of the gain profiles, and the 24-h open-loop windows starting in it are simulated
 with the profiles of the other weeks of the season. The candidate with the lowest cross-validated RMS (every season
-weighs alike) is kept (option ``memory_select="mean"``, the default); ``memory_select="no_season_worse"`` keeps
+weighs alike) is kept (option ``memory_select="mean"``, session 19's rule); ``memory_select="no_season_worse"`` keeps
 only a candidate not worse than the fit in any season beyond one standard error of the paired week difference
 (:func:`select_candidate`: a candidate that wins the floating winter by losing the thermostat-held summer is not
 kept; ``benchmarks/regimes_s20.md``); ``memory_select="season"`` keeps per season the candidate the cross-validation
-ranks first in that season (:func:`season_sets`): a :class:`~hvacfmu.models.linear.SeasonalZoneModel` with one
-coefficient set per season when the seasons pick different candidates (``benchmarks/seasons_s21.md``).
+ranks first in that season (:func:`season_sets`, the default since session 21): a
+:class:`~hvacfmu.models.linear.SeasonalZoneModel` with one coefficient set per season when the seasons pick
+different candidates (``benchmarks/seasons_s21.md``).
 ``meta["memory"]`` records every score, the rule's verdicts and each season's best candidate. The held-out test
 weeks are never read.
 
@@ -449,7 +450,7 @@ def keep_memory(model, prep, opts, horizon: int = 96):
     candidates, refinements, a_slow = memory_candidates(model, alt, prep, opts, horizon)
     arr = _arrays(model, prep, horizon)  # the candidates share the fit's inputs and outputs: one set of arrays
     cv = {name: week_cv(m, prep, horizon, arrays=arr) for name, m in candidates.items()}
-    rule = str(opts.get("memory_select", "mean"))
+    rule = str(opts.get("memory_select", "season"))
     kept, selection = select_candidate(cv, rule)
     best = season_best(cv)
     chosen = candidates[kept]
