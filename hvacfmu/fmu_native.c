@@ -68,6 +68,20 @@ typedef struct {
 #define HV_NS 1
 #define HV_NREP 0
 #endif
+
+/* One coefficient set per season (a seasonal Model A): the generated header holds hv_A_set[season - 1] ...
+ * and the step reads the set of the instance's season parameter (checked at initialisation: 1..HV_NSEASON). */
+#ifndef HV_SEASONAL
+#define HV_SEASONAL 0
+#endif
+#if HV_SEASONAL
+#define HV_SET_OF(c) ((int)(c)->s.r[HV_VR_SEASON] - 1)
+#define HV_MAT(name, c) (&name##_set[HV_SET_OF(c)])
+#define HV_MATI(name, c, i) (&name##_set[HV_SET_OF(c)][i])
+#else
+#define HV_MAT(name, c) (&name)
+#define HV_MATI(name, c, i) (&name[i])
+#endif
 #define HV_NWALL (HV_NU + HV_NV + HV_NQ + HV_NSWITCH + HV_MODAL * HV_NREP + 1)
 
 #ifndef HV_NIDLE
@@ -277,16 +291,16 @@ static void phys_step(hv_inst *c, const double *x, const double *q, double *xn) 
 static void step_state(hv_inst *c, const double *x, const double *q, double *xn) {
     const double *u = c->u, *v = c->v;
     memset(xn, 0, sizeof(double) * HV_NX);
-    spmv_add(&hv_A, x, xn);
-    spmv_add(&hv_Bu, u, xn);
-    spmv_add(&hv_Bv, v, xn);
-    spmv_add(&hv_Bq, q, xn);
+    spmv_add(HV_MAT(hv_A, c), x, xn);
+    spmv_add(HV_MAT(hv_Bu, c), u, xn);
+    spmv_add(HV_MAT(hv_Bv, c), v, xn);
+    spmv_add(HV_MAT(hv_Bq, c), q, xn);
 #if HV_BILINEAR
     for (int i = 0; i < HV_NU; ++i) {
         if (u[i] == 0.0) continue;
         memset(c->tmp, 0, sizeof(double) * HV_NX);
-        spmv_add(&hv_Bxu[i], x, c->tmp);
-        spmv_add(&hv_Bvu[i], v, c->tmp);
+        spmv_add(HV_MATI(hv_Bxu, c, i), x, c->tmp);
+        spmv_add(HV_MATI(hv_Bvu, c, i), v, c->tmp);
         for (int j = 0; j < HV_NX; ++j) xn[j] += u[i] * c->tmp[j];
     }
 #endif
@@ -294,8 +308,8 @@ static void step_state(hv_inst *c, const double *x, const double *q, double *xn)
     for (int i = 0; i < HV_NV; ++i) {
         if (v[i] == 0.0) continue;
         memset(c->tmp, 0, sizeof(double) * HV_NX);
-        spmv_add(&hv_Bxv[i], x, c->tmp);
-        spmv_add(&hv_Bvv[i], v, c->tmp);
+        spmv_add(HV_MATI(hv_Bxv, c, i), x, c->tmp);
+        spmv_add(HV_MATI(hv_Bvv, c, i), v, c->tmp);
         for (int j = 0; j < HV_NX; ++j) xn[j] += v[i] * c->tmp[j];
     }
 #endif

@@ -170,32 +170,86 @@ def _c_string(s: str) -> str:
     return '"' + str(s).replace("\\", "\\\\").replace('"', '\\"').replace("%", " ") + '"'
 
 
-def _matrices(eq) -> str:
-    """C tables of A, Bu, Bv, Bq, Bxu_i, Bvu_i (with input products), Bxv_j, Bvv_j (with disturbance products)."""
+def _matrix_tables(eq, prefix: str = "hv_") -> tuple[str, dict]:
+    """C tables of A, Bu, Bv, Bq, Bxu_i, Bvu_i (with input products), Bxv_j, Bvv_j (with disturbance products),
+    named ``<prefix><matrix>_``, and each matrix's ``hv_sparse`` initialiser (a list for the per-input ones)."""
     nx, nu, nv = eq.n_states, len(eq.inputs), len(eq.disturbances)
-    out = ""
+    out, refs = "", {}
     for name in ("A", "Bu", "Bv", "Bq"):
-        out += _c_sparse(f"hv_{name}_", getattr(eq, name))
-        out += f"static const hv_sparse hv_{name} = {_sparse_ref(f'hv_{name}_', getattr(eq, name))};\n"
+        out += _c_sparse(f"{prefix}{name}_", getattr(eq, name))
+        refs[name] = _sparse_ref(f"{prefix}{name}_", getattr(eq, name))
     if eq.bilinear:
-        refs = {"Bxu": [], "Bvu": []}
+        refs.update(Bxu=[], Bvu=[])
         for i in range(nu):
             for key, mats, shape in (("Bxu", eq.Bxu, (nx, nx)), ("Bvu", eq.Bvu, (nx, len(eq.disturbances)))):
                 M = np.asarray(mats[i], dtype=float) if mats else np.zeros(shape)
-                out += _c_sparse(f"hv_{key}_{i}_", M)
-                refs[key].append(_sparse_ref(f"hv_{key}_{i}_", M))
-        for key, r in refs.items():
-            out += f"static const hv_sparse hv_{key}[{nu}] = {{{', '.join(r)}}};\n"
+                out += _c_sparse(f"{prefix}{key}_{i}_", M)
+                refs[key].append(_sparse_ref(f"{prefix}{key}_{i}_", M))
     if eq.disturbance_products:
-        refs = {"Bxv": [], "Bvv": []}
+        refs.update(Bxv=[], Bvv=[])
         for j in range(nv):
             for key, mats, shape in (("Bxv", eq.Bxv, (nx, nx)), ("Bvv", eq.Bvv, (nx, nv))):
                 M = np.asarray(mats[j], dtype=float) if mats else np.zeros(shape)
-                out += _c_sparse(f"hv_{key}_{j}_", M)
-                refs[key].append(_sparse_ref(f"hv_{key}_{j}_", M))
-        for key, r in refs.items():
-            out += f"static const hv_sparse hv_{key}[{nv}] = {{{', '.join(r)}}};\n"
+                out += _c_sparse(f"{prefix}{key}_{j}_", M)
+                refs[key].append(_sparse_ref(f"{prefix}{key}_{j}_", M))
+    return out, refs
+
+
+def _matrices(eq) -> str:
+    """C tables of the equations' matrices and the ``hv_sparse`` descriptors the runtime reads (``hv_A`` ...)."""
+    out, refs = _matrix_tables(eq)
+    for key, r in refs.items():
+        if isinstance(r, list):
+            out += f"static const hv_sparse hv_{key}[{len(r)}] = {{{', '.join(r)}}};\n"
+        else:
+            out += f"static const hv_sparse hv_{key} = {r};\n"
     return out
+
+
+def _season_matrices(sets: list) -> str:
+    """C tables of one set of matrices per season (a model with one coefficient set per season,
+    :class:`~hvacfmu.models.linear.SeasonalZoneModel`): ``hv_A_set[season - 1]`` ..., the runtime picks the set of
+    its ``season`` parameter (``HV_SEASONAL``)."""
+    out, all_refs = "", []
+    for k, e in enumerate(sets):
+        text, refs = _matrix_tables(e, f"hv_s{k}_")
+        out += text
+        all_refs.append(refs)
+    n = len(sets)
+    for key, r0 in all_refs[0].items():
+        if isinstance(r0, list):
+            rows = ", ".join("{" + ", ".join(r[key]) + "}" for r in all_refs)
+            out += f"static const hv_sparse hv_{key}_set[{n}][{len(r0)}] = {{{rows}}};\n"
+        else:
+            out += f"static const hv_sparse hv_{key}_set[{n}] = {{{', '.join(r[key] for r in all_refs)}}};\n"
+    return "#define HV_SEASONAL 1\n" + out
+
+
+def seasonal_equations(model, model_name="the model") -> list:
+    """Each season's checked equations (:func:`native_equations` of ``model.for_season(s)``) of a model with one
+    coefficient set per season, in ``model.seasons`` order; FMUError when the sets differ in more than their
+    coefficients (inputs, disturbances, outputs, bilinear structure, switches)."""
+    eqs = [native_equations(model.for_season(s), f"{model_name}, season {s}") for s in model.seasons]
+    first = eqs[0]
+    for s, e in zip(model.seasons, eqs):
+        same = (
+            e.inputs == first.inputs
+            and e.disturbances == first.disturbances
+            and e.outputs == first.outputs
+            and np.array_equal(e.C, first.C)
+            and e.bilinear == first.bilinear
+            and e.disturbance_products == first.disturbance_products
+            and len(e.switches) == 0
+            and e.A.shape == first.A.shape
+            and e.Bq.shape == first.Bq.shape
+            and e.step == first.step
+        )
+        if not same:
+            raise FMUError(
+                f"cannot export {model_name} as a native FMU: season {s}'s equations differ from the first season's "
+                "in structure (inputs, outputs, bilinear terms or switches), not only in coefficients"
+            )
+    return eqs
 
 
 def _switches(eq) -> str:
@@ -274,12 +328,16 @@ def _idle_tables(layout) -> str:
     return out
 
 
-def generate_header(eq, layout, M, guid: str, form=None) -> str:
+def generate_header(eq, layout, M, guid: str, form=None, sets=None) -> str:
     """Text of ``hvacfmu_model.h`` for equations ``eq``, the FMU's variable ``layout`` and box map ``M``.
 
     With ``form`` (a :class:`~hvacfmu.fmu_native_modal.ModalForm` of ``eq``) the
-    model runs in modal coordinates; otherwise with the physical matrices.
+    model runs in modal coordinates; otherwise with the physical matrices. ``sets``: one equations object per season
+    of ``layout["seasons"]`` (a model with one coefficient set per season; physical form only): the runtime runs
+    the set of its ``season`` parameter (``eq`` then gives the structure and every season's gain table).
     """
+    if sets is not None and (form is not None or len(sets) != len(layout["seasons"])):
+        raise FMUError("per-season matrices need the physical form and one set per season of the layout")
     nx, nu, nv, ny = eq.n_states, len(eq.inputs), len(eq.disturbances), len(eq.outputs)
     seasons = list(layout["seasons"])
     out_idx = output_states(eq.C)
@@ -316,7 +374,10 @@ def generate_header(eq, layout, M, guid: str, form=None) -> str:
     out += _c_array("int", "hv_out_state", out_idx)
     out += _c_array("int", "hv_hidden_state", hidden)
     out += _c_array("int", "hv_hidden_index", hidden_index)
-    out += header_tables(form, _c_double) if form is not None else _matrices(eq)
+    if sets is not None:
+        out += _season_matrices(sets)
+    else:
+        out += header_tables(form, _c_double) if form is not None else _matrices(eq)
     out += _switches(eq) + _gain_tables(eq, seasons) + _variables(layout) + _idle_tables(layout)
     return out
 
@@ -418,7 +479,15 @@ def export_native_fmu(
     if out_path.suffix != ".fmu":
         raise FMUError(f"output file {out_path} must end in .fmu")
     name = model_name or f"{model.kind} model"
-    eq = native_equations(model, name)
+    sets = None
+    if getattr(model, "seasonal", False):  # one coefficient set per season: the runtime picks it by `season`
+        import dataclasses
+
+        sets = seasonal_equations(model, name)
+        eq = dataclasses.replace(sets[0], gains={s: e.gains[s] for s, e in zip(model.seasons, sets)})
+        modal = False
+    else:
+        eq = native_equations(model, name)
     if getattr(model, "holidays", ()):
         import warnings
 
@@ -443,7 +512,9 @@ def export_native_fmu(
     identifier = native_identifier(model.kind)
     form = modal_form(eq, output_states(eq.C)) if modal else None
     logger.info("native FMU of %s: %s form", name, "modal" if form is not None else "physical")
-    header_wo_guid = generate_header(eq, layout, M, "", form)
+    if sets is not None and list(layout["seasons"]) != list(model.seasons):
+        raise FMUError(f"cannot export {name}: the FMU's seasons {layout['seasons']} are not the model's sets'")
+    header_wo_guid = generate_header(eq, layout, M, "", form, sets)
     guid = "{" + str(uuid.UUID(hashlib.sha256(header_wo_guid.encode()).hexdigest()[:32])) + "}"
     header = header_wo_guid.replace('#define HV_GUID ""', f"#define HV_GUID {_c_string(guid)}", 1)
     out_path.parent.mkdir(parents=True, exist_ok=True)
@@ -475,4 +546,11 @@ def export_native_fmu(
     return out_path
 
 
-__all__ = ["export_native_fmu", "generate_header", "native_equations", "native_identifier", "output_states"]
+__all__ = [
+    "export_native_fmu",
+    "generate_header",
+    "native_equations",
+    "native_identifier",
+    "output_states",
+    "seasonal_equations",
+]

@@ -127,6 +127,8 @@ class CosimMPC:
         self.preset = preset
         self.heating = bool(heating)
         self.model = model
+        #: the model as given: with one coefficient set per season, :meth:`reset` runs the set of the run's season
+        self.loaded = model
         self.building = building
         self.failure_dir = failure_dir
         self.kalman = (float(kalman_q_std), float(kalman_r_std))
@@ -135,7 +137,9 @@ class CosimMPC:
         if unknown:
             raise HvacfmuError(f"unknown MPC option(s) {sorted(unknown)}; known: {sorted(_SETTING_NAMES)}")
         self._explicit = self.options
-        self._bilinear = not make_predictor(model).linear
+        # a model with one coefficient set per season: every set has the same structure (linear or bilinear)
+        first = model.for_season(model.seasons[0]) if getattr(model, "seasonal", False) else model
+        self._bilinear = not make_predictor(first).linear
         self._configure(model.step)
         self.settings, _ = settings_from_options(**self.options)
         self.mpc = None
@@ -153,6 +157,13 @@ class CosimMPC:
 
     # ----- protocol ------------------------------------------------------
     def reset(self, context) -> None:
+        if getattr(self.loaded, "seasonal", False):  # the run's season's coefficient set (refused without one)
+            if context.season is None:
+                raise ModelError(
+                    "the MPC's model holds one coefficient set per season "
+                    f"({', '.join(self.loaded.seasons)}) and this run names no season: give the run's season"
+                )
+            self.model = self.loaded.for_season(context.season)
         model = self.model
         self._configure(context.step)  # a default horizon in steps of the run's data
         self.settings, _ = settings_from_options(band=context.band, **self.options)

@@ -45,6 +45,12 @@ def base_linear(model) -> LinearZoneModel:
     """The linear part of a base model (a LinearZoneModel, or an ExtendedModel's base)."""
     if isinstance(model, ExtendedModel):
         model = model.base
+    if getattr(model, "seasonal", False):
+        raise FitError(
+            f"diagnosis refits one Model A over the whole year; this model holds one coefficient set per season "
+            f"({', '.join(model.seasons)}, fit option memory_select='season'): let diagnose fit its own base "
+            "(default), or pass one season's set (model.for_season(season) saved to a file)"
+        )
     if isinstance(model, LinearZoneModel):
         if model.beta is not None:
             raise FitError(

@@ -297,7 +297,16 @@ def _base_model(dataset, model, say, notes) -> tuple:
         say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = fit(dataset, "zones", progress=False, use_solar=False, heat="airflow", open_loop=False)
+            # one coefficient set over the year (memory_select="mean"): the diagnosis refits and extends one A
+            model = fit(
+                dataset,
+                "zones",
+                progress=False,
+                use_solar=False,
+                heat="airflow",
+                open_loop=False,
+                memory_select="mean",
+            )
         notes += [f"base fit: {w.message}" for w in caught if issubclass(w.category, HvacfmuWarning)]
     elif isinstance(model, (str, Path)):
         from ..models import load_model

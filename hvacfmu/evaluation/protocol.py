@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError, HvacfmuWarning, problems_message
-from ..models.base import building_mismatch
+from ..models.base import building_mismatch, season_model
 from ..models.loadcheck import require_box_drive
 from ..timeutil import n_time_of_week, time_of_week
 from .result import BASELINES, EvaluationResult, ModelScore
@@ -208,6 +208,25 @@ def _season_notes(dataset):
     return notes
 
 
+def _simulate_windows(model, final, rng, x0, u, v, idx) -> np.ndarray:
+    """Open-loop outputs (W, N+1, ny) of the windows ``final`` (rows ``rng``), each run by
+    ``model.for_season(its week's season)``: one batch per season (a model with one coefficient set per season
+    runs each window with its season's set; any other model is the same model in every batch)."""
+    seasons = np.array([w.season for w, _ in final], dtype=object)
+    Yp = None
+    for s in dict.fromkeys(seasons):
+        sel = np.flatnonzero(seasons == s)
+        m = season_model(model, s)
+        q = np.stack([np.asarray(m.gains_at(idx[rng[i]], s), float) for i in sel])
+        _, Ys = m.simulate(x0[sel], u[rng[sel]], v[rng[sel]], q)
+        Ys = np.asarray(Ys, float)
+        if Yp is None:
+            Yp = np.empty((len(final),) + Ys.shape[1:])
+        Yp[sel] = Ys
+    assert Yp is not None  # final holds at least one window (the caller's W > 0)
+    return Yp
+
+
 def _score_model(model, name, dataset, starts, horizon, filled):
     """Open-loop windows of one model: RMS, baselines, hourly statistics and residuals, all on the
     steps whose output was measured (see :mod:`.windows`)."""
@@ -230,8 +249,7 @@ def _score_model(model, name, dataset, starts, horizon, filled):
     if W:
         k0s = np.array([k for _, k in final])
         rng = k0s[:, None] + np.arange(N)[None, :]  # (W, N) rows k0..k0+N-1
-        q = np.stack([np.asarray(model.gains_at(idx[r], w.season), float) for (w, _), r in zip(final, rng)])
-        _, Yp = model.simulate(np.stack(x0), u[rng], v[rng], q)
+        Yp = _simulate_windows(model, final, rng, np.stack(x0), u, v, idx)
         meas, pred = Y[rng + 1], np.asarray(Yp)[:, 1:, :]  # (W, N, ny) at k = 1..N
         observed = np.isfinite(meas)
         rms = window_rms(meas, pred, observed)

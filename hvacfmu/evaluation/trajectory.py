@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError
+from ..models.base import season_model
 
 
 @dataclasses.dataclass
@@ -90,8 +91,9 @@ def week_trajectory(model, dataset, week, name=None) -> Trajectory:
     part_u, part_v = u.iloc[k0 : e - 1], v.iloc[k0 : e - 1]
     filled = int(part_u.isna().to_numpy().sum() + part_v.isna().to_numpy().sum())
     part_u, part_v = part_u.ffill().bfill().to_numpy(), part_v.ffill().bfill().to_numpy()
-    q = np.asarray(model.gains_at(idx[k0 : e - 1], week.season), float)
-    _, Yp = model.simulate(x0, part_u, part_v, q)
+    run = season_model(model, week.season)  # a model with one coefficient set per season runs the week's
+    q = np.asarray(run.gains_at(idx[k0 : e - 1], week.season), float)
+    _, Yp = run.simulate(x0, part_u, part_v, q)
     return Trajectory(
         name=name or str(getattr(model, "kind", "model")),
         outputs=tuple(model.outputs),

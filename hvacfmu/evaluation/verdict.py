@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ..models.base import season_model
 from ..models.memory import SHORT_MEMORY_STEPS  # one constant with the fit's memory check
 from ..models.plausibility import MIN_EFFECT_K
 
@@ -399,8 +400,16 @@ def make_verdict(scores, models, dataset) -> Verdict:
             missing[sc.name] = absent
             losing += [z.output for z in mine if z.beats_persistence and not z.beats_time_of_week]
         if losing or lost:
-            by_season = [c for v in lost for c in season_causes(sc, v, dataset.frame, model, dataset)]
-            general = likely_causes(model, sc, dataset, list(dict.fromkeys(losing + [v.output for v in lost])))
+            by_season = [
+                c for v in lost for c in season_causes(sc, v, dataset.frame, season_model(model, v.season), dataset)
+            ]
+            general = likely_causes(
+                model,
+                sc,
+                dataset,
+                list(dict.fromkeys(losing + [v.output for v in lost])),
+                seasons=list(dict.fromkeys(v.season for v in lost)) or None,
+            )
             if by_season and general[-1].startswith("none of the cheap checks fired"):
                 general = general[:-1]
             causes[sc.name] = general + by_season
@@ -421,7 +430,11 @@ def make_verdict(scores, models, dataset) -> Verdict:
             and not v.beats_time_of_week
             and v.time_of_week > LOOP_HELD_TOW_K
         ]
-        why = [c for v in behind for c in season_causes(sc, v, dataset.frame, model, dataset, drift=False)]
+        why = [
+            c
+            for v in behind
+            for c in season_causes(sc, v, dataset.frame, season_model(model, v.season), dataset, drift=False)
+        ]
         if why and sc.name not in missing:
             behind_why[sc.name] = why
     return Verdict(
@@ -615,9 +628,18 @@ def _coverage(sc, dataset) -> dict:
 _LOADING_CAUSES = ("clock", "offset", "its unit", "the unit", "look like", "timezone", "time zone")
 
 
-def likely_causes(model, score, dataset, losing) -> list[str]:
+def likely_causes(model, score, dataset, losing, seasons=None) -> list[str]:
     """Causes the data can test for a model worse than persistence (or, without an input the building
-    needs, worse than the time-of-week mean) in the outputs ``losing``; a missing input comes first."""
+    needs, worse than the time-of-week mean) in the outputs ``losing``; a missing input comes first.
+
+    A model with one coefficient set per season: the checks of each set of ``seasons`` (default: every season),
+    each line naming its season."""
+    if getattr(model, "seasonal", False):
+        out = []
+        for s in seasons or model.seasons:
+            lines = likely_causes(season_model(model, s), score, dataset, losing)
+            out += [f"{s}'s coefficient set: {line}" for line in lines if not line.startswith("none of the cheap")]
+        return list(dict.fromkeys(out)) or likely_causes(season_model(model, model.seasons[0]), score, dataset, [])[-1:]
     out = _missing_discharge(model, dataset)  # first: without it the other checks read a model of the wrong heat
     out += _unused_columns(model, score, dataset, losing)
     out += _sparse_columns(model, score, dataset)

@@ -130,6 +130,8 @@ def without_holidays(model):
 
     if not getattr(model, "holidays", ()):
         return model
+    if getattr(model, "seasonal", False):
+        return model.map_sets(lambda m: dataclasses.replace(m, holidays=()))
     if hasattr(model, "base") and getattr(model.base, "holidays", ()):
         return dataclasses.replace(model, base=dataclasses.replace(model.base, holidays=()))
     return dataclasses.replace(model, holidays=())
@@ -184,6 +186,14 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
         ),
         "variables": var,
     }
+    if getattr(model, "seasonal", False):  # the season parameter also picks the coefficients
+        layout["description"] += (
+            " The model holds one coefficient set per season (A, B, C fitted per season): the season parameter "
+            "selects the set as well as the internal-gain profile."
+        )
+        for e in var:
+            if e["role"] == "season":
+                e["description"] += "; it also selects the coefficient set (one per season)"
     idle = idle_supply_layout(model, M, vavs)
     if idle is not None:
         layout["description"] += " " + idle.describe(model.outputs)

@@ -80,6 +80,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._q_chunk = (None, None)  # (first model step, gains) computed from the calendar
         if model is not None and not problem:
             self.model = model
+            self._loaded = model  # a model with one coefficient set per season runs its season's (initialisation)
             self._M = M
             self._MT = None if M is None else np.ascontiguousarray(M.T)
         self._idle = None  # the model's idle supply rule on the inputs (hvacfmu.data.idle.IdleStep)
@@ -146,6 +147,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         if problems:
             return problems
         self._season = season
+        self._use_season(season)
         self._profile = np.asarray(self.model.gains[self.seasons[season - 1]], dtype=float)
         self._n_slots = self._profile.shape[0]
         # slot of model step k: floor((tow + t_start)/step) + k  (mod n_slots)
@@ -170,6 +172,13 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._t = self._t_start
         self._write_outputs(np.asarray(self.model.output(self._x), dtype=float).tolist())
         return []
+
+    def _use_season(self, season):
+        """Run the model of season number ``season`` (1-based): the loaded model's ``for_season`` (its own season's
+        coefficient set when it holds one per season; the model itself otherwise)."""
+        from hvacfmu.models.base import season_model
+
+        self.model = season_model(self._loaded, self.seasons[season - 1])
 
     def _slot(self, w, k):
         """Gain-profile slot of model step ``k``: from the ``time_of_week`` input when set, else the clock."""
@@ -277,6 +286,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         x = None if state["x"] is None else np.array(state["x"], dtype=float)
         season = state["season"]
         if season is not None:
+            self._use_season(season)
             self._profile = np.asarray(self.model.gains[self.seasons[season - 1]], dtype=float)
             self._n_slots = self._profile.shape[0]
             self._season = season

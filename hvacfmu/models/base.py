@@ -29,6 +29,10 @@ from ..errors import ModelError
 from ..timeutil import n_time_of_week
 
 FORMAT_VERSION = 1
+#: ``format_version`` of a Model A file holding one coefficient set per season (its ``seasonal`` block,
+#: :class:`~hvacfmu.models.linear.SeasonalZoneModel`): a reader older than session 21 refuses it ("newer than this
+#: hvacfmu understands") instead of reading one set. Files of one set keep :data:`FORMAT_VERSION`.
+SEASONAL_FORMAT_VERSION = 2
 
 
 class ZoneModel(abc.ABC):
@@ -63,6 +67,16 @@ class ZoneModel(abc.ABC):
     @property
     def seasons(self) -> tuple:
         return tuple(self.gains)
+
+    #: True for a model holding one coefficient set per season (:class:`~hvacfmu.models.linear.SeasonalZoneModel`):
+    #: it runs only through :meth:`for_season`.
+    seasonal: bool = False
+
+    def for_season(self, season: str) -> ZoneModel:
+        """The model that runs in ``season``: ``self`` for a model of one coefficient set (every kind but a
+        seasonal Model A, whose override returns that season's set). Every consumer that fixes a season (evaluation
+        windows, FMU ``season`` parameter, MPC ``context.season``) runs ``model.for_season(season)``."""
+        return self
 
     # ----- data -> signals ---------------------------------------------
     @abc.abstractmethod
@@ -141,6 +155,13 @@ class ZoneModel(abc.ABC):
             d = {**d, "meta": {**d["meta"], "coefficients_sha256": coefficients_sha256(d)}}
         path.write_text(json.dumps(d, indent=1, allow_nan=False), encoding="utf-8")
         return path
+
+
+def season_model(model, season: str):
+    """``model.for_season(season)`` (the model that runs in ``season``); ``model`` itself for an object without
+    that method (a duck-typed model of one set). A consumer that fixes a season calls this before it simulates."""
+    f = getattr(model, "for_season", None)
+    return f(season) if callable(f) else model
 
 
 def coefficients_sha256(d: dict) -> str:
@@ -318,11 +339,12 @@ def require_keys(d: dict, keys, what: str):
         raise ModelError(f"{what}: missing keys {missing}")
 
 
-def check_version(d: dict, what: str = "model file"):
+def check_version(d: dict, what: str = "model file", newest: int = FORMAT_VERSION):
+    """Refuse a ``format_version`` that is not an integer >= 1 or is above ``newest``."""
     v = d.get("format_version")
     if isinstance(v, bool) or not isinstance(v, int) or v < 1:
         raise ModelError(f"{what}: no integer 'format_version'")
-    if v > FORMAT_VERSION:
+    if v > newest:
         raise ModelError(
-            f"{what}: format_version {v} is newer than this hvacfmu understands ({FORMAT_VERSION}); upgrade hvacfmu"
+            f"{what}: format_version {v} is newer than this hvacfmu understands ({newest}); upgrade hvacfmu"
         )

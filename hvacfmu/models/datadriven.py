@@ -593,7 +593,7 @@ DEFAULTS: dict[str, Any] = {
     "open_loop": "auto",
     "open_loop_couplings": False,
     "memory": "auto",
-    "memory_select": "mean",
+    "memory_select": "season",
 }
 
 #: With option heat="auto", the delivered-heat form is used when an air handler is off in more than this share

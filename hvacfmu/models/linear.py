@@ -36,6 +36,7 @@ import pandas as pd
 from ..errors import ModelError
 from .base import (
     FORMAT_VERSION,
+    SEASONAL_FORMAT_VERSION,
     ZoneModel,
     check_dates,
     check_mapping,
@@ -302,6 +303,8 @@ class LinearZoneModel(ZoneModel):
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> LinearZoneModel:
+        if isinstance(d, dict) and "seasonal" in d:  # one coefficient set per season (SeasonalZoneModel)
+            return SeasonalZoneModel.from_dict(d)  # type: ignore[return-value]
         check_version(d)
         what = f"{d.get('kind', '?')} model file"
         keys = [
@@ -339,3 +342,233 @@ class LinearZoneModel(ZoneModel):
             if isinstance(exc, ModelError):
                 raise
             raise ModelError(f"malformed {what}: {exc}") from None
+
+
+#: The coefficient fields of one season's set in a :class:`SeasonalZoneModel` (``beta`` only in the delivered-heat form).
+SEASON_SET_KEYS = ("A", "B", "C", "beta")
+
+#: The structure every season's set of a :class:`SeasonalZoneModel` shares (names, maps, step, calendar).
+_SHARED = ("kind", "step", "outputs", "measured_zones", "vavs", "disturbances", "inlets", "holidays")
+_SHARED_ARRAYS = ("output_weights", "input_map", "heat_map")
+
+
+def _refuse(what: str, seasons) -> ModelError:
+    return ModelError(
+        f"this Model A holds one coefficient set per season ({', '.join(map(str, seasons))}; fit option "
+        f"memory_select='season'): {what} needs the season chosen first (model.for_season(season); FMUs: the "
+        "'season' parameter; MPC: the context's season). It never runs one season's set in another season"
+    )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SeasonalZoneModel(ZoneModel):
+    """Model A with one coefficient set (``A``, ``B``, ``C``, ``beta``) and gain profile per season (issue 13 p.8).
+
+    The building's seasons are separate regimes on some data (the EnergyPlus apartments float for weeks in winter
+    and are held by their thermostats in summer, ``benchmarks/regimes_s20.md``); the fit's memory check
+    (option ``memory_select="season"``, :mod:`hvacfmu.models.memory`) then keeps per season the candidate its week
+    cross-validation ranks first there. Every season's set is an ordinary :class:`LinearZoneModel` (same zones,
+    boxes, disturbances, maps, step and holidays; gains of its own season only), returned by :meth:`for_season`.
+
+    A use that does not choose a season (``step_state``, ``simulate``, ``equations()``, the coefficients ``A``,
+    ``B``, ``C``, ``beta``) raises :class:`ModelError`: no consumer silently runs one season's set all year.
+
+    Parameters
+    ----------
+    sets : dict season -> LinearZoneModel
+        Each season's model (one coefficient set, gains of that season; other seasons' profiles are dropped).
+    meta : dict
+        Provenance of the whole model (the fit's record; ``for_season`` copies it into the season's model with
+        ``meta["season_set"]``).
+    """
+
+    sets: dict
+    meta: dict = dataclasses.field(default_factory=dict)
+
+    seasonal: ClassVar[bool] = True  # type: ignore[misc]
+
+    def __post_init__(self):
+        if not isinstance(self.sets, dict) or not self.sets:
+            raise ModelError("a seasonal Model A needs at least one season's coefficient set")
+        sets = {}
+        first = None
+        for s, m in self.sets.items():
+            if not isinstance(m, LinearZoneModel):
+                raise ModelError(
+                    f"season {s!r}: a seasonal Model A's set must be a LinearZoneModel, got {type(m).__name__}"
+                )
+            if s not in m.gains:
+                raise ModelError(f"season {s!r}: its coefficient set has no gain profile for that season")
+            m = dataclasses.replace(m, gains={s: m.gains[s]})
+            first = m if first is None else first
+            diff = [k for k in _SHARED if getattr(m, k) != getattr(first, k)]
+            diff += [
+                k
+                for k in _SHARED_ARRAYS
+                if (getattr(m, k) is None) != (getattr(first, k) is None)
+                or (getattr(m, k) is not None and not np.array_equal(getattr(m, k), getattr(first, k)))
+            ]
+            if (m.beta is None) != (first.beta is None):
+                diff.append("beta (heat form)")
+            if diff:
+                raise ModelError(f"season {s!r}: its coefficient set differs from the others' structure in {diff}")
+            sets[str(s)] = m
+        object.__setattr__(self, "sets", sets)
+        object.__setattr__(self, "_first", first)
+
+    # --- the structure, shared by every season's set ---------------------------------------------------------
+    def __getattr__(self, name):
+        # only reached for attributes the class does not define: the structure of the sets (names, maps, step)
+        if name.startswith("__") or name == "_first":
+            raise AttributeError(name)
+        if name in _SHARED + _SHARED_ARRAYS + ("heat", "KINDS"):
+            return getattr(self._first, name)
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    @property
+    def kind(self) -> str:  # type: ignore[override]
+        return self._first.kind
+
+    @property
+    def step(self) -> float:  # type: ignore[override]
+        return self._first.step
+
+    @property
+    def outputs(self) -> tuple:  # type: ignore[override]
+        return self._first.outputs
+
+    @property
+    def inputs(self) -> tuple:  # type: ignore[override]
+        return self._first.inputs
+
+    @property
+    def disturbances(self) -> tuple:  # type: ignore[override]
+        return self._first.disturbances
+
+    @property
+    def holidays(self) -> tuple:  # type: ignore[override]
+        return self._first.holidays
+
+    @property
+    def gains(self) -> dict:  # type: ignore[override]
+        """Season -> that season's gain profile (from its own set)."""
+        return {s: m.gains[s] for s, m in self.sets.items()}
+
+    @property
+    def n_states(self) -> int:
+        return self._first.n_states
+
+    def map_sets(self, fn) -> SeasonalZoneModel:
+        """The same seasonal model with ``fn(set)`` in place of every season's set (e.g. without holidays)."""
+        return SeasonalZoneModel(sets={s: fn(m) for s, m in self.sets.items()}, meta=self.meta)
+
+    # --- what needs a season ------------------------------------------------------------------------------
+    def for_season(self, season: str) -> LinearZoneModel:
+        """The ordinary one-set model of ``season`` (its coefficients and gain profile; meta ``season_set``)."""
+        if season not in self.sets:
+            raise ModelError(
+                f"this seasonal Model A has no coefficient set for season {season!r}; it has {list(self.sets)}"
+            )
+        meta = {**self.meta, "season_set": season}
+        plaus = (self.meta.get("plausibility") or {}).get("seasons") if isinstance(self.meta, dict) else None
+        if isinstance(plaus, dict) and season in plaus:  # the set's own checks (plausibility.check_fitted)
+            meta["plausibility"] = plaus[season]
+        return dataclasses.replace(self.sets[season], meta=meta)
+
+    @property
+    def A(self):
+        raise _refuse("reading its state matrix A", self.sets)
+
+    @property
+    def B(self):
+        raise _refuse("reading its input matrix B", self.sets)
+
+    @property
+    def C(self):
+        raise _refuse("reading its disturbance matrix C", self.sets)
+
+    @property
+    def beta(self):
+        raise _refuse("reading its delivered-heat coefficients beta", self.sets)
+
+    def step_state(self, x, u, v, q):
+        raise _refuse("a simulation step", self.sets)
+
+    def equations(self):
+        raise _refuse("its equations (matrix form)", self.sets)
+
+    # --- data -> signals (the same for every set) ----------------------------------------------------------
+    def measured_outputs(self, frame: pd.DataFrame) -> np.ndarray:
+        return self._first.measured_outputs(frame)
+
+    def signals(self, frame: pd.DataFrame):
+        return self._first.signals(frame)
+
+    def initial_state(self, frame: pd.DataFrame, k0: int) -> np.ndarray:
+        return self._first.initial_state(frame, k0)
+
+    def output(self, x):
+        return np.asarray(x)
+
+    def summary(self) -> str:
+        """Each season's :meth:`LinearZoneModel.summary`, headed by the season."""
+        parts = [f"Model A ({self.kind}) with one coefficient set per season: {', '.join(self.sets)}"]
+        for s in self.sets:
+            parts.append(f"--- season {s} ---\n" + dataclasses.replace(self.sets[s], meta={}).summary())
+        first = next(iter(self.sets))
+        bare = set(dataclasses.replace(self.sets[first], meta={}).summary().splitlines())
+        provenance = [line for line in self.for_season(first).summary().splitlines() if line not in bare]
+        kept = (self.meta.get("memory") or {}).get("kept") if isinstance(self.meta, dict) else None
+        if kept:
+            provenance.insert(0, f"memory check (week cross-validation) kept {kept}")
+        return "\n".join(parts + (["--- the fit ---"] + provenance if provenance else []))
+
+    # --- persistence --------------------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """A Model A file (``format_version`` :data:`~hvacfmu.models.base.SEASONAL_FORMAT_VERSION`) without
+        top-level ``A``/``B``/``C``/``beta``: its ``seasonal`` block holds them per season; ``gains`` each season's
+        profile from its set."""
+        d = self._first.to_dict()
+        for k in SEASON_SET_KEYS:
+            d.pop(k, None)
+        d["format_version"] = SEASONAL_FORMAT_VERSION
+        d["gains"] = gains_to_json(self.gains)
+        d["seasonal"] = {
+            s: {
+                "A": m.A.tolist(),
+                "B": m.B.tolist(),
+                "C": m.C.tolist(),
+                **({"beta": m.beta.tolist()} if m.beta is not None else {}),
+            }
+            for s, m in self.sets.items()
+        }
+        d["meta"] = self.meta
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SeasonalZoneModel:
+        what = f"{d.get('kind', '?')} model file"
+        check_version(d, what, newest=SEASONAL_FORMAT_VERSION)
+        if d.get("format_version") != SEASONAL_FORMAT_VERSION:
+            raise ModelError(f"{what}: a 'seasonal' block needs format_version {SEASONAL_FORMAT_VERSION}")
+        seasonal = check_mapping(d["seasonal"], "seasonal", what)
+        gains = check_mapping(d.get("gains"), "gains", what)
+        if not seasonal or set(seasonal) != set(gains):
+            raise ModelError(
+                f"{what}: the 'seasonal' block's seasons {sorted(seasonal)} must be the gain profiles' "
+                f"{sorted(gains)} (one coefficient set per season)"
+            )
+        delivered = d.get("heat_map") is not None  # the delivered-heat form's shared box-to-state map
+        sets = {}
+        for s, block in seasonal.items():
+            block = check_mapping(block, f"seasonal[{s!r}]", what)
+            require_keys(block, ["A", "B", "C"] + (["beta"] if delivered else []), f"{what}, season {s!r}")
+            one = {k: v for k, v in d.items() if k not in ("seasonal", "meta")}
+            one.update({k: block[k] for k in SEASON_SET_KEYS if k in block})
+            one["format_version"] = FORMAT_VERSION
+            one["gains"] = {s: gains[s]}
+            try:
+                sets[s] = LinearZoneModel.from_dict(one)
+            except ModelError as exc:
+                raise ModelError(f"season {s!r}: {exc}") from None
+        return cls(sets=sets, meta=check_mapping(d.get("meta", {}), "meta", what))

@@ -50,6 +50,8 @@ MAX_GAP_SHARE = 1.0
 def model_problems(model) -> list[str]:
     """Reasons why a loaded ``model`` cannot be a building (empty when plausible)."""
     kind = getattr(model, "kind", None)
+    if getattr(model, "seasonal", False):  # one coefficient set per season: every set is checked
+        return [f"season {s}: {p}" for s in model.seasons for p in model_problems(model.for_season(s))]
     if kind in ("lumped", "zones"):
         return _linear(model)
     if kind == "extended":
@@ -112,6 +114,8 @@ def box_drive_problems(model, building) -> list[str]:
     one step (the room would overshoot the air that cools or heats it): an edited file or a unit slip (airflow
     in L/s fitted as kg/s), never a fit on kg/s data.
     """
+    if getattr(model, "seasonal", False):  # one coefficient set per season: every set is checked
+        return [f"season {s}: {p}" for s in model.seasons for p in box_drive_problems(model.for_season(s), building)]
     problems = []
     for name, (what, value, extra_k) in box_drive(model, building).items():
         if what == "K" and value > MAX_STEP_DRIVE_K:

@@ -25,11 +25,15 @@ profiles (each window's from the other training weeks). The candidates (the fit,
 refinements) are compared by blocked week cross-validation on the training weeks only (:func:`week_cv`): each
 training week in turn is left out of the gain profiles, and the 24-h open-loop windows starting in it are simulated
 with the profiles of the other weeks of the season. The candidate with the lowest cross-validated RMS (every season
-weighs alike) is kept (option ``memory_select="mean"``, the default); ``memory_select="no_season_worse"`` keeps
+weighs alike) is kept (option ``memory_select="mean"``, session 19's rule); ``memory_select="no_season_worse"`` keeps
 only a candidate not worse than the fit in any season beyond one standard error of the paired week difference
 (:func:`select_candidate`: a candidate that wins the floating winter by losing the thermostat-held summer is not
-kept; ``benchmarks/regimes_s20.md``). ``meta["memory"]`` records every score, the rule's verdicts and each season's
-best candidate. The held-out test weeks are never read.
+kept; ``benchmarks/regimes_s20.md``); ``memory_select="season"`` keeps per season the candidate the cross-validation
+ranks first in that season (:func:`season_sets`, the default since session 21): a
+:class:`~hvacfmu.models.linear.SeasonalZoneModel` with one coefficient set per season when the seasons pick
+different candidates (``benchmarks/seasons_s21.md``).
+``meta["memory"]`` records every score, the rule's verdicts and each season's best candidate. The held-out test
+weeks are never read.
 
 The coefficients themselves are not refitted per fold (the refinement's cost, run once per week, would be that of
 the whole fit times the number of weeks): they are few (two per zone plus the weather's), against 672 gain values
@@ -200,7 +204,7 @@ def week_cv(model, prep, horizon: int = 96, arrays: _Arrays | None = None) -> di
 
 
 #: Rules of option ``memory_select`` by which :func:`keep_memory` keeps one of its candidates (:func:`select_candidate`).
-SELECT_RULES = ("mean", "no_season_worse")
+SELECT_RULES = ("mean", "no_season_worse", "season")
 
 
 def season_differences(cv: dict, ref: str = "fit") -> dict:
@@ -263,7 +267,7 @@ def select_candidate(cv: dict, rule: str = "mean", ref: str = "fit") -> tuple[st
     rec: dict = {"rule": rule}
     if not finite:
         return ref, rec
-    if rule == "mean":
+    if rule in ("mean", "season"):  # "season": the year's pick, for seasons the cross-validation did not score
         return min(finite, key=lambda k: finite[k]), rec
     diffs = season_differences(cv, ref)
     seasons = set((cv[ref].get("season_folds") or {}).keys())
@@ -290,8 +294,8 @@ def select_candidate(cv: dict, rule: str = "mean", ref: str = "fit") -> tuple[st
 
 
 def season_best(cv: dict) -> dict:
-    """Season -> the candidate with the lowest week cross-validated RMS in it: what a model whose coefficients
-    switch by season would hold (information; the base kinds carry one set, ``benchmarks/regimes_s20.md``)."""
+    """Season -> the candidate with the lowest week cross-validated RMS in it: the sets rule ``"season"`` keeps
+    (:func:`season_sets`, ``benchmarks/regimes_s20.md``, ``benchmarks/seasons_s21.md``)."""
     seasons = {s for c in cv.values() for s in c.get("season_rms", {})}
     out = {}
     for s in sorted(seasons):
@@ -299,6 +303,23 @@ def season_best(cv: dict) -> dict:
         if sc:
             out[s] = min(sc, key=lambda k: sc[k])
     return out
+
+
+def season_sets(candidates: dict, best: dict, year: str):
+    """The model rule ``memory_select="season"`` keeps: per season of the fit's gain profiles the candidate the
+    week cross-validation ranks first there (``best``, :func:`season_best`), ``year`` (the ``"mean"`` rule's pick)
+    in a season it did not score. One set when every season picks the same candidate (an ordinary
+    :class:`~hvacfmu.models.linear.LinearZoneModel`), else a :class:`~hvacfmu.models.linear.SeasonalZoneModel`
+    whose season's set is that candidate's coefficients and gain profile. Returns ``(model, season -> candidate)``.
+    """
+    from .linear import SeasonalZoneModel
+
+    seasons = list(candidates[year].gains)
+    pick = {s: best.get(s, year) if best.get(s) in candidates else year for s in seasons}
+    names = set(pick.values())
+    if len(names) == 1:
+        return candidates[names.pop()], pick
+    return SeasonalZoneModel(sets={s: candidates[pick[s]] for s in seasons}, meta=dict(candidates[year].meta)), pick
 
 
 def _vcols(prep, model, i) -> list:
@@ -429,10 +450,18 @@ def keep_memory(model, prep, opts, horizon: int = 96):
     candidates, refinements, a_slow = memory_candidates(model, alt, prep, opts, horizon)
     arr = _arrays(model, prep, horizon)  # the candidates share the fit's inputs and outputs: one set of arrays
     cv = {name: week_cv(m, prep, horizon, arrays=arr) for name, m in candidates.items()}
-    kept, selection = select_candidate(cv, str(opts.get("memory_select", "mean")))
+    rule = str(opts.get("memory_select", "season"))
+    kept, selection = select_candidate(cv, rule)
+    best = season_best(cv)
+    chosen = candidates[kept]
+    if rule == "season":
+        chosen, pick = season_sets(candidates, best, kept)
+        selection.update(season_sets=pick, year_pick=kept, seasonal=bool(getattr(chosen, "seasonal", False)))
+        if not chosen.seasonal:
+            kept = next(iter(pick.values()))
     info.update(
         selection=selection,
-        season_best=season_best(cv),
+        season_best=best,
         checked=True,
         why="option memory=True"
         if form is True
@@ -444,9 +473,9 @@ def keep_memory(model, prep, opts, horizon: int = 96):
             name: {"A_diag": np.diag(m.A).tolist(), "slowest_time_constant_steps": slowest_steps(m)}
             for name, m in candidates.items()
         },
-        kept=kept,
+        kept=kept if not chosen.seasonal else "per season: " + ", ".join(f"{s} {c}" for s, c in pick.items()),
     )
-    return candidates[kept], info
+    return chosen, info
 
 
 __all__ = [
@@ -457,6 +486,7 @@ __all__ = [
     "memory_candidates",
     "season_best",
     "season_differences",
+    "season_sets",
     "select_candidate",
     "slowest_steps",
     "week_cv",

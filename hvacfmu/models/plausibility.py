@@ -248,6 +248,8 @@ def check_fitted(
 
     from ..errors import HvacfmuWarning
 
+    if getattr(model, "seasonal", False):
+        return _check_seasons(model, dataset, warn, max_time_constant_h, min_effect_k)
     problems, numbers = linear_problems(model, max_time_constant_h)
     if dataset is not None and getattr(dataset, "building", None) is not None:
         from .loadcheck import box_drive_problems
@@ -287,6 +289,47 @@ def check_fitted(
         (warn or (lambda m: warnings.warn(m, HvacfmuWarning, stacklevel=3)))(msg)
     meta = dict(model.meta)
     meta["plausibility"] = _plain(numbers)
+    meta["warnings"] = list(meta.get("warnings") or []) + [m for m in notes if m not in (meta.get("warnings") or [])]
+    return dataclasses.replace(model, meta=meta)
+
+
+def _check_seasons(model, dataset, warn, max_time_constant_h, min_effect_k):
+    """:func:`check_fitted` of a model with one coefficient set per season: every set, its drive's effect on the
+    training weeks of its own season; a refusal names the season. ``meta["plausibility"]["seasons"]`` holds each
+    set's numbers, ``meta["warnings"]`` every set's notes (prefixed by the season)."""
+    import types
+
+    per: dict = {}
+    notes: list = []
+    for s in model.seasons:
+        ds = None
+        if dataset is not None:
+            weeks = [w for w in (getattr(dataset, "weeks", None) or ()) if w.season == s]
+            ds = types.SimpleNamespace(frame=dataset.frame, weeks=weeks, building=getattr(dataset, "building", None))
+        seen: list = []
+        try:
+            one = check_fitted(
+                model.for_season(s),
+                ds,
+                warn=seen.append,
+                max_time_constant_h=max_time_constant_h,
+                min_effect_k=min_effect_k,
+            )
+        except FitError as exc:
+            raise FitError(f"season {s}'s coefficient set: {exc}") from None
+        per[s] = one.meta.get("plausibility")
+        notes += [f"season {s}: {m}" for m in seen]
+    for msg in notes:
+        if warn is not None:
+            warn(msg)
+        else:
+            import warnings
+
+            from ..errors import HvacfmuWarning
+
+            warnings.warn(msg, HvacfmuWarning, stacklevel=3)
+    meta = dict(model.meta)
+    meta["plausibility"] = {"seasons": per}
     meta["warnings"] = list(meta.get("warnings") or []) + [m for m in notes if m not in (meta.get("warnings") or [])]
     return dataclasses.replace(model, meta=meta)
 
