@@ -1,0 +1,90 @@
+"""Session 21, issue 13: failures found running the whole pipeline on buildings and exports never used here.
+
+See benchmarks/unseen_s21.md for the runs (DOE 2004 secondary school in Boulder weather, the 90.1 small hotel in
+Golden weather, the emulator's stack4 building in the hot climate exported as °F/CFM with naive UTC times).
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_fmu import zones_model
+
+from hvacfmu.fmu_native import export_native_fmu
+from hvacfmu.fmu_slave import signal_bounds
+
+
+@pytest.fixture(scope="module")
+def sdh():
+    from hvacfmu.emulator import sdh_building
+
+    return sdh_building(nominal=True)
+
+
+def test_idle_supply_and_discharge_air_below_freezing_are_fmu_inputs():
+    """An idle air handler's duct follows the outdoor air: the data and models read it, so must the FMUs."""
+    for name in ("T_supply", "T_supply_AHU1", "Td_VAV_NW_1"):
+        lo, hi = signal_bounds(name)
+        assert lo <= -5.0 and hi == 80.0, (name, lo, hi)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler gcc")
+def test_native_fmu_steps_on_an_idle_winter_supply_temperature(sdh, tmp_path):
+    """`cosim`'s warm-up of the DOE school (Boulder, January) fed T_supply = -4.91 °C: the FMU refused the step."""
+    from test_fmu_native import Native, start_values
+
+    model = zones_model(sdh)
+    path = export_native_fmu(model, tmp_path / "zones.fmu")
+    fmu = Native(path, "idle")
+    try:
+        fmu.init(start_values(model))
+        names_in = [n for n in fmu.vr if n in ("T_out", "T_supply") or n.startswith("m_VAV_")]
+        values = {"T_out": -8.0, "T_supply": -4.91}
+        row = [values.get(n, 0.0) for n in names_in]  # the unit off: every box at 0 kg/s, the duct at -4.91 °C
+        fmu.fmu.setReal([fmu.vr[n] for n in names_in], row)
+        fmu.fmu.doStep(0.0, 900.0)
+        out = fmu.fmu.getReal([fmu.vr[f"T_{z}"] for z in model.outputs])
+        assert np.isfinite(out).all()
+        assert not any("invalid input" in msg for _, _, msg in fmu.log)
+        fmu.fmu.setReal([fmu.vr["T_supply"]], [95.0])  # still refused above the bound, naming the input
+        with pytest.raises(Exception, match="error"):
+            fmu.fmu.doStep(900.0, 900.0)
+        assert any("invalid input value(s): T_supply=95" in msg for _, _, msg in fmu.log)
+    finally:
+        fmu.close()
+
+
+def test_a_zone_held_at_its_setpoint_with_float_noise_is_not_a_held_sensor(tmp_path):
+    """The 90.1 small hotel's front office (EnergyPlus, Golden weather) rests at 75 °F written as 23.8889, 23.889
+    and 23.89 and leaves it by a jump when the schedule changes: main counted the noisy copies as distinct held
+    readings and `check` exited 3 with "a held sensor? ... fix the trend log" on a simulated building. A sensor
+    repeating its last (different) reading each night is still flagged."""
+    from test_properties import BUILDING, base_frame, write
+
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.data import load_measurements
+
+    building = building_from_dict(BUILDING)
+    frame = base_frame()
+    h = frame.index.hour
+    night = (h >= 20) | (h < 6)
+    setpoint = frame["T_A"].copy()
+    noisy = np.array([23.8889, 23.889, 23.89, 23.88889, 23.888889, 23.8889001, 23.88891, 23.8890001])
+    day = (frame.index - frame.index[0] - pd.Timedelta(hours=6)).days.to_numpy()  # one number per night
+    setpoint[night] = noisy[day[night] % len(noisy)]
+    setpoint[~night] = frame["T_A"][~night] + 1.0
+    frame["T_A"] = setpoint
+    _, rep = load_measurements(write(frame, tmp_path / "m.csv", "offset"), building)
+    assert not [w for w in rep.warnings if "held sensor" in w], rep.warnings
+    # the same nights holding the last reading (a controller offline) are still flagged
+    frame = base_frame()
+    held = frame["T_A"].copy()
+    held[night] = np.nan
+    held = held.ffill()
+    held[~night] = frame["T_A"][~night] + 1.0
+    frame["T_A"] = held
+    _, rep = load_measurements(write(frame, tmp_path / "h.csv", "offset"), building)
+    assert any("column 'T_A': a held sensor?" in w for w in rep.warnings)
