@@ -88,3 +88,27 @@ def test_a_zone_held_at_its_setpoint_with_float_noise_is_not_a_held_sensor(tmp_p
     frame["T_A"] = held
     _, rep = load_measurements(write(frame, tmp_path / "h.csv", "offset"), building)
     assert any("column 'T_A': a held sensor?" in w for w in rep.warnings)
+
+
+@pytest.mark.slow
+def test_one_sparse_box_does_not_hide_the_holiday_judgement():
+    """The stack4 export with `--fault sparse_box` (one box in 5.6 % of the rows): `check` said the training weeks
+    hold "too few training workdays and Sundays to tell" whether the building closes on public holidays, while the
+    same export without the fault judged its holiday ("ran as on a workday"). The day signature summed every box per
+    row, so the sparse box blanked every day; it is now left out of the signature."""
+    import hvacfmu as hf
+    from hvacfmu.data.holidays import decide_holidays
+    from hvacfmu.emulator import cached_dataset
+
+    paths = cached_dataset(weeks=8, seed=0)
+    ds = hf.data.prepare(paths.measurements, paths.building)
+    clean = decide_holidays(ds.frame, ds.building, ds.weeks)
+    assert clean.gammas and not any("too few" in n for n in clean.notes), clean.notes
+    frame = ds.frame.copy()
+    box = f"m_{ds.building.vavs[0].name}"
+    keep = np.zeros(len(frame), bool)
+    keep[::18] = True  # about 5.6 % of the rows keep a value
+    frame.loc[~keep, box] = np.nan
+    sparse = decide_holidays(frame, ds.building, ds.weeks)
+    assert not any("too few" in n for n in sparse.notes), sparse.notes
+    assert set(sparse.gammas) == set(clean.gammas)
