@@ -112,3 +112,20 @@ def test_one_sparse_box_does_not_hide_the_holiday_judgement():
     sparse = decide_holidays(frame, ds.building, ds.weeks)
     assert not any("too few" in n for n in sparse.notes), sparse.notes
     assert set(sparse.gammas) == set(clean.gammas)
+
+
+def test_diagnose_names_the_number_of_zones_it_fits(monkeypatch):
+    """On the five-zone school pod `diagnose` said "fitting the six-zone Model A": the count is the building's."""
+    import types
+
+    import hvacfmu.fitting
+    from hvacfmu.diagnosis.pipeline import _base_model
+
+    fitted = types.SimpleNamespace(heat="airflow")
+    monkeypatch.setattr(hvacfmu.fitting, "fit", lambda *a, **k: fitted)
+    said: list = []
+    zones = ("Corner_1", "Corner_2", "Corridor", "Mult_1", "Mult_2")
+    dataset = types.SimpleNamespace(building=types.SimpleNamespace(zone_names=zones))
+    model, given = _base_model(dataset, None, said.append, [])
+    assert model is fitted and not given
+    assert said and said[0].startswith("fitting the 5-zone Model A"), said
