@@ -129,3 +129,25 @@ def test_diagnose_names_the_number_of_zones_it_fits(monkeypatch):
     model, given = _base_model(dataset, None, said.append, [])
     assert model is fitted and not given
     assert said and said[0].startswith("fitting the 5-zone Model A"), said
+
+
+def test_a_sparse_box_after_interpolate_gaps_is_not_told_to_interpolate_again(tmp_path):
+    """The stack4 export's sparse box (`--fault sparse_box`): `check` advised `--interpolate-gaps MINUTES (a little
+    over its spacing)`; with `--interpolate-gaps 200` (its median spacing is 195 min) the box still had 22.9 % and
+    `check` repeated the same advice. Now it says the gaps left are longer than what was bridged."""
+    from test_properties import BUILDING, base_frame, write
+
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.data.check import check
+
+    building = building_from_dict(BUILDING)
+    frame = base_frame()
+    frame.loc[frame.index[len(frame) // 4] :, "m_V2"] = np.nan  # the box logs a quarter of the span
+    path = write(frame, tmp_path / "m.csv", "offset")
+    first = check(path, building)
+    msg = next(p for p in first.problems if "'m_V2'" in p)
+    assert "bridge its samples with --interpolate-gaps MINUTES" in msg
+    again = check(path, building, interpolate_limit=30)
+    msg = next(p for p in again.problems if "'m_V2'" in p)
+    assert "--interpolate-gaps MINUTES" not in msg, msg
+    assert "--interpolate-gaps 30 bridged the gaps up to 30 min and left these" in msg, msg
