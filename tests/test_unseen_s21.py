@@ -151,3 +151,38 @@ def test_a_sparse_box_after_interpolate_gaps_is_not_told_to_interpolate_again(tm
     msg = next(p for p in again.problems if "'m_V2'" in p)
     assert "--interpolate-gaps MINUTES" not in msg, msg
     assert "--interpolate-gaps 30 bridged the gaps up to 30 min and left these" in msg, msg
+
+
+def test_a_season_lost_without_discharge_air_names_the_missing_input(monkeypatch):
+    """The stack4 reheat export without its Td_ columns (rh_ kept): the zones model won the year against both
+    baselines but lost winter to the time-of-week mean in N1 (0.171 against 0.164 K); main named only "one held-out
+    week". The missing discharge air is now flagged on the model's first line and as the first likely cause."""
+    import types
+
+    import pandas as pd
+
+    from hvacfmu.evaluation import verdict as V
+
+    zones = [V.ZoneVerdict("zones", "N1", 0.219, 0.663, 0.227, -0.3, 1.4, 500)]
+    seasons = [
+        V.SeasonVerdict("zones", "N1", "winter", 0.171, 0.60, 0.164, 4, 1),
+        V.SeasonVerdict("zones", "N1", "fall", 0.25, 0.70, 0.30, 5, 1),
+    ]
+    monkeypatch.setattr(V, "_zone_verdicts", lambda sc: zones)
+    monkeypatch.setattr(V, "_season_verdicts", lambda sc: seasons)
+    monkeypatch.setattr(V, "_coverage", lambda sc, ds: {"skipped": {}, "windows": {"winter": 4, "fall": 5}})
+    monkeypatch.setattr(V, "season_causes", lambda *a, **k: [])
+    monkeypatch.setattr(V, "_unused_columns", lambda *a, **k: [])
+    monkeypatch.setattr(V, "_sparse_columns", lambda *a, **k: [])
+    monkeypatch.setattr(V, "gain_profile_hint", lambda *a, **k: "")
+    frame = pd.DataFrame({"T_N1": [21.0], "m_V1": [0.3], "rh_V1": [0.5], "T_supply": [13.0]})
+    building = types.SimpleNamespace(vav_names=("V1",))
+    dataset = types.SimpleNamespace(frame=frame, building=building, warnings=[])
+    model = types.SimpleNamespace(disturbances=("T_out", "T_supply"), inputs=("m_V1",), outputs=("N1",))
+    score = types.SimpleNamespace(starts=[0], name="zones")
+    v = V.make_verdict([score], [model], dataset)
+    assert v.missing == {"zones": ["Td_V1"]}
+    lines = v.format().splitlines()
+    assert lines[0].startswith("!! zones:") and "missing input: Td_V1 not measured" in lines[0], lines
+    assert "!! zones: WORSE THAN THE TIME-OF-WEEK MEAN in N1 in winter 0.171 K against 0.164 K" in lines, lines
+    assert v.causes["zones"][0].startswith("missing input: the boxes reheat (rh_ columns)"), v.causes
