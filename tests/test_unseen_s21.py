@@ -186,3 +186,25 @@ def test_a_season_lost_without_discharge_air_names_the_missing_input(monkeypatch
     assert lines[0].startswith("!! zones:") and "missing input: Td_V1 not measured" in lines[0], lines
     assert "!! zones: WORSE THAN THE TIME-OF-WEEK MEAN in N1 in winter 0.171 K against 0.164 K" in lines, lines
     assert v.causes["zones"][0].startswith("missing input: the boxes reheat (rh_ columns)"), v.causes
+
+
+def test_cosim_names_which_of_several_air_handlers_is_off():
+    """The 90.1 small hotel (four single-zone units) in `cosim`: main said "the data's air handler is off in 541 of
+    672 steps" while two of its four units were (the meeting room's 539 steps, the front office's 3). With several
+    units the line says some unit is off and lists each one's off steps; one unit keeps the old wording."""
+    import pandas as pd
+
+    from harness.cosim import _schedule_lines
+    from harness.schedule import RunSchedule
+
+    index = pd.date_range("2017-01-22", periods=6, freq="15min", tz="America/Denver")
+    off = np.zeros((6, 4), bool)
+    off[1:4, 2] = True  # the third box's unit off in 3 steps
+    off[5, 3] = True
+    sched = RunSchedule("schedule", off, units=("U1", "U1", "U2", "U3"))
+    s = {"schedule": sched.summary(index), "steps_requested": 6}
+    line = _schedule_lines(s)[0]
+    assert "an air handler of the data is off in 4 of 6 steps (2 of 3 units: U2 3 steps, U3 1 step;" in line, line
+    one = RunSchedule("schedule", off[:, 2:3], units=("U2",))
+    line = _schedule_lines({"schedule": one.summary(index), "steps_requested": 6})[0]
+    assert "the data's air handler is off in 3 of 6 steps (1 periods)" in line, line
