@@ -22,6 +22,7 @@ import tomllib
 import hvacfmu as hf
 from hvacfmu.building import building_from_dict
 from hvacfmu.data import boxmap
+from hvacfmu.errors import BuildingError
 
 
 def flags(ev, b, concentration: bool) -> list:
@@ -81,7 +82,10 @@ def main(argv: list) -> None:
             dd = copy.deepcopy(raw)
             a, c = dd["vavs"][i], dd["vavs"][j]
             a["zone"], c["zone"] = c["zone"], a["zone"]
-            bb = building_from_dict(dd)
+            try:
+                bb = building_from_dict(dd)
+            except BuildingError:  # the swap itself refused (a 10 kg/s lobby box in a 300 m3 shop)
+                continue
             e2 = boxmap.box_zone_evidence(ds.frame, bb)
             if e2 is None:
                 continue
