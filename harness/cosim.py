@@ -58,7 +58,7 @@ from hvacfmu.progress import progress as progress_iter
 from hvacfmu.timeutil import seconds_of_week
 
 from .controllers import DEFAULT_HORIZON_H, ControlContext, ReplayController, RuleController, default_horizon
-from .schedule import SYSTEMS, RunSchedule, check_system, off_steps, running_supply
+from .schedule import SYSTEMS, RunSchedule, check_system, off_steps, running_supply, unit_of_boxes
 
 logger = logging.getLogger(__name__)
 
@@ -218,9 +218,17 @@ def _schedule_lines(s: dict) -> list:
     n = s["steps_requested"]
     if sc.get("off_steps"):
         periods = sc.get("off_periods") or []
-        head = (
-            f"  schedule        the data's air handler is off in {sc['off_steps']} of {n} steps ({len(periods)} periods"
-        )
+        units = sc.get("unit_off_steps") or {}
+        which, per_unit = "the data's air handler", ""
+        if len(units) > 1:  # several units: which are off, and how often (the 90.1 small hotel: 1 of 4 units)
+            off_units = {u: k for u, k in units.items() if k}
+            which = "an air handler of the data"
+            per_unit = (
+                f"{len(off_units)} of {len(units)} units: "
+                + ", ".join(f"{u} {k} step{'s' if k != 1 else ''}" for u, k in off_units.items())
+                + "; "
+            )
+        head = f"  schedule        {which} is off in {sc['off_steps']} of {n} steps ({per_unit}{len(periods)} periods"
         if sc["system"] == "schedule":
             line = (
                 head + "): the run follows it (--system schedule, the default): 0 airflow and no reheat in "
@@ -866,7 +874,7 @@ def _apply_system(run: _Run, system: str) -> None:
                 run.V[fmu_name] = series.to_numpy(dtype=float)
                 run.cframe[col] = run.V[fmu_name]
                 held[col] = int(changed.sum())
-    run.schedule = RunSchedule(system, off, held, noise)
+    run.schedule = RunSchedule(system, off, held, noise, tuple(unit_of_boxes(run.building, run.vavs)))
 
 
 def _unset_states(interface) -> int:

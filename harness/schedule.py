@@ -123,12 +123,15 @@ class RunSchedule:
         ``{supply column: steps replaced by the last running value}`` (always-on only).
     noise : int
         Off steps where a shut box reads above its 5 % box-off bound (sensor noise).
+    units : tuple of str
+        The air handler of each box (column of ``off``), when known: the summary then counts each unit's off steps.
     """
 
     system: str
     off: np.ndarray
     held: dict = dataclasses.field(default_factory=dict)
     noise: int = 0
+    units: tuple = ()
 
     @property
     def enforced(self) -> bool:
@@ -146,7 +149,17 @@ class RunSchedule:
             "off_steps_noise": self.noise,
             "off_periods": _periods(index, any_off),
             "held_supply": dict(self.held),
+            "unit_off_steps": self.unit_off_steps(),
         }
+
+    def unit_off_steps(self) -> dict:
+        """``{unit: steps off}`` of every unit of the run's boxes (empty when the units are not known)."""
+        if len(self.units) != self.off.shape[1]:
+            return {}
+        out: dict = {}
+        for j, u in enumerate(self.units):
+            out[u] = int(self.off[:, j].sum())  # every box of a unit is off in the same steps
+        return out
 
 
 def check_system(system: str) -> str:

@@ -356,7 +356,7 @@ def check(
             building=about,
             load_report=report,
         )
-    gaps, problems, sparse = _coverage(dataset, building, path.name, min_coverage)
+    gaps, problems, sparse = _coverage(dataset, building, path.name, min_coverage, interpolate_limit)
     step_s = dataset.step
     if not dataset.weeks:
         span = (dataset.frame.index[-1] - dataset.frame.index[0]).total_seconds() + step_s if len(dataset.frame) else 0
@@ -409,7 +409,7 @@ def _attention_label(warning: str) -> str:
     return next((label for k, label in _ATTENTION.items() if k in warning), "warning")
 
 
-def _coverage(dataset, building, label, min_coverage):
+def _coverage(dataset, building, label, min_coverage, interpolated=None):
     """Gaps per column, the coverage problems, and the sparse-column messages (also in the dataset's warnings)."""
     problems = []
     required = [c for c, req in building.expected_columns().items() if req]
@@ -436,7 +436,10 @@ def _coverage(dataset, building, label, min_coverage):
                 f"(at least {100 * min_coverage:g} % of the step){_masked_note(dataset, col)}; if the sensor logs "
                 f"thinly all along (samples sparser than the file's rows): {_BRIDGE}"
             )
-    sparse = {sparse_message(building.column_for(c), c, cov): c for c, cov in sparse_columns(dataset.frame).items()}
+    sparse = {
+        sparse_message(building.column_for(c), c, cov, interpolated=interpolated): c
+        for c, cov in sparse_columns(dataset.frame).items()
+    }
     for msg, col in sparse.items():
         if not (col in required and missing_all.get(col)):
             problems.append(f"{label}: {msg}{_masked_note(dataset, col)}")

@@ -425,16 +425,33 @@ def sparse_columns(frame: pd.DataFrame, threshold: float = MIN_COLUMN_COVERAGE) 
     return out
 
 
-def sparse_message(name: str, canonical: str, coverage: float, threshold: float = MIN_COLUMN_COVERAGE) -> str:
-    """The message naming a column too sparse for the models (see :data:`MIN_COLUMN_COVERAGE`)."""
+def sparse_message(
+    name: str,
+    canonical: str,
+    coverage: float,
+    threshold: float = MIN_COLUMN_COVERAGE,
+    interpolated: float | None = None,
+) -> str:
+    """The message naming a column too sparse for the models (see :data:`MIN_COLUMN_COVERAGE`).
+
+    ``interpolated``: the ``--interpolate-gaps`` limit [min] already applied, if any; then the message does not
+    advise it again (after `--interpolate-gaps 200` on a box logging every 195 min at best, with gaps up to 38 h,
+    `check` repeated the advice) but says the gaps it left are longer.
+    """
     what = "a required column" if canonical.startswith(("T_", "m_")) else "an optional column"
+    bridge = (
+        f"--interpolate-gaps {interpolated:g} bridged the gaps up to {interpolated:g} min and left these: the sensor "
+        "is silent for longer than that, and bridging longer gaps would invent its values"
+        if interpolated
+        else f"a sensor logging thinly all along: {_BRIDGE}"
+    )
     return (
         f"column {name!r}"
         + (f" ({canonical})" if name != canonical else "")
         + f": a value in only {100 * coverage:.1f} % of the model steps, below the {100 * threshold:g} % that "
         f"fitting and evaluation need ({what}); trim the file to the span the sensor covers, fix the export"
         + ("" if what.startswith("a required") else ", or drop the column")
-        + f"; a sensor logging thinly all along: {_BRIDGE}"
+        + f"; {bridge}"
     )
 
 
@@ -493,7 +510,9 @@ def _prepare(path, building, step, seed, train_fraction, interpolate_limit, min_
                 "interpolated linearly to the step midpoints"
             )
         sparse = sparse_columns(frame)
-        notes += [sparse_message(building.column_for(c), c, cov) for c, cov in sparse.items()]
+        notes += [
+            sparse_message(building.column_for(c), c, cov, interpolated=interpolate_limit) for c, cov in sparse.items()
+        ]
         notes += check_discharge(frame, building)
         notes += [f"{label}: {n}" for n in check_roles(frame, building) + check_supply_assignment(frame, building)]
         bar.update(note="solar and weeks")

@@ -70,6 +70,10 @@ MAX_WORKDAY_SPREAD = 0.25
 CLOSED_SPREADS = 2.5
 #: Share of a day's rows that must hold the signature's values.
 MIN_DAY_COVERAGE = 0.75
+#: A box airflow or zone column with values in fewer than this share of the rows is left out of the signature: the
+#: signature sums the boxes and averages the zones per row, so one sparse box (`generate --fault sparse_box`, 5.6 %)
+#: blanked every day and `check` said "too few training workdays and Sundays" (session 21)
+MIN_SIGNATURE_COVERAGE = 0.5
 #: Workdays and Sundays within this many days of a day form its reference.
 NEIGHBOURHOOD_DAYS = 28
 #: Years after the data's last one that a model's calendar covers (its FMU may forecast later).
@@ -132,12 +136,16 @@ def day_signature(frame: pd.DataFrame, building) -> tuple[pd.DatetimeIndex, np.n
 def _day_signature(frame: pd.DataFrame, building) -> tuple[pd.DatetimeIndex, np.ndarray, np.ndarray]:
     """The body of :func:`day_signature`."""
     idx = frame.index
+
+    def covered(cols):  # a column with values in under half the rows would blank every hour it misses
+        return [c for c in cols if frame[c].notna().mean() >= MIN_SIGNATURE_COVERAGE]
+
     blocks = []
-    m_cols = [f"m_{v.name}" for v in building.vavs if f"m_{v.name}" in frame.columns]
+    m_cols = covered([f"m_{v.name}" for v in building.vavs if f"m_{v.name}" in frame.columns])
     if m_cols:
         m_max = np.array([building.vav(c[2:]).m_max for c in m_cols], float)
         blocks.append(frame[m_cols].sum(axis=1, min_count=len(m_cols)).to_numpy(float) / max(m_max.sum(), 1e-9))
-    t_cols = [f"T_{z}" for z in building.zone_names if f"T_{z}" in frame.columns]
+    t_cols = covered([f"T_{z}" for z in building.zone_names if f"T_{z}" in frame.columns])
     if t_cols:
         w = np.array([building.zone(c[2:]).area for c in t_cols], float)
         T = frame[t_cols].to_numpy(float)

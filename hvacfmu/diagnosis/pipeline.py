@@ -294,7 +294,11 @@ def _base_model(dataset, model, say, notes) -> tuple:
     if model is None:
         from ..fitting import fit
 
-        say("fitting the six-zone Model A (v = T_out, T_supply, airflow form, as in the paper) on the training weeks")
+        n = len(dataset.building.zone_names)
+        say(
+            f"fitting the {n}-zone Model A, one state per zone (v = T_out, T_supply, airflow form, as in the paper) "
+            "on the training weeks"
+        )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             # one coefficient set over the year (memory_select="mean"): the diagnosis refits and extends one A

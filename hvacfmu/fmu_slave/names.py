@@ -18,11 +18,15 @@ BOUNDS = {
     "m/s": (0.0, 60.0),
 }
 
-#: plausible ranges of temperature inputs by name prefix [°C] (checked before every step)
+#: plausible ranges of temperature inputs by name prefix [°C] (checked before every step). Supply and discharge
+#: air reach down to the outdoor air's bound: an air handler that is off leaves its supply sensor (and its boxes'
+#: discharge sensors) in an idle duct that follows the outdoor or return air, and the data and the models read
+#: those values (EnergyPlus's DOE secondary school in Boulder: T_supply -4.9 °C, a shut box's Td -2.4 °C in
+#: January; before session 21 the bound was 0 °C and `cosim`'s warm-up of such a building stopped on them)
 SIGNAL_BOUNDS = {
     "T_out": (-60.0, 60.0),
-    "T_supply": (0.0, 80.0),
-    "Td_": (0.0, 80.0),
+    "T_supply": (-60.0, 80.0),
+    "Td_": (-60.0, 80.0),
 }
 
 #: plausible range of a zone air temperature [°C] (start-value parameters): outside it, a unit or sensor error
