@@ -262,18 +262,28 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
     model = load_model(model_path)  # validates the file before anything is built
     building = _model_building(model, building, model_path)
     calendar = calendar_dependent(model)
-    if calendar:
+    # the building's seasons by date (its file, or a physics model's own building): the FMU's season = 0 follows them
+    season_building = building if building is not None else getattr(model, "building", None)
+    season_dates = [(s.name, s.start, s.end) for s in getattr(season_building, "seasons", ())] or None
+    if season_dates and not {n for n, _, _ in season_dates} <= {str(s) for s in model.gains}:
+        season_dates = None  # a season the model has no profile for: it cannot follow this calendar
+    if calendar or season_dates:
         # the building file's zone when given: the data, and so the model's holidays, are on its calendar (a model
         # of `diagnose --control-output` with a holiday, exported with -b, lost its calendar before)
         timezone = (
-            timezone or (getattr(model, "meta", None) or {}).get("timezone") or getattr(building, "timezone", None)
+            timezone
+            or (getattr(model, "meta", None) or {}).get("timezone")
+            or getattr(building, "timezone", None)
+            or getattr(season_building, "timezone", None)
         )
         if timezone is not None:
             _check_timezone(timezone, model_path)
-        else:
+        elif calendar:
             _warn_calendar_gains(model, model_path)
     try:
-        layout, _ = zone_model_layout(model, timezone if calendar else None, box_limits(model, building))
+        layout, _ = zone_model_layout(
+            model, timezone if calendar or season_dates else None, box_limits(model, building), season_dates
+        )
     except ValueError as exc:
         raise FMUError(f"cannot export {model_path}: {exc}") from None
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:
