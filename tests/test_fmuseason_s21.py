@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import json
+import warnings
 import zipfile
 
 import numpy as np
@@ -20,6 +21,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from hvacfmu.building import building_from_dict
+from hvacfmu.errors import DataError, HvacfmuWarning
 from tests.conftest import SMALL_BUILDING
 from tests.test_seasons_s21 import _signals, two_season
 
@@ -182,3 +184,83 @@ def test_native_fmu_refuses_season_zero_naming_the_python_fmu(tmp_path):
         assert any("not supported by the native FMU" in msg and "Python FMU" in msg for _, _, msg in s.log), s.log
     finally:
         s.close()
+
+
+# ----------------------------------------------------------------------------- cosim over a free span
+@pytest.fixture(scope="module")
+def late_data(short_paths, tmp_path_factory):
+    """The 8-week emulator dataset with its fall cut in two seasons at 09-29 (fall until 09-28, "late" after)."""
+    from pathlib import Path
+
+    from hvacfmu.data import prepare
+
+    text = Path(short_paths.building).read_text()
+    old = '{ name = "fall", start = "09-01", end = "12-15" }'
+    assert old in text
+    text = text.replace(
+        old, '{ name = "fall", start = "09-01", end = "09-28" }, { name = "late", start = "09-29", end = "12-15" }'
+    )
+    d = tmp_path_factory.mktemp("late")
+    (d / "building.toml").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        data = prepare(short_paths.measurements, d / "building.toml")
+    from hvacfmu.fmu import export_fmu
+    from tests.test_fmu import zones_model
+
+    model = zones_model(data.building)
+    path = model.save(d / "zones.json")
+    return data, export_fmu(path, d / "Table.fmu", building=d / "building.toml"), export_fmu(path, d / "Plain.fmu")
+
+
+SPAN = dict(start="2025-09-27 00:00", stop="2025-10-01 00:00", warmup=0.0)
+
+
+def test_season_pieces_of_a_span(late_data):
+    from harness.cosim import season_pieces
+
+    data, _, _ = late_data
+    idx = data.frame.loc["2025-09-27":"2025-09-30"].index
+    pieces = season_pieces(idx, data.building)
+    assert [p[0] for p in pieces] == ["fall", "late"]
+    assert pieces[1][1] == pd.Timestamp("2025-09-29 00:00", tz=idx.tz)
+    assert pieces[0][2] == pieces[1][1] - pd.Timedelta(minutes=15)
+
+
+def test_cosim_refuses_a_span_across_a_boundary_it_cannot_follow(late_data):
+    from harness.controllers import ReplayController
+    from harness.cosim import run_cosim
+
+    data, _, plain = late_data
+    with pytest.raises(DataError) as err:
+        run_cosim(plain, data, ReplayController(), **SPAN)
+    msg = str(err.value)
+    for part in (
+        "crosses 1 season boundary",
+        "fall 2025-09-27 00:00 .. 2025-09-28 23:45",
+        "late 2025-09-29 00:00",
+        "Split the run at the boundaries",
+        "--season",
+        "export -b",
+    ):
+        assert part in msg, msg
+    with pytest.warns(HvacfmuWarning, match="season 'fall' was chosen and runs for the whole span"):
+        r = run_cosim(plain, data, ReplayController(), season="fall", **SPAN)
+    assert r.covered
+
+
+def test_cosim_switches_season_at_the_boundary(late_data):
+    """The FMU with the season table runs season 0: the same as season 'fall' until the boundary, not after."""
+    from harness.controllers import ReplayController
+    from harness.cosim import run_cosim
+
+    data, table, _ = late_data
+    r = run_cosim(table, data, ReplayController(), **SPAN)
+    assert r.covered and r.summary["season"] == "fall"
+    with pytest.warns(HvacfmuWarning):
+        f = run_cosim(table, data, ReplayController(), season="fall", **SPAN)
+    zones = [f"T_{z}" for z in data.building.zone_names]
+    cut = r.table.index.searchsorted(pd.Timestamp("2025-09-29 00:00", tz=r.table.index.tz))
+    a, b = r.table[zones].to_numpy(), f.table[zones].to_numpy()
+    assert_allclose(a[: cut + 1], b[: cut + 1], rtol=0, atol=EXACT)
+    assert np.abs(a[cut + 1 :] - b[cut + 1 :]).max() > 0.01
