@@ -96,7 +96,9 @@ def test_layout_holds_the_season_table_and_season_zero(fmus):
     lay = json.loads(zipfile.ZipFile(fmus["table"]).read("resources/interface.json"))
     assert lay["season_dates"] == [["winter", "10-15", "04-14"], ["summer", "04-15", "10-14"]]
     assert lay["timezone"] == TZ
-    var = {v.name: v for v in read_model_description(str(fmus["table"])).modelVariables}
+    md = read_model_description(str(fmus["table"]))
+    assert "season = 0 follows them" in md.description
+    var = {v.name: v for v in md.modelVariables}
     assert var["season"].min == "0" and "0 = follow the calendar" in var["season"].description
     assert "winter 10-15 .. 04-14" in var["season"].description
     assert "needed by season = 0" in var["start_time"].description

@@ -221,6 +221,10 @@ def zone_model_layout(
         layout["timezone"] = str(timezone)
     if table:
         layout["season_dates"] = table
+        layout["description"] += (
+            " It holds the building's seasons by date: season = 0 follows them (with start_time set), switching "
+            "season at each boundary within one run."
+        )
     if boxes:
         layout["boxes"] = {b: boxes[b] for b in sorted(boxes)}
     return layout, M
