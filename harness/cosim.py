@@ -652,7 +652,9 @@ def run_cosim(
     band : (float, float) [°C]
         Comfort band for the violation figure and the controllers.
     season : str, optional
-        Season of the gains profile (default: the week's season).
+        Season of the gains profile for the whole run (default: the week's season; a free span's first row's).
+        A free span across a season boundary of the building file, without ``season``: an FMU exported with the
+        building file follows the calendar (``season = 0``), any other is refused (:func:`plan_season_span`).
     start_values : dict, optional
         Extra FMU start values by variable name (override the defaults).
     allow_partial : bool
@@ -1549,7 +1551,11 @@ def add_cosim_arguments(parser):
         metavar=("T_MIN", "T_MAX"),
         help="comfort band [degC] (default 20 22)",
     )
-    parser.add_argument("--season", help="season of the gains profile (default: the week's)")
+    parser.add_argument(
+        "--season",
+        help="season of the gains profile for the whole run (default: the week's; a --start/--stop span across a "
+        "season boundary follows the calendar when the FMU was exported with -b, else it is refused)",
+    )
     parser.add_argument(
         "--horizon",
         type=int,

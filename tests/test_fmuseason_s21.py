@@ -266,3 +266,20 @@ def test_cosim_switches_season_at_the_boundary(late_data):
     a, b = r.table[zones].to_numpy(), f.table[zones].to_numpy()
     assert_allclose(a[: cut + 1], b[: cut + 1], rtol=0, atol=EXACT)
     assert np.abs(a[cut + 1 :] - b[cut + 1 :]).max() > 0.01
+
+
+def test_cosim_command_names_the_boundary(late_data, short_paths, cli):
+    """``hvacfmu cosim --start/--stop`` across the boundary with an FMU exported without the building: refused,
+    exit status not 0, the message on stderr; with ``--season``: runs (the warning names the boundary)."""
+    from pathlib import Path
+
+    data, _, plain = late_data
+    bfile = Path(plain).parent / "building.toml"
+    args = ["cosim", "--fmu", plain, "--data", short_paths.measurements, "-b", bfile, "-c", "replay"]
+    span = ["--start", SPAN["start"], "--stop", SPAN["stop"]]
+    r = cli(*args, *span)
+    assert r.returncode != 0
+    assert "crosses 1 season boundary" in r.stderr and "Split the run at the boundaries" in r.stderr, r.stderr
+    r = cli(*args, *span, "--season", "fall")
+    assert r.returncode == 0, r.stderr
+    assert "season 'fall' was chosen" in r.stderr
