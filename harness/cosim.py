@@ -140,6 +140,13 @@ class CosimResult:
             f"  span            {s['start']} .. {s['end']} ({s['steps_requested']} steps of {s['step']:g} s)",
             f"  completed       {s['steps_completed']} / {s['steps_requested']} steps"
             + ("" if s["covered"] else "   <-- STOPPED EARLY: " + (s.get("stopped_because") or "?")),
+        ]
+        if s.get("seasons_followed"):
+            lines.append(
+                "  seasons         the FMU followed the calendar (season 0): "
+                + "; ".join(f"{p['season']} {p['from']} .. {p['to']}" for p in s["seasons_followed"])
+            )
+        lines += [
             f"  energy proxy    {s['energy_proxy']:.4f} (kg/s)^2 summed over steps and boxes",
             f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
             f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC"
@@ -720,6 +727,8 @@ def run_cosim(
     result = CosimResult(
         table=_result_table(run, trace), summary=_summary(run, trace, fmu_path, controller, sv), log=log
     )
+    if run.follow_calendar:  # the FMU switched season at the span's boundaries (season = 0)
+        result.summary["seasons_followed"] = [{"season": p, "from": str(a), "to": str(b)} for p, a, b in run.pieces]
     if not result.covered:
         msg = (
             f"co-simulation stopped early: {trace.completed} of {run.n} steps "

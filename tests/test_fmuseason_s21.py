@@ -259,6 +259,8 @@ def test_cosim_switches_season_at_the_boundary(late_data):
     data, table, _ = late_data
     r = run_cosim(table, data, ReplayController(), **SPAN)
     assert r.covered and r.summary["season"] == "fall"
+    assert [p["season"] for p in r.summary["seasons_followed"]] == ["fall", "late"]
+    assert "the FMU followed the calendar (season 0): fall 2025-09-27" in r.format_summary()
     with pytest.warns(HvacfmuWarning):
         f = run_cosim(table, data, ReplayController(), season="fall", **SPAN)
     zones = [f"T_{z}" for z in data.building.zone_names]
