@@ -102,6 +102,7 @@ def test_layout_holds_the_season_table_and_season_zero(fmus):
     assert var["season"].min == "0" and "0 = follow the calendar" in var["season"].description
     assert "winter 10-15 .. 04-14" in var["season"].description
     assert "needed by season = 0" in var["start_time"].description
+    assert lay["calendar"] is False  # no holidays: start_time unset is no cause for a warning
     plain = {v.name: v for v in read_model_description(str(fmus["plain"])).modelVariables}
     assert plain["season"].min == "1" and "start_time" not in plain  # without the building: as before
 
@@ -118,6 +119,8 @@ def test_python_fmu_follows_the_calendar_across_a_boundary(fmus):
     assert idx[cut] == pd.Timestamp("2025-04-15 00:00", tz=TZ)
     Yw = _run(fmus["table"], "winter", {"season": 1, "start_time": t0}, U)
     assert_allclose(Y[: cut + 1], Yw[: cut + 1], rtol=0, atol=EXACT)
+    # season 1 without start_time: the time-of-week profile as before the table existed (2025-04-12 is a Saturday)
+    assert_allclose(_run(fmus["table"], "tow", {"season": 1, "start_time_of_week": 5 * 86400.0}, U), Yw, atol=EXACT)
     assert np.abs(Y[cut + 1 :] - Yw[cut + 1 :]).max() > 1.0
     # a run that starts in summer and stays there is season 2's run
     idx2, _, _, U2 = _inputs("2025-05-01 00:00", days=2)

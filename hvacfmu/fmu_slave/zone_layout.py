@@ -221,6 +221,7 @@ def zone_model_layout(
         layout["timezone"] = str(timezone)
     if table:
         layout["season_dates"] = table
+        layout["calendar"] = bool(calendar)  # start_time also places calendar gains (holidays...), not only seasons
         layout["description"] += (
             " It holds the building's seasons by date: season = 0 follows them (with start_time set), switching "
             "season at each boundary within one run."

@@ -89,6 +89,9 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         #: the building's seasons by date ([[name, "MM-DD", "MM-DD"], ...], written at export with the building
         #: file): season = 0 follows them (:meth:`_season_numbers`)
         self._season_dates = layout.get("season_dates") or None
+        # the model's gains follow a calendar (holidays, DST terms); an FMU without a season table has start_time
+        # only for such a model
+        self._calendar = bool(layout.get("calendar", True))
         self._follow = False  # season = 0: the season switches at the calendar's boundaries
         self._season_models: dict = {}  # season number -> its model (:meth:`_season_model`)
         self._abs0 = None  # start_time [s] when the calendar is used
@@ -165,12 +168,13 @@ class ZoneModelSlave(HvacfmuSlaveBase):
                     f"{len(self.seasons)}) for the whole run"
                 )
             elif t_abs == -1.0:
-                self.log(
-                    "start_time is not set (-1): the internal gains follow the time-of-week profile "
-                    "without the model's calendar (holidays, daylight saving time); set start_time "
-                    "[s, Unix epoch] to the absolute time at FMU time 0",
-                    Fmi2Status.warning,
-                )
+                if self._calendar:  # (an FMU with a season table only: the time-of-week profile, no warning)
+                    self.log(
+                        "start_time is not set (-1): the internal gains follow the time-of-week profile "
+                        "without the model's calendar (holidays, daylight saving time); set start_time "
+                        "[s, Unix epoch] to the absolute time at FMU time 0",
+                        Fmi2Status.warning,
+                    )
             elif not (math.isfinite(t_abs) and t_abs >= 0.0):
                 problems.append(f"start_time={t_abs!r} s is neither -1 (unset) nor a Unix epoch time >= 0")
             else:
