@@ -229,6 +229,10 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
         ``max`` = 1.2 x the box's ``m_max``, ``nominal`` = ``m_max`` and their zone in
         the description. Physics models carry their building; data-driven model
         files keep only its name, so without it the bounds are generic (0..50 kg/s).
+        With it (or a physics model's own building) the FMU also holds the building's
+        seasons by date and gets ``start_time``: ``season = 0`` follows the calendar,
+        switching season (gains profile, coefficient set) at each boundary within one
+        run (when the model has a profile for every season of the building).
 
     Returns
     -------
