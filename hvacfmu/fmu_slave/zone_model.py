@@ -43,7 +43,11 @@ class ZoneModelSlave(HvacfmuSlaveBase):
     - outputs ``T_<zone>`` [°C] (``T_floor`` for the lumped model);
     - parameters ``T_<zone>_start`` [°C], ``season`` (Integer, mapping in its
       description), ``start_time_of_week`` [s], and ``start_time`` [s, Unix
-      epoch] for calendar-dependent models (see the module docstring).
+      epoch] for calendar-dependent models and FMUs exported with the building
+      file (see the module docstring). Such an FMU holds the building's seasons by
+      date (``season_dates`` in ``interface.json``): ``season = 0`` runs each model
+      step in its local day's season (:meth:`_calendar_steps`), switching the model
+      (coefficient set) and gains at a boundary with the state carried over.
     """
 
     #: model steps of internal gains computed at once from the calendar
