@@ -191,6 +191,25 @@ def test_native_fmu_refuses_season_zero_naming_the_python_fmu(tmp_path):
         s.close()
 
 
+def test_energyplus_host_stepper_runs_season_zero(fmus):
+    """The EnergyPlus host's FMU stepper with ``follow`` (what ``run_host`` sets for a span across a boundary)
+    starts the FMU with season 0 and start_time from the first step's local time: equal to the pieces."""
+    from harness.energyplus_host import _FMUStepper
+
+    idx, m, v, U = _inputs(days=4)
+    st = _FMUStepper(fmus["table"], ("A", "B"), "winter")
+    st.follow = True
+    ys = []
+    try:
+        for k, t in enumerate(idx):
+            out = st.step(k * 900.0, 900.0, dict(zip(NAMES_IN, U[k])), None, t, {"T_A": 21.0, "T_B": 22.0})
+            ys.append([out["T_A"], out["T_B"]])
+    finally:
+        st.close()
+    ref, _ = _python_pieces(idx, m, v)
+    assert_allclose(np.array(ys), ref[1:], rtol=0, atol=EXACT)
+
+
 # ----------------------------------------------------------------------------- cosim over a free span
 @pytest.fixture(scope="module")
 def late_data(short_paths, tmp_path_factory):
