@@ -864,11 +864,11 @@ def follows_calendar(interface) -> bool:
 def _plan_seasons(run: _Run, inst: FMUInstance, model) -> None:
     """:func:`plan_season_span` for a run of :func:`run_cosim` (sets ``run.follow_calendar``)."""
     run.follow_calendar = plan_season_span(
-        run.pieces, inst.interface, inst.path.name, run.building.name, run.season, run.season_given, model is not None
+        run.pieces, inst.interface, inst.path.name, run.building, run.season, run.season_given, model is not None
     )
 
 
-def plan_season_span(pieces, interface, fmu_name, building_name, season, given, planner) -> bool:
+def plan_season_span(pieces, interface, fmu_name, building, season, given, planner) -> bool:
     """A free span across a season boundary: True when the FMU follows the calendar (``season = 0``), else refused.
 
     An FMU with one ``season`` parameter runs that season's internal gains (and coefficient set) for the whole run;
@@ -876,7 +876,8 @@ def plan_season_span(pieces, interface, fmu_name, building_name, season, given, 
     span. With the season ``given`` by the caller the run keeps it, with a warning naming the boundaries; an FMU
     that can follow the calendar (:func:`follows_calendar`) is run with ``season = 0`` (a warning when a
     ``planner``, the controller's model, keeps the first season); otherwise DataError naming the dates, the
-    seasons and the remedies. False (one season) for a span inside one season or an FMU without ``season``.
+    seasons and the remedies (also when the FMU's season table is not ``building``'s). False (one season) for a
+    span inside one season or an FMU without ``season``.
     """
     has_season = any(e.get("role") == "season" for e in (interface or {}).get("variables", ()))
     if len(pieces) < 2 or not has_season:
@@ -889,7 +890,7 @@ def plan_season_span(pieces, interface, fmu_name, building_name, season, given, 
     where = (
         f"the span {pieces[0][1]:%Y-%m-%d %H:%M} .. {pieces[-1][2]:%Y-%m-%d %H:%M} crosses "
         f"{len(pieces) - 1} season boundar{'y' if len(pieces) == 2 else 'ies'} of building "
-        f"{building_name!r} ({parts})"
+        f"{building.name!r} ({parts})"
     )
     if given:
         warnings.warn(
@@ -900,6 +901,13 @@ def plan_season_span(pieces, interface, fmu_name, building_name, season, given, 
         )
         return False
     if follows_calendar(interface):
+        ours = [[x.name, x.start, x.end] for x in building.seasons]
+        if [list(map(str, row)) for row in interface["season_dates"]] != ours:
+            raise DataError(
+                f"{where}; the FMU {fmu_name} would follow its own season table {interface['season_dates']}, "
+                f"which is not the building file's {ours}: export the FMU again with this building file "
+                "(hvacfmu export -b BUILDING), or split the run at the boundaries"
+            )
         logger.info("%s: %s; the FMU follows the calendar (season = 0)", fmu_name, where)
         if planner:
             warnings.warn(

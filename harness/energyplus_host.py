@@ -314,7 +314,7 @@ def run_host(
                 season_pieces(frame.index, building),
                 stepper.inst.interface,
                 stepper.inst.path.name,
-                building.name,
+                building,
                 season,
                 given,
                 controller is not None,

@@ -273,6 +273,25 @@ def test_cosim_refuses_a_span_across_a_boundary_it_cannot_follow(late_data):
     assert r.covered
 
 
+def test_cosim_refuses_an_fmu_whose_season_table_is_another_buildings(late_data, short_paths, tmp_path):
+    """An FMU exported with the default seasons (fall until 12-15) on data whose building cuts fall at 09-29."""
+    from harness.controllers import ReplayController
+    from harness.cosim import run_cosim
+    from hvacfmu.fmu import export_fmu
+    from tests.test_fmu import zones_model
+
+    data, _, _ = late_data
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HvacfmuWarning)
+        from hvacfmu.building import load_building
+
+        other = load_building(short_paths.building)
+        path = zones_model(data.building).save(tmp_path / "z.json")
+        fmu = export_fmu(path, tmp_path / "Other.fmu", building=other)
+    with pytest.raises(DataError, match="would follow its own season table .* not the building file's"):
+        run_cosim(fmu, data, ReplayController(), **SPAN)
+
+
 def test_cosim_switches_season_at_the_boundary(late_data):
     """The FMU with the season table runs season 0: the same as season 'fall' until the boundary, not after."""
     from harness.controllers import ReplayController
