@@ -140,6 +140,13 @@ class CosimResult:
             f"  span            {s['start']} .. {s['end']} ({s['steps_requested']} steps of {s['step']:g} s)",
             f"  completed       {s['steps_completed']} / {s['steps_requested']} steps"
             + ("" if s["covered"] else "   <-- STOPPED EARLY: " + (s.get("stopped_because") or "?")),
+        ]
+        if s.get("seasons_followed"):
+            lines.append(
+                "  seasons         the FMU followed the calendar (season 0): "
+                + "; ".join(f"{p['season']} {p['from']} .. {p['to']}" for p in s["seasons_followed"])
+            )
+        lines += [
             f"  energy proxy    {s['energy_proxy']:.4f} (kg/s)^2 summed over steps and boxes",
             f"  total airflow   {s['total_airflow_kg']:.0f} kg (mean {s['mean_airflow']:.3f} kg/s)",
             f"  comfort         {s['comfort_violation_Kh']:.2f} K*h outside [{s['band'][0]:g}, {s['band'][1]:g}] degC"
@@ -660,7 +667,9 @@ def run_cosim(
     band : (float, float) [°C]
         Comfort band for the violation figure and the controllers.
     season : str, optional
-        Season of the gains profile (default: the week's season).
+        Season of the gains profile for the whole run (default: the week's season; a free span's first row's).
+        A free span across a season boundary of the building file, without ``season``: an FMU exported with the
+        building file follows the calendar (``season = 0``), any other is refused (:func:`plan_season_span`).
     start_values : dict, optional
         Extra FMU start values by variable name (override the defaults).
     allow_partial : bool
@@ -700,6 +709,7 @@ def run_cosim(
     run = _Run.for_span(dataset, week, start, stop, season, band)
     with FMUInstance(fmu_path) as inst:
         _connect(run, inst, mapping)
+        _plan_seasons(run, inst, model)
         _apply_system(run, system)
         _locate_in_time(run, inst, mapping, warmup)
         sv = _start_values(run, inst, model, controller, mapping, start_values)
@@ -725,6 +735,8 @@ def run_cosim(
     result = CosimResult(
         table=_result_table(run, trace), summary=_summary(run, trace, fmu_path, controller, sv), log=log
     )
+    if run.follow_calendar:  # the FMU switched season at the span's boundaries (season = 0)
+        result.summary["seasons_followed"] = [{"season": p, "from": str(a), "to": str(b)} for p, a, b in run.pieces]
     if not result.covered:
         msg = (
             f"co-simulation stopped early: {trace.completed} of {run.n} steps "
@@ -763,6 +775,11 @@ class _Run:
     season: str | None
     band: tuple
     step: float
+    #: a free span's calendar seasons in order: (season, first row, last row) (:func:`season_pieces`); one piece
+    #: for a week or a span inside one season
+    pieces: list = dataclasses.field(default_factory=list)
+    season_given: bool = False  # the caller chose the season (``season=``, ``--season``)
+    follow_calendar: bool = False  # the FMU's season parameter is 0: it switches season at the boundaries itself
     inputs: dict = dataclasses.field(default_factory=dict)  # FMU input -> data column
     controls: dict = dataclasses.field(default_factory=dict)  # FMU input -> box
     outputs: dict = dataclasses.field(default_factory=dict)  # FMU output -> zones
@@ -786,8 +803,18 @@ class _Run:
         # local time of week of every step: our FMUs take it as the optional input `time_of_week`,
         # which makes their gain profile follow daylight-saving time as the Python models do
         frame = frame.assign(time_of_week=seconds_of_week(frame.index).astype(float))
+        given = season is not None
+        pieces = season_pieces(frame.index, dataset.building) if week_season is None else []
         season = season or week_season or dataset.season_of_row[dataset.frame.index.get_loc(frame.index[0])]
-        return cls(frame=frame, dataset=dataset, season=season, band=tuple(band), step=float(dataset.step))
+        return cls(
+            frame=frame,
+            dataset=dataset,
+            season=season,
+            band=tuple(band),
+            step=float(dataset.step),
+            pieces=pieces,
+            season_given=given,
+        )
 
     @property
     def building(self):
@@ -816,6 +843,95 @@ class _Run:
     @property
     def end(self):
         return self.frame.index[-1] + pd.Timedelta(seconds=self.step)
+
+
+def season_pieces(index: pd.DatetimeIndex, building) -> list:
+    """The calendar seasons of the rows ``index`` (local time) in order: ``[(season, first row, last row), ...]``.
+
+    Each row's season is its local calendar day's in the building file (:meth:`hvacfmu.building.Building.season_of`),
+    the dates an FMU following the calendar (``season = 0``) switches at.
+    """
+    if not len(index):
+        return []
+    days = index.normalize()
+    names = {d: building.season_of(d) for d in days.unique()}
+    row_season = np.array([names[d] for d in days], dtype=object)
+    cuts = np.flatnonzero(row_season[1:] != row_season[:-1]) + 1
+    starts = np.concatenate([[0], cuts])
+    ends = np.concatenate([cuts, [len(index)]]) - 1
+    return [(str(row_season[a]), index[a], index[b]) for a, b in zip(starts, ends)]
+
+
+def follows_calendar(interface) -> bool:
+    """True if one of our model FMUs can follow the calendar's seasons (``season = 0``; exported with a building)."""
+    if not interface or not interface.get("season_dates"):
+        return False
+    return any(e.get("role") == "t_abs" for e in interface.get("variables", ()))
+
+
+def _plan_seasons(run: _Run, inst: FMUInstance, model) -> None:
+    """:func:`plan_season_span` for a run of :func:`run_cosim` (sets ``run.follow_calendar``)."""
+    run.follow_calendar = plan_season_span(
+        run.pieces, inst.interface, inst.path.name, run.building, run.season, run.season_given, model is not None
+    )
+
+
+def plan_season_span(pieces, interface, fmu_name, building, season, given, planner) -> bool:
+    """A free span across a season boundary: True when the FMU follows the calendar (``season = 0``), else refused.
+
+    An FMU with one ``season`` parameter runs that season's internal gains (and coefficient set) for the whole run;
+    a span from February to May would silently run spring's all along. ``pieces``: :func:`season_pieces` of the
+    span. With the season ``given`` by the caller the run keeps it, with a warning naming the boundaries; an FMU
+    that can follow the calendar (:func:`follows_calendar`) is run with ``season = 0`` (a warning when a
+    ``planner``, the controller's model, keeps the first season); otherwise DataError naming the dates, the
+    seasons and the remedies (also when the FMU's season table is not ``building``'s). False (one season) for a
+    span inside one season or an FMU without ``season``.
+    """
+    has_season = any(e.get("role") == "season" for e in (interface or {}).get("variables", ()))
+    if len(pieces) < 2 or not has_season:
+        return False
+    import warnings
+
+    from hvacfmu.errors import HvacfmuWarning
+
+    parts = ", ".join(f"{s} {a:%Y-%m-%d %H:%M} .. {b:%Y-%m-%d %H:%M}" for s, a, b in pieces)
+    where = (
+        f"the span {pieces[0][1]:%Y-%m-%d %H:%M} .. {pieces[-1][2]:%Y-%m-%d %H:%M} crosses "
+        f"{len(pieces) - 1} season boundar{'y' if len(pieces) == 2 else 'ies'} of building "
+        f"{building.name!r} ({parts})"
+    )
+    if given:
+        warnings.warn(
+            f"{fmu_name}: {where}; season {season!r} was chosen and runs for the whole span "
+            "(its internal gains and coefficient set)",
+            HvacfmuWarning,
+            stacklevel=4,
+        )
+        return False
+    if follows_calendar(interface):
+        ours = [[x.name, x.start, x.end] for x in building.seasons]
+        if [list(map(str, row)) for row in interface["season_dates"]] != ours:
+            raise DataError(
+                f"{where}; the FMU {fmu_name} would follow its own season table {interface['season_dates']}, "
+                f"which is not the building file's {ours}: export the FMU again with this building file "
+                "(hvacfmu export -b BUILDING), or split the run at the boundaries"
+            )
+        logger.info("%s: %s; the FMU follows the calendar (season = 0)", fmu_name, where)
+        if planner:
+            warnings.warn(
+                f"{fmu_name}: {where}; the FMU switches season at the boundaries (season = 0), the "
+                f"controller's model keeps season {season!r} for the whole run: split the run at the "
+                "boundaries for a controller that plans with each season's model",
+                HvacfmuWarning,
+                stacklevel=4,
+            )
+        return True
+    raise DataError(
+        f"{where}; the FMU {fmu_name} runs one season's internal gains (and coefficient set) for the whole "
+        "run, so the later season(s) would be simulated with the first one's. Split the run at the boundaries "
+        "(--start/--stop, one run per season), give --season to run one season throughout, or export the FMU "
+        "again with the building file (hvacfmu export -b BUILDING): its season = 0 follows the calendar"
+    )
 
 
 def _connect(run: _Run, inst: FMUInstance, mapping) -> None:
@@ -929,7 +1045,7 @@ def _start_values(run: _Run, inst: FMUInstance, model, controller, mapping, star
             seasons = inst.interface["seasons"]
             if run.season not in seasons:
                 raise FMUError(f"the FMU has no internal-gain profile for season {run.season!r}; it has {seasons}")
-            sv["season"] = seasons.index(run.season) + 1
+            sv["season"] = 0 if run.follow_calendar else seasons.index(run.season) + 1
         elif e.get("role") == "tow":
             sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_start]))[0]) - run.t0
         elif e.get("role") == "t_abs":  # calendar-dependent model: Unix epoch [s] of FMU time 0
@@ -1460,7 +1576,11 @@ def add_cosim_arguments(parser):
         metavar=("T_MIN", "T_MAX"),
         help="comfort band [degC] (default 20 22)",
     )
-    parser.add_argument("--season", help="season of the gains profile (default: the week's)")
+    parser.add_argument(
+        "--season",
+        help="season of the gains profile for the whole run (default: the week's; a --start/--stop span across a "
+        "season boundary follows the calendar when the FMU was exported with -b, else it is refused)",
+    )
     parser.add_argument(
         "--horizon",
         type=int,

@@ -104,6 +104,7 @@ class _FMUStepper:
 
         self.inst = FMUInstance(path, instance_name="energyplus_host")
         self.zones, self.season = zones, season
+        self.follow = False  # season = 0: the FMU follows the calendar's seasons (a span across a boundary)
         v = self.inst.vars
         self.inputs = [n for n, x in v.items() if x.causality == "input"]
         self.outputs = [f"T_{z}" for z in zones if f"T_{z}" in v and v[f"T_{z}"].causality == "output"]
@@ -125,7 +126,9 @@ class _FMUStepper:
             if e.get("role") == "y0" and e["name"][: -len("_start")] in live:
                 sv[e["name"]] = live[e["name"][: -len("_start")]]
             elif e.get("role") == "season":
-                sv["season"] = self.inst.interface["seasons"].index(self.season) + 1
+                sv["season"] = 0 if self.follow else self.inst.interface["seasons"].index(self.season) + 1
+            elif e.get("role") == "t_abs" and self.follow:  # Unix epoch [s] of FMU time 0
+                sv["start_time"] = pd.Timestamp(t_local).timestamp() - t
             elif e.get("role") == "tow":
                 sv["start_time_of_week"] = float(seconds_of_week(pd.DatetimeIndex([t_local]))[0]) - t
         fmu.setupExperiment(startTime=t)
@@ -300,8 +303,25 @@ def run_host(
     lo, hi = frame.index[0], frame.index[-1] + pd.Timedelta(minutes=15)
     first = max(lo.date() - _dt.timedelta(days=1), _dt.date(lo.year, 1, 1))
     inputs.prepare_idf(idf, first, (hi - pd.Timedelta(minutes=15)).date(), site)
+    given = season is not None
     season = season or building.season_of(lo)
     stepper = _FMUStepper(fmu, tuple(zones), season) if fmu is not None else None
+    if stepper is not None:  # a span across a season boundary: the FMU follows the calendar, or refused
+        from harness.cosim import plan_season_span, season_pieces
+
+        try:
+            stepper.follow = plan_season_span(
+                season_pieces(frame.index, building),
+                stepper.inst.interface,
+                stepper.inst.path.name,
+                building,
+                season,
+                given,
+                controller is not None,
+            )
+        except Exception:
+            stepper.close()
+            raise
     if controller is not None:
         _reset_controller(controller, building, frame, settings, season, model, tuple(zones))
     loop = _Loop(probes, zones, frame, settings, controller, stepper, lo, hi, site)

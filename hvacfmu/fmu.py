@@ -229,6 +229,10 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
         ``max`` = 1.2 x the box's ``m_max``, ``nominal`` = ``m_max`` and their zone in
         the description. Physics models carry their building; data-driven model
         files keep only its name, so without it the bounds are generic (0..50 kg/s).
+        With it (or a physics model's own building) the FMU also holds the building's
+        seasons by date and gets ``start_time``: ``season = 0`` follows the calendar,
+        switching season (gains profile, coefficient set) at each boundary within one
+        run (when the model has a profile for every season of the building).
 
     Returns
     -------
@@ -262,18 +266,28 @@ def export_fmu(model_path, out_path, *, timezone: str | None = None, building=No
     model = load_model(model_path)  # validates the file before anything is built
     building = _model_building(model, building, model_path)
     calendar = calendar_dependent(model)
-    if calendar:
+    # the building's seasons by date (its file, or a physics model's own building): the FMU's season = 0 follows them
+    season_building = building if building is not None else getattr(model, "building", None)
+    season_dates = [(s.name, s.start, s.end) for s in getattr(season_building, "seasons", ())] or None
+    if season_dates and not {n for n, _, _ in season_dates} <= {str(s) for s in model.gains}:
+        season_dates = None  # a season the model has no profile for: it cannot follow this calendar
+    if calendar or season_dates:
         # the building file's zone when given: the data, and so the model's holidays, are on its calendar (a model
         # of `diagnose --control-output` with a holiday, exported with -b, lost its calendar before)
         timezone = (
-            timezone or (getattr(model, "meta", None) or {}).get("timezone") or getattr(building, "timezone", None)
+            timezone
+            or (getattr(model, "meta", None) or {}).get("timezone")
+            or getattr(building, "timezone", None)
+            or getattr(season_building, "timezone", None)
         )
         if timezone is not None:
             _check_timezone(timezone, model_path)
-        else:
+        elif calendar:
             _warn_calendar_gains(model, model_path)
     try:
-        layout, _ = zone_model_layout(model, timezone if calendar else None, box_limits(model, building))
+        layout, _ = zone_model_layout(
+            model, timezone if calendar or season_dates else None, box_limits(model, building), season_dates
+        )
     except ValueError as exc:
         raise FMUError(f"cannot export {model_path}: {exc}") from None
     with tempfile.TemporaryDirectory(prefix="hvacfmu_export_") as tmp:

@@ -517,7 +517,16 @@ static int check_parameters(hv_inst *c) {
         }
     }
     double season = c->s.r[HV_VR_SEASON];
-    if (!(season >= 1 && season <= HV_NSEASON)) {
+    if (season == 0) {
+        /* the Python FMU's "follow the calendar": this FMU has no calendar (no start_time, no time zone) */
+        hv_log(c, fmi2Error, "logStatusError",
+               "initialisation failed: season=0 (follow the calendar's seasons) is not supported by the native FMU, "
+               "which has no calendar (no start_time, no time zone): choose one season, one of %s, and split a run "
+               "that crosses a season boundary into one run per season, or use the Python FMU exported with the "
+               "building file (hvacfmu export -b BUILDING, without --native), whose season=0 switches season at "
+               "the building's season dates", HV_SEASONS);
+        ok = 0;
+    } else if (!(season >= 1 && season <= HV_NSEASON)) {
         hv_log(c, fmi2Error, "logStatusError", "initialisation failed: season=%g is not one of %s", season, HV_SEASONS);
         ok = 0;
     }

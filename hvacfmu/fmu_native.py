@@ -509,6 +509,13 @@ def export_native_fmu(
         "Runs in the host's Python, which needs the hvacfmu package.",
         "Native FMU: generated C code, no Python needed at run time.",
     )
+    for e in layout["variables"]:
+        if e["role"] == "season":  # no calendar here: one season per run (issue 13)
+            e["description"] += (
+                "; one season for the whole run: this FMU has no calendar, season = 0 (follow the calendar) is "
+                "refused; split a run that crosses a season boundary, or use the Python FMU exported with the "
+                "building file"
+            )
     identifier = native_identifier(model.kind)
     form = modal_form(eq, output_states(eq.C)) if modal else None
     logger.info("native FMU of %s: %s form", name, "modal" if form is not None else "physical")

@@ -97,7 +97,17 @@ camelCase in the model description. Behaviour an importer can rely on:
   and the ``time_of_week`` input are then ignored. Left at -1 (default), the
   FMU uses the seasonal time-of-week profile without the calendar (a warning
   is logged at initialisation). Models without calendar terms have no
-  ``start_time`` and behave as described above.
+  ``start_time`` and behave as described above, unless exported with the
+  building file (next item).
+- **Season boundaries.** Exported with the building file (or a physics model's
+  own building), the layout holds the building's seasons by date
+  (``season_dates``, with ``timezone`` and ``calendar``) and ``start_time`` is
+  present; ``season = 0`` ("follow the calendar", needs ``start_time``) runs each
+  model step in the season of its local day: at a boundary the model (its
+  coefficient set, :func:`hvacfmu.models.base.season_model`) and its gains
+  switch, the state carries over. Seasons ``1..n`` run one season for the whole
+  run, as before; for a model without calendar terms an unset ``start_time``
+  gives the time-of-week profile without a warning.
 - **Idle air handler.** A model that stores an idle supply rule (an extended model
   of ``diagnose``, ``meta["idle_supply"]``) has it in the layout (``idle_supply``)
   and applies it before every model step: a replaced input (``T_supply`` ...)

@@ -67,6 +67,14 @@ def stored_timezone(resources) -> str | None:
         return None
 
 
+def stored_season_dates(resources) -> list | None:
+    """The building's seasons by date written at export into ``interface.json`` (None when absent or unreadable)."""
+    try:
+        return _stored(resources).get("season_dates")
+    except Exception:  # noqa: BLE001 - read_layout reports an unreadable file
+        return None
+
+
 def stored_boxes(resources) -> dict | None:
     """The box limits written at export into ``interface.json`` ({} when absent, None when unreadable)."""
     try:

@@ -137,7 +137,9 @@ def without_holidays(model):
     return dataclasses.replace(model, holidays=())
 
 
-def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = None) -> tuple[dict, np.ndarray | None]:
+def zone_model_layout(
+    model, timezone: str | None = None, boxes: dict | None = None, season_dates=None
+) -> tuple[dict, np.ndarray | None]:
     """Variable layout of the FMU of a zone model, and the box-to-input matrix.
 
     Parameters
@@ -153,6 +155,11 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
         airflow inputs get ``max = M_MAX_MARGIN * m_max``, ``nominal = m_max`` and the
         zone in their description; stored as ``boxes`` in the layout. Default: the
         model's own building when it has one (physics), else generic bounds.
+    season_dates : sequence of (name, "MM-DD", "MM-DD"), optional
+        The building's seasons by date (:attr:`hvacfmu.building.Building.seasons`), with ``timezone``: stored as
+        ``season_dates``; the parameter ``season`` then also takes 0, "follow the calendar" (the season, its
+        gains profile and coefficient set switch at the boundaries; needs ``start_time``, which the layout gets).
+        Ignored (no season 0) unless the model has a gains profile for every one of these seasons.
 
     Returns
     -------
@@ -166,12 +173,17 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
     seasons = [str(s) for s in model.gains]
     boxes = {str(k): dict(v) for k, v in (boxes if boxes is not None else box_limits(model)).items()}
     calendar = timezone is not None and calendar_dependent(model)
+    table = None
+    if timezone is not None and season_dates:
+        table = [[str(n), str(a), str(b)] for n, a, b in season_dates]
+        if not {row[0] for row in table} <= set(seasons):
+            table = None
     var = _airflow_entries(model, M, vavs, boxes)
     var += [signal_entry(name) for name in model.disturbances]
     var.append(_time_of_week_input())
     label = "the floor (area-weighted mean)" if model.kind == "lumped" else "zone"
     var += zone_entries(model.outputs, label)
-    var += _gain_parameters(seasons, timezone if calendar else None)
+    var += _gain_parameters(seasons, timezone if calendar or table else None, table, calendar)
     check_unique(var)
     layout = {
         "slave_api": SLAVE_API_VERSION,
@@ -205,8 +217,15 @@ def zone_model_layout(model, timezone: str | None = None, boxes: dict | None = N
                     "; the raw measured value: replaced inside the FMU while every box of its unit is off "
                     "(idle supply rule, see the model description)"
                 )
-    if calendar:
+    if calendar or table:
         layout["timezone"] = str(timezone)
+    if table:
+        layout["season_dates"] = table
+        layout["calendar"] = bool(calendar)  # start_time also places calendar gains (holidays...), not only seasons
+        layout["description"] += (
+            " It holds the building's seasons by date: season = 0 follows them (with start_time set), switching "
+            "season at each boundary within one run."
+        )
     if boxes:
         layout["boxes"] = {b: boxes[b] for b in sorted(boxes)}
     return layout, M
@@ -255,9 +274,18 @@ def _time_of_week_input() -> dict:
     )
 
 
-def _gain_parameters(seasons, timezone: str | None) -> list:
-    """Parameters ``season``, ``start_time_of_week`` and, with a calendar time zone, ``start_time``."""
+def _gain_parameters(seasons, timezone: str | None, table=None, calendar: bool = True) -> list:
+    """Parameters ``season``, ``start_time_of_week`` and, with a time zone (calendar gains or a season table),
+    ``start_time``."""
     mapping = ", ".join(f"{i + 1} = {s}" for i, s in enumerate(seasons))
+    follow = ""
+    if table:
+        dates = ", ".join(f"{n} {a} .. {b}" for n, a, b in table)
+        follow = (
+            f"; 0 = follow the calendar: each model step runs the season of its local day in {timezone} "
+            f"({dates}), switching gains profile and coefficient set at the boundaries with the state carried "
+            "over (needs start_time)"
+        )
     out = [
         entry(
             "season",
@@ -266,8 +294,8 @@ def _gain_parameters(seasons, timezone: str | None) -> list:
             "parameter",
             1,
             None,
-            f"Season of the internal-gain profile: {mapping}",
-            (1, len(seasons)),
+            f"Season of the internal-gain profile: {mapping}{follow}",
+            (0 if table else 1, len(seasons)),
         ),
         entry(
             "tow",
@@ -282,6 +310,11 @@ def _gain_parameters(seasons, timezone: str | None) -> list:
         ),
     ]
     if timezone is not None:
+        what = (
+            f"the model's calendar (holidays, daylight saving time in {timezone})"
+            if calendar
+            else f"the local time in {timezone} (daylight saving time)"
+        )
         out.append(
             entry(
                 "t_abs",
@@ -291,9 +324,10 @@ def _gain_parameters(seasons, timezone: str | None) -> list:
                 -1.0,
                 "s",
                 "Absolute time at FMU time 0 [s since 1970-01-01T00:00:00Z, Unix epoch]; when >= 0 the "
-                f"internal gains follow the model's calendar (holidays, daylight saving time in {timezone}) "
-                "at start_time + time, and start_time_of_week and the time_of_week input are ignored; "
-                "-1 (default): time-of-week profile without the calendar",
+                f"internal gains follow {what} at start_time + time, and start_time_of_week and the "
+                "time_of_week input are ignored; "
+                + ("needed by season = 0 (follow the calendar's seasons); " if table else "")
+                + "-1 (default): time-of-week profile without the calendar",
                 (-1.0, None),
             )
         )

@@ -16,7 +16,14 @@ from pythonfmu import DefaultExperiment
 from pythonfmu.enums import Fmi2Status
 
 from hvacfmu.fmu_slave.names import ZONE_BOUNDS
-from hvacfmu.fmu_slave.resources import INTERFACE_FILE, cached_setup, read_layout, stored_boxes, stored_timezone
+from hvacfmu.fmu_slave.resources import (
+    INTERFACE_FILE,
+    cached_setup,
+    read_layout,
+    stored_boxes,
+    stored_season_dates,
+    stored_timezone,
+)
 from hvacfmu.fmu_slave.values import contiguous, tuple_getter
 from hvacfmu.fmu_slave.zone_layout import state_from_outputs, zone_model_layout
 
@@ -36,7 +43,11 @@ class ZoneModelSlave(HvacfmuSlaveBase):
     - outputs ``T_<zone>`` [°C] (``T_floor`` for the lumped model);
     - parameters ``T_<zone>_start`` [°C], ``season`` (Integer, mapping in its
       description), ``start_time_of_week`` [s], and ``start_time`` [s, Unix
-      epoch] for calendar-dependent models (see the module docstring).
+      epoch] for calendar-dependent models and FMUs exported with the building
+      file (see the module docstring). Such an FMU holds the building's seasons by
+      date (``season_dates`` in ``interface.json``): ``season = 0`` runs each model
+      step in its local day's season (:meth:`_calendar_steps`), switching the model
+      (coefficient set) and gains at a boundary with the state carried over.
     """
 
     #: model steps of internal gains computed at once from the calendar
@@ -54,7 +65,10 @@ class ZoneModelSlave(HvacfmuSlaveBase):
 
                 model = load_model(Path(self.resources or ".") / self.MODEL_FILE)
                 return (model,) + zone_model_layout(
-                    model, stored_timezone(self.resources), stored_boxes(self.resources)
+                    model,
+                    stored_timezone(self.resources),
+                    stored_boxes(self.resources),
+                    stored_season_dates(self.resources),
                 )
 
             model, layout, M = cached_setup("model", self.resources, (self.MODEL_FILE, INTERFACE_FILE), build)
@@ -76,8 +90,16 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self.seasons = tuple(layout["seasons"])
         self._step = float(layout["step"])
         self._timezone = layout.get("timezone")
+        #: the building's seasons by date ([[name, "MM-DD", "MM-DD"], ...], written at export with the building
+        #: file): season = 0 follows them (:meth:`_season_numbers`)
+        self._season_dates = layout.get("season_dates") or None
+        # the model's gains follow a calendar (holidays, DST terms); an FMU without a season table has start_time
+        # only for such a model
+        self._calendar = bool(layout.get("calendar", True))
+        self._follow = False  # season = 0: the season switches at the calendar's boundaries
+        self._season_models: dict = {}  # season number -> its model (:meth:`_season_model`)
         self._abs0 = None  # start_time [s] when the calendar is used
-        self._q_chunk = (None, None)  # (first model step, gains) computed from the calendar
+        self._q_chunk = (None, None, None)  # (first model step, gains, season numbers) computed from the calendar
         if model is not None and not problem:
             self.model = model
             self._loaded = model  # a model with one coefficient set per season runs its season's (initialisation)
@@ -121,31 +143,51 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             if not (lo <= val <= hi):
                 problems.append(f"{self._spec[vr]['name']}={val!r} degC is outside [{lo}, {hi}]")
         season = v[season_vr]
-        if not (isinstance(season, int) and 1 <= season <= len(self.seasons)):
+        follow = self._season_dates is not None and season == 0
+        if not (isinstance(season, int) and (1 <= season <= len(self.seasons) or follow)):
             problems.append(
-                f"season={season!r} is not one of " + ", ".join(f"{i + 1} ({s})" for i, s in enumerate(self.seasons))
+                f"season={season!r} is not one of "
+                + ("0 (follow the calendar), " if self._season_dates is not None else "")
+                + ", ".join(f"{i + 1} ({s})" for i, s in enumerate(self.seasons))
+                + (
+                    ""
+                    if self._season_dates is not None or season != 0
+                    else " (season = 0, follow the calendar, needs the building's seasons by date: export the "
+                    "FMU with the building file, hvacfmu export -b BUILDING)"
+                )
             )
         tow = v[tow_vr]
         if not (0.0 <= tow <= 7 * 86400.0):
             problems.append(f"start_time_of_week={tow!r} s is outside [0, 604800]")
         abs_vrs = self.vrs_with_role("t_abs")
         self._abs0 = None
-        self._q_chunk = (None, None)
+        self._q_chunk = (None, None, None)
+        self._follow = False
         if abs_vrs:
             t_abs = v[abs_vrs[0]]
-            if t_abs == -1.0:
-                self.log(
-                    "start_time is not set (-1): the internal gains follow the time-of-week profile "
-                    "without the model's calendar (holidays, daylight saving time); set start_time "
-                    "[s, Unix epoch] to the absolute time at FMU time 0",
-                    Fmi2Status.warning,
+            if t_abs == -1.0 and follow:
+                problems.append(
+                    "season=0 (follow the calendar's seasons) needs start_time, the absolute time at FMU time 0 "
+                    "[s, Unix epoch]; it is not set (-1): set start_time, or choose one season (1.."
+                    f"{len(self.seasons)}) for the whole run"
                 )
+            elif t_abs == -1.0:
+                if self._calendar:  # (an FMU with a season table only: the time-of-week profile, no warning)
+                    self.log(
+                        "start_time is not set (-1): the internal gains follow the time-of-week profile "
+                        "without the model's calendar (holidays, daylight saving time); set start_time "
+                        "[s, Unix epoch] to the absolute time at FMU time 0",
+                        Fmi2Status.warning,
+                    )
             elif not (math.isfinite(t_abs) and t_abs >= 0.0):
                 problems.append(f"start_time={t_abs!r} s is neither -1 (unset) nor a Unix epoch time >= 0")
             else:
                 self._abs0 = float(t_abs)
         if problems:
             return problems
+        if follow:
+            self._follow = True
+            season = int(self._calendar_steps(0, 1)[1][0])  # the calendar's season at FMU time 0
         self._season = season
         self._use_season(season)
         self._profile = np.asarray(self.model.gains[self.seasons[season - 1]], dtype=float)
@@ -176,9 +218,36 @@ class ZoneModelSlave(HvacfmuSlaveBase):
     def _use_season(self, season):
         """Run the model of season number ``season`` (1-based): the loaded model's ``for_season`` (its own season's
         coefficient set when it holds one per season; the model itself otherwise)."""
+        self.model = self._season_model(season)
+
+    def _season_model(self, season):
+        """The model of season number ``season`` (1-based), built once per instance."""
         from hvacfmu.models.base import season_model
 
-        self.model = season_model(self._loaded, self.seasons[season - 1])
+        cache = self._season_models
+        if season not in cache:
+            cache[season] = season_model(self._loaded, self.seasons[season - 1])
+        return cache[season]
+
+    def _season_numbers(self, index):
+        """Season number (1-based, :attr:`seasons`) of each local timestamp of ``index`` from the season table.
+
+        ValueError naming the date when a day's season is not one the model has a profile for (the export writes
+        the table only for a model that has every season of its building)."""
+        from hvacfmu.building import Season
+
+        table = [Season(*map(str, row)) for row in self._season_dates]
+        key = index.month.to_numpy() * 100 + index.day.to_numpy()
+        out = np.empty(len(key), dtype=np.int64)
+        for kk in np.unique(key):
+            hits = [t.name for t in table if t.contains(int(kk) // 100, int(kk) % 100)]
+            if len(hits) != 1 or hits[0] not in self.seasons:
+                raise ValueError(
+                    f"the FMU's season table gives month-day {int(kk) // 100:02d}-{int(kk) % 100:02d} the "
+                    f"season(s) {hits}; the model has profiles for {list(self.seasons)}"
+                )
+            out[key == kk] = self.seasons.index(hits[0]) + 1
+        return out
 
     def _slot(self, w, k):
         """Gain-profile slot of model step ``k``: from the ``time_of_week`` input when set, else the clock."""
@@ -187,14 +256,20 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         return self._slot0 + k
 
     def _calendar_gains(self, k, n):
-        """Internal gains (n, n_q) of model steps ``k .. k+n-1`` from the model's calendar (``gains_at``).
+        """Internal gains (n, n_q) of model steps ``k .. k+n-1`` from the model's calendar (``gains_at``)."""
+        return self._calendar_steps(k, n)[0]
+
+    def _calendar_steps(self, k, n):
+        """Internal gains (n, n_q) and season numbers (n,) of model steps ``k .. k+n-1`` from the calendar.
 
         The instants are ``start_time + t_start + j*step`` [s, Unix epoch], in
         the exported time zone, computed in whole milliseconds so that they
-        equal the timestamps of a data index exactly. Gains are computed for
-        :attr:`CALENDAR_CHUNK` steps at a time and reused.
+        equal the timestamps of a data index exactly. Each step's season is the
+        run's (``season`` >= 1) or, following the calendar (``season = 0``), its
+        local day's in the season table; its gains are that season's model's
+        ``gains_at``. Computed for :attr:`CALENDAR_CHUNK` steps at a time and reused.
         """
-        first, q = self._q_chunk
+        first, q, sn = self._q_chunk
         if q is None or k < first or k + n > first + len(q):
             import pandas as pd
 
@@ -202,10 +277,21 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             t0_ms = int(round((self._abs0 + self._t_start) * 1000.0))
             ms = t0_ms + (k + np.arange(m, dtype=np.int64)) * int(round(self._step * 1000.0))
             index = pd.DatetimeIndex(pd.to_datetime(ms, unit="ms", utc=True)).tz_convert(self._timezone)
-            q = np.asarray(self.model.gains_at(index, self.seasons[self._season - 1]), dtype=float)
+            if self._follow:
+                sn = self._season_numbers(index)
+                q = None
+                for s in np.unique(sn):
+                    rows = np.flatnonzero(sn == s)
+                    qs = np.asarray(self._season_model(int(s)).gains_at(index[rows], self.seasons[s - 1]), dtype=float)
+                    if q is None:
+                        q = np.empty((m,) + qs.shape[1:], dtype=float)
+                    q[rows] = qs
+            else:
+                q = np.asarray(self.model.gains_at(index, self.seasons[self._season - 1]), dtype=float)
+                sn = np.full(m, self._season, dtype=np.int64)
             first = k
-            self._q_chunk = (first, q)
-        return q[k - first : k - first + n]
+            self._q_chunk = (first, q, sn)
+        return q[k - first : k - first + n], sn[k - first : k - first + n]
 
     def _write_outputs(self, y):
         a = self._y_start
@@ -233,7 +319,14 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         x, model, prof, ns = self._x, self.model, self._profile, self._n_slots
         if self._idle is not None:
             return self._advance_idle(current_time, n, w, u, vdist)
-        if self._abs0 is not None:
+        if self._follow:
+            gains, seasons = self._calendar_steps(self._k, n)
+            for qj, sj in zip(gains, seasons):
+                if sj != self._season:  # a season boundary between two model steps: the state carries over
+                    self._season = int(sj)
+                    model = self.model = self._season_model(self._season)
+                x = model.step_state(x, u, vdist, qj)
+        elif self._abs0 is not None:
             for qj in self._calendar_gains(self._k, n):
                 x = model.step_state(x, u, vdist, qj)
         else:
@@ -247,11 +340,15 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         x, model, rule, m = self._x, self.model, self._idle, w[: self._nm]
         last = np.array(self._idle_last, dtype=float)
         if self._abs0 is not None:
-            gains = self._calendar_gains(self._k, n)
+            gains, seasons = self._calendar_steps(self._k, n)
         else:
             slot = self._slot(w, self._k)
             gains = [self._profile[(slot + j) % self._n_slots] for j in range(n)]
-        for qj in gains:
+            seasons = [self._season] * n
+        for qj, sj in zip(gains, seasons):
+            if sj != self._season:  # following the calendar: a season boundary (the state carries over)
+                self._season = int(sj)
+                model = self.model = self._season_model(self._season)
             vj, last = rule.apply(vdist, m, np.asarray(model.output(x), dtype=float), last)
             x = model.step_state(x, u, vj, qj)
         if not self._commit(current_time, n, x):
@@ -278,6 +375,7 @@ class ZoneModelSlave(HvacfmuSlaveBase):
             "k": self._k,
             "slot0": self._slot0,
             "season": getattr(self, "_season", None),
+            "follow": self._follow,
             "abs0": self._abs0,
             "idle_last": self._idle_last,
         }
@@ -294,5 +392,6 @@ class ZoneModelSlave(HvacfmuSlaveBase):
         self._k = int(state["k"])
         self._slot0 = int(state["slot0"])
         self._abs0 = state.get("abs0")
+        self._follow = bool(state.get("follow", False))
         self._idle_last = state.get("idle_last")
-        self._q_chunk = (None, None)
+        self._q_chunk = (None, None, None)
