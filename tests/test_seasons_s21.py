@@ -377,8 +377,11 @@ def test_diagnose_fits_its_base_with_one_set(monkeypatch):
         raise Stop
 
     monkeypatch.setattr(hvacfmu.fitting, "fit", fake_fit)
+    from types import SimpleNamespace
+
+    dataset = SimpleNamespace(building=SimpleNamespace(zone_names=("a", "b")))  # the message counts its zones
     with pytest.raises(Stop):
-        pipeline._base_model(None, None, lambda *a: None, [])
+        pipeline._base_model(dataset, None, lambda *a: None, [])
     assert seen["kind"] == "zones" and seen["memory_select"] == "mean"
     from hvacfmu.models.datadriven import DEFAULTS
 
