@@ -533,6 +533,30 @@ def sensor_offset_evidence(loc: dict, ev: dict) -> str:
         when = f"between {str(loc['after']).replace('T', ' ')[:16]} and {when} (days without training data)"
     d = ev.get("offset_K")
     off = "?" if d is None else f"{d:+.2f}"
+    if loc.get("end"):  # a change and its return: the sensor put back (or the set point moved for a while)
+        until = str(loc["end"]).replace("T", " ")[:16]
+        if loc.get("end_after"):
+            until = f"between {str(loc['end_after']).replace('T', ' ')[:16]} and {until} (days without training data)"
+        text = (
+            f"zone {loc.get('zone')} reads {off} K from {when} until {until}, then as before (a sensor re-calibrated "
+            "and put back, or a set point moved for that time): check the sensor's history; "
+        )
+        text += (
+            f"its level against the other zones differs between those dates (t {ev.get('split_t', float('nan')):.1f})"
+        )
+        p = ev.get("persist_halves_K")
+        if p:
+            text += f", kept {p[0]:+.2f} / {p[1]:+.2f} K over the halves between them"
+        if ev.get("return_K") is not None:
+            text += f", after it {ev['return_K']:+.2f} K from before"
+        back = (ev.get("at_return") or {}).get("jump_residual_K")
+        if ev.get("jump_residual_K") is not None:
+            text += f"; one-step residuals at the jumps {ev['jump_residual_K']:+.2f}" + (
+                f" / {back:+.2f} K" if back is not None else " K"
+            )
+        return text
+    if ev.get("accepted_changes"):  # a further change of a zone with one already named
+        when += " (a further change, after the one named before)"
     text = (
         f"zone {loc.get('zone')} reads {off} K from {when} on (a re-calibrated/replaced sensor, or a changed "
         "setpoint offset): check the sensor's history; "
