@@ -51,7 +51,7 @@ def _at(day, hour):
 
 
 def test_a_sensor_put_back_is_one_change_with_its_return():
-    """+2 K from day 30 10:00 until day 58 10:00, then as before: the one-step split fails (not persistent); the
+    """+2 K from day 30 10:00 until day 58 10:00, then back: the one-step split fails (not persistent); the
     change and its return pass every rule and are named as one term from the change to the return."""
     from hvacfmu.models.causes.sensor_offset import offset_candidate
 
@@ -146,7 +146,7 @@ def test_report_names_the_return():
         "at_return": {"jump_residual_K": -2.08},
     }
     text = sensor_offset_evidence(loc, ev)
-    assert "zone NE reads +1.95 K from 2025-10-06 10:00 until 2025-10-27 10:00, then as before" in text
+    assert "zone NE reads +1.95 K from 2025-10-06 10:00 until 2025-10-27 10:00, then back (+0.10 K from before)" in text
     assert "put back" in text and "check the sensor's history" in text and "-2.08 K" in text
 
 
@@ -176,4 +176,4 @@ def test_diagnosis_names_a_sensor_put_back_as_one_finding():
     assert cmp["unsupported"] == []
     (f,) = [f for f in rep.findings if f["cause"] == "sensor_offset"]
     assert f["location"]["zone"] == "NE" and f["location"]["end"][:10] == "2025-10-27"
-    assert "then as before" in str(rep)
+    assert "then back (" in str(rep)

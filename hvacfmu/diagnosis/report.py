@@ -537,8 +537,10 @@ def sensor_offset_evidence(loc: dict, ev: dict) -> str:
         until = str(loc["end"]).replace("T", " ")[:16]
         if loc.get("end_after"):
             until = f"between {str(loc['end_after']).replace('T', ' ')[:16]} and {until} (days without training data)"
+        r = ev.get("return_K")
+        back = "then back" + ("" if r is None else f" ({r:+.2f} K from before)")
         text = (
-            f"zone {loc.get('zone')} reads {off} K from {when} until {until}, then as before (a sensor re-calibrated "
+            f"zone {loc.get('zone')} reads {off} K from {when} until {until}, {back} (a sensor re-calibrated "
             "and put back, or a set point moved for that time): check the sensor's history; "
         )
         text += (
@@ -547,12 +549,10 @@ def sensor_offset_evidence(loc: dict, ev: dict) -> str:
         p = ev.get("persist_halves_K")
         if p:
             text += f", kept {p[0]:+.2f} / {p[1]:+.2f} K over the halves between them"
-        if ev.get("return_K") is not None:
-            text += f", after it {ev['return_K']:+.2f} K from before"
-        back = (ev.get("at_return") or {}).get("jump_residual_K")
+        jb = (ev.get("at_return") or {}).get("jump_residual_K")
         if ev.get("jump_residual_K") is not None:
             text += f"; one-step residuals at the jumps {ev['jump_residual_K']:+.2f}" + (
-                f" / {back:+.2f} K" if back is not None else " K"
+                f" / {jb:+.2f} K" if jb is not None else " K"
             )
         return text
     if ev.get("accepted_changes"):  # a further change of a zone with one already named
