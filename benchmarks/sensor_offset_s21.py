@@ -152,6 +152,22 @@ def margins(ev: dict) -> dict:
     return m
 
 
+#: the change-and-return candidate's rules, as its reason words them
+IV_RULES = (
+    "have t ",
+    "at the split, under",
+    "gradual",
+    "not persistent",
+    "no return",
+    "not the same at every hour",
+    "move against the rest",
+    "no jump",
+    "the one-step residual at the jump",
+    "jump at the same step",
+    "the split falls",
+)
+
+
 def summarize(files) -> None:
     """Per rule, over every single-change candidate of the records: how many candidates it alone stopped, and the
     closest any of those came (largest margin < 1); candidates that passed every rule; the change-and-return
@@ -160,7 +176,7 @@ def summarize(files) -> None:
 
     only = collections.defaultdict(list)
     passed, n, iv_fails = [], 0, collections.Counter()
-    nfail, few = collections.Counter(), []
+    nfail, few, iv_few = collections.Counter(), [], []
     for f in files:
         for line in open(f, encoding="utf-8"):
             r = json.loads(line)
@@ -179,9 +195,10 @@ def summarize(files) -> None:
                 if not bad:
                     passed.append((r["case"][:40], c["location"], c["status"], (c.get("test") or {}).get("delta_bic")))
                 cr = ev.get("change_and_return") or {}
-                for part in (cr.get("reason") or "").split("; "):
-                    if part:
-                        iv_fails[part.split(":")[0] + ":" + part.split(":")[1][:30] if ":" in part else part[:40]] += 1
+                if cr.get("reason"):
+                    k = sum(cr["reason"].count(rule) for rule in IV_RULES)
+                    iv_fails[k] += 1
+                    iv_few.append((k, r["case"][:44], c["location"].get("zone"), cr["reason"][:300]))
     print(f"{n} single-change candidates; by number of failed rules {dict(sorted(nfail.items()))}")
     for x in sorted(few, key=lambda x: x[0]):
         print("  ", x)
@@ -189,7 +206,9 @@ def summarize(files) -> None:
         best = max(v)
         print(f"  stopped by {k} alone: {len(v)}; closest {best[0]:.2f} ({best[1]}, zone {best[2]})")
     print(f"  passed every rule: {passed}")
-    print("change-and-return reasons:", dict(iv_fails.most_common(12)))
+    print(f"change-and-return candidates by number of failed rules: {dict(sorted(iv_fails.items()))}")
+    for x in sorted(iv_few)[:4]:
+        print("  ", x)
 
 
 def candidate_line(c: dict) -> str:
@@ -220,7 +239,7 @@ def diagnose_case(measurements, building, step):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HvacfmuWarning)
-        ds = prepare(measurements, building, step=step)
+        ds = prepare(measurements, building, step=900.0 if step is None else step)  # the CLI's default step
     c0 = time.process_time()
     rep = diagnose(ds, progress=False)
     return rep, time.process_time() - c0
