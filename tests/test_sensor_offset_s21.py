@@ -18,7 +18,7 @@ from hvacfmu.errors import HvacfmuWarning
 TZ = "America/Los_Angeles"
 
 
-def _signals(steps, days=98, seed=0, held_out=()):
+def _signals(steps, days=98, seed=0, held_out=(), weekend=0.0):
     """A fake diagnosis signal set: four zones reading a common daily swing and noise at 15 min, zone 1 (``B``)
     stepping by ``delta`` K at each ``(day, hour, delta)`` of ``steps``; one-step residuals ``R`` = the reading's
     step-to-step change (what a persistence model leaves: the jump of a stepping reading is in it)."""
@@ -27,6 +27,7 @@ def _signals(steps, days=98, seed=0, held_out=()):
     hours = np.arange(len(index)) / 4.0
     common = 21.0 + 0.8 * np.sin(2 * np.pi * hours / 24.0)
     Y = common[:, None] + rng.normal(0.0, 0.05, (len(index), 4)) + np.array([0.0, 0.3, -0.2, 0.1])
+    Y[np.asarray(index.day_of_week) >= 5, 1] += weekend  # a zone that reads otherwise at weekends (its own loads)
     for day, hour, delta in steps:
         Y[index >= pd.Timestamp("2025-09-01", tz=TZ) + pd.Timedelta(days=day, hours=hour), 1] += delta
     R = np.vstack([np.diff(Y, axis=0), np.full((1, 4), np.nan)])
@@ -94,6 +95,18 @@ def test_a_return_to_another_level_is_not_a_put_back():
     assert c2.status != "no evidence", c2.reason
     assert c2.location == {"zone": "B", "start": _at(60, 10.0)}
     assert c2.evidence["offset_K"] < -0.7 and c2.evidence["accepted_changes"] == [_at(30, 10.0)]
+
+
+def test_a_second_change_on_a_monday_after_a_held_out_week_is_found_despite_the_zones_weekends():
+    """B reads 0.9 K higher at weekends; +2 K from day 30, +1.5 K more from day 70 (Monday 2025-11-10 09:00) right
+    after a held-out week: the further change's 3-day windows would compare Fri-Sun with Mon-Wed; with each day of
+    the week's mean taken out it is placed and passes."""
+    from hvacfmu.models.causes.sensor_offset import offset_candidate
+
+    sig, R = _signals([(30, 10.0, 2.0), (70, 9.0, 1.5)], held_out=(63,), weekend=0.9)
+    c2 = offset_candidate(sig, R, 1, bounds=[_at(30, 10.0)])
+    assert c2.status != "no evidence", c2.reason
+    assert c2.location == {"zone": "B", "start": _at(70, 9.0)}
 
 
 def test_no_second_change_when_there_is_none():
