@@ -161,6 +161,11 @@ def test_report_names_the_return():
     text = sensor_offset_evidence(loc, ev)
     assert "zone NE reads +1.95 K from 2025-10-06 10:00 until 2025-10-27 10:00, then back (+0.10 K from before)" in text
     assert "put back" in text and "check the sensor's history" in text and "-2.08 K" in text
+    further = sensor_offset_evidence(
+        {"zone": "SE", "start": _at(70, 9.0)},
+        {"offset_K": 1.42, "split_t": 27.0, "accepted_changes": [_at(30, 10.0)]},
+    )
+    assert further.startswith("zone SE reads +1.42 K more from 2025-11-10 08:00 on (a further change after the one")
 
 
 def _diagnose(effects, layout, seed):

@@ -555,11 +555,11 @@ def sensor_offset_evidence(loc: dict, ev: dict) -> str:
                 f" / {jb:+.2f} K" if jb is not None else " K"
             )
         return text
-    if ev.get("accepted_changes"):  # a further change of a zone with one already named
-        when += " (a further change, after the one named before)"
+    further = bool(ev.get("accepted_changes"))  # a further change of a zone with one already named
     text = (
-        f"zone {loc.get('zone')} reads {off} K from {when} on (a re-calibrated/replaced sensor, or a changed "
-        "setpoint offset): check the sensor's history; "
+        f"zone {loc.get('zone')} reads {off} K {'more ' if further else ''}from {when} on ("
+        + ("a further change after the one named before: " if further else "")
+        + "a re-calibrated/replaced sensor, or a changed setpoint offset): check the sensor's history; "
     )
     text += f"its level against the other zones splits there (t {ev.get('split_t', float('nan')):.1f})"
     p = ev.get("persist_halves_K")
