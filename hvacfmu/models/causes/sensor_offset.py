@@ -37,6 +37,13 @@ Cause-specific evidence, all required (otherwise "no evidence"):
 
 A set point changed at that date gives the same reading (the room truly warmer by ``δ``): the airflow's
 mean before/after is reported, and the finding names both explanations.
+
+A second change (session 21): a zone without an accepted change is also screened for a change and its *return*
+(:func:`interval_candidate`: a sensor re-calibrated and put back; one term with an ``end``), named instead of the one
+change when it passes the same evidence at both ends and the one change fails, or describes the day means better
+(BIC). A zone with an accepted change is screened again between its accepted dates (``bounds``: a further change).
+Both read the day means with each day of the week's own mean taken out (zones differ in their weekend loads); the
+first search is session 20's, unchanged.
 """
 
 from __future__ import annotations
