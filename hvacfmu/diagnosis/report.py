@@ -533,9 +533,33 @@ def sensor_offset_evidence(loc: dict, ev: dict) -> str:
         when = f"between {str(loc['after']).replace('T', ' ')[:16]} and {when} (days without training data)"
     d = ev.get("offset_K")
     off = "?" if d is None else f"{d:+.2f}"
+    if loc.get("end"):  # a change and its return: the sensor put back (or the set point moved for a while)
+        until = str(loc["end"]).replace("T", " ")[:16]
+        if loc.get("end_after"):
+            until = f"between {str(loc['end_after']).replace('T', ' ')[:16]} and {until} (days without training data)"
+        r = ev.get("return_K")
+        back = "then back" + ("" if r is None else f" ({r:+.2f} K from before)")
+        text = (
+            f"zone {loc.get('zone')} reads {off} K from {when} until {until}, {back} (a sensor re-calibrated "
+            "and put back, or a set point moved for that time): check the sensor's history; "
+        )
+        text += (
+            f"its level against the other zones differs between those dates (t {ev.get('split_t', float('nan')):.1f})"
+        )
+        p = ev.get("persist_halves_K")
+        if p:
+            text += f", kept {p[0]:+.2f} / {p[1]:+.2f} K over the halves between them"
+        jb = (ev.get("at_return") or {}).get("jump_residual_K")
+        if ev.get("jump_residual_K") is not None:
+            text += f"; one-step residuals at the jumps {ev['jump_residual_K']:+.2f}" + (
+                f" / {jb:+.2f} K" if jb is not None else " K"
+            )
+        return text
+    further = bool(ev.get("accepted_changes"))  # a further change of a zone with one already named
     text = (
-        f"zone {loc.get('zone')} reads {off} K from {when} on (a re-calibrated/replaced sensor, or a changed "
-        "setpoint offset): check the sensor's history; "
+        f"zone {loc.get('zone')} reads {off} K {'more ' if further else ''}from {when} on ("
+        + ("a further change after the one named before: " if further else "")
+        + "a re-calibrated/replaced sensor, or a changed setpoint offset): check the sensor's history; "
     )
     text += f"its level against the other zones splits there (t {ev.get('split_t', float('nan')):.1f})"
     p = ev.get("persist_halves_K")

@@ -63,9 +63,14 @@ def effect_matches(finding: dict, effect: dict, truth: dict, step: float = 900.0
         if loc.get("zone") != effect["zone"] or not loc.get("start"):
             return False
         at, day = sensor_offset_time(truth, effect), pd.Timedelta(days=1)
-        if loc.get("after"):  # bracketed between training days: the true change inside the bracket
-            return pd.Timestamp(loc["after"]) - day <= at <= pd.Timestamp(loc["start"]) + day
-        return abs(pd.Timestamp(loc["start"]) - at) <= day
+
+        def near(when: str, after) -> bool:
+            if after:  # bracketed between training days: the true change inside the bracket
+                return pd.Timestamp(after) - day <= at <= pd.Timestamp(when) + day
+            return abs(pd.Timestamp(when) - at) <= day
+
+        # a change and its return (``end``: the sensor put back) names two injected changes of the zone
+        return near(loc["start"], loc.get("after")) or bool(loc.get("end")) and near(loc["end"], loc.get("end_after"))
     if name == "internal_gain_schedule":
         kind = effect.get("kind", "holiday")
         if kind == "dst":
