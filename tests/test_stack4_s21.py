@@ -25,9 +25,10 @@ def test_zone_storeys_from_the_slabs_between_zones():
     from hvacfmu.models.causes.signals import zone_storeys
 
     b = _stack4_like()
-    assert zone_storeys(b, ("N1", "S1", "N2", "S2")) == (0, 0, 1, 1)
-    assert zone_storeys(b, ("S2", "N1", "X")) == (1, 0, None)
-    assert zone_storeys(_stack4_like(("ceiling", "floor")), ("N1", "S1", "N2", "S2")) == (1, 1, 0, 0)
+    assert zone_storeys(b, ("N1", "S1", "N2", "S2")) == ((0, 0), (0, 0), (0, 1), (0, 1))
+    assert zone_storeys(b, ("S2", "N1", "X")) == ((0, 1), (0, 0), None)
+    flipped = zone_storeys(_stack4_like(("ceiling", "floor")), ("N1", "S1", "N2", "S2"))
+    assert flipped == ((0, 1), (0, 1), (0, 0), (0, 0))
 
 
 def test_zone_storeys_none_told_on_single_floors_or_contradicting_slabs():
@@ -47,16 +48,36 @@ def test_zone_storeys_none_told_on_single_floors_or_contradicting_slabs():
     assert zone_storeys(building_from_dict(d), ("N1", "S1", "N2", "S2")) == ()
 
 
+def test_zone_storeys_compare_only_within_one_part():
+    """Two buildings' worth of zones in one file, each part with its own slab: each part counts its storeys from
+    0, and the part number keeps a lower zone of one from reading as another's upper storey."""
+    from hvacfmu.building import building_from_dict
+    from hvacfmu.emulator.building import building_dict
+    from hvacfmu.models.causes.signals import zone_storeys
+
+    d = building_dict("stack4")
+    # both slabs gone, one between N2 and S2 instead: N1+S1 and N2+S2 are two parts no wall or slab joins
+    d["elements"] = [e for e in d["elements"] if e["construction"] != "intermediate_slab"]
+    d["elements"].append({"name": "x", "construction": "intermediate_slab", "area": 10.0, "side1": "N2", "side2": "S2"})
+    for z in d["zones"]:
+        z["adjacent"] = {"N1": ["S1"], "S1": ["N1"], "N2": ["S2"], "S2": ["N2"]}[z["name"]]
+    st = zone_storeys(building_from_dict(d), ("N1", "S1", "N2", "S2"))
+    assert st[2] == (st[2][0], 1) and st[3] == (st[2][0], 0)  # the part with the slab
+    assert st[0] == st[1] == (st[0][0], 0) and st[0][0] != st[2][0]  # the other part: one storey, its own number
+
+
 def test_on_other_storeys_reads_the_signals_storeys():
-    """:func:`on_other_storeys` compares the two zones' storeys; False where none is told."""
+    """:func:`on_other_storeys` compares the two zones' storeys within one part; False where none is told."""
     from types import SimpleNamespace
 
     from hvacfmu.models.causes.zone_coupling import on_other_storeys
 
-    assert on_other_storeys(SimpleNamespace(storeys=(0, 0, 1, 1)), 1, 2)
-    assert not on_other_storeys(SimpleNamespace(storeys=(0, 0, 1, 1)), 2, 3)
+    st = ((0, 0), (0, 0), (0, 1), (0, 1), (1, 1))
+    assert on_other_storeys(SimpleNamespace(storeys=st), 1, 2)
+    assert not on_other_storeys(SimpleNamespace(storeys=st), 2, 3)
+    assert not on_other_storeys(SimpleNamespace(storeys=st), 0, 4)  # another part: not comparable
     assert not on_other_storeys(SimpleNamespace(storeys=()), 1, 2)
-    assert not on_other_storeys(SimpleNamespace(storeys=(0, None, 1, 1)), 1, 2)
+    assert not on_other_storeys(SimpleNamespace(storeys=((0, 0), None, (0, 1), (0, 1))), 1, 2)
 
 
 def _couplings(d, found=True):

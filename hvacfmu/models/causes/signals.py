@@ -99,7 +99,7 @@ class Signals:
     extra_coverage: dict = dataclasses.field(default_factory=dict)
     #: ``{vav: supply temperature column of its unit}`` (``T_supply_<ahu>`` when the frame has it)
     supply_of: dict = dataclasses.field(default_factory=dict)
-    #: each output's storey (0 the lowest) from the building file's slabs between zones (:func:`zone_storeys`);
+    #: each output's ``(part, storey)`` from the building file's slabs between zones (:func:`zone_storeys`);
     #: ``()`` for a building without a slab between two of its zones (one storey, or not told)
     storeys: tuple = ()
 
@@ -200,12 +200,14 @@ SLAB_FILMS = {("floor", "ceiling"): 1, ("ceiling", "floor"): -1}
 
 
 def zone_storeys(building, zones) -> tuple:
-    """Each of ``zones``' storey (0 the lowest) from the building file's slabs between two zones; ``()`` when
-    it has none or they contradict each other.
+    """Each of ``zones``' ``(part, storey)`` from the building file's slabs between two zones; ``()`` when it
+    has none or they contradict each other.
 
     A slab (an element between two zones whose construction's films are ``floor`` / ``ceiling``,
     :data:`SLAB_FILMS`) puts its floor side one storey above its ceiling side; zones joined by any other
-    adjacency (a wall, ``adjacent``) share a storey. A zone joined to no other has no storey told (``None``).
+    adjacency (a wall, ``adjacent``) share a storey. ``part`` numbers the groups of zones joined by walls and
+    slabs: storeys (0 the lowest of its part) compare only within one part. A zone joined to no other has no
+    storey told (``None``).
     """
     phys = getattr(building, "physics", None) or {}
     films = {
@@ -232,17 +234,18 @@ def zone_storeys(building, zones) -> tuple:
             edges.setdefault(p, []).append((q, 0))
             edges.setdefault(q, []).append((p, 0))
     level: dict = {}
+    part: dict = {}
     for start in sorted(edges):
         if start in level:
             continue
-        level[start] = 0
+        level[start], part[start] = 0, len({*part.values()})
         todo = [start]
         comp = [start]
         while todo:
             z = todo.pop()
             for o, d in edges[z]:
                 if o not in level:
-                    level[o] = level[z] + d
+                    level[o], part[o] = level[z] + d, part[start]
                     todo.append(o)
                     comp.append(o)
                 elif level[o] != level[z] + d:
@@ -250,7 +253,7 @@ def zone_storeys(building, zones) -> tuple:
         low = min(level[z] for z in comp)
         for z in comp:
             level[z] -= low
-    return tuple(level.get(z) for z in zones)
+    return tuple((part[z], level[z]) if z in level else None for z in zones)
 
 
 def _one_step_valid(Y, U, V: dict, week, step) -> np.ndarray:

@@ -51,8 +51,9 @@ def shared_drivers(sig, a: int, b: int) -> list:
 
 
 def on_other_storeys(sig, a: int, b: int) -> bool:
-    """Zones ``a`` and ``b`` lie on different storeys of the building file (:attr:`Signals.storeys`, from its
-    slabs between zones); False when the file tells no storeys.
+    """Zones ``a`` and ``b`` lie on different storeys of one part of the building file (:attr:`Signals.storeys`,
+    from its slabs between zones); False when the file tells no storeys or the two lie in parts that no wall or
+    slab joins (their storeys are not comparable).
 
     A facade orientation shared across storeys is not an exclusion from the zone-by-zone score (diagnosis option
     ``coupling_facade_across_storeys``, on by default since session 21): the exclusion was measured on single floors, where the pairs sharing an
@@ -66,7 +67,7 @@ def on_other_storeys(sig, a: int, b: int) -> bool:
     st = getattr(sig, "storeys", ())
     if not st or a >= len(st) or b >= len(st) or st[a] is None or st[b] is None:
         return False
-    return st[a] != st[b]
+    return st[a][0] == st[b][0] and st[a][1] != st[b][1]
 
 
 @dataclasses.dataclass(frozen=True)
