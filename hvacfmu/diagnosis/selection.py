@@ -311,9 +311,9 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence["history_lowpass"] = delay_given_history(sig, W, terms, t, True)
     if isinstance(t, ZoneCoupling):
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
-        shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
-        c.evidence["shared_drivers"] = shared
         a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+        shared = shared_drivers(sig, a, b)
+        c.evidence["shared_drivers"] = shared
         # a facade orientation shared across storeys does not exclude the zone-by-zone score; the pair must then
         # pass the instrument with the facades' weather held (on_other_storeys; benchmarks/stack4_s21.md)
         across = (

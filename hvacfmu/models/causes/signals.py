@@ -235,10 +235,12 @@ def zone_storeys(building, zones) -> tuple:
             edges.setdefault(q, []).append((p, 0))
     level: dict = {}
     part: dict = {}
+    n_parts = 0
     for start in sorted(edges):
         if start in level:
             continue
-        level[start], part[start] = 0, len({*part.values()})
+        level[start], part[start] = 0, n_parts
+        n_parts += 1
         todo = [start]
         comp = [start]
         while todo:
