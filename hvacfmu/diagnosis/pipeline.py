@@ -61,6 +61,10 @@ def diagnose(dataset, model=None, plots=None, progress=True, **options) -> Diagn
         ``row4`` cases, ``benchmarks/coupling_row4_s17.md``), ``coupling_shared_weather`` (False; True: such a
         shared pair must also pass the instrument with its facades' weather controlled and both zones'
         coefficients positive; false couplings on 2 of 28 clean cases, ``benchmarks/facade_coupling_s18.md``),
+        ``coupling_facade_across_storeys`` (True: a pair on different storeys of the building file, whose only
+        shared drivers are facade orientations, is scored zone by zone and must pass the instrument with the
+        facades' weather held, as under ``coupling_shared_weather``; the storeys come from the file's slabs between
+        zones, a single floor has none; ``benchmarks/stack4_s21.md``),
         ``coupling_instrument_hours`` (6: the partners'
         airflow changes of the last 6 h instrument the conductance), ``coupling_instrument_min_t`` (2.0), ``coupling_instrument_neighbours`` (True: the instrument must also hold
         with each zone's neighbours held, and with any zone a coupling in the model joins to it,

@@ -50,10 +50,10 @@ from ..models.causes.internal_gain_schedule import (
     pooled_zone_departures,
     sun_partialled,
 )
+from ..models.causes.held_setpoint import HeldSetpoint
 from ..models.causes.signals import ema_series
 from ..models.causes.thermal_mass import keep_stable_time_constant
-from ..models.causes.zone_coupling import OthersPlacebo, shared_drivers
-from ..models.causes.held_setpoint import HeldSetpoint
+from ..models.causes.zone_coupling import OthersPlacebo, on_other_storeys, shared_drivers
 from ..models.extended import ActuationDelay, InternalGainSchedule, Reheat, ZoneCoupling
 from ..models.loadcheck import model_problems
 from . import candidates as cand
@@ -104,6 +104,7 @@ DEFAULT_OPTIONS = {
     "coupling_alone_unshared": True,
     "coupling_alone_shared": False,
     "coupling_shared_weather": False,
+    "coupling_facade_across_storeys": True,
     "coupling_instrument_hours": 6.0,
     "coupling_instrument_min_t": 2.0,
     "coupling_instrument_neighbours": True,
@@ -311,16 +312,26 @@ def _term_evidence(c, sig: Signals, W: Within, terms, t, coefs: dict, options: d
         c.evidence["history_lowpass"] = delay_given_history(sig, W, terms, t, True)
     if isinstance(t, ZoneCoupling):
         c.evidence.update(coupling_symmetry(sig, W, terms, t, options["coupling_max_asymmetry"]))
-        shared = shared_drivers(sig, sig.zones.index(t.zone_a), sig.zones.index(t.zone_b))
+        a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
+        shared = shared_drivers(sig, a, b)
         c.evidence["shared_drivers"] = shared
+        # a facade orientation shared across storeys does not exclude the zone-by-zone score; the pair must then
+        # pass the instrument with the facades' weather held (on_other_storeys; benchmarks/stack4_s21.md)
+        across = (
+            bool(options["coupling_facade_across_storeys"])
+            and bool(shared)
+            and all(d.startswith("facade ") for d in shared)
+            and on_other_storeys(sig, a, b)
+        )
+        if across:
+            c.evidence["facade_across_storeys"] = True
         c.evidence["scored_alone"] = bool(options["coupling_alone_unshared"]) and (
-            not shared or bool(options["coupling_alone_shared"])
+            not shared or bool(options["coupling_alone_shared"]) or across
         )
         if c.evidence["scored_alone"] and c.test["delta_bic"] > options["bic_margin"]:  # else not significant
             lags = max(1, round(float(options["coupling_instrument_hours"]) * 3600.0 / sig.step))
             c.evidence["instrument"] = coupling_instrument(sig, W, terms, t, lags)
-            a, b = sig.zones.index(t.zone_a), sig.zones.index(t.zone_b)
-            if any(d.startswith("facade ") for d in shared) and options["coupling_shared_weather"]:
+            if any(d.startswith("facade ") for d in shared) and (options["coupling_shared_weather"] or across):
                 names, cols = weather_controls(sig, sorted(set(sig.facades[a]) | set(sig.facades[b])))
                 c.evidence["instrument_weather"] = {
                     **coupling_instrument(sig, W, terms, t, lags, controls=cols),

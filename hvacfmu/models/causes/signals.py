@@ -99,6 +99,9 @@ class Signals:
     extra_coverage: dict = dataclasses.field(default_factory=dict)
     #: ``{vav: supply temperature column of its unit}`` (``T_supply_<ahu>`` when the frame has it)
     supply_of: dict = dataclasses.field(default_factory=dict)
+    #: each output's ``(part, storey)`` from the building file's slabs between zones (:func:`zone_storeys`);
+    #: ``()`` for a building without a slab between two of its zones (one storey, or not told)
+    storeys: tuple = ()
 
     @property
     def nz(self) -> int:
@@ -186,7 +189,73 @@ def make_signals(dataset, base: LinearZoneModel) -> Signals:
         extra_zones=extra_zones,
         extra_coverage=coverage,
         supply_of=supply_of,
+        storeys=zone_storeys(b, zones) if base.kind == "zones" else (),
     )
+
+
+#: The films of a construction between two zones that make it a slab: side 1 the upper zone's floor, side 2 the
+#: lower zone's ceiling (or the reverse), as the building file's ``intermediate_slab`` and EnergyPlus's interzone
+#: floors are written.
+SLAB_FILMS = {("floor", "ceiling"): 1, ("ceiling", "floor"): -1}
+
+
+def zone_storeys(building, zones) -> tuple:
+    """Each of ``zones``' ``(part, storey)`` from the building file's slabs between two zones; ``()`` when it
+    has none or they contradict each other.
+
+    A slab (an element between two zones whose construction's films are ``floor`` / ``ceiling``,
+    :data:`SLAB_FILMS`) puts its floor side one storey above its ceiling side; zones joined by any other
+    adjacency (a wall, ``adjacent``) share a storey. ``part`` numbers the groups of zones joined by walls and
+    slabs: storeys (0 the lowest of its part) compare only within one part. A zone joined to no other has no
+    storey told (``None``).
+    """
+    phys = getattr(building, "physics", None) or {}
+    films = {
+        c.get("name"): tuple(c.get("films", ()))
+        for c in phys.get("constructions", ())
+        if isinstance(c, dict) and isinstance(c.get("films"), list)
+    }
+    names = set(getattr(building, "zone_names", ()))
+    edges: dict = {}
+    slabs = set()
+    for e in phys.get("elements", ()):
+        if not isinstance(e, dict):
+            continue
+        s1, s2, up = e.get("side1"), e.get("side2"), SLAB_FILMS.get(films.get(e.get("construction"), ()))
+        if up is None or s1 not in names or s2 not in names or s1 == s2:
+            continue
+        edges.setdefault(s1, []).append((s2, -up))  # storey(s2) = storey(s1) - up
+        edges.setdefault(s2, []).append((s1, up))
+        slabs.add(frozenset((s1, s2)))
+    if not slabs:
+        return ()
+    for p, q in building.adjacency_pairs():
+        if frozenset((p, q)) not in slabs:
+            edges.setdefault(p, []).append((q, 0))
+            edges.setdefault(q, []).append((p, 0))
+    level: dict = {}
+    part: dict = {}
+    n_parts = 0
+    for start in sorted(edges):
+        if start in level:
+            continue
+        level[start], part[start] = 0, n_parts
+        n_parts += 1
+        todo = [start]
+        comp = [start]
+        while todo:
+            z = todo.pop()
+            for o, d in edges[z]:
+                if o not in level:
+                    level[o], part[o] = level[z] + d, part[start]
+                    todo.append(o)
+                    comp.append(o)
+                elif level[o] != level[z] + d:
+                    return ()  # a slab and a wall (or two slabs) that disagree: no storeys told
+        low = min(level[z] for z in comp)
+        for z in comp:
+            level[z] -= low
+    return tuple((part[z], level[z]) if z in level else None for z in zones)
 
 
 def _one_step_valid(Y, U, V: dict, week, step) -> np.ndarray:

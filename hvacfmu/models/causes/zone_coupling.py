@@ -50,6 +50,26 @@ def shared_drivers(sig, a: int, b: int) -> list:
     return out
 
 
+def on_other_storeys(sig, a: int, b: int) -> bool:
+    """Zones ``a`` and ``b`` lie on different storeys of one part of the building file (:attr:`Signals.storeys`,
+    from its slabs between zones); False when the file tells no storeys or the two lie in parts that no wall or
+    slab joins (their storeys are not comparable).
+
+    A facade orientation shared across storeys is not an exclusion from the zone-by-zone score (diagnosis option
+    ``coupling_facade_across_storeys``, on by default since session 21): the exclusion was measured on single floors, where the pairs sharing an
+    orientation (corner zones along one facade, ``row4``'s end zones) gain alone without any exchange, 22 of 37
+    clean pairs in the detectability oracle's records (``core9`` 16/20, ``row4`` 6/15, ``sdh`` 0/2); the
+    two-storey ``stack4``'s diagonal pairs, which all share the east facade across the slab, 0 of 30
+    (``benchmarks/stack4_s21.md``). Such a pair must pass the instrument with both zones' facade weather held
+    (:func:`~hvacfmu.diagnosis.selection.weather_controls`): the shared facade's sun and outdoor air are then in
+    both equations, and only the partners' own airflow moves may carry the exchange.
+    """
+    st = getattr(sig, "storeys", ())
+    if not st or a >= len(st) or b >= len(st) or st[a] is None or st[b] is None:
+        return False
+    return st[a][0] == st[b][0] and st[a][1] != st[b][1]
+
+
 @dataclasses.dataclass(frozen=True)
 class ZoneCoupling(Term):
     """Heat exchange ``coef_ab · (x_b − x_a)`` into ``zone_a`` and ``coef_ba · (x_a − x_b)`` into ``zone_b`` [1/step]."""
