@@ -96,3 +96,17 @@ def test_an_operation_that_cannot_tell_sundays_from_workdays_makes_the_holiday_u
     out = _operation_check(pick, {"_operation": op})
     assert out["spread"] > MAX_WORKDAY_SPREAD
     assert "cannot be told from weather" in out["untestable"]
+    # a screen that picks nothing is followed by the week-by-likelihood proposal: it must be untestable too
+    # (the large hotel's holiday came that way once the screen's picks were refused)
+    assert "untestable" in _operation_check(_pick([]), {"_operation": op})
+
+
+def test_the_models_holiday_dates_are_left_out_of_the_workday_reference():
+    # two true holiday weeks already in the model would widen the ordinary workdays' spread and pull their mean
+    # toward Sunday; left out, the next week is judged against the building's real workdays
+    op = _operation(weeks={3: 0.6, 4: 0.6, 8: 0.3})
+    known = _week_dates(3) + _week_dates(4)
+    with_known = operation_groups(op, {"w": _week_dates(8)}, known)
+    without = operation_groups(op, {"w": _week_dates(8)})
+    assert with_known["spread"] < without["spread"]
+    assert with_known["groups"]["w"]["gamma"] == pytest.approx(0.3, abs=0.05)

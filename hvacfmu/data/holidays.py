@@ -270,10 +270,11 @@ def operation_days(dataset) -> OperationDays:
     return OperationDays(days, X, cover, frozenset(_train_days(dataset.weeks)), cal)
 
 
-def operation_groups(op: OperationDays, groups: dict) -> dict:
+def operation_groups(op: OperationDays, groups: dict, known=()) -> dict:
     """How the operation judges proposed holiday ``groups`` (``{key: [ISO dates]}``).
 
-    Every group's days are left out of the workday references together (with the calendar's holidays) and each day's
+    Every group's days are left out of the workday references together (with the calendar's holidays and ``known``,
+    the ISO dates of holidays already in a model) and each day's
     ``gamma`` is read (:func:`day_gammas`). Returns ``spread`` (the ordinary workdays' robust spread; above
     :data:`MAX_WORKDAY_SPREAD`, or infinite, the operation does not tell a Sunday from a workday) and ``groups``:
     ``{key: {"gamma": mean over the days it could judge (nan without one), "n", "floor", "ok"}}``, ``ok`` when the
@@ -281,7 +282,8 @@ def operation_groups(op: OperationDays, groups: dict) -> dict:
     """
     stamp = {k: [pd.Timestamp(d) for d in v] for k, v in groups.items()}
     cands = sorted({d for v in stamp.values() for d in v})
-    gam, spread = day_gammas(op.days, op.X, op.cover, cands, op.usable, set(cands) | set(op.calendar))
+    exclude = set(cands) | set(op.calendar) | {pd.Timestamp(d) for d in known}
+    gam, spread = day_gammas(op.days, op.X, op.cover, cands, op.usable, exclude)
     out = {}
     for k, v in stamp.items():
         g = [gam[d] for d in v if d in gam]

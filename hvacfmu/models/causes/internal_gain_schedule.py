@@ -467,7 +467,7 @@ def _pick_days(sig, deps: list, options: dict) -> dict:
     }
 
 
-def _operation_check(pick: dict, options: dict) -> dict:
+def _operation_check(pick: dict, options: dict, known=frozenset()) -> dict:
     """The operation's judgement of the screen's picks, dropping in place (``pick``) those it contradicts.
 
     A holiday is a day the building ran as on a Sunday: its internal gains fell, and the boxes' airflow and the zones'
@@ -480,16 +480,20 @@ def _operation_check(pick: dict, options: dict) -> dict:
     be told from the weather and the candidate is untestable. ``options["_operation"]``: the dataset's
     :class:`~hvacfmu.data.holidays.OperationDays` (absent: no check, ``{}``). Weeks dropped here are remembered with
     the weather's (``_holiday_weather``) so that the week-by-likelihood proposal does not score them again.
+    ``known``: the model's holiday dates (left out of the workday references). Without a pick only the spread is
+    judged (a screen finding nothing is followed by the week-by-likelihood proposal).
     """
     op = options.get("_operation")
-    if op is None or not pick["picked"]:
+    if op is None:
         return {}
     in_weeks = {w["week"] for w in pick["weeks"] + pick["zone_weeks"]}
     groups = {f"week {wk}": [d["date"] for d in pick["by_week"][wk]] for wk in sorted(in_weeks)}
     singles = sorted(d for d in pick["days"] if not any(d in groups[f"week {wk}"] for wk in in_weeks))
     if singles:
         groups["days"] = singles
-    res = operation_groups(op, groups)
+    # without a pick the spread is still read: the week-by-likelihood proposal that follows a screen finding
+    # nothing must not name a holiday the operation cannot tell either (the model's holiday dates left out)
+    res = operation_groups(op, groups, known)
     out = {
         "spread": res["spread"],
         "groups": res["groups"],
@@ -504,6 +508,8 @@ def _operation_check(pick: dict, options: dict) -> dict:
             "read in the internal gains alone cannot be told from weather or a load the model misses"
         )
         return out
+    if not pick["picked"]:
+        return {}
     bad_weeks = {wk for wk in in_weeks if not res["groups"][f"week {wk}"]["ok"]}
     bad_days = set(singles) if singles and not res["groups"]["days"]["ok"] else set()
     if not bad_weeks and not bad_days:
@@ -545,7 +551,7 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
         )
     deps = [d for d in day_departures(sig, resid_all, rows=W.rows, shift=shift) if d["date"] not in known]
     pick = _pick_days(sig, deps, options)
-    operation = _operation_check(pick, options)
+    operation = _operation_check(pick, options, known)
     if operation.get("untestable"):
         return Candidate(
             InternalGainSchedule.cause,
