@@ -2,7 +2,7 @@
 
 The residual screen named a 38-day holiday in the 90.1 small hotel, whose schedules never change: weather the model
 misses read as a schedule. On the data check's day signature (boxes' airflow, zone temperatures' course; 0 = workday,
-1 = Sunday) those weeks ran like workdays (-0.15 ... 0.09), while the checked battery's injected holidays (gains cut,
+1 = Sunday) those weeks ran like workdays (-0.05 ... 0.10), while the checked battery's injected holidays (gains cut,
 HVAC schedule kept) read 0.20-0.70. Each proposed week must now read toward Sunday there; a building whose operation
 cannot tell its Sundays from its workdays (the large hotel) gets no holiday from the gains alone.
 """

@@ -243,7 +243,7 @@ def _train_days(weeks) -> set:
 #: workdays. A building whose gains drop keeps its air handlers' schedule, yet its boxes and zone temperatures answer
 #: the missing heat: the checked battery's injected holiday weeks (gains at 0.13-0.30 of a weekday's, HVAC schedule
 #: kept) read 0.20-0.70; the weeks the residual screen proposed in the 90.1 small hotel (schedules that never change,
-#: weather the model misses) read -0.15 ... 0.09 (``benchmarks/hotelhol_s21.md``)
+#: weather the model misses) read -0.05 ... 0.10 (``benchmarks/hotelhol_s21.md``)
 OPERATION_MIN_GAMMA = 0.125
 OPERATION_SES = 2.0
 
