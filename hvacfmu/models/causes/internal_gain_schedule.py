@@ -688,10 +688,11 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
             status="no evidence",
             evidence=ev,
             reason=f"{len(operation['dropped'])} weekday(s) proposed by the residual ran like workdays on the "
-            f"operation (boxes' airflow, zone temperatures' course: mean gamma "
-            f"{', '.join(format(g['gamma'], '.2f') for g in operation['groups'].values() if not g['ok'])} toward "
-            "Sunday, "
-            f"under {OPERATION_MIN_GAMMA:g}): weather or load the model misses, not a schedule",
+            "operation (boxes' airflow, zone temperatures' course: mean gamma toward Sunday "
+            + ", ".join(
+                f"{k} {g['gamma']:.2f} < {g['floor']:.2f}" for k, g in operation["groups"].items() if not g["ok"]
+            )
+            + "): weather or load the model misses, not a schedule",
         )
     if not picked:
         return Candidate(
