@@ -690,7 +690,7 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
             reason=f"{len(operation['dropped'])} weekday(s) proposed by the residual ran like workdays on the "
             "operation (boxes' airflow, zone temperatures' course: mean gamma toward Sunday "
             + ", ".join(
-                f"{k} {g['gamma']:.2f} < {g['floor']:.2f}" for k, g in operation["groups"].items() if not g["ok"]
+                f"{k} {g['gamma']:.2f} < {g['floor']:.3g}" for k, g in operation["groups"].items() if not g["ok"]
             )
             + "): weather or load the model misses, not a schedule",
         )
