@@ -29,7 +29,7 @@ import pandas as pd
 import scipy.ndimage
 
 from ...calendars import gain_slots
-from ...data.holidays import MAX_WORKDAY_SPREAD, OPERATION_MIN_GAMMA, OPERATION_SES, operation_groups
+from ...data.holidays import MAX_WORKDAY_SPREAD, OPERATION_MIN_GAMMA, OPERATION_SES, operation_groups, quiet_spread
 from ...errors import ModelError
 from ...timeutil import local_seconds
 from .base import Candidate, EquationParts, Term, num
@@ -494,6 +494,8 @@ def _operation_check(pick: dict, options: dict, known=frozenset()) -> dict:
     # without a pick the spread is still read: the week-by-likelihood proposal that follows a screen finding
     # nothing must not name a holiday the operation cannot tell either (the model's holiday dates left out)
     res = operation_groups(op, groups, known)
+    if not groups:  # a holiday the screen did not propose is still among the ordinary workdays: its week left out
+        res["spread"] = quiet_spread(op, known)
     out = {
         "spread": res["spread"],
         "groups": res["groups"],
