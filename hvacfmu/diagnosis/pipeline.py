@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.holidays import operation_days
 from ..data.idle import hold_idle_supply, idle_supply_rule, unit_off_bounds
 from ..errors import DataError, HvacfmuWarning
 from ..models.causes.internal_gain_schedule import dst_shift_of, heldout_lookalike
@@ -134,6 +135,8 @@ def _diagnose(dataset, model, plots, progress, options) -> DiagnosisReport:
     # --- forward selection ---------------------------------------------------------------
     say("scoring candidate causes and selecting extensions")
     sel_opts = opts if given_budget else {**opts, "max_terms": None}  # forward_select names the rule
+    # the operation's day signature judges the holidays the residual proposes (internal_gain_schedule's screen)
+    sel_opts = {**sel_opts, "_operation": operation_days(dataset)}
     sel = forward_select(sig, dataset, initial_terms, sel_opts, progress=say if progress else None)
     findings = sel.findings
     final = _final_model(sel, sig, initial_terms, base_model, dataset, opts, idle)

@@ -29,6 +29,7 @@ import pandas as pd
 import scipy.ndimage
 
 from ...calendars import gain_slots
+from ...data.holidays import MAX_WORKDAY_SPREAD, OPERATION_MIN_GAMMA, OPERATION_SES, operation_groups, quiet_spread
 from ...errors import ModelError
 from ...timeutil import local_seconds
 from .base import Candidate, EquationParts, Term, num
@@ -466,6 +467,69 @@ def _pick_days(sig, deps: list, options: dict) -> dict:
     }
 
 
+def _operation_check(pick: dict, options: dict, known=frozenset()) -> dict:
+    """The operation's judgement of the screen's picks, dropping in place (``pick``) those it contradicts.
+
+    A holiday is a day the building ran as on a Sunday: its internal gains fell, and the boxes' airflow and the zones'
+    temperature course answer that even when the air handlers keep their schedule. The residual screen reads the
+    internal gains alone, so weather or a load the model misses can pass for a schedule (the 90.1 small hotel, whose
+    schedules never change: 38 weekdays in three rounds, ``benchmarks/hotelhol_s21.md``). Each proposed group (a
+    week of the week rules, or the single days) must therefore read toward Sunday on the data check's day signature
+    (:func:`hvacfmu.data.holidays.operation_groups`); when that signature cannot tell the building's Sundays from its
+    workdays (spread above :data:`~hvacfmu.data.holidays.MAX_WORKDAY_SPREAD`, the check's own gate) a holiday cannot
+    be told from the weather and the candidate is untestable. ``options["_operation"]``: the dataset's
+    :class:`~hvacfmu.data.holidays.OperationDays` (absent: no check, ``{}``). Weeks dropped here are remembered with
+    the weather's (``_holiday_weather``) so that the week-by-likelihood proposal does not score them again.
+    ``known``: the model's holiday dates (left out of the workday references). Without a pick only the spread is
+    judged (a screen finding nothing is followed by the week-by-likelihood proposal).
+    """
+    op = options.get("_operation")
+    if op is None:
+        return {}
+    in_weeks = {w["week"] for w in pick["weeks"] + pick["zone_weeks"]}
+    groups = {f"week {wk}": [d["date"] for d in pick["by_week"][wk]] for wk in sorted(in_weeks)}
+    singles = sorted(d for d in pick["days"] if not any(d in groups[f"week {wk}"] for wk in in_weeks))
+    if singles:
+        groups["days"] = singles
+    # without a pick the spread is still read: the week-by-likelihood proposal that follows a screen finding
+    # nothing must not name a holiday the operation cannot tell either (the model's holiday dates left out)
+    res = operation_groups(op, groups, known)
+    if not groups:  # a holiday the screen did not propose is still among the ordinary workdays: its week left out
+        res["spread"] = quiet_spread(op, known)
+    out = {
+        "spread": res["spread"],
+        "groups": res["groups"],
+        "rule": f"each proposed week (or the single days) reads mean gamma >= {OPERATION_MIN_GAMMA:g} toward Sunday "
+        f"and >= {OPERATION_SES:g} standard errors on the operation's day signature (0 workday, 1 Sunday), whose "
+        f"workday spread is <= {MAX_WORKDAY_SPREAD:g}",
+    }
+    if not res["spread"] <= MAX_WORKDAY_SPREAD:
+        out["untestable"] = (
+            f"the building's operation does not tell its Sundays from its workdays (workday spread "
+            f"{res['spread']:.2f} on the day signature > {MAX_WORKDAY_SPREAD:g}, the data check's gate): a holiday "
+            "read in the internal gains alone cannot be told from weather or a load the model misses"
+        )
+        return out
+    if not pick["picked"]:
+        return {}
+    bad_weeks = {wk for wk in in_weeks if not res["groups"][f"week {wk}"]["ok"]}
+    bad_days = set(singles) if singles and not res["groups"]["days"]["ok"] else set()
+    if not bad_weeks and not bad_days:
+        return out
+    dropped = {d for wk in bad_weeks for d in groups[f"week {wk}"]} | bad_days
+    out["dropped"] = sorted(dropped)
+    pick["weeks"] = [w for w in pick["weeks"] if w["week"] not in bad_weeks]
+    pick["zone_weeks"] = [w for w in pick["zone_weeks"] if w["week"] not in bad_weeks]
+    pick["days"] = pick["days"] - dropped
+    pick["picked"] = pick["picked"] - dropped
+    memo = options.get("_holiday_weather")
+    if isinstance(memo, dict):
+        memo.setdefault("weeks", {}).update(
+            {wk: {"operation_gamma": res["groups"][f"week {wk}"]["gamma"]} for wk in bad_weeks}
+        )
+    return out
+
+
 def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Candidate:
     """Weekdays whose gains looked like a weekend day: single days and whole weeks.
 
@@ -489,6 +553,15 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
         )
     deps = [d for d in day_departures(sig, resid_all, rows=W.rows, shift=shift) if d["date"] not in known]
     pick = _pick_days(sig, deps, options)
+    operation = _operation_check(pick, options, known)
+    if operation.get("untestable"):
+        return Candidate(
+            InternalGainSchedule.cause,
+            {"variant": "holiday"},
+            status="untestable",
+            evidence={"weekdays_checked": len(deps), "operation": operation},
+            reason=operation["untestable"],
+        )
     picked, weeks, zone_weeks, by_week = pick["picked"], pick["weeks"], pick["zone_weeks"], pick["by_week"]
     # the season's time-of-week gain profile holds the season's mean sun: a dark week reads as a closed building
     # in the zones the sun reaches. On the residual less each zone's regression on its facades' irradiance
@@ -587,6 +660,7 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
         "weeks": weeks,
         "zone_weeks": zone_weeks,
         "weather_explained": weather,
+        **({"operation": operation} if operation else {}),
         "week_means": {str(wk): round(g, 4) for wk, g in sorted(pick["week_means"].items())},
         "week_mean_median": pick["week_mean_median"],
         "week_mean_robust_std": pick["week_mean_robust_std"],
@@ -606,6 +680,21 @@ def holiday_candidate(sig, W, options, shift: int = 0, known=frozenset()) -> Can
             status="untestable",
             evidence=ev,
             reason=f"only {len(deps)} weekdays with data",
+        )
+    if not picked and operation.get("dropped"):
+        # the screen proposed days and the operation contradicts every one of them: not a screen that found nothing
+        # (whose training weeks are then scored by their likelihood, ``holiday_week_bic``)
+        return Candidate(
+            InternalGainSchedule.cause,
+            {"variant": "holiday"},
+            status="no evidence",
+            evidence=ev,
+            reason=f"{len(operation['dropped'])} weekday(s) proposed by the residual ran like workdays on the "
+            "operation (boxes' airflow, zone temperatures' course: mean gamma toward Sunday "
+            + ", ".join(
+                f"{k} {g['gamma']:.2f} < {g['floor']:.3g}" for k, g in operation["groups"].items() if not g["ok"]
+            )
+            + "): weather or load the model misses, not a schedule",
         )
     if not picked:
         return Candidate(
