@@ -95,6 +95,7 @@ DEFAULT_OPTIONS = {
     "holiday_week_gamma": 0.4,
     "schedule_min_scale": 0.5,
     "holiday_min_scale": 0.33,
+    "holiday_operation_check": False,
     "holiday_week_bic": True,
     "holiday_week_bic_top": 3,
     "dst_min_r2": 0.2,
