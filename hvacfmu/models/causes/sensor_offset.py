@@ -49,6 +49,7 @@ first search is session 20's, unchanged.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import ClassVar
 
 import numpy as np
@@ -267,6 +268,11 @@ class _Level:
     days: np.ndarray
     means: np.ndarray
 
+    @functools.cached_property
+    def weekly(self) -> np.ndarray:
+        """The day means with each day of the week's own mean taken out (:func:`_weekly`), computed once."""
+        return _weekly(self.days, self.means)
+
 
 def _level(sig, R: np.ndarray, zi: int) -> _Level:
     Y = np.asarray(sig.Y, float)
@@ -475,7 +481,7 @@ def offset_candidate(sig, R: np.ndarray, zi: int, bounds=()) -> Candidate | None
     if len(L.days) < 2 * MIN_SIDE_DAYS:
         return None
     if bounds:  # a further change: day means with each day of the week's own mean taken out, as for a return
-        days, means, s, t = _segment(L, bounds, _weekly(L.days, L.means))
+        days, means, s, t = _segment(L, bounds, L.weekly)
     else:
         days, means, s, t = L.days, L.means, *best_split(L.days, L.means)
     if s < 0:
@@ -518,7 +524,7 @@ def offset_candidate(sig, R: np.ndarray, zi: int, bounds=()) -> Candidate | None
         # put-back can pass as one change at either end when the days between are a large share of the data)
         iv = interval_candidate(sig, L)
         if iv is not None and iv.status != "no evidence":
-            wk = _weekly(L.days, L.means)
+            wk = L.weekly
             one = _day_bic(wk, [s], 3)
             two = _day_bic(wk, iv.evidence["split_day_index"], 4)
             iv.evidence["day_bic_one_change"], iv.evidence["day_bic_change_and_return"] = one, two
@@ -547,7 +553,7 @@ def interval_candidate(sig, L: _Level) -> Candidate | None:
     z = sig.zones[L.zi]
     # the level's mean by day of the week taken out (zones differ in their weekend loads, which moves the ends of
     # a search over days by a weekend): each weekday holds about the same share of the days inside
-    days, means = L.days, _weekly(L.days, L.means)
+    days, means = L.days, L.weekly
     s1, s2, t = best_interval(means)
     if s1 < 0:
         return None
