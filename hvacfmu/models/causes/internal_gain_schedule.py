@@ -493,9 +493,10 @@ def _operation_check(pick: dict, options: dict, known=frozenset()) -> dict:
         groups["days"] = singles
     # without a pick the spread is still read: the week-by-likelihood proposal that follows a screen finding
     # nothing must not name a holiday the operation cannot tell either (the model's holiday dates left out)
-    res = operation_groups(op, groups, known)
-    if not groups:  # a holiday the screen did not propose is still among the ordinary workdays: its week left out
-        res["spread"] = quiet_spread(op, known)
+    if groups:
+        res = operation_groups(op, groups, known)
+    else:  # a holiday the screen did not propose is still among the ordinary workdays: its week left out
+        res = {"spread": quiet_spread(op, known), "groups": {}}
     out = {
         "spread": res["spread"],
         "groups": res["groups"],
